@@ -1,0 +1,58 @@
+//! # aerosid-core
+//!
+//! On-line aerodynamic model identification for small fixed-wing UAVs, for a Cortex-M4F flight
+//! computer: `no_std`, no heap, no `unsafe`, fixed-size const-generic matrices, generic over the
+//! scalar (`f32` on the MCU, `f64` on the host).
+//!
+//! ## Conventions
+//! * SI units and radians everywhere; names carry units (`airspeed_mps`, `rate_rad_s`, `dt_s`).
+//! * Body frame FRD (x forward, y right, z down). Rates are normalised as `p_n = p b/(2V)`,
+//!   `q_n = q c̄/(2V)`, `r_n = r b/(2V)` (seed 000, eq. 3).
+//! * Regressor vectors put the exactly known regressors (the intercept `1`) first, then the noisy
+//!   ones; the output `z` is separate (see [`gtls`]).
+//! * Every step returns `Result<_, Error>`; a refused sample leaves the estimator untouched.
+//!
+//! ## Modules
+//! * [`gtls`] — recursive PCA-GTLS (seed 000, Algorithm 1, eq. 8–23) with mixed LS–TLS for exact
+//!   regressors.
+//! * [`linalg::secular`] — the rank-one SVD/eigen update by the secular equation (ref. [17]).
+//! * [`vff`] — the variable forgetting factor (eq. 24–33) and our reading of the damaged eq. 28.
+//! * [`rls`] — the recursive least-squares baseline.
+//! * [`estimator`] — the common [`Estimator`] trait and step report.
+//!
+//! ## References
+//! * Seed 000: Vaiopoulos, Zogopoulos-Papaliakos, Kyriakopoulos, *On-line Aerodynamic Model
+//!   Identification on Small Fixed-Wing UAVs with Uncertain Flight Data* (NTUA).
+//! * Gu & Eisenstat, *A stable and fast algorithm for updating the singular value decomposition*, 1994.
+//! * Bunch, Nielsen & Sorensen, *Rank-one modification of the symmetric eigenproblem*, 1978.
+//! * Paleologu, Benesty & Ciochină, *A robust variable forgetting factor RLS algorithm*, IEEE SPL 2008.
+//! * Van Huffel & Vandewalle, *The Total Least Squares Problem*, SIAM 1991.
+#![cfg_attr(not(test), no_std)]
+#![forbid(unsafe_code)]
+#![deny(missing_docs)]
+#![cfg_attr(
+    not(test),
+    deny(clippy::unwrap_used, clippy::expect_used, clippy::panic)
+)]
+// `!(x > 0)` is deliberate throughout: it is true for NaN, which is how non-finite values are refused.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+// Index loops over const dimensions mirror the equations (and several arrays are indexed together).
+#![allow(clippy::needless_range_loop)]
+
+pub mod error;
+pub mod estimator;
+pub mod gtls;
+pub mod linalg;
+pub mod rls;
+pub mod scalar;
+pub mod vff;
+
+pub use error::Error;
+pub use estimator::{Estimator, Solution, Step};
+pub use gtls::{Forgetting, Gtls, GtlsHealth, GtlsSettings};
+pub use rls::{Rls, RlsSettings};
+pub use scalar::Real;
+pub use vff::{Eq28Reading, Vff, VffSettings};
+
+/// Crate version, for telemetry and the firmware banner.
+pub const VERSION: &str = env!("CARGO_PKG_VERSION");

@@ -1,0 +1,180 @@
+//! Small fixed-size linear algebra the estimators need beyond nalgebra's operators.
+//!
+//! Everything here works on `SMatrix`/`SVector` of const dimension, allocates nothing and never
+//! panics: loops run over the const dimensions, and factorizations report failure as `None`.
+
+pub mod secular;
+
+use crate::Real;
+use nalgebra::{SMatrix, SVector};
+
+/// Upper-triangular Cholesky factor `C` with `A = Cᵀ C` (the convention of eq. 9: `W_T = CᵀC`).
+///
+/// Returns `None` if `A` is not symmetric positive definite to working precision (a pivot is not
+/// positive and finite) or is not symmetric within `64·ε·max|A|`.
+pub fn cholesky_upper<T: Real, const N: usize>(a: &SMatrix<T, N, N>) -> Option<SMatrix<T, N, N>> {
+    let scale = a.iter().fold(T::zero(), |m, x| m.maxr(x.abs()));
+    if !scale.finite() || scale <= T::zero() {
+        return None;
+    }
+    let sym_tol = T::lit(64.0) * T::EPS * scale;
+    for i in 0..N {
+        for j in (i + 1)..N {
+            if (a[(i, j)] - a[(j, i)]).abs() > sym_tol {
+                return None;
+            }
+        }
+    }
+    let mut c = SMatrix::<T, N, N>::zeros();
+    for j in 0..N {
+        let mut d = a[(j, j)];
+        for k in 0..j {
+            d -= c[(k, j)] * c[(k, j)];
+        }
+        if !(d > T::zero()) || !d.finite() {
+            return None;
+        }
+        let cjj = d.sqrt();
+        c[(j, j)] = cjj;
+        for i in (j + 1)..N {
+            let mut s = a[(j, i)];
+            for k in 0..j {
+                s -= c[(k, j)] * c[(k, i)];
+            }
+            c[(j, i)] = s / cjj;
+        }
+    }
+    Some(c)
+}
+
+/// Inverse of an upper-triangular matrix with non-zero diagonal (`None` otherwise).
+pub fn inv_upper<T: Real, const N: usize>(c: &SMatrix<T, N, N>) -> Option<SMatrix<T, N, N>> {
+    let mut x = SMatrix::<T, N, N>::zeros();
+    for j in 0..N {
+        // Solve C x_j = e_j by back substitution; x_j is zero below row j.
+        for ii in 0..=j {
+            let i = j - ii;
+            let mut s = if i == j { T::one() } else { T::zero() };
+            for k in (i + 1)..=j {
+                s -= c[(i, k)] * x[(k, j)];
+            }
+            let d = c[(i, i)];
+            if d == T::zero() || !d.finite() {
+                return None;
+            }
+            x[(i, j)] = s / d;
+        }
+    }
+    Some(x)
+}
+
+/// Solves `A x = b` for a symmetric positive semi-definite `A`, regularised only if needed.
+///
+/// Math note: `A` is factorised as it is; if that fails (singular to working precision), `A + μI`
+/// with `μ = 16·n·ε·max(trace(A)/n, tiny)` is factorised instead, which yields a bounded solution
+/// close to the pseudo-inverse one on the range of `A`. Returns `None` only on non-finite input.
+pub fn solve_spd_regularised<T: Real, const N: usize>(
+    a: &SMatrix<T, N, N>,
+    b: &SVector<T, N>,
+) -> Option<SVector<T, N>> {
+    let sym = (a + a.transpose()) * T::lit(0.5);
+    if let Some(c) = cholesky_upper(&sym) {
+        let x = solve_upper_t_upper(&c, b);
+        if x.iter().all(|v| v.finite()) {
+            return Some(x);
+        }
+    }
+    let mut tr = T::zero();
+    for i in 0..N {
+        tr += a[(i, i)].abs();
+    }
+    let n = T::lit(N as f64);
+    let mu = T::lit(16.0) * n * T::EPS * (tr / n).maxr(T::MIN_POSITIVE.sqrt());
+    let mut ar = *a;
+    for i in 0..N {
+        ar[(i, i)] += mu;
+    }
+    // Symmetrise against rounding so the factorisation's symmetry check is about the caller's data.
+    let ar = (ar + ar.transpose()) * T::lit(0.5);
+    let c = cholesky_upper(&ar)?;
+    Some(solve_upper_t_upper(&c, b))
+}
+
+/// Solves `CᵀC x = b` given the upper-triangular factor `C` with non-zero diagonal.
+pub fn solve_upper_t_upper<T: Real, const N: usize>(
+    c: &SMatrix<T, N, N>,
+    b: &SVector<T, N>,
+) -> SVector<T, N> {
+    // Forward: Cᵀ y = b.
+    let mut y = SVector::<T, N>::zeros();
+    for i in 0..N {
+        let mut s = b[i];
+        for k in 0..i {
+            s -= c[(k, i)] * y[k];
+        }
+        y[i] = s / c[(i, i)];
+    }
+    // Backward: C x = y.
+    let mut x = SVector::<T, N>::zeros();
+    for ii in 0..N {
+        let i = N - 1 - ii;
+        let mut s = y[i];
+        for k in (i + 1)..N {
+            s -= c[(i, k)] * x[k];
+        }
+        x[i] = s / c[(i, i)];
+    }
+    x
+}
+
+/// `‖VᵀV − I‖_F`: the loss of orthonormality of the columns of `V`.
+pub fn orthonormality_error<T: Real, const N: usize>(v: &SMatrix<T, N, N>) -> T {
+    let mut s = T::zero();
+    for i in 0..N {
+        for j in 0..N {
+            let mut d = T::zero();
+            for k in 0..N {
+                d += v[(k, i)] * v[(k, j)];
+            }
+            if i == j {
+                d -= T::one();
+            }
+            s += d * d;
+        }
+    }
+    s.sqrt()
+}
+
+/// Re-orthonormalises the columns of `V` in place by modified Gram–Schmidt, column 0 first.
+///
+/// The columns are expected in order of decreasing singular value, so the dominant directions are
+/// kept and the rounding error is pushed into the least significant ones. Returns `false` (and leaves
+/// `V` unchanged) if a column collapses, which cannot happen for a `V` within `O(√ε)` of orthogonal.
+pub fn reorthonormalise<T: Real, const N: usize>(v: &mut SMatrix<T, N, N>) -> bool {
+    let mut w = *v;
+    for j in 0..N {
+        for i in 0..j {
+            let mut d = T::zero();
+            for k in 0..N {
+                d += w[(k, i)] * w[(k, j)];
+            }
+            for k in 0..N {
+                let wi = w[(k, i)];
+                w[(k, j)] -= d * wi;
+            }
+        }
+        let mut nrm = T::zero();
+        for k in 0..N {
+            nrm += w[(k, j)] * w[(k, j)];
+        }
+        let nrm = nrm.sqrt();
+        if !(nrm > T::lit(0.5)) || !nrm.finite() {
+            return false;
+        }
+        for k in 0..N {
+            w[(k, j)] /= nrm;
+        }
+    }
+    *v = w;
+    true
+}

@@ -1,0 +1,216 @@
+//! Variable forgetting factor (seed 000, Section IV, eq. 24–33), after Paleologu, Benesty & Ciochină
+//! (IEEE SPL 2008, the seed's ref. [19]).
+//!
+//! ## The reading of eq. 28
+//! Eq. 28 is damaged in the seed (one line printed twice). As printed, `σ_q²` and `σ_ν²` are smoothed
+//! with `γ₁` and `σ_ε²` with `γ₂`, where `0 ≪ γ₂ < γ₁ < 1` (eq. 31), i.e. the *noise* power `σ_ε²`
+//! would have the *shorter* memory. In ref. [19], which eq. 27 follows, it is the other way round: the
+//! noise-power estimate uses the longer window and the a priori error power (and the power of `q`) the
+//! shorter one, so that after an abrupt change the error power `σ_ν²` rises faster than the noise
+//! power `σ_ε²` and `λ_F` drops. **We read eq. 28 as**
+//!
+//! ```text
+//! σ_q²(t) = γ₂ σ_q²(t−1) + (1 − γ₂) q²(t)      (28a, short window)
+//! σ_ν²(t) = γ₂ σ_ν²(t−1) + (1 − γ₂) ν²(t)      (28b, short window)
+//! σ_ε²(t) = γ₁ σ_ε²(t−1) + (1 − γ₁) ν²(t)      (28c, long window)
+//! ```
+//!
+//! [`Eq28Reading::Literal`] keeps the printed assignment for comparison; the host tests show that it
+//! does not detect a parameter jump while this reading does.
+//!
+//! ## The floor
+//! Eq. 33 has no lower bound: right after a jump `σ_ν ≫ σ_ε` and `λ_F ≈ σ_q σ_ε/σ_ν` can fall to
+//! ~1e-3, which all but erases the estimator's memory. We clamp `λ_F ≥ λ_min` (default 0.9 —
+//! a memory of ~10 samples while the change is being detected, so the information matrix keeps about
+//! a third of its weight per 10 rejected samples) and document the effect in the host tests.
+//!
+//! ## Π and q (eq. 29–30)
+//! Eq. 30 prints `x̂₀ᵀx̂₀`; it is the outer product `x̂₀ x̂₀ᵀ` (`Π` is the information matrix of the
+//! corrected regressors). We keep `P = Π⁻¹` by the Sherman–Morrison formula, so `q = x̂₀ᵀ P x̂₀` costs
+//! `O(n²)`. When the regressors are not excited and `λ_F < 1`, `P` would grow without bound
+//! ("wind-up"); the forgetting is not applied to `P` while `trace P` exceeds its initial value.
+
+use crate::{Error, Real};
+use nalgebra::{SMatrix, SVector};
+
+/// Which assignment of the smoothing constants in eq. 28 to use (see the module doc).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Eq28Reading {
+    /// `σ_q², σ_ν²` on the short window `γ₂`, `σ_ε²` on the long window `γ₁` (ref. [19]). Default.
+    Paleologu,
+    /// As printed: `σ_q², σ_ν²` on `γ₁`, `σ_ε²` on `γ₂`.
+    Literal,
+}
+
+/// Settings of the variable forgetting factor. All are dimensionless.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct VffSettings<T> {
+    /// `γ₁` of eq. 28/31, the long smoothing constant (`0 ≪ γ₂ < γ₁ < 1`).
+    pub gamma1: T,
+    /// `γ₂` of eq. 28/31, the short smoothing constant.
+    pub gamma2: T,
+    /// `γ₀` of eq. 32 (`1 < γ₀ ≤ 2`): `λ_F = λ_max` while `σ_ν ≤ γ₀ σ_ε`.
+    pub gamma0: T,
+    /// `ς` of eq. 33, in the units of the residual `ν` (prevents division by zero).
+    pub varsigma: T,
+    /// Floor on `λ_F` (not in the seed; see the module doc). `0 < λ_min ≤ λ_max`.
+    pub lambda_min: T,
+    /// Ceiling on `λ_F` (the seed uses 1).
+    pub lambda_max: T,
+    /// Initial `Π(0) = π₀·I` of eq. 30 (in squared regressor units); `P(0) = I/π₀`.
+    pub pi0: T,
+    /// The reading of the damaged eq. 28.
+    pub reading: Eq28Reading,
+}
+
+impl<T: Real> VffSettings<T> {
+    /// Defaults for `n` parameters, following ref. [19]: `γ₂ = 1 − 1/(2n)`, `γ₁ = 1 − 1/(10n)`,
+    /// `γ₀ = 1.5`, `ς = 1e-9`, `λ ∈ [0.9, 1]`, `π₀ = 1e-2`.
+    pub fn for_dimension(n: usize) -> Self {
+        let n = T::lit(n.max(1) as f64);
+        Self {
+            gamma1: T::one() - T::one() / (T::lit(10.0) * n),
+            gamma2: T::one() - T::one() / (T::lit(2.0) * n),
+            gamma0: T::lit(1.5),
+            varsigma: T::lit(1e-9),
+            lambda_min: T::lit(0.9),
+            lambda_max: T::one(),
+            pi0: T::lit(1e-2),
+            reading: Eq28Reading::Paleologu,
+        }
+    }
+
+    fn validate(&self) -> Result<(), Error> {
+        let z = T::zero();
+        let one = T::one();
+        let ok = self.gamma2 > z
+            && self.gamma2 < one
+            && self.gamma1 > z
+            && self.gamma1 < one
+            && self.gamma0 > one
+            && self.gamma0 <= T::lit(2.0)
+            && self.varsigma > z
+            && self.varsigma.finite()
+            && self.lambda_min > z
+            && self.lambda_min <= self.lambda_max
+            && self.lambda_max <= one
+            && self.pi0 > z
+            && self.pi0.finite();
+        if ok {
+            Ok(())
+        } else {
+            Err(Error::InvalidSetting)
+        }
+    }
+}
+
+/// State of the variable forgetting factor for `N` regressors.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Vff<T: Real, const N: usize> {
+    settings: VffSettings<T>,
+    /// `P = Π⁻¹` (eq. 29–30).
+    p: SMatrix<T, N, N>,
+    p_trace_max: T,
+    /// `σ_q²`, `σ_ν²`, `σ_ε²` of eq. 28.
+    sq2: T,
+    snu2: T,
+    seps2: T,
+    lambda: T,
+}
+
+/// The values of one VFF step (for plots and tests).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct VffStep<T> {
+    /// `q(t)` of eq. 29.
+    pub q: T,
+    /// `σ_q`, `σ_ν`, `σ_ε` of eq. 28 after the step.
+    pub sigma_q: T,
+    /// A priori residual power, square-rooted.
+    pub sigma_nu: T,
+    /// Noise power, square-rooted.
+    pub sigma_eps: T,
+    /// `λ_F(t)` (eq. 32–33, clamped to `[λ_min, λ_max]`).
+    pub lambda: T,
+}
+
+impl<T: Real, const N: usize> Vff<T, N> {
+    /// A new VFF with `λ_F(0) = λ_max`.
+    pub fn new(settings: VffSettings<T>) -> Result<Self, Error> {
+        settings.validate()?;
+        let p = SMatrix::<T, N, N>::identity() / settings.pi0;
+        Ok(Self {
+            settings,
+            p,
+            p_trace_max: p.trace(),
+            sq2: T::zero(),
+            snu2: T::zero(),
+            seps2: T::zero(),
+            lambda: settings.lambda_max,
+        })
+    }
+
+    /// The current `λ_F`, to be applied to the next sample.
+    pub fn lambda(&self) -> T {
+        self.lambda
+    }
+
+    /// The settings in force.
+    pub fn settings(&self) -> &VffSettings<T> {
+        &self.settings
+    }
+
+    /// One step of eq. 28–33 with the TLS-corrected regressor `x̂₀(t)` and the a priori residual
+    /// `ν(t)` of eq. 24. Uses `λ_F(t−1)` in eq. 30 and returns the new `λ_F(t)`.
+    ///
+    /// Inputs must be finite (the estimator checks them); a non-finite intermediate leaves the state
+    /// unchanged and returns `None`.
+    pub fn update(&mut self, x0: &SVector<T, N>, nu: T) -> Option<VffStep<T>> {
+        let s = self.settings;
+        let one = T::one();
+        let px = self.p * x0;
+        let q = x0.dot(&px); // eq. 29
+        let (g_q, g_nu, g_eps) = match s.reading {
+            Eq28Reading::Paleologu => (s.gamma2, s.gamma2, s.gamma1),
+            Eq28Reading::Literal => (s.gamma1, s.gamma1, s.gamma2),
+        };
+        let sq2 = g_q * self.sq2 + (one - g_q) * q * q; // 28a
+        let snu2 = g_nu * self.snu2 + (one - g_nu) * nu * nu; // 28b
+        let seps2 = g_eps * self.seps2 + (one - g_eps) * nu * nu; // 28c
+        let (sig_q, sig_nu, sig_eps) = (sq2.sqrt(), snu2.sqrt(), seps2.sqrt());
+        let lambda_new = if sig_nu <= s.gamma0 * sig_eps {
+            s.lambda_max // eq. 32
+        } else {
+            (sig_q * sig_eps / (s.varsigma + (sig_nu - sig_eps).abs())).minr(s.lambda_max)
+            // eq. 33
+        }
+        .maxr(s.lambda_min);
+        // Eq. 30 by Sherman–Morrison with λ_F(t−1): P ← (P − P x xᵀ P / (λ + q)) / λ.
+        let lam_old = self.lambda;
+        let denom = lam_old + q;
+        let mut p = self.p - px * px.transpose() / denom;
+        p = (p + p.transpose()) * T::lit(0.5);
+        let grown = p / lam_old;
+        let p = if grown.trace() <= self.p_trace_max {
+            grown
+        } else {
+            p
+        };
+        let finite = [q, sq2, snu2, seps2, lambda_new].iter().all(|v| v.finite())
+            && p.iter().all(|v| v.finite());
+        if !finite {
+            return None;
+        }
+        self.p = p;
+        self.sq2 = sq2;
+        self.snu2 = snu2;
+        self.seps2 = seps2;
+        self.lambda = lambda_new;
+        Some(VffStep {
+            q,
+            sigma_q: sig_q,
+            sigma_nu: sig_nu,
+            sigma_eps: sig_eps,
+            lambda: lambda_new,
+        })
+    }
+}

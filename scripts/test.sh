@@ -1,0 +1,59 @@
+#!/usr/bin/env bash
+# Runs all of the project's checks and tests, in the order CI runs them (.ci/run execs this file):
+# formatting, host clippy, firmware clippy, the core built for the MCU, host tests, the firmware
+# release build and its size. Stops at the first failure.
+set -euo pipefail
+cd "$(dirname "${BASH_SOURCE[0]}")/.."
+
+readonly THUMB=thumbv7em-none-eabihf
+readonly FW_ELF="${CARGO_TARGET_DIR:-target}/$THUMB/release/aerosid-firmware"
+
+step() { printf '\n==> %s\n' "$*"; }
+
+step "toolchain: $THUMB target, clippy, rustfmt (idempotent)"
+rustup target add "$THUMB"
+rustup component add clippy rustfmt
+
+step "format: cargo fmt --all -- --check"
+cargo fmt --all -- --check
+
+step "host clippy: cargo clippy --workspace --all-targets -- -D warnings"
+cargo clippy --workspace --all-targets -- -D warnings
+
+step "firmware clippy: cargo fw-clippy"
+cargo fw-clippy
+
+step "core for the MCU (no std, no heap): cargo clippy -p aerosid-core --target $THUMB -- -D warnings"
+cargo clippy -p aerosid-core --target "$THUMB" -- -D warnings
+
+step "host tests: cargo test --workspace"
+cargo test --workspace
+
+step "firmware release build: cargo fw-build"
+cargo fw-build
+
+step "firmware size ($FW_ELF)"
+size_tool=""
+if command -v rust-size >/dev/null 2>&1; then
+    # cargo-binutils is installed: its `rust-size` is what `cargo size` runs, here on the ELF just built
+    # (a binary named cargo-size alone may be an unrelated crate).
+    size_tool="rust-size"
+else
+    rustup component add llvm-tools >/dev/null 2>&1 || true
+    host_triple="$(rustc -vV | sed -n 's/^host: //p')"
+    candidate="$(rustc --print sysroot)/lib/rustlib/$host_triple/bin/llvm-size"
+    if [ -x "$candidate" ]; then
+        size_tool="$candidate"
+    fi
+fi
+if [ -n "$size_tool" ]; then
+    sizes="$("$size_tool" "$FW_ELF")"
+    printf '%s\n' "$sizes"
+    printf '%s\n' "$sizes" | awk 'NR == 2 {
+        printf "flash (text + data): %d of 1048576 bytes; RAM (data + bss): %d of 131072 bytes\n", $1 + $2, $2 + $3
+    }'
+else
+    echo "no llvm-size (cargo-binutils or rustup's llvm-tools): size not printed"
+fi
+
+step "all checks passed"
