@@ -31,18 +31,11 @@ impl core::fmt::Display for Error {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         match self {
             Error::NonFinite { index } => write!(f, "input element {index} is NaN or infinite"),
-            Error::OutOfRange { index } => write!(
-                f,
-                "input element {index} exceeds the configured magnitude bound"
-            ),
+            Error::OutOfRange { index } => write!(f, "input element {index} exceeds the configured magnitude bound"),
             Error::NotPositiveDefinite => f.write_str("matrix is not symmetric positive definite"),
             Error::InvalidSetting => f.write_str("setting outside its documented range"),
-            Error::NumericalFault => {
-                f.write_str("update produced a non-finite state and was rolled back")
-            }
-            Error::InsufficientExcitation => {
-                f.write_str("insufficient excitation: not every parameter is determined")
-            }
+            Error::NumericalFault => f.write_str("update produced a non-finite state and was rolled back"),
+            Error::InsufficientExcitation => f.write_str("insufficient excitation: not every parameter is determined"),
         }
     }
 }

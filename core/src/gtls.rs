@@ -9,8 +9,8 @@
 //! satisfy `NA + NE = NT + 1` and `NA ≥ 2` (checked at compile time).
 //!
 //! ## What is kept (all fixed-size)
-//! * `C`, `C⁻¹`: the upper Cholesky factor of the error covariance `W_T = CᵀC` of `d` (eq. 8–9),
-//!   so each row is scaled as `d* = d C⁻¹` (eq. 10).
+//! * `C`: the upper Cholesky factor of the error covariance `W_T = CᵀC` of `d` (eq. 8–9); each row
+//!   is scaled as `d* = d C⁻¹` (eq. 10) by a forward substitution with `Cᵀ` (no inverse is stored).
 //! * `V`, `S`: right singular vectors and singular values of the exponentially weighted, scaled
 //!   matrix `D*` (eq. 12) — after the exact columns are projected out (below). Updated per sample by
 //!   [`rank_one_update`](crate::linalg::secular::rank_one_update) (Algorithm 1, step 4).
@@ -60,7 +60,8 @@
 use crate::estimator::{check_sample, Estimator, Solution, Step};
 use crate::linalg::secular::rank_one_update;
 use crate::linalg::{
-    cholesky_upper, inv_upper, orthonormality_error, reorthonormalise, solve_spd_regularised,
+    cholesky_upper, inv_upper, orthonormality_error, reorthonormalise, solve_spd_regularised, solve_upper,
+    solve_upper_transposed,
 };
 use crate::vff::{Vff, VffSettings, VffStep};
 use crate::{Error, Real};
@@ -129,8 +130,6 @@ pub struct Gtls<T: Real, const NT: usize, const NE: usize, const NA: usize> {
     settings: GtlsSettings<T>,
     /// `C` (upper triangular, `W_T = CᵀC`, eq. 9).
     c: SMatrix<T, NA, NA>,
-    /// `C⁻¹` (eq. 10).
-    c_inv: SMatrix<T, NA, NA>,
     /// Diagonal of `W` (eq. 23), one weight per parameter (the exact entries are unused).
     weights: SVector<T, NT>,
     /// Right singular vectors of the projected scaled data matrix, by decreasing singular value.
@@ -166,11 +165,7 @@ impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Gtls<T, NT, NE,
     /// * `w_t`: the error covariance `W_T` of the noisy block `[x_n, z]` (eq. 9), symmetric positive
     ///   definite, in squared units of the data.
     /// * `weights`: the diagonal of `W` in eq. 23 (positive; entries of exact regressors unused).
-    pub fn new(
-        w_t: &SMatrix<T, NA, NA>,
-        weights: &SVector<T, NT>,
-        settings: GtlsSettings<T>,
-    ) -> Result<Self, Error> {
+    pub fn new(w_t: &SMatrix<T, NA, NA>, weights: &SVector<T, NT>, settings: GtlsSettings<T>) -> Result<Self, Error> {
         #[allow(clippy::let_unit_value)]
         let () = Self::DIMS_OK;
         let c = cholesky_upper(w_t).ok_or(Error::NotPositiveDefinite)?;
@@ -181,10 +176,7 @@ impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Gtls<T, NT, NE,
         if !weights.iter().all(|w| *w > T::zero() && w.finite()) {
             return Err(Error::InvalidSetting);
         }
-        if !(settings.snr >= T::zero()
-            && settings.snr.finite()
-            && settings.max_abs_input > T::zero())
-        {
+        if !(settings.snr >= T::zero() && settings.snr.finite() && settings.max_abs_input > T::zero()) {
             return Err(Error::InvalidSetting);
         }
         if !(settings.reorth_tol >= T::zero() && settings.reorth_tol.finite()) {
@@ -206,7 +198,6 @@ impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Gtls<T, NT, NE,
         Ok(Self {
             settings,
             c,
-            c_inv,
             weights: *weights,
             v: SMatrix::identity(),
             s: SVector::zeros(),
@@ -273,12 +264,7 @@ impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Gtls<T, NT, NE,
 
     /// The TLS-corrected regressor `x̂₀` (eq. 24–25) of the sample `(x, z)` for parameters `θ`, and the
     /// corrected output `ẑ = x̂₀ᵀθ`. Exact regressors are returned unchanged.
-    pub fn corrected_regressor(
-        &self,
-        x: &SVector<T, NT>,
-        z: T,
-        theta: &SVector<T, NT>,
-    ) -> (SVector<T, NT>, T) {
+    pub fn corrected_regressor(&self, x: &SVector<T, NT>, z: T, theta: &SVector<T, NT>) -> (SVector<T, NT>, T) {
         let nx = Self::NX;
         let mut a = SVector::<T, NA>::zeros();
         let mut d = SVector::<T, NA>::zeros();
@@ -317,7 +303,7 @@ impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Gtls<T, NT, NE,
             d[i] = x[NE + i];
         }
         d[nx] = z;
-        let d_star = self.c_inv.transpose() * d;
+        let d_star = solve_upper_transposed(&self.c, &d);
         // Mixed LS–TLS: project out the exact regressors (module doc).
         let w = if NE > 0 {
             let mut xe = SVector::<T, NE>::zeros();
@@ -335,8 +321,7 @@ impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Gtls<T, NT, NE,
             d_star
         };
         // Algorithm 1, step 4: rank-one SVD update of √λ·D* with the new row.
-        let (v, s, secular) =
-            rank_one_update(&self.v, &self.s, lambda, &w).ok_or(Error::NumericalFault)?;
+        let (v, s, secular) = rank_one_update(&self.v, &self.s, lambda, &w).ok_or(Error::NumericalFault)?;
         self.v = v;
         self.s = s;
         self.n_eff = lambda * self.n_eff + T::one();
@@ -437,7 +422,7 @@ impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Gtls<T, NT, NE,
     fn tls_direction(&self) -> Option<SVector<T, NA>> {
         let nx = Self::NX;
         let vl = self.v.column(NA - 1).into_owned();
-        let a = self.c_inv * vl;
+        let a = solve_upper(&self.c, &vl);
         let nrm = a.norm();
         let last = a[nx];
         if !(last.abs() > T::EPS.sqrt() * nrm) {
@@ -501,9 +486,7 @@ impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Gtls<T, NT, NE,
     }
 }
 
-impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Estimator<T, NT>
-    for Gtls<T, NT, NE, NA>
-{
+impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Estimator<T, NT> for Gtls<T, NT, NE, NA> {
     /// Algorithm 1 for one sample. Refused (state untouched) if an element is non-finite or larger
     /// than `max_abs_input`, or if the update would leave a non-finite state.
     fn update(&mut self, x: &SVector<T, NT>, z: T) -> Result<Step<T>, Error> {
@@ -565,10 +548,11 @@ impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Estimator<T, NT
         let g_inv = cg_inv * cg_inv.transpose();
         let scale = sigma2 * (T::one() + theta_star_sq) * ratio;
         // J = C_NA,NA (C⁻¹)ₓₓ (padded); cov θ_n = J Σ* Jᵀ.
+        let c_inv = inv_upper(&self.c).ok_or(Error::NumericalFault)?;
         let mut j = SMatrix::<T, NA, NA>::zeros();
         for r in 0..nx {
             for c in 0..nx {
-                j[(r, c)] = self.c[(nx, nx)] * self.c_inv[(r, c)];
+                j[(r, c)] = self.c[(nx, nx)] * c_inv[(r, c)];
             }
         }
         let mut sig_star = g_inv * scale;
@@ -602,8 +586,7 @@ impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Estimator<T, NT
             for col in 0..NE {
                 let mut e = SVector::<T, NE>::zeros();
                 e[col] = T::one();
-                let g11_inv_col =
-                    solve_spd_regularised(&self.g11, &e).ok_or(Error::InsufficientExcitation)?;
+                let g11_inv_col = solve_spd_regularised(&self.g11, &e).ok_or(Error::InsufficientExcitation)?;
                 for r in 0..NE {
                     out[(r, col)] = s_vv * ratio * g11_inv_col[r] + cov_e_prop[(r, col)];
                 }

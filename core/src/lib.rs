@@ -30,10 +30,7 @@
 #![cfg_attr(not(test), no_std)]
 #![forbid(unsafe_code)]
 #![deny(missing_docs)]
-#![cfg_attr(
-    not(test),
-    deny(clippy::unwrap_used, clippy::expect_used, clippy::panic)
-)]
+#![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
 // `!(x > 0)` is deliberate throughout: it is true for NaN, which is how non-finite values are refused.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 // Index loops over const dimensions mirror the equations (and several arrays are indexed together).

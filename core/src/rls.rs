@@ -63,10 +63,7 @@ pub struct Rls<T: Real, const NT: usize> {
 impl<T: Real, const NT: usize> Rls<T, NT> {
     /// A new RLS estimator with `θ(0) = 0`.
     pub fn new(settings: RlsSettings<T>) -> Result<Self, Error> {
-        if !(settings.pi0 > T::zero()
-            && settings.pi0.finite()
-            && settings.max_abs_input > T::zero())
-        {
+        if !(settings.pi0 > T::zero() && settings.pi0.finite() && settings.max_abs_input > T::zero()) {
             return Err(Error::InvalidSetting);
         }
         let (forgetting, lambda) = match settings.forgetting {
@@ -114,11 +111,7 @@ impl<T: Real, const NT: usize> Rls<T, NT> {
         let mut p = self.p - gain * px.transpose();
         p = (p + p.transpose()) * T::lit(0.5);
         let grown = p / lambda;
-        self.p = if grown.trace() <= self.p_trace_max {
-            grown
-        } else {
-            p
-        };
+        self.p = if grown.trace() <= self.p_trace_max { grown } else { p };
         let r = z - x.dot(&self.theta);
         self.n_eff = lambda * self.n_eff + T::one();
         self.n_eff2 = lambda * lambda * self.n_eff2 + T::one();

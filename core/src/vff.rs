@@ -199,13 +199,8 @@ impl<T: Real, const N: usize> Vff<T, N> {
         let mut p = self.p - px * px.transpose() / denom;
         p = (p + p.transpose()) * T::lit(0.5);
         let grown = p / lam_old;
-        let p = if grown.trace() <= self.p_trace_max {
-            grown
-        } else {
-            p
-        };
-        let finite = [q, sq2, snu2, seps2, lambda_new].iter().all(|v| v.finite())
-            && p.iter().all(|v| v.finite());
+        let p = if grown.trace() <= self.p_trace_max { grown } else { p };
+        let finite = [q, sq2, snu2, seps2, lambda_new].iter().all(|v| v.finite()) && p.iter().all(|v| v.finite());
         if !finite {
             return None;
         }

@@ -70,9 +70,8 @@ pub fn generate(spec: &Spec, n: usize) -> Vec<Sample> {
         let mut x0 = vec![1.0; nt];
         for j in 0..nx {
             let f = freqs[j];
-            x0[spec.n_exact + j] = (f[0] * tf + j as f64).sin()
-                + 0.6 * (f[1] * tf + 0.3 * j as f64).sin()
-                + 0.3 * (f[2] * tf).cos();
+            x0[spec.n_exact + j] =
+                (f[0] * tf + j as f64).sin() + 0.6 * (f[1] * tf + 0.3 * j as f64).sin() + 0.3 * (f[2] * tf).cos();
         }
         match spec.excitation {
             Excitation::Well => {}

@@ -162,9 +162,7 @@ impl Problem {
             }
         }
         // θ_e = −Bᵀ C a.
-        let ca: Vec<f64> = (0..na)
-            .map(|i| (0..na).map(|j| self.c[(i, j)] * a[j]).sum())
-            .collect();
+        let ca: Vec<f64> = (0..na).map(|i| (0..na).map(|j| self.c[(i, j)] * a[j]).sum()).collect();
         let mut theta = vec![0.0; self.nt];
         for e in 0..self.ne {
             theta[e] = -(0..na).map(|i| b[(i, e)] * ca[i]).sum::<f64>();
@@ -203,13 +201,17 @@ fn project_and_svd(p: &Problem, full: &Mat<f64>) -> (Vec<f64>, Mat<f64>, Mat<f64
     let na = p.na();
     // Pad with zero rows so the thin SVD always has `na` singular values.
     let rows = full.nrows().max(p.nt + 1);
-    let full = Mat::from_fn(rows, full.ncols(), |i, j| {
-        if i < full.nrows() {
-            full[(i, j)]
-        } else {
-            0.0
-        }
-    });
+    let full = Mat::from_fn(
+        rows,
+        full.ncols(),
+        |i, j| {
+            if i < full.nrows() {
+                full[(i, j)]
+            } else {
+                0.0
+            }
+        },
+    );
     let full = &full;
     let (proj, b) = if ne > 0 {
         let xe = full.subcols(0, ne).to_owned();

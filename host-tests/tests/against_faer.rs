@@ -113,15 +113,10 @@ fn run<T: Real, const NT: usize, const NE: usize, const NA: usize>(
         rep.max_theta_err = rep.max_theta_err.max(te);
         if checkpoints.contains(&t) {
             let b = batch(&problem, &rows, &lambdas[..=t]);
-            assert_eq!(
-                b.k, r.k,
-                "explicit and compressed references disagree on k at step {t}"
-            );
+            assert_eq!(b.k, r.k, "explicit and compressed references disagree on k at step {t}");
             let e_ref = rel_err_norm(&r.theta, &b.theta, 1e-12);
             assert!(e_ref < 1e-9, "references disagree at step {t}: {e_ref:e}");
-            rep.max_batch_theta_err = rep
-                .max_batch_theta_err
-                .max(rel_err_norm(&theta, &b.theta, 1e-12));
+            rep.max_batch_theta_err = rep.max_batch_theta_err.max(rel_err_norm(&theta, &b.theta, 1e-12));
         }
     }
     rep
@@ -166,17 +161,10 @@ fn well_excited_f64_no_forgetting_intercept_exact() {
         rep.max_sigma_err, rep.max_theta_err, rep.max_batch_theta_err, rep.min_k, rep.max_k
     );
     assert_eq!(rep.k_mismatch, 0);
-    assert_eq!(
-        rep.min_k, 3,
-        "well excited data must be fully excited after the start"
-    );
+    assert_eq!(rep.min_k, 3, "well excited data must be fully excited after the start");
     assert!(rep.max_sigma_err < 1e-9, "{:e}", rep.max_sigma_err);
     assert!(rep.max_theta_err < 1e-9, "{:e}", rep.max_theta_err);
-    assert!(
-        rep.max_batch_theta_err < 1e-9,
-        "{:e}",
-        rep.max_batch_theta_err
-    );
+    assert!(rep.max_batch_theta_err < 1e-9, "{:e}", rep.max_batch_theta_err);
 }
 
 #[test]
@@ -258,10 +246,7 @@ fn badly_excited_k_and_minimum_norm_agree() {
             rep.max_theta_err, rep.min_k, rep.max_k, rep.k_ties, rep.max_batch_theta_err
         );
         assert_eq!(rep.k_mismatch, 0, "k must agree at every step");
-        assert!(
-            rep.max_k < 3,
-            "the weak column must stay below the threshold"
-        );
+        assert!(rep.max_k < 3, "the weak column must stay below the threshold");
         assert!(rep.max_theta_err < 1e-6, "{:e}", rep.max_theta_err);
     }
 }

@@ -90,9 +90,7 @@ fn monte_carlo(lambda: f64) -> Vec<(f64, f64)> {
             forgetting: Forgetting::Constant(lambda),
             ..GtlsSettings::default()
         };
-        let mut g =
-            Gtls::<f64, 3, 1, 3>::new(&diag_wt(&[0.05, 0.05, 0.1]), &sv(&[1.0; 3]), settings)
-                .unwrap();
+        let mut g = Gtls::<f64, 3, 1, 3>::new(&diag_wt(&[0.05, 0.05, 0.1]), &sv(&[1.0; 3]), settings).unwrap();
         for s in &data {
             g.update(&sv(&s.x), s.z).unwrap();
         }
@@ -105,9 +103,7 @@ fn monte_carlo(lambda: f64) -> Vec<(f64, f64)> {
     (0..nt)
         .map(|i| {
             let m = est_all[i].iter().sum::<f64>() / runs as f64;
-            let sd = (est_all[i].iter().map(|x| (x - m) * (x - m)).sum::<f64>()
-                / (runs as f64 - 1.0))
-                .sqrt();
+            let sd = (est_all[i].iter().map(|x| (x - m) * (x - m)).sum::<f64>() / (runs as f64 - 1.0)).sqrt();
             (sd, pred[i])
         })
         .collect()
@@ -123,9 +119,7 @@ fn eq17_sigma_matches_monte_carlo_spread() {
             if lambda < 1.0 {
                 println!("λ = {lambda}: θ{i} spread σ {sd:.3e}, eq. 17 σ {pred:.3e}, ratio {ratio:.3} (uncorrected {uncorrected:.3})");
             } else {
-                println!(
-                    "λ = {lambda}: θ{i} spread σ {sd:.3e}, eq. 17 σ {pred:.3e}, ratio {ratio:.3}"
-                );
+                println!("λ = {lambda}: θ{i} spread σ {sd:.3e}, eq. 17 σ {pred:.3e}, ratio {ratio:.3}");
             }
             assert!(
                 (0.85..=1.15).contains(&ratio),

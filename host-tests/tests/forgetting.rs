@@ -53,12 +53,7 @@ fn run(forgetting: Forgetting<f64>) -> Trace {
         forgetting,
         ..GtlsSettings::default()
     };
-    let mut g = Gtls::<f64, 4, 1, 4>::new(
-        &diag_wt(&[0.02, 0.03, 0.01, 0.02]),
-        &sv(&[1.0; 4]),
-        settings,
-    )
-    .unwrap();
+    let mut g = Gtls::<f64, 4, 1, 4>::new(&diag_wt(&[0.02, 0.03, 0.01, 0.02]), &sv(&[1.0; 4]), settings).unwrap();
     let mut tr = Trace {
         settle: None,
         detect: None,
@@ -112,9 +107,7 @@ fn paleologu_reading_tracks_a_jump_faster_than_constant_forgetting() {
     let vff = run(vff(Eq28Reading::Paleologu, 0.9));
     let detect = vff.detect.expect("the VFF must detect the jump");
     let settle = vff.settle.expect("the VFF must re-converge");
-    let settle_const = constant
-        .settle
-        .expect("constant forgetting re-converges eventually");
+    let settle_const = constant.settle.expect("constant forgetting re-converges eventually");
     assert!(detect <= 5, "detected after {detect} samples");
     assert!(settle <= 200, "re-converged after {settle} samples");
     assert!(
@@ -141,20 +134,13 @@ fn literal_reading_of_eq28_misses_the_jump_and_raises_false_alarms() {
         "the literal reading forgets on a steady model"
     );
     let (s_lit, s_ours) = (lit.settle.unwrap_or(N), ours.settle.unwrap_or(N));
-    assert!(
-        s_lit > 10 * s_ours,
-        "literal {s_lit} vs ours {s_ours} samples"
-    );
+    assert!(s_lit > 10 * s_ours, "literal {s_lit} vs ours {s_ours} samples");
 }
 
 #[test]
 fn without_a_floor_lambda_collapses_and_excitation_is_lost() {
     let no_floor = run(vff(Eq28Reading::Paleologu, 1e-9));
-    assert!(
-        no_floor.min_lambda < 0.05,
-        "min λ {:.3e}",
-        no_floor.min_lambda
-    );
+    assert!(no_floor.min_lambda < 0.05, "min λ {:.3e}", no_floor.min_lambda);
     assert!(
         no_floor.min_k_after < 3,
         "without a floor the estimator should fall into insufficient excitation"

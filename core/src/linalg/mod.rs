@@ -100,12 +100,8 @@ pub fn solve_spd_regularised<T: Real, const N: usize>(
     Some(solve_upper_t_upper(&c, b))
 }
 
-/// Solves `CᵀC x = b` given the upper-triangular factor `C` with non-zero diagonal.
-pub fn solve_upper_t_upper<T: Real, const N: usize>(
-    c: &SMatrix<T, N, N>,
-    b: &SVector<T, N>,
-) -> SVector<T, N> {
-    // Forward: Cᵀ y = b.
+/// Solves `Cᵀ y = b` (forward substitution) for an upper-triangular `C` with non-zero diagonal.
+pub fn solve_upper_transposed<T: Real, const N: usize>(c: &SMatrix<T, N, N>, b: &SVector<T, N>) -> SVector<T, N> {
     let mut y = SVector::<T, N>::zeros();
     for i in 0..N {
         let mut s = b[i];
@@ -114,7 +110,11 @@ pub fn solve_upper_t_upper<T: Real, const N: usize>(
         }
         y[i] = s / c[(i, i)];
     }
-    // Backward: C x = y.
+    y
+}
+
+/// Solves `C x = y` (back substitution) for an upper-triangular `C` with non-zero diagonal.
+pub fn solve_upper<T: Real, const N: usize>(c: &SMatrix<T, N, N>, y: &SVector<T, N>) -> SVector<T, N> {
     let mut x = SVector::<T, N>::zeros();
     for ii in 0..N {
         let i = N - 1 - ii;
@@ -125,6 +125,11 @@ pub fn solve_upper_t_upper<T: Real, const N: usize>(
         x[i] = s / c[(i, i)];
     }
     x
+}
+
+/// Solves `CᵀC x = b` given the upper-triangular factor `C` with non-zero diagonal.
+pub fn solve_upper_t_upper<T: Real, const N: usize>(c: &SMatrix<T, N, N>, b: &SVector<T, N>) -> SVector<T, N> {
+    solve_upper(c, &solve_upper_transposed(c, b))
 }
 
 /// `‖VᵀV − I‖_F`: the loss of orthonormality of the columns of `V`.

@@ -163,8 +163,7 @@ pub fn rank_one_update<T: Real, const M: usize>(
         let mut converged = false;
         for _ in 0..MAX_ITERATIONS {
             out.iterations = out.iterations.saturating_add(1);
-            let (mut psi, mut dpsi, mut phi, mut dphi) =
-                (T::zero(), T::zero(), T::zero(), T::zero());
+            let (mut psi, mut dpsi, mut phi, mut dphi) = (T::zero(), T::zero(), T::zero(), T::zero());
             for j in 0..m {
                 let zj = z[idx[j]];
                 let dj = delta(idx[j], kk, &a) - t;
@@ -187,8 +186,7 @@ pub fn rank_one_update<T: Real, const M: usize>(
             } else {
                 lo = t;
             }
-            let err_bound = T::EPS
-                * (T::lit(8.0) * (T::one() + psi.abs() + phi.abs()) + t.abs() * (dpsi + dphi));
+            let err_bound = T::EPS * (T::lit(8.0) * (T::one() + psi.abs() + phi.abs()) + t.abs() * (dpsi + dphi));
             if f.abs() <= err_bound {
                 converged = true;
                 break;
@@ -233,11 +231,7 @@ pub fn rank_one_update<T: Real, const M: usize>(
             let mut dj = delta(idx[j], kk, &a) - t;
             if dj == T::zero() {
                 // The root sits on a pole in floating point: keep the sign the interlacing implies.
-                dj = if j <= r {
-                    -T::MIN_POSITIVE
-                } else {
-                    T::MIN_POSITIVE
-                };
+                dj = if j <= r { -T::MIN_POSITIVE } else { T::MIN_POSITIVE };
             }
             diff[r][j] = dj;
         }
@@ -415,15 +409,8 @@ mod tests {
         ev
     }
 
-    fn check<const M: usize>(
-        v: SMatrix<f64, M, M>,
-        s: SVector<f64, M>,
-        lam: f64,
-        w: SVector<f64, M>,
-        tol: f64,
-    ) {
-        let g = v * SMatrix::from_diagonal(&s.component_mul(&s)) * v.transpose() * lam
-            + w * w.transpose();
+    fn check<const M: usize>(v: SMatrix<f64, M, M>, s: SVector<f64, M>, lam: f64, w: SVector<f64, M>, tol: f64) {
+        let g = v * SMatrix::from_diagonal(&s.component_mul(&s)) * v.transpose() * lam + w * w.transpose();
         let (v2, s2, _) = rank_one_update(&v, &s, lam, &w).unwrap();
         let ev = jacobi_eigenvalues(g);
         for i in 0..M {

@@ -33,23 +33,13 @@ pub fn diag_wt_rows(sigmas: &[f64]) -> Vec<f64> {
 /// `max_i |a_i − b_i| / max(‖b‖_∞, floor)`.
 pub fn rel_err_norm(a: &[f64], b: &[f64], floor: f64) -> f64 {
     let scale = b.iter().fold(floor, |m, x| m.max(x.abs()));
-    a.iter()
-        .zip(b)
-        .map(|(x, y)| (x - y).abs())
-        .fold(0.0, f64::max)
-        / scale
+    a.iter().zip(b).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max) / scale
 }
 
 /// `max_i |a_i − b_i| / |b_i|` (componentwise relative; `b_i = 0` compared absolutely).
 pub fn rel_err_each(a: &[f64], b: &[f64]) -> f64 {
     a.iter()
         .zip(b)
-        .map(|(x, y)| {
-            if *y == 0.0 {
-                x.abs()
-            } else {
-                (x - y).abs() / y.abs()
-            }
-        })
+        .map(|(x, y)| if *y == 0.0 { x.abs() } else { (x - y).abs() / y.abs() })
         .fold(0.0, f64::max)
 }
