@@ -162,10 +162,7 @@ pub fn keep_debug_in_sleep(dbgmcu: &pac::DBGMCU, rcc: &pac::RCC) {
 ///
 /// Read it with `cortex_m::peripheral::DWT::cycle_count()`; difference readings with `wrapping_sub`.
 /// Not emulated by QEMU (reads 0 there).
-pub fn enable_cycle_counter(
-    dcb: &mut cortex_m::peripheral::DCB,
-    dwt: &mut cortex_m::peripheral::DWT,
-) {
+pub fn enable_cycle_counter(dcb: &mut cortex_m::peripheral::DCB, dwt: &mut cortex_m::peripheral::DWT) {
     dcb.enable_trace();
     dwt.enable_cycle_counter();
 }

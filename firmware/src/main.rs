@@ -148,9 +148,7 @@ mod app {
             let start = DWT::cycle_count();
             let result = crate::estimate::step(&sample);
             let cycles = DWT::cycle_count().wrapping_sub(start);
-            cx.shared
-                .stats
-                .lock(|stats| stats.record_step(result, cycles));
+            cx.shared.stats.lock(|stats| stats.record_step(result, cycles));
         }
         defmt::error!("estimate: sample channel closed");
     }
