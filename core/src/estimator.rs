@@ -32,9 +32,10 @@ pub struct Step<T> {
     pub lambda: T,
     /// `λ_F` that will be applied to the next sample.
     pub lambda_next: T,
-    /// A priori residual `ν(t)` (eq. 24).
+    /// A priori residual `ν(t)` (eq. 24, with the TLS-corrected regressor under the variable
+    /// forgetting factor; the plain `z − xᵀθ(t−1)` otherwise).
     pub prior_residual: T,
-    /// A posteriori residual `r(t)` (eq. 25).
+    /// A posteriori residual `r(t)` (eq. 25; the plain `z − xᵀθ(t)` without the VFF).
     pub posterior_residual: T,
     /// Which solution produced `θ`.
     pub solution: Solution,

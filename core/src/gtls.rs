@@ -229,12 +229,7 @@ impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Gtls<T, NT, NE,
     /// The excitation threshold of eq. 21, `(1 + s/n)·√(N_eff − n_θ)`, or `None` while
     /// `N_eff ≤ n_θ`.
     pub fn threshold(&self) -> Option<T> {
-        let dof = self.n_eff - T::lit(NT as f64);
-        if dof > T::zero() {
-            Some((T::one() + self.settings.snr) * dof.sqrt())
-        } else {
-            None
-        }
+        Self::threshold_for(self.n_eff, self.settings.snr)
     }
 
     /// Which solution produced the current `θ`.
@@ -293,6 +288,8 @@ impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Gtls<T, NT, NE,
         (out, zhat)
     }
 
+    /// Algorithm 1 for one sample, computed into locals and committed only when every part
+    /// succeeded (so a failure leaves `self` untouched without copying the whole state).
     fn apply(&mut self, x: &SVector<T, NT>, z: T) -> Result<Step<T>, Error> {
         let nx = Self::NX;
         let lambda = self.lambda;
@@ -305,7 +302,7 @@ impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Gtls<T, NT, NE,
         d[nx] = z;
         let d_star = solve_upper_transposed(&self.c, &d);
         // Mixed LS–TLS: project out the exact regressors (module doc).
-        let w = if NE > 0 {
+        let (w, b, g11) = if NE > 0 {
             let mut xe = SVector::<T, NE>::zeros();
             for i in 0..NE {
                 xe[i] = x[i];
@@ -314,59 +311,82 @@ impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Gtls<T, NT, NE,
             let kk = solve_spd_regularised(&g11, &xe).ok_or(Error::NumericalFault)?;
             let rho = xe.dot(&kk);
             let e = d_star - self.b * xe;
-            self.b += e * kk.transpose();
-            self.g11 = g11;
-            e * (T::one() - rho).maxr(T::zero()).sqrt()
+            (
+                e * (T::one() - rho).maxr(T::zero()).sqrt(),
+                self.b + e * kk.transpose(),
+                g11,
+            )
         } else {
-            d_star
+            (d_star, self.b, self.g11)
         };
-        // Algorithm 1, step 4: rank-one SVD update of √λ·D* with the new row.
-        let (v, s, secular) = rank_one_update(&self.v, &self.s, lambda, &w).ok_or(Error::NumericalFault)?;
-        self.v = v;
-        self.s = s;
-        self.n_eff = lambda * self.n_eff + T::one();
-        self.n_eff2 = lambda * lambda * self.n_eff2 + T::one();
-        if secular.not_converged > 0 {
-            self.health.secular_not_converged = self
-                .health
-                .secular_not_converged
-                .saturating_add(secular.not_converged as u32);
+        let finite = w.iter().chain(b.iter()).chain(g11.iter()).all(|v| v.finite());
+        if !finite {
+            return Err(Error::NumericalFault);
         }
-        let reorthonormalised = self.guard_orthonormality();
-        // Steps 5–9.
-        self.solve();
-        // Eq. 24–25 and the VFF (eq. 28–33).
-        let (x0, _) = self.corrected_regressor(x, z, &theta_prev);
-        let nu = z - x0.dot(&theta_prev);
-        let r = z - x0.dot(&self.theta);
-        let lambda_next = match &mut self.forgetting {
-            ForgettingState::Constant(l) => *l,
-            ForgettingState::Variable(vff) => {
+        // Eq. 24 and the VFF (eq. 28–33) need only θ(t−1): done first, on a copy.
+        let (forgetting, lambda_next, vff_step, nu, x0) = match self.forgetting {
+            ForgettingState::Constant(l) => (self.forgetting, l, self.last_vff, z - x.dot(&theta_prev), *x),
+            ForgettingState::Variable(mut vff) => {
+                let (x0, _) = self.corrected_regressor(x, z, &theta_prev);
+                let nu = z - x0.dot(&theta_prev);
                 let st = vff.update(&x0, nu).ok_or(Error::NumericalFault)?;
-                self.last_vff = st;
-                st.lambda
+                (ForgettingState::Variable(vff), st.lambda, st, nu, x0)
             }
         };
+        // Algorithm 1, step 4: rank-one SVD update of √λ·D* with the new row.
+        let (mut v, s, secular) = rank_one_update(&self.v, &self.s, lambda, &w).ok_or(Error::NumericalFault)?;
+        let n_eff = lambda * self.n_eff + T::one();
+        let (check_cursor, reorthonormalised) = self.guard_orthonormality(&mut v);
+        // Steps 5–9.
+        let (k, solution, a) = self.solve(&v, &s, n_eff);
+        let theta = self.theta_from(&a, &b);
+        if !theta.iter().all(|t| t.finite()) {
+            return Err(Error::NumericalFault);
+        }
+        // Eq. 25 (with x̂₀ under the VFF, with x otherwise).
+        let r = z - x0.dot(&theta);
+        // Commit.
+        self.v = v;
+        self.s = s;
+        self.b = b;
+        self.g11 = g11;
+        self.theta = theta;
+        self.k = k as u8;
+        self.solution = solution;
+        self.n_eff = n_eff;
+        self.n_eff2 = lambda * lambda * self.n_eff2 + T::one();
         self.lambda = lambda_next;
-        self.health.updates = self.health.updates.saturating_add(1);
+        self.forgetting = forgetting;
+        self.last_vff = vff_step;
+        self.check_cursor = check_cursor;
+        let h = &mut self.health;
+        h.updates = h.updates.saturating_add(1);
+        h.secular_not_converged = h.secular_not_converged.saturating_add(secular.not_converged as u32);
+        if reorthonormalised {
+            h.reorthonormalisations = h.reorthonormalisations.saturating_add(1);
+        }
+        if solution == Solution::Nongeneric {
+            h.nongeneric = h.nongeneric.saturating_add(1);
+        }
         Ok(Step {
-            k: self.k,
+            k: k as u8,
             lambda,
             lambda_next,
             prior_residual: nu,
             posterior_residual: r,
-            solution: self.solution,
+            solution,
             secular,
             reorthonormalised,
         })
     }
 
-    /// Checks one entry of `VᵀV − I` per call (cycling), re-orthonormalising `V` if it exceeds the
-    /// tolerance. Cost: one dot product of length `NA` per sample.
-    fn guard_orthonormality(&mut self) -> bool {
+    /// Checks one entry of `VᵀV − I` per call (cycling), re-orthonormalising `v` if it exceeds the
+    /// tolerance. Cost: one dot product of length `NA` per sample. Returns the next cursor and
+    /// whether `v` was re-orthonormalised.
+    fn guard_orthonormality(&self, v: &mut SMatrix<T, NA, NA>) -> (u16, bool) {
         let pairs = NA * (NA + 1) / 2;
         let mut c = (self.check_cursor as usize) % pairs;
-        self.check_cursor = ((c + 1) % pairs) as u16;
+        let next = ((c + 1) % pairs) as u16;
         // Map the cursor to (i, j), i ≤ j.
         let mut i = 0usize;
         while c >= NA - i {
@@ -376,7 +396,7 @@ impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Gtls<T, NT, NE,
         let j = i + c;
         let mut dot = T::zero();
         for r in 0..NA {
-            dot += self.v[(r, i)] * self.v[(r, j)];
+            dot += v[(r, i)] * v[(r, j)];
         }
         if i == j {
             dot -= T::one();
@@ -386,42 +406,39 @@ impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Gtls<T, NT, NE,
         } else {
             T::lit(4.0 * NA as f64) * T::EPS
         };
-        if dot.abs() > tol && reorthonormalise(&mut self.v) {
-            self.health.reorthonormalisations = self.health.reorthonormalisations.saturating_add(1);
-            return true;
-        }
-        false
+        let reorth = dot.abs() > tol && reorthonormalise(v);
+        (next, reorth)
     }
 
-    /// Algorithm 1, steps 5–9: the threshold `k` (eq. 21) and `θ` (eq. 16 or eq. 22–23).
-    fn solve(&mut self) {
+    /// Algorithm 1, steps 5–9: the threshold `k` (eq. 21) and `a = [θ_n; −1]` (eq. 16 or 22–23).
+    fn solve(&self, v: &SMatrix<T, NA, NA>, s: &SVector<T, NA>, n_eff: T) -> (usize, Solution, SVector<T, NA>) {
         let nx = Self::NX;
-        let k = match self.threshold() {
-            Some(thr) => (0..nx).filter(|&j| self.s[j] > thr).count(),
-            None => 0,
+        let Some(thr) = Self::threshold_for(n_eff, self.settings.snr) else {
+            return (0, Solution::NotEnoughData, self.minimum_norm(v, 0));
         };
-        self.k = k as u8;
-        let (a, solution) = if self.threshold().is_none() {
-            (self.minimum_norm(0), Solution::NotEnoughData)
-        } else if k == nx {
-            match self.tls_direction() {
-                Some(a) => (a, Solution::Tls),
-                None => {
-                    self.health.nongeneric = self.health.nongeneric.saturating_add(1);
-                    (self.minimum_norm(nx - 1), Solution::Nongeneric)
-                }
-            }
+        let k = (0..nx).filter(|&j| s[j] > thr).count();
+        if k < nx {
+            return (k, Solution::MinimumNorm, self.minimum_norm(v, k));
+        }
+        match self.tls_direction(v) {
+            Some(a) => (k, Solution::Tls, a),
+            None => (k, Solution::Nongeneric, self.minimum_norm(v, nx - 1)),
+        }
+    }
+
+    fn threshold_for(n_eff: T, snr: T) -> Option<T> {
+        let dof = n_eff - T::lit(NT as f64);
+        if dof > T::zero() {
+            Some((T::one() + snr) * dof.sqrt())
         } else {
-            (self.minimum_norm(k), Solution::MinimumNorm)
-        };
-        self.solution = solution;
-        self.set_theta(&a);
+            None
+        }
     }
 
     /// Eq. 16: `[θ_n; −1] = h C⁻¹ v_NA`, or `None` if the output component is negligible.
-    fn tls_direction(&self) -> Option<SVector<T, NA>> {
+    fn tls_direction(&self, v: &SMatrix<T, NA, NA>) -> Option<SVector<T, NA>> {
         let nx = Self::NX;
-        let vl = self.v.column(NA - 1).into_owned();
+        let vl = v.column(NA - 1).into_owned();
         let a = solve_upper(&self.c, &vl);
         let nrm = a.norm();
         let last = a[nx];
@@ -432,13 +449,18 @@ impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Gtls<T, NT, NE,
     }
 
     /// Eq. 22–23: the minimum `‖W θ_n‖` among `[θ_n; −1]` with `V₁ᵀ C [θ_n; −1] = 0`, `V₁ = v_1..v_k`.
-    fn minimum_norm(&self, k: usize) -> SVector<T, NA> {
+    fn minimum_norm(&self, v: &SMatrix<T, NA, NA>, k: usize) -> SVector<T, NA> {
         let nx = Self::NX;
+        let mut a = SVector::<T, NA>::zeros();
+        a[nx] = -T::one();
+        if k == 0 {
+            return a;
+        }
         // Rows r < k: (v_rᵀ C) split into M (first NX entries, scaled by W⁻¹) and b (last entry).
         let mut mw = SMatrix::<T, NA, NA>::zeros();
         let mut rhs = SVector::<T, NA>::zeros();
         for r in 0..k {
-            let row = self.v.column(r).transpose() * self.c;
+            let row = v.column(r).transpose() * self.c;
             for j in 0..nx {
                 mw[(r, j)] = row[j] / self.weights[NE + j];
             }
@@ -447,11 +469,6 @@ impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Gtls<T, NT, NE,
         let mut gram = mw * mw.transpose();
         for r in k..NA {
             gram[(r, r)] = T::one();
-        }
-        let mut a = SVector::<T, NA>::zeros();
-        a[nx] = -T::one();
-        if k == 0 {
-            return a;
         }
         if let Some(y) = solve_spd_regularised(&gram, &rhs) {
             let t = mw.transpose() * y;
@@ -462,27 +479,20 @@ impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Gtls<T, NT, NE,
         a
     }
 
-    /// Sets `θ = [θ_e; θ_n]` from `a = [θ_n; −1]`, with `θ_e = −Bᵀ C a` (LS given `θ_n`).
-    fn set_theta(&mut self, a: &SVector<T, NA>) {
+    /// `θ = [θ_e; θ_n]` from `a = [θ_n; −1]`, with `θ_e = −Bᵀ C a` (LS given `θ_n`).
+    fn theta_from(&self, a: &SVector<T, NA>, b: &SMatrix<T, NA, NE>) -> SVector<T, NT> {
         let nx = Self::NX;
-        let ca = self.c * a;
-        let te = -(self.b.transpose() * ca);
-        for i in 0..NE {
-            self.theta[i] = te[i];
+        let mut theta = SVector::<T, NT>::zeros();
+        if NE > 0 {
+            let te = -(b.transpose() * (self.c * a));
+            for i in 0..NE {
+                theta[i] = te[i];
+            }
         }
         for j in 0..nx {
-            self.theta[NE + j] = a[j];
+            theta[NE + j] = a[j];
         }
-    }
-
-    fn state_is_finite(&self) -> bool {
-        self.v.iter().all(|x| x.finite())
-            && self.s.iter().all(|x| x.finite())
-            && self.theta.iter().all(|x| x.finite())
-            && self.b.iter().all(|x| x.finite())
-            && self.g11.iter().all(|x| x.finite())
-            && self.n_eff.finite()
-            && self.lambda.finite()
+        theta
     }
 }
 
@@ -491,13 +501,7 @@ impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Estimator<T, NT
     /// than `max_abs_input`, or if the update would leave a non-finite state.
     fn update(&mut self, x: &SVector<T, NT>, z: T) -> Result<Step<T>, Error> {
         check_sample(x, z, self.settings.max_abs_input)?;
-        let mut next = *self;
-        let step = next.apply(x, z)?;
-        if !next.state_is_finite() {
-            return Err(Error::NumericalFault);
-        }
-        *self = next;
-        Ok(step)
+        self.apply(x, z)
     }
 
     fn theta(&self) -> &SVector<T, NT> {
