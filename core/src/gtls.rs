@@ -60,8 +60,8 @@
 use crate::estimator::{check_sample, Estimator, Solution, Step};
 use crate::linalg::secular::rank_one_update;
 use crate::linalg::{
-    cholesky_upper, inv_upper, orthonormality_error, reorthonormalise, solve_spd_regularised, solve_upper,
-    solve_upper_transposed,
+    cholesky_regularised, cholesky_upper, inv_upper, orthonormality_error, reorthonormalise, solve_spd_regularised,
+    solve_upper, solve_upper_transposed,
 };
 use crate::vff::{Vff, VffSettings, VffStep};
 use crate::{Error, Real};
@@ -549,9 +549,9 @@ impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Estimator<T, NT
         let g = (g + g.transpose()) * T::lit(0.5);
         let cg = cholesky_upper(&g).ok_or(Error::InsufficientExcitation)?;
         let cg_inv = inv_upper(&cg).ok_or(Error::InsufficientExcitation)?;
-        let g_inv = cg_inv * cg_inv.transpose();
         let scale = sigma2 * (T::one() + theta_star_sq) * ratio;
-        // J = C_NA,NA (C⁻¹)ₓₓ (padded); cov θ_n = J Σ* Jᵀ.
+        // J = C_NA,NA (C⁻¹)ₓₓ (padded). cov θ_n = J Σ* Jᵀ = M Mᵀ with M = √scale·J·G⁻ᵀᐟ² — formed as a
+        // product of factors, so the result is exactly symmetric with a non-negative diagonal.
         let c_inv = inv_upper(&self.c).ok_or(Error::NumericalFault)?;
         let mut j = SMatrix::<T, NA, NA>::zeros();
         for r in 0..nx {
@@ -559,13 +559,14 @@ impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Estimator<T, NT
                 j[(r, c)] = self.c[(nx, nx)] * c_inv[(r, c)];
             }
         }
-        let mut sig_star = g_inv * scale;
-        sig_star[(nx, nx)] = T::zero();
-        let cov_n = j * sig_star * j.transpose();
-        let mut out = SMatrix::<T, NT, NT>::zeros();
+        let m = j * cg_inv * scale.sqrt();
+        // cov θ = F₁F₁ᵀ + F₂F₂ᵀ: F₁ carries the TLS part (rows of θ_e get J_e·M), F₂ the LS part of
+        // the exact parameters, √(σ_vv·N₂/N_eff)·C₁₁⁻¹ with G₁₁ = C₁₁ᵀC₁₁.
+        let mut f1 = SMatrix::<T, NT, NA>::zeros();
+        let mut f2 = SMatrix::<T, NT, NE>::zeros();
         for r in 0..nx {
-            for c in 0..nx {
-                out[(NE + r, NE + c)] = cov_n[(r, c)];
+            for c in 0..NA {
+                f1[(NE + r, c)] = m[(r, c)];
             }
         }
         if NE > 0 {
@@ -577,7 +578,6 @@ impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Estimator<T, NT
             a[nx] = -T::one();
             let ca = self.c * a;
             let s_vv = sigma2 * ca.dot(&ca);
-            // G₁₁⁻¹ via a regularised solve per column.
             let mut je = SMatrix::<T, NE, NA>::zeros(); // −Bᵀ C[:, :NX], padded
             let bc = -(self.b.transpose() * self.c);
             for r in 0..NE {
@@ -585,23 +585,20 @@ impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Estimator<T, NT
                     je[(r, c)] = bc[(r, c)];
                 }
             }
-            let cross = je * cov_n; // NE × NA
-            let cov_e_prop = cross * je.transpose();
-            for col in 0..NE {
-                let mut e = SVector::<T, NE>::zeros();
-                e[col] = T::one();
-                let g11_inv_col = solve_spd_regularised(&self.g11, &e).ok_or(Error::InsufficientExcitation)?;
-                for r in 0..NE {
-                    out[(r, col)] = s_vv * ratio * g11_inv_col[r] + cov_e_prop[(r, col)];
-                }
-            }
+            let jem = je * m;
+            let c11 = cholesky_regularised(&self.g11).ok_or(Error::InsufficientExcitation)?;
+            let c11_inv = inv_upper(&c11).ok_or(Error::InsufficientExcitation)?;
+            let ls = (s_vv * ratio).sqrt();
             for r in 0..NE {
-                for c in 0..nx {
-                    out[(r, NE + c)] = cross[(r, c)];
-                    out[(NE + c, r)] = cross[(r, c)];
+                for c in 0..NA {
+                    f1[(r, c)] = jem[(r, c)];
+                }
+                for c in 0..NE {
+                    f2[(r, c)] = ls * c11_inv[(r, c)];
                 }
             }
         }
+        let out = f1 * f1.transpose() + f2 * f2.transpose();
         if out.iter().all(|x| x.finite()) {
             Ok(out)
         } else {

@@ -4,7 +4,12 @@
 //! Standard exponentially weighted RLS (e.g. Klein & Morelli 2006, §9.2): with `P = (Σ λ x xᵀ)⁻¹`,
 //! `K = P x/(λ + xᵀPx)`, `θ ← θ + K (z − xᵀθ)`, `P ← (P − K xᵀP)/λ`. It assumes exact regressors and
 //! is therefore biased when they are noisy (the errors-in-variables attenuation the seed's eq. 5
-//! warns about). `λ` may be constant or the variable forgetting factor of eq. 27–33 driven by the
+//! warns about).
+//!
+//! `P` is kept as a square root `P = S Sᵀ` updated by Potter's algorithm (`φ = Sᵀx`,
+//! `α = λ + φᵀφ`, `S ← (S − γ Sφφᵀ)/√λ` with `γ = 1/(α + √(λα))`), so it stays symmetric positive
+//! semi-definite in `f32` even with a weak prior, where the plain update cancels catastrophically
+//! (a negative variance after five samples was found by the property tests). `λ` may be constant or the variable forgetting factor of eq. 27–33 driven by the
 //! a priori residual and the *measured* regressor (no TLS correction).
 //!
 //! Guards: `P` starts at `I/π₀`; while the regressors are unexcited and `λ < 1`, forgetting is not
@@ -49,7 +54,8 @@ enum Lam<T: Real, const NT: usize> {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Rls<T: Real, const NT: usize> {
     settings: RlsSettings<T>,
-    p: SMatrix<T, NT, NT>,
+    /// `S` with `P = S Sᵀ`.
+    sqrt_p: SMatrix<T, NT, NT>,
     p_trace_max: T,
     theta: SVector<T, NT>,
     lambda: T,
@@ -79,11 +85,11 @@ impl<T: Real, const NT: usize> Rls<T, NT> {
                 (Lam::Variable(v), l)
             }
         };
-        let p = SMatrix::<T, NT, NT>::identity() / settings.pi0;
+        let sqrt_p = SMatrix::<T, NT, NT>::identity() / settings.pi0.sqrt();
         Ok(Self {
             settings,
-            p,
-            p_trace_max: p.trace(),
+            sqrt_p,
+            p_trace_max: sqrt_p.norm_squared(),
             theta: SVector::zeros(),
             lambda,
             forgetting,
@@ -93,25 +99,30 @@ impl<T: Real, const NT: usize> Rls<T, NT> {
         })
     }
 
-    /// `P`, the (un-scaled) inverse information matrix.
-    pub fn p(&self) -> &SMatrix<T, NT, NT> {
-        &self.p
+    /// `P = S Sᵀ`, the (un-scaled) inverse information matrix.
+    pub fn p(&self) -> SMatrix<T, NT, NT> {
+        self.sqrt_p * self.sqrt_p.transpose()
     }
 
     fn apply(&mut self, x: &SVector<T, NT>, z: T) -> Result<Step<T>, Error> {
         let lambda = self.lambda;
-        let px = self.p * x;
-        let denom = lambda + x.dot(&px);
-        if !(denom > T::zero()) {
+        let phi = self.sqrt_p.transpose() * x;
+        let alpha = lambda + phi.dot(&phi);
+        if !(alpha > T::zero()) {
             return Err(Error::NumericalFault);
         }
-        let gain = px / denom;
+        let s_phi = self.sqrt_p * phi; // = P x
+        let gain = s_phi / alpha;
         let nu = z - x.dot(&self.theta);
         self.theta += gain * nu;
-        let mut p = self.p - gain * px.transpose();
-        p = (p + p.transpose()) * T::lit(0.5);
-        let grown = p / lambda;
-        self.p = if grown.trace() <= self.p_trace_max { grown } else { p };
+        let gamma = T::one() / (alpha + (lambda * alpha).sqrt());
+        let shrunk = self.sqrt_p - s_phi * phi.transpose() * gamma; // P − PxxᵀP/α
+        let grown = shrunk / lambda.sqrt();
+        self.sqrt_p = if grown.norm_squared() <= self.p_trace_max {
+            grown
+        } else {
+            shrunk
+        };
         let r = z - x.dot(&self.theta);
         self.n_eff = lambda * self.n_eff + T::one();
         self.n_eff2 = lambda * lambda * self.n_eff2 + T::one();
@@ -138,7 +149,7 @@ impl<T: Real, const NT: usize> Estimator<T, NT> for Rls<T, NT> {
         check_sample(x, z, self.settings.max_abs_input)?;
         let mut next = *self;
         let step = next.apply(x, z)?;
-        let finite = next.p.iter().all(|v| v.finite())
+        let finite = next.sqrt_p.iter().all(|v| v.finite())
             && next.theta.iter().all(|v| v.finite())
             && next.sse.finite()
             && next.lambda.finite();
@@ -159,7 +170,8 @@ impl<T: Real, const NT: usize> Estimator<T, NT> for Rls<T, NT> {
             return Err(Error::InsufficientExcitation);
         }
         let sigma2 = self.sse / dof;
-        Ok(self.p * (sigma2 * self.n_eff2 / self.n_eff))
+        let f = self.sqrt_p * (sigma2 * self.n_eff2 / self.n_eff).sqrt();
+        Ok(f * f.transpose())
     }
 
     fn lambda(&self) -> T {

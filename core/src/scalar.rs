@@ -18,6 +18,10 @@ pub trait Real: RealField + Copy + Default {
     fn to_f64(self) -> f64;
     /// `true` if neither NaN nor infinite.
     fn finite(self) -> bool;
+    /// `self · 2^e`, exact unless it over- or underflows (`ldexp`).
+    fn scale_pow2(self, e: i32) -> Self;
+    /// The binary exponent `e` with `self = m·2^e`, `0.5 ≤ |m| < 1` (`frexp`); 0 for zero.
+    fn exponent(self) -> i32;
     /// The larger of two numbers (NaN-free inputs assumed).
     #[inline]
     fn maxr(self, other: Self) -> Self {
@@ -42,6 +46,14 @@ impl Real for f32 {
     const EPS: Self = f32::EPSILON;
     const MIN_POSITIVE: Self = f32::MIN_POSITIVE;
     #[inline]
+    fn scale_pow2(self, e: i32) -> Self {
+        libm::ldexpf(self, e)
+    }
+    #[inline]
+    fn exponent(self) -> i32 {
+        libm::frexpf(self).1
+    }
+    #[inline]
     fn lit(x: f64) -> Self {
         x as f32
     }
@@ -58,6 +70,14 @@ impl Real for f32 {
 impl Real for f64 {
     const EPS: Self = f64::EPSILON;
     const MIN_POSITIVE: Self = f64::MIN_POSITIVE;
+    #[inline]
+    fn scale_pow2(self, e: i32) -> Self {
+        libm::ldexp(self, e)
+    }
+    #[inline]
+    fn exponent(self) -> i32 {
+        libm::frexp(self).1
+    }
     #[inline]
     fn lit(x: f64) -> Self {
         x

@@ -18,7 +18,7 @@ pub fn step(sample: &Sample) -> Result<(), StepError> {
     if !(sample.dt_s.is_finite() && sample.dt_s > 0.0) {
         return Err(StepError::BadDt);
     }
-    if sample.seq % 100 == 0 {
+    if sample.seq.is_multiple_of(100) {
         defmt::info!(
             "estimate: aerosid-core {=str} (placeholder step), sample {=u32}",
             aerosid_core::VERSION,

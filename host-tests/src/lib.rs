@@ -6,6 +6,8 @@
 //! * [`reference`] — batch and compressed PCA-GTLS references built on faer's SVD/QR.
 //! * [`data`] — seeded synthetic regression data (well/badly excited, collinear, noisy regressors).
 #![forbid(unsafe_code)]
+// Index loops mirror the matrix formulas of the references.
+#![allow(clippy::needless_range_loop)]
 
 pub mod data;
 pub mod reference;

@@ -10,9 +10,13 @@ use nalgebra::{SMatrix, SVector};
 
 /// Upper-triangular Cholesky factor `C` with `A = Cᵀ C` (the convention of eq. 9: `W_T = CᵀC`).
 ///
-/// Returns `None` if `A` is not symmetric positive definite to working precision (a pivot is not
-/// positive and finite) or is not symmetric within `64·ε·max|A|`.
+/// Returns `None` if `A` has a non-finite entry (anywhere, both triangles are checked), is not
+/// symmetric within `64·ε·max|A|`, or is not positive definite to working precision (a pivot is not
+/// positive and finite).
 pub fn cholesky_upper<T: Real, const N: usize>(a: &SMatrix<T, N, N>) -> Option<SMatrix<T, N, N>> {
+    if !a.iter().all(|x| x.finite()) {
+        return None;
+    }
     let scale = a.iter().fold(T::zero(), |m, x| m.maxr(x.abs()));
     if !scale.finite() || scale <= T::zero() {
         return None;
@@ -68,36 +72,41 @@ pub fn inv_upper<T: Real, const N: usize>(c: &SMatrix<T, N, N>) -> Option<SMatri
     Some(x)
 }
 
-/// Solves `A x = b` for a symmetric positive semi-definite `A`, regularised only if needed.
+/// Upper Cholesky factor of a symmetric positive semi-definite `A`, regularised only if needed.
 ///
 /// Math note: `A` is factorised as it is; if that fails (singular to working precision), `A + μI`
-/// with `μ = 16·n·ε·max(trace(A)/n, tiny)` is factorised instead, which yields a bounded solution
-/// close to the pseudo-inverse one on the range of `A`. Returns `None` only on non-finite input.
+/// with `μ = 16·n·ε·max(trace(A)/n, tiny)` is factorised instead, which gives bounded solutions close
+/// to the pseudo-inverse ones on the range of `A`. Returns `None` only on non-finite input.
+pub fn cholesky_regularised<T: Real, const N: usize>(a: &SMatrix<T, N, N>) -> Option<SMatrix<T, N, N>> {
+    let sym = (a + a.transpose()) * T::lit(0.5);
+    if let Some(c) = cholesky_upper(&sym) {
+        return Some(c);
+    }
+    let mut tr = T::zero();
+    for i in 0..N {
+        tr += sym[(i, i)].abs();
+    }
+    let n = T::lit(N as f64);
+    let mu = T::lit(16.0) * n * T::EPS * (tr / n).maxr(T::MIN_POSITIVE.sqrt());
+    let mut ar = sym;
+    for i in 0..N {
+        ar[(i, i)] += mu;
+    }
+    cholesky_upper(&ar)
+}
+
+/// Solves `A x = b` for a symmetric positive semi-definite `A` through [`cholesky_regularised`].
 pub fn solve_spd_regularised<T: Real, const N: usize>(
     a: &SMatrix<T, N, N>,
     b: &SVector<T, N>,
 ) -> Option<SVector<T, N>> {
-    let sym = (a + a.transpose()) * T::lit(0.5);
-    if let Some(c) = cholesky_upper(&sym) {
-        let x = solve_upper_t_upper(&c, b);
-        if x.iter().all(|v| v.finite()) {
-            return Some(x);
-        }
+    let c = cholesky_regularised(a)?;
+    let x = solve_upper_t_upper(&c, b);
+    if x.iter().all(|v| v.finite()) {
+        Some(x)
+    } else {
+        None
     }
-    let mut tr = T::zero();
-    for i in 0..N {
-        tr += a[(i, i)].abs();
-    }
-    let n = T::lit(N as f64);
-    let mu = T::lit(16.0) * n * T::EPS * (tr / n).maxr(T::MIN_POSITIVE.sqrt());
-    let mut ar = *a;
-    for i in 0..N {
-        ar[(i, i)] += mu;
-    }
-    // Symmetrise against rounding so the factorisation's symmetry check is about the caller's data.
-    let ar = (ar + ar.transpose()) * T::lit(0.5);
-    let c = cholesky_upper(&ar)?;
-    Some(solve_upper_t_upper(&c, b))
 }
 
 /// Solves `Cᵀ y = b` (forward substitution) for an upper-triangular `C` with non-zero diagonal.

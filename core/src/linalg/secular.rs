@@ -73,6 +73,28 @@ pub fn rank_one_update<T: Real, const M: usize>(
         }
         z[k] = zk;
     }
+    // Scale the problem by a power of two (exact) so that the largest of a, |z| lies in [0.5, 1):
+    // squares can then neither overflow nor lose a significant component to underflow. Components
+    // below √(MIN_POSITIVE) of the largest (their squares would underflow) contribute less than
+    // MIN_POSITIVE relative to σ₁² and are dropped.
+    let mut big = T::zero();
+    for k in 0..M {
+        big = big.maxr(a[k]).maxr(z[k].abs());
+    }
+    if !(big > T::zero()) || !big.finite() {
+        if !big.finite() {
+            return None;
+        }
+        // Nothing to add and nothing held: the zero matrix, unchanged.
+        return Some((*v, s * sl, Outcome::default()));
+    }
+    let e = big.exponent();
+    let floor = T::MIN_POSITIVE.sqrt();
+    for k in 0..M {
+        a[k] = a[k].scale_pow2(-e);
+        let zk = z[k].scale_pow2(-e);
+        z[k] = if zk.abs() < floor { T::zero() } else { zk };
+    }
     let mut zn2 = T::zero();
     for zk in z.iter() {
         zn2 += *zk * *zk;
@@ -382,7 +404,7 @@ pub fn rank_one_update<T: Real, const M: usize>(
     let mut v_new = SMatrix::<T, M, M>::zeros();
     let mut s_new = SVector::<T, M>::zeros();
     for (dst, &src) in order.iter().enumerate() {
-        s_new[dst] = sig[src];
+        s_new[dst] = sig[src].scale_pow2(e);
         for row in 0..M {
             v_new[(row, dst)] = cols[(row, src)];
         }

@@ -120,8 +120,8 @@ fn run(args: &Args) {
     );
     println!();
     println!(
-        "{:>7} {:>4} {:>8} {:>10} {:>10}   {}",
-        "t [s]", "k", "λ_F", "Cmα", "Cmq", "solution"
+        "{:>7} {:>4} {:>8} {:>10} {:>10}   solution",
+        "t [s]", "k", "λ_F", "Cmα", "Cmq"
     );
     let mut refused = 0usize;
     for i in 0..n {
