@@ -90,9 +90,11 @@ pub fn rank_one_update<T: Real, const M: usize>(
     }
     let e = big.exponent();
     let floor = T::MIN_POSITIVE.sqrt();
+    // 2^−e as a factor: multiplying by it is exact (2^−e is representable: |e| ≤ 128 / 1024).
+    let down = T::one().scale_pow2(-e);
     for k in 0..M {
-        a[k] = a[k].scale_pow2(-e);
-        let zk = z[k].scale_pow2(-e);
+        a[k] *= down;
+        let zk = z[k] * down;
         z[k] = if zk.abs() < floor { T::zero() } else { zk };
     }
     let mut zn2 = T::zero();
@@ -403,8 +405,9 @@ pub fn rank_one_update<T: Real, const M: usize>(
     }
     let mut v_new = SMatrix::<T, M, M>::zeros();
     let mut s_new = SVector::<T, M>::zeros();
+    let up = T::one().scale_pow2(e);
     for (dst, &src) in order.iter().enumerate() {
-        s_new[dst] = sig[src].scale_pow2(e);
+        s_new[dst] = sig[src] * up;
         for row in 0..M {
             v_new[(row, dst)] = cols[(row, src)];
         }
