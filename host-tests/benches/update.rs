@@ -350,8 +350,30 @@ fn bench_rls<T: Real, const NT: usize>(c: &mut Criterion, id: &str) {
     run(c, "rls", id, &samples, |x, z| black_box(est.update(x, z)).is_ok());
 }
 
+/// The orthonormality guard's repair: one modified Gram–Schmidt of a 6×6 `V` that has drifted by
+/// ~1e-6 (what `tests/orthonormality.rs` counts once per ~3000 updates in `f32`).
+fn bench_reorthonormalise<T: Real>(c: &mut Criterion, id: &str) {
+    let mut v0 = SMatrix::<T, 6, 6>::identity();
+    for i in 0..6 {
+        for j in 0..6 {
+            v0[(i, j)] += T::lit(1e-6 * (((3 * i + 5 * j) % 7) as f64 - 3.0));
+        }
+    }
+    let mut g = c.benchmark_group("reorthonormalise");
+    g.bench_function(id, |b| {
+        b.iter(|| {
+            let mut v = black_box(v0);
+            black_box(aerosid_core::linalg::reorthonormalise(&mut v));
+            v
+        })
+    });
+    g.finish();
+}
+
 fn updates(c: &mut Criterion) {
     faer::set_global_parallelism(Par::Seq);
+    bench_reorthonormalise::<f64>(c, "f64/na6");
+    bench_reorthonormalise::<f32>(c, "f32/na6");
     bench_gtls::<f64, 4, 0, 5>(c, "gtls", "f64/n4");
     bench_gtls::<f64, 5, 0, 6>(c, "gtls", "f64/n5");
     bench_gtls::<f32, 4, 0, 5>(c, "gtls", "f32/n4");

@@ -5,8 +5,8 @@
 //! well-excited samples with `λ = 1` and with `λ = 0.995`,
 //! WHEN the guard checks one entry of `VᵀV − I` per update (tolerance `4·NA·ε ≈ 2.9e-6`),
 //! THEN `‖VᵀV − I‖_F` never exceeds 1e-5 at any of the 10⁴ checkpoints, and we print how many
-//! re-orthonormalisations it took. (Their cost — one modified Gram–Schmidt, `~NA³` flops, about the
-//! cost of one update — is measured by the criterion bench `reorthonormalise`.)
+//! re-orthonormalisations it took. (Their cost — one modified Gram–Schmidt, `~NA³` flops, about a
+//! quarter of an update — is measured by the criterion bench `reorthonormalise`, see BENCHMARKS.md.)
 
 mod common;
 
