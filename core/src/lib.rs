@@ -13,6 +13,8 @@
 //! * Every step returns `Result<_, Error>`; a refused sample leaves the estimator untouched.
 //!
 //! ## Modules
+//! * [`aero`] — what the flight computer measures ([`aero::SensorSample`]) and knows
+//!   ([`aero::Airframe`]); coefficient synthesis and the six estimators build on it.
 //! * [`gtls`] — recursive PCA-GTLS (seed 000, Algorithm 1, eq. 8–23) with mixed LS–TLS for exact
 //!   regressors.
 //! * [`linalg::secular`] — the rank-one SVD/eigen update by the secular equation (ref. [17]).
@@ -36,6 +38,7 @@
 // Index loops over const dimensions mirror the equations (and several arrays are indexed together).
 #![allow(clippy::needless_range_loop)]
 
+pub mod aero;
 pub mod error;
 pub mod estimator;
 pub mod gtls;

@@ -1,0 +1,103 @@
+//! On-board aerodynamics: what the flight computer measures, the airframe constants it knows, and
+//! (in the submodules, as they land) the synthesis of the six coefficients of eq. 1–2 and the six
+//! estimators of eq. 3.
+//!
+//! Conventions: SI units and radians; body frame FRD; surface deflections positive trailing edge
+//! down (elevator, aileron: right aileron down) and trailing edge left (rudder), so that with the
+//! `skywalker_2013_mod` data a positive elevator gives a nose-up moment (`Cmδe > 0` there).
+
+use crate::Real;
+use nalgebra::{Matrix3, Vector3};
+
+/// One synchronised sample of everything the co-processor measures, at the sampling instant.
+///
+/// This is also the row of the project's CSV flight-log layout: one column per field, named as the
+/// field (vectors as `<name>_x`, `_y`, `_z`), SI units and radians.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct SensorSample<T: Real> {
+    /// Time of the sample since the start of the log, s.
+    pub t_s: T,
+    /// Time since the previous sample, s.
+    pub dt_s: T,
+    /// Specific force measured by the accelerometer (at the CG), body FRD, m/s².
+    pub accel_mps2: Vector3<T>,
+    /// Angular rate measured by the gyroscope, body FRD (p, q, r), rad/s.
+    pub gyro_rad_s: Vector3<T>,
+    /// True airspeed from the differential-pressure sensor, m/s.
+    pub airspeed_mps: T,
+    /// Angle of attack from the α vane, rad.
+    pub alpha_rad: T,
+    /// Sideslip angle from the β vane, rad.
+    pub beta_rad: T,
+    /// Attitude: roll φ, pitch θ, yaw ψ (3-2-1 Euler angles), rad.
+    pub euler_rad: Vector3<T>,
+    /// Propeller speed, rad/s (from RPM).
+    pub prop_speed_rad_s: T,
+    /// Elevator deflection, rad.
+    pub elevator_rad: T,
+    /// Aileron deflection, rad.
+    pub aileron_rad: T,
+    /// Rudder deflection, rad.
+    pub rudder_rad: T,
+    /// Throttle command, 0…1.
+    pub throttle: T,
+    /// Air density, kg/m³ (from static pressure and temperature).
+    pub air_density_kgpm3: T,
+}
+
+/// A propeller whose thrust and torque the flight computer reconstructs from its speed and the
+/// airspeed, as from engine ground tests (seed 000, Section II): `J = V_x/(nD)`, `n = ω/2π`,
+/// `T = C_T(J) ρ n² D⁴`, `Q = C_P(J) ρ n² D⁵/(2π)`, with `C_T`, `C_P` quadratic in `J`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Propeller<T: Real> {
+    /// Diameter `D`, m.
+    pub diameter_m: T,
+    /// `C_T(J) = c₀ + c₁J + c₂J²`.
+    pub ct: [T; 3],
+    /// `C_P(J) = c₀ + c₁J + c₂J²`.
+    pub cp: [T; 3],
+    /// Thrust point relative to the CG, body FRD, m.
+    pub position_m: Vector3<T>,
+    /// Thrust line pitch relative to the body x axis, rad (positive nose up).
+    pub pitch_rad: T,
+}
+
+/// The airframe constants the on-board synthesis needs.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Airframe<T: Real> {
+    /// Mass, kg.
+    pub mass_kg: T,
+    /// Inertia tensor about the CG in body FRD (with `−Jxz` off the diagonal), kg·m².
+    pub inertia_kgm2: Matrix3<T>,
+    /// Wing reference area `S`, m².
+    pub wing_area_m2: T,
+    /// Wing span `b`, m.
+    pub span_m: T,
+    /// Mean aerodynamic chord `c̄`, m.
+    pub chord_m: T,
+    /// The propulsion model.
+    pub propeller: Propeller<T>,
+}
+
+impl<T: Real> Airframe<T> {
+    /// The `skywalker_2013_mod` airframe of the seed's simulator (data/aircraft README §1), with its
+    /// inertia as published (copied from the Aerosonde set).
+    pub fn skywalker_2013_mod() -> Self {
+        let l = T::lit;
+        let (jx, jy, jz, jxz) = (l(0.8244), l(1.135), l(1.759), l(0.1204));
+        Self {
+            mass_kg: l(2.0),
+            inertia_kgm2: Matrix3::new(jx, T::zero(), -jxz, T::zero(), jy, T::zero(), -jxz, T::zero(), jz),
+            wing_area_m2: l(0.45),
+            span_m: l(1.88),
+            chord_m: l(0.24),
+            propeller: Propeller {
+                diameter_m: l(0.28),
+                ct: [l(0.1133), l(-0.0740), l(-0.1849)],
+                cp: [l(0.0440), l(0.0059), l(-0.0732)],
+                position_m: Vector3::new(l(-0.25), T::zero(), l(-0.13)),
+                pitch_rad: l(-0.08),
+            },
+        }
+    }
+}
