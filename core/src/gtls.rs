@@ -13,7 +13,7 @@
 //!   is scaled as `d* = d C⁻¹` (eq. 10) by a forward substitution with `Cᵀ` (no inverse is stored).
 //! * `V`, `S`: right singular vectors and singular values of the exponentially weighted, scaled
 //!   matrix `D*` (eq. 12) — after the exact columns are projected out (below). Updated per sample by
-//!   [`rank_one_update`](crate::linalg::secular::rank_one_update) (Algorithm 1, step 4).
+//!   [`rank_one_update`](crate::linalg::secular) (Algorithm 1, step 4).
 //! * `G₁₁ = Σ w x_e x_eᵀ` and `B = G₂₁ G₁₁⁻¹` (the regression of the scaled noisy block on the exact
 //!   columns) for mixed LS–TLS.
 //!

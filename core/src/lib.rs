@@ -17,7 +17,7 @@
 //!   ([`aero::Airframe`]); coefficient synthesis and the six estimators build on it.
 //! * [`gtls`] — recursive PCA-GTLS (seed 000, Algorithm 1, eq. 8–23) with mixed LS–TLS for exact
 //!   regressors.
-//! * [`linalg::secular`] — the rank-one SVD/eigen update by the secular equation (ref. [17]).
+//! * [`linalg::secular`] — the rank-one SVD/eigen update by the secular equation (ref. \[17\]).
 //! * [`vff`] — the variable forgetting factor (eq. 24–33) and our reading of the damaged eq. 28.
 //! * [`rls`] — the recursive least-squares baseline.
 //! * [`estimator`] — the common [`Estimator`] trait and step report.

@@ -1,10 +1,10 @@
 //! Variable forgetting factor (seed 000, Section IV, eq. 24–33), after Paleologu, Benesty & Ciochină
-//! (IEEE SPL 2008, the seed's ref. [19]).
+//! (IEEE SPL 2008, the seed's ref. \[19\]).
 //!
 //! ## The reading of eq. 28
 //! Eq. 28 is damaged in the seed (one line printed twice). As printed, `σ_q²` and `σ_ν²` are smoothed
 //! with `γ₁` and `σ_ε²` with `γ₂`, where `0 ≪ γ₂ < γ₁ < 1` (eq. 31), i.e. the *noise* power `σ_ε²`
-//! would have the *shorter* memory. In ref. [19], which eq. 27 follows, it is the other way round: the
+//! would have the *shorter* memory. In ref. \[19\], which eq. 27 follows, it is the other way round: the
 //! noise-power estimate uses the longer window and the a priori error power (and the power of `q`) the
 //! shorter one, so that after an abrupt change the error power `σ_ν²` rises faster than the noise
 //! power `σ_ε²` and `λ_F` drops. **We read eq. 28 as**
@@ -36,7 +36,7 @@ use nalgebra::{SMatrix, SVector};
 /// Which assignment of the smoothing constants in eq. 28 to use (see the module doc).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Eq28Reading {
-    /// `σ_q², σ_ν²` on the short window `γ₂`, `σ_ε²` on the long window `γ₁` (ref. [19]). Default.
+    /// `σ_q², σ_ν²` on the short window `γ₂`, `σ_ε²` on the long window `γ₁` (ref. \[19\]). Default.
     Paleologu,
     /// As printed: `σ_q², σ_ν²` on `γ₁`, `σ_ε²` on `γ₂`.
     Literal,
@@ -67,7 +67,7 @@ impl<T: Real> VffSettings<T> {
     /// Defaults for `n` parameters: `γ₂ = 1 − 1/(5n)`, `γ₁ = 1 − 1/(200n)`, `γ₀ = 1.5`,
     /// `ς = 1e-9`, `λ ∈ [0.9, 1]`, `π₀ = 1e-2`.
     ///
-    /// Ref. [19] uses windows of `K·L` samples with `K_α = 2`, `K_β ≥ 5K_α` for echo cancellers with
+    /// Ref. \[19\] uses windows of `K·L` samples with `K_α = 2`, `K_β ≥ 5K_α` for echo cancellers with
     /// `L` in the hundreds; for the 3–7 parameters of an aerodynamic coefficient those windows are far
     /// too short for the noise estimate, which then catches up with the error power before the
     /// estimator has forgotten the old model. The host test `forgetting.rs` (jump of one slope by
