@@ -26,6 +26,9 @@ cargo fw-clippy
 step "core for the MCU (no std, no heap): cargo clippy -p aerosid-core --target $THUMB -- -D warnings"
 cargo clippy -p aerosid-core --target "$THUMB" -- -D warnings
 
+step "core docs (broken links are errors): cargo doc -p aerosid-core --no-deps"
+RUSTDOCFLAGS="-D warnings" cargo doc -p aerosid-core --no-deps
+
 step "host tests: cargo test --workspace"
 cargo test --workspace
 
