@@ -14,7 +14,10 @@
 //!
 //! ## Modules
 //! * [`aero`] — what the flight computer measures ([`aero::SensorSample`]) and knows
-//!   ([`aero::Airframe`]); coefficient synthesis and the six estimators build on it.
+//!   ([`aero::Airframe`]); the synthesis of the six coefficients from eq. 1–2
+//!   ([`aero::synthesis`], with a causal 5-point differentiator for `ω̇`), the regressor sets and
+//!   `W_T` of eq. 3 ([`aero::model`]) and the six-estimator [`aero::pipeline::Pipeline`] that refuses
+//!   a sample only for the coefficients whose channels are bad.
 //! * [`gtls`] — recursive PCA-GTLS (seed 000, Algorithm 1, eq. 8–23) with mixed LS–TLS for exact
 //!   regressors.
 //! * [`linalg::secular`] — the rank-one SVD/eigen update by the secular equation (ref. \[17\]).

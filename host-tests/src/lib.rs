@@ -10,4 +10,7 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod data;
+pub mod io;
+pub mod mc;
 pub mod reference;
+pub mod sim;

@@ -6,6 +6,14 @@
 //! down (elevator, aileron: right aileron down) and trailing edge left (rudder), so that with the
 //! `skywalker_2013_mod` data a positive elevator gives a nose-up moment (`Cmδe > 0` there).
 
+pub mod model;
+pub mod pipeline;
+pub mod synthesis;
+
+pub use model::{AeroModels, CoefficientModel, Regressor, SensorNoise};
+pub use pipeline::{Health, Limits, Pipeline, PipelineSettings, PipelineStep, Refusal};
+pub use synthesis::{synthesise, Coefficients, ForceAxes, RateDifferentiator, Synthesis, SynthesisSettings};
+
 use crate::Real;
 use nalgebra::{Matrix3, Vector3};
 

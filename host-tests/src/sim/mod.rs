@@ -1,0 +1,288 @@
+//! The truth simulator the on-board identification is tested against (issue 3 §1; seed 000
+//! Section VI-A uses `last_letter` the same way).
+//!
+//! * [`dynamics`] — nonlinear 6-DoF rigid body (FRD body, NED earth, quaternion attitude, full
+//!   inertia with `Jxz`), RK4 at an internal step (default 2 ms), controls held per output period.
+//! * [`aero`] — truth aerodynamics: eq. 3 plus switchable hidden effects, eq. 1–2, and the truth's
+//!   linearisation (the reference the estimators are compared against).
+//! * [`airframe`] — `skywalker_2013_mod` (default) and the Rascal 110.
+//! * [`atmosphere`] — ISA density, MIL-F-8785C Dryden turbulence (exact discretisation).
+//! * [`propulsion`] — the propeller `C_T(J)`, `C_P(J)` model the on-board code also uses.
+//! * [`trim`] — straight-level trim; [`manoeuvre`] — doublet, 3-2-1-1, sweep, step; [`sensors`].
+//!
+//! [`simulate`] runs a flight at 100 Hz (by default) and returns the sensor log
+//! ([`aerosid_core::aero::SensorSample`]) with a truth record per sample. Everything is `f64`,
+//! seeded, without global state.
+
+pub mod aero;
+pub mod airframe;
+pub mod airframe_file;
+pub mod atmosphere;
+pub mod dynamics;
+pub mod manoeuvre;
+pub mod propulsion;
+pub mod sensors;
+pub mod trim;
+
+pub use aero::{AeroInput, CoeffModel, Coefficients, LinearAero, ParameterJump, StallBlend, TruthAero, TruthEffects};
+pub use airframe::SimAirframe;
+pub use airframe_file::{parse_airframe, read_airframe, AirframeFileError};
+pub use atmosphere::{Dryden, Turbulence};
+pub use dynamics::{Controls, Evaluation, Plant, RigidState};
+pub use manoeuvre::{Channel, Manoeuvre, Schedule, Shape};
+pub use sensors::{SensorModel, SensorNoise};
+pub use trim::{trim_level, Trim, TrimError};
+
+use aerosid_core::aero::SensorSample;
+use nalgebra::Vector3;
+
+/// A weak stabiliser around trim (perfect state feedback), added to the manoeuvre inputs so that
+/// long flights stay bounded: pitch attitude with altitude hold, roll attitude, yaw damper,
+/// airspeed by throttle. Signs follow the control derivatives of the airframe.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Stabiliser {
+    /// Elevator per pitch-attitude error, rad/rad (default 0.5).
+    pub k_pitch: f64,
+    /// Elevator per pitch rate, rad/(rad/s) (default 0.05).
+    pub k_q: f64,
+    /// Pitch reference per altitude error, rad/m (default 0.01, clamped to ±0.1 rad).
+    pub k_altitude: f64,
+    /// Aileron per roll error, rad/rad (default 0.3).
+    pub k_roll: f64,
+    /// Aileron per roll rate, rad/(rad/s) (default 0.03).
+    pub k_p: f64,
+    /// Rudder per yaw rate, rad/(rad/s) (default 0.05).
+    pub k_r: f64,
+    /// Throttle per airspeed error, 1/(m/s) (default 0.05).
+    pub k_airspeed: f64,
+}
+
+impl Default for Stabiliser {
+    fn default() -> Self {
+        Self {
+            k_pitch: 0.5,
+            k_q: 0.05,
+            k_altitude: 0.01,
+            k_roll: 0.3,
+            k_p: 0.03,
+            k_r: 0.05,
+            k_airspeed: 0.05,
+        }
+    }
+}
+
+impl Stabiliser {
+    /// The stabiliser's increments to the trim controls at state `x` (airspeed `v_mps`).
+    pub fn increments(
+        &self,
+        plant: &Plant,
+        trim: &Trim,
+        airspeed_ref_mps: f64,
+        x: &RigidState,
+        v_mps: f64,
+    ) -> Controls {
+        let a = &plant.airframe.aero;
+        let sg = |c: f64| if c < 0.0 { -1.0 } else { 1.0 };
+        let e = x.euler_rad();
+        let t0 = trim.state.euler_rad();
+        let theta_ref = t0.y + (self.k_altitude * (trim.state.altitude_m() - x.altitude_m())).clamp(-0.1, 0.1);
+        let w = &x.rate_rad_s;
+        Controls {
+            elevator_rad: sg(a.pitch.elevator) * (self.k_pitch * (theta_ref - e.y) - self.k_q * w.y),
+            aileron_rad: sg(a.roll.aileron) * (self.k_roll * (t0.x - e.x) - self.k_p * w.x),
+            rudder_rad: -sg(a.yaw.rudder) * self.k_r * w.z,
+            throttle: self.k_airspeed * (airspeed_ref_mps - v_mps),
+        }
+    }
+}
+
+/// A simulated flight's settings. `Default` is the skywalker at 15 m/s, 100 m, every hidden effect
+/// on, no wind or turbulence, default sensors, stabiliser on, 60 s at 100 Hz with 2 ms RK4 steps.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SimConfig {
+    /// The plant (airframe, truth aerodynamics, wind, parameter jump, switches).
+    pub plant: Plant,
+    /// Trim airspeed, m/s.
+    pub airspeed_mps: f64,
+    /// Initial altitude (and height above ground for the turbulence), m.
+    pub altitude_m: f64,
+    /// Initial heading, rad.
+    pub heading_rad: f64,
+    /// Dryden turbulence (None: calm).
+    pub turbulence: Option<Turbulence>,
+    /// Sensor noise settings.
+    pub sensors: SensorNoise,
+    /// Excitation manoeuvres.
+    pub schedule: Schedule,
+    /// Stabiliser (None: open loop around trim).
+    pub stabiliser: Option<Stabiliser>,
+    /// Flight duration, s.
+    pub duration_s: f64,
+    /// Output (sensor) period, s.
+    pub output_dt_s: f64,
+    /// Largest internal RK4 step, s.
+    pub step_s: f64,
+    /// Seed for turbulence and sensors.
+    pub seed: u64,
+}
+
+impl Default for SimConfig {
+    fn default() -> Self {
+        Self {
+            plant: Plant::new(SimAirframe::skywalker_2013_mod(), TruthEffects::all()),
+            airspeed_mps: 15.0,
+            altitude_m: 100.0,
+            heading_rad: 0.0,
+            turbulence: None,
+            sensors: SensorNoise::default(),
+            schedule: Schedule::default(),
+            stabiliser: Some(Stabiliser::default()),
+            duration_s: 60.0,
+            output_dt_s: 0.01,
+            step_s: 0.002,
+            seed: 0,
+        }
+    }
+}
+
+/// The truth at one output instant.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TruthSample {
+    /// Time, s.
+    pub t_s: f64,
+    /// The rigid-body state.
+    pub state: RigidState,
+    /// The applied (saturated) controls.
+    pub controls: Controls,
+    /// Gust velocity, body, m/s.
+    pub gust_body_mps: Vector3<f64>,
+    /// Air data, truth coefficients (`C_L … C_n`), forces and moments, accelerations.
+    pub eval: Evaluation,
+    /// The perfect-sensor sample (what the sensors measure before noise and bias).
+    pub ideal: SensorSample<f64>,
+}
+
+/// A simulated flight.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SimOutput {
+    /// The trim the flight started from.
+    pub trim: Trim,
+    /// The measured samples (the log).
+    pub samples: Vec<SensorSample<f64>>,
+    /// The truth, one per sample.
+    pub truth: Vec<TruthSample>,
+    /// The sensor biases of this run.
+    pub biases: sensors::SensorBiases,
+}
+
+/// Why a simulation could not run.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum SimError {
+    /// Trim failed.
+    Trim(TrimError),
+    /// A time setting is not positive and finite (`output_dt_s`, `step_s`, `duration_s`).
+    BadTiming,
+}
+
+impl core::fmt::Display for SimError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::Trim(e) => write!(f, "{e}"),
+            Self::BadTiming => write!(
+                f,
+                "simulation: output_dt_s, step_s and duration_s must be positive and finite"
+            ),
+        }
+    }
+}
+
+impl std::error::Error for SimError {}
+
+impl From<TrimError> for SimError {
+    fn from(e: TrimError) -> Self {
+        Self::Trim(e)
+    }
+}
+
+/// The ideal sensor sample of an evaluation.
+pub fn ideal_sample(t_s: f64, dt_s: f64, x: &RigidState, u: &Controls, e: &Evaluation) -> SensorSample<f64> {
+    SensorSample {
+        t_s,
+        dt_s,
+        accel_mps2: e.specific_force_mps2,
+        gyro_rad_s: x.rate_rad_s,
+        airspeed_mps: e.airspeed_mps,
+        alpha_rad: e.alpha_rad,
+        beta_rad: e.beta_rad,
+        euler_rad: x.euler_rad(),
+        prop_speed_rad_s: e.prop.speed_rad_s,
+        elevator_rad: u.elevator_rad,
+        aileron_rad: u.aileron_rad,
+        rudder_rad: u.rudder_rad,
+        throttle: u.throttle,
+        air_density_kgpm3: e.density_kgpm3,
+    }
+}
+
+/// Runs a flight: trim, then `duration_s/output_dt_s` samples (the first at t = 0).
+pub fn simulate(cfg: &SimConfig) -> Result<SimOutput, SimError> {
+    let ok = |x: f64| x.is_finite() && x > 0.0;
+    if !(ok(cfg.output_dt_s) && ok(cfg.step_s) && ok(cfg.duration_s)) {
+        return Err(SimError::BadTiming);
+    }
+    let plant = &cfg.plant;
+    let trim = trim_level(plant, cfg.airspeed_mps, cfg.altitude_m, cfg.heading_rad)?;
+    let dt = cfg.output_dt_s;
+    let n_sub = (dt / cfg.step_s).ceil().max(1.0) as usize;
+    let h = dt / n_sub as f64;
+    let n = (cfg.duration_s / dt).round() as usize;
+    let mut dryden = cfg
+        .turbulence
+        .map(|t| Dryden::new(&t, cfg.airspeed_mps, dt, cfg.seed ^ 0x9E37_79B9_7F4A_7C15));
+    let mut sensors = SensorModel::new(cfg.sensors, cfg.seed);
+    let mut x = trim.state;
+    let mut samples = Vec::with_capacity(n);
+    let mut truth = Vec::with_capacity(n);
+    for k in 0..n {
+        let t = k as f64 * dt;
+        let gust = dryden.as_ref().map_or_else(Vector3::zeros, Dryden::gust_body_mps);
+        let mut u = trim.controls;
+        let m = cfg.schedule.input(t);
+        u.elevator_rad += m.elevator_rad;
+        u.aileron_rad += m.aileron_rad;
+        u.rudder_rad += m.rudder_rad;
+        u.throttle += m.throttle;
+        if let Some(st) = &cfg.stabiliser {
+            let v = plant.evaluate(&x, &u, &gust, t).airspeed_mps;
+            let s = st.increments(plant, &trim, cfg.airspeed_mps, &x, v);
+            u.elevator_rad += s.elevator_rad;
+            u.aileron_rad += s.aileron_rad;
+            u.rudder_rad += s.rudder_rad;
+            u.throttle += s.throttle;
+        }
+        let u = plant.saturate(&u);
+        let e = plant.evaluate(&x, &u, &gust, t);
+        let ideal = ideal_sample(t, dt, &x, &u, &e);
+        samples.push(sensors.measure(&ideal));
+        truth.push(TruthSample {
+            t_s: t,
+            state: x,
+            controls: u,
+            gust_body_mps: gust,
+            eval: e,
+            ideal,
+        });
+        for i in 0..n_sub {
+            x = plant.rk4_step(&x, &u, &gust, t + i as f64 * h, h);
+        }
+        if let Some(d) = dryden.as_mut() {
+            d.step();
+        }
+    }
+    Ok(SimOutput {
+        trim,
+        samples,
+        truth,
+        biases: sensors.biases,
+    })
+}
