@@ -10,7 +10,9 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod data;
+pub mod experiment;
 pub mod io;
 pub mod mc;
+pub mod plot;
 pub mod reference;
 pub mod sim;

@@ -1,0 +1,418 @@
+//! Simulated flights through the on-board identification, as the firmware would run it (issue 3
+//! §4; seed 000 Section VI-A, Fig. 1–2).
+//!
+//! [`run`] simulates a flight ([`sim::simulate`]), converts every `f64` [`SensorSample`] to `f32`
+//! and feeds it to the on-board [`Pipeline<f32>`] (synthesis, six PCA-GTLS estimators). Alongside,
+//! an RLS baseline ([`aerosid_core::Rls`], the seed's "sequential OLS") per coefficient is updated
+//! with the *same* regressor vector and output the pipeline used: the pipeline's centre sample is
+//! the input delayed by [`RateDifferentiator::DELAY_SAMPLES`], rebuilt here from a local delay
+//! line and checked against the synthesis time stamp, and the regressors are built with the public
+//! [`CoefficientModel::regressor_vector`]; RLS is updated exactly when the pipeline's estimator
+//! accepted the sample.
+//!
+//! Recorded per sample and coefficient ([`CoefficientTrace`]): GTLS `θ`, `k` (eq. 21), the `λ_F`
+//! for the next sample, the singular values (eq. 13) and the excitation threshold (eq. 21); RLS `θ`.
+//! The truth is [`TruthAero::linearise`](crate::sim::TruthAero::linearise) at the trim condition,
+//! before and (with a [`ParameterJump`](crate::sim::ParameterJump)) after the jump, mapped to each
+//! model's parameter order ([`truth_parameters`]).
+//!
+//! `σ_ε` (eq. 41, the last diagonal entry of `W_T`) is a setting; [`mc_sigma_eps`] computes it with
+//! the host Monte Carlo ([`crate::mc::synth`] defaults).
+
+use crate::mc::{synth, McError, McSettings};
+use crate::sim::{self, AeroInput, CoeffModel, LinearAero, SimConfig, SimError, SimOutput};
+use aerosid_core::aero::model::idx;
+use aerosid_core::aero::synthesis::Synthesis;
+use aerosid_core::aero::{
+    AeroModels, Airframe, CoefficientModel, Pipeline, PipelineSettings, RateDifferentiator, Regressor, SensorSample,
+};
+use aerosid_core::estimator::Estimator;
+use aerosid_core::gtls::Gtls;
+use aerosid_core::rls::{Rls, RlsSettings};
+use aerosid_core::Error;
+
+/// Names of the coefficients, indexed by [`idx`].
+pub const COEFFICIENT_NAMES: [&str; idx::COUNT] = ["C_L", "C_D", "C_Y", "C_l", "C_m", "C_n"];
+
+/// What to fly and how to identify it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ExperimentConfig {
+    /// The simulated flight.
+    pub sim: SimConfig,
+    /// The on-board pipeline's settings (`f32`, as on the chip).
+    pub pipeline: PipelineSettings<f32>,
+    /// `σ_ε` per coefficient, indexed by [`idx`] (eq. 41; see [`mc_sigma_eps`]).
+    pub sigma_eps: [f64; idx::COUNT],
+    /// The RLS baseline's settings (`f32`).
+    pub rls: RlsSettings<f32>,
+}
+
+impl ExperimentConfig {
+    /// Defaults: the given flight, default pipeline (constant `λ_F = 1`), default RLS (`λ = 1`),
+    /// and `σ_ε` given by the caller.
+    pub fn new(sim: SimConfig, sigma_eps: [f64; idx::COUNT]) -> Self {
+        Self {
+            sim,
+            pipeline: PipelineSettings::default(),
+            sigma_eps,
+            rls: RlsSettings::default(),
+        }
+    }
+}
+
+/// The time histories of one coefficient's estimators. Vectors are indexed by sample (the same
+/// index as [`Experiment::t_s`]); parameter vectors are in the model's regressor order
+/// ([`CoefficientTrace::regressors`]).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct CoefficientTrace {
+    /// The model's regressors (parameter order).
+    pub regressors: Vec<Regressor>,
+    /// Whether the pipeline's estimator accepted the sample.
+    pub updated: Vec<bool>,
+    /// GTLS `θ̂` after the sample.
+    pub theta: Vec<Vec<f64>>,
+    /// GTLS number of excited directions `k` (eq. 21).
+    pub k: Vec<u8>,
+    /// GTLS `λ_F` to be applied to the next sample.
+    pub lambda: Vec<f64>,
+    /// GTLS singular values `σ_1 ≥ … ≥ σ_NA` (eq. 13).
+    pub singular_values: Vec<Vec<f64>>,
+    /// GTLS excitation threshold (eq. 21); NaN while `N_eff ≤ n_θ`.
+    pub threshold: Vec<f64>,
+    /// RLS `θ̂` after the sample (updated on the same samples with the same regressors).
+    pub rls_theta: Vec<Vec<f64>>,
+    /// The truth linearised at trim before any parameter jump, in parameter order.
+    pub truth: Vec<f64>,
+    /// The truth linearised at trim after the parameter jump (equal to `truth` without one).
+    pub truth_after_jump: Vec<f64>,
+}
+
+impl CoefficientTrace {
+    /// The number of parameters `n_θ`.
+    pub fn n_theta(&self) -> usize {
+        self.regressors.len()
+    }
+    /// The truth in force at time `t_s` given the jump time.
+    pub fn truth_at(&self, t_s: f64, jump_at_s: Option<f64>) -> &[f64] {
+        match jump_at_s {
+            Some(j) if t_s >= j => &self.truth_after_jump,
+            _ => &self.truth,
+        }
+    }
+}
+
+/// A simulated flight and its identification.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Experiment {
+    /// Sample times, s.
+    pub t_s: Vec<f64>,
+    /// Per coefficient, indexed by [`idx`].
+    pub coefficients: [CoefficientTrace; idx::COUNT],
+    /// The truth linearisation at trim (before any jump).
+    pub truth: LinearAero,
+    /// The truth linearisation at trim after the jump (equal to `truth` without one).
+    pub truth_after_jump: LinearAero,
+    /// The simulator's output (log and truth record).
+    pub flight: SimOutput,
+    /// The pipeline's health counters at the end.
+    pub health: aerosid_core::aero::Health,
+}
+
+impl Experiment {
+    /// The index of the first sample at or after `t_s` (the length if none).
+    pub fn index_at(&self, t_s: f64) -> usize {
+        self.t_s.partition_point(|t| *t < t_s - 1e-9)
+    }
+}
+
+/// Why an experiment could not run.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum ExperimentError {
+    /// The simulation failed.
+    Sim(SimError),
+    /// The pipeline or an RLS estimator could not be built.
+    Estimator(Error),
+}
+
+impl core::fmt::Display for ExperimentError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::Sim(e) => write!(f, "{e}"),
+            Self::Estimator(e) => write!(f, "estimator setup: {e:?}"),
+        }
+    }
+}
+
+impl std::error::Error for ExperimentError {}
+
+/// The Monte Carlo sensor errors ([`synth::Sensors`] defaults) with the angular-acceleration error
+/// of the on-board differentiator: the 5-point Savitzky–Golay slope `(−2, −1, 0, 1, 2)/(10 dt)` has
+/// the white-noise gain `√10/(10 dt)` (31.6 s⁻¹ at 100 Hz), twice the 15.43 s⁻¹ the `synth` default
+/// assumes (an 8-sample causal slope). With the default, `σ_ε` of `C_m` is 0.0083 while the
+/// measured synthesis error in simulation is 0.0136, and GTLS over-corrects `C_m` badly.
+pub fn onboard_mc_sensors(dt_s: f64) -> synth::Sensors {
+    let s = synth::Sensors::default();
+    synth::Sensors {
+        ang_accel_rad_s2: s.gyro_rad_s * 10f64.sqrt() / (10.0 * dt_s),
+        ..s
+    }
+}
+
+/// `σ_ε` of the six coefficients (eq. 41) from the host Monte Carlo with the [`synth`] default
+/// problem (`skywalker_2013_mod`) and the given sensor errors, indexed by [`idx`], with `draws`
+/// draws.
+pub fn mc_sigma_eps(sensors: &synth::Sensors, draws: usize, seed: u64) -> Result<[f64; idx::COUNT], McError> {
+    let settings = McSettings {
+        draws,
+        seed,
+        progress: false,
+        ..McSettings::default()
+    };
+    let rows = synth::coefficient_sigmas(
+        &synth::Airframe::skywalker_2013_mod(),
+        &synth::default_problem(sensors),
+        &settings,
+    )?;
+    let mut out = [0.0; idx::COUNT];
+    for (o, r) in out.iter_mut().zip(rows.iter()) {
+        *o = r.mc.sigma_eps;
+    }
+    Ok(out)
+}
+
+/// The parameter of a truth coefficient model that multiplies regressor `r`.
+pub fn truth_parameter(m: &CoeffModel, r: Regressor) -> f64 {
+    match r {
+        Regressor::One => m.c0,
+        Regressor::Alpha => m.alpha,
+        Regressor::Alpha2 => m.alpha2,
+        Regressor::Beta => m.beta,
+        Regressor::RollRateN => m.p_n,
+        Regressor::PitchRateN => m.q_n,
+        Regressor::YawRateN => m.r_n,
+        Regressor::Elevator => m.elevator,
+        Regressor::Aileron => m.aileron,
+        Regressor::Rudder => m.rudder,
+    }
+}
+
+/// The truth parameters of a linearisation in the order of a model's regressors.
+pub fn truth_parameters(m: &CoeffModel, regressors: &[Regressor]) -> Vec<f64> {
+    regressors.iter().map(|r| truth_parameter(m, *r)).collect()
+}
+
+/// The regressor lists of the six models, indexed by [`idx`].
+pub fn regressor_lists(models: &AeroModels<f32>) -> [Vec<Regressor>; idx::COUNT] {
+    [
+        models.lift.regressors.to_vec(),
+        models.drag.regressors.to_vec(),
+        models.side.regressors.to_vec(),
+        models.roll.regressors.to_vec(),
+        models.pitch.regressors.to_vec(),
+        models.yaw.regressors.to_vec(),
+    ]
+}
+
+/// The regressors of eq. 3 at the trim of a flight (rates zero, level).
+pub fn trim_input(out: &SimOutput) -> AeroInput {
+    AeroInput {
+        alpha_rad: out.trim.alpha_rad,
+        elevator_rad: out.trim.controls.elevator_rad,
+        aileron_rad: out.trim.controls.aileron_rad,
+        rudder_rad: out.trim.controls.rudder_rad,
+        ..AeroInput::default()
+    }
+}
+
+/// A `SensorSample<f64>` rounded to `f32`, as the flight computer stores it.
+pub fn sample_f32(s: &SensorSample<f64>) -> SensorSample<f32> {
+    SensorSample {
+        t_s: s.t_s as f32,
+        dt_s: s.dt_s as f32,
+        accel_mps2: s.accel_mps2.map(|x| x as f32),
+        gyro_rad_s: s.gyro_rad_s.map(|x| x as f32),
+        airspeed_mps: s.airspeed_mps as f32,
+        alpha_rad: s.alpha_rad as f32,
+        beta_rad: s.beta_rad as f32,
+        euler_rad: s.euler_rad.map(|x| x as f32),
+        prop_speed_rad_s: s.prop_speed_rad_s as f32,
+        elevator_rad: s.elevator_rad as f32,
+        aileron_rad: s.aileron_rad as f32,
+        rudder_rad: s.rudder_rad as f32,
+        throttle: s.throttle as f32,
+        air_density_kgpm3: s.air_density_kgpm3 as f32,
+    }
+}
+
+/// The airframe constants rounded to `f32`.
+pub fn airframe_f32(a: &Airframe<f64>) -> Airframe<f32> {
+    let p = &a.propeller;
+    Airframe {
+        mass_kg: a.mass_kg as f32,
+        inertia_kgm2: a.inertia_kgm2.map(|x| x as f32),
+        wing_area_m2: a.wing_area_m2 as f32,
+        span_m: a.span_m as f32,
+        chord_m: a.chord_m as f32,
+        propeller: aerosid_core::aero::Propeller {
+            diameter_m: p.diameter_m as f32,
+            ct: p.ct.map(|x| x as f32),
+            cp: p.cp.map(|x| x as f32),
+            position_m: p.position_m.map(|x| x as f32),
+            pitch_rad: p.pitch_rad as f32,
+        },
+    }
+}
+
+/// Appends the state of one GTLS estimator and its RLS twin to a trace; updates the RLS first if
+/// the pipeline accepted the sample.
+#[allow(clippy::too_many_arguments)]
+fn record<const N: usize>(
+    tr: &mut CoefficientTrace,
+    gtls: &Gtls<f32, N, 1, N>,
+    rls: &mut Rls<f32, N>,
+    model: &CoefficientModel<f32, N>,
+    accepted: bool,
+    centre: Option<&SensorSample<f32>>,
+    syn: Option<&Synthesis<f32>>,
+    z: f32,
+) {
+    if accepted {
+        if let (Some(c), Some(y)) = (centre, syn) {
+            let x = model.regressor_vector(c, y);
+            // A refusal leaves the RLS state unchanged (visible as a flat RLS trace).
+            let _refused = rls.update(&x, z).is_err();
+        }
+    }
+    tr.updated.push(accepted);
+    tr.theta.push(gtls.theta().iter().map(|v| *v as f64).collect());
+    tr.k.push(gtls.excited() as u8);
+    tr.lambda.push(gtls.lambda() as f64);
+    tr.singular_values
+        .push(gtls.singular_values().iter().map(|v| *v as f64).collect());
+    tr.threshold.push(gtls.threshold().map_or(f64::NAN, |v| v as f64));
+    tr.rls_theta.push(rls.theta().iter().map(|v| *v as f64).collect());
+}
+
+/// Simulates the flight and runs the on-board pipeline (in `f32`) and the RLS baseline on it
+/// (module doc).
+pub fn run(cfg: &ExperimentConfig) -> Result<Experiment, ExperimentError> {
+    let flight = sim::simulate(&cfg.sim).map_err(ExperimentError::Sim)?;
+    let sigma: [f32; idx::COUNT] = cfg.sigma_eps.map(|s| s as f32);
+    let models = AeroModels::<f32>::with_sigma_eps(sigma);
+    let airframe = airframe_f32(&cfg.sim.plant.airframe.frame);
+    let mut pipeline = Pipeline::new(airframe, models, cfg.pipeline).map_err(ExperimentError::Estimator)?;
+    let e = ExperimentError::Estimator;
+    let mut rls_l = Rls::<f32, 4>::new(cfg.rls).map_err(e)?;
+    let mut rls_d = Rls::<f32, 5>::new(cfg.rls).map_err(e)?;
+    let mut rls_y = Rls::<f32, 6>::new(cfg.rls).map_err(e)?;
+    let mut rls_r = Rls::<f32, 6>::new(cfg.rls).map_err(e)?;
+    let mut rls_m = Rls::<f32, 4>::new(cfg.rls).map_err(e)?;
+    let mut rls_n = Rls::<f32, 6>::new(cfg.rls).map_err(e)?;
+
+    let x0 = trim_input(&flight);
+    let truth = cfg.sim.plant.truth.linearise(&x0);
+    let jump_at = cfg.sim.plant.jump.map(|j| j.at_s);
+    let truth_after_jump = match jump_at {
+        Some(t) => cfg.sim.plant.truth_at(t).linearise(&x0),
+        None => truth,
+    };
+    let regs = regressor_lists(&models);
+    let (tb, ta) = (truth.to_array(), truth_after_jump.to_array());
+    let mut traces: [CoefficientTrace; idx::COUNT] = core::array::from_fn(|i| CoefficientTrace {
+        regressors: regs[i].clone(),
+        truth: truth_parameters(&tb[i], &regs[i]),
+        truth_after_jump: truth_parameters(&ta[i], &regs[i]),
+        ..CoefficientTrace::default()
+    });
+
+    let delay = RateDifferentiator::<f32>::DELAY_SAMPLES;
+    let mut recent: Vec<SensorSample<f32>> = Vec::with_capacity(delay + 1);
+    let mut t_s = Vec::with_capacity(flight.samples.len());
+    for s in &flight.samples {
+        let s32 = sample_f32(s);
+        if recent.len() == delay + 1 {
+            recent.remove(0);
+        }
+        recent.push(s32);
+        let step = pipeline.process(&s32);
+        // The pipeline's centre sample: `delay` samples before the newest, matched by time stamp.
+        let centre = match (&step.synthesis, recent.len() == delay + 1) {
+            (Some(y), true) if recent[0].t_s == y.t_s => Some(&recent[0]),
+            _ => None,
+        };
+        let syn = step.synthesis.as_ref();
+        let z = syn.map_or([0.0; idx::COUNT], |y| y.coefficients.as_array());
+        let ok = |i: usize| step.status[i].is_ok();
+        let m = pipeline.models();
+        let [tl, td, ty, tr, tm, tn] = &mut traces;
+        record(
+            tl,
+            pipeline.lift(),
+            &mut rls_l,
+            &m.lift,
+            ok(idx::LIFT),
+            centre,
+            syn,
+            z[idx::LIFT],
+        );
+        record(
+            td,
+            pipeline.drag(),
+            &mut rls_d,
+            &m.drag,
+            ok(idx::DRAG),
+            centre,
+            syn,
+            z[idx::DRAG],
+        );
+        record(
+            ty,
+            pipeline.side(),
+            &mut rls_y,
+            &m.side,
+            ok(idx::SIDE),
+            centre,
+            syn,
+            z[idx::SIDE],
+        );
+        record(
+            tr,
+            pipeline.roll(),
+            &mut rls_r,
+            &m.roll,
+            ok(idx::ROLL),
+            centre,
+            syn,
+            z[idx::ROLL],
+        );
+        record(
+            tm,
+            pipeline.pitch(),
+            &mut rls_m,
+            &m.pitch,
+            ok(idx::PITCH),
+            centre,
+            syn,
+            z[idx::PITCH],
+        );
+        record(
+            tn,
+            pipeline.yaw(),
+            &mut rls_n,
+            &m.yaw,
+            ok(idx::YAW),
+            centre,
+            syn,
+            z[idx::YAW],
+        );
+        t_s.push(s.t_s);
+    }
+    Ok(Experiment {
+        t_s,
+        coefficients: traces,
+        truth,
+        truth_after_jump,
+        health: *pipeline.health(),
+        flight,
+    })
+}
