@@ -146,10 +146,11 @@ impl core::fmt::Display for ExperimentError {
 impl std::error::Error for ExperimentError {}
 
 /// The Monte Carlo sensor errors ([`synth::Sensors`] defaults) with the angular-acceleration error
-/// of the on-board differentiator: the 5-point Savitzky–Golay slope `(−2, −1, 0, 1, 2)/(10 dt)` has
-/// the white-noise gain `√10/(10 dt)` (31.6 s⁻¹ at 100 Hz), twice the 15.43 s⁻¹ the `synth` default
-/// assumes (an 8-sample causal slope). With the default, `σ_ε` of `C_m` is 0.0083 while the
-/// measured synthesis error in simulation is 0.0136, and GTLS over-corrects `C_m` badly.
+/// of the on-board differentiator at sample period `dt_s`: the 5-point Savitzky–Golay slope
+/// `(−2, −1, 0, 1, 2)/(10 dt)` has the white-noise gain `√10/(10 dt)` (31.6 s⁻¹ at 100 Hz, the
+/// `synth` default). With an understated gain (an 8-sample slope, 15.43 s⁻¹) `σ_ε` of `C_m` came
+/// out 0.0083 while the measured synthesis error in simulation is 0.0136, and GTLS over-corrected
+/// `C_m` badly.
 pub fn onboard_mc_sensors(dt_s: f64) -> synth::Sensors {
     let s = synth::Sensors::default();
     synth::Sensors {

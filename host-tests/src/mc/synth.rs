@@ -221,9 +221,10 @@ pub struct Sensors {
     /// Gyro (rad/s). Default 0.005.
     pub gyro_rad_s: f64,
     /// Angular acceleration from the on-board differentiator (rad/s²). Default
-    /// `0.005 · 15.43 = 0.077`: the noise gain `1/(dt √Σ(k − k̄)²) = 15.43 s⁻¹` of a causal
-    /// least-squares slope over 8 samples at 100 Hz (delay 3.5 samples) — an assumption until the
-    /// on-board differentiator is fixed; a plain first difference would give `√2/dt · 0.005 = 0.71`.
+    /// `0.005 · √10/(10·0.01) = 0.158`: the white-noise gain `√10/(10·dt) = 31.6 s⁻¹` of the on-board
+    /// 5-point Savitzky–Golay slope (`aerosid_core::aero::RateDifferentiator`) at 100 Hz. (An
+    /// earlier default assumed an 8-sample slope, 15.43 s⁻¹, and understated σ_ε of the moment
+    /// coefficients: measured on synthesised C_m, 0.0136 against 0.0083.)
     pub ang_accel_rad_s2: f64,
     /// Pitot airspeed (m/s). Default 0.3.
     pub airspeed_mps: f64,
@@ -243,7 +244,7 @@ impl Default for Sensors {
         Self {
             accel_mps2: 0.05,
             gyro_rad_s: 0.005,
-            ang_accel_rad_s2: 0.005 * 15.43,
+            ang_accel_rad_s2: 0.005 * 10f64.sqrt() / (10.0 * 0.01),
             airspeed_mps: 0.3,
             vane_rad: 0.5_f64.to_radians(),
             surface_rad: 0.2_f64.to_radians(),
