@@ -24,7 +24,7 @@ use crate::sim::{self, AeroInput, CoeffModel, LinearAero, SimConfig, SimError, S
 use aerosid_core::aero::model::idx;
 use aerosid_core::aero::synthesis::Synthesis;
 use aerosid_core::aero::{
-    AeroModels, Airframe, CoefficientModel, Pipeline, PipelineSettings, RateDifferentiator, Regressor, SensorSample,
+    AeroModels, CoefficientModel, Pipeline, PipelineSettings, RateDifferentiator, Regressor, SensorSample,
 };
 use aerosid_core::estimator::Estimator;
 use aerosid_core::gtls::Gtls;
@@ -225,45 +225,6 @@ pub fn trim_input(out: &SimOutput) -> AeroInput {
     }
 }
 
-/// A `SensorSample<f64>` rounded to `f32`, as the flight computer stores it.
-pub fn sample_f32(s: &SensorSample<f64>) -> SensorSample<f32> {
-    SensorSample {
-        t_s: s.t_s as f32,
-        dt_s: s.dt_s as f32,
-        accel_mps2: s.accel_mps2.map(|x| x as f32),
-        gyro_rad_s: s.gyro_rad_s.map(|x| x as f32),
-        airspeed_mps: s.airspeed_mps as f32,
-        alpha_rad: s.alpha_rad as f32,
-        beta_rad: s.beta_rad as f32,
-        euler_rad: s.euler_rad.map(|x| x as f32),
-        prop_speed_rad_s: s.prop_speed_rad_s as f32,
-        elevator_rad: s.elevator_rad as f32,
-        aileron_rad: s.aileron_rad as f32,
-        rudder_rad: s.rudder_rad as f32,
-        throttle: s.throttle as f32,
-        air_density_kgpm3: s.air_density_kgpm3 as f32,
-    }
-}
-
-/// The airframe constants rounded to `f32`.
-pub fn airframe_f32(a: &Airframe<f64>) -> Airframe<f32> {
-    let p = &a.propeller;
-    Airframe {
-        mass_kg: a.mass_kg as f32,
-        inertia_kgm2: a.inertia_kgm2.map(|x| x as f32),
-        wing_area_m2: a.wing_area_m2 as f32,
-        span_m: a.span_m as f32,
-        chord_m: a.chord_m as f32,
-        propeller: aerosid_core::aero::Propeller {
-            diameter_m: p.diameter_m as f32,
-            ct: p.ct.map(|x| x as f32),
-            cp: p.cp.map(|x| x as f32),
-            position_m: p.position_m.map(|x| x as f32),
-            pitch_rad: p.pitch_rad as f32,
-        },
-    }
-}
-
 /// Appends the state of one GTLS estimator and its RLS twin to a trace; updates the RLS first if
 /// the pipeline accepted the sample.
 #[allow(clippy::too_many_arguments)]
@@ -300,7 +261,7 @@ pub fn run(cfg: &ExperimentConfig) -> Result<Experiment, ExperimentError> {
     let flight = sim::simulate(&cfg.sim).map_err(ExperimentError::Sim)?;
     let sigma: [f32; idx::COUNT] = cfg.sigma_eps.map(|s| s as f32);
     let models = AeroModels::<f32>::with_sigma_eps(sigma);
-    let airframe = airframe_f32(&cfg.sim.plant.airframe.frame);
+    let airframe = cfg.sim.plant.airframe.frame.cast::<f32>();
     let mut pipeline = Pipeline::new(airframe, models, cfg.pipeline).map_err(ExperimentError::Estimator)?;
     let e = ExperimentError::Estimator;
     let mut rls_l = Rls::<f32, 4>::new(cfg.rls).map_err(e)?;
@@ -330,7 +291,7 @@ pub fn run(cfg: &ExperimentConfig) -> Result<Experiment, ExperimentError> {
     let mut recent: Vec<SensorSample<f32>> = Vec::with_capacity(delay + 1);
     let mut t_s = Vec::with_capacity(flight.samples.len());
     for s in &flight.samples {
-        let s32 = sample_f32(s);
+        let s32 = s.cast::<f32>();
         if recent.len() == delay + 1 {
             recent.remove(0);
         }

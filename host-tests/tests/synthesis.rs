@@ -108,26 +108,6 @@ fn random_case(rng: &mut ChaCha8Rng) -> Case {
     }
 }
 
-fn to_f32(s: &SensorSample<f64>) -> SensorSample<f32> {
-    let v = |x: &Vector3<f64>| x.map(|e| e as f32);
-    SensorSample {
-        t_s: s.t_s as f32,
-        dt_s: s.dt_s as f32,
-        accel_mps2: v(&s.accel_mps2),
-        gyro_rad_s: v(&s.gyro_rad_s),
-        airspeed_mps: s.airspeed_mps as f32,
-        alpha_rad: s.alpha_rad as f32,
-        beta_rad: s.beta_rad as f32,
-        euler_rad: v(&s.euler_rad),
-        prop_speed_rad_s: s.prop_speed_rad_s as f32,
-        elevator_rad: s.elevator_rad as f32,
-        aileron_rad: s.aileron_rad as f32,
-        rudder_rad: s.rudder_rad as f32,
-        throttle: s.throttle as f32,
-        air_density_kgpm3: s.air_density_kgpm3 as f32,
-    }
-}
-
 /// GIVEN 500 seeded random flight conditions and coefficients, in both force-axes conventions,
 /// WHEN a sample is built by the forward eq. 1–2 and synthesised,
 /// THEN the six coefficients come back to 1e-10 (f64) and 2e-3 absolute (f32), and the
@@ -160,7 +140,7 @@ fn synthesis_inverts_eq_1_and_2() {
             assert!((rn.y - c.omega[1] * cc / (2.0 * v)).abs() < 1e-15);
             assert!((rn.z - c.omega[2] * b / (2.0 * v)).abs() < 1e-15);
             assert!((y.dynamic_pressure_pa - 0.5 * c.rho * v * v).abs() < 1e-12);
-            let y32 = synthesise(&to_f32(&s), &af32, &wdot.map(|e| e as f32), &set32).unwrap();
+            let y32 = synthesise(&SensorSample::cast::<f32>(&s), &af32, &wdot.map(|e| e as f32), &set32).unwrap();
             for (got, want) in y32.coefficients.as_array().iter().zip(c.coef.iter()) {
                 worst32 = worst32.max((*got as f64 - want).abs());
             }
@@ -375,7 +355,7 @@ fn pipeline<T: Real>(sigma_eps: [f64; 6]) -> Pipeline<T> {
 }
 
 macro_rules! pipeline_tests {
-    ($name:ident, $t:ty, $conv:expr, $tol:expr) => {
+    ($name:ident, $t:ty, $tol:expr) => {
         mod $name {
             use super::*;
             type T = $t;
@@ -393,7 +373,7 @@ macro_rules! pipeline_tests {
                     t: 0.0,
                 };
                 let mut p = pipeline::<T>([0.01; 6]);
-                let conv = $conv;
+                let conv = |s: &SensorSample<f64>| s.cast::<$t>();
                 for _ in 0..50 {
                     truth.advance(0.01);
                     p.process(&conv(&truth.sample(&mut rng, [0.0; 3])));
@@ -445,7 +425,7 @@ macro_rules! pipeline_tests {
                     t: 0.0,
                 };
                 let mut p = pipeline::<T>([0.01; 6]);
-                let conv = $conv;
+                let conv = |s: &SensorSample<f64>| s.cast::<$t>();
                 for _ in 0..20 {
                     truth.advance(0.01);
                     p.process(&conv(&truth.sample(&mut rng, [0.0; 3])));
@@ -478,7 +458,7 @@ macro_rules! pipeline_tests {
             /// `C_mα` and `C_mδe`, 5 % on `C_mq`, 0.003 on `C_m0`.
             #[test]
             fn recovers_pitch_parameters_end_to_end() {
-                let conv = $conv;
+                let conv = |s: &SensorSample<f64>| s.cast::<$t>();
                 for seed in 0..5u64 {
                     let mut rng = ChaCha8Rng::seed_from_u64(100 + seed);
                     let mut truth = PitchTruth {
@@ -511,8 +491,8 @@ macro_rules! pipeline_tests {
         }
     };
 }
-pipeline_tests!(pipe_f64, f64, |s: &SensorSample<f64>| *s, 1.0);
-pipeline_tests!(pipe_f32, f32, to_f32, 1.0);
+pipeline_tests!(pipe_f64, f64, 1.0);
+pipeline_tests!(pipe_f32, f32, 1.0);
 
 /// The pipeline's size in f32 (the MCU build), printed for the report.
 #[test]

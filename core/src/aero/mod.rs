@@ -109,3 +109,51 @@ impl<T: Real> Airframe<T> {
         }
     }
 }
+
+/// Conversion between scalar types (e.g. an `f64` simulator log replayed through the `f32`
+/// on-board path): every field is rounded to the nearest value of `U`.
+impl<T: Real> SensorSample<T> {
+    /// The same sample in scalar type `U`.
+    pub fn cast<U: Real>(&self) -> SensorSample<U> {
+        let c = |x: T| U::lit(x.to_f64());
+        let v = |x: &Vector3<T>| x.map(c);
+        SensorSample {
+            t_s: c(self.t_s),
+            dt_s: c(self.dt_s),
+            accel_mps2: v(&self.accel_mps2),
+            gyro_rad_s: v(&self.gyro_rad_s),
+            airspeed_mps: c(self.airspeed_mps),
+            alpha_rad: c(self.alpha_rad),
+            beta_rad: c(self.beta_rad),
+            euler_rad: v(&self.euler_rad),
+            prop_speed_rad_s: c(self.prop_speed_rad_s),
+            elevator_rad: c(self.elevator_rad),
+            aileron_rad: c(self.aileron_rad),
+            rudder_rad: c(self.rudder_rad),
+            throttle: c(self.throttle),
+            air_density_kgpm3: c(self.air_density_kgpm3),
+        }
+    }
+}
+
+impl<T: Real> Airframe<T> {
+    /// The same airframe in scalar type `U` (every constant rounded to the nearest value of `U`).
+    pub fn cast<U: Real>(&self) -> Airframe<U> {
+        let c = |x: T| U::lit(x.to_f64());
+        let p = &self.propeller;
+        Airframe {
+            mass_kg: c(self.mass_kg),
+            inertia_kgm2: self.inertia_kgm2.map(c),
+            wing_area_m2: c(self.wing_area_m2),
+            span_m: c(self.span_m),
+            chord_m: c(self.chord_m),
+            propeller: Propeller {
+                diameter_m: c(p.diameter_m),
+                ct: p.ct.map(c),
+                cp: p.cp.map(c),
+                position_m: p.position_m.map(c),
+                pitch_rad: c(p.pitch_rad),
+            },
+        }
+    }
+}
