@@ -89,6 +89,38 @@ impl<T: Real> VffSettings<T> {
         }
     }
 
+    /// Settings for the aerodynamic coefficients of a pipeline sampled at `sample_rate_hz`: a 1 s
+    /// short window (`γ₂`), a 40 s long window (`γ₁`), `γ₀ = 2` (the largest eq. 32 allows) and a
+    /// floor of 0.8.
+    ///
+    /// [`Self::for_dimension`] was tuned on white residuals. The synthetic moment coefficients'
+    /// residuals are not white: the differentiator's noise is correlated over ±4 samples (lag
+    /// correlations 0.4, −0.1, −0.4, −0.4), which halves the degrees of freedom of a power estimate,
+    /// and the residual grows during manoeuvres (synthesis errors at surface transients), so a
+    /// 20-sample window with `γ₀ = 1.5` raises false alarms; each holds `λ_F` at the floor and
+    /// erases the memory. Measured on the Fig. 2 flight of the host test `paper.rs` (C_m,
+    /// `n_θ = 4`): `for_dimension(4)` fired on 30 samples of a 300 s unexcited cruise and lost the
+    /// excitation; these settings fired on none, detected the jump of the `C_m` parameters after
+    /// 1.6 s and forgot the old model to `Πλ ≈ 2·10⁻⁷` within 5 s (floor 0.9: `3·10⁻⁵`, and the
+    /// estimate settled 3.5 s later).
+    pub fn for_aero_coefficients(sample_rate_hz: T) -> Self {
+        let f = if sample_rate_hz > T::zero() && sample_rate_hz.finite() {
+            sample_rate_hz
+        } else {
+            T::lit(100.0)
+        };
+        Self {
+            gamma1: T::one() - T::one() / (T::lit(40.0) * f),
+            gamma2: T::one() - T::one() / f,
+            gamma0: T::lit(2.0),
+            varsigma: T::lit(1e-9),
+            lambda_min: T::lit(0.8),
+            lambda_max: T::one(),
+            pi0: T::lit(1e-2),
+            reading: Eq28Reading::Paleologu,
+        }
+    }
+
     fn validate(&self) -> Result<(), Error> {
         let z = T::zero();
         let one = T::one();

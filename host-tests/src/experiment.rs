@@ -4,11 +4,8 @@
 //! [`run`] simulates a flight ([`sim::simulate`]), converts every `f64` [`SensorSample`] to `f32`
 //! and feeds it to the on-board [`Pipeline<f32>`] (synthesis, six PCA-GTLS estimators). Alongside,
 //! an RLS baseline ([`aerosid_core::Rls`], the seed's "sequential OLS") per coefficient is updated
-//! with the *same* regressor vector and output the pipeline used: the pipeline's centre sample is
-//! the input delayed by [`RateDifferentiator::DELAY_SAMPLES`], rebuilt here from a local delay
-//! line and checked against the synthesis time stamp, and the regressors are built with the public
-//! [`CoefficientModel::regressor_vector`]; RLS is updated exactly when the pipeline's estimator
-//! accepted the sample.
+//! with the *same* regressor vector and output the pipeline used ([`PipelineStep::regressors`],
+//! including the moment prefilter) exactly when the pipeline's estimator accepted the sample.
 //!
 //! Recorded per sample and coefficient ([`CoefficientTrace`]): GTLS `θ`, `k` (eq. 21), the `λ_F`
 //! for the next sample, the singular values (eq. 13) and the excitation threshold (eq. 21); RLS `θ`.
@@ -22,14 +19,13 @@
 use crate::mc::{synth, McError, McSettings};
 use crate::sim::{self, AeroInput, CoeffModel, LinearAero, SimConfig, SimError, SimOutput};
 use aerosid_core::aero::model::idx;
-use aerosid_core::aero::synthesis::Synthesis;
-use aerosid_core::aero::{
-    AeroModels, CoefficientModel, Pipeline, PipelineSettings, RateDifferentiator, Regressor, SensorSample,
-};
+use aerosid_core::aero::pipeline::MAX_PARAMETERS;
+use aerosid_core::aero::{AeroModels, Pipeline, PipelineSettings, Regressor};
 use aerosid_core::estimator::Estimator;
 use aerosid_core::gtls::Gtls;
 use aerosid_core::rls::{Rls, RlsSettings};
 use aerosid_core::Error;
+use nalgebra::SVector;
 
 /// Names of the coefficients, indexed by [`idx`].
 pub const COEFFICIENT_NAMES: [&str; idx::COUNT] = ["C_L", "C_D", "C_Y", "C_l", "C_m", "C_n"];
@@ -232,18 +228,14 @@ fn record<const N: usize>(
     tr: &mut CoefficientTrace,
     gtls: &Gtls<f32, N, 1, N>,
     rls: &mut Rls<f32, N>,
-    model: &CoefficientModel<f32, N>,
     accepted: bool,
-    centre: Option<&SensorSample<f32>>,
-    syn: Option<&Synthesis<f32>>,
+    x: &[f32; MAX_PARAMETERS],
     z: f32,
 ) {
     if accepted {
-        if let (Some(c), Some(y)) = (centre, syn) {
-            let x = model.regressor_vector(c, y);
-            // A refusal leaves the RLS state unchanged (visible as a flat RLS trace).
-            let _refused = rls.update(&x, z).is_err();
-        }
+        let x = SVector::<f32, N>::from_fn(|i, _| x[i]);
+        // A refusal leaves the RLS state unchanged (visible as a flat RLS trace).
+        let _refused = rls.update(&x, z).is_err();
     }
     tr.updated.push(accepted);
     tr.theta.push(gtls.theta().iter().map(|v| *v as f64).collect());
@@ -287,86 +279,23 @@ pub fn run(cfg: &ExperimentConfig) -> Result<Experiment, ExperimentError> {
         ..CoefficientTrace::default()
     });
 
-    let delay = RateDifferentiator::<f32>::DELAY_SAMPLES;
-    let mut recent: Vec<SensorSample<f32>> = Vec::with_capacity(delay + 1);
     let mut t_s = Vec::with_capacity(flight.samples.len());
     for s in &flight.samples {
-        let s32 = s.cast::<f32>();
-        if recent.len() == delay + 1 {
-            recent.remove(0);
-        }
-        recent.push(s32);
-        let step = pipeline.process(&s32);
-        // The pipeline's centre sample: `delay` samples before the newest, matched by time stamp.
-        let centre = match (&step.synthesis, recent.len() == delay + 1) {
-            (Some(y), true) if recent[0].t_s == y.t_s => Some(&recent[0]),
-            _ => None,
-        };
-        let syn = step.synthesis.as_ref();
-        let z = syn.map_or([0.0; idx::COUNT], |y| y.coefficients.as_array());
+        let step = pipeline.process(&s.cast::<f32>());
+        let z = step
+            .synthesis
+            .as_ref()
+            .map_or([0.0; idx::COUNT], |y| y.coefficients.as_array());
         let ok = |i: usize| step.status[i].is_ok();
-        let m = pipeline.models();
+        let x = &step.regressors;
         let [tl, td, ty, tr, tm, tn] = &mut traces;
-        record(
-            tl,
-            pipeline.lift(),
-            &mut rls_l,
-            &m.lift,
-            ok(idx::LIFT),
-            centre,
-            syn,
-            z[idx::LIFT],
-        );
-        record(
-            td,
-            pipeline.drag(),
-            &mut rls_d,
-            &m.drag,
-            ok(idx::DRAG),
-            centre,
-            syn,
-            z[idx::DRAG],
-        );
-        record(
-            ty,
-            pipeline.side(),
-            &mut rls_y,
-            &m.side,
-            ok(idx::SIDE),
-            centre,
-            syn,
-            z[idx::SIDE],
-        );
-        record(
-            tr,
-            pipeline.roll(),
-            &mut rls_r,
-            &m.roll,
-            ok(idx::ROLL),
-            centre,
-            syn,
-            z[idx::ROLL],
-        );
-        record(
-            tm,
-            pipeline.pitch(),
-            &mut rls_m,
-            &m.pitch,
-            ok(idx::PITCH),
-            centre,
-            syn,
-            z[idx::PITCH],
-        );
-        record(
-            tn,
-            pipeline.yaw(),
-            &mut rls_n,
-            &m.yaw,
-            ok(idx::YAW),
-            centre,
-            syn,
-            z[idx::YAW],
-        );
+        let (l, d, y, r, m, n) = (idx::LIFT, idx::DRAG, idx::SIDE, idx::ROLL, idx::PITCH, idx::YAW);
+        record(tl, pipeline.lift(), &mut rls_l, ok(l), &x[l], z[l]);
+        record(td, pipeline.drag(), &mut rls_d, ok(d), &x[d], z[d]);
+        record(ty, pipeline.side(), &mut rls_y, ok(y), &x[y], z[y]);
+        record(tr, pipeline.roll(), &mut rls_r, ok(r), &x[r], z[r]);
+        record(tm, pipeline.pitch(), &mut rls_m, ok(m), &x[m], z[m]);
+        record(tn, pipeline.yaw(), &mut rls_n, ok(n), &x[n], z[n]);
         t_s.push(s.t_s);
     }
     Ok(Experiment {

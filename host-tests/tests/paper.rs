@@ -17,6 +17,22 @@ fn sigma_eps() -> [f64; idx::COUNT] {
     s
 }
 
+/// The default sensor noise without biases: seed 000 Section VI-A corrupts its virtual sensors
+/// with white noise only, and Section V's assumption A takes systematic errors as known and
+/// removed. (Realistic biases — 0.2° on the vanes, 0.1 m/s on the pitot — shift `C_D0` by a few
+/// per cent whatever the estimator; that is a calibration question, not Fig. 1's.)
+fn white_noise_sensors() -> SensorNoise {
+    SensorNoise {
+        accel_bias_mps2: 0.0,
+        gyro_bias_rad_s: 0.0,
+        airspeed_bias_mps: 0.0,
+        vane_bias_rad: 0.0,
+        attitude_bias_rad: 0.0,
+        surface_bias_rad: 0.0,
+        ..SensorNoise::default()
+    }
+}
+
 fn m(channel: Channel, shape: Shape, start_s: f64, amplitude: f64, period_s: f64) -> Manoeuvre {
     Manoeuvre {
         channel,
@@ -40,18 +56,30 @@ fn print_params(label: &str, tr: &CoefficientTrace, theta: &[f64], truth: &[f64]
     println!("  {label:>6}: rel   {:.4?}", rel_errors(theta, truth));
 }
 
-/// Cruise `cruise_s`, then longitudinal excitation (elevator 3-2-1-1 and doublets, throttle
-/// steps) until the end.
+/// Cruise `cruise_s`, then longitudinal excitation until the end: every 8 s an elevator 3-2-1-1
+/// (0.4 s steps, ±0.2 rad) and a 4 s doublet (±0.3 rad) as in [`fig2_config`] — the slow doublet
+/// swings `α` by ±0.05 rad quasi-statically, which is what separates `α²` from `α`: the
+/// curvature `(α − ᾱ)²` must exceed the `α²` channel's noise `2α₀σ_α ≈ 9·10⁻⁴` (eq. 21).
 fn fig1_config(cruise_s: f64, duration_s: f64, seed: u64) -> SimConfig {
     let mut schedule = Schedule::default();
     let mut t = cruise_s;
-    while t + 10.0 <= duration_s {
+    while t + 8.0 <= duration_s {
         schedule = schedule
-            .with(m(Channel::Elevator, Shape::Multistep3211, t, 0.15, 0.5))
-            .with(m(Channel::Elevator, Shape::Doublet, t + 5.0, 0.25, 2.0));
-        t += 10.0;
+            .with(m(Channel::Elevator, Shape::Multistep3211, t, 0.2, 0.4))
+            .with(m(Channel::Elevator, Shape::Doublet, t + 2.6, 0.3, 4.0));
+        t += 8.0;
     }
+    // The V-shaped elevator drag `k|δe|` is outside eq. 3b (no linear δe term can represent it);
+    // it is a model gap for issue 6, not a test of the estimator under noise, so it is off here.
+    // Induced drag stays: its `α²` part is what gives the truth a `C_Dα²` (the skywalker's own
+    // `C_Dα²` is 0).
+    let eff = TruthEffects {
+        elevator_drag_per_rad: None,
+        ..TruthEffects::all()
+    };
     SimConfig {
+        plant: Plant::new(SimAirframe::skywalker_2013_mod(), eff),
+        sensors: white_noise_sensors(),
         turbulence: Some(Turbulence::mil_f_8785c_low_altitude(100.0, Turbulence::W20_LIGHT_MPS)),
         schedule,
         duration_s,
@@ -60,8 +88,8 @@ fn fig1_config(cruise_s: f64, duration_s: f64, seed: u64) -> SimConfig {
     }
 }
 
-/// GIVEN the skywalker (every hidden effect on, light Dryden turbulence, default sensors: vanes
-/// 0.5°, gyro 0.005 rad/s, …) cruising 100 s, then 200 s of longitudinal excitation (shortened
+/// GIVEN the skywalker (every hidden effect on but the `|δe|` drag, light Dryden turbulence, white
+/// sensor noise of the default size without biases: vanes 0.5°, gyro 0.005 rad/s, …) cruising 100 s, then 200 s of longitudinal excitation (shortened
 /// from the seed's 250 s of cruise: nothing is learnt while unexcited, and it keeps the test near
 /// 1 s); σ_ε from the Monte Carlo. WHEN it is identified on-board in f32, with RLS (λ = 1) on the
 /// same regressors as baseline. Returns the experiment and the GTLS/RLS relative errors of
@@ -101,7 +129,7 @@ fn fig1_rls_is_measurably_biased_on_the_drag_parameters() {
 }
 
 #[test]
-#[ignore = "issue 3 open: the α² direction of C_D stays below the eq. 21 threshold (σ 205 vs 346; α spread ±0.017 rad vs 0.0087 rad vane noise), k = 3 of 4"]
+#[ignore = "open: one C_D direction stays below the eq. 21 threshold (σ₄ 259 vs 346 at s/n = 1, k = 3 of 4; GTLS C_Dα² 0.74 vs 1.90, RLS 2.03); forcing k = 4 (s/n = 0.5, with the |δe| drag on) gave C_Dα² 5.0: the α² channel's noise 2αe is modelled at the nominal α₀ in W_T"]
 fn fig1_gtls_is_within_5_percent_on_every_drag_parameter() {
     // GIVEN, WHEN: see `fig1`
     let (ex, g, _) = fig1();
@@ -119,16 +147,24 @@ fn fig1_gtls_is_within_5_percent_on_every_drag_parameter() {
     );
 }
 
-/// Continuous elevator excitation until `excite_until_s`, a jump of the `C_m` parameters at
-/// `jump_s`, then unexcited cruise until `duration_s`.
+/// Elevator excitation until `excite_until_s` — every 8 s a 3-2-1-1 (0.4 s steps, ±0.2 rad) and,
+/// from 2.6 s later, a 4 s doublet (±0.3 rad; with the trim elevator it may touch the ±0.349 rad
+/// stop) — a jump of the `C_m` parameters at `jump_s`, then unexcited cruise until `duration_s`.
+///
+/// Why this input: `α` and `q` are 0.91 correlated under the stabiliser, and the least excited
+/// direction of the whitened regressors is nearly `α` against the 0.5° vane noise. The slow doublet
+/// moves `α` quasi-statically with little `q`, which separates them; the amplitude is what lets
+/// that direction stay above the eq. 21 threshold through 300 s of cruise (with `λ_F = 1` the
+/// threshold grows as `2√N` while an unexcited direction's `σ²` grows only by the noise, so a
+/// direction survives a cruise of `N_c` samples only if `σ² ≳ 4(N + N_c) − N_c` at its start).
 fn fig2_config(jump_s: f64, excite_until_s: f64, duration_s: f64, seed: u64) -> SimConfig {
     let mut schedule = Schedule::default();
     let mut t = 2.0;
-    while t + 5.0 <= excite_until_s {
+    while t + 8.0 <= excite_until_s {
         schedule = schedule
-            .with(m(Channel::Elevator, Shape::Multistep3211, t, 0.12, 0.4))
-            .with(m(Channel::Elevator, Shape::Doublet, t + 2.6, 0.12, 1.0));
-        t += 5.0;
+            .with(m(Channel::Elevator, Shape::Multistep3211, t, 0.2, 0.4))
+            .with(m(Channel::Elevator, Shape::Doublet, t + 2.6, 0.3, 4.0));
+        t += 8.0;
     }
     let mut plant = Plant::new(SimAirframe::skywalker_2013_mod(), TruthEffects::all());
     let delta = LinearAero {
@@ -156,15 +192,20 @@ fn fig2_run(forgetting: Forgetting<f32>, sigma: [f64; idx::COUNT], sim: &SimConf
     experiment::run(&cfg).expect("experiment")
 }
 
-/// GIVEN the skywalker with elevator 3-2-1-1s and doublets every 5 s for 100 s, a jump of the C_m
-/// parameters at 50 s (C_mα −1.3 → −0.9, C_mq −20 → −16, C_m0 +0.005), then 300 s of unexcited
-/// cruise in calm air. WHEN C_m is identified with the variable forgetting factor and with
-/// constant λ = 0.995. Returns (VFF, constant) experiments.
+/// GIVEN the skywalker with elevator 3-2-1-1s and doublets every 8 s for 150 s ([`fig2_config`]),
+/// a jump of the C_m parameters at 50 s (C_mα −1.3 → −0.9, C_mq −20 → −16, C_m0 +0.005), then
+/// 300 s of unexcited cruise in calm air. WHEN C_m is identified with the variable forgetting
+/// factor ([`VffSettings::for_aero_coefficients`] at 100 Hz) and with constant λ = 0.995. Returns
+/// (VFF, constant) experiments.
 fn fig2() -> (Experiment, Experiment) {
-    let (jump_s, excite_until_s, duration_s) = (FIG2_JUMP_S, FIG2_EXCITE_UNTIL_S, 400.0);
+    let (jump_s, excite_until_s, duration_s) = (FIG2_JUMP_S, FIG2_EXCITE_UNTIL_S, FIG2_END_S);
     let sim = fig2_config(jump_s, excite_until_s, duration_s, 5);
     let sigma = sigma_eps();
-    let vff = fig2_run(Forgetting::Variable(VffSettings::for_dimension(4)), sigma, &sim);
+    let vff = fig2_run(
+        Forgetting::Variable(VffSettings::for_aero_coefficients(100.0)),
+        sigma,
+        &sim,
+    );
     let cst = fig2_run(Forgetting::Constant(0.995), sigma, &sim);
     let (v, c) = (&vff.coefficients[idx::PITCH], &cst.coefficients[idx::PITCH]);
     let ia = 1; // C_mα
@@ -173,16 +214,16 @@ fn fig2() -> (Experiment, Experiment) {
     let i5 = vff.index_at(jump_s + 5.0);
     for (label, tr) in [("VFF", v), ("λ=0.995", c)] {
         let first = (vff.index_at(jump_s)..tr.theta.len())
-            .find(|&i| ((tr.theta[i][ia] - new[ia]) / new[ia]).abs() < 0.05)
+            .find(|&i| (i..tr.theta.len()).all(|j| ((tr.theta[j][ia] - new[ia]) / new[ia]).abs() < 0.05))
             .map(|i| vff.t_s[i] - jump_s);
         let min_lambda = tr.lambda[vff.index_at(jump_s)..i5].iter().cloned().fold(1.0, f64::min);
         let k_min = tr.k[vff.index_at(excite_until_s + 5.0)..].iter().min().copied();
         println!(
-            "  {label:>8}: C_mα at +5 s {:+.4}, first within 5 % after {first:?} s, min λ in 5 s {min_lambda:.4}, \
+            "  {label:>8}: C_mα at +5 s {:+.4}, within 5 % for good after {first:?} s, min λ in 5 s {min_lambda:.4}, \
              min k in cruise {k_min:?}",
             tr.theta[i5][ia]
         );
-        for t in [jump_s - 1.0, jump_s + 5.0, excite_until_s, 250.0, duration_s - 0.01] {
+        for t in [jump_s - 1.0, jump_s + 5.0, excite_until_s, 300.0, duration_s - 0.01] {
             let i = vff.index_at(t);
             println!(
                 "    t {:6.1}: θ {:+.4?} k {} λ {:.5} σ {:.1?} thr {:.1}",
@@ -194,7 +235,8 @@ fn fig2() -> (Experiment, Experiment) {
 }
 
 const FIG2_JUMP_S: f64 = 50.0;
-const FIG2_EXCITE_UNTIL_S: f64 = 100.0;
+const FIG2_EXCITE_UNTIL_S: f64 = 150.0;
+const FIG2_END_S: f64 = 450.0;
 
 #[test]
 fn fig2_constant_forgetting_loses_excitation_in_a_long_cruise_and_vff_does_not() {
@@ -217,7 +259,6 @@ fn fig2_constant_forgetting_loses_excitation_in_a_long_cruise_and_vff_does_not()
 }
 
 #[test]
-#[ignore = "issue 3 open: C_mq stays below the eq. 21 threshold (k = 2 of 3), unit eq. 23 weights bias C_mα, and the VFF does not fire on the jump"]
 fn fig2_vff_tracks_the_cm_jump_within_5_s_and_holds_it_within_5_percent() {
     // GIVEN, WHEN: see `fig2`
     let (vff, _) = fig2();
@@ -227,7 +268,12 @@ fn fig2_vff_tracks_the_cm_jump_within_5_s_and_holds_it_within_5_percent() {
     // THEN with VFF C_mα is within 5 % of its new value 5 s after the change …
     let e5 = ((v.theta[i5][1] - new[1]) / new[1]).abs();
     assert!(e5 < 0.05, "VFF C_mα 5 s after the jump: rel. error {e5:.4}");
-    // … every noisy direction is excited in the cruise and the C_m estimates stay within 5 %
+    // … and stays there from 10 s after the change (the seed's claim) to the end of the flight
+    for i in vff.index_at(FIG2_JUMP_S + 10.0)..v.theta.len() {
+        let e = ((v.theta[i][1] - new[1]) / new[1]).abs();
+        assert!(e < 0.05, "t {}: C_mα rel. error {e:.4}", vff.t_s[i]);
+    }
+    // … every noisy direction stays excited in the cruise and the C_m estimates stay within 5 %
     let cruise = vff.index_at(FIG2_EXCITE_UNTIL_S + 5.0);
     let n_x = v.n_theta() - 1;
     assert!(

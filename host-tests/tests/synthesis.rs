@@ -361,9 +361,10 @@ macro_rules! pipeline_tests {
             type T = $t;
 
             /// GIVEN a running pipeline, WHEN a sample with NaN α arrives, THEN (two samples later, when
-            /// it is the centre of the delay line) `C_L`, `C_D`, `C_m` are refused for the α channel,
-            /// counted once each, and their estimators are bit-identical to before, while `C_Y`, `C_l`,
-            /// `C_n` update (with the propeller's axial-speed fallback counted).
+            /// it is the centre of the delay line) `C_L`, `C_D`, `C_m` are refused for the α channel —
+            /// the forces once, `C_m` for the five centres whose prefilter window holds the sample —
+            /// and their estimators are bit-identical to before, while `C_Y`, `C_l`, `C_n` update (with
+            /// the propeller's axial-speed fallback counted).
             #[test]
             fn nan_alpha_is_refused_only_where_needed() {
                 let mut rng = ChaCha8Rng::seed_from_u64(3);
@@ -393,8 +394,12 @@ macro_rules! pipeline_tests {
                         Err(Refusal::Channels(channel::ALPHA)),
                         "coefficient {i}"
                     );
-                    assert_eq!(p.health().coefficients[i].refused_channels, 1);
                 }
+                // The forces need α of the centre sample only; C_m's prefilter window (5 samples)
+                // has held the bad sample for 3 centres so far (it entered as the newest).
+                assert_eq!(p.health().coefficients[idx::LIFT].refused_channels, 1);
+                assert_eq!(p.health().coefficients[idx::DRAG].refused_channels, 1);
+                assert_eq!(p.health().coefficients[idx::PITCH].refused_channels, 3);
                 for i in [idx::SIDE, idx::ROLL, idx::YAW] {
                     assert!(step.status[i].is_ok(), "coefficient {i}: {:?}", step.status[i]);
                     assert_eq!(p.health().coefficients[i].refused_channels, 0);
@@ -411,6 +416,17 @@ macro_rules! pipeline_tests {
                     1
                 );
                 assert_eq!(p.health().axial_speed_fallbacks, 1);
+                // Two more centres see the bad sample in C_m's window (oldest slot), then C_m updates
+                // again.
+                for _ in 0..2 {
+                    truth.advance(0.01);
+                    let s = p.process(&conv(&truth.sample(&mut rng, [0.0; 3])));
+                    assert_eq!(s.status[idx::PITCH], Err(Refusal::Channels(channel::ALPHA)));
+                }
+                truth.advance(0.01);
+                let s = p.process(&conv(&truth.sample(&mut rng, [0.0; 3])));
+                assert!(s.status[idx::PITCH].is_ok(), "{:?}", s.status[idx::PITCH]);
+                assert_eq!(p.health().coefficients[idx::PITCH].refused_channels, 5);
             }
 
             /// GIVEN a running pipeline, WHEN one `dt_s` is 3× nominal, THEN the force coefficients keep

@@ -129,6 +129,27 @@ impl Regressor {
         }
     }
 
+    /// The regressor's value from a sample alone, with the normalised rates formed from the sample's
+    /// own gyro and airspeed exactly as [`synthesise`](super::synthesis::synthesise) forms them
+    /// (bit-identical to [`Self::value`] with that sample's synthesis). Used for the samples of the
+    /// moment prefilter's window ([`super::pipeline`]).
+    pub fn value_raw<T: Real>(self, s: &SensorSample<T>, span_m: T, chord_m: T) -> T {
+        let two = T::lit(2.0);
+        let v = s.airspeed_mps;
+        match self {
+            Regressor::RollRateN => s.gyro_rad_s.x * span_m / (two * v),
+            Regressor::PitchRateN => s.gyro_rad_s.y * chord_m / (two * v),
+            Regressor::YawRateN => s.gyro_rad_s.z * span_m / (two * v),
+            Regressor::One => T::one(),
+            Regressor::Alpha => s.alpha_rad,
+            Regressor::Alpha2 => s.alpha_rad * s.alpha_rad,
+            Regressor::Beta => s.beta_rad,
+            Regressor::Elevator => s.elevator_rad,
+            Regressor::Aileron => s.aileron_rad,
+            Regressor::Rudder => s.rudder_rad,
+        }
+    }
+
     /// The channels the regressor needs.
     pub fn channels(self) -> ChannelMask {
         match self {
@@ -230,6 +251,28 @@ impl<T: Real, const NT: usize> CoefficientModel<T, NT> {
         SVector::<T, NT>::from_fn(|i, _| self.regressors[i].value(s, syn))
     }
 
+    /// The regressor vector of the centre of a window of `L` samples passed through the FIR
+    /// `weights` (the moment prefilter, [`super::pipeline`]): each regressor is computed per sample
+    /// ([`Regressor::value_raw`]) and filtered; the intercept stays exactly 1.
+    pub fn filtered_regressor_vector<const L: usize>(
+        &self,
+        window: &[SensorSample<T>; L],
+        weights: &[T; L],
+        span_m: T,
+        chord_m: T,
+    ) -> SVector<T, NT> {
+        SVector::<T, NT>::from_fn(|i, _| match self.regressors[i] {
+            Regressor::One => T::one(),
+            r => {
+                let mut acc = T::zero();
+                for (s, w) in window.iter().zip(weights.iter()) {
+                    acc += *w * r.value_raw(s, span_m, chord_m);
+                }
+                acc
+            }
+        })
+    }
+
     /// `W` of eq. 23 as a vector.
     pub fn weight_vector(&self) -> SVector<T, NT> {
         SVector::<T, NT>::from_fn(|i, _| self.weights[i])
@@ -239,6 +282,19 @@ impl<T: Real, const NT: usize> CoefficientModel<T, NT> {
     /// output) from the sensor specifications (module doc), for an airframe of span `span_m` and
     /// chord `chord_m`.
     pub fn error_covariance(&self, noise: &SensorNoise<T>, span_m: T, chord_m: T) -> SMatrix<T, NT, NT> {
+        self.error_covariance_filtered(noise, span_m, chord_m, T::one())
+    }
+
+    /// [`Self::error_covariance`] with the regressor block scaled by `regressor_gain` (`Σ w²` of an FIR
+    /// applied to the regressors: the variance of white sensor noise after the filter); the output's
+    /// `σ_ε²` is not scaled.
+    pub fn error_covariance_filtered(
+        &self,
+        noise: &SensorNoise<T>,
+        span_m: T,
+        chord_m: T,
+        regressor_gain: T,
+    ) -> SMatrix<T, NT, NT> {
         let two = T::lit(2.0);
         let v0 = noise.nominal_airspeed_mps;
         let a0 = noise.nominal_alpha_rad;
@@ -265,7 +321,7 @@ impl<T: Real, const NT: usize> CoefficientModel<T, NT> {
         let mut w = SMatrix::<T, NT, NT>::zeros();
         for i in 0..NT - 1 {
             for j in 0..NT - 1 {
-                w[(i, j)] = cov(self.regressors[i + 1], self.regressors[j + 1]);
+                w[(i, j)] = cov(self.regressors[i + 1], self.regressors[j + 1]) * regressor_gain;
             }
         }
         w[(NT - 1, NT - 1)] = self.sigma_eps * self.sigma_eps;

@@ -6,7 +6,7 @@
 //!    `dt_tolerance·nominal_dt_s` of nominal); failures are counted per channel in [`Health`] and the
 //!    channel's value is replaced by 0 in the stored copy so it cannot leak into other outputs.
 //! 2. The gyro enters the [`RateDifferentiator`] (a bad gyro or `dt_s` restarts its window); the
-//!    sample enters a 3-slot delay line, so that the sample synthesised is the centre of the
+//!    sample enters a 5-slot delay line, so that the sample synthesised is the centre of the
 //!    differentiator's window: the output lags the input by
 //!    [`RateDifferentiator::DELAY_SAMPLES`] samples (20 ms at 100 Hz).
 //! 3. The centre sample is synthesised ([`synthesise`]). With `α` or `β` missing the propeller's
@@ -17,6 +17,26 @@
 //!    its regressors' channels, [`Pipeline::needed_channels`]) and, for the moments, the
 //!    differentiator has a full window. Otherwise its estimator is not touched and the refusal is
 //!    counted in its [`CoefficientHealth`]; the other coefficients still update.
+//!
+//! ## The moment prefilter
+//! The moment coefficients' `ω̇` comes from the 5-point Savitzky–Golay slope of the gyro, which is
+//! exactly the window average of the true `ω̇` with the kernel `[2, 3, 3, 2]/10` over the four
+//! sample intervals (sum the slope's coefficients `[−2, −1, 0, 1, 2]/10h` to the right of each
+//! interval). The synthetic `C_l, C_m, C_n` are therefore *smoothed* versions of the true ones, while
+//! the regressors at the centre sample are not: wherever `ω̇` is not smooth on a 40 ms scale
+//! (surface steps, servo rate limits, the start of a doublet) the two disagree, and the
+//! disagreement is correlated with the surfaces. Measured on noise-free simulated data with servos
+//! (τ 40 ms, 6 rad/s) and elevator 3-2-1-1s: batch OLS gave `C_mα −1.51, C_mq −17.8` for a truth
+//! of `−1.3, −20`. With [`PipelineSettings::moment_prefilter`] (default on) every moment regressor
+//! is passed through the same kernel, integrated over the samples by the trapezoidal rule:
+//! [`MOMENT_PREFILTER`] `= [0.1, 0.25, 0.3, 0.25, 0.1]` over the window centred on the synthesised
+//! sample (the equation `C = θᵀx` is linear, so filtering both sides keeps it); the same check
+//! then gives `−1.276, −20.25`. The intercept is left exactly 1. White regressor noise shrinks by
+//! `Σw² = 0.235` in variance, which scales the regressor block of the moments' `W_T`; the noise
+//! becomes correlated over ±4 samples (eq. 17's `σ` then understates the spread of the moment
+//! parameters somewhat; the host coverage test measures by how much). Cost: `5·(n_θ − 1)` multiply-
+//! adds per moment coefficient. A moment coefficient needs its regressors' channels valid in all
+//! five samples of the window.
 //!
 //! Channels each output needs (besides its regressors): forces `accel, airspeed, density, prop`,
 //! plus `α` for `C_L`, `C_D` (and `α, β` for all three in [`ForceAxes::Wind`]); moments
@@ -115,6 +135,12 @@ impl<T: Real> Limits<T> {
     }
 }
 
+/// The moment prefilter's FIR, oldest to newest (symmetric; module doc). Sums to 1.
+pub const MOMENT_PREFILTER: [f64; 5] = [0.1, 0.25, 0.3, 0.25, 0.1];
+
+/// The largest `n_θ` of the default models (the width of [`PipelineStep::regressors`]).
+pub const MAX_PARAMETERS: usize = 6;
+
 /// Settings of the pipeline.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PipelineSettings<T> {
@@ -126,6 +152,9 @@ pub struct PipelineSettings<T> {
     pub noise: SensorNoise<T>,
     /// Settings shared by the six estimators.
     pub gtls: GtlsSettings<T>,
+    /// Pass the moment coefficients' regressors through [`MOMENT_PREFILTER`] (module doc). Default
+    /// on.
+    pub moment_prefilter: bool,
 }
 
 impl<T: Real> Default for PipelineSettings<T> {
@@ -135,6 +164,7 @@ impl<T: Real> Default for PipelineSettings<T> {
             limits: Limits::default(),
             noise: SensorNoise::default(),
             gtls: GtlsSettings::default(),
+            moment_prefilter: true,
         }
     }
 }
@@ -190,6 +220,10 @@ pub struct PipelineStep<T: Real> {
     pub synthesis: Option<Synthesis<T>>,
     /// Per coefficient, indexed by [`idx`].
     pub status: [CoefficientStatus<T>; idx::COUNT],
+    /// Per coefficient, the regressor vector `x` given to its estimator (first `n_θ` entries, the
+    /// rest 0); all 0 where no update was attempted. With the output in
+    /// [`Synthesis::coefficients`] this is the exact row the estimator saw (for baselines and logs).
+    pub regressors: [[T; MAX_PARAMETERS]; idx::COUNT],
 }
 
 /// Synthesis state and the six estimators (module doc).
@@ -199,8 +233,9 @@ pub struct Pipeline<T: Real> {
     models: AeroModels<T>,
     settings: PipelineSettings<T>,
     differentiator: RateDifferentiator<T>,
-    /// Sanitised samples and their valid channels, newest first.
-    delay: [(SensorSample<T>, ChannelMask); 3],
+    /// Sanitised samples and their valid channels, newest first; the centre is
+    /// `delay[DELAY_SAMPLES]`.
+    delay: [(SensorSample<T>, ChannelMask); DELAY_LEN],
     filled: u8,
     lift: Gtls<T, 4, 1, 4>,
     drag: Gtls<T, 5, 1, 5>,
@@ -211,24 +246,54 @@ pub struct Pipeline<T: Real> {
     health: Health,
 }
 
+/// Length of the delay line: the differentiator's window.
+const DELAY_LEN: usize = RateDifferentiator::<f32>::LEN;
+
+/// `Σ w²` of [`MOMENT_PREFILTER`].
+fn prefilter_gain<T: Real>() -> T {
+    MOMENT_PREFILTER
+        .iter()
+        .fold(T::zero(), |a, w| a + T::lit(*w) * T::lit(*w))
+}
+
 fn estimator<T: Real, const N: usize>(
     m: &CoefficientModel<T, N>,
     s: &PipelineSettings<T>,
     af: &Airframe<T>,
+    prefiltered: bool,
 ) -> Result<Gtls<T, N, 1, N>, Error> {
     m.validate()?;
-    let w_t = m.error_covariance(&s.noise, af.span_m, af.chord_m);
+    let gain = if prefiltered { prefilter_gain() } else { T::one() };
+    let w_t = m.error_covariance_filtered(&s.noise, af.span_m, af.chord_m, gain);
     Gtls::new(&w_t, &m.weight_vector(), s.gtls)
+}
+
+/// The regressor row of one coefficient for the centre sample: from the centre alone, or (moment
+/// prefilter) from the whole window.
+struct Row<'a, T: Real> {
+    centre: &'a SensorSample<T>,
+    syn: &'a Synthesis<T>,
+    window: Option<&'a [SensorSample<T>; DELAY_LEN]>,
+    airframe: &'a Airframe<T>,
 }
 
 fn update_one<T: Real, const N: usize>(
     est: &mut Gtls<T, N, 1, N>,
     model: &CoefficientModel<T, N>,
-    sample: &SensorSample<T>,
-    syn: &Synthesis<T>,
+    row: &Row<'_, T>,
     z: T,
+    out: &mut [T; MAX_PARAMETERS],
 ) -> CoefficientStatus<T> {
-    let x = model.regressor_vector(sample, syn);
+    let x = match row.window {
+        Some(w) => {
+            let weights = MOMENT_PREFILTER.map(T::lit);
+            model.filtered_regressor_vector(w, &weights, row.airframe.span_m, row.airframe.chord_m)
+        }
+        None => model.regressor_vector(row.centre, row.syn),
+    };
+    for (o, v) in out.iter_mut().zip(x.iter()) {
+        *o = *v;
+    }
     est.update(&x, z).map_err(Refusal::Estimator)
 }
 
@@ -246,17 +311,17 @@ impl<T: Real> Pipeline<T> {
         }
         let af = &airframe;
         Ok(Self {
-            lift: estimator(&models.lift, &settings, af)?,
-            drag: estimator(&models.drag, &settings, af)?,
-            side: estimator(&models.side, &settings, af)?,
-            roll: estimator(&models.roll, &settings, af)?,
-            pitch: estimator(&models.pitch, &settings, af)?,
-            yaw: estimator(&models.yaw, &settings, af)?,
+            lift: estimator(&models.lift, &settings, af, false)?,
+            drag: estimator(&models.drag, &settings, af, false)?,
+            side: estimator(&models.side, &settings, af, false)?,
+            roll: estimator(&models.roll, &settings, af, settings.moment_prefilter)?,
+            pitch: estimator(&models.pitch, &settings, af, settings.moment_prefilter)?,
+            yaw: estimator(&models.yaw, &settings, af, settings.moment_prefilter)?,
             airframe,
             models,
             settings,
             differentiator: RateDifferentiator::new(),
-            delay: [(SensorSample::default(), 0); 3],
+            delay: [(SensorSample::default(), 0); DELAY_LEN],
             filled: 0,
             health: Health::default(),
         })
@@ -283,6 +348,19 @@ impl<T: Real> Pipeline<T> {
         }
     }
 
+    /// The channels coefficient `i`'s regressors need.
+    fn regressor_channels(&self, i: usize) -> ChannelMask {
+        let m = &self.models;
+        match i {
+            idx::LIFT => m.lift.channels(),
+            idx::DRAG => m.drag.channels(),
+            idx::SIDE => m.side.channels(),
+            idx::ROLL => m.roll.channels(),
+            idx::PITCH => m.pitch.channels(),
+            _ => m.yaw.channels(),
+        }
+    }
+
     /// Processes one sample (module doc). Never fails as a whole: each coefficient's outcome is in
     /// [`PipelineStep::status`], and a refused coefficient's estimator is untouched.
     pub fn process(&mut self, sample: &SensorSample<T>) -> PipelineStep<T> {
@@ -299,20 +377,27 @@ impl<T: Real> Pipeline<T> {
             mask & channel::GYRO != 0,
             mask & channel::DT != 0,
         );
-        self.delay[2] = self.delay[1];
-        self.delay[1] = self.delay[0];
+        for i in (1..DELAY_LEN).rev() {
+            self.delay[i] = self.delay[i - 1];
+        }
         self.delay[0] = (sanitise(sample, mask), mask);
-        self.filled = (self.filled + 1).min(3);
+        self.filled = (self.filled + 1).min(DELAY_LEN as u8);
 
         let mut step = PipelineStep {
             synthesis: None,
             status: [Err(Refusal::Warmup); idx::COUNT],
+            regressors: [[T::zero(); MAX_PARAMETERS]; idx::COUNT],
         };
-        if (self.filled as usize) < 3 {
+        let delay = RateDifferentiator::<T>::DELAY_SAMPLES;
+        if (self.filled as usize) <= delay {
             self.count(&step.status);
             return step;
         }
-        let (centre, cmask) = self.delay[RateDifferentiator::<T>::DELAY_SAMPLES];
+        let (centre, cmask) = self.delay[delay];
+        // The prefilter's window (oldest first) and the channels valid in all of it.
+        let window_full = self.filled as usize == DELAY_LEN;
+        let window: [SensorSample<T>; DELAY_LEN] = core::array::from_fn(|i| self.delay[DELAY_LEN - 1 - i].0);
+        let wmask = self.delay.iter().fold(channel::ALL, |m, (_, k)| m & *k);
         let omega_dot = self.differentiator.derivative();
         let syn = if cmask & (channel::AIRSPEED | channel::DENSITY) == (channel::AIRSPEED | channel::DENSITY) {
             synthesise(
@@ -329,22 +414,36 @@ impl<T: Real> Pipeline<T> {
             self.health.axial_speed_fallbacks = self.health.axial_speed_fallbacks.saturating_add(1);
         }
         step.synthesis = syn;
+        let prefilter = self.settings.moment_prefilter;
         for i in 0..idx::COUNT {
-            let missing = self.needed_channels(i) & !cmask;
             let is_moment = matches!(i, idx::ROLL | idx::PITCH | idx::YAW);
+            let filtered = is_moment && prefilter;
+            let needed = self.needed_channels(i);
+            let mut missing = needed & !cmask;
+            if filtered && window_full {
+                // The regressors' channels in every sample of the window.
+                missing |= self.regressor_channels(i) & !wmask;
+            }
+            let x_out = &mut step.regressors[i];
             step.status[i] = match syn {
                 _ if missing != 0 => Err(Refusal::Channels(missing)),
                 None => Err(Refusal::Channels(channel::AIRSPEED | channel::DENSITY)),
-                Some(_) if is_moment && omega_dot.is_none() => Err(Refusal::Warmup),
+                Some(_) if is_moment && (omega_dot.is_none() || !window_full) => Err(Refusal::Warmup),
                 Some(ref y) => {
                     let c = &y.coefficients;
+                    let row = Row {
+                        centre: &centre,
+                        syn: y,
+                        window: if filtered { Some(&window) } else { None },
+                        airframe: &self.airframe,
+                    };
                     match i {
-                        idx::LIFT => update_one(&mut self.lift, &self.models.lift, &centre, y, c.lift),
-                        idx::DRAG => update_one(&mut self.drag, &self.models.drag, &centre, y, c.drag),
-                        idx::SIDE => update_one(&mut self.side, &self.models.side, &centre, y, c.side),
-                        idx::ROLL => update_one(&mut self.roll, &self.models.roll, &centre, y, c.roll),
-                        idx::PITCH => update_one(&mut self.pitch, &self.models.pitch, &centre, y, c.pitch),
-                        _ => update_one(&mut self.yaw, &self.models.yaw, &centre, y, c.yaw),
+                        idx::LIFT => update_one(&mut self.lift, &self.models.lift, &row, c.lift, x_out),
+                        idx::DRAG => update_one(&mut self.drag, &self.models.drag, &row, c.drag, x_out),
+                        idx::SIDE => update_one(&mut self.side, &self.models.side, &row, c.side, x_out),
+                        idx::ROLL => update_one(&mut self.roll, &self.models.roll, &row, c.roll, x_out),
+                        idx::PITCH => update_one(&mut self.pitch, &self.models.pitch, &row, c.pitch, x_out),
+                        _ => update_one(&mut self.yaw, &self.models.yaw, &row, c.yaw, x_out),
                     }
                 }
             };

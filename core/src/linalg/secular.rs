@@ -364,19 +364,35 @@ pub fn rank_one_update<T: Real, const M: usize>(
         // positive. Near convergence of the recursion Q ≈ I (each root is close to its own pole), so
         // the new column is formed as q_K + (û_K − 1)·q_K + Σ_{j≠K} û_j q_j with û_K − 1 computed
         // without cancellation: only the small correction is rounded, not the whole product V·Q.
+        //
+        // `u` is scaled by `δ_K − μ_r` (the smallest `|δ_j − μ_r|`, the root being nearer its origin
+        // pole): `u_j = ẑ_j·(δ_K − μ_r)/(δ_j − μ_r)`, `|ratio| ≤ 1`, so a root within rounding of its
+        // pole (noise-free data: a zero singular value and a tiny `z_K`) cannot overflow `u`. If the
+        // root sits on the pole in floating point, or `u_K` underflows, the eigenvector is the
+        // pole's own vector to working precision and the column is kept.
         let kq = origin[r];
+        let dkq = diff[r][kq];
         let mut u = [T::zero(); M];
         let mut off = T::zero();
         for j in 0..m {
-            u[j] = zhat[j] / diff[r][j];
+            u[j] = if j == kq { zhat[j] } else { zhat[j] * (dkq / diff[r][j]) };
             if j != kq {
                 off += u[j] * u[j];
             }
         }
         let uk = u[kq];
         let nrm = (uk * uk + off).sqrt();
-        if !(nrm > T::zero()) || !nrm.finite() || uk == T::zero() {
+        if !nrm.finite() {
             return None;
+        }
+        if tau[r] == T::zero() || uk == T::zero() || !(nrm > T::zero()) {
+            for row in 0..M {
+                cols[(row, slot)] = qc[kq][row];
+            }
+            let ak = ac[kq];
+            sig[slot] = (ak * ak + tau[r]).maxr(T::zero()).sqrt();
+            slot += 1;
+            continue;
         }
         let inv = if uk < T::zero() {
             -T::one() / nrm

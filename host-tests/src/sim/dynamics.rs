@@ -274,12 +274,26 @@ impl Plant {
         t_s: f64,
         dt_s: f64,
     ) -> RigidState {
+        self.rk4_step_with(x, |_| *u, gust_body_mps, t_s, dt_s)
+    }
+
+    /// One classical RK4 step of `dt_s` with the controls a function of the time since the step's
+    /// start (continuous servo positions, [`super::actuator`]) and the gust held.
+    pub fn rk4_step_with(
+        &self,
+        x: &RigidState,
+        u: impl Fn(f64) -> Controls,
+        gust_body_mps: &Vector3<f64>,
+        t_s: f64,
+        dt_s: f64,
+    ) -> RigidState {
         let x0 = x.pack();
         let h = dt_s;
-        let k1 = self.derivative(&x0, u, gust_body_mps, t_s);
-        let k2 = self.derivative(&(x0 + k1 * (h / 2.0)), u, gust_body_mps, t_s + h / 2.0);
-        let k3 = self.derivative(&(x0 + k2 * (h / 2.0)), u, gust_body_mps, t_s + h / 2.0);
-        let k4 = self.derivative(&(x0 + k3 * h), u, gust_body_mps, t_s + h);
+        let (u0, um, u1) = (u(0.0), u(h / 2.0), u(h));
+        let k1 = self.derivative(&x0, &u0, gust_body_mps, t_s);
+        let k2 = self.derivative(&(x0 + k1 * (h / 2.0)), &um, gust_body_mps, t_s + h / 2.0);
+        let k3 = self.derivative(&(x0 + k2 * (h / 2.0)), &um, gust_body_mps, t_s + h / 2.0);
+        let k4 = self.derivative(&(x0 + k3 * h), &u1, gust_body_mps, t_s + h);
         RigidState::unpack(&(x0 + (k1 + k2 * 2.0 + k3 * 2.0 + k4) * (h / 6.0)))
     }
 }

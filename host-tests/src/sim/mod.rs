@@ -2,7 +2,9 @@
 //! Section VI-A uses `last_letter` the same way).
 //!
 //! * [`dynamics`] — nonlinear 6-DoF rigid body (FRD body, NED earth, quaternion attitude, full
-//!   inertia with `Jxz`), RK4 at an internal step (default 2 ms), controls held per output period.
+//!   inertia with `Jxz`), RK4 at an internal step (default 2 ms); commands held per output period.
+//! * [`actuator`] — servos (first-order lag with a rate limit) between the held commands and the
+//!   surfaces, so surfaces and `q̇` are continuous as in flight.
 //! * [`aero`] — truth aerodynamics: eq. 3 plus switchable hidden effects, eq. 1–2, and the truth's
 //!   linearisation (the reference the estimators are compared against).
 //! * [`airframe`] — `skywalker_2013_mod` (default) and the Rascal 110.
@@ -14,6 +16,7 @@
 //! ([`aerosid_core::aero::SensorSample`]) with a truth record per sample. Everything is `f64`,
 //! seeded, without global state.
 
+pub mod actuator;
 pub mod aero;
 pub mod airframe;
 pub mod airframe_file;
@@ -24,6 +27,7 @@ pub mod propulsion;
 pub mod sensors;
 pub mod trim;
 
+pub use actuator::Servo;
 pub use aero::{AeroInput, CoeffModel, Coefficients, LinearAero, ParameterJump, StallBlend, TruthAero, TruthEffects};
 pub use airframe::SimAirframe;
 pub use airframe_file::{parse_airframe, read_airframe, AirframeFileError};
@@ -97,7 +101,8 @@ impl Stabiliser {
 }
 
 /// A simulated flight's settings. `Default` is the skywalker at 15 m/s, 100 m, every hidden effect
-/// on, no wind or turbulence, default sensors, stabiliser on, 60 s at 100 Hz with 2 ms RK4 steps.
+/// on, no wind or turbulence, default sensors, stabiliser and servos on, 60 s at 100 Hz with 2 ms RK4
+/// steps.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SimConfig {
     /// The plant (airframe, truth aerodynamics, wind, parameter jump, switches).
@@ -116,6 +121,8 @@ pub struct SimConfig {
     pub schedule: Schedule,
     /// Stabiliser (None: open loop around trim).
     pub stabiliser: Option<Stabiliser>,
+    /// Surface servos (None: the surfaces jump to each held command, as an ideal zero-order hold).
+    pub servo: Option<Servo>,
     /// Flight duration, s.
     pub duration_s: f64,
     /// Output (sensor) period, s.
@@ -137,6 +144,7 @@ impl Default for SimConfig {
             sensors: SensorNoise::default(),
             schedule: Schedule::default(),
             stabiliser: Some(Stabiliser::default()),
+            servo: Some(Servo::default()),
             duration_s: 60.0,
             output_dt_s: 0.01,
             step_s: 0.002,
@@ -152,7 +160,7 @@ pub struct TruthSample {
     pub t_s: f64,
     /// The rigid-body state.
     pub state: RigidState,
-    /// The applied (saturated) controls.
+    /// The applied controls: the surface positions (the servos' output) and the throttle.
     pub controls: Controls,
     /// Gust velocity, body, m/s.
     pub gust_body_mps: Vector3<f64>,
@@ -241,6 +249,8 @@ pub fn simulate(cfg: &SimConfig) -> Result<SimOutput, SimError> {
         .map(|t| Dryden::new(&t, cfg.airspeed_mps, dt, cfg.seed ^ 0x9E37_79B9_7F4A_7C15));
     let mut sensors = SensorModel::new(cfg.sensors, cfg.seed);
     let mut x = trim.state;
+    // Surface positions (the servos' state); equal to the command without servos.
+    let mut surfaces = trim.controls;
     let mut samples = Vec::with_capacity(n);
     let mut truth = Vec::with_capacity(n);
     for k in 0..n {
@@ -252,15 +262,23 @@ pub fn simulate(cfg: &SimConfig) -> Result<SimOutput, SimError> {
         u.aileron_rad += m.aileron_rad;
         u.rudder_rad += m.rudder_rad;
         u.throttle += m.throttle;
+        let applied_now = |cmd: &Controls| match &cfg.servo {
+            Some(_) => Controls {
+                throttle: cmd.throttle,
+                ..surfaces
+            },
+            None => *cmd,
+        };
         if let Some(st) = &cfg.stabiliser {
-            let v = plant.evaluate(&x, &u, &gust, t).airspeed_mps;
+            let v = plant.evaluate(&x, &applied_now(&u), &gust, t).airspeed_mps;
             let s = st.increments(plant, &trim, cfg.airspeed_mps, &x, v);
             u.elevator_rad += s.elevator_rad;
             u.aileron_rad += s.aileron_rad;
             u.rudder_rad += s.rudder_rad;
             u.throttle += s.throttle;
         }
-        let u = plant.saturate(&u);
+        let cmd = plant.saturate(&u);
+        let u = applied_now(&cmd);
         let e = plant.evaluate(&x, &u, &gust, t);
         let ideal = ideal_sample(t, dt, &x, &u, &e);
         samples.push(sensors.measure(&ideal));
@@ -273,7 +291,14 @@ pub fn simulate(cfg: &SimConfig) -> Result<SimOutput, SimError> {
             ideal,
         });
         for i in 0..n_sub {
-            x = plant.rk4_step(&x, &u, &gust, t + i as f64 * h, h);
+            let t0 = i as f64 * h;
+            x = match &cfg.servo {
+                Some(sv) => plant.rk4_step_with(&x, |s| sv.controls(&u, &cmd, t0 + s), &gust, t + t0, h),
+                None => plant.rk4_step(&x, &u, &gust, t + t0, h),
+            };
+        }
+        if let Some(sv) = &cfg.servo {
+            surfaces = sv.controls(&u, &cmd, dt);
         }
         if let Some(d) = dryden.as_mut() {
             d.step();
