@@ -32,6 +32,9 @@ RUSTDOCFLAGS="-D warnings" cargo doc -p aerosid-core --no-deps
 step "host tests: cargo test --workspace"
 cargo test --workspace
 
+step "main job (README): cargo run --release -p aerosid-host --bin aerosid -- run --out target/main-job"
+cargo run --release -p aerosid-host --bin aerosid -- run --out target/main-job
+
 step "firmware release build: cargo fw-build"
 cargo fw-build
 

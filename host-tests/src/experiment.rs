@@ -67,6 +67,9 @@ pub struct CoefficientTrace {
     pub updated: Vec<bool>,
     /// GTLS `θ̂` after the sample.
     pub theta: Vec<Vec<f64>>,
+    /// GTLS `σ` of each parameter (square roots of the eq. 17 diagonal); NaN while eq. 17 is not
+    /// available (not fully excited, or too few samples).
+    pub sigma: Vec<Vec<f64>>,
     /// GTLS number of excited directions `k` (eq. 21).
     pub k: Vec<u8>,
     /// GTLS `λ_F` to be applied to the next sample.
@@ -112,9 +115,16 @@ pub struct Experiment {
     pub flight: SimOutput,
     /// The pipeline's health counters at the end.
     pub health: aerosid_core::aero::Health,
+    /// Time of the parameter jump, if the flight had one, s.
+    pub jump_s: Option<f64>,
 }
 
 impl Experiment {
+    /// Time of the parameter jump, if any, s.
+    pub fn flight_jump_s(&self) -> Option<f64> {
+        self.jump_s
+    }
+
     /// The index of the first sample at or after `t_s` (the length if none).
     pub fn index_at(&self, t_s: f64) -> usize {
         self.t_s.partition_point(|t| *t < t_s - 1e-9)
@@ -239,6 +249,10 @@ fn record<const N: usize>(
     }
     tr.updated.push(accepted);
     tr.theta.push(gtls.theta().iter().map(|v| *v as f64).collect());
+    tr.sigma.push(match gtls.covariance() {
+        Ok(c) => (0..N).map(|i| (c[(i, i)] as f64).max(0.0).sqrt()).collect(),
+        Err(_) => vec![f64::NAN; N],
+    });
     tr.k.push(gtls.excited() as u8);
     tr.lambda.push(gtls.lambda() as f64);
     tr.singular_values
@@ -304,6 +318,7 @@ pub fn run(cfg: &ExperimentConfig) -> Result<Experiment, ExperimentError> {
         truth,
         truth_after_jump,
         health: *pipeline.health(),
+        jump_s: jump_at,
         flight,
     })
 }

@@ -11,8 +11,10 @@
 
 pub mod data;
 pub mod experiment;
+pub mod flights;
 pub mod io;
 pub mod mc;
 pub mod plot;
 pub mod reference;
+pub mod report;
 pub mod sim;

