@@ -113,11 +113,8 @@ impl<T: Real> VffSettings<T> {
             gamma1: T::one() - T::one() / (T::lit(40.0) * f),
             gamma2: T::one() - T::one() / f,
             gamma0: T::lit(2.0),
-            varsigma: T::lit(1e-9),
             lambda_min: T::lit(0.8),
-            lambda_max: T::one(),
-            pi0: T::lit(1e-2),
-            reading: Eq28Reading::Paleologu,
+            ..Self::for_dimension(1)
         }
     }
 

@@ -120,11 +120,6 @@ pub struct Experiment {
 }
 
 impl Experiment {
-    /// Time of the parameter jump, if any, s.
-    pub fn flight_jump_s(&self) -> Option<f64> {
-        self.jump_s
-    }
-
     /// The index of the first sample at or after `t_s` (the length if none).
     pub fn index_at(&self, t_s: f64) -> usize {
         self.t_s.partition_point(|t| *t < t_s - 1e-9)

@@ -9,15 +9,7 @@ use crate::sim::*;
 /// removed. (Realistic biases — 0.2° on the vanes, 0.1 m/s on the pitot — shift `C_D0` by a few
 /// per cent whatever the estimator; that is a calibration question, not Fig. 1's.)
 pub fn white_noise_sensors() -> SensorNoise {
-    SensorNoise {
-        accel_bias_mps2: 0.0,
-        gyro_bias_rad_s: 0.0,
-        airspeed_bias_mps: 0.0,
-        vane_bias_rad: 0.0,
-        attitude_bias_rad: 0.0,
-        surface_bias_rad: 0.0,
-        ..SensorNoise::default()
-    }
+    SensorNoise::default().without_biases()
 }
 
 /// A manoeuvre.

@@ -40,7 +40,7 @@ pub fn parameter_name(coefficient: usize, r: Regressor) -> String {
 
 /// The identified model at the last sample of `ex` beside the truth in force then, as a text table.
 pub fn model_table(ex: &Experiment) -> String {
-    let jump = ex.flight_jump_s();
+    let jump = ex.jump_s;
     let last = ex.t_s.len().saturating_sub(1);
     let t_end = ex.t_s.get(last).copied().unwrap_or(0.0);
     let mut out = String::new();
@@ -94,7 +94,7 @@ fn column(rows: &[Vec<f64>], j: usize) -> Vec<f64> {
 }
 
 fn truth_series(ex: &Experiment, tr: &CoefficientTrace, j: usize) -> Vec<f64> {
-    let jump = ex.flight_jump_s();
+    let jump = ex.jump_s;
     ex.t_s
         .iter()
         .step_by(FIGURE_DECIMATION)

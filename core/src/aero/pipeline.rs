@@ -233,9 +233,11 @@ pub struct Pipeline<T: Real> {
     models: AeroModels<T>,
     settings: PipelineSettings<T>,
     differentiator: RateDifferentiator<T>,
-    /// Sanitised samples and their valid channels, newest first; the centre is
-    /// `delay[DELAY_SAMPLES]`.
-    delay: [(SensorSample<T>, ChannelMask); DELAY_LEN],
+    /// Sanitised samples, newest first; the centre is `delay[DELAY_SAMPLES]`. Also the moment
+    /// prefilter's window (the FIR is symmetric, so newest-first order is its order too).
+    delay: [SensorSample<T>; DELAY_LEN],
+    /// The valid channels of each sample in `delay`.
+    delay_masks: [ChannelMask; DELAY_LEN],
     filled: u8,
     lift: Gtls<T, 4, 1, 4>,
     drag: Gtls<T, 5, 1, 5>,
@@ -273,7 +275,8 @@ fn estimator<T: Real, const N: usize>(
 struct Row<'a, T: Real> {
     centre: &'a SensorSample<T>,
     syn: &'a Synthesis<T>,
-    window: Option<&'a [SensorSample<T>; DELAY_LEN]>,
+    /// The window and [`MOMENT_PREFILTER`] in `T`, when the regressors are prefiltered.
+    window: Option<(&'a [SensorSample<T>; DELAY_LEN], &'a [T; DELAY_LEN])>,
     airframe: &'a Airframe<T>,
 }
 
@@ -285,10 +288,7 @@ fn update_one<T: Real, const N: usize>(
     out: &mut [T; MAX_PARAMETERS],
 ) -> CoefficientStatus<T> {
     let x = match row.window {
-        Some(w) => {
-            let weights = MOMENT_PREFILTER.map(T::lit);
-            model.filtered_regressor_vector(w, &weights, row.airframe.span_m, row.airframe.chord_m)
-        }
+        Some((w, weights)) => model.filtered_regressor_vector(w, weights, row.airframe.span_m, row.airframe.chord_m),
         None => model.regressor_vector(row.centre, row.syn),
     };
     for (o, v) in out.iter_mut().zip(x.iter()) {
@@ -321,7 +321,8 @@ impl<T: Real> Pipeline<T> {
             models,
             settings,
             differentiator: RateDifferentiator::new(),
-            delay: [(SensorSample::default(), 0); DELAY_LEN],
+            delay: [SensorSample::default(); DELAY_LEN],
+            delay_masks: [0; DELAY_LEN],
             filled: 0,
             health: Health::default(),
         })
@@ -336,16 +337,13 @@ impl<T: Real> Pipeline<T> {
             ForceAxes::Stability => 0,
             ForceAxes::Wind => ALPHA | BETA,
         };
-        let m = &self.models;
-        match i {
-            idx::LIFT => force | ALPHA | angles | m.lift.channels(),
-            idx::DRAG => force | ALPHA | angles | m.drag.channels(),
-            idx::SIDE => force | angles | m.side.channels(),
-            idx::ROLL => moment | m.roll.channels(),
-            idx::PITCH => moment | m.pitch.channels(),
-            idx::YAW => moment | m.yaw.channels(),
-            _ => ALL,
-        }
+        let own = match i {
+            idx::LIFT | idx::DRAG => force | ALPHA | angles,
+            idx::SIDE => force | angles,
+            idx::ROLL | idx::PITCH | idx::YAW => moment,
+            _ => return ALL,
+        };
+        own | self.regressor_channels(i)
     }
 
     /// The channels coefficient `i`'s regressors need.
@@ -377,10 +375,10 @@ impl<T: Real> Pipeline<T> {
             mask & channel::GYRO != 0,
             mask & channel::DT != 0,
         );
-        for i in (1..DELAY_LEN).rev() {
-            self.delay[i] = self.delay[i - 1];
-        }
-        self.delay[0] = (sanitise(sample, mask), mask);
+        self.delay.copy_within(0..DELAY_LEN - 1, 1);
+        self.delay_masks.copy_within(0..DELAY_LEN - 1, 1);
+        self.delay[0] = sanitise(sample, mask);
+        self.delay_masks[0] = mask;
         self.filled = (self.filled + 1).min(DELAY_LEN as u8);
 
         let mut step = PipelineStep {
@@ -393,15 +391,15 @@ impl<T: Real> Pipeline<T> {
             self.count(&step.status);
             return step;
         }
-        let (centre, cmask) = self.delay[delay];
-        // The prefilter's window (oldest first) and the channels valid in all of it.
+        let cmask = self.delay_masks[delay];
+        // The prefilter's window is the whole delay line; the channels valid in all of it.
         let window_full = self.filled as usize == DELAY_LEN;
-        let window: [SensorSample<T>; DELAY_LEN] = core::array::from_fn(|i| self.delay[DELAY_LEN - 1 - i].0);
-        let wmask = self.delay.iter().fold(channel::ALL, |m, (_, k)| m & *k);
+        let wmask = self.delay_masks.iter().fold(channel::ALL, |m, k| m & *k);
+        let weights = MOMENT_PREFILTER.map(T::lit);
         let omega_dot = self.differentiator.derivative();
         let syn = if cmask & (channel::AIRSPEED | channel::DENSITY) == (channel::AIRSPEED | channel::DENSITY) {
             synthesise(
-                &centre,
+                &self.delay[delay],
                 &self.airframe,
                 &omega_dot.unwrap_or_else(Vector3::zeros),
                 &self.settings.synthesis,
@@ -432,9 +430,9 @@ impl<T: Real> Pipeline<T> {
                 Some(ref y) => {
                     let c = &y.coefficients;
                     let row = Row {
-                        centre: &centre,
+                        centre: &self.delay[delay],
                         syn: y,
-                        window: if filtered { Some(&window) } else { None },
+                        window: filtered.then_some((&self.delay, &weights)),
                         airframe: &self.airframe,
                     };
                     match i {

@@ -375,8 +375,10 @@ pub fn rank_one_update<T: Real, const M: usize>(
         let mut u = [T::zero(); M];
         let mut off = T::zero();
         for j in 0..m {
-            u[j] = if j == kq { zhat[j] } else { zhat[j] * (dkq / diff[r][j]) };
-            if j != kq {
+            if j == kq {
+                u[j] = zhat[j];
+            } else {
+                u[j] = zhat[j] * (dkq / diff[r][j]);
                 off += u[j] * u[j];
             }
         }
@@ -385,28 +387,22 @@ pub fn rank_one_update<T: Real, const M: usize>(
         if !nrm.finite() {
             return None;
         }
-        if tau[r] == T::zero() || uk == T::zero() || !(nrm > T::zero()) {
-            for row in 0..M {
-                cols[(row, slot)] = qc[kq][row];
-            }
-            let ak = ac[kq];
-            sig[slot] = (ak * ak + tau[r]).maxr(T::zero()).sqrt();
-            slot += 1;
-            continue;
-        }
-        let inv = if uk < T::zero() {
-            -T::one() / nrm
-        } else {
-            T::one() / nrm
-        };
-        let e2 = off / (uk * uk);
-        let root = (T::one() + e2).sqrt();
-        let dk = -e2 / (root * (T::one() + root)); // û_K − 1
+        // The correction û − e_K to the column q_K (zero when the root sits on its pole).
         let mut acc = [T::zero(); M];
-        for j in 0..m {
-            let uj = if j == kq { dk } else { u[j] * inv };
-            for row in 0..M {
-                acc[row] += qc[j][row] * uj;
+        if tau[r] != T::zero() && uk != T::zero() && nrm > T::zero() {
+            let inv = if uk < T::zero() {
+                -T::one() / nrm
+            } else {
+                T::one() / nrm
+            };
+            let e2 = off / (uk * uk);
+            let root = (T::one() + e2).sqrt();
+            let dk = -e2 / (root * (T::one() + root)); // û_K − 1
+            for j in 0..m {
+                let uj = if j == kq { dk } else { u[j] * inv };
+                for row in 0..M {
+                    acc[row] += qc[j][row] * uj;
+                }
             }
         }
         for row in 0..M {
