@@ -63,6 +63,10 @@ fn parse() -> Result<Option<Command>, String> {
                 if !(args.seconds >= 30.0 && args.seconds <= 36_000.0) {
                     return Err("--seconds must be between 30 and 36000".into());
                 }
+                // `run` keeps every sample's traces for the figures (~3 KB per sample): cap it.
+                if cmd == "run" && args.seconds > 3600.0 {
+                    return Err("--seconds for `run` must be at most 3600 (it keeps per-sample traces for the figures, ~1 GB per hour)".into());
+                }
                 job.seconds = args.seconds;
             }
             ("run", "--out") => job.out_dir = value.into(),
