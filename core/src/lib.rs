@@ -18,6 +18,8 @@
 //!   ([`aero::synthesis`], with a causal 5-point differentiator for `ω̇`), the regressor sets and
 //!   `W_T` of eq. 3 ([`aero::model`]) and the six-estimator [`aero::pipeline::Pipeline`] that refuses
 //!   a sample only for the coefficients whose channels are bad.
+//! * [`drivers`] — sensor drivers over embedded-hal 1.0 buses (IMU, airspeed, vanes) and the
+//!   control-surface/RPM source, each returning errors and health flags, never bad samples.
 //! * [`gtls`] — recursive PCA-GTLS (seed 000, Algorithm 1, eq. 8–23) with mixed LS–TLS for exact
 //!   regressors.
 //! * [`linalg::secular`] — the rank-one SVD/eigen update by the secular equation (ref. \[17\]).
@@ -42,6 +44,7 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod aero;
+pub mod drivers;
 pub mod error;
 pub mod estimator;
 pub mod gtls;
