@@ -229,7 +229,7 @@ pub fn main_job(job: &MainJob, log: &mut dyn std::fmt::Write) -> Result<Vec<std:
     let vff = Forgetting::Variable(VffSettings::for_aero_coefficients(100.0));
     let mut main = ExperimentConfig::new(flights::main_flight(job.seconds, job.seed), sigma);
     main.pipeline.gtls.forgetting = vff;
-    let fig1 = ExperimentConfig::new(flights::fig1_config(100.0, 300.0, 11), sigma);
+    let fig1 = ExperimentConfig::new(flights::fig1_config(250.0, 450.0, 11), sigma);
     let fig2_sim = flights::fig2_config(50.0, 150.0, 450.0, 5);
     let mut fig2_vff = ExperimentConfig::new(fig2_sim.clone(), sigma);
     fig2_vff.pipeline.gtls.forgetting = vff;
@@ -271,7 +271,7 @@ pub fn main_job(job: &MainJob, log: &mut dyn std::fmt::Write) -> Result<Vec<std:
     let last = fig1.t_s.len().saturating_sub(1);
     let _ = writeln!(
         log,
-        "Fig. 1 (C_D, excitation from 100 s): at {} s GTLS {:+.4?} (k = {} of {}), RLS {:+.4?}, truth {:+.4?}",
+        "Fig. 1 (C_D, excitation from 250 s): at {} s GTLS {:+.4?} (k = {} of {}), RLS {:+.4?}, truth {:+.4?}",
         fig1.t_s[last],
         d.theta[last],
         d.k[last],
@@ -284,7 +284,7 @@ pub fn main_job(job: &MainJob, log: &mut dyn std::fmt::Write) -> Result<Vec<std:
         coefficient_figure(
             fig1,
             idx::DRAG,
-            "Fig. 1 — C_D: PCA-GTLS vs RLS, excitation from t = 100 s",
+            "Fig. 1 — C_D: PCA-GTLS vs RLS, excitation from t = 250 s",
         ),
     )?;
     let v = &vff.coefficients[idx::PITCH];

@@ -219,6 +219,15 @@ impl<T: Real, const NT: usize> CoefficientModel<T, NT> {
         }
     }
 
+    /// The same model with the minimum-norm weights `W_j = 1/s_j` (eq. 23) for typical parameter
+    /// magnitudes `s_j > 0` (the intercept's entry is unused by the estimator and kept at 1).
+    pub fn with_typical_magnitudes(mut self, magnitudes: [f64; NT]) -> Self {
+        for j in 1..NT {
+            self.weights[j] = T::one() / T::lit(magnitudes[j]);
+        }
+        self
+    }
+
     /// Checks the documented constraints: the intercept first and only there, no repeated regressor,
     /// `σ_ε > 0`, positive weights.
     pub fn validate(&self) -> Result<(), Error> {
@@ -346,18 +355,50 @@ pub struct AeroModels<T> {
     pub yaw: CoefficientModel<T, 6>,
 }
 
+/// Typical magnitudes `s_j` of the default models' parameters (in regressor order, the intercept's
+/// entry unused), the scales of the minimum weighted-norm solution (eq. 22–23, `W_j = 1/s_j`).
+///
+/// Rounded over the published small-UAV sets of `data/aircraft` (skywalker_2013_mod, Rascal 110)
+/// and Beard & McLain's Aerosonde; a derivative that every set has as 0 (`C_Dq`, `C_Yp`, `C_Yr`) gets
+/// 0.1, a tenth of the coefficient's leading derivative. `C_Dα²` is the induced drag's
+/// `C_Lα²/(π e A)` (1.0–1.9).
+pub mod typical {
+    /// `C_L`: `[1, α, q_n, δe]`.
+    pub const LIFT: [f64; 4] = [1.0, 5.0, 5.0, 0.2];
+    /// `C_D`: `[1, α, α², q_n, δe]`.
+    pub const DRAG: [f64; 5] = [1.0, 0.3, 2.0, 0.1, 0.1];
+    /// `C_Y`: `[1, β, p_n, r_n, δa, δr]`.
+    pub const SIDE: [f64; 6] = [1.0, 1.0, 0.1, 0.1, 0.1, 0.2];
+    /// `C_l`: `[1, β, p_n, r_n, δa, δr]`.
+    pub const ROLL: [f64; 6] = [1.0, 0.1, 0.5, 0.15, 0.2, 0.03];
+    /// `C_m`: `[1, α, q_n, δe]`.
+    pub const PITCH: [f64; 4] = [1.0, 1.0, 10.0, 0.5];
+    /// `C_n`: `[1, β, p_n, r_n, δa, δr]`.
+    pub const YAW: [f64; 6] = [1.0, 0.15, 0.05, 0.3, 0.03, 0.1];
+}
+
 impl<T: Real> AeroModels<T> {
-    /// The default regressor sets with the given `σ_ε` per coefficient, indexed by [`idx`].
+    /// The default regressor sets with the given `σ_ε` per coefficient, indexed by [`idx`], and the
+    /// minimum-norm weights `W_j = 1/s_j` of [`typical`].
+    ///
+    /// Our reading of eq. 23 (the seed leaves `W` open): when `k < n_θ`, the parameters of the
+    /// unexcited directions are chosen as small as possible *relative to their typical size*. With unit
+    /// weights a derivative whose regressor is small in value (`q_n ≈ 10⁻²`) is cheap in the norm, and
+    /// the unexcited direction is filled with it: in the seed's Fig. 1 flight unit weights gave
+    /// `C_Dq ≈ 1` and `C_Dα²` 61 % low; these weights give `C_Dq ≈ 0` and `C_Dα²` within 5 %.
     pub fn with_sigma_eps(sigma_eps: [T; idx::COUNT]) -> Self {
         use Regressor::*;
         let lat = [One, Beta, RollRateN, YawRateN, Aileron, Rudder];
         Self {
-            lift: CoefficientModel::new([One, Alpha, PitchRateN, Elevator], sigma_eps[idx::LIFT]),
-            drag: CoefficientModel::new([One, Alpha, Alpha2, PitchRateN, Elevator], sigma_eps[idx::DRAG]),
-            side: CoefficientModel::new(lat, sigma_eps[idx::SIDE]),
-            roll: CoefficientModel::new(lat, sigma_eps[idx::ROLL]),
-            pitch: CoefficientModel::new([One, Alpha, PitchRateN, Elevator], sigma_eps[idx::PITCH]),
-            yaw: CoefficientModel::new(lat, sigma_eps[idx::YAW]),
+            lift: CoefficientModel::new([One, Alpha, PitchRateN, Elevator], sigma_eps[idx::LIFT])
+                .with_typical_magnitudes(typical::LIFT),
+            drag: CoefficientModel::new([One, Alpha, Alpha2, PitchRateN, Elevator], sigma_eps[idx::DRAG])
+                .with_typical_magnitudes(typical::DRAG),
+            side: CoefficientModel::new(lat, sigma_eps[idx::SIDE]).with_typical_magnitudes(typical::SIDE),
+            roll: CoefficientModel::new(lat, sigma_eps[idx::ROLL]).with_typical_magnitudes(typical::ROLL),
+            pitch: CoefficientModel::new([One, Alpha, PitchRateN, Elevator], sigma_eps[idx::PITCH])
+                .with_typical_magnitudes(typical::PITCH),
+            yaw: CoefficientModel::new(lat, sigma_eps[idx::YAW]).with_typical_magnitudes(typical::YAW),
         }
     }
 }
