@@ -5,3 +5,7 @@
 //! A bus error, a NACK, a stale or out-of-range reading is an `Err`, never a sample: the sampling
 //! task marks the channel bad in the [`crate::aero::SensorSample`] it builds, and the pipeline refuses
 //! only the coefficients that need that channel.
+//!
+//! * [`icm42688`] — TDK InvenSense ICM-42688-P gyroscope + accelerometer over SPI.
+
+pub mod icm42688;
