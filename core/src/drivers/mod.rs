@@ -5,3 +5,6 @@
 //! A bus error, a NACK, a stale or out-of-range reading is an `Err`, never a sample: the sampling
 //! task marks the channel bad in the [`crate::aero::SensorSample`] it builds, and the pipeline refuses
 //! only the coefficients that need that channel.
+
+pub mod as5600;
+pub mod ms4525do;
