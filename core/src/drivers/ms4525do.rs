@@ -27,7 +27,8 @@
 //! returned *signed*, `−sqrt(2 |Δp| / ρ)`. The sensor is healthy (status `00`, in range); a
 //! negative speed means reversed flow at the probe or swapped pitot/static tubes, and it stays
 //! visible in the logs instead of being folded into a plausible positive speed. The consumer's
-//! plausibility gate (the pipeline's minimum airspeed) refuses it.
+//! plausibility gate refuses it (the pipeline's
+//! [`min_airspeed_mps`](crate::aero::pipeline::Limits::min_airspeed_mps), 5 m/s by default).
 
 use embedded_hal::delay::DelayNs;
 use embedded_hal::i2c::I2c;
