@@ -7,5 +7,13 @@
 //! only the coefficients that need that channel.
 //!
 //! * [`icm42688`] — TDK InvenSense ICM-42688-P gyroscope + accelerometer over SPI.
+//! * [`ms4525do`] — TE MS4525DO differential-pressure airspeed sensor over I2C.
+//! * [`as5600`] — ams AS5600 magnetic encoder as an α or β vane over I2C, with zero/direction
+//!   calibration.
+//!
+//! The control surfaces, throttle and propeller speed reach the co-processor from the autopilot as
+//! MAVLink frames on a UART: [`crate::mavlink::surfaces`] behind the `SurfaceSource` trait.
 
+pub mod as5600;
 pub mod icm42688;
+pub mod ms4525do;
