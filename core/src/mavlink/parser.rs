@@ -14,7 +14,9 @@
 //!   unknown frame and happens to end on a start byte therefore hides any frame inside it: that is
 //!   the limit of what an unverifiable frame allows (see the soak test).
 //! * Signed frames (incompatibility flag `0x01`): the 13-byte signature is consumed and *not*
-//!   verified (the co-processor holds no key). The frame is delivered with
+//!   verified (the co-processor holds no key). The checksum does not cover it, so, as for an unknown
+//!   frame, it is re-scanned unless a start byte follows it (a truncated signature does not hide the
+//!   next frame). The frame is delivered with
 //!   [`Header::is_signed`]; this is acceptable because the co-processor accepts no commands: it
 //!   only reads actuator outputs and RPM, which an unsigned frame could carry just as well.
 //!
@@ -102,6 +104,17 @@ pub struct ParserStats {
     pub discarded_bytes: u32,
 }
 
+/// A complete run of bytes in the frame buffer, kept until the next byte confirms it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Pending {
+    /// Nothing: `frame` holds a frame being received (or nothing).
+    None,
+    /// A complete unknown-id frame.
+    UnknownFrame,
+    /// The signature of a delivered signed frame (not covered by the checksum).
+    Signature,
+}
+
 const QUEUE_LEN: usize = MAX_FRAME_LEN + 8;
 
 /// The byte-at-a-time parser (module doc).
@@ -109,8 +122,8 @@ const QUEUE_LEN: usize = MAX_FRAME_LEN + 8;
 pub struct Parser {
     frame: [u8; MAX_FRAME_LEN],
     frame_len: usize,
-    /// The current frame is a complete unknown-id frame waiting for the next byte to confirm it.
-    awaiting_confirm: bool,
+    /// What the bytes in `frame` wait for.
+    pending: Pending,
     queue: [u8; QUEUE_LEN],
     q_start: usize,
     q_end: usize,
@@ -129,7 +142,7 @@ impl Parser {
         Self {
             frame: [0; MAX_FRAME_LEN],
             frame_len: 0,
-            awaiting_confirm: false,
+            pending: Pending::None,
             queue: [0; QUEUE_LEN],
             q_start: 0,
             q_end: 0,
@@ -230,7 +243,7 @@ impl Parser {
         self.stats.discarded_bytes = self.stats.discarded_bytes.wrapping_add(1);
         let len = self.frame_len;
         self.frame_len = 0;
-        self.awaiting_confirm = false;
+        self.pending = Pending::None;
         self.unread(1, len);
     }
 
@@ -240,16 +253,30 @@ impl Parser {
 
     fn step(&mut self, byte: u8) -> Option<Frame> {
         let is_magic = byte == MAGIC_V2 || byte == MAGIC_V1;
-        if self.awaiting_confirm {
-            if is_magic {
-                self.stats.unknown_skipped = self.stats.unknown_skipped.wrapping_add(1);
-                self.awaiting_confirm = false;
+        match self.pending {
+            Pending::None => {}
+            _ if is_magic => {
+                if self.pending == Pending::UnknownFrame {
+                    self.stats.unknown_skipped = self.stats.unknown_skipped.wrapping_add(1);
+                }
+                self.pending = Pending::None;
                 self.frame_len = 0;
-            } else {
+            }
+            Pending::UnknownFrame => {
                 self.stats.unknown_unconfirmed = self.stats.unknown_unconfirmed.wrapping_add(1);
                 // Re-scan the frame's bytes after its start, then this byte.
                 self.q_start = self.q_start.saturating_sub(1);
                 self.reject();
+                return None;
+            }
+            Pending::Signature => {
+                // The "signature" may have been the start of the next frame (a truncated signature):
+                // re-scan it, then this byte.
+                self.q_start = self.q_start.saturating_sub(1);
+                let len = self.frame_len;
+                self.frame_len = 0;
+                self.pending = Pending::None;
+                self.unread(0, len);
                 return None;
             }
         }
@@ -304,7 +331,7 @@ impl Parser {
         }
 
         let Some(s) = known else {
-            self.awaiting_confirm = true;
+            self.pending = Pending::UnknownFrame;
             return None;
         };
         let body_end = header_len + payload_len;
@@ -323,6 +350,13 @@ impl Parser {
             dst.copy_from_slice(src);
         }
         self.frame_len = 0;
+        if signature > 0 {
+            // Keep the signature until the next byte shows it was one (module doc).
+            let sig_start = body_end + CHECKSUM_LEN;
+            self.frame.copy_within(sig_start..sig_start + SIGNATURE_LEN, 0);
+            self.frame_len = SIGNATURE_LEN;
+            self.pending = Pending::Signature;
+        }
         let message = Message::decode(header.message_id, &payload)?;
         self.stats.frames = self.stats.frames.wrapping_add(1);
         if header.is_signed() {
