@@ -20,6 +20,9 @@
 //!   a sample only for the coefficients whose channels are bad.
 //! * [`drivers`] — sensor drivers over embedded-hal 1.0 buses (IMU, airspeed, vanes) and the
 //!   control-surface/RPM source, each returning errors and health flags, never bad samples.
+//! * [`mavlink`] — MAVLink 2 over the UART, hand-encoded: heartbeat and per-coefficient
+//!   `DEBUG_FLOAT_ARRAY` telemetry out, a byte-at-a-time parser for `SERVO_OUTPUT_RAW` and RPM in, and
+//!   the [`mavlink::SurfaceSource`] that turns them into deflections, throttle and propeller speed.
 //! * [`gtls`] — recursive PCA-GTLS (seed 000, Algorithm 1, eq. 8–23) with mixed LS–TLS for exact
 //!   regressors.
 //! * [`linalg::secular`] — the rank-one SVD/eigen update by the secular equation (ref. \[17\]).
@@ -49,6 +52,7 @@ pub mod error;
 pub mod estimator;
 pub mod gtls;
 pub mod linalg;
+pub mod mavlink;
 pub mod rls;
 pub mod scalar;
 pub mod vff;

@@ -1,0 +1,346 @@
+//! Actuator input: control-surface deflections, throttle and propeller speed from the autopilot's
+//! `SERVO_OUTPUT_RAW` and RPM messages, with staleness reported as an error.
+//!
+//! The deflection is the commanded one (the servo's PWM), as it reaches the co-processor: servo lag
+//! and linkage play are not in it. Each surface has a linear calibration `δ = (pwm − pwm_neutral) ·
+//! rad_per_us`, clamped to its mechanical limits (the surface saturates there whatever the PWM);
+//! a PWM outside the plausible range (`pwm_valid_us`, e.g. 0 = output disabled) is an error for that
+//! channel.
+
+use super::messages::{Message, ServoOutputRaw};
+use super::parser::{Frame, Parser, ParserStats};
+
+/// Why an actuator reading is not available.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum SurfaceError {
+    /// No message of the source received yet.
+    NoData,
+    /// The newest message is older than the timeout.
+    Stale {
+        /// Its age, µs.
+        age_us: u64,
+    },
+    /// The caller's time is earlier than the newest message's reception time.
+    TimeWentBackwards,
+    /// The channel's PWM is outside the plausible range (0 = output disabled).
+    PwmOutOfRange {
+        /// Servo output index (0 = `servo1_raw`).
+        channel: u8,
+        /// The pulse width, µs.
+        pwm_us: u16,
+    },
+    /// The RPM is negative (ArduPilot's `RPM` sends −1 for an unhealthy sensor; reverse rotation
+    /// is not a flight condition here) or not finite.
+    RpmInvalid,
+    /// No RPM source is configured.
+    NoRpmSource,
+    /// A calibration or setting is outside its documented range.
+    InvalidCalibration,
+}
+
+impl core::fmt::Display for SurfaceError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::NoData => f.write_str("no actuator message received yet"),
+            Self::Stale { age_us } => write!(f, "actuator message is stale ({age_us} us old)"),
+            Self::TimeWentBackwards => f.write_str("time is earlier than the last reception"),
+            Self::PwmOutOfRange { channel, pwm_us } => write!(f, "servo output {channel} PWM {pwm_us} us out of range"),
+            Self::RpmInvalid => f.write_str("RPM negative or not finite"),
+            Self::NoRpmSource => f.write_str("no RPM source configured"),
+            Self::InvalidCalibration => f.write_str("calibration outside its documented range"),
+        }
+    }
+}
+
+/// The control surfaces and throttle at one instant; each channel can fail on its own.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SurfaceReading {
+    /// Elevator deflection, rad.
+    pub elevator_rad: Result<f32, SurfaceError>,
+    /// Aileron deflection, rad.
+    pub aileron_rad: Result<f32, SurfaceError>,
+    /// Rudder deflection, rad.
+    pub rudder_rad: Result<f32, SurfaceError>,
+    /// Throttle, 0…1.
+    pub throttle: Result<f32, SurfaceError>,
+    /// Age of the message the values come from, µs.
+    pub age_us: u64,
+}
+
+/// Where the firmware's sampling task gets the actuator channels of a
+/// [`crate::aero::SensorSample`]; the board layer owns the implementation (e.g. [`MavlinkSurfaces`]).
+pub trait SurfaceSource {
+    /// The surfaces and throttle at `now_us` (the caller's monotonic time, µs). `Err` when there
+    /// is no fresh data at all; stale values are never returned.
+    fn surfaces(&mut self, now_us: u64) -> Result<SurfaceReading, SurfaceError>;
+
+    /// Propeller speed at `now_us`, rad/s; `Err` when stale, absent or invalid.
+    fn prop_speed_rad_s(&mut self, now_us: u64) -> Result<f32, SurfaceError>;
+}
+
+/// Linear calibration of one surface servo.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ServoCalibration {
+    /// Servo output index in `SERVO_OUTPUT_RAW` (0 = `servo1_raw` … 15 = `servo16_raw`).
+    pub channel: u8,
+    /// PWM at zero deflection, µs.
+    pub pwm_neutral_us: f32,
+    /// Deflection per µs, rad/µs, with the sign that maps to the airframe's convention.
+    pub rad_per_us: f32,
+    /// Mechanical deflection limits `(min, max)`, rad.
+    pub limits_rad: (f32, f32),
+}
+
+impl ServoCalibration {
+    /// Deflection for `pwm_us`, clamped to the limits, rad.
+    pub fn deflection_rad(&self, pwm_us: u16) -> f32 {
+        ((f32::from(pwm_us) - self.pwm_neutral_us) * self.rad_per_us).clamp(self.limits_rad.0, self.limits_rad.1)
+    }
+
+    fn valid(&self) -> bool {
+        self.channel < 16
+            && self.pwm_neutral_us.is_finite()
+            && self.rad_per_us.is_finite()
+            && self.rad_per_us != 0.0
+            && self.limits_rad.0.is_finite()
+            && self.limits_rad.1.is_finite()
+            && self.limits_rad.0 < self.limits_rad.1
+    }
+}
+
+/// Throttle from a PWM range: `(pwm − idle)/(full − idle)`, clamped to 0…1.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ThrottleCalibration {
+    /// Servo output index (0 = `servo1_raw`).
+    pub channel: u8,
+    /// PWM at zero throttle, µs.
+    pub pwm_idle_us: u16,
+    /// PWM at full throttle, µs.
+    pub pwm_full_us: u16,
+}
+
+impl ThrottleCalibration {
+    /// Throttle for `pwm_us`, 0…1.
+    pub fn throttle(&self, pwm_us: u16) -> f32 {
+        let span = f32::from(self.pwm_full_us) - f32::from(self.pwm_idle_us);
+        ((f32::from(pwm_us) - f32::from(self.pwm_idle_us)) / span).clamp(0.0, 1.0)
+    }
+
+    fn valid(&self) -> bool {
+        self.channel < 16 && self.pwm_idle_us != self.pwm_full_us
+    }
+}
+
+/// Which message carries the propeller's RPM.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum RpmSource {
+    /// None: [`SurfaceSource::prop_speed_rad_s`] returns [`SurfaceError::NoRpmSource`].
+    None,
+    /// ArduPilot's `RPM` (#226), sensor 0 (`rpm1`) or 1 (`rpm2`).
+    ArduPilotRpm {
+        /// 0 or 1.
+        sensor: u8,
+    },
+    /// `ESC_STATUS` (#291, PX4), ESC number `esc` (0-based; the message with `index ≤ esc <
+    /// index + 4` carries it).
+    EscStatus {
+        /// 0-based ESC number.
+        esc: u8,
+    },
+}
+
+/// Settings of [`MavlinkSurfaces`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct SurfaceConfig {
+    /// Accept frames only from this system id (0: any).
+    pub source_system_id: u8,
+    /// `SERVO_OUTPUT_RAW.port` the channels are on (0 = MAIN).
+    pub port: u8,
+    /// Elevator.
+    pub elevator: ServoCalibration,
+    /// Aileron (for two aileron servos, this one and `aileron_2` are averaged; give each the sign
+    /// that makes it read the airframe's `δa`).
+    pub aileron: ServoCalibration,
+    /// Second aileron servo, if any.
+    pub aileron_2: Option<ServoCalibration>,
+    /// Rudder.
+    pub rudder: ServoCalibration,
+    /// Throttle.
+    pub throttle: ThrottleCalibration,
+    /// Plausible PWM range `[min, max]`, µs (outside: [`SurfaceError::PwmOutOfRange`]).
+    pub pwm_valid_us: [u16; 2],
+    /// A `SERVO_OUTPUT_RAW` older than this is stale, µs.
+    pub servo_timeout_us: u64,
+    /// The RPM source.
+    pub rpm: RpmSource,
+    /// Propeller revolutions per reported revolution (1 for a direct drive).
+    pub rpm_scale: f32,
+    /// An RPM older than this is stale, µs.
+    pub rpm_timeout_us: u64,
+}
+
+impl SurfaceConfig {
+    /// Checks every calibration and setting.
+    pub fn validate(&self) -> Result<(), SurfaceError> {
+        let rpm_ok = match self.rpm {
+            RpmSource::None => true,
+            RpmSource::ArduPilotRpm { sensor } => sensor < 2,
+            RpmSource::EscStatus { .. } => true,
+        };
+        let ok = self.elevator.valid()
+            && self.aileron.valid()
+            && self.aileron_2.is_none_or(|a| a.valid())
+            && self.rudder.valid()
+            && self.throttle.valid()
+            && self.pwm_valid_us[0] < self.pwm_valid_us[1]
+            && self.servo_timeout_us > 0
+            && self.rpm_timeout_us > 0
+            && rpm_ok
+            && self.rpm_scale.is_finite()
+            && self.rpm_scale > 0.0;
+        if ok {
+            Ok(())
+        } else {
+            Err(SurfaceError::InvalidCalibration)
+        }
+    }
+}
+
+/// [`SurfaceSource`] fed by the autopilot's MAVLink stream.
+#[derive(Debug, Clone)]
+pub struct MavlinkSurfaces {
+    config: SurfaceConfig,
+    parser: Parser,
+    /// Newest `SERVO_OUTPUT_RAW` of the configured port and when it arrived, µs.
+    servo: Option<(ServoOutputRaw, u64)>,
+    /// Newest RPM of the configured source (rev/min, as reported) and when it arrived, µs.
+    rpm: Option<(f32, u64)>,
+}
+
+impl MavlinkSurfaces {
+    /// A source with `config` (validated).
+    pub fn new(config: SurfaceConfig) -> Result<Self, SurfaceError> {
+        config.validate()?;
+        Ok(Self {
+            config,
+            parser: Parser::new(),
+            servo: None,
+            rpm: None,
+        })
+    }
+
+    /// The settings.
+    pub fn config(&self) -> &SurfaceConfig {
+        &self.config
+    }
+
+    /// The parser's counters.
+    pub fn parser_stats(&self) -> &ParserStats {
+        self.parser.stats()
+    }
+
+    /// Parses `bytes` received at `now_us` and keeps what they carry.
+    pub fn receive(&mut self, bytes: &[u8], now_us: u64) {
+        let Self {
+            config,
+            parser,
+            servo,
+            rpm,
+        } = self;
+        parser.feed(bytes, |frame| keep(config, servo, rpm, &frame, now_us));
+    }
+
+    /// Keeps what `frame` (parsed elsewhere, received at `now_us`) carries, if it is for us.
+    pub fn accept(&mut self, frame: &Frame, now_us: u64) {
+        keep(&self.config, &mut self.servo, &mut self.rpm, frame, now_us);
+    }
+
+    fn pwm(&self, m: &ServoOutputRaw, channel: u8) -> Result<u16, SurfaceError> {
+        let pwm_us = m.servo_raw_us.get(usize::from(channel)).copied().unwrap_or(0);
+        let [lo, hi] = self.config.pwm_valid_us;
+        if (lo..=hi).contains(&pwm_us) {
+            Ok(pwm_us)
+        } else {
+            Err(SurfaceError::PwmOutOfRange { channel, pwm_us })
+        }
+    }
+
+    fn surface(&self, m: &ServoOutputRaw, c: &ServoCalibration) -> Result<f32, SurfaceError> {
+        self.pwm(m, c.channel).map(|p| c.deflection_rad(p))
+    }
+}
+
+/// Keeps the servo outputs or the RPM `frame` carries, if it is from the configured source.
+fn keep(
+    config: &SurfaceConfig,
+    servo: &mut Option<(ServoOutputRaw, u64)>,
+    rpm: &mut Option<(f32, u64)>,
+    frame: &Frame,
+    now_us: u64,
+) {
+    if config.source_system_id != 0 && frame.header.system_id != config.source_system_id {
+        return;
+    }
+    match (&frame.message, config.rpm) {
+        (Message::ServoOutputRaw(m), _) if m.port == config.port => *servo = Some((*m, now_us)),
+        (Message::Rpm(m), RpmSource::ArduPilotRpm { sensor }) => {
+            if let Some(&r) = m.rpm.get(usize::from(sensor)) {
+                *rpm = Some((r, now_us));
+            }
+        }
+        (Message::EscStatus(m), RpmSource::EscStatus { esc }) => {
+            if let Some(&r) = esc.checked_sub(m.index).and_then(|i| m.rpm.get(usize::from(i))) {
+                *rpm = Some((r as f32, now_us));
+            }
+        }
+        _ => {}
+    }
+}
+
+/// Age of a reception at `rx_us`, checked against `timeout_us`.
+fn age(rx_us: u64, now_us: u64, timeout_us: u64) -> Result<u64, SurfaceError> {
+    let age_us = now_us.checked_sub(rx_us).ok_or(SurfaceError::TimeWentBackwards)?;
+    if age_us > timeout_us {
+        Err(SurfaceError::Stale { age_us })
+    } else {
+        Ok(age_us)
+    }
+}
+
+impl SurfaceSource for MavlinkSurfaces {
+    fn surfaces(&mut self, now_us: u64) -> Result<SurfaceReading, SurfaceError> {
+        let (m, rx_us) = self.servo.ok_or(SurfaceError::NoData)?;
+        let age_us = age(rx_us, now_us, self.config.servo_timeout_us)?;
+        let c = &self.config;
+        let aileron_rad = match c.aileron_2 {
+            None => self.surface(&m, &c.aileron),
+            Some(a2) => self
+                .surface(&m, &c.aileron)
+                .and_then(|a| Ok(0.5 * (a + self.surface(&m, &a2)?))),
+        };
+        Ok(SurfaceReading {
+            elevator_rad: self.surface(&m, &c.elevator),
+            aileron_rad,
+            rudder_rad: self.surface(&m, &c.rudder),
+            throttle: self.pwm(&m, c.throttle.channel).map(|p| c.throttle.throttle(p)),
+            age_us,
+        })
+    }
+
+    fn prop_speed_rad_s(&mut self, now_us: u64) -> Result<f32, SurfaceError> {
+        if self.config.rpm == RpmSource::None {
+            return Err(SurfaceError::NoRpmSource);
+        }
+        let (rpm, rx_us) = self.rpm.ok_or(SurfaceError::NoData)?;
+        age(rx_us, now_us, self.config.rpm_timeout_us)?;
+        if !(rpm >= 0.0) || !rpm.is_finite() {
+            return Err(SurfaceError::RpmInvalid);
+        }
+        Ok(rpm * self.config.rpm_scale * (core::f32::consts::TAU / 60.0))
+    }
+}
