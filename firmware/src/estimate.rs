@@ -1,29 +1,60 @@
-//! The estimator update run by the mid-priority `estimate` task for every sample it receives.
+//! The estimator run by the mid-priority `estimate` task on every sample: the core's six-coefficient
+//! pipeline (synthesis of eq. 1–2, then recursive PCA-GTLS with VFF per coefficient), configured by
+//! `aerosid_core::aero::onboard`, timed stage by stage with the board's counter.
 
+use crate::board::Counter;
 use crate::sample::Sample;
+use aerosid_core::aero::model::idx;
+use aerosid_core::aero::{onboard, Pipeline, Stage};
 
-/// Why [`step`] refused a sample. Placeholder until the core's error type takes its place.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, defmt::Format)]
-pub enum StepError {
-    /// `dt_s` was not a positive, finite number of seconds.
-    BadDt,
+/// Timing probes per sample: the whole step, the synthesis stage, then one per coefficient.
+pub const PROBES: usize = 2 + idx::COUNT;
+
+/// Counter ticks of one step (cycles on hardware, instructions under QEMU), per stage.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, defmt::Format)]
+pub struct StepCost {
+    /// `[whole step, synthesis, C_L, C_D, C_Y, C_l, C_m, C_n]`; 0 for stages not reached (warm-up).
+    pub ticks: [u32; PROBES],
 }
 
-/// Runs one estimator update with `sample`.
-///
-/// Placeholder: for now it only gates `dt_s` and, once per second (every 100th sample), logs the
-/// `aerosid_core` version. The core's author replaces this body with the real estimator update; keep
-/// it one small function — one sample in, a `Result` out, no panics.
-pub fn step(sample: &Sample) -> Result<(), StepError> {
-    if !(sample.dt_s.is_finite() && sample.dt_s > 0.0) {
-        return Err(StepError::BadDt);
+/// The estimator's state: the pipeline (≈ 4.4 KB) and the counters of the last step.
+pub struct Estimator {
+    pipeline: Pipeline<f32>,
+}
+
+/// Why the estimator could not be built (a configuration error, found at boot).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, defmt::Format)]
+pub struct ConfigError;
+
+impl Estimator {
+    /// The on-board pipeline.
+    pub fn new() -> Result<Self, ConfigError> {
+        onboard::pipeline()
+            .map(|pipeline| Self { pipeline })
+            .map_err(|_| ConfigError)
     }
-    if sample.seq.is_multiple_of(100) {
-        defmt::info!(
-            "estimate: aerosid-core {=str} (placeholder step), sample {=u32}",
-            aerosid_core::VERSION,
-            sample.seq
-        );
+
+    /// Runs one sample through the pipeline; returns how many coefficients updated and the cost.
+    pub fn step(&mut self, sample: &Sample, counter: &impl Counter) -> (u8, StepCost) {
+        let mut cost = StepCost::default();
+        let start = counter.now();
+        let mut last = start;
+        let step = self.pipeline.process_probed(&sample.sensors, &mut |stage| {
+            let now = counter.now();
+            let slot = match stage {
+                Stage::Synthesis => 1,
+                Stage::Coefficient(i) => 2 + i.min(idx::COUNT - 1),
+            };
+            cost.ticks[slot] = now.wrapping_sub(last);
+            last = now;
+        });
+        cost.ticks[0] = counter.now().wrapping_sub(start);
+        let updated = step.status.iter().filter(|s| s.is_ok()).count() as u8;
+        (updated, cost)
     }
-    Ok(())
+
+    /// The pipeline (for telemetry reports).
+    pub fn pipeline(&self) -> &Pipeline<f32> {
+        &self.pipeline
+    }
 }

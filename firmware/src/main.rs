@@ -4,14 +4,16 @@
 //!
 //! | task | priority | does |
 //! |---|---|---|
-//! | `sample` | 3 (highest) | every 10 ms (100 Hz): timestamps a sample and `try_send`s it; never blocks |
-//! | `estimate` | 2 | receives each sample and runs [`estimate::step`] on it, timed with DWT CYCCNT |
-//! | `telemetry` | 1 | once per second: reports the counters ([`telemetry::Stats`]) |
+//! | `sample` | 3 (highest) | every 10 ms (100 Hz): reads the sensors ([`board::SensorSource`]), timestamps, `try_send`s; never blocks |
+//! | `estimate` | 2 | receives each sample and runs the six-coefficient pipeline on it ([`estimate`]), timed stage by stage |
+//! | `telemetry` | 1 | every 500 ms: MAVLink coefficient reports, counters, heartbeat ([`telemetry`]) |
 //! | `idle` | — | sleeps in WFI |
 //!
 //! If the estimator falls behind, the channel fills and `sample` drops (and counts) samples instead
-//! of waiting: the sampling period never slips. This file is wiring only; the bodies live in
-//! [`board`], [`sample`], [`estimate`] and [`telemetry`].
+//! of waiting: the sampling period never slips. Under the `qemu` feature the board replays a log
+//! instead of reading sensors ([`board`]): `sample` then waits for room in the channel (a replay
+//! must not drop samples) and does not wait for the period, and the end of the log ends the run
+//! with a final report and QEMU's exit status. This file is wiring only.
 //!
 //! On the host (`target_os` other than `"none"`) the crate compiles to a stub `fn main() {}`, so
 //! `cargo build --workspace` works on x86_64; build the firmware with `cargo fw-build`.
@@ -27,10 +29,13 @@ mod sample;
 #[cfg(target_os = "none")]
 mod telemetry;
 
-#[cfg(target_os = "none")]
+#[cfg(all(target_os = "none", not(feature = "qemu")))]
 use defmt_rtt as _;
-#[cfg(target_os = "none")]
+#[cfg(all(target_os = "none", feature = "qemu"))]
+use defmt_semihosting as _;
+#[cfg(all(target_os = "none", not(feature = "qemu")))]
 use panic_probe as _;
+// Under QEMU the `semihosting` crate's panic handler prints the message and exits with status 101.
 
 /// Host stub: the firmware only exists for `thumbv7em-none-eabihf`.
 #[cfg(not(target_os = "none"))]
@@ -41,8 +46,10 @@ fn main() {}
 #[cfg(target_os = "none")]
 #[rtic::app(device = stm32f4::stm32f405, peripherals = true, dispatchers = [FSMC, CAN2_RX1, CAN2_SCE])]
 mod app {
-    use crate::{board, sample::Sample, sample::Sampler, telemetry::Stats};
-    use cortex_m::peripheral::DWT;
+    use crate::board::{self, SensorSource};
+    use crate::estimate::Estimator;
+    use crate::sample::{Sample, Sampler};
+    use crate::telemetry::{Link, Stats, REPORT_PERIOD_MS};
     use rtic_monotonics::systick::prelude::*;
     use rtic_sync::{
         channel::{Receiver, Sender},
@@ -50,69 +57,93 @@ mod app {
     };
 
     // SysTick monotonic at 1 kHz: 1 ms ticks. Its 32-bit tick count covers 49.7 days of uptime.
-    // (A literal: the macro needs the rate both as a `u32` and as a `u64` const generic.)
     systick_monotonic!(Mono, 1_000);
 
     /// Sampling period: 100 Hz.
     const SAMPLE_PERIOD_MS: u32 = 10;
-    /// Telemetry period: 1 Hz.
-    const TELEMETRY_PERIOD_MS: u32 = 1_000;
     /// Samples the channel holds: 80 ms of slack for the estimator before samples are dropped.
     const SAMPLE_QUEUE: usize = 8;
-
     /// µs per monotonic tick (1 kHz).
     const US_PER_TICK: u64 = 1_000;
 
-    // defmt timestamps, ms since boot (0 until the monotonic starts).
+    /// What the `sample` task sends: a sample, or the end of a replay.
+    #[derive(Clone, Copy, Debug)]
+    pub enum Msg {
+        /// The next sample.
+        Sample(Sample),
+        /// The sensor source ended (replay only).
+        End,
+    }
+
     defmt::timestamp!("{=u32:ms}", Mono::now().duration_since_epoch().as_ticks());
 
     #[shared]
     struct Shared {
         stats: Stats,
+        estimator: Estimator,
+        out: Out,
+    }
+
+    /// The telemetry UART and its MAVLink writer (shared by the periodic and the final report).
+    pub struct Out {
+        port: board::Port,
+        link: Link,
     }
 
     #[local]
     struct Local {
-        tx: Sender<'static, Sample, SAMPLE_QUEUE>,
-        rx: Receiver<'static, Sample, SAMPLE_QUEUE>,
+        tx: Sender<'static, Msg, SAMPLE_QUEUE>,
+        rx: Receiver<'static, Msg, SAMPLE_QUEUE>,
         sampler: Sampler,
+        sensors: board::Sensors,
+        counter: board::CycleCounter,
+        counts: board::CountLog,
     }
 
     #[init]
     fn init(cx: init::Context) -> (Shared, Local) {
-        let dp = cx.device;
+        board::stack::paint();
         let mut core = cx.core;
-
-        let clocks = board::init_clocks(&dp.RCC, &dp.FLASH, &dp.PWR);
-        board::keep_debug_in_sleep(&dp.DBGMCU, &dp.RCC);
-        board::enable_cycle_counter(&mut core.DCB, &mut core.DWT);
+        let clocks = board::clocks::init_clocks(&cx.device.RCC, &cx.device.FLASH, &cx.device.PWR);
+        board::clocks::keep_debug_in_sleep(&cx.device.DBGMCU, &cx.device.RCC);
+        board::clocks::enable_cycle_counter(&mut core.DCB, &mut core.DWT);
         Mono::start(core.SYST, clocks.sysclk_hz);
-
         defmt::info!(
             "aerosid-firmware {=str}, aerosid-core {=str}; clocks {}",
             env!("CARGO_PKG_VERSION"),
             aerosid_core::VERSION,
             clocks
         );
-        if clocks.source != board::ClockSource::HsePll {
-            defmt::warn!("clock tree not on the crystal PLL: timing is less accurate");
-        }
+        let b = board::init(cx.device, &clocks);
 
-        let (tx, rx) = make_channel!(Sample, SAMPLE_QUEUE);
-
-        // Each task is spawned exactly once, here, so these cannot fail; check anyway.
+        let estimator = match Estimator::new() {
+            Ok(e) => e,
+            Err(e) => {
+                // A configuration error is a build defect; stop here, visibly.
+                defmt::error!("init: estimator configuration refused: {}", e);
+                board::halt(2)
+            }
+        };
+        let (tx, rx) = make_channel!(Msg, SAMPLE_QUEUE);
         if sample::spawn().is_err() || estimate::spawn().is_err() || telemetry::spawn().is_err() {
             defmt::error!("init: a task was already running");
         }
-
         (
             Shared {
                 stats: Stats::default(),
+                estimator,
+                out: Out {
+                    port: b.telemetry,
+                    link: Link::default(),
+                },
             },
             Local {
                 tx,
                 rx,
                 sampler: Sampler::default(),
+                sensors: b.sensors,
+                counter: b.counter,
+                counts: b.counts,
             },
         )
     }
@@ -125,43 +156,94 @@ mod app {
         }
     }
 
-    /// 100 Hz: timestamp, push, nothing else. A full channel drops the sample (counted), never waits.
-    #[task(priority = 3, local = [tx, sampler], shared = [stats])]
+    /// 100 Hz: read, timestamp, push. A full channel drops the sample (counted), never waits.
+    #[task(priority = 3, local = [tx, sampler, sensors], shared = [stats])]
     async fn sample(mut cx: sample::Context) {
         let nominal_dt_s = SAMPLE_PERIOD_MS as f32 * 1e-3;
         let mut next = Mono::now();
         loop {
             let t_us = u64::from(Mono::now().duration_since_epoch().as_ticks()) * US_PER_TICK;
-            let sample = cx.local.sampler.take(t_us, nominal_dt_s);
-            let queued = cx.local.tx.try_send(sample).is_ok();
-            cx.shared.stats.lock(|stats| stats.record_sample(queued));
-
-            next += SAMPLE_PERIOD_MS.millis();
-            Mono::delay_until(next).await;
+            let (t_s, dt_s) = cx.local.sampler.stamp(t_us, nominal_dt_s);
+            let Some(sensors) = cx.local.sensors.read(t_s, dt_s) else {
+                let _ = cx.local.tx.send(Msg::End).await;
+                return;
+            };
+            let msg = Msg::Sample(cx.local.sampler.number(sensors));
+            let faults = cx.local.sensors.faults();
+            #[cfg(feature = "qemu")]
+            let queued = cx.local.tx.send(msg).await.is_ok();
+            #[cfg(not(feature = "qemu"))]
+            let queued = cx.local.tx.try_send(msg).is_ok();
+            cx.shared.stats.lock(|stats| {
+                stats.record_sample(queued);
+                stats.faults = faults;
+            });
+            #[cfg(not(feature = "qemu"))]
+            {
+                next += SAMPLE_PERIOD_MS.millis();
+                Mono::delay_until(next).await;
+            }
+            #[cfg(feature = "qemu")]
+            let _ = &mut next;
         }
     }
 
-    /// Runs the estimator on every sample, timing each step in core cycles.
-    #[task(priority = 2, local = [rx], shared = [stats])]
+    /// Runs the estimator on every sample, timing each stage with the board's counter.
+    #[task(priority = 2, local = [rx, counter, counts], shared = [stats, estimator])]
     async fn estimate(mut cx: estimate::Context) {
-        while let Ok(sample) = cx.local.rx.recv().await {
-            let start = DWT::cycle_count();
-            let result = crate::estimate::step(&sample);
-            let cycles = DWT::cycle_count().wrapping_sub(start);
-            cx.shared.stats.lock(|stats| stats.record_step(result, cycles));
+        while let Ok(msg) = cx.local.rx.recv().await {
+            match msg {
+                Msg::Sample(sample) => {
+                    let counter = &*cx.local.counter;
+                    let (updated, cost) = cx.shared.estimator.lock(|e| e.step(&sample, counter));
+                    cx.shared.stats.lock(|stats| stats.record_step(updated, cost));
+                    cx.local.counts.write(&cost.ticks);
+                }
+                Msg::End => {
+                    #[cfg(feature = "qemu")]
+                    {
+                        let stats = cx.shared.stats.lock(|s| *s);
+                        cx.shared
+                            .estimator
+                            .lock(|e| crate::telemetry::log_estimates(e.pipeline()));
+                        defmt::info!(
+                            "replay done: {} samples, {} updates, stack high water {=u32} B",
+                            stats.estimated,
+                            stats.updates,
+                            board::stack::high_water_bytes()
+                        );
+                        if final_report::spawn().is_err() {
+                            board::halt(3);
+                        }
+                    }
+                    return;
+                }
+            }
         }
-        defmt::error!("estimate: sample channel closed");
     }
 
-    /// 1 Hz: reports a copy of the counters (the lock is held only for the copy).
-    #[task(priority = 1, shared = [stats])]
+    /// Every [`REPORT_PERIOD_MS`]: the MAVLink reports (the pipeline is locked only to read it).
+    #[task(priority = 1, shared = [stats, estimator, out])]
     async fn telemetry(mut cx: telemetry::Context) {
         let mut next = Mono::now();
         loop {
-            next += TELEMETRY_PERIOD_MS.millis();
+            next += REPORT_PERIOD_MS.millis();
             Mono::delay_until(next).await;
-            let stats = cx.shared.stats.lock(|stats| *stats);
-            crate::telemetry::report(&stats);
+            let stats = cx.shared.stats.lock(|s| *s);
+            let t_us = u64::from(Mono::now().duration_since_epoch().as_ticks()) * US_PER_TICK;
+            (&mut cx.shared.estimator, &mut cx.shared.out)
+                .lock(|e, out| out.link.send(e.pipeline(), &stats, t_us, &mut out.port));
         }
+    }
+
+    /// The end of a replay: one last report, then QEMU exits with status 0.
+    #[cfg(feature = "qemu")]
+    #[task(priority = 1, shared = [stats, estimator, out])]
+    async fn final_report(mut cx: final_report::Context) {
+        let stats = cx.shared.stats.lock(|s| *s);
+        let t_us = u64::from(Mono::now().duration_since_epoch().as_ticks()) * US_PER_TICK;
+        (&mut cx.shared.estimator, &mut cx.shared.out)
+            .lock(|e, out| out.link.send(e.pipeline(), &stats, t_us, &mut out.port));
+        board::halt(0)
     }
 }

@@ -7,11 +7,12 @@
 //! `skywalker_2013_mod` data a positive elevator gives a nose-up moment (`Cmδe > 0` there).
 
 pub mod model;
+pub mod onboard;
 pub mod pipeline;
 pub mod synthesis;
 
 pub use model::{AeroModels, CoefficientModel, Regressor, SensorNoise};
-pub use pipeline::{Health, Limits, Pipeline, PipelineSettings, PipelineStep, Refusal};
+pub use pipeline::{Health, Limits, Pipeline, PipelineSettings, PipelineStep, Refusal, Stage};
 pub use synthesis::{synthesise, Coefficients, ForceAxes, RateDifferentiator, Synthesis, SynthesisSettings};
 
 use crate::Real;
@@ -155,5 +156,85 @@ impl<T: Real> Airframe<T> {
                 pitch_rad: c(p.pitch_rad),
             },
         }
+    }
+}
+
+/// Number of scalar fields of a [`SensorSample`] (vectors count three), in the CSV column order.
+pub const SAMPLE_FIELDS: usize = 20;
+
+/// Bytes of one binary replay record: the [`SAMPLE_FIELDS`] fields of a [`SensorSample`] as
+/// little-endian `f32`, in the CSV column order (the firmware's QEMU replay reads these; the host
+/// writes them from a CSV log, so the target needs no text parsing).
+pub const REPLAY_RECORD_BYTES: usize = SAMPLE_FIELDS * 4;
+
+impl<T: Real> SensorSample<T> {
+    /// The fields in the CSV column order: `t_s, dt_s, accel_mps2_{x,y,z}, gyro_rad_s_{x,y,z},
+    /// airspeed_mps, alpha_rad, beta_rad, euler_rad_{x,y,z}, prop_speed_rad_s, elevator_rad,
+    /// aileron_rad, rudder_rad, throttle, air_density_kgpm3`.
+    pub fn to_fields(&self) -> [T; SAMPLE_FIELDS] {
+        let (a, g, e) = (&self.accel_mps2, &self.gyro_rad_s, &self.euler_rad);
+        [
+            self.t_s,
+            self.dt_s,
+            a.x,
+            a.y,
+            a.z,
+            g.x,
+            g.y,
+            g.z,
+            self.airspeed_mps,
+            self.alpha_rad,
+            self.beta_rad,
+            e.x,
+            e.y,
+            e.z,
+            self.prop_speed_rad_s,
+            self.elevator_rad,
+            self.aileron_rad,
+            self.rudder_rad,
+            self.throttle,
+            self.air_density_kgpm3,
+        ]
+    }
+
+    /// The sample from its fields in the CSV column order ([`Self::to_fields`]).
+    pub fn from_fields(f: &[T; SAMPLE_FIELDS]) -> Self {
+        Self {
+            t_s: f[0],
+            dt_s: f[1],
+            accel_mps2: Vector3::new(f[2], f[3], f[4]),
+            gyro_rad_s: Vector3::new(f[5], f[6], f[7]),
+            airspeed_mps: f[8],
+            alpha_rad: f[9],
+            beta_rad: f[10],
+            euler_rad: Vector3::new(f[11], f[12], f[13]),
+            prop_speed_rad_s: f[14],
+            elevator_rad: f[15],
+            aileron_rad: f[16],
+            rudder_rad: f[17],
+            throttle: f[18],
+            air_density_kgpm3: f[19],
+        }
+    }
+}
+
+impl SensorSample<f32> {
+    /// The binary replay record ([`REPLAY_RECORD_BYTES`]).
+    pub fn to_replay_record(&self) -> [u8; REPLAY_RECORD_BYTES] {
+        let mut out = [0u8; REPLAY_RECORD_BYTES];
+        for (chunk, v) in out.chunks_exact_mut(4).zip(self.to_fields().iter()) {
+            chunk.copy_from_slice(&v.to_le_bytes());
+        }
+        out
+    }
+
+    /// The sample of a binary replay record ([`REPLAY_RECORD_BYTES`]); bit-exact inverse of
+    /// [`Self::to_replay_record`] (NaN payloads included).
+    pub fn from_replay_record(b: &[u8; REPLAY_RECORD_BYTES]) -> Self {
+        let mut f = [0.0f32; SAMPLE_FIELDS];
+        for (v, chunk) in f.iter_mut().zip(b.chunks_exact(4)) {
+            *v = f32::from_le_bytes([chunk[0], chunk[1], chunk[2], chunk[3]]);
+        }
+        Self::from_fields(&f)
     }
 }

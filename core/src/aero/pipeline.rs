@@ -213,6 +213,16 @@ pub struct Health {
     pub coefficients: [CoefficientHealth; idx::COUNT],
 }
 
+/// A point in [`Pipeline::process_probed`] where the probe is called.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Stage {
+    /// Channel checks, delay line, differentiator and synthesis done.
+    Synthesis,
+    /// The coefficient of this [`idx`] done (updated or refused).
+    Coefficient(usize),
+}
+
 /// The result of one [`Pipeline::process`] call.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PipelineStep<T: Real> {
@@ -362,6 +372,15 @@ impl<T: Real> Pipeline<T> {
     /// Processes one sample (module doc). Never fails as a whole: each coefficient's outcome is in
     /// [`PipelineStep::status`], and a refused coefficient's estimator is untouched.
     pub fn process(&mut self, sample: &SensorSample<T>) -> PipelineStep<T> {
+        self.process_probed(sample, &mut |_| {})
+    }
+
+    /// [`Self::process`] calling `probe` at the end of each stage: [`Stage::Synthesis`] once the
+    /// sample is checked, delayed and synthesised, then [`Stage::Coefficient`] after each
+    /// coefficient (updated or refused), in [`idx`] order. The core has no clock: the firmware's
+    /// probe reads a counter there (instruction counts under QEMU, DWT cycles on hardware). The
+    /// probe is not called during warm-up.
+    pub fn process_probed(&mut self, sample: &SensorSample<T>, probe: &mut impl FnMut(Stage)) -> PipelineStep<T> {
         let mask = self.settings.limits.valid_channels(sample);
         self.health.samples = self.health.samples.saturating_add(1);
         for bit in 0..channel::COUNT {
@@ -412,6 +431,7 @@ impl<T: Real> Pipeline<T> {
             self.health.axial_speed_fallbacks = self.health.axial_speed_fallbacks.saturating_add(1);
         }
         step.synthesis = syn;
+        probe(Stage::Synthesis);
         let prefilter = self.settings.moment_prefilter;
         for i in 0..idx::COUNT {
             let is_moment = matches!(i, idx::ROLL | idx::PITCH | idx::YAW);
@@ -445,6 +465,7 @@ impl<T: Real> Pipeline<T> {
                     }
                 }
             };
+            probe(Stage::Coefficient(i));
         }
         self.count(&step.status);
         step

@@ -144,3 +144,81 @@ impl Telemetry {
         self.encoder.encode(&m, out)
     }
 }
+
+/// Bits of [`CoefficientReport::health_flags`] as [`reports`] sets them.
+pub mod health_bit {
+    /// Not every noisy direction is excited (`k < n_θ − 1`, eq. 21): the minimum-norm solution is
+    /// in use and `σ` is not defined.
+    pub const UNDER_EXCITED: u32 = 1 << 0;
+    /// No accepted update yet.
+    pub const NO_UPDATES: u32 = 1 << 1;
+    /// Samples were refused for a missing or out-of-range channel.
+    pub const CHANNEL_REFUSALS: u32 = 1 << 2;
+    /// The estimator itself refused samples (numerical gate).
+    pub const ESTIMATOR_REFUSALS: u32 = 1 << 3;
+    /// The parameter covariance (eq. 17) could not be formed.
+    pub const NO_COVARIANCE: u32 = 1 << 4;
+}
+
+fn report_one<const N: usize>(
+    i: usize,
+    g: &crate::Gtls<f32, N, 1, N>,
+    h: &crate::aero::pipeline::CoefficientHealth,
+) -> CoefficientReport {
+    use crate::Estimator;
+    let mut r = CoefficientReport {
+        coefficient: i as u8,
+        theta: [0.0; MAX_PARAMETERS],
+        sigma: [0.0; MAX_PARAMETERS],
+        n_params: N as u8,
+        rank_k: g.excited() as u8,
+        lambda_f: g.lambda(),
+        health_flags: 0,
+        refused: h
+            .refused_channels
+            .saturating_add(h.refused_warmup)
+            .saturating_add(h.refused_estimator),
+    };
+    for (o, v) in r.theta.iter_mut().zip(g.theta().iter()) {
+        *o = *v;
+    }
+    match g.covariance() {
+        Ok(c) => {
+            for (j, o) in r.sigma.iter_mut().take(N).enumerate() {
+                *o = libm::sqrtf(c[(j, j)].max(0.0));
+            }
+        }
+        Err(_) => {
+            r.sigma.iter_mut().take(N).for_each(|o| *o = f32::NAN);
+            r.health_flags |= health_bit::NO_COVARIANCE;
+        }
+    }
+    if g.excited() + 1 < N {
+        r.health_flags |= health_bit::UNDER_EXCITED;
+    }
+    if h.updates == 0 {
+        r.health_flags |= health_bit::NO_UPDATES;
+    }
+    if h.refused_channels > 0 {
+        r.health_flags |= health_bit::CHANNEL_REFUSALS;
+    }
+    if h.refused_estimator > 0 {
+        r.health_flags |= health_bit::ESTIMATOR_REFUSALS;
+    }
+    r
+}
+
+/// The six coefficient reports of an on-board pipeline, indexed by [`idx`]: `θ`, `σ` from the
+/// eq. 17 covariance (one small matrix inversion per coefficient: call it at the telemetry rate,
+/// not per sample), `k`, `λ_F`, the [`health_bit`] flags and the refused-sample count.
+pub fn reports(p: &crate::aero::Pipeline<f32>) -> [CoefficientReport; idx::COUNT] {
+    let h = &p.health().coefficients;
+    [
+        report_one(idx::LIFT, p.lift(), &h[idx::LIFT]),
+        report_one(idx::DRAG, p.drag(), &h[idx::DRAG]),
+        report_one(idx::SIDE, p.side(), &h[idx::SIDE]),
+        report_one(idx::ROLL, p.roll(), &h[idx::ROLL]),
+        report_one(idx::PITCH, p.pitch(), &h[idx::PITCH]),
+        report_one(idx::YAW, p.yaw(), &h[idx::YAW]),
+    ]
+}

@@ -1,4 +1,4 @@
-//! Board bring-up for the STM32F405 on the PAC registers: clock tree, debug in sleep, cycle counter.
+//! Clock tree and debug setup of the STM32F405 on the PAC registers: clock tree, debug in sleep, cycle counter.
 //!
 //! Clock tree (RM0090 §6.2, §6.3.2; datasheet DS8626 table 17 for the limits):
 //!

@@ -1,0 +1,66 @@
+//! The board layer: everything that differs between the flight computer and its QEMU stand-in.
+//!
+//! The application (`main.rs`, [`crate::estimate`], [`crate::telemetry`]) sees only three things:
+//! a [`SensorSource`] that yields one [`SensorSample`] per sampling period, a [`TelemetryPort`] that
+//! sends bytes, and a [`Counter`] that times the estimator. Two boards provide them:
+//!
+//! | board | feature | sensors | telemetry | counter |
+//! |---|---|---|---|---|
+//! | [`hw`] (STM32F405 flight computer) | default | ICM-42688-P (SPI1), MS4525DO + α vane (I2C1), β vane (I2C2), surfaces/RPM from the autopilot (MAVLink on USART2) | MAVLink on USART1 | DWT cycles |
+//! | [`qemu`] (`netduinoplus2`) | `qemu` | a binary replay log read over semihosting | MAVLink on USART1 (QEMU `-serial`) | TIM2 instructions (`-icount shift=0`) |
+//!
+//! Swapping the board swaps nothing else: the same tasks, channel, pipeline and telemetry run.
+
+pub mod clocks;
+#[cfg(not(feature = "qemu"))]
+pub mod hw;
+#[cfg(feature = "qemu")]
+pub mod qemu;
+pub mod stack;
+
+#[cfg(not(feature = "qemu"))]
+pub use hw::{halt, init, CountLog, CycleCounter, Port, Sensors};
+#[cfg(feature = "qemu")]
+pub use qemu::{halt, init, CountLog, CycleCounter, Port, Sensors};
+
+use aerosid_core::aero::SensorSample;
+
+/// Where samples come from.
+pub trait SensorSource {
+    /// Reads every sensor once for the sampling instant `t_s` (s since boot) with `dt_s` since the
+    /// previous sample. A channel whose sensor failed (bus error, stale, out of range) is NaN — never
+    /// a stale or invented value — so the pipeline refuses exactly the coefficients that need it.
+    /// `None` when the source has ended (the end of a replay log; never on hardware).
+    fn read(&mut self, t_s: f32, dt_s: f32) -> Option<SensorSample<f32>>;
+
+    /// Failed reads per sensor since boot, for the telemetry health report.
+    fn faults(&self) -> SensorFaults;
+}
+
+/// Failed reads per sensor since boot (each counter saturates).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, defmt::Format)]
+pub struct SensorFaults {
+    /// IMU (gyro and accelerometer).
+    pub imu: u32,
+    /// Airspeed sensor.
+    pub airspeed: u32,
+    /// α vane.
+    pub alpha_vane: u32,
+    /// β vane.
+    pub beta_vane: u32,
+    /// Surfaces, throttle and RPM from the autopilot (stale or missing).
+    pub surfaces: u32,
+}
+
+/// Where telemetry bytes go (a UART).
+pub trait TelemetryPort {
+    /// Sends `bytes`; blocks only for the time the UART needs to take them.
+    fn send(&mut self, bytes: &[u8]);
+}
+
+/// A free-running 32-bit counter for timing the estimator: DWT cycles on hardware, TIM2
+/// instructions under QEMU. Differences with `wrapping_sub`.
+pub trait Counter {
+    /// The counter now.
+    fn now(&self) -> u32;
+}
