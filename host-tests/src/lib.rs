@@ -15,6 +15,7 @@ pub mod flights;
 pub mod io;
 pub mod mc;
 pub mod plot;
+pub mod qemu;
 pub mod reference;
 pub mod report;
 pub mod sim;
