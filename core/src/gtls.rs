@@ -312,7 +312,7 @@ impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Gtls<T, NT, NE,
             let rho = xe.dot(&kk);
             let e = d_star - self.b * xe;
             (
-                e * (T::one() - rho).maxr(T::zero()).sqrt(),
+                e * (T::one() - rho).maxr(T::zero()).root(),
                 self.b + e * kk.transpose(),
                 g11,
             )
@@ -429,7 +429,7 @@ impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Gtls<T, NT, NE,
     fn threshold_for(n_eff: T, snr: T) -> Option<T> {
         let dof = n_eff - T::lit(NT as f64);
         if dof > T::zero() {
-            Some((T::one() + snr) * dof.sqrt())
+            Some((T::one() + snr) * dof.root())
         } else {
             None
         }
@@ -442,7 +442,7 @@ impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Gtls<T, NT, NE,
         let a = solve_upper(&self.c, &vl);
         let nrm = a.norm();
         let last = a[nx];
-        if !(last.abs() > T::EPS.sqrt() * nrm) {
+        if !(last.abs() > T::EPS.root() * nrm) {
             return None;
         }
         Some(a * (-T::one() / last))
@@ -559,7 +559,7 @@ impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Estimator<T, NT
                 j[(r, c)] = self.c[(nx, nx)] * c_inv[(r, c)];
             }
         }
-        let m = j * cg_inv * scale.sqrt();
+        let m = j * cg_inv * scale.root();
         // cov θ = F₁F₁ᵀ + F₂F₂ᵀ: F₁ carries the TLS part (rows of θ_e get J_e·M), F₂ the LS part of
         // the exact parameters, √(σ_vv·N₂/N_eff)·C₁₁⁻¹ with G₁₁ = C₁₁ᵀC₁₁.
         let mut f1 = SMatrix::<T, NT, NA>::zeros();
@@ -588,7 +588,7 @@ impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Estimator<T, NT
             let jem = je * m;
             let c11 = cholesky_regularised(&self.g11).ok_or(Error::InsufficientExcitation)?;
             let c11_inv = inv_upper(&c11).ok_or(Error::InsufficientExcitation)?;
-            let ls = (s_vv * ratio).sqrt();
+            let ls = (s_vv * ratio).root();
             for r in 0..NE {
                 for c in 0..NA {
                     f1[(r, c)] = jem[(r, c)];

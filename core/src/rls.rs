@@ -85,7 +85,7 @@ impl<T: Real, const NT: usize> Rls<T, NT> {
                 (Lam::Variable(v), l)
             }
         };
-        let sqrt_p = SMatrix::<T, NT, NT>::identity() / settings.pi0.sqrt();
+        let sqrt_p = SMatrix::<T, NT, NT>::identity() / settings.pi0.root();
         Ok(Self {
             settings,
             sqrt_p,
@@ -115,9 +115,9 @@ impl<T: Real, const NT: usize> Rls<T, NT> {
         let gain = s_phi / alpha;
         let nu = z - x.dot(&self.theta);
         self.theta += gain * nu;
-        let gamma = T::one() / (alpha + (lambda * alpha).sqrt());
+        let gamma = T::one() / (alpha + (lambda * alpha).root());
         let shrunk = self.sqrt_p - s_phi * phi.transpose() * gamma; // P − PxxᵀP/α
-        let grown = shrunk / lambda.sqrt();
+        let grown = shrunk / lambda.root();
         self.sqrt_p = if grown.norm_squared() <= self.p_trace_max {
             grown
         } else {
@@ -170,7 +170,7 @@ impl<T: Real, const NT: usize> Estimator<T, NT> for Rls<T, NT> {
             return Err(Error::InsufficientExcitation);
         }
         let sigma2 = self.sse / dof;
-        let f = self.sqrt_p * (sigma2 * self.n_eff2 / self.n_eff).sqrt();
+        let f = self.sqrt_p * (sigma2 * self.n_eff2 / self.n_eff).root();
         Ok(f * f.transpose())
     }
 

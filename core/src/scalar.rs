@@ -22,6 +22,10 @@ pub trait Real: RealField + Copy + Default {
     fn scale_pow2(self, e: i32) -> Self;
     /// The binary exponent `e` with `self = m·2^e`, `0.5 ≤ |m| < 1` (`frexp`); 0 for zero.
     fn exponent(self) -> i32;
+    /// Square root, the one every estimator calls (not `RealField::sqrt`): see the impls.
+    fn root(self) -> Self;
+    /// `(sin x, cos x)`, the one the synthesis calls: see the impls.
+    fn sin_cos_fast(self) -> (Self, Self);
     /// The larger of two numbers (NaN-free inputs assumed).
     #[inline]
     fn maxr(self, other: Self) -> Self {
@@ -57,6 +61,21 @@ impl Real for f32 {
     fn lit(x: f64) -> Self {
         x as f32
     }
+    /// [`sqrt_f32`]: three Newton steps in hardware `f32` (≤ 1 ulp) instead of libm's bit-by-bit
+    /// correctly rounded `sqrtf` (≈ 250 instructions on the Cortex-M4F, which has `vsqrt.f32` but
+    /// no stable way to reach it from safe `no_std` Rust). Host and MCU run the same code, so their
+    /// `f32` results stay bit-identical.
+    #[inline]
+    fn root(self) -> Self {
+        sqrt_f32(self)
+    }
+    /// [`sin_cos_f32`]: polynomials for `|x| ≤ π/4` (the vane angles), libm beyond. libm's `sinf`
+    /// and `cosf` evaluate their kernels in `f64`, which is software on the M4F (≈ 1 300
+    /// instructions per call).
+    #[inline]
+    fn sin_cos_fast(self) -> (Self, Self) {
+        sin_cos_f32(self)
+    }
     #[inline]
     fn to_f64(self) -> f64 {
         self as f64
@@ -82,6 +101,16 @@ impl Real for f64 {
     fn lit(x: f64) -> Self {
         x
     }
+    /// libm's correctly rounded `sqrt`.
+    #[inline]
+    fn root(self) -> Self {
+        libm::sqrt(self)
+    }
+    /// libm's `sincos`.
+    #[inline]
+    fn sin_cos_fast(self) -> (Self, Self) {
+        libm::sincos(self)
+    }
     #[inline]
     fn to_f64(self) -> f64 {
         self
@@ -89,5 +118,90 @@ impl Real for f64 {
     #[inline]
     fn finite(self) -> bool {
         self.is_finite()
+    }
+}
+
+/// `√x` in `f32` within 1 ulp: an exponent-halving first guess (≤ 3.5 % off), then three Newton
+/// steps `y ← (y + x/y)/2` (error 6·10⁻⁴, 2·10⁻⁷, then rounding). Subnormal `x` is scaled by 2²⁴
+/// first. `√±0 = ±0`, `√+∞ = +∞`, NaN for negative or NaN `x` (as IEEE `sqrt`).
+pub fn sqrt_f32(x: f32) -> f32 {
+    if !(x > 0.0) {
+        // ±0 stays, negative and NaN give NaN.
+        return if x == 0.0 { x } else { f32::NAN };
+    }
+    if x == f32::INFINITY {
+        return x;
+    }
+    let (x, scale) = if x < f32::MIN_POSITIVE {
+        (x * 16_777_216.0, 1.0 / 4096.0)
+    } else {
+        (x, 1.0)
+    };
+    let mut y = f32::from_bits((x.to_bits() >> 1) + 0x1fbd_1df5);
+    y = 0.5 * (y + x / y);
+    y = 0.5 * (y + x / y);
+    y = 0.5 * (y + x / y);
+    y * scale
+}
+
+/// `(sin x, cos x)` in `f32`: for `|x| ≤ π/4` odd/even Taylor polynomials to `x¹¹`/`x¹²` in Horner
+/// form (truncation below 10⁻¹¹, so the result is within a few ulp); libm's `sincosf` otherwise.
+pub fn sin_cos_f32(x: f32) -> (f32, f32) {
+    if !(x.abs() <= core::f32::consts::FRAC_PI_4) {
+        return libm::sincosf(x);
+    }
+    let x2 = x * x;
+    let s = x
+        * (1.0
+            + x2 * (-1.0 / 6.0
+                + x2 * (1.0 / 120.0 + x2 * (-1.0 / 5040.0 + x2 * (1.0 / 362_880.0 + x2 * (-1.0 / 39_916_800.0))))));
+    let c = 1.0
+        + x2 * (-0.5
+            + x2 * (1.0 / 24.0
+                + x2 * (-1.0 / 720.0 + x2 * (1.0 / 40_320.0 + x2 * (-1.0 / 3_628_800.0 + x2 / 479_001_600.0)))));
+    (s, c)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Distance in units in the last place between two positive finite `f32`.
+    fn ulps(a: f32, b: f32) -> u32 {
+        a.to_bits().abs_diff(b.to_bits())
+    }
+
+    #[test]
+    fn sqrt_f32_is_within_one_ulp_over_the_whole_range() {
+        // Every 997th bit pattern of the positive finite floats (subnormals included): ≈ 2.1·10⁶ values.
+        let mut worst = 0;
+        let mut bits = 1u32;
+        while bits < f32::INFINITY.to_bits() {
+            let x = f32::from_bits(bits);
+            let exact = (x as f64).sqrt() as f32; // correctly rounded: f64 sqrt then one rounding
+            worst = worst.max(ulps(sqrt_f32(x), exact));
+            bits += 997;
+        }
+        assert!(worst <= 1, "worst {worst} ulp");
+        assert_eq!(sqrt_f32(0.0).to_bits(), 0.0f32.to_bits());
+        assert_eq!(sqrt_f32(-0.0).to_bits(), (-0.0f32).to_bits());
+        assert!(sqrt_f32(-1.0).is_nan() && sqrt_f32(f32::NAN).is_nan());
+        assert_eq!(sqrt_f32(f32::INFINITY), f32::INFINITY);
+    }
+
+    #[test]
+    fn sin_cos_f32_is_within_two_ulp_on_the_polynomial_range_and_libm_beyond() {
+        let mut worst = 0.0f64;
+        for i in -100_000..=100_000 {
+            let x = i as f32 * (core::f32::consts::FRAC_PI_4 / 100_000.0);
+            let (s, c) = sin_cos_f32(x);
+            let (se, ce) = ((x as f64).sin(), (x as f64).cos());
+            // Error in ulps of the exact value (absolute near sin = 0).
+            let es = (s as f64 - se).abs() / (f32::EPSILON as f64 * se.abs().max(f32::MIN_POSITIVE as f64));
+            let ec = (c as f64 - ce).abs() / (f32::EPSILON as f64 * ce.abs());
+            worst = worst.max(es).max(ec);
+        }
+        assert!(worst <= 2.0, "worst {worst} ε relative");
+        assert_eq!(sin_cos_f32(1.0), libm::sincosf(1.0));
     }
 }

@@ -214,7 +214,7 @@ impl<T: Real, const N: usize> Vff<T, N> {
         let sq2 = g_q * self.sq2 + (one - g_q) * q * q; // 28a
         let snu2 = g_nu * self.snu2 + (one - g_nu) * nu * nu; // 28b
         let seps2 = g_eps * self.seps2 + (one - g_eps) * nu * nu; // 28c
-        let (sig_q, sig_nu, sig_eps) = (sq2.sqrt(), snu2.sqrt(), seps2.sqrt());
+        let (sig_q, sig_nu, sig_eps) = (sq2.root(), snu2.root(), seps2.root());
         let lambda_new = if sig_nu <= s.gamma0 * sig_eps {
             s.lambda_max // eq. 32
         } else {

@@ -73,3 +73,12 @@ fn qemu_replay_equals_host_f32_and_meets_the_instruction_budget() {
         "median step {median} > {STEP_BUDGET_MEDIAN} instructions"
     );
 }
+
+#[test]
+#[ignore = "profiling helper: writes target/qemu-prof/replay.bin (60 samples)"]
+fn write_profile_replay() {
+    let samples = flight_samples(30.0, 7);
+    let dir = qemu::workspace_root().join("target").join("qemu-prof");
+    std::fs::create_dir_all(&dir).unwrap();
+    qemu::write_replay(&dir.join("replay.bin"), &samples[1000..1060]).unwrap();
+}

@@ -117,7 +117,8 @@ pub fn propulsion_force_moment<T: Real>(
     out: &PropellerOutput<T>,
     prop_torque_sign: T,
 ) -> (Vector3<T>, Vector3<T>) {
-    let u = Vector3::new(prop.pitch_rad.cos(), T::zero(), -prop.pitch_rad.sin());
+    let (sp, cp) = prop.pitch_rad.sin_cos_fast();
+    let u = Vector3::new(cp, T::zero(), -sp);
     let f = u * out.thrust_n;
     let m = prop.position_m.cross(&f) + Vector3::new(prop_torque_sign * out.torque_nm, T::zero(), T::zero());
     (f, m)
@@ -186,9 +187,11 @@ pub fn synthesise<T: Real>(
     }
     let two = T::lit(2.0);
     let qbar = s.air_density_kgpm3 * V * V / two;
-    let (sa, ca) = s.alpha_rad.sin_cos();
-    let (sb, cb) = s.beta_rad.sin_cos();
-    let axial_mps = V * cb * (s.alpha_rad + airframe.propeller.pitch_rad).cos();
+    let (sa, ca) = s.alpha_rad.sin_cos_fast();
+    let (sb, cb) = s.beta_rad.sin_cos_fast();
+    let (sp, cp) = airframe.propeller.pitch_rad.sin_cos_fast();
+    // cos(α + θ_p) by the addition theorem: no third transcendental call.
+    let axial_mps = V * cb * (ca * cp - sa * sp);
     let prop = propeller_output(&airframe.propeller, s.air_density_kgpm3, axial_mps, s.prop_speed_rad_s);
     let (f_t, m_t) = propulsion_force_moment(&airframe.propeller, &prop, settings.prop_torque_sign);
     let f_a = s.accel_mps2 * airframe.mass_kg - f_t;

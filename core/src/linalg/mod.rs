@@ -38,7 +38,7 @@ pub fn cholesky_upper<T: Real, const N: usize>(a: &SMatrix<T, N, N>) -> Option<S
         if !(d > T::zero()) || !d.finite() {
             return None;
         }
-        let cjj = d.sqrt();
+        let cjj = d.root();
         c[(j, j)] = cjj;
         for i in (j + 1)..N {
             let mut s = a[(j, i)];
@@ -87,7 +87,7 @@ pub fn cholesky_regularised<T: Real, const N: usize>(a: &SMatrix<T, N, N>) -> Op
         tr += sym[(i, i)].abs();
     }
     let n = T::lit(N as f64);
-    let mu = T::lit(16.0) * n * T::EPS * (tr / n).maxr(T::MIN_POSITIVE.sqrt());
+    let mu = T::lit(16.0) * n * T::EPS * (tr / n).maxr(T::MIN_POSITIVE.root());
     let mut ar = sym;
     for i in 0..N {
         ar[(i, i)] += mu;
@@ -156,7 +156,7 @@ pub fn orthonormality_error<T: Real, const N: usize>(v: &SMatrix<T, N, N>) -> T 
             s += d * d;
         }
     }
-    s.sqrt()
+    s.root()
 }
 
 /// Re-orthonormalises the columns of `V` in place by modified Gram–Schmidt, column 0 first.
@@ -181,7 +181,7 @@ pub fn reorthonormalise<T: Real, const N: usize>(v: &mut SMatrix<T, N, N>) -> bo
         for k in 0..N {
             nrm += w[(k, j)] * w[(k, j)];
         }
-        let nrm = nrm.sqrt();
+        let nrm = nrm.root();
         if !(nrm > T::lit(0.5)) || !nrm.finite() {
             return false;
         }

@@ -67,7 +67,7 @@ pub fn rank_one_update<T: Real, const M: usize>(
     lambda: T,
     w: &SVector<T, M>,
 ) -> Option<(SMatrix<T, M, M>, SVector<T, M>, Outcome)> {
-    let sl = lambda.sqrt();
+    let sl = lambda.root();
     // Ascending working order: position k holds column M-1-k of the input.
     let mut a = [T::zero(); M]; // pole square roots √λ·s, ascending
     let mut z = [T::zero(); M]; // z = Vᵀw
@@ -98,7 +98,7 @@ pub fn rank_one_update<T: Real, const M: usize>(
         return Some((*v, s * sl, Outcome::default()));
     }
     let e = big.exponent();
-    let floor = T::MIN_POSITIVE.sqrt();
+    let floor = T::MIN_POSITIVE.root();
     // 2^−e as a factor: multiplying by it is exact (2^−e is representable: |e| ≤ 128 / 1024).
     let down = T::one().scale_pow2(-e);
     for k in 0..M {
@@ -110,7 +110,7 @@ pub fn rank_one_update<T: Real, const M: usize>(
     for zk in z.iter() {
         zn2 += *zk * *zk;
     }
-    let zn = zn2.sqrt();
+    let zn = zn2.root();
     let mut out = Outcome::default();
 
     // 1. Deflation.
@@ -120,7 +120,7 @@ pub fn rank_one_update<T: Real, const M: usize>(
             // The couplings z_k·z_j are negligible; the diagonal term z_k² is kept (exact for the
             // decoupled component), so small increments of a large pole are never lost.
             defl[k] = true;
-            a[k] = (a[k] * a[k] + z[k] * z[k]).sqrt();
+            a[k] = (a[k] * a[k] + z[k] * z[k]).root();
             z[k] = T::zero();
         }
     }
@@ -131,7 +131,7 @@ pub fn rank_one_update<T: Real, const M: usize>(
         }
         if let Some(p) = prev {
             let t = (a[k] - a[p]) * (a[k] + a[p]);
-            let r = (z[p] * z[p] + z[k] * z[k]).sqrt();
+            let r = (z[p] * z[p] + z[k] * z[k]).root();
             let c = z[k] / r;
             let sn = z[p] / r;
             if (t * c * sn).abs() <= local_tol(a[k]) {
@@ -144,8 +144,8 @@ pub fn rank_one_update<T: Real, const M: usize>(
                 }
                 let dp = a[p] * a[p];
                 let dk = a[k] * a[k];
-                a[p] = (dp * c * c + dk * sn * sn).sqrt();
-                a[k] = (dp * sn * sn + dk * c * c).sqrt();
+                a[p] = (dp * c * c + dk * sn * sn).root();
+                a[k] = (dp * sn * sn + dk * c * c).root();
                 z[p] = T::zero();
                 z[k] = r;
                 defl[p] = true;
@@ -240,7 +240,7 @@ pub fn rank_one_update<T: Real, const M: usize>(
         }
         active[r] = true;
     }
-    let small_step = T::lit(0.1) * T::EPS.sqrt();
+    let small_step = T::lit(0.1) * T::EPS.root();
     for _ in 0..MAX_ITERATIONS {
         let mut any = false;
         for r in 0..m {
@@ -336,7 +336,7 @@ pub fn rank_one_update<T: Real, const M: usize>(
                 p *= -diff[i][j] * rpd[j][i];
             }
         }
-        let mag = p.maxr(T::zero()).sqrt();
+        let mag = p.maxr(T::zero()).root();
         zhat[j] = if z[idx[j]] < T::zero() { -mag } else { mag };
     }
     // New values and vectors, then sort decreasingly.
@@ -383,7 +383,7 @@ pub fn rank_one_update<T: Real, const M: usize>(
             }
         }
         let uk = u[kq];
-        let nrm = (uk * uk + off).sqrt();
+        let nrm = (uk * uk + off).root();
         if !nrm.finite() {
             return None;
         }
@@ -396,7 +396,7 @@ pub fn rank_one_update<T: Real, const M: usize>(
                 T::one() / nrm
             };
             let e2 = off / (uk * uk);
-            let root = (T::one() + e2).sqrt();
+            let root = (T::one() + e2).root();
             let dk = -e2 / (root * (T::one() + root)); // û_K − 1
             for j in 0..m {
                 let uj = if j == kq { dk } else { u[j] * inv };
@@ -409,7 +409,7 @@ pub fn rank_one_update<T: Real, const M: usize>(
             cols[(row, slot)] = qc[kq][row] + acc[row];
         }
         let ak = ac[kq];
-        sig[slot] = (ak * ak + tau[r]).maxr(T::zero()).sqrt();
+        sig[slot] = (ak * ak + tau[r]).maxr(T::zero()).root();
         slot += 1;
     }
     // Insertion sort by decreasing σ (M is small), carrying the columns.
@@ -479,7 +479,7 @@ fn quadratic_root_in<T: Real>(qa: T, qb: T, qc: T, lo: T, hi: T) -> Option<T> {
         let e = qc / qb;
         return if inside(e) { Some(e) } else { None };
     }
-    let disc = (qb * qb - T::lit(4.0) * qa * qc).maxr(T::zero()).sqrt();
+    let disc = (qb * qb - T::lit(4.0) * qa * qc).maxr(T::zero()).root();
     let qq = if qb >= T::zero() {
         (qb + disc) * T::lit(0.5)
     } else {
@@ -526,9 +526,9 @@ mod tests {
                         continue;
                     }
                     let theta = (a[(q, q)] - a[(p, p)]) / (2.0 * a[(p, q)]);
-                    let t = theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt());
+                    let t = theta.signum() / (theta.abs() + (theta * theta + 1.0).root());
                     let t = if theta == 0.0 { 1.0 } else { t };
-                    let c = 1.0 / (t * t + 1.0).sqrt();
+                    let c = 1.0 / (t * t + 1.0).root();
                     let sn = t * c;
                     for k in 0..M {
                         let akp = a[(k, p)];
@@ -561,7 +561,7 @@ mod tests {
         let (v2, s2, _) = rank_one_update(&v, &s, lam, &w).unwrap();
         let ev = jacobi_eigenvalues(g);
         for i in 0..M {
-            let e = ev[i].max(0.0).sqrt();
+            let e = ev[i].max(0.0).root();
             assert!(
                 (s2[i] * s2[i] - ev[i]).abs() <= tol * ev[0],
                 "σ_{i}: {} vs {}",
