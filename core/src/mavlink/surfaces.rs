@@ -100,8 +100,14 @@ pub struct ServoCalibration {
 
 impl ServoCalibration {
     /// Deflection for `pwm_us`, clamped to the limits, rad.
+    ///
+    /// `max` then `min`, not `f32::clamp`: `clamp` panics when `min > max` (which
+    /// [`SurfaceConfig::validate`] excludes, but the compiler cannot see it), and that panic's
+    /// message brings ≈ 20 KB of float formatting into the firmware.
     pub fn deflection_rad(&self, pwm_us: u16) -> f32 {
-        ((f32::from(pwm_us) - self.pwm_neutral_us) * self.rad_per_us).clamp(self.limits_rad.0, self.limits_rad.1)
+        ((f32::from(pwm_us) - self.pwm_neutral_us) * self.rad_per_us)
+            .max(self.limits_rad.0)
+            .min(self.limits_rad.1)
     }
 
     fn valid(&self) -> bool {
