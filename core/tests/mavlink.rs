@@ -11,7 +11,7 @@
 use aerosid_core::mavlink::crc::crc16_mcrf4xx;
 use aerosid_core::mavlink::frame::{frame_crc, truncated_len, MAV_COMP_ID_ONBOARD_COMPUTER, MAX_FRAME_LEN};
 use aerosid_core::mavlink::messages::{
-    DebugFloatArray, EscStatus, Heartbeat, MavMessage, Message, NamedValueFloat, Rpm, ServoOutputRaw,
+    Attitude, DebugFloatArray, EscStatus, Heartbeat, MavMessage, Message, NamedValueFloat, Rpm, ServoOutputRaw,
 };
 use aerosid_core::mavlink::parser::Version;
 use aerosid_core::mavlink::surfaces::{RpmSource, ServoCalibration, ThrottleCalibration};
@@ -69,6 +69,13 @@ const ESC_STATUS: [u8; 56] = [
     0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x50, 0x40, 0xFE, 0x05,
 ];
 
+/// `attitude_encode(123456, 0.1, -0.25, 3.0, 0.5, 0, 0)`, system 1, component 1, seq 12 (payload
+/// truncated to 20 bytes: the zero `pitchspeed`, `yawspeed`).
+const ATTITUDE_TRUNCATED: [u8; 32] = [
+    0xFD, 0x14, 0x00, 0x00, 0x0C, 0x01, 0x01, 0x1E, 0x00, 0x00, 0x40, 0xE2, 0x01, 0x00, 0xCD, 0xCC, 0xCC, 0x3D, 0x00,
+    0x00, 0x80, 0xBE, 0x00, 0x00, 0x40, 0x40, 0x00, 0x00, 0x00, 0x3F, 0x87, 0x67,
+];
+
 /// The `SERVO_OUTPUT_RAW` above signed by pymavlink (seq 10, secret key bytes 0…31, link id 3,
 /// timestamp 0x0102030405): incompat flag 0x01 and a 13-byte signature after the checksum.
 const SERVO_OUTPUT_RAW_SIGNED: [u8; 48] = [
@@ -83,7 +90,15 @@ const SERVO_OUTPUT_RAW_V1: [u8; 29] = [
     0x04, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x45, 0xEB,
 ];
 
-/// `attitude_encode(1000, 0.1, -0.2, 0.3, 0.01, 0.02, 0.03)` (#30, unknown to the parser), seq 12.
+/// `global_position_int_encode(1000, 473977420, 85455940, 500000, 20000, 100, -50, 10, 18000)` (#33,
+/// unknown to the parser), system 1, component 1, seq 12.
+const GLOBAL_POSITION_INT: [u8; 40] = [
+    0xFD, 0x1C, 0x00, 0x00, 0x0C, 0x01, 0x01, 0x21, 0x00, 0x00, 0xE8, 0x03, 0x00, 0x00, 0x4C, 0x52, 0x40, 0x1C, 0x44,
+    0xF4, 0x17, 0x05, 0x20, 0xA1, 0x07, 0x00, 0x20, 0x4E, 0x00, 0x00, 0x64, 0x00, 0xCE, 0xFF, 0x0A, 0x00, 0x50, 0x46,
+    0x85, 0x8C,
+];
+
+/// `attitude_encode(1000, 0.1, -0.2, 0.3, 0.01, 0.02, 0.03)` (#30), system 1, component 1, seq 12.
 const ATTITUDE: [u8; 40] = [
     0xFD, 0x1C, 0x00, 0x00, 0x0C, 0x01, 0x01, 0x1E, 0x00, 0x00, 0xE8, 0x03, 0x00, 0x00, 0xCD, 0xCC, 0xCC, 0x3D, 0xCD,
     0xCC, 0x4C, 0xBE, 0x9A, 0x99, 0x99, 0x3E, 0x0A, 0xD7, 0x23, 0x3C, 0x0A, 0xD7, 0xA3, 0x3C, 0x8F, 0xC2, 0xF5, 0x3C,
@@ -149,6 +164,34 @@ fn crc_extra_values_match_the_spec() {
     assert_eq!(NamedValueFloat::SPEC.crc_extra, 170);
     assert_eq!(EscStatus::SPEC.crc_extra, 10);
     assert_eq!(DebugFloatArray::SPEC.crc_extra, 232);
+    assert_eq!(Attitude::SPEC.crc_extra, 39);
+}
+
+#[test]
+fn golden_attitude_parse_and_encode() {
+    let (frames, p) = parse(&ATTITUDE_TRUNCATED);
+    assert_eq!(frames.len(), 1, "{:?}", p.stats());
+    let expected = Attitude {
+        time_boot_ms: 123_456,
+        euler_rad: [0.1, -0.25, 3.0],
+        rate_rad_s: [0.5, 0.0, 0.0],
+    };
+    assert_eq!(frames[0].message, Message::Attitude(expected));
+    let mut buf = [0u8; MAX_FRAME_LEN];
+    let mut e = Encoder::new(1, 1);
+    for _ in 0..12 {
+        e.encode(&Attitude::default(), &mut buf).unwrap();
+    }
+    let n = e.encode(&expected, &mut buf).unwrap(); // seq 12
+    assert_eq!(&buf[..n], &ATTITUDE_TRUNCATED[..]);
+    // The full 28-byte payload.
+    let (frames, _) = parse(&ATTITUDE);
+    let full = Attitude {
+        time_boot_ms: 1000,
+        euler_rad: [0.1, -0.2, 0.3],
+        rate_rad_s: [0.01, 0.02, 0.03],
+    };
+    assert_eq!(frames.first().map(|f| f.message), Some(Message::Attitude(full)));
 }
 
 // ---- golden frames: encoder ----
@@ -396,7 +439,7 @@ fn oversized_length_rejected_at_the_header() {
     assert_eq!(frames.len(), 1);
     assert_eq!(p.stats().bad_length, 1);
     // The full 255 on an unknown id swallows what follows until the skip fails to be confirmed.
-    let mut bad = ATTITUDE;
+    let mut bad = GLOBAL_POSITION_INT;
     bad[1] = 255;
     let mut stream = bad.to_vec();
     for _ in 0..5 {
@@ -417,9 +460,9 @@ fn oversized_length_rejected_at_the_header() {
 
 #[test]
 fn unknown_id_skipped() {
-    let mut stream = ATTITUDE.to_vec();
+    let mut stream = GLOBAL_POSITION_INT.to_vec();
     stream.extend_from_slice(&SERVO_OUTPUT_RAW);
-    stream.extend_from_slice(&ATTITUDE);
+    stream.extend_from_slice(&GLOBAL_POSITION_INT);
     stream.extend_from_slice(&RPM);
     let (frames, p) = parse(&stream);
     assert_eq!(frames.len(), 2);
@@ -427,7 +470,7 @@ fn unknown_id_skipped() {
     assert_eq!(p.stats().discarded_bytes, 0);
     // An unknown id whose payload holds start bytes is skipped whole.
     let mut e = Encoder::new(1, 1);
-    let mut odd = ATTITUDE;
+    let mut odd = GLOBAL_POSITION_INT;
     odd[7] = 0x7F; // id 127: unknown
     odd[14] = 0xFD;
     odd[20] = 0xFE;
@@ -582,6 +625,7 @@ fn config() -> SurfaceConfig {
         rpm: RpmSource::ArduPilotRpm { sensor: 0 },
         rpm_scale: 1.0,
         rpm_timeout_us: 500_000,
+        attitude_timeout_us: 200_000,
     }
 }
 
@@ -694,6 +738,28 @@ fn prop_speed_from_rpm_sources() {
     c.rpm = RpmSource::None;
     let mut s = MavlinkSurfaces::new(c).unwrap();
     assert_eq!(s.prop_speed_rad_s(0), Err(SurfaceError::NoRpmSource));
+}
+
+#[test]
+fn euler_angles_from_attitude() {
+    let mut s = MavlinkSurfaces::new(config()).unwrap();
+    assert_eq!(s.euler_rad(0), Err(SurfaceError::NoData));
+    s.receive(&ATTITUDE_TRUNCATED, 1_000);
+    assert_eq!(s.euler_rad(1_000), Ok([0.1, -0.25, 3.0]));
+    assert_eq!(s.euler_rad(201_000), Ok([0.1, -0.25, 3.0]));
+    assert!(matches!(s.euler_rad(201_001), Err(SurfaceError::Stale { .. })));
+    assert_eq!(s.euler_rad(999), Err(SurfaceError::TimeWentBackwards));
+    // Another system's attitude is not ours.
+    let mut s = MavlinkSurfaces::new(config()).unwrap();
+    s.receive(&frame_bytes(&Attitude::default(), 2), 0);
+    assert_eq!(s.euler_rad(0), Err(SurfaceError::NoData));
+    // A NaN angle is refused.
+    let nan = Attitude {
+        euler_rad: [0.0, f32::NAN, 0.0],
+        ..Attitude::default()
+    };
+    s.receive(&frame_bytes(&nan, 1), 0);
+    assert_eq!(s.euler_rad(0), Err(SurfaceError::AttitudeInvalid));
 }
 
 #[test]

@@ -7,6 +7,7 @@
 //! | `sample` | 3 (highest) | every 10 ms (100 Hz): reads the sensors ([`board::SensorSource`]), timestamps, `try_send`s; never blocks |
 //! | `estimate` | 2 | receives each sample and runs the six-coefficient pipeline on it ([`estimate`]), timed stage by stage |
 //! | `telemetry` | 1 | every 500 ms: MAVLink coefficient reports, counters, heartbeat ([`telemetry`]) |
+//! | `usart2` | 4 (hardware, flight computer only) | each byte from the autopilot into the board's ring ([`board`]) |
 //! | `idle` | — | sleeps in WFI |
 //!
 //! If the estimator falls behind, the channel fills and `sample` drops (and counts) samples instead
@@ -98,6 +99,8 @@ mod app {
         sensors: board::Sensors,
         counter: board::CycleCounter,
         counts: board::CountLog,
+        #[cfg(not(feature = "qemu"))]
+        autopilot_rx: board::AutopilotRx,
     }
 
     #[init]
@@ -144,6 +147,8 @@ mod app {
                 sensors: b.sensors,
                 counter: b.counter,
                 counts: b.counts,
+                #[cfg(not(feature = "qemu"))]
+                autopilot_rx: b.autopilot_rx,
             },
         )
     }
@@ -186,6 +191,14 @@ mod app {
             #[cfg(feature = "qemu")]
             let _ = &mut next;
         }
+    }
+
+    /// USART2 receive interrupt: the autopilot's MAVLink bytes into the board's ring (a few dozen
+    /// cycles; above `sample`, so no byte is lost while the sensors are read).
+    #[cfg(not(feature = "qemu"))]
+    #[task(binds = USART2, priority = 4, local = [autopilot_rx])]
+    fn usart2(cx: usart2::Context) {
+        cx.local.autopilot_rx.on_interrupt();
     }
 
     /// Runs the estimator on every sample, timing each stage with the board's counter.

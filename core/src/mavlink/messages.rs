@@ -173,6 +173,49 @@ impl Decode for Heartbeat {
     }
 }
 
+/// `ATTITUDE` (#30). Payload: `time_boot_ms` u32 @0, `roll` f32 @4, `pitch` f32 @8, `yaw` f32 @12,
+/// `rollspeed` f32 @16, `pitchspeed` f32 @20, `yawspeed` f32 @24 (28 bytes). The autopilot's
+/// attitude estimate: 3-2-1 Euler angles of the body (FRD) relative to the local NED frame.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Attitude {
+    /// The autopilot's time since boot, ms.
+    pub time_boot_ms: u32,
+    /// Roll φ, pitch θ, yaw ψ, rad.
+    pub euler_rad: [f32; 3],
+    /// Body rates p, q, r, rad/s.
+    pub rate_rad_s: [f32; 3],
+}
+
+impl MavMessage for Attitude {
+    const SPEC: MessageSpec = MessageSpec {
+        id: 30,
+        crc_extra: 39,
+        base_len: 28,
+        max_len: 28,
+    };
+}
+
+impl Encode for Attitude {
+    fn encode_payload(&self, p: &mut Payload) {
+        put(p, 0, &self.time_boot_ms.to_le_bytes());
+        for (i, v) in self.euler_rad.iter().chain(self.rate_rad_s.iter()).enumerate() {
+            put(p, 4 + 4 * i, &v.to_le_bytes());
+        }
+    }
+}
+
+impl Decode for Attitude {
+    fn decode_payload(p: &Payload) -> Self {
+        let f = |i: usize| get_f32(p, 4 + 4 * i);
+        Self {
+            time_boot_ms: get_u32(p, 0),
+            euler_rad: [f(0), f(1), f(2)],
+            rate_rad_s: [f(3), f(4), f(5)],
+        }
+    }
+}
+
 /// `SERVO_OUTPUT_RAW` (#36). Payload: `time_usec` u32 @0, `servo1_raw`…`servo8_raw` u16 @4…18,
 /// `port` u8 @20; extensions `servo9_raw`…`servo16_raw` u16 @21…35 (21 bytes base, 37 with them).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -418,6 +461,8 @@ impl Decode for DebugFloatArray {
 pub enum Message {
     /// `HEARTBEAT` (#0).
     Heartbeat(Heartbeat),
+    /// `ATTITUDE` (#30).
+    Attitude(Attitude),
     /// `SERVO_OUTPUT_RAW` (#36).
     ServoOutputRaw(ServoOutputRaw),
     /// `RPM` (#226).
@@ -431,8 +476,9 @@ pub enum Message {
 }
 
 /// The messages the parser knows (every other id is skipped unverified).
-pub const KNOWN: [MessageSpec; 6] = [
+pub const KNOWN: [MessageSpec; 7] = [
     Heartbeat::SPEC,
+    Attitude::SPEC,
     ServoOutputRaw::SPEC,
     Rpm::SPEC,
     NamedValueFloat::SPEC,
@@ -450,6 +496,7 @@ impl Message {
     pub fn decode(id: u32, payload: &Payload) -> Option<Self> {
         Some(match id {
             0 => Self::Heartbeat(Heartbeat::decode_payload(payload)),
+            30 => Self::Attitude(Attitude::decode_payload(payload)),
             36 => Self::ServoOutputRaw(ServoOutputRaw::decode_payload(payload)),
             226 => Self::Rpm(Rpm::decode_payload(payload)),
             251 => Self::NamedValueFloat(NamedValueFloat::decode_payload(payload)),
@@ -463,6 +510,7 @@ impl Message {
     pub fn id(&self) -> u32 {
         match self {
             Self::Heartbeat(_) => Heartbeat::SPEC.id,
+            Self::Attitude(_) => Attitude::SPEC.id,
             Self::ServoOutputRaw(_) => ServoOutputRaw::SPEC.id,
             Self::Rpm(_) => Rpm::SPEC.id,
             Self::NamedValueFloat(_) => NamedValueFloat::SPEC.id,

@@ -10,7 +10,7 @@
 //! whole 64 KB budget; `mavlink-core` has `assert!`/slice-index panics on its paths; extension
 //! fields (e.g. `SERVO_OUTPUT_RAW.servo9_raw`) need the extra `mav2-message-extensions` feature; it
 //! reads through `embedded-io` rather than a byte-at-a-time state machine; and it needs rustc 1.88.
-//! We need six messages, so they are written here from the official definitions ([`messages`]),
+//! We need seven messages, so they are written here from the official definitions ([`messages`]),
 //! ≈7.7 KB of flash for heartbeat, six reports, parser and [`surfaces::MavlinkSurfaces`] (measured the
 //! same way),
 //! with `CRC_EXTRA` values and payload layouts checked against pymavlink (golden frames in
@@ -60,9 +60,11 @@
 //! in its doc). [`surfaces::MavlinkSurfaces`] keeps the newest `SERVO_OUTPUT_RAW` (#36, PWM µs per
 //! output, all 16 outputs) and RPM from ArduPilot's `RPM` (#226, `ardupilotmega.xml`; ArduPilot does
 //! not send `ESC_STATUS`) or PX4's `ESC_STATUS` (#291, `common.xml`), and implements
-//! [`surfaces::SurfaceSource`] with per-channel linear calibrations and staleness errors. The
-//! autopilot must be set to stream `SERVO_OUTPUT_RAW` (and `RPM`) on that port at the rate the
-//! timeouts assume (e.g. ArduPilot `SRn_RC_CHAN`, `SRn_EXTRA3`).
+//! [`surfaces::SurfaceSource`] with per-channel linear calibrations and staleness errors. It also
+//! keeps the newest `ATTITUDE` (#30) for the attitude the co-processor cannot estimate itself
+//! ([`surfaces::MavlinkSurfaces::euler_rad`]). The autopilot must be set to stream
+//! `SERVO_OUTPUT_RAW`, `ATTITUDE` (and `RPM`) on that port at the rate the timeouts assume (e.g.
+//! ArduPilot `SRn_RC_CHAN`, `SRn_EXTRA1`, `SRn_EXTRA3`).
 //!
 //! The link is transmit-only for commands: the co-processor decodes no command, mission or
 //! parameter message and never acts on one; it sends no command either. MAVLink 2 signatures are

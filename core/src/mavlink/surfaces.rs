@@ -1,5 +1,7 @@
 //! Actuator input: control-surface deflections, throttle and propeller speed from the autopilot's
-//! `SERVO_OUTPUT_RAW` and RPM messages, with staleness reported as an error.
+//! `SERVO_OUTPUT_RAW` and RPM messages, with staleness reported as an error; and the autopilot's
+//! attitude (`ATTITUDE`, Euler angles), which the co-processor has no sensors to estimate itself
+//! ([`MavlinkSurfaces::euler_rad`]).
 //!
 //! The deflection is the commanded one (the servo's PWM), as it reaches the co-processor: servo lag
 //! and linkage play are not in it. Each surface has a linear calibration `δ = (pwm − pwm_neutral) ·
@@ -7,7 +9,7 @@
 //! a PWM outside the plausible range (`pwm_valid_us`, e.g. 0 = output disabled) is an error for that
 //! channel.
 
-use super::messages::{Message, ServoOutputRaw};
+use super::messages::{Attitude, Message, ServoOutputRaw};
 use super::parser::{Frame, Parser, ParserStats};
 
 /// Why an actuator reading is not available.
@@ -35,6 +37,8 @@ pub enum SurfaceError {
     RpmInvalid,
     /// No RPM source is configured.
     NoRpmSource,
+    /// An `ATTITUDE` angle is not finite.
+    AttitudeInvalid,
     /// A calibration or setting is outside its documented range.
     InvalidCalibration,
 }
@@ -48,6 +52,7 @@ impl core::fmt::Display for SurfaceError {
             Self::PwmOutOfRange { channel, pwm_us } => write!(f, "servo output {channel} PWM {pwm_us} us out of range"),
             Self::RpmInvalid => f.write_str("RPM negative or not finite"),
             Self::NoRpmSource => f.write_str("no RPM source configured"),
+            Self::AttitudeInvalid => f.write_str("attitude angle not finite"),
             Self::InvalidCalibration => f.write_str("calibration outside its documented range"),
         }
     }
@@ -95,8 +100,14 @@ pub struct ServoCalibration {
 
 impl ServoCalibration {
     /// Deflection for `pwm_us`, clamped to the limits, rad.
+    ///
+    /// `max` then `min`, not `f32::clamp`: `clamp` panics when `min > max` (which
+    /// [`SurfaceConfig::validate`] excludes, but the compiler cannot see it), and that panic's
+    /// message brings ≈ 20 KB of float formatting into the firmware.
     pub fn deflection_rad(&self, pwm_us: u16) -> f32 {
-        ((f32::from(pwm_us) - self.pwm_neutral_us) * self.rad_per_us).clamp(self.limits_rad.0, self.limits_rad.1)
+        ((f32::from(pwm_us) - self.pwm_neutral_us) * self.rad_per_us)
+            .max(self.limits_rad.0)
+            .min(self.limits_rad.1)
     }
 
     fn valid(&self) -> bool {
@@ -182,6 +193,8 @@ pub struct SurfaceConfig {
     pub rpm_scale: f32,
     /// An RPM older than this is stale, µs.
     pub rpm_timeout_us: u64,
+    /// An `ATTITUDE` older than this is stale, µs.
+    pub attitude_timeout_us: u64,
 }
 
 impl SurfaceConfig {
@@ -200,6 +213,7 @@ impl SurfaceConfig {
             && self.pwm_valid_us[0] < self.pwm_valid_us[1]
             && self.servo_timeout_us > 0
             && self.rpm_timeout_us > 0
+            && self.attitude_timeout_us > 0
             && rpm_ok
             && self.rpm_scale.is_finite()
             && self.rpm_scale > 0.0;
@@ -220,6 +234,8 @@ pub struct MavlinkSurfaces {
     servo: Option<(ServoOutputRaw, u64)>,
     /// Newest RPM of the configured source (rev/min, as reported) and when it arrived, µs.
     rpm: Option<(f32, u64)>,
+    /// Newest `ATTITUDE` and when it arrived, µs.
+    attitude: Option<(Attitude, u64)>,
 }
 
 impl MavlinkSurfaces {
@@ -231,6 +247,7 @@ impl MavlinkSurfaces {
             parser: Parser::new(),
             servo: None,
             rpm: None,
+            attitude: None,
         })
     }
 
@@ -251,13 +268,35 @@ impl MavlinkSurfaces {
             parser,
             servo,
             rpm,
+            attitude,
         } = self;
-        parser.feed(bytes, |frame| keep(config, servo, rpm, &frame, now_us));
+        parser.feed(bytes, |frame| keep(config, servo, rpm, attitude, &frame, now_us));
     }
 
     /// Keeps what `frame` (parsed elsewhere, received at `now_us`) carries, if it is for us.
     pub fn accept(&mut self, frame: &Frame, now_us: u64) {
-        keep(&self.config, &mut self.servo, &mut self.rpm, frame, now_us);
+        keep(
+            &self.config,
+            &mut self.servo,
+            &mut self.rpm,
+            &mut self.attitude,
+            frame,
+            now_us,
+        );
+    }
+
+    /// The autopilot's attitude at `now_us`: roll φ, pitch θ, yaw ψ (3-2-1 Euler angles of body FRD
+    /// relative to NED), rad, from the newest `ATTITUDE`. `Err` when none arrived, when it is older
+    /// than [`SurfaceConfig::attitude_timeout_us`], or when an angle is not finite
+    /// ([`SurfaceError::AttitudeInvalid`]).
+    pub fn euler_rad(&self, now_us: u64) -> Result<[f32; 3], SurfaceError> {
+        let (m, rx_us) = self.attitude.ok_or(SurfaceError::NoData)?;
+        age(rx_us, now_us, self.config.attitude_timeout_us)?;
+        if m.euler_rad.iter().all(|a| a.is_finite()) {
+            Ok(m.euler_rad)
+        } else {
+            Err(SurfaceError::AttitudeInvalid)
+        }
     }
 
     fn pwm(&self, m: &ServoOutputRaw, channel: u8) -> Result<u16, SurfaceError> {
@@ -280,6 +319,7 @@ fn keep(
     config: &SurfaceConfig,
     servo: &mut Option<(ServoOutputRaw, u64)>,
     rpm: &mut Option<(f32, u64)>,
+    attitude: &mut Option<(Attitude, u64)>,
     frame: &Frame,
     now_us: u64,
 ) {
@@ -288,6 +328,7 @@ fn keep(
     }
     match (&frame.message, config.rpm) {
         (Message::ServoOutputRaw(m), _) if m.port == config.port => *servo = Some((*m, now_us)),
+        (Message::Attitude(m), _) => *attitude = Some((*m, now_us)),
         (Message::Rpm(m), RpmSource::ArduPilotRpm { sensor }) => {
             if let Some(&r) = m.rpm.get(usize::from(sensor)) {
                 *rpm = Some((r, now_us));

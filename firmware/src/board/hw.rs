@@ -1,30 +1,173 @@
-//! The flight computer's board: the sensors on their buses, the telemetry UART, the DWT counter.
+//! The flight computer's board (STM32F405RG): the sensors on their buses, the autopilot link, the
+//! telemetry UART and the DWT cycle counter.
 //!
-//! Provisional: the drivers (`aerosid_core::drivers`) are not wired to the STM32F405's SPI/I2C yet;
-//! until they are, every channel reads NaN (counted as a fault), so the pipeline refuses every
-//! coefficient and the telemetry says so.
+//! ## Pin map (a common F405 flight-controller layout)
+//! | function | peripheral | pins (alternate function) | settings |
+//! |---|---|---|---|
+//! | ICM-42688-P IMU | SPI1 | PA5 SCK, PA6 MISO, PA7 MOSI (AF5); PA4 chip select (GPIO out) | mode 3, 21 MHz |
+//! | MS4525DO airspeed (0x28), AS5600 α vane (0x36) | I2C1 | PB6 SCL, PB7 SDA (AF4, open drain) | 400 kHz |
+//! | AS5600 β vane (0x36) | I2C2 | PB10 SCL, PB11 SDA (AF4, open drain) | 400 kHz |
+//! | telemetry out (MAVLink) | USART1 | PA9 TX (AF7) | 57600 8N1 |
+//! | autopilot in (MAVLink) | USART2 | PA3 RX (AF7) | 115200 8N1, RXNE interrupt |
+//!
+//! The two vanes are the same part at the same fixed address, hence two buses. The I2C pins get the
+//! internal pull-ups as well (≈ 40 kΩ; the board's external 2.2–4.7 kΩ set the rise time).
+//!
+//! ## Bus code: our own, on the PAC — why not `stm32f4xx-hal`
+//! `stm32f4xx-hal` 0.23.0 (the newest) resolves with our `stm32f4 = 0.16.0` (one PAC linked) and
+//! rustc 1.95, and it would be the project's first choice. It does not fit two rules:
+//! * its blocking I2C waits on SB, ADDR, BTF and STOP in unbounded loops (`while … {}`), so a slave
+//!   holding SDA low or a missing pull-up hangs the 100 Hz sampling task for good: the project needs
+//!   every wait bounded with an error;
+//! * its bus constructors take a `Clocks` that only its own `Rcc::freeze` produces (the fields are
+//!   private); `freeze` would set the clock tree a second time, with unbounded waits on HSE and PLL
+//!   ready and no HSI fallback, against `clocks.rs`; `constrain()` alone says 16 MHz everywhere, so
+//!   baud rates and the I2C timing would be wrong.
+//!
+//! So the embedded-hal 1.0 bus traits are implemented on the registers in [`bus`] (I2C master,
+//! SPI1 bus, chip select, delay; every wait bounded) and [`uart`], and the well-kept
+//! `embedded-hal-bus` does the device layering: `ExclusiveDevice` makes SPI1 + PA4 an `SpiDevice`
+//! (chip select released even when a transfer fails) and `AtomicDevice` shares I2C1 between the
+//! airspeed sensor and the α vane.
+//!
+//! ## Channels of a sample
+//! * **accel, gyro** — ICM-42688-P, ±16 g, ±2000 °/s (nothing clips in aerobatics), both at 200 Hz
+//!   output data rate (the data-ready flag is always set at 100 Hz reads; the UI filter's default
+//!   ODR/4 = 50 Hz bandwidth keeps aliasing low), body FRD through [`IMU_AXIS_MAP`].
+//! * **airspeed, air density** — MS4525DO (4525DO-DS5AI001DP: type A, ±1 psi), zero offset averaged
+//!   at boot ([`CALIBRATE_AIRSPEED_AT_BOOT`]: the aircraft must be at rest with the pitot covered).
+//!   No static-pressure sensor on this board, so the density is `ρ = p_field / (R · T)` with the
+//!   configured field pressure [`FIELD_PRESSURE_PA`] (ISA sea level, 101 325 Pa: 1.225 kg/m³ at
+//!   15 °C) and the MS4525DO's die temperature `T` as outside air temperature (it sits in the
+//!   airflow in the fuselage; a few kelvin error is ≈ 1 % in ρ). The airspeed is true airspeed:
+//!   the driver's equivalent airspeed (at 1.225 kg/m³) times `sqrt(1.225 / ρ)`.
+//! * **α, β** — AS5600 vanes on I2C1 and I2C2, calibrations [`ALPHA_VANE`], [`BETA_VANE`].
+//! * **surfaces, throttle, RPM, Euler angles** — the autopilot's `SERVO_OUTPUT_RAW`, `RPM` and
+//!   `ATTITUDE` on USART2 ([`MavlinkSurfaces`], calibrations in [`AUTOPILOT`]).
+//!
+//! The calibrations (vane zero counts, servo neutral and gain, …) are placeholders for a typical
+//! airframe: set them for the aircraft. Every failed read makes its channels NaN, never a stale
+//! value, and counts in [`SensorFaults`]. A chip that fails [`REINIT_AFTER`] reads in a row
+//! (0.5 s) is re-initialised: the IMU with its full `init` (WHO_AM_I, soft reset, configuration,
+//! ≈ 1.2 ms busy wait inside the sampling task), an I2C chip by resetting its bus peripheral (the
+//! MS4525DO and the AS5600 keep no configuration on the chip). A chip absent at boot is retried the
+//! same way; boot never stops for a sensor.
 
-use super::{Counter, SensorFaults, SensorSource, TelemetryPort};
+mod bus;
+mod uart;
+
+use core::convert::Infallible;
+use core::sync::atomic::{AtomicBool, Ordering};
+
 use aerosid_core::aero::SensorSample;
+use aerosid_core::drivers::as5600::{As5600, Direction, VaneConfig};
+use aerosid_core::drivers::icm42688::{self, AccelRange, AxisMap, GyroRange, Icm42688, Odr};
+use aerosid_core::drivers::ms4525do::{self, Ms4525do};
+use aerosid_core::mavlink::surfaces::{RpmSource, ServoCalibration, ThrottleCalibration};
+use aerosid_core::mavlink::{MavlinkSurfaces, SurfaceConfig, SurfaceSource};
+use embedded_hal_bus::i2c::{AtomicDevice, AtomicError};
+use embedded_hal_bus::spi::{DeviceError, ExclusiveDevice};
+use embedded_hal_bus::util::AtomicCell;
+use heapless::spsc::Queue;
+use nalgebra::Vector3;
 use stm32f4::stm32f405 as pac;
 
+use super::{Counter, SensorFaults, SensorSource};
+use bus::{ChipSelectPa4, CycleDelay, I2cBus, I2cError, Spi1Bus, SpiError};
+pub use uart::AutopilotRx;
+use uart::{AutopilotBytes, TelemetryUart};
+
 /// The sensors of this board.
-pub type Sensors = Unwired;
+pub type Sensors = FlightSensors;
 /// The telemetry port of this board.
-pub type Port = NoPort;
+pub type Port = TelemetryUart;
 /// The step counter of this board.
 pub type CycleCounter = Dwt;
 
+/// Failed reads in a row after which a chip is re-initialised (0.5 s at 100 Hz).
+pub const REINIT_AFTER: u16 = 50;
+
+/// Field (static) pressure for the air density, Pa: ISA sea level. Set the airfield's QFE.
+pub const FIELD_PRESSURE_PA: f32 = 101_325.0;
+
+/// Average the airspeed sensor's zero offset at boot (50 readings over ≈ 100 ms).
+pub const CALIBRATE_AIRSPEED_AT_BOOT: bool = true;
+
+/// IMU mounting: chip X forward, Y right, Z down (change for the board's orientation).
+pub const IMU_AXIS_MAP: AxisMap = AxisMap::IDENTITY;
+
+/// α vane: zero at mid-scale, angle growing with the count, plausible within ±35°. Placeholder.
+pub const ALPHA_VANE: VaneConfig = VaneConfig {
+    zero_count: 2048,
+    direction: Direction::CountsIncrease,
+    scale: 1.0,
+    min_angle_rad: -0.61,
+    max_angle_rad: 0.61,
+};
+
+/// β vane: as the α vane. Placeholder.
+pub const BETA_VANE: VaneConfig = ALPHA_VANE;
+
+/// A ±25° surface over ±500 µs of PWM around 1500 µs. Placeholder.
+const fn servo(channel: u8, rad_per_us: f32) -> ServoCalibration {
+    ServoCalibration {
+        channel,
+        pwm_neutral_us: 1500.0,
+        rad_per_us,
+        limits_rad: (-0.44, 0.44),
+    }
+}
+
+/// The autopilot link: system 1, ArduPilot Plane's default outputs (SERVO1 aileron, SERVO2
+/// elevator, SERVO3 throttle, SERVO4 rudder; `SERVOn_FUNCTION`), RPM sensor 1. Stream rates the
+/// timeouts assume: `SERVO_OUTPUT_RAW` and `ATTITUDE` ≥ 20 Hz, `RPM` ≥ 4 Hz (ArduPilot
+/// `SRn_RC_CHAN`, `SRn_EXTRA1`, `SRn_EXTRA3` on the port wired to USART2).
+pub const AUTOPILOT: SurfaceConfig = SurfaceConfig {
+    source_system_id: 1,
+    port: 0,
+    elevator: servo(1, 0.000_873),
+    aileron: servo(0, 0.000_873),
+    aileron_2: None,
+    rudder: servo(3, 0.000_873),
+    throttle: ThrottleCalibration {
+        channel: 2,
+        pwm_idle_us: 1100,
+        pwm_full_us: 1900,
+    },
+    pwm_valid_us: [800, 2200],
+    servo_timeout_us: 100_000,
+    rpm: RpmSource::ArduPilotRpm { sensor: 0 },
+    rpm_scale: 1.0,
+    rpm_timeout_us: 500_000,
+    attitude_timeout_us: 100_000,
+};
+
+/// Autopilot bytes the ring holds: 44 ms at 115200 baud, four sample periods of slack.
+const RX_RING: usize = 512;
+
+/// Specific gas constant of dry air, J/(kg·K).
+const R_AIR: f32 = ms4525do::R_DRY_AIR_J_KG_K;
+
+type I2c1 = I2cBus<pac::I2C1>;
+type I2c2 = I2cBus<pac::I2C2>;
+type ImuSpi = ExclusiveDevice<Spi1Bus, ChipSelectPa4, CycleDelay>;
+
+/// Recovery requests from the sensor layer to the I2C buses (see [`I2cBus`]).
+static I2C1_RECOVER: AtomicBool = AtomicBool::new(false);
+static I2C2_RECOVER: AtomicBool = AtomicBool::new(false);
+
 /// The board's parts, handed to the tasks by `init`.
 pub struct Board {
-    /// Sensors.
-    pub sensors: Unwired,
-    /// Telemetry UART.
-    pub telemetry: NoPort,
+    /// The sensors.
+    pub sensors: FlightSensors,
+    /// Telemetry UART (USART1).
+    pub telemetry: TelemetryUart,
     /// DWT cycle counter.
     pub counter: Dwt,
     /// Per-sample counts (not recorded on hardware: the telemetry carries the last and the worst).
     pub counts: CountLog,
+    /// The USART2 receive interrupt's state (for the `usart2` task in `main.rs`).
+    pub autopilot_rx: AutopilotRx,
 }
 
 /// Per-sample counts: not recorded on hardware.
@@ -35,30 +178,349 @@ impl CountLog {
     pub fn write(&mut self, _counts: &[u32]) {}
 }
 
-/// Brings up the board.
-pub fn init(_dp: pac::Peripherals, _clocks: &super::clocks::Clocks) -> Board {
+/// Brings up the board: clocks to the peripherals, pins, buses, UARTs, then the chips. A chip that
+/// does not answer is reported and retried by [`FlightSensors::read`]; nothing here stops the boot.
+/// Only a second call (a program error: the static buffers are already handed out) halts.
+pub fn init(dp: pac::Peripherals, clocks: &super::clocks::Clocks) -> Board {
+    enable_clocks(&dp.RCC);
+    configure_pins(&dp.GPIOA, &dp.GPIOB);
+
+    let mut delay = CycleDelay::new(clocks.sysclk_hz);
+    let telemetry = TelemetryUart::new(dp.USART1, clocks.pclk2_hz);
+
+    let Some(ring) = cortex_m::singleton!(: Queue<u8, RX_RING> = Queue::new()) else {
+        defmt::error!("board: init called twice");
+        halt(4)
+    };
+    let (producer, consumer) = ring.split();
+    let autopilot_rx = uart::autopilot_rx(dp.USART2, clocks.pclk1_hz, producer);
+
+    let i2c1 = I2cBus::new(dp.I2C1, clocks.pclk1_hz, &I2C1_RECOVER);
+    let i2c2 = I2cBus::new(dp.I2C2, clocks.pclk1_hz, &I2C2_RECOVER);
+    let (Some(i2c1), Some(i2c2)) = (
+        cortex_m::singleton!(: AtomicCell<I2c1> = AtomicCell::new(i2c1)),
+        cortex_m::singleton!(: AtomicCell<I2c2> = AtomicCell::new(i2c2)),
+    ) else {
+        defmt::error!("board: init called twice");
+        halt(4)
+    };
+    let i2c1: &'static AtomicCell<I2c1> = i2c1;
+    let i2c2: &'static AtomicCell<I2c2> = i2c2;
+
+    let spi = Spi1Bus::new(dp.SPI1, clocks.pclk2_hz);
+    let spi = match ExclusiveDevice::new(spi, ChipSelectPa4::new(dp.GPIOA), delay) {
+        Ok(d) => d,
+        Err(never) => match never {},
+    };
+    let imu_config = icm42688::Config {
+        gyro_range: GyroRange::Dps2000,
+        gyro_odr: Odr::Hz200,
+        accel_range: AccelRange::G16,
+        accel_odr: Odr::Hz200,
+        axis_map: IMU_AXIS_MAP,
+    };
+    let mut imu = Icm42688::new(spi, imu_config);
+    match imu.init(&mut delay) {
+        Ok(()) => defmt::info!("imu: ICM-42688-P up"),
+        Err(e) => defmt::error!("imu: init failed ({}), retried while sampling", imu_error(e)),
+    }
+
+    let mut airspeed = Ms4525do::new(AtomicDevice::new(i2c1), ms4525do::DEFAULT_ADDRESS);
+    if CALIBRATE_AIRSPEED_AT_BOOT {
+        match airspeed.calibrate_zero(&mut delay, 50, 2_000) {
+            Ok(offset_pa) => defmt::info!("airspeed: zero offset {=f32} Pa", offset_pa),
+            Err(e) => defmt::error!("airspeed: zero calibration failed ({}), offset 0", airspeed_error(e)),
+        }
+    }
+    let mut alpha = As5600::new(AtomicDevice::new(i2c1));
+    let mut beta = As5600::new(AtomicDevice::new(i2c2));
+    if alpha.set_config(ALPHA_VANE).is_err() {
+        defmt::error!("alpha vane: calibration refused");
+    }
+    if beta.set_config(BETA_VANE).is_err() {
+        defmt::error!("beta vane: calibration refused");
+    }
+
+    let autopilot = match MavlinkSurfaces::new(AUTOPILOT) {
+        Ok(s) => Some(s),
+        Err(e) => {
+            defmt::error!("autopilot link: configuration refused ({})", e);
+            None
+        }
+    };
+
     Board {
-        sensors: Unwired {
+        sensors: FlightSensors {
+            imu,
+            airspeed,
+            alpha,
+            beta,
+            autopilot,
+            rx: consumer,
+            delay,
+            now_us: 0,
+            rx_lost_seen: 0,
             faults: SensorFaults::default(),
+            streak: Streaks::default(),
         },
-        telemetry: NoPort,
+        telemetry,
         counter: Dwt,
         counts: CountLog,
+        autopilot_rx,
     }
 }
 
-/// Sensors not yet wired: every read is a fault.
-pub struct Unwired {
-    faults: SensorFaults,
+/// Peripheral clocks: GPIOA, GPIOB, SPI1, USART1 (APB2), I2C1, I2C2, USART2 (APB1).
+fn enable_clocks(rcc: &pac::RCC) {
+    rcc.ahb1enr().modify(|_, w| w.gpioaen().set_bit().gpioben().set_bit());
+    rcc.apb2enr().modify(|_, w| w.spi1en().set_bit().usart1en().set_bit());
+    rcc.apb1enr()
+        .modify(|_, w| w.i2c1en().set_bit().i2c2en().set_bit().usart2en().set_bit());
+    // RM0090 §6.3.13 note: a read-back delays the first access to the newly clocked peripherals.
+    let _ = rcc.apb1enr().read();
 }
 
-impl SensorSource for Unwired {
+/// The pin map of the module doc.
+fn configure_pins(gpioa: &pac::GPIOA, gpiob: &pac::GPIOB) {
+    // PA4: chip select, high (deselected) before it becomes an output.
+    gpioa.bsrr().write(|w| w.bs4().set_bit());
+    gpioa.otyper().modify(|_, w| w.ot4().push_pull());
+    gpioa.ospeedr().modify(|_, w| {
+        w.ospeedr4().high_speed();
+        w.ospeedr5().very_high_speed();
+        w.ospeedr6().very_high_speed();
+        w.ospeedr7().very_high_speed()
+    });
+    gpioa.afrl().modify(|_, w| {
+        w.afrl3().af7(); // USART2 RX
+        w.afrl5().af5(); // SPI1 SCK
+        w.afrl6().af5(); // SPI1 MISO
+        w.afrl7().af5() // SPI1 MOSI
+    });
+    gpioa.afrh().modify(|_, w| w.afrh9().af7()); // USART1 TX
+    gpioa.pupdr().modify(|_, w| w.pupdr3().pull_up()); // idle-high RX line if unplugged
+    gpioa.moder().modify(|_, w| {
+        w.moder3().alternate();
+        w.moder4().output();
+        w.moder5().alternate();
+        w.moder6().alternate();
+        w.moder7().alternate();
+        w.moder9().alternate()
+    });
+
+    // PB6/PB7 (I2C1), PB10/PB11 (I2C2): AF4, open drain, pull-up.
+    gpiob.otyper().modify(|_, w| {
+        w.ot6().open_drain();
+        w.ot7().open_drain();
+        w.ot10().open_drain();
+        w.ot11().open_drain()
+    });
+    gpiob.pupdr().modify(|_, w| {
+        w.pupdr6().pull_up();
+        w.pupdr7().pull_up();
+        w.pupdr10().pull_up();
+        w.pupdr11().pull_up()
+    });
+    gpiob.ospeedr().modify(|_, w| {
+        w.ospeedr6().medium_speed();
+        w.ospeedr7().medium_speed();
+        w.ospeedr10().medium_speed();
+        w.ospeedr11().medium_speed()
+    });
+    gpiob.afrl().modify(|_, w| w.afrl6().af4().afrl7().af4());
+    gpiob.afrh().modify(|_, w| w.afrh10().af4().afrh11().af4());
+    gpiob.moder().modify(|_, w| {
+        w.moder6().alternate();
+        w.moder7().alternate();
+        w.moder10().alternate();
+        w.moder11().alternate()
+    });
+}
+
+/// The IMU's error without the SPI device layer (for the log).
+fn imu_error(e: icm42688::Error<DeviceError<SpiError, Infallible>>) -> icm42688::Error<SpiError> {
+    use icm42688::Error as E;
+    match e {
+        E::Bus(DeviceError::Spi(e)) => E::Bus(e),
+        E::Bus(DeviceError::Cs(never)) => match never {},
+        E::WrongDevice(id) => E::WrongDevice(id),
+        E::NotReady => E::NotReady,
+        E::InvalidData => E::InvalidData,
+        E::Saturated => E::Saturated,
+    }
+}
+
+/// The airspeed sensor's error without the bus-sharing layer (for the log; `Busy`, a program
+/// error since one task owns both devices, shows as a bus error).
+fn airspeed_error(e: ms4525do::Error<AtomicError<I2cError>>) -> ms4525do::Error<I2cError> {
+    use ms4525do::Error as E;
+    match e {
+        E::Bus(AtomicError::Other(e)) => E::Bus(e),
+        E::Bus(AtomicError::Busy) => E::Bus(I2cError::Bus),
+        E::Stale => E::Stale,
+        E::Fault => E::Fault,
+        E::ReservedStatus => E::ReservedStatus,
+        E::OutOfRange => E::OutOfRange,
+        E::InvalidConfig => E::InvalidConfig,
+    }
+}
+
+/// Failed reads in a row, per chip.
+#[derive(Default)]
+struct Streaks {
+    imu: u16,
+    airspeed: u16,
+    alpha: u16,
+    beta: u16,
+}
+
+/// Counts one outcome: `true` when the chip has now failed [`REINIT_AFTER`] times in a row (the
+/// streak starts again, so a dead chip is retried every [`REINIT_AFTER`] samples).
+fn streak(count: &mut u16, fault: &mut u32, ok: bool) -> bool {
+    if ok {
+        *count = 0;
+        return false;
+    }
+    *fault = fault.saturating_add(1);
+    *count = count.saturating_add(1);
+    if *count >= REINIT_AFTER {
+        *count = 0;
+        true
+    } else {
+        false
+    }
+}
+
+/// The sensors on their buses and the autopilot link, as a [`SensorSource`].
+pub struct FlightSensors {
+    imu: Icm42688<ImuSpi>,
+    airspeed: Ms4525do<AtomicDevice<'static, I2c1>>,
+    alpha: As5600<AtomicDevice<'static, I2c1>>,
+    beta: As5600<AtomicDevice<'static, I2c2>>,
+    autopilot: Option<MavlinkSurfaces>,
+    rx: AutopilotBytes,
+    delay: CycleDelay,
+    /// Time of the current sample, µs since boot: the sum of the `dt_s` (the sampler's µs
+    /// differences, so exact), for the autopilot messages' ages.
+    now_us: u64,
+    rx_lost_seen: u32,
+    faults: SensorFaults,
+    streak: Streaks,
+}
+
+impl FlightSensors {
+    /// Drains the USART2 ring into the MAVLink parser, stamping the bytes with `now_us` (they arrived
+    /// within the last sample period, so ages read up to 10 ms short).
+    fn receive_autopilot(&mut self) {
+        let mut chunk = [0u8; 64];
+        loop {
+            let mut n = 0;
+            for slot in chunk.iter_mut() {
+                match self.rx.dequeue() {
+                    Some(b) => {
+                        *slot = b;
+                        n += 1;
+                    }
+                    None => break,
+                }
+            }
+            if n == 0 {
+                break;
+            }
+            if let (Some(link), Some(bytes)) = (self.autopilot.as_mut(), chunk.get(..n)) {
+                link.receive(bytes, self.now_us);
+            }
+        }
+        let lost = uart::RX_LOST.load(Ordering::Relaxed);
+        if lost != self.rx_lost_seen {
+            defmt::warn!("autopilot link: {=u32} received bytes lost", lost);
+            self.rx_lost_seen = lost;
+        }
+    }
+}
+
+impl SensorSource for FlightSensors {
     fn read(&mut self, t_s: f32, dt_s: f32) -> Option<SensorSample<f32>> {
-        self.faults.imu = self.faults.imu.saturating_add(1);
         let nan = f32::NAN;
         let mut s = SensorSample::from_fields(&[nan; aerosid_core::aero::SAMPLE_FIELDS]);
         s.t_s = t_s;
         s.dt_s = dt_s;
+        // Saturating float-to-int cast: a NaN or negative dt adds 0.
+        self.now_us = self.now_us.saturating_add((dt_s * 1e6 + 0.5) as u64);
+
+        // IMU.
+        let imu = self.imu.read();
+        if let Ok(r) = &imu {
+            s.accel_mps2 = Vector3::from(r.accel_mps2);
+            s.gyro_rad_s = Vector3::from(r.gyro_rad_s);
+        }
+        if streak(&mut self.streak.imu, &mut self.faults.imu, imu.is_ok()) {
+            match self.imu.init(&mut self.delay) {
+                Ok(()) => defmt::warn!("imu: re-initialised"),
+                Err(e) => defmt::warn!("imu: re-init failed ({})", imu_error(e)),
+            }
+        }
+
+        // Airspeed and density.
+        let air = self.airspeed.read();
+        if let Ok(m) = &air {
+            let rho = FIELD_PRESSURE_PA / (R_AIR * (m.temperature_c + 273.15));
+            if rho.is_finite() && rho > 0.0 {
+                s.air_density_kgpm3 = rho;
+                s.airspeed_mps = m.airspeed_mps * libm::sqrtf(ms4525do::ISA_SEA_LEVEL_DENSITY_KG_M3 / rho);
+            }
+        }
+        if streak(&mut self.streak.airspeed, &mut self.faults.airspeed, air.is_ok()) {
+            defmt::warn!("airspeed: {=u16} failed reads, I2C1 reset", REINIT_AFTER);
+            I2C1_RECOVER.store(true, Ordering::Relaxed);
+        }
+
+        // Vanes.
+        let alpha = self.alpha.read();
+        if let Ok(r) = &alpha {
+            s.alpha_rad = r.angle_rad;
+        }
+        if streak(&mut self.streak.alpha, &mut self.faults.alpha_vane, alpha.is_ok()) {
+            defmt::warn!("alpha vane: {=u16} failed reads, I2C1 reset", REINIT_AFTER);
+            I2C1_RECOVER.store(true, Ordering::Relaxed);
+        }
+        let beta = self.beta.read();
+        if let Ok(r) = &beta {
+            s.beta_rad = r.angle_rad;
+        }
+        if streak(&mut self.streak.beta, &mut self.faults.beta_vane, beta.is_ok()) {
+            defmt::warn!("beta vane: {=u16} failed reads, I2C2 reset", REINIT_AFTER);
+            I2C2_RECOVER.store(true, Ordering::Relaxed);
+        }
+
+        // The autopilot: surfaces, throttle, RPM, attitude.
+        self.receive_autopilot();
+        let now_us = self.now_us;
+        if let Some(link) = self.autopilot.as_mut() {
+            if let Ok(r) = link.surfaces(now_us) {
+                s.elevator_rad = r.elevator_rad.unwrap_or(nan);
+                s.aileron_rad = r.aileron_rad.unwrap_or(nan);
+                s.rudder_rad = r.rudder_rad.unwrap_or(nan);
+                s.throttle = r.throttle.unwrap_or(nan);
+            }
+            s.prop_speed_rad_s = link.prop_speed_rad_s(now_us).unwrap_or(nan);
+            if let Ok(e) = link.euler_rad(now_us) {
+                s.euler_rad = Vector3::from(e);
+            }
+        }
+        let autopilot_ok = [
+            s.elevator_rad,
+            s.aileron_rad,
+            s.rudder_rad,
+            s.throttle,
+            s.prop_speed_rad_s,
+        ]
+        .iter()
+        .chain(s.euler_rad.iter())
+        .all(|v| !v.is_nan());
+        if !autopilot_ok {
+            self.faults.surfaces = self.faults.surfaces.saturating_add(1);
+        }
         Some(s)
     }
 
@@ -67,14 +529,7 @@ impl SensorSource for Unwired {
     }
 }
 
-/// No telemetry UART yet.
-pub struct NoPort;
-
-impl TelemetryPort for NoPort {
-    fn send(&mut self, _bytes: &[u8]) {}
-}
-
-/// DWT CYCCNT (started in `init`).
+/// DWT CYCCNT (started in `main`'s init before [`init`]).
 pub struct Dwt;
 
 impl Counter for Dwt {
@@ -83,9 +538,13 @@ impl Counter for Dwt {
     }
 }
 
-/// Stops: on hardware there is no exit; breakpoint for an attached probe, then sleep forever.
-pub fn halt(_code: i32) -> ! {
-    cortex_m::asm::bkpt();
+/// Stops: on hardware there is no exit; a breakpoint if a probe is attached (without one, BKPT would
+/// be a HardFault), then sleep forever.
+pub fn halt(code: i32) -> ! {
+    defmt::error!("halt({=i32})", code);
+    if cortex_m::peripheral::DCB::is_debugger_attached() {
+        cortex_m::asm::bkpt();
+    }
     loop {
         cortex_m::asm::wfi();
     }

@@ -19,9 +19,13 @@ pub mod qemu;
 pub mod stack;
 
 #[cfg(not(feature = "qemu"))]
-pub use hw::{halt, init, CountLog, CycleCounter, Port, Sensors};
+pub use hw::{halt, init, AutopilotRx, CountLog, CycleCounter, Port, Sensors};
 #[cfg(feature = "qemu")]
 pub use qemu::{halt, init, CountLog, CycleCounter, Port, Sensors};
+/// No autopilot link under QEMU. The RTIC macro names a `#[cfg]`-gated local resource's type even
+/// where the resource is configured out, so the name must resolve; the type has no values.
+#[cfg(feature = "qemu")]
+pub enum AutopilotRx {}
 
 use aerosid_core::aero::SensorSample;
 
