@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Runs all of the project's checks and tests, in the order CI runs them (.ci/run execs this file):
-# formatting, host clippy, firmware clippy, the core built for the MCU, host tests, the firmware
-# release build and its size. Stops at the first failure.
+# tools (QEMU, defmt-print), formatting, host clippy, firmware clippy, the core built for the MCU,
+# host tests (among them the firmware replayed under QEMU), the main job, the firmware release build
+# and its size. Stops at the first failure.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 
@@ -14,14 +15,28 @@ step "toolchain: $THUMB target, clippy, rustfmt (idempotent)"
 rustup target add "$THUMB"
 rustup component add clippy rustfmt
 
+step "QEMU and defmt-print for the firmware replay test (installed if missing)"
+if ! command -v qemu-system-arm >/dev/null 2>&1; then
+    if [ "$(id -u)" = 0 ]; then
+        apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq qemu-system-arm
+    else
+        sudo apt-get update -qq && sudo DEBIAN_FRONTEND=noninteractive apt-get install -y -qq qemu-system-arm
+    fi
+fi
+qemu-system-arm --version | head -1
+if ! command -v defmt-print >/dev/null 2>&1; then
+    cargo install defmt-print --locked
+fi
+
 step "format: cargo fmt --all -- --check"
 cargo fmt --all -- --check
 
 step "host clippy: cargo clippy --workspace --all-targets -- -D warnings"
 cargo clippy --workspace --all-targets -- -D warnings
 
-step "firmware clippy: cargo fw-clippy"
+step "firmware clippy: cargo fw-clippy (flight computer), and with the QEMU board"
 cargo fw-clippy
+cargo clippy -p aerosid-firmware --target "$THUMB" --release --features qemu -- -D warnings
 
 step "core for the MCU (no std, no heap): cargo clippy -p aerosid-core --target $THUMB -- -D warnings"
 cargo clippy -p aerosid-core --target "$THUMB" -- -D warnings

@@ -68,8 +68,13 @@ pub fn build_firmware() -> Result<PathBuf, QemuError> {
             "--release",
             "--features",
             "qemu",
-            "--target-dir",
         ])
+        .args(
+            std::env::var("AEROSID_FW_CONFIG")
+                .map(|c| vec!["--config".to_string(), c])
+                .unwrap_or_default(),
+        )
+        .arg("--target-dir")
         .arg(&target_dir)
         .status()
         .map_err(|e| QemuError::Tool(format!("cargo: {e}")))?;
