@@ -5,7 +5,6 @@
 //! Needs `qemu-system-arm` (`apt-get install -y qemu-system-arm`) and the thumb target; the defmt
 //! log is decoded when `defmt-print` is installed (`.ci/run` installs all three).
 
-use aerosid_core::aero::model::idx;
 use aerosid_core::aero::SensorSample;
 use aerosid_host::{flights, qemu, sim};
 use std::time::Duration;
@@ -41,9 +40,8 @@ fn qemu_replay_equals_host_f32_and_meets_the_instruction_budget() {
     println!("telemetry: {} frames, {} rejected", run.frames.0, run.frames.1);
     assert_eq!(run.frames.1, 0, "telemetry frames rejected by the parser");
     // … the last report of every coefficient equals the host's f32 run bit for bit (θ, σ, k, λ_F)
-    for i in 0..idx::COUNT {
-        let fw = run.reports[i].expect("a report for every coefficient");
-        let h = &host[i];
+    for (i, (fw, h)) in run.reports.iter().zip(host.iter()).enumerate() {
+        let fw = fw.expect("a report for every coefficient");
         let n = usize::from(h.n_params);
         println!("coefficient {i}: k {} θ {:?}", fw.rank_k, &fw.theta[..n]);
         assert_eq!(fw.n_params, h.n_params);
