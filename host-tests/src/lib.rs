@@ -17,5 +17,6 @@ pub mod mc;
 pub mod plot;
 pub mod qemu;
 pub mod reference;
+pub mod replay;
 pub mod report;
 pub mod sim;

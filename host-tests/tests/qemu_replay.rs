@@ -104,3 +104,25 @@ fn write_profile_replay() {
     std::fs::create_dir_all(&dir).unwrap();
     qemu::write_replay(&dir.join("replay.bin"), &samples[1000..1060]).unwrap();
 }
+
+#[test]
+fn replay_of_a_csv_log_matches_the_samples_it_was_written_from() {
+    // GIVEN a simulated flight written as a CSV log (the project's layout)
+    let dir = qemu::workspace_root().join("target").join("replay-csv");
+    std::fs::create_dir_all(&dir).expect("dir");
+    let path = dir.join("flight.csv");
+    let n = aerosid_host::replay::simulate_to_csv(&path, 10.0, 3).expect("simulate");
+    // WHEN it is replayed on the host
+    let report = aerosid_host::replay::replay(&path, false).expect("replay");
+    // THEN every sample went through the pipeline and every coefficient is reported
+    assert!(
+        report.contains(&format!("{n} samples through the on-board f32 pipeline")),
+        "{report}"
+    );
+    for name in ["C_L0", "C_Dα²", "C_Yβ", "C_lp", "C_mq", "C_nδr"] {
+        assert!(report.contains(name), "{name} missing:\n{report}");
+    }
+    // … and a missing file is an error that names it
+    let err = aerosid_host::replay::replay(&dir.join("missing.csv"), false).expect_err("missing file");
+    assert!(err.contains("missing.csv"), "{err}");
+}

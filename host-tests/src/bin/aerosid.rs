@@ -6,6 +6,11 @@
 //! model beside the truth and the RLS baseline, and writes the figures (the six coefficients,
 //! Fig. 1, Fig. 2) as SVG to `DIR` (default `out/`).
 //!
+//! `aerosid simulate --out LOG.csv [--seed N] [--seconds S]` writes the main job's flight as a CSV
+//! log; `aerosid replay LOG.csv [--qemu]` identifies the six coefficients from such a log with the
+//! on-board `f32` pipeline and, with `--qemu`, runs the firmware under QEMU on the same log and
+//! checks its telemetry against the host bit for bit ([`aerosid_host::replay`]).
+//!
 //! `aerosid demo [--seed N] [--seconds S]`: identifies a pitching-moment model
 //! `C_m = C_m0 + C_mα α + C_mq q_n + C_mδe δe` (seed 000, eq. 3e; values of the `skywalker_2013_mod`
 //! airframe) from generated 100 Hz data with realistic sensor noise on *every* regressor, running
@@ -31,6 +36,15 @@ const RATE_HZ: f64 = 100.0;
 enum Command {
     Demo(Args),
     Run(aerosid_host::report::MainJob),
+    Simulate {
+        out: std::path::PathBuf,
+        seconds: f64,
+        seed: u64,
+    },
+    Replay {
+        log: std::path::PathBuf,
+        qemu: bool,
+    },
 }
 
 struct Args {
@@ -43,6 +57,38 @@ fn parse() -> Result<Option<Command>, String> {
     let cmd = match it.next().as_deref() {
         Some("demo") => "demo",
         Some("run") => "run",
+        Some("simulate") => {
+            let (mut out, mut seconds, mut seed) = (None, 180.0, 1u64);
+            while let Some(flag) = it.next() {
+                let value = it.next().ok_or_else(|| format!("`{flag}` needs a value"))?;
+                match flag.as_str() {
+                    "--out" => out = Some(std::path::PathBuf::from(value)),
+                    "--seconds" => {
+                        seconds = value.parse().map_err(|e| format!("--seconds {value}: {e}"))?;
+                        if !(seconds >= 1.0 && seconds <= 36_000.0) {
+                            return Err("--seconds must be between 1 and 36000".into());
+                        }
+                    }
+                    "--seed" => seed = value.parse().map_err(|e| format!("--seed {value}: {e}"))?,
+                    _ => return Err(format!("unknown flag `{flag}` for `simulate`")),
+                }
+            }
+            let out = out.ok_or("simulate needs --out LOG.csv")?;
+            return Ok(Some(Command::Simulate { out, seconds, seed }));
+        }
+        Some("replay") => {
+            let mut log = None;
+            let mut qemu = false;
+            for a in it.by_ref() {
+                match a.as_str() {
+                    "--qemu" => qemu = true,
+                    f if f.starts_with("--") => return Err(format!("unknown flag `{f}` for `replay`")),
+                    _ => log = Some(std::path::PathBuf::from(a)),
+                }
+            }
+            let log = log.ok_or("replay needs a LOG.csv")?;
+            return Ok(Some(Command::Replay { log, qemu }));
+        }
         Some("-h") | Some("--help") | None => return Ok(None),
         Some(other) => return Err(format!("unknown command `{other}` (try `aerosid --help`)")),
     };
@@ -252,13 +298,41 @@ fn main() -> ExitCode {
                 }
             }
         }
+        Ok(Some(Command::Simulate { out, seconds, seed })) => {
+            match aerosid_host::replay::simulate_to_csv(&out, seconds, seed) {
+                Ok(n) => {
+                    println!("{}: {n} samples ({seconds} s at 100 Hz, seed {seed})", out.display());
+                    ExitCode::SUCCESS
+                }
+                Err(e) => {
+                    eprintln!("aerosid simulate: {e}");
+                    ExitCode::FAILURE
+                }
+            }
+        }
+        Ok(Some(Command::Replay { log, qemu })) => match aerosid_host::replay::replay(&log, qemu) {
+            Ok(report) => {
+                print!("{report}");
+                ExitCode::SUCCESS
+            }
+            Err(e) => {
+                eprintln!("aerosid replay: {e}");
+                ExitCode::FAILURE
+            }
+        },
         Ok(None) => {
             println!("aerosid — on-line aerodynamic model identification\n");
             println!("usage: aerosid run [--out DIR] [--seed N] [--seconds S]");
+            println!("       aerosid simulate --out LOG.csv [--seed N] [--seconds S]");
+            println!("       aerosid replay LOG.csv [--qemu]");
             println!("       aerosid demo [--seed N] [--seconds S]\n");
             println!("  run    simulate a flight of the default airframe, identify the six coefficients with the");
             println!("         on-board f32 pipeline, print the model beside the truth and RLS, write the figures");
             println!("         (six coefficients, Fig. 1, Fig. 2) as SVG to DIR (default out/)");
+            println!("  simulate  write the main job's flight (every hidden effect, light turbulence, sensors with");
+            println!("         biases) as a CSV log in the project's layout");
+            println!("  replay identify the six coefficients from a CSV log with the on-board f32 pipeline; with");
+            println!("         --qemu also run the firmware under QEMU on it and compare bit for bit");
             println!("  demo   identify C_m from generated noisy 100 Hz data with the on-board f32 PCA-GTLS,");
             println!("         printing the estimates ± σ beside the truth and the RLS baseline");
             ExitCode::SUCCESS
