@@ -65,7 +65,7 @@ fn parse() -> Result<Option<Command>, String> {
                     "--out" => out = Some(std::path::PathBuf::from(value)),
                     "--seconds" => {
                         seconds = value.parse().map_err(|e| format!("--seconds {value}: {e}"))?;
-                        if !(seconds >= 1.0 && seconds <= 36_000.0) {
+                        if !(1.0..=36_000.0).contains(&seconds) {
                             return Err("--seconds must be between 1 and 36000".into());
                         }
                     }
