@@ -23,6 +23,8 @@
 //! * [`mavlink`] — MAVLink 2 over the UART, hand-encoded: heartbeat and per-coefficient
 //!   `DEBUG_FLOAT_ARRAY` telemetry out, a byte-at-a-time parser for `SERVO_OUTPUT_RAW` and RPM in, and
 //!   the [`mavlink::SurfaceSource`] that turns them into deflections, throttle and propeller speed.
+//! * [`fem`] — the filter error method (seed 001): separate state and parameter filters for models
+//!   with process noise; the HFB-320 and the seed's longitudinal model.
 //! * [`gtls`] — recursive PCA-GTLS (seed 000, Algorithm 1, eq. 8–23) with mixed LS–TLS for exact
 //!   regressors.
 //! * [`linalg::secular`] — the rank-one SVD/eigen update by the secular equation (ref. \[17\]).
@@ -50,6 +52,7 @@ pub mod aero;
 pub mod drivers;
 pub mod error;
 pub mod estimator;
+pub mod fem;
 pub mod gtls;
 pub mod linalg;
 pub mod mavlink;

@@ -1,0 +1,230 @@
+//! The filter error method (seed 001) in the core: Jacobians, refusal of bad input, and the real
+//! HFB-320 flight data against the published filter-error estimates (issue 5).
+
+use aerosid_core::fem::models::{hfb320_idx, Hfb320, Longitudinal};
+use aerosid_core::fem::{
+    bauer_andrisani, central_difference, FemSettings, FilterError, Integrator, Model, Sensitivity,
+};
+use nalgebra::{SMatrix, SVector};
+
+fn shared(path: &str) -> std::path::PathBuf {
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../shared")
+        .join(path)
+}
+
+/// The HFB-320 file: rows of 20 whitespace-separated numbers.
+fn hfb320_rows() -> Vec<[f64; 20]> {
+    let path = shared("data/flight/hfb320_1_10.asc");
+    let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    text.lines()
+        .filter(|l| !l.trim().is_empty())
+        .enumerate()
+        .map(|(i, l)| {
+            let v: Vec<f64> = l
+                .split_whitespace()
+                .map(|t| {
+                    t.parse()
+                        .unwrap_or_else(|e| panic!("{}:{}: {t}: {e}", path.display(), i + 1))
+                })
+                .collect();
+            v.try_into()
+                .unwrap_or_else(|_| panic!("{}:{}: not 20 columns", path.display(), i + 1))
+        })
+        .collect()
+}
+
+const PUBLISHED: [f64; 11] = [
+    0.122688, -0.0644969, 0.320055, -0.0929113, 0.148726, 4.32785, 0.111905, 0.00395154, -0.967854, -34.7098, -1.52913,
+];
+const START: [f64; 11] = [
+    5.67516e-3, 7.72612e-3, 0.674256, -0.318267, 0.260317, 5.37576, 4.98218e-2, 1.89182e-2, -0.498586, -25.8439,
+    -0.990687,
+];
+
+#[test]
+fn hfb320_analytic_parameter_jacobians_match_central_differences() {
+    let m = Hfb320::<f64>::default();
+    let x = SVector::<f64, 4>::new(106.0, 0.11, 0.10, 0.01);
+    let u = SVector::<f64, 2>::new(-0.05, 12_000.0);
+    let p = SVector::<f64, 11>::from_column_slice(&PUBLISHED);
+    let fd_f: SMatrix<f64, 4, 11> = central_difference(&p, |pp| m.f(&x, &u, pp));
+    let fd_h: SMatrix<f64, 7, 11> = central_difference(&p, |pp| m.h(&x, &u, pp));
+    // Linear in p: central differences are exact up to rounding (ε^{2/3} relative).
+    let ef = (m.df_dp(&x, &u, &p) - fd_f).abs().max() / fd_f.abs().max();
+    let eh = (m.dh_dp(&x, &u, &p) - fd_h).abs().max() / fd_h.abs().max();
+    assert!(ef < 1e-9 && eh < 1e-9, "∂f/∂p {ef:e}, ∂h/∂p {eh:e}");
+}
+
+fn hfb320_filter(
+    integrator: Integrator,
+    sensitivity: Sensitivity,
+    p0: &[f64; 11],
+) -> FilterError<f64, Hfb320<f64>, 4, 2, 7, 11> {
+    let rows = hfb320_rows();
+    let r0 = &rows[0];
+    // Book's FEM noise: process-noise distribution F (Q = F Fᵀ), measurement variances R.
+    let f = [0.358553, 2.42099e-3, 4.47607e-4, 1.73778e-3];
+    let r = [1.7587e-2, 9.902e-7, 1.977e-7, 3.384e-7, 3.168e-5, 4.191e-4, 2.020e-2];
+    let settings = FemSettings {
+        q_x: SMatrix::<f64, 4, 4>::from_diagonal(&SVector::from_fn(|i, _| f[i] * f[i])),
+        r_x: SMatrix::<f64, 7, 7>::from_diagonal(&SVector::from_fn(|i, _| r[i])),
+        dt_s: 0.1,
+        integrator,
+        sensitivity,
+    };
+    let x0 = SVector::<f64, 4>::new(r0[4], r0[5], r0[6], r0[7]);
+    let p_x0 = SMatrix::<f64, 4, 4>::from_diagonal(&SVector::from_fn(|i, _| r[i]));
+    let p0 = SVector::<f64, 11>::from_column_slice(p0);
+    FilterError::new(Hfb320::default(), settings, x0, p_x0, p0, bauer_andrisani(&p0, 0.05)).expect("filter")
+}
+
+fn run_hfb320(filter: &mut FilterError<f64, Hfb320<f64>, 4, 2, 7, 11>) {
+    let rows = hfb320_rows();
+    for w in rows.windows(2) {
+        let (a, b) = (&w[0], &w[1]);
+        let u = SVector::<f64, 2>::new(a[1], a[3]);
+        let un = SVector::<f64, 2>::new(b[1], b[3]);
+        let y = SVector::<f64, 7>::from_column_slice(&[b[4], b[5], b[6], b[7], b[8], b[9], b[10]]);
+        filter.step(&u, &un, &y).expect("step");
+    }
+}
+
+#[test]
+fn hfb320_flight_data_against_the_published_filter_error_estimates() {
+    // GIVEN the real HFB-320 flight (601 samples, 0.1 s, turbulence), the book's model, its noise
+    // (Q = F Fᵀ, R) and starting values, the Bauer–Andrisani prior
+    // WHEN the filter makes one recursive pass over the data (as on board), Euler prediction,
+    // with the paper's one-step sensitivity and with the propagated one
+    let mut results = Vec::new();
+    for sensitivity in [Sensitivity::OneStep, Sensitivity::Propagated] {
+        let mut fem = hfb320_filter(Integrator::Euler, sensitivity, &START);
+        run_hfb320(&mut fem);
+        let (p, s) = (*fem.parameters(), fem.parameter_sigma());
+        println!("{sensitivity:?}: param       ours ± σ              published   |Δ|/σ");
+        for i in 0..11 {
+            println!(
+                "  {:>10} {:>+10.5} ± {:8.5}  {:>+10.5}  {:6.2}",
+                hfb320_idx::NAMES[i],
+                p[i],
+                s[i],
+                PUBLISHED[i],
+                (p[i] - PUBLISHED[i]).abs() / s[i]
+            );
+        }
+        results.push((p, s));
+    }
+    // THEN with the propagated sensitivity every parameter but Cmq is within 2σ of the published
+    // filter-error value (measured: CLα 4.357 vs 4.328, largest |Δ|/σ 1.97 for Cm0) …
+    let (p, s) = results[1];
+    for i in (0..11).filter(|&i| hfb320_idx::NAMES[i] != "Cmq") {
+        let z = (p[i] - PUBLISHED[i]).abs() / s[i];
+        assert!(
+            z <= 2.0,
+            "{}: {} vs {} ({z:.2}σ)",
+            hfb320_idx::NAMES[i],
+            p[i],
+            PUBLISHED[i]
+        );
+    }
+    // … and Cmq is not: −38.1 ± 0.8 vs −34.7 (4.3σ, 10 %). Why (measured, not tuned away): the plain
+    // equation-error fit on these data gives −42.0 (flight-data README), the paper's one-step
+    // sensitivity −37.7, the propagated one −38.1, RK4 prediction −36.6; the book's value is a batch
+    // maximum-likelihood filter-error estimate whose gain and noise are iterated to convergence over
+    // all 60 s, while a one-pass recursive filter with the book's fixed Q and R weights the pitch-rate
+    // data like an equation-error method does. Cmq within 15 % is what we claim.
+    let cmq = 9;
+    assert!(
+        ((p[cmq] - PUBLISHED[cmq]) / PUBLISHED[cmq]).abs() < 0.15,
+        "Cmq {}",
+        p[cmq]
+    );
+}
+
+#[test]
+fn a_non_finite_measurement_is_refused_and_leaves_the_filter_untouched() {
+    let mut fem = hfb320_filter(Integrator::Euler, Sensitivity::OneStep, &START);
+    let before = fem;
+    let u = SVector::<f64, 2>::new(0.0, 10_000.0);
+    let mut y = SVector::<f64, 7>::from_column_slice(&[106.0, 0.11, 0.1, 0.0, 0.0, 0.5, -9.8]);
+    y[3] = f64::NAN;
+    assert!(fem.step(&u, &u, &y).is_err());
+    // THEN the state, the parameters and both covariances are bit-identical; only the counter moved
+    assert_eq!(fem.state(), before.state());
+    assert_eq!(fem.state_covariance(), before.state_covariance());
+    assert_eq!(fem.parameters(), before.parameters());
+    assert_eq!(fem.parameter_covariance(), before.parameter_covariance());
+    assert_eq!(fem.health().refused_input, 1);
+    assert_eq!(fem.health().steps, 0);
+}
+
+#[test]
+fn longitudinal_model_solves_alpha_dot_consistently() {
+    // α̇ returned by the model satisfies the implicit lift equation it came from.
+    let mut m = Longitudinal::<f64>::a4d();
+    m.thrust_n = 8_000.0;
+    let x = SVector::<f64, 5>::new(236.0, 0.02, 0.01, 0.03, 10_000.0);
+    let u = SVector::<f64, 1>::new(-0.01);
+    let p = SVector::<f64, 9>::from_column_slice(&Longitudinal::<f64>::TABLE1_TRUE);
+    let ad = m.alpha_dot(&x, &u, &p);
+    let (v, alpha, q, theta) = (x[0], x[1], x[2], x[3]);
+    let qs = 0.5 * m.rho_kgpm3 * v * v * m.wing_area_m2;
+    let lift = qs * (p[0] + p[1] * alpha + p[2] * ad * m.chord_m / (2.0 * v) + p[3] * u[0]);
+    let rhs = q - (lift + m.thrust_n * alpha.sin() - m.mass_kg * 9.80665 * (theta - alpha).cos()) / (m.mass_kg * v);
+    assert!((ad - rhs).abs() < 1e-12, "{ad} vs {rhs}");
+    assert_eq!(m.f(&x, &u, &p)[1], ad);
+}
+
+#[test]
+fn hfb320_in_f32_agrees_with_f64_within_a_quarter_of_sigma() {
+    // GIVEN the same data and settings in f32 (as on the MCU)
+    let rows = hfb320_rows();
+    let f = [0.358553f32, 2.42099e-3, 4.47607e-4, 1.73778e-3];
+    let r = [1.7587e-2f32, 9.902e-7, 1.977e-7, 3.384e-7, 3.168e-5, 4.191e-4, 2.020e-2];
+    let settings = FemSettings {
+        q_x: SMatrix::<f32, 4, 4>::from_diagonal(&SVector::from_fn(|i, _| f[i] * f[i])),
+        r_x: SMatrix::<f32, 7, 7>::from_diagonal(&SVector::from_fn(|i, _| r[i])),
+        dt_s: 0.1,
+        integrator: Integrator::Euler,
+        sensitivity: Sensitivity::Propagated,
+    };
+    let r0 = &rows[0];
+    let x0 = SVector::<f32, 4>::new(r0[4] as f32, r0[5] as f32, r0[6] as f32, r0[7] as f32);
+    let p_x0 = SMatrix::<f32, 4, 4>::from_diagonal(&SVector::from_fn(|i, _| r[i]));
+    let p0 = SVector::<f32, 11>::from_fn(|i, _| START[i] as f32);
+    let mut fem32 = FilterError::new(
+        Hfb320::<f32>::default(),
+        settings,
+        x0,
+        p_x0,
+        p0,
+        bauer_andrisani(&p0, 0.05),
+    )
+    .expect("filter");
+    // WHEN it runs over the data (every step must be accepted)
+    for w in rows.windows(2) {
+        let (a, b) = (&w[0], &w[1]);
+        let u = SVector::<f32, 2>::new(a[1] as f32, a[3] as f32);
+        let un = SVector::<f32, 2>::new(b[1] as f32, b[3] as f32);
+        let y = SVector::<f32, 7>::from_fn(|i, _| b[4 + i] as f32);
+        fem32.step(&u, &un, &y).expect("f32 step");
+    }
+    let mut fem64 = hfb320_filter(Integrator::Euler, Sensitivity::Propagated, &START);
+    run_hfb320(&mut fem64);
+    // THEN each parameter differs from the f64 run by less than a quarter of its σ — statistically
+    // the same estimate (measured: at most 0.12σ, on CD0 and CDV: the f32 central-difference step
+    // in V is ε^{1/3}·106 m/s ≈ 0.5 m/s, and the P_p entries span eight decades)
+    let (p64, s64) = (fem64.parameters(), fem64.parameter_sigma());
+    let mut worst = 0.0f64;
+    for i in 0..11 {
+        let d = (fem32.parameters()[i] as f64 - p64[i]).abs() / s64[i];
+        println!(
+            "{:>10}: f32 {:+.5} f64 {:+.5} ({d:.3}σ)",
+            hfb320_idx::NAMES[i],
+            fem32.parameters()[i],
+            p64[i]
+        );
+        worst = worst.max(d);
+    }
+    assert!(worst < 0.25, "worst {worst:.3}σ");
+}
