@@ -20,3 +20,4 @@ pub mod reference;
 pub mod replay;
 pub mod report;
 pub mod sim;
+pub mod table1;
