@@ -28,7 +28,8 @@ fn hfb320_rows() -> Vec<[f64; 20]> {
 }
 
 const START: [f64; 11] = [
-    5.67516e-3, 7.72612e-3, 0.674256, -0.318267, 0.260317, 5.37576, 4.98218e-2, 1.89182e-2, -0.498586, -25.8439, -0.990687,
+    5.67516e-3, 7.72612e-3, 0.674256, -0.318267, 0.260317, 5.37576, 4.98218e-2, 1.89182e-2, -0.498586, -25.8439,
+    -0.990687,
 ];
 
 fn hfb320<T: Real>(c: &mut Criterion, name: &str, sensitivity: Sensitivity) {
@@ -46,8 +47,15 @@ fn hfb320<T: Real>(c: &mut Criterion, name: &str, sensitivity: Sensitivity) {
     let x0 = SVector::<T, 4>::from_fn(|i, _| l(rows[0][4 + i]));
     let p_x0 = SMatrix::<T, 4, 4>::from_diagonal(&SVector::from_fn(|i, _| l(r[i])));
     let p0 = SVector::<T, 11>::from_fn(|i, _| l(START[i]));
-    let fem0 = FilterError::new(Hfb320::<T>::default(), settings, x0, p_x0, p0, bauer_andrisani(&p0, l(0.05)))
-        .expect("filter");
+    let fem0 = FilterError::new(
+        Hfb320::<T>::default(),
+        settings,
+        x0,
+        p_x0,
+        p0,
+        bauer_andrisani(&p0, l(0.05)),
+    )
+    .expect("filter");
     let data: Vec<_> = rows
         .windows(2)
         .map(|w| {

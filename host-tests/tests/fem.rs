@@ -7,40 +7,11 @@ use aerosid_core::fem::{
 };
 use nalgebra::{SMatrix, SVector};
 
-fn shared(path: &str) -> std::path::PathBuf {
-    std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../shared")
-        .join(path)
-}
+use aerosid_host::fem_report::{default_hfb320_path, hfb320_filter, step_data, PUBLISHED, START};
 
-/// The HFB-320 file: rows of 20 whitespace-separated numbers.
 fn hfb320_rows() -> Vec<[f64; 20]> {
-    let path = shared("data/flight/hfb320_1_10.asc");
-    let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    text.lines()
-        .filter(|l| !l.trim().is_empty())
-        .enumerate()
-        .map(|(i, l)| {
-            let v: Vec<f64> = l
-                .split_whitespace()
-                .map(|t| {
-                    t.parse()
-                        .unwrap_or_else(|e| panic!("{}:{}: {t}: {e}", path.display(), i + 1))
-                })
-                .collect();
-            v.try_into()
-                .unwrap_or_else(|_| panic!("{}:{}: not 20 columns", path.display(), i + 1))
-        })
-        .collect()
+    aerosid_host::fem_report::hfb320_rows(&default_hfb320_path()).expect("HFB-320 data")
 }
-
-const PUBLISHED: [f64; 11] = [
-    0.122688, -0.0644969, 0.320055, -0.0929113, 0.148726, 4.32785, 0.111905, 0.00395154, -0.967854, -34.7098, -1.52913,
-];
-const START: [f64; 11] = [
-    5.67516e-3, 7.72612e-3, 0.674256, -0.318267, 0.260317, 5.37576, 4.98218e-2, 1.89182e-2, -0.498586, -25.8439,
-    -0.990687,
-];
 
 #[test]
 fn hfb320_analytic_parameter_jacobians_match_central_differences() {
@@ -56,36 +27,9 @@ fn hfb320_analytic_parameter_jacobians_match_central_differences() {
     assert!(ef < 1e-9 && eh < 1e-9, "∂f/∂p {ef:e}, ∂h/∂p {eh:e}");
 }
 
-fn hfb320_filter(
-    integrator: Integrator,
-    sensitivity: Sensitivity,
-    p0: &[f64; 11],
-) -> FilterError<f64, Hfb320<f64>, 4, 2, 7, 11> {
-    let rows = hfb320_rows();
-    let r0 = &rows[0];
-    // Book's FEM noise: process-noise distribution F (Q = F Fᵀ), measurement variances R.
-    let f = [0.358553, 2.42099e-3, 4.47607e-4, 1.73778e-3];
-    let r = [1.7587e-2, 9.902e-7, 1.977e-7, 3.384e-7, 3.168e-5, 4.191e-4, 2.020e-2];
-    let settings = FemSettings {
-        q_x: SMatrix::<f64, 4, 4>::from_diagonal(&SVector::from_fn(|i, _| f[i] * f[i])),
-        r_x: SMatrix::<f64, 7, 7>::from_diagonal(&SVector::from_fn(|i, _| r[i])),
-        dt_s: 0.1,
-        integrator,
-        sensitivity,
-    };
-    let x0 = SVector::<f64, 4>::new(r0[4], r0[5], r0[6], r0[7]);
-    let p_x0 = SMatrix::<f64, 4, 4>::from_diagonal(&SVector::from_fn(|i, _| r[i]));
-    let p0 = SVector::<f64, 11>::from_column_slice(p0);
-    FilterError::new(Hfb320::default(), settings, x0, p_x0, p0, bauer_andrisani(&p0, 0.05)).expect("filter")
-}
-
 fn run_hfb320(filter: &mut FilterError<f64, Hfb320<f64>, 4, 2, 7, 11>) {
-    let rows = hfb320_rows();
-    for w in rows.windows(2) {
-        let (a, b) = (&w[0], &w[1]);
-        let u = SVector::<f64, 2>::new(a[1], a[3]);
-        let un = SVector::<f64, 2>::new(b[1], b[3]);
-        let y = SVector::<f64, 7>::from_column_slice(&[b[4], b[5], b[6], b[7], b[8], b[9], b[10]]);
+    for w in hfb320_rows().windows(2) {
+        let (u, un, y) = step_data(&w[0], &w[1]);
         filter.step(&u, &un, &y).expect("step");
     }
 }
@@ -98,7 +42,7 @@ fn hfb320_flight_data_against_the_published_filter_error_estimates() {
     // with the paper's one-step sensitivity and with the propagated one
     let mut results = Vec::new();
     for sensitivity in [Sensitivity::OneStep, Sensitivity::Propagated] {
-        let mut fem = hfb320_filter(Integrator::Euler, sensitivity, &START);
+        let mut fem = hfb320_filter(&hfb320_rows(), sensitivity).expect("filter");
         run_hfb320(&mut fem);
         let (p, s) = (*fem.parameters(), fem.parameter_sigma());
         println!("{sensitivity:?}: param       ours ± σ              published   |Δ|/σ");
@@ -143,7 +87,7 @@ fn hfb320_flight_data_against_the_published_filter_error_estimates() {
 
 #[test]
 fn a_non_finite_measurement_is_refused_and_leaves_the_filter_untouched() {
-    let mut fem = hfb320_filter(Integrator::Euler, Sensitivity::OneStep, &START);
+    let mut fem = hfb320_filter(&hfb320_rows(), Sensitivity::OneStep).expect("filter");
     let before = fem;
     let u = SVector::<f64, 2>::new(0.0, 10_000.0);
     let mut y = SVector::<f64, 7>::from_column_slice(&[106.0, 0.11, 0.1, 0.0, 0.0, 0.5, -9.8]);
@@ -209,7 +153,7 @@ fn hfb320_in_f32_agrees_with_f64_within_a_quarter_of_sigma() {
         let y = SVector::<f32, 7>::from_fn(|i, _| b[4 + i] as f32);
         fem32.step(&u, &un, &y).expect("f32 step");
     }
-    let mut fem64 = hfb320_filter(Integrator::Euler, Sensitivity::Propagated, &START);
+    let mut fem64 = hfb320_filter(&hfb320_rows(), Sensitivity::Propagated).expect("filter");
     run_hfb320(&mut fem64);
     // THEN each parameter differs from the f64 run by less than a quarter of its σ — statistically
     // the same estimate (measured: at most 0.12σ, on CD0 and CDV: the f32 central-difference step
@@ -227,4 +171,37 @@ fn hfb320_in_f32_agrees_with_f64_within_a_quarter_of_sigma() {
         worst = worst.max(d);
     }
     assert!(worst < 0.25, "worst {worst:.3}σ");
+}
+
+#[test]
+fn hfb320_report_fits_the_outputs_as_well_as_the_published_model() {
+    // GIVEN, WHEN: the `aerosid fem-hfb320` report into a scratch folder
+    let out = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/fem-hfb320");
+    let (text, figures) = aerosid_host::fem_report::hfb320_report(&default_hfb320_path(), &out).expect("report");
+    println!("{text}");
+    // THEN both figures exist, and the identified model's open-loop simulation explains every output
+    // within 0.01 of R² of the published model's (measured: V 0.528 vs 0.498, q 0.848 vs 0.852,
+    // q̇ 0.820 vs 0.824, a_z 0.705 vs 0.700)
+    for f in &figures {
+        assert!(f.exists(), "{}", f.display());
+    }
+    let r2: Vec<(f64, f64)> = text
+        .lines()
+        .skip_while(|l| !l.contains("R² pub."))
+        .skip(1)
+        .take(7)
+        .map(|l| {
+            let v: Vec<f64> = l
+                .split_whitespace()
+                .rev()
+                .take(4)
+                .filter_map(|t| t.parse().ok())
+                .collect();
+            (v[2], v[0]) // (R² ours, R² published)
+        })
+        .collect();
+    assert_eq!(r2.len(), 7, "{text}");
+    for (ours, published) in r2 {
+        assert!(ours >= published - 0.01, "R² {ours} vs published {published}");
+    }
 }

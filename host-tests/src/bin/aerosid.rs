@@ -45,6 +45,9 @@ enum Command {
         log: std::path::PathBuf,
         qemu: bool,
     },
+    FemHfb320 {
+        out: std::path::PathBuf,
+    },
 }
 
 struct Args {
@@ -75,6 +78,17 @@ fn parse() -> Result<Option<Command>, String> {
             }
             let out = out.ok_or("simulate needs --out LOG.csv")?;
             return Ok(Some(Command::Simulate { out, seconds, seed }));
+        }
+        Some("fem-hfb320") => {
+            let mut out = std::path::PathBuf::from("out");
+            while let Some(flag) = it.next() {
+                let value = it.next().ok_or_else(|| format!("`{flag}` needs a value"))?;
+                match flag.as_str() {
+                    "--out" => out = value.into(),
+                    _ => return Err(format!("unknown flag `{flag}` for `fem-hfb320`")),
+                }
+            }
+            return Ok(Some(Command::FemHfb320 { out }));
         }
         Some("replay") => {
             let mut log = None;
@@ -310,6 +324,22 @@ fn main() -> ExitCode {
                 }
             }
         }
+        Ok(Some(Command::FemHfb320 { out })) => {
+            match aerosid_host::fem_report::hfb320_report(&aerosid_host::fem_report::default_hfb320_path(), &out) {
+                Ok((text, figures)) => {
+                    print!("{text}");
+                    println!("\nfigures:");
+                    for f in figures {
+                        println!("  {}", f.display());
+                    }
+                    ExitCode::SUCCESS
+                }
+                Err(e) => {
+                    eprintln!("aerosid fem-hfb320: {e}");
+                    ExitCode::FAILURE
+                }
+            }
+        }
         Ok(Some(Command::Replay { log, qemu })) => match aerosid_host::replay::replay(&log, qemu) {
             Ok(report) => {
                 print!("{report}");
@@ -325,6 +355,7 @@ fn main() -> ExitCode {
             println!("usage: aerosid run [--out DIR] [--seed N] [--seconds S]");
             println!("       aerosid simulate --out LOG.csv [--seed N] [--seconds S]");
             println!("       aerosid replay LOG.csv [--qemu]");
+            println!("       aerosid fem-hfb320 [--out DIR]");
             println!("       aerosid demo [--seed N] [--seconds S]\n");
             println!("  run    simulate a flight of the default airframe, identify the six coefficients with the");
             println!("         on-board f32 pipeline, print the model beside the truth and RLS, write the figures");
@@ -333,6 +364,8 @@ fn main() -> ExitCode {
             println!("         biases) as a CSV log in the project's layout");
             println!("  replay identify the six coefficients from a CSV log with the on-board f32 pipeline; with");
             println!("         --qemu also run the firmware under QEMU on it and compare bit for bit");
+            println!("  fem-hfb320  the filter error method (seed 001) on the real HFB-320 flight: estimates ± σ");
+            println!("         beside the published values, measured vs model outputs and residuals (SVG)");
             println!("  demo   identify C_m from generated noisy 100 Hz data with the on-board f32 PCA-GTLS,");
             println!("         printing the estimates ± σ beside the truth and the RLS baseline");
             ExitCode::SUCCESS

@@ -1,0 +1,212 @@
+//! The filter error method on the real HFB-320 flight (issue 5 §3): the identified model beside the
+//! published filter-error values, the parameter time histories with ±σ, and the measured outputs
+//! beside the identified model's simulation with the residuals. `aerosid fem-hfb320 [--out DIR]`.
+
+use crate::plot::{Band, Colour, Figure, Line, Panel, PlotError};
+use aerosid_core::fem::models::{hfb320_idx, Hfb320};
+use aerosid_core::fem::{bauer_andrisani, integrate, FemSettings, FilterError, Integrator, Model, Sensitivity};
+use nalgebra::{SMatrix, SVector};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+/// The book's filter-error estimates (flight-data README §1).
+pub const PUBLISHED: [f64; 11] = [
+    0.122688, -0.0644969, 0.320055, -0.0929113, 0.148726, 4.32785, 0.111905, 0.00395154, -0.967854, -34.7098, -1.52913,
+];
+/// The book's starting values.
+pub const START: [f64; 11] = [
+    5.67516e-3, 7.72612e-3, 0.674256, -0.318267, 0.260317, 5.37576, 4.98218e-2, 1.89182e-2, -0.498586, -25.8439,
+    -0.990687,
+];
+/// The book's process-noise distribution `F` (`Q = F Fᵀ`) for `V, α, θ, q`.
+pub const PROCESS_F: [f64; 4] = [0.358553, 2.42099e-3, 4.47607e-4, 1.73778e-3];
+/// The book's measurement-noise variances for `V, α, θ, q, q̇, a_x, a_z`.
+pub const R_DIAG: [f64; 7] = [1.7587e-2, 9.902e-7, 1.977e-7, 3.384e-7, 3.168e-5, 4.191e-4, 2.020e-2];
+/// Output names and units.
+pub const OUTPUTS: [&str; 7] = [
+    "V (m/s)",
+    "α (rad)",
+    "θ (rad)",
+    "q (rad/s)",
+    "q̇ (rad/s²)",
+    "a_x (m/s²)",
+    "a_z (m/s²)",
+];
+
+/// The HFB-320 flight file (`shared/data/flight/hfb320_1_10.asc`): rows of 20 numbers.
+pub fn hfb320_rows(path: &Path) -> Result<Vec<[f64; 20]>, String> {
+    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let mut rows = Vec::new();
+    for (i, line) in text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty()) {
+        let mut row = [0.0; 20];
+        let mut n = 0;
+        for (col, tok) in line.split_whitespace().enumerate() {
+            if col >= 20 {
+                return Err(format!(
+                    "{}:{}:{}: more than 20 columns",
+                    path.display(),
+                    i + 1,
+                    col + 1
+                ));
+            }
+            row[col] = tok
+                .parse()
+                .map_err(|e| format!("{}:{}:{}: `{tok}`: {e}", path.display(), i + 1, col + 1))?;
+            n += 1;
+        }
+        if n != 20 {
+            return Err(format!("{}:{}: {n} columns, expected 20", path.display(), i + 1));
+        }
+        rows.push(row);
+    }
+    Ok(rows)
+}
+
+/// The default location of the file: `../shared/data/flight/hfb320_1_10.asc` from the workspace.
+pub fn default_hfb320_path() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/flight/hfb320_1_10.asc")
+}
+
+/// The filter over the HFB-320 model with the book's noise, starting values and the
+/// Bauer–Andrisani prior (σ floor 0.05).
+pub fn hfb320_filter(
+    rows: &[[f64; 20]],
+    sensitivity: Sensitivity,
+) -> Result<FilterError<f64, Hfb320<f64>, 4, 2, 7, 11>, String> {
+    let settings = FemSettings {
+        q_x: SMatrix::<f64, 4, 4>::from_diagonal(&SVector::from_fn(|i, _| PROCESS_F[i] * PROCESS_F[i])),
+        r_x: SMatrix::<f64, 7, 7>::from_diagonal(&SVector::from_fn(|i, _| R_DIAG[i])),
+        dt_s: 0.1,
+        integrator: Integrator::Euler,
+        sensitivity,
+    };
+    let r0 = rows.first().ok_or("no data")?;
+    let x0 = SVector::<f64, 4>::new(r0[4], r0[5], r0[6], r0[7]);
+    let p_x0 = SMatrix::<f64, 4, 4>::from_diagonal(&SVector::from_fn(|i, _| R_DIAG[i]));
+    let p0 = SVector::<f64, 11>::from_column_slice(&START);
+    FilterError::new(Hfb320::default(), settings, x0, p_x0, p0, bauer_andrisani(&p0, 0.05))
+        .map_err(|e| format!("{e:?}"))
+}
+
+/// One step's data: `(u(t), u(t+Δt), y(t+Δt))`.
+pub fn step_data(a: &[f64; 20], b: &[f64; 20]) -> (SVector<f64, 2>, SVector<f64, 2>, SVector<f64, 7>) {
+    (
+        SVector::<f64, 2>::new(a[1], a[3]),
+        SVector::<f64, 2>::new(b[1], b[3]),
+        SVector::<f64, 7>::from_fn(|i, _| b[4 + i]),
+    )
+}
+
+/// Runs the report; returns the text and the figures written into `out_dir`.
+pub fn hfb320_report(data: &Path, out_dir: &Path) -> Result<(String, Vec<PathBuf>), String> {
+    let rows = hfb320_rows(data)?;
+    let mut fem = hfb320_filter(&rows, Sensitivity::Propagated)?;
+    let mut t = vec![rows[0][0]];
+    let mut hist = vec![(*fem.parameters(), fem.parameter_sigma())];
+    for w in rows.windows(2) {
+        let (u, un, y) = step_data(&w[0], &w[1]);
+        fem.step(&u, &un, &y).map_err(|e| format!("t = {} s: {e:?}", w[1][0]))?;
+        t.push(w[1][0]);
+        hist.push((*fem.parameters(), fem.parameter_sigma()));
+    }
+    let (p, s) = (*fem.parameters(), fem.parameter_sigma());
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "HFB-320 ({}): filter error method (seed 001), one recursive pass, Euler, propagated sensitivity",
+        data.display()
+    );
+    let _ = writeln!(
+        out,
+        "{:>10} {:>22} {:>12} {:>7}",
+        "param", "ours ± σ", "published", "|Δ|/σ"
+    );
+    for i in 0..11 {
+        let _ = writeln!(
+            out,
+            "{:>10} {:>+11.5} ± {:8.5} {:>+12.5} {:7.2}",
+            hfb320_idx::NAMES[i],
+            p[i],
+            s[i],
+            PUBLISHED[i],
+            (p[i] - PUBLISHED[i]).abs() / s[i]
+        );
+    }
+
+    // The identified model simulated over the record from the first measured state with the measured
+    // inputs (RK4 at the sample period), against the measurements; the published values likewise.
+    let model = Hfb320::<f64>::default();
+    let simulate = |params: &SVector<f64, 11>| -> Vec<SVector<f64, 7>> {
+        let mut x = SVector::<f64, 4>::new(rows[0][4], rows[0][5], rows[0][6], rows[0][7]);
+        let mut ys = Vec::with_capacity(rows.len());
+        for (k, r) in rows.iter().enumerate() {
+            let u = SVector::<f64, 2>::new(r[1], r[3]);
+            ys.push(model.h(&x, &u, params));
+            if k + 1 < rows.len() {
+                x = integrate(&model, Integrator::Rk4, 0.1, &x, &u, params);
+            }
+        }
+        ys
+    };
+    let sim = simulate(&p);
+    let sim_pub = simulate(&SVector::<f64, 11>::from_column_slice(&PUBLISHED));
+    let _ = writeln!(
+        out,
+        "\nmodels simulated over the whole record (open loop, no state filter; turbulence makes V and θ drift):"
+    );
+    let _ = writeln!(
+        out,
+        "{:>12} {:>10} {:>8} {:>16} {:>8}",
+        "output", "RMS ours", "R² ours", "RMS published", "R² pub."
+    );
+    for (i, name) in OUTPUTS.iter().enumerate() {
+        let meas: Vec<f64> = rows.iter().map(|r| r[4 + i]).collect();
+        let mean = meas.iter().sum::<f64>() / meas.len() as f64;
+        let ss_tot: f64 = meas.iter().map(|m| (m - mean).powi(2)).sum();
+        let fit = |ys: &[SVector<f64, 7>]| {
+            let ss_res: f64 = meas.iter().zip(ys.iter()).map(|(m, y)| (m - y[i]).powi(2)).sum();
+            ((ss_res / meas.len() as f64).sqrt(), 1.0 - ss_res / ss_tot)
+        };
+        let ((r1, q1), (r2, q2)) = (fit(&sim), fit(&sim_pub));
+        let _ = writeln!(out, "{name:>12} {r1:>10.4} {q1:>8.4} {r2:>16.4} {q2:>8.4}");
+    }
+
+    std::fs::create_dir_all(out_dir).map_err(|e| format!("{}: {e}", out_dir.display()))?;
+    let plot_err = |e: PlotError| format!("{e:?}");
+    let time: Vec<f64> = rows.iter().map(|r| r[0]).collect();
+    let mut outputs = Figure::new("t (s)").title("HFB-320: measured vs identified model (simulation), residuals");
+    for (i, name) in OUTPUTS.iter().enumerate() {
+        let meas: Vec<f64> = rows.iter().map(|r| r[4 + i]).collect();
+        let model_y: Vec<f64> = sim.iter().map(|y| y[i]).collect();
+        let resid: Vec<f64> = meas.iter().zip(model_y.iter()).map(|(m, y)| m - y).collect();
+        outputs = outputs
+            .panel(
+                Panel::new(*name, *name)
+                    .line(Line::new("measured", &time, &meas, Colour::BLACK))
+                    .line(Line::new("model", &time, &model_y, Colour::BLUE)),
+            )
+            .panel(Panel::new(format!("{name} residual"), "residual").line(Line::new(
+                "measured − model",
+                &time,
+                &resid,
+                Colour::VERMILLION,
+            )));
+    }
+    let f1 = out_dir.join("fem_hfb320_outputs.svg");
+    outputs.write_svg(&f1).map_err(plot_err)?;
+    let mut params = Figure::new("t (s)").title("HFB-320: filter-error parameter estimates ±σ");
+    for i in 0..11 {
+        let est: Vec<f64> = hist.iter().map(|h| h.0[i]).collect();
+        let sig: Vec<f64> = hist.iter().map(|h| h.1[i]).collect();
+        let published = vec![PUBLISHED[i]; t.len()];
+        params = params.panel(
+            Panel::new(hfb320_idx::NAMES[i], hfb320_idx::NAMES[i])
+                .band(Band::around("±σ", &t, &est, &sig, 1.0, Colour::BLUE))
+                .line(Line::new("ours", &t, &est, Colour::BLUE))
+                .line(Line::new("published FEM", &t, &published, Colour::BLACK).dashed()),
+        );
+    }
+    let f2 = out_dir.join("fem_hfb320_parameters.svg");
+    params.write_svg(&f2).map_err(plot_err)?;
+    Ok((out, vec![f1, f2]))
+}
