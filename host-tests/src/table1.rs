@@ -11,7 +11,7 @@
 //! `CLα̇`, `Cmα̇` terms is the model's own (the gust's `ẇ_g/V` is not added).
 
 use crate::sim::{Dryden, Turbulence};
-use aerosid_core::fem::models::Longitudinal;
+use aerosid_core::fem::models::{Longitudinal, LongitudinalGust};
 use aerosid_core::fem::{bauer_andrisani, FemSettings, FilterError, Integrator, Model, Sensitivity};
 use nalgebra::{SMatrix, SVector};
 use rand::{Rng, SeedableRng};
@@ -236,6 +236,49 @@ pub fn identify(flight: &Flight, q_x: &SMatrix<f64, 5, 5>, sensitivity: Sensitiv
     let p0 = SVector::<f64, 9>::from_column_slice(&Longitudinal::<f64>::TABLE1_INITIAL);
     let x0 = SVector::<f64, 5>::from_column_slice(&flight.y[0]);
     let mut fem = FilterError::new(flight.model, settings, x0, r_x, p0, bauer_andrisani(&p0, 0.01)).ok()?;
+    for k in 0..flight.y.len() - 1 {
+        let u = SVector::<f64, 1>::new(flight.u[k]);
+        let un = SVector::<f64, 1>::new(flight.u[k + 1]);
+        let y = SVector::<f64, 5>::from_column_slice(&flight.y[k + 1]);
+        fem.step(&u, &un, &y).ok()?;
+    }
+    let s = fem.parameter_sigma();
+    let mut run = Run {
+        p: [0.0; 9],
+        sigma: [0.0; 9],
+    };
+    run.p.copy_from_slice(fem.parameters().as_slice());
+    run.sigma.copy_from_slice(s.as_slice());
+    Some(run)
+}
+
+/// [`identify`] with the gusts as filter states ([`LongitudinalGust`], L = 533 m, the Dryden gust
+/// intensity 1 m/s: `Q = 2σ²V/L` on the gust states, `q_small` on the flight states).
+pub fn identify_with_gust_states(flight: &Flight, q_small: f64, sensitivity: Sensitivity) -> Option<Run> {
+    let r_x = SMatrix::<f64, 5, 5>::from_diagonal(&SVector::from_fn(|i, _| NOISE[i] * NOISE[i]));
+    let l = 533.4;
+    let qg = 2.0 * 1.0 * V0_MPS / l;
+    let q_x = SMatrix::<f64, 7, 7>::from_diagonal(&SVector::from_fn(|i, _| if i >= 5 { qg } else { q_small }));
+    let settings = FemSettings {
+        q_x,
+        r_x: r_x.fixed_view::<5, 5>(0, 0).into(),
+        dt_s: DT_S,
+        integrator: Integrator::Euler,
+        sensitivity,
+    };
+    let model = LongitudinalGust {
+        base: flight.model,
+        length_u_m: l,
+        length_w_m: l,
+    };
+    let p0 = SVector::<f64, 9>::from_column_slice(&Longitudinal::<f64>::TABLE1_INITIAL);
+    let mut x0 = SVector::<f64, 7>::zeros();
+    for i in 0..5 {
+        x0[i] = flight.y[0][i];
+    }
+    let p_x0 =
+        SMatrix::<f64, 7, 7>::from_diagonal(&SVector::from_fn(|i, _| if i >= 5 { 1.0 } else { NOISE[i] * NOISE[i] }));
+    let mut fem = FilterError::new(model, settings, x0, p_x0, p0, bauer_andrisani(&p0, 0.01)).ok()?;
     for k in 0..flight.y.len() - 1 {
         let u = SVector::<f64, 1>::new(flight.u[k]);
         let un = SVector::<f64, 1>::new(flight.u[k + 1]);

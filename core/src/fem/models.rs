@@ -278,3 +278,51 @@ impl<T: Real> Model<T, 5, 1, 5, 9> for Longitudinal<T> {
         SMatrix::<T, 5, 9>::zeros()
     }
 }
+
+/// [`Longitudinal`] with the turbulence as two more states (the "dynamic compensation with
+/// colored process noise" of seed 001's conclusion): `x = [V, α, q, θ, h, u_g, w_g]`, first-order
+/// Gauss–Markov gusts `u̇_g = −(V/L_u) u_g + ω_u`, `ẇ_g = −(V/L_w) w_g + ω_w` (Dryden's `u` channel
+/// exactly; a first-order stand-in for its second-order `w` channel). The aerodynamics see the
+/// air-relative state `V_a = V − u_g`, `α_a = α + w_g/V`; `θ̇ = q`, `ḣ = V sin(θ − α)` stay inertial.
+/// Outputs are the five flight states (the gusts are not measured). With white process noise on the
+/// gust states only, the filter's noise model matches coloured turbulence instead of pretending it
+/// is white. Jacobians by central differences.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LongitudinalGust<T> {
+    /// The aircraft.
+    pub base: Longitudinal<T>,
+    /// Gust scale length along x, m.
+    pub length_u_m: T,
+    /// Gust scale length along z, m.
+    pub length_w_m: T,
+}
+
+impl<T: Real> Model<T, 7, 1, 5, 9> for LongitudinalGust<T> {
+    fn f(&self, x: &SVector<T, 7>, u: &SVector<T, 1>, p: &SVector<T, 9>) -> SVector<T, 7> {
+        let (ug, wg) = (x[5], x[6]);
+        let xa = SVector::<T, 5>::new(x[0] - ug, x[1] + wg / x[0], x[2], x[3], x[4]);
+        let d = self.base.f(&xa, u, p);
+        let (sg, _) = (x[3] - x[1]).sin_cos_fast();
+        SVector::<T, 7>::from_column_slice(&[
+            d[0],
+            d[1],
+            d[2],
+            x[2],
+            x[0] * sg,
+            -x[0] / self.length_u_m * ug,
+            -x[0] / self.length_w_m * wg,
+        ])
+    }
+
+    fn h(&self, x: &SVector<T, 7>, _u: &SVector<T, 1>, _p: &SVector<T, 9>) -> SVector<T, 5> {
+        SVector::<T, 5>::new(x[0], x[1], x[2], x[3], x[4])
+    }
+
+    fn dh_dx(&self, _x: &SVector<T, 7>, _u: &SVector<T, 1>, _p: &SVector<T, 9>) -> SMatrix<T, 5, 7> {
+        SMatrix::<T, 5, 7>::identity()
+    }
+
+    fn dh_dp(&self, _x: &SVector<T, 7>, _u: &SVector<T, 1>, _p: &SVector<T, 9>) -> SMatrix<T, 5, 9> {
+        SMatrix::<T, 5, 9>::zeros()
+    }
+}
