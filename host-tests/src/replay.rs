@@ -23,15 +23,9 @@ pub fn simulate_to_csv(path: &Path, seconds: f64, seed: u64) -> Result<usize, St
 
 /// The six reports as a table (θ ± σ, k, λ_F, refused).
 pub fn report_table(reports: &[CoefficientReport; idx::COUNT], out: &mut String) {
-    let models = aerosid_core::aero::AeroModels::<f32>::with_sigma_eps([1.0; idx::COUNT]);
-    let regs: [Vec<aerosid_core::aero::Regressor>; idx::COUNT] = [
-        models.lift.regressors.to_vec(),
-        models.drag.regressors.to_vec(),
-        models.side.regressors.to_vec(),
-        models.roll.regressors.to_vec(),
-        models.pitch.regressors.to_vec(),
-        models.yaw.regressors.to_vec(),
-    ];
+    let regs = crate::experiment::regressor_lists(&aerosid_core::aero::AeroModels::<f32>::with_sigma_eps(
+        [1.0; idx::COUNT],
+    ));
     let _ = writeln!(
         out,
         "{:<9} {:>22} {:>6} {:>8} {:>8}",

@@ -112,6 +112,36 @@ pub fn trim(p: &SVector<f64, 9>) -> (f64, f64, f64) {
     (alpha, de, thrust)
 }
 
+/// One sample period of the truth (module doc) from `x` with the gust `g` (body u, v, w) held: RK4
+/// at [`INTERNAL_DT_S`].
+fn truth_step(
+    model: &Longitudinal<f64>,
+    p: &SVector<f64, 9>,
+    u: &SVector<f64, 1>,
+    g: &nalgebra::Vector3<f64>,
+    x: &SVector<f64, 5>,
+) -> SVector<f64, 5> {
+    let truth = |x: &SVector<f64, 5>| {
+        let mut xa = *x;
+        xa[0] = x[0] - g[0];
+        xa[1] = x[1] + g[2] / x[0];
+        let mut d = model.f(&xa, u, p);
+        d[3] = x[2];
+        d[4] = x[0] * (x[3] - x[1]).sin();
+        d
+    };
+    let h = INTERNAL_DT_S;
+    let mut x = *x;
+    for _ in 0..(DT_S / INTERNAL_DT_S).round() as usize {
+        let k1 = truth(&x);
+        let k2 = truth(&(x + k1 * (h / 2.0)));
+        let k3 = truth(&(x + k2 * (h / 2.0)));
+        let k4 = truth(&(x + k3 * h));
+        x += (k1 + (k2 + k3) * 2.0 + k4) * (h / 6.0);
+    }
+    x
+}
+
 /// Simulates `seconds` of flight with the true parameters, `input`, light turbulence, seeded.
 pub fn simulate(input: Input, seconds: f64, seed: u64) -> Flight {
     let p = SVector::<f64, 9>::from_column_slice(&Longitudinal::<f64>::TABLE1_TRUE);
@@ -127,7 +157,6 @@ pub fn simulate(input: Input, seconds: f64, seed: u64) -> Flight {
     let mut x = SVector::<f64, 5>::new(V0_MPS, alpha0, 0.0, alpha0, H0_M);
     let x0 = [x[0], x[1], x[2], x[3], x[4]];
     let n = (seconds / DT_S).round() as usize;
-    let sub = (DT_S / INTERNAL_DT_S).round() as usize;
     let (mut us, mut ys) = (Vec::with_capacity(n), Vec::with_capacity(n));
     for k in 0..n {
         let t = k as f64 * DT_S;
@@ -140,23 +169,7 @@ pub fn simulate(input: Input, seconds: f64, seed: u64) -> Flight {
         us.push(u[0]);
         ys.push(y);
         let g = gust.step();
-        let truth = |x: &SVector<f64, 5>| {
-            let mut xa = *x;
-            xa[0] = x[0] - g[0];
-            xa[1] = x[1] + g[2] / x[0];
-            let mut d = model.f(&xa, &u, &p);
-            d[3] = x[2];
-            d[4] = x[0] * (x[3] - x[1]).sin();
-            d
-        };
-        let h = INTERNAL_DT_S;
-        for _ in 0..sub {
-            let k1 = truth(&x);
-            let k2 = truth(&(x + k1 * (h / 2.0)));
-            let k3 = truth(&(x + k2 * (h / 2.0)));
-            let k4 = truth(&(x + k3 * h));
-            x += (k1 + (k2 + k3) * 2.0 + k4) * (h / 6.0);
-        }
+        x = truth_step(&model, &p, &u, &g, &x);
     }
     Flight {
         u: us,
@@ -186,27 +199,10 @@ pub fn process_noise() -> SMatrix<f64, 5, 5> {
     let u = SVector::<f64, 1>::new(de0);
     let mut sum = SVector::<f64, 5>::zeros();
     let n = 20_000;
-    let sub = (DT_S / INTERNAL_DT_S).round() as usize;
     for _ in 0..n {
         let g = gust.step();
         let x_prev = x;
-        let truth = |x: &SVector<f64, 5>| {
-            let mut xa = *x;
-            xa[0] = x[0] - g[0];
-            xa[1] = x[1] + g[2] / x[0];
-            let mut d = model.f(&xa, &u, &p);
-            d[3] = x[2];
-            d[4] = x[0] * (x[3] - x[1]).sin();
-            d
-        };
-        let h = INTERNAL_DT_S;
-        for _ in 0..sub {
-            let k1 = truth(&x);
-            let k2 = truth(&(x + k1 * (h / 2.0)));
-            let k3 = truth(&(x + k2 * (h / 2.0)));
-            let k4 = truth(&(x + k3 * h));
-            x += (k1 + (k2 + k3) * 2.0 + k4) * (h / 6.0);
-        }
+        x = truth_step(&model, &p, &u, &g, &x);
         let r = (x - x_prev) / DT_S - model.f(&x_prev, &u, &p);
         sum += r.component_mul(&r);
     }
@@ -235,20 +231,27 @@ pub fn identify(flight: &Flight, q_x: &SMatrix<f64, 5, 5>, sensitivity: Sensitiv
     };
     let p0 = SVector::<f64, 9>::from_column_slice(&Longitudinal::<f64>::TABLE1_INITIAL);
     let x0 = SVector::<f64, 5>::from_column_slice(&flight.y[0]);
-    let mut fem = FilterError::new(flight.model, settings, x0, r_x, p0, bauer_andrisani(&p0, 0.01)).ok()?;
+    let fem = FilterError::new(flight.model, settings, x0, r_x, p0, bauer_andrisani(&p0, 0.01)).ok()?;
+    run_filter(fem, flight)
+}
+
+/// Runs `fem` over `flight`; every step must be accepted.
+fn run_filter<M: Model<f64, NX, 1, 5, 9>, const NX: usize>(
+    mut fem: FilterError<f64, M, NX, 1, 5, 9>,
+    flight: &Flight,
+) -> Option<Run> {
     for k in 0..flight.y.len() - 1 {
         let u = SVector::<f64, 1>::new(flight.u[k]);
         let un = SVector::<f64, 1>::new(flight.u[k + 1]);
         let y = SVector::<f64, 5>::from_column_slice(&flight.y[k + 1]);
         fem.step(&u, &un, &y).ok()?;
     }
-    let s = fem.parameter_sigma();
     let mut run = Run {
         p: [0.0; 9],
         sigma: [0.0; 9],
     };
     run.p.copy_from_slice(fem.parameters().as_slice());
-    run.sigma.copy_from_slice(s.as_slice());
+    run.sigma.copy_from_slice(fem.parameter_sigma().as_slice());
     Some(run)
 }
 
@@ -278,19 +281,6 @@ pub fn identify_with_gust_states(flight: &Flight, q_small: f64, sensitivity: Sen
     }
     let p_x0 =
         SMatrix::<f64, 7, 7>::from_diagonal(&SVector::from_fn(|i, _| if i >= 5 { 1.0 } else { NOISE[i] * NOISE[i] }));
-    let mut fem = FilterError::new(model, settings, x0, p_x0, p0, bauer_andrisani(&p0, 0.01)).ok()?;
-    for k in 0..flight.y.len() - 1 {
-        let u = SVector::<f64, 1>::new(flight.u[k]);
-        let un = SVector::<f64, 1>::new(flight.u[k + 1]);
-        let y = SVector::<f64, 5>::from_column_slice(&flight.y[k + 1]);
-        fem.step(&u, &un, &y).ok()?;
-    }
-    let s = fem.parameter_sigma();
-    let mut run = Run {
-        p: [0.0; 9],
-        sigma: [0.0; 9],
-    };
-    run.p.copy_from_slice(fem.parameters().as_slice());
-    run.sigma.copy_from_slice(s.as_slice());
-    Some(run)
+    let fem = FilterError::new(model, settings, x0, p_x0, p0, bauer_andrisani(&p0, 0.01)).ok()?;
+    run_filter(fem, flight)
 }

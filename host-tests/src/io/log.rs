@@ -10,7 +10,6 @@
 
 use crate::sim::TruthSample;
 use aerosid_core::aero::SensorSample;
-use nalgebra::Vector3;
 use std::fmt;
 use std::io::{BufRead, BufReader, Write};
 use std::path::Path;
@@ -40,7 +39,7 @@ pub const COLUMNS: [&str; N_COLUMNS] = [
 ];
 
 /// The number of sensor columns.
-pub const N_COLUMNS: usize = 20;
+pub const N_COLUMNS: usize = aerosid_core::aero::SAMPLE_FIELDS;
 
 /// The truth columns written by [`write_log_with_truth`] after the sensor columns.
 pub const TRUTH_COLUMNS: [&str; 41] = [
@@ -210,48 +209,12 @@ impl fmt::Display for LogError {
 impl std::error::Error for LogError {}
 
 fn sensor_row(s: &SensorSample<f64>) -> [f64; N_COLUMNS] {
-    let (a, g, e) = (&s.accel_mps2, &s.gyro_rad_s, &s.euler_rad);
-    [
-        s.t_s,
-        s.dt_s,
-        a.x,
-        a.y,
-        a.z,
-        g.x,
-        g.y,
-        g.z,
-        s.airspeed_mps,
-        s.alpha_rad,
-        s.beta_rad,
-        e.x,
-        e.y,
-        e.z,
-        s.prop_speed_rad_s,
-        s.elevator_rad,
-        s.aileron_rad,
-        s.rudder_rad,
-        s.throttle,
-        s.air_density_kgpm3,
-    ]
+    // The CSV column order is the core's field order (`SensorSample::to_fields`).
+    s.to_fields()
 }
 
 fn from_row(r: &[f64; N_COLUMNS]) -> SensorSample<f64> {
-    SensorSample {
-        t_s: r[0],
-        dt_s: r[1],
-        accel_mps2: Vector3::new(r[2], r[3], r[4]),
-        gyro_rad_s: Vector3::new(r[5], r[6], r[7]),
-        airspeed_mps: r[8],
-        alpha_rad: r[9],
-        beta_rad: r[10],
-        euler_rad: Vector3::new(r[11], r[12], r[13]),
-        prop_speed_rad_s: r[14],
-        elevator_rad: r[15],
-        aileron_rad: r[16],
-        rudder_rad: r[17],
-        throttle: r[18],
-        air_density_kgpm3: r[19],
-    }
+    SensorSample::from_fields(r)
 }
 
 fn truth_row(t: &TruthSample) -> [f64; 41] {
