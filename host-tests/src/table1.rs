@@ -17,6 +17,8 @@ use nalgebra::{SMatrix, SVector};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
+use rayon::prelude::*;
+use std::fmt::Write as _;
 
 /// Sample period of the measurements and the filter, s (50 Hz).
 pub const DT_S: f64 = 0.02;
@@ -220,7 +222,12 @@ pub struct Run {
 
 /// Identifies the nine parameters from `flight` with the filter error method started from Table 1's
 /// initial values; `P₀ = diag((0.25 p̄)²)` with σ 0.01 for `Cm0` (the paper's `P₀ = 10⁻⁴`).
-pub fn identify(flight: &Flight, q_x: &SMatrix<f64, 5, 5>, sensitivity: Sensitivity) -> Option<Run> {
+pub fn identify(
+    flight: &Flight,
+    q_x: &SMatrix<f64, 5, 5>,
+    sensitivity: Sensitivity,
+    history: Option<&mut Vec<Run>>,
+) -> Option<Run> {
     let r_x = SMatrix::<f64, 5, 5>::from_diagonal(&SVector::from_fn(|i, _| NOISE[i] * NOISE[i]));
     let settings = FemSettings {
         q_x: *q_x,
@@ -232,32 +239,45 @@ pub fn identify(flight: &Flight, q_x: &SMatrix<f64, 5, 5>, sensitivity: Sensitiv
     let p0 = SVector::<f64, 9>::from_column_slice(&Longitudinal::<f64>::TABLE1_INITIAL);
     let x0 = SVector::<f64, 5>::from_column_slice(&flight.y[0]);
     let fem = FilterError::new(flight.model, settings, x0, r_x, p0, bauer_andrisani(&p0, 0.01)).ok()?;
-    run_filter(fem, flight)
+    run_filter(fem, flight, history)
 }
 
-/// Runs `fem` over `flight`; every step must be accepted.
+/// Runs `fem` over `flight`; every step must be accepted. With `history`, the estimate after every
+/// step is appended to it.
 fn run_filter<M: Model<f64, NX, 1, 5, 9>, const NX: usize>(
     mut fem: FilterError<f64, M, NX, 1, 5, 9>,
     flight: &Flight,
+    mut history: Option<&mut Vec<Run>>,
 ) -> Option<Run> {
+    let snapshot = |fem: &FilterError<f64, M, NX, 1, 5, 9>| {
+        let mut run = Run {
+            p: [0.0; 9],
+            sigma: [0.0; 9],
+        };
+        run.p.copy_from_slice(fem.parameters().as_slice());
+        run.sigma.copy_from_slice(fem.parameter_sigma().as_slice());
+        run
+    };
     for k in 0..flight.y.len() - 1 {
         let u = SVector::<f64, 1>::new(flight.u[k]);
         let un = SVector::<f64, 1>::new(flight.u[k + 1]);
         let y = SVector::<f64, 5>::from_column_slice(&flight.y[k + 1]);
         fem.step(&u, &un, &y).ok()?;
+        if let Some(h) = history.as_deref_mut() {
+            h.push(snapshot(&fem));
+        }
     }
-    let mut run = Run {
-        p: [0.0; 9],
-        sigma: [0.0; 9],
-    };
-    run.p.copy_from_slice(fem.parameters().as_slice());
-    run.sigma.copy_from_slice(fem.parameter_sigma().as_slice());
-    Some(run)
+    Some(snapshot(&fem))
 }
 
 /// [`identify`] with the gusts as filter states ([`LongitudinalGust`], L = 533 m, the Dryden gust
 /// intensity 1 m/s: `Q = 2σ²V/L` on the gust states, `q_small` on the flight states).
-pub fn identify_with_gust_states(flight: &Flight, q_small: f64, sensitivity: Sensitivity) -> Option<Run> {
+pub fn identify_with_gust_states(
+    flight: &Flight,
+    q_small: f64,
+    sensitivity: Sensitivity,
+    history: Option<&mut Vec<Run>>,
+) -> Option<Run> {
     let r_x = SMatrix::<f64, 5, 5>::from_diagonal(&SVector::from_fn(|i, _| NOISE[i] * NOISE[i]));
     let l = 533.4;
     let qg = 2.0 * 1.0 * V0_MPS / l;
@@ -282,5 +302,181 @@ pub fn identify_with_gust_states(flight: &Flight, q_small: f64, sensitivity: Sen
     let p_x0 =
         SMatrix::<f64, 7, 7>::from_diagonal(&SVector::from_fn(|i, _| if i >= 5 { 1.0 } else { NOISE[i] * NOISE[i] }));
     let fem = FilterError::new(model, settings, x0, p_x0, p0, bauer_andrisani(&p0, 0.01)).ok()?;
-    run_filter(fem, flight)
+    run_filter(fem, flight, history)
+}
+
+/// Runs per campaign.
+pub const RUNS: u64 = 50;
+
+/// What a campaign of [`RUNS`] flights gives.
+#[derive(Debug, Clone, Copy)]
+pub struct Summary {
+    /// Posterior σ of CLα̇ over its prior σ, smallest over the runs.
+    pub cl_alphadot_sigma_ratio_min: f64,
+    /// Median over the runs of |relative error| (absolute for a zero truth).
+    pub median_abs_rel_error: [f64; 9],
+    /// Runs with all nine parameters within 2σ of the truth.
+    pub all_within_2sigma: usize,
+    /// Runs with each parameter within 2σ.
+    pub per_param_within_2sigma: [usize; 9],
+    /// Mean σ over the runs.
+    pub mean_sigma: [f64; 9],
+    /// Standard deviation of the estimates over the runs.
+    pub spread: [f64; 9],
+    /// The run with the median sum of squared normalised errors.
+    pub median_run: Run,
+}
+
+/// [`RUNS`] seeded flights of `seconds` with `input`, identified with `sensitivity`, the gusts as
+/// filter states or as white process noise.
+pub fn campaign(input: Input, seconds: f64, sensitivity: Sensitivity, gust_states: bool) -> Summary {
+    let q = process_noise();
+    let runs: Vec<Run> = (1..=RUNS)
+        .into_par_iter()
+        .map(|seed| {
+            let f = simulate(input, seconds, seed);
+            if gust_states {
+                identify_with_gust_states(&f, 1e-8, sensitivity, None).expect("every step accepted")
+            } else {
+                identify(&f, &q, sensitivity, None).expect("every step accepted")
+            }
+        })
+        .collect();
+    let truth = Longitudinal::<f64>::TABLE1_TRUE;
+    let prior = 0.25 * Longitudinal::<f64>::TABLE1_INITIAL[2];
+    let mut s = Summary {
+        cl_alphadot_sigma_ratio_min: runs.iter().map(|r| r.sigma[2] / prior).fold(f64::INFINITY, f64::min),
+        median_abs_rel_error: [0.0; 9],
+        all_within_2sigma: 0,
+        per_param_within_2sigma: [0; 9],
+        mean_sigma: [0.0; 9],
+        spread: [0.0; 9],
+        median_run: runs[0],
+    };
+    for r in &runs {
+        let mut all = true;
+        for j in 0..9 {
+            let ok = (r.p[j] - truth[j]).abs() <= 2.0 * r.sigma[j];
+            all &= ok;
+            s.per_param_within_2sigma[j] += ok as usize;
+            s.mean_sigma[j] += r.sigma[j] / RUNS as f64;
+        }
+        s.all_within_2sigma += all as usize;
+    }
+    for j in 0..9 {
+        let mean = runs.iter().map(|r| r.p[j]).sum::<f64>() / RUNS as f64;
+        s.spread[j] = (runs.iter().map(|r| (r.p[j] - mean).powi(2)).sum::<f64>() / (RUNS - 1) as f64).sqrt();
+        let mut e: Vec<f64> = runs
+            .iter()
+            .map(|r| {
+                if truth[j] != 0.0 {
+                    ((r.p[j] - truth[j]) / truth[j]).abs()
+                } else {
+                    (r.p[j] - truth[j]).abs()
+                }
+            })
+            .collect();
+        e.sort_by(|a, b| a.total_cmp(b));
+        s.median_abs_rel_error[j] = e[e.len() / 2];
+    }
+    // The median run: median of the summed squared normalised errors.
+    let mut order: Vec<(f64, usize)> = runs
+        .iter()
+        .enumerate()
+        .map(|(i, r)| {
+            (
+                (0..9).map(|j| ((r.p[j] - truth[j]) / r.sigma[j]).powi(2)).sum::<f64>(),
+                i,
+            )
+        })
+        .collect();
+    order.sort_by(|a, b| a.0.total_cmp(&b.0));
+    s.median_run = runs[order[order.len() / 2].1];
+    s
+}
+
+/// The campaign as a table beside Table 1 of the seed.
+pub fn summary_table(label: &str, s: &Summary) -> String {
+    let mut out = String::new();
+    let t = Longitudinal::<f64>::TABLE1_TRUE;
+    let init = Longitudinal::<f64>::TABLE1_INITIAL;
+    let (seed, seed_s) = (Longitudinal::<f64>::TABLE1_SEED, Longitudinal::<f64>::TABLE1_SEED_SIGMA);
+    let _ = writeln!(
+        out,
+        "\n{label}: {RUNS} runs; all nine within 2σ in {}/{RUNS}",
+        s.all_within_2sigma
+    );
+    let _ = writeln!(
+        out,
+        "{:>11} {:>8} {:>8} {:>20} {:>20} {:>8} {:>8} {:>7} {:>7} {:>6}",
+        "param", "true", "initial", "seed ± σ", "ours (median) ± σ", "seed err", "our err", "mean σ", "spread", "in 2σ"
+    );
+    for j in 0..9 {
+        let rel = |v: f64| {
+            if t[j] != 0.0 {
+                format!("{:7.1}%", 100.0 * ((v - t[j]) / t[j]).abs())
+            } else {
+                format!("{:8.5}", (v - t[j]).abs())
+            }
+        };
+        let _ = writeln!(
+            out,
+            "{:>11} {:>+8.4} {:>+8.4} {:>+10.5} ± {:7.5} {:>+10.5} ± {:7.5} {} {} {:7.4} {:7.4} {:>4}/{RUNS}",
+            Longitudinal::<f64>::NAMES[j],
+            t[j],
+            init[j],
+            seed[j],
+            seed_s[j],
+            s.median_run.p[j],
+            s.median_run.sigma[j],
+            rel(seed[j]),
+            rel(s.median_run.p[j]),
+            s.mean_sigma[j],
+            s.spread[j],
+            s.per_param_within_2sigma[j]
+        );
+    }
+    let _ = writeln!(out, "median |rel. error| per parameter: {:.3?}", s.median_abs_rel_error);
+    out
+}
+
+/// `aerosid table1 [--out DIR]`: the campaign with the paper's input by the paper's method
+/// (one-step sensitivity, turbulence as white process noise) and by ours (propagated sensitivity,
+/// gusts as filter states), as tables beside Table 1, and the parameter histories ±σ of seed 1
+/// (like the seed's Fig. 6–10) as SVG.
+pub fn table1_report(out_dir: &std::path::Path) -> Result<(String, Vec<std::path::PathBuf>), String> {
+    use crate::plot::{Band, Colour, Figure, Line, Panel};
+    let mut out = String::new();
+    let paper = campaign(Input::PAPER, 15.0, Sensitivity::OneStep, false);
+    out += &summary_table(
+        "the paper's method (one-step sensitivity, white process noise), 3-2-1-1",
+        &paper,
+    );
+    let ours = campaign(Input::PAPER, 15.0, Sensitivity::Propagated, true);
+    out += &summary_table("ours (propagated sensitivity, gust states), 3-2-1-1", &ours);
+    let flight = simulate(Input::PAPER, 15.0, 1);
+    let (mut h_paper, mut h_ours) = (Vec::new(), Vec::new());
+    identify(&flight, &process_noise(), Sensitivity::OneStep, Some(&mut h_paper))
+        .ok_or("paper's method refused a step")?;
+    identify_with_gust_states(&flight, 1e-8, Sensitivity::Propagated, Some(&mut h_ours))
+        .ok_or("ours refused a step")?;
+    let t: Vec<f64> = (1..=h_ours.len()).map(|k| k as f64 * DT_S).collect();
+    let mut fig = Figure::new("t (s)").title("Seed 001 example (A-4D), seed 1: parameter estimates ±σ");
+    for j in 0..9 {
+        let col = |h: &[Run], f: fn(&Run, usize) -> f64| h.iter().map(|r| f(r, j)).collect::<Vec<f64>>();
+        let (po, so) = (col(&h_ours, |r, j| r.p[j]), col(&h_ours, |r, j| r.sigma[j]));
+        let pp = col(&h_paper, |r, j| r.p[j]);
+        let truth = vec![Longitudinal::<f64>::TABLE1_TRUE[j]; t.len()];
+        fig = fig.panel(
+            Panel::new(Longitudinal::<f64>::NAMES[j], Longitudinal::<f64>::NAMES[j])
+                .band(Band::around("ours ±σ", &t, &po, &so, 1.0, Colour::BLUE))
+                .line(Line::new("ours", &t, &po, Colour::BLUE))
+                .line(Line::new("paper's method", &t, &pp, Colour::ORANGE))
+                .line(Line::new("truth", &t, &truth, Colour::BLACK).dashed()),
+        );
+    }
+    std::fs::create_dir_all(out_dir).map_err(|e| format!("{}: {e}", out_dir.display()))?;
+    let path = out_dir.join("table1_parameters.svg");
+    fig.write_svg(&path).map_err(|e| format!("{e:?}"))?;
+    Ok((out, vec![path]))
 }

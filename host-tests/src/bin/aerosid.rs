@@ -48,6 +48,9 @@ enum Command {
     FemHfb320 {
         out: std::path::PathBuf,
     },
+    Table1 {
+        out: std::path::PathBuf,
+    },
 }
 
 struct Args {
@@ -78,6 +81,17 @@ fn parse() -> Result<Option<Command>, String> {
             }
             let out = out.ok_or("simulate needs --out LOG.csv")?;
             return Ok(Some(Command::Simulate { out, seconds, seed }));
+        }
+        Some("table1") => {
+            let mut out = std::path::PathBuf::from("out");
+            while let Some(flag) = it.next() {
+                let value = it.next().ok_or_else(|| format!("`{flag}` needs a value"))?;
+                match flag.as_str() {
+                    "--out" => out = value.into(),
+                    _ => return Err(format!("unknown flag `{flag}` for `table1`")),
+                }
+            }
+            return Ok(Some(Command::Table1 { out }));
         }
         Some("fem-hfb320") => {
             let mut out = std::path::PathBuf::from("out");
@@ -324,6 +338,20 @@ fn main() -> ExitCode {
                 }
             }
         }
+        Ok(Some(Command::Table1 { out })) => match aerosid_host::table1::table1_report(&out) {
+            Ok((text, figures)) => {
+                print!("{text}");
+                println!("\nfigures:");
+                for f in figures {
+                    println!("  {}", f.display());
+                }
+                ExitCode::SUCCESS
+            }
+            Err(e) => {
+                eprintln!("aerosid table1: {e}");
+                ExitCode::FAILURE
+            }
+        },
         Ok(Some(Command::FemHfb320 { out })) => {
             match aerosid_host::fem_report::hfb320_report(&aerosid_host::fem_report::default_hfb320_path(), &out) {
                 Ok((text, figures)) => {
@@ -356,6 +384,7 @@ fn main() -> ExitCode {
             println!("       aerosid simulate --out LOG.csv [--seed N] [--seconds S]");
             println!("       aerosid replay LOG.csv [--qemu]");
             println!("       aerosid fem-hfb320 [--out DIR]");
+            println!("       aerosid table1 [--out DIR]");
             println!("       aerosid demo [--seed N] [--seconds S]\n");
             println!("  run    simulate a flight of the default airframe, identify the six coefficients with the");
             println!("         on-board f32 pipeline, print the model beside the truth and RLS, write the figures");
@@ -366,6 +395,8 @@ fn main() -> ExitCode {
             println!("         --qemu also run the firmware under QEMU on it and compare bit for bit");
             println!("  fem-hfb320  the filter error method (seed 001) on the real HFB-320 flight: estimates ± σ");
             println!("         beside the published values, measured vs model outputs and residuals (SVG)");
+            println!("  table1 seed 001's Table 1: 50 simulated A-4D flights, the paper's method and ours, and");
+            println!("         the parameter histories ±σ of one flight (SVG)");
             println!("  demo   identify C_m from generated noisy 100 Hz data with the on-board f32 PCA-GTLS,");
             println!("         printing the estimates ± σ beside the truth and the RLS baseline");
             ExitCode::SUCCESS
