@@ -60,8 +60,8 @@
 use crate::estimator::{check_sample, Estimator, Solution, Step};
 use crate::linalg::secular::rank_one_update;
 use crate::linalg::{
-    cholesky_regularised, cholesky_upper, inv_upper, orthonormality_error, reorthonormalise, solve_spd_regularised,
-    solve_upper, solve_upper_transposed,
+    all_finite, cholesky_regularised, cholesky_upper, inv_upper, orthonormality_error, reorthonormalise,
+    solve_spd_regularised, solve_upper, solve_upper_transposed,
 };
 use crate::vff::{Vff, VffSettings, VffStep};
 use crate::{Error, Real};
@@ -319,7 +319,7 @@ impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Gtls<T, NT, NE,
         } else {
             (d_star, self.b, self.g11)
         };
-        let finite = w.iter().chain(b.iter()).chain(g11.iter()).all(|v| v.finite());
+        let finite = all_finite(&w) && all_finite(&b) && all_finite(&g11);
         if !finite {
             return Err(Error::NumericalFault);
         }
@@ -340,7 +340,7 @@ impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Gtls<T, NT, NE,
         // Steps 5–9.
         let (k, solution, a) = self.solve(&v, &s, n_eff);
         let theta = self.theta_from(&a, &b);
-        if !theta.iter().all(|t| t.finite()) {
+        if !all_finite(&theta) {
             return Err(Error::NumericalFault);
         }
         // Eq. 25 (with x̂₀ under the VFF, with x otherwise).
@@ -442,7 +442,7 @@ impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Gtls<T, NT, NE,
         let a = solve_upper(&self.c, &vl);
         let nrm = a.norm();
         let last = a[nx];
-        if !(last.abs() > T::EPS.root() * nrm) {
+        if !(last.abs() > T::SQRT_EPS * nrm) {
             return None;
         }
         Some(a * (-T::one() / last))
@@ -599,7 +599,7 @@ impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Estimator<T, NT
             }
         }
         let out = f1 * f1.transpose() + f2 * f2.transpose();
-        if out.iter().all(|x| x.finite()) {
+        if all_finite(&out) {
             Ok(out)
         } else {
             Err(Error::NumericalFault)

@@ -98,7 +98,7 @@ pub fn rank_one_update<T: Real, const M: usize>(
         return Some((*v, s * sl, Outcome::default()));
     }
     let e = big.exponent();
-    let floor = T::MIN_POSITIVE.root();
+    let floor = T::SQRT_MIN_POSITIVE;
     // 2^−e as a factor: multiplying by it is exact (2^−e is representable: |e| ≤ 128 / 1024).
     let down = T::one().scale_pow2(-e);
     for k in 0..M {
@@ -240,7 +240,7 @@ pub fn rank_one_update<T: Real, const M: usize>(
         }
         active[r] = true;
     }
-    let small_step = T::lit(0.1) * T::EPS.root();
+    let small_step = T::lit(0.1) * T::SQRT_EPS;
     for _ in 0..MAX_ITERATIONS {
         let mut any = false;
         for r in 0..m {
@@ -433,7 +433,7 @@ pub fn rank_one_update<T: Real, const M: usize>(
             v_new[(row, dst)] = cols[(row, src)];
         }
     }
-    if !s_new.iter().all(|x| x.finite()) || !v_new.iter().all(|x| x.finite()) {
+    if !super::all_finite(&s_new) || !super::all_finite(&v_new) {
         return None;
     }
     Some((v_new, s_new, out))
