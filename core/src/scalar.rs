@@ -136,7 +136,9 @@ impl Real for f64 {
 pub const fn sqrt_f32(x: f32) -> f32 {
     // Fast path first (positive normal finite `x`: one range test); the arithmetic is the same as
     // on the general path, so the result is too.
-    if x >= f32::MIN_POSITIVE && x < f32::INFINITY {
+    let bits = x.to_bits();
+    // Positive normal finite: the bits lie in [MIN_POSITIVE, INFINITY) (one unsigned comparison).
+    if bits.wrapping_sub(0x0080_0000) < 0x7f00_0000 {
         return sqrt_newton(x);
     }
     if !(x > 0.0) {

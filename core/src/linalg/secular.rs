@@ -131,10 +131,13 @@ pub fn rank_one_update<T: Real, const M: usize>(
         }
         if let Some(p) = prev {
             let t = (a[k] - a[p]) * (a[k] + a[p]);
-            let r = (z[p] * z[p] + z[k] * z[k]).root();
-            let c = z[k] / r;
-            let sn = z[p] / r;
-            if (t * c * sn).abs() <= local_tol(a[k]) {
+            // The test |t·c·s| ≤ τ with c = z_k/r, s = z_p/r, multiplied by r² (no square root
+            // unless the pair is rotated).
+            let r2 = z[p] * z[p] + z[k] * z[k];
+            if r2 > T::zero() && (t * z[k] * z[p]).abs() <= local_tol(a[k]) * r2 {
+                let r = r2.root();
+                let c = z[k] / r;
+                let sn = z[p] / r;
                 // Rotate columns p, k so that z_p becomes 0 and z_k becomes r.
                 for row in 0..M {
                     let qp = q[(row, p)];
@@ -395,9 +398,9 @@ pub fn rank_one_update<T: Real, const M: usize>(
             } else {
                 T::one() / nrm
             };
-            let e2 = off / (uk * uk);
-            let root = (T::one() + e2).root();
-            let dk = -e2 / (root * (T::one() + root)); // û_K − 1
+            // û_K − 1 = |u_K|/‖u‖ − 1 = −off/(‖u‖·(|u_K| + ‖u‖)), without cancellation and without a
+            // second square root (√(1 + off/u_K²) = ‖u‖/|u_K|).
+            let dk = -off / (nrm * (uk.abs() + nrm));
             for j in 0..m {
                 let uj = if j == kq { dk } else { u[j] * inv };
                 for row in 0..M {
@@ -444,7 +447,8 @@ pub fn rank_one_update<T: Real, const M: usize>(
 #[inline(always)]
 fn secular_terms<T: Real, const M: usize>(dk: &[T; M], zc: &[T; M], m: usize, r: usize, t: T) -> (T, T, T, T) {
     let (mut psi, mut dpsi, mut phi, mut dphi) = (T::zero(), T::zero(), T::zero(), T::zero());
-    for j in 0..=r.min(M - 1) {
+    // `0..=r` written as a half-open range (RangeInclusive iterates with an extra flag check).
+    for j in 0..(r + 1).min(M) {
         let term = zc[j] / (dk[j] - t);
         psi += zc[j] * term;
         dpsi += term * term;
@@ -473,6 +477,7 @@ fn local_tol<T: Real>(a: T) -> T {
 }
 
 /// The root of `qa·x² − qb·x + qc = 0` strictly inside `(lo, hi)`, if there is one (stable formulas).
+#[inline(always)]
 fn quadratic_root_in<T: Real>(qa: T, qb: T, qc: T, lo: T, hi: T) -> Option<T> {
     let inside = |e: T| e.finite() && e > lo && e < hi;
     if qa == T::zero() {
