@@ -466,9 +466,16 @@ impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Gtls<T, NT, NE,
             }
             rhs[r] = row[nx];
         }
-        let mut gram = mw * mw.transpose();
-        for r in k..NA {
-            gram[(r, r)] = T::one();
+        // Only the leading k×k block of M Mᵀ is non-zero; the rest is the identity.
+        let mut gram = SMatrix::<T, NA, NA>::identity();
+        for r in 0..k {
+            for c in 0..k {
+                let mut acc = T::zero();
+                for j in 0..nx {
+                    acc += mw[(r, j)] * mw[(c, j)];
+                }
+                gram[(r, c)] = acc;
+            }
         }
         if let Some(y) = solve_spd_regularised(&gram, &rhs) {
             let t = mw.transpose() * y;

@@ -377,15 +377,17 @@ pub fn rank_one_update<T: Real, const M: usize>(
         let dkq = diff[r][kq];
         let mut u = [T::zero(); M];
         let mut off = T::zero();
-        for j in 0..m {
-            if j == kq {
-                u[j] = zhat[j];
-            } else {
-                u[j] = zhat[j] * (dkq / diff[r][j]);
-                off += u[j] * u[j];
-            }
+        // j < K, then j > K (the same order as one loop skipping K, without a branch per entry).
+        for j in 0..kq {
+            u[j] = zhat[j] * (dkq / diff[r][j]);
+            off += u[j] * u[j];
         }
-        let uk = u[kq];
+        let uk = zhat[kq];
+        u[kq] = uk;
+        for j in (kq + 1)..m {
+            u[j] = zhat[j] * (dkq / diff[r][j]);
+            off += u[j] * u[j];
+        }
         let nrm = (uk * uk + off).root();
         if !nrm.finite() {
             return None;
@@ -400,9 +402,13 @@ pub fn rank_one_update<T: Real, const M: usize>(
             };
             // û_K − 1 = |u_K|/‖u‖ − 1 = −off/(‖u‖·(|u_K| + ‖u‖)), without cancellation and without a
             // second square root (√(1 + off/u_K²) = ‖u‖/|u_K|).
-            let dk = -off / (nrm * (uk.abs() + nrm));
+            let mut coef = [T::zero(); M];
             for j in 0..m {
-                let uj = if j == kq { dk } else { u[j] * inv };
+                coef[j] = u[j] * inv;
+            }
+            coef[kq] = -off / (nrm * (uk.abs() + nrm));
+            for j in 0..m {
+                let uj = coef[j];
                 for row in 0..M {
                     acc[row] += qc[j][row] * uj;
                 }
