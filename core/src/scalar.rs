@@ -55,13 +55,25 @@ impl Real for f32 {
     const MIN_POSITIVE: Self = f32::MIN_POSITIVE;
     const SQRT_EPS: Self = sqrt_f32(f32::EPSILON);
     const SQRT_MIN_POSITIVE: Self = sqrt_f32(f32::MIN_POSITIVE);
+    /// A multiplication by the normal number `2^e` when there is one (the same single rounding as
+    /// `ldexpf`), `ldexpf` otherwise.
     #[inline]
     fn scale_pow2(self, e: i32) -> Self {
-        libm::ldexpf(self, e)
+        if (-126..=127).contains(&e) {
+            self * f32::from_bits(((e + 127) as u32) << 23)
+        } else {
+            libm::ldexpf(self, e)
+        }
     }
+    /// Read from the exponent bits for normal numbers, `frexpf` otherwise.
     #[inline]
     fn exponent(self) -> i32 {
-        libm::frexpf(self).1
+        let biased = ((self.to_bits() >> 23) & 0xff) as i32;
+        if biased != 0 && biased != 0xff {
+            biased - 126
+        } else {
+            libm::frexpf(self).1
+        }
     }
     #[inline]
     fn lit(x: f64) -> Self {
@@ -205,6 +217,21 @@ mod tests {
         assert_eq!(sqrt_f32(-0.0).to_bits(), (-0.0f32).to_bits());
         assert!(sqrt_f32(-1.0).is_nan() && sqrt_f32(f32::NAN).is_nan());
         assert_eq!(sqrt_f32(f32::INFINITY), f32::INFINITY);
+    }
+
+    #[test]
+    fn f32_exponent_and_scale_pow2_equal_libm() {
+        let mut bits = 1u32;
+        while bits < f32::INFINITY.to_bits() {
+            for x in [f32::from_bits(bits), -f32::from_bits(bits)] {
+                assert_eq!(x.exponent(), libm::frexpf(x).1, "{x:e}");
+                for e in [-300, -150, -127, -126, -40, -1, 0, 1, 40, 127, 128, 300] {
+                    assert_eq!(x.scale_pow2(e).to_bits(), libm::ldexpf(x, e).to_bits(), "{x:e} {e}");
+                }
+            }
+            bits += 99_991;
+        }
+        assert_eq!(0.0f32.exponent(), 0);
     }
 
     #[test]
