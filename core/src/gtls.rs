@@ -323,14 +323,12 @@ impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Gtls<T, NT, NE,
         if !finite {
             return Err(Error::NumericalFault);
         }
-        // Eq. 24 and the VFF (eq. 28–33) need only θ(t−1): done first, on a copy.
-        let (forgetting, lambda_next, vff_step, nu, x0) = match self.forgetting {
-            ForgettingState::Constant(l) => (self.forgetting, l, self.last_vff, z - x.dot(&theta_prev), *x),
-            ForgettingState::Variable(mut vff) => {
+        // Eq. 24 needs only θ(t−1); the VFF step itself (eq. 28–33) runs last, in place (below).
+        let (nu, x0) = match self.forgetting {
+            ForgettingState::Constant(_) => (z - x.dot(&theta_prev), *x),
+            ForgettingState::Variable(_) => {
                 let (x0, _) = self.corrected_regressor(x, z, &theta_prev);
-                let nu = z - x0.dot(&theta_prev);
-                let st = vff.update(&x0, nu).ok_or(Error::NumericalFault)?;
-                (ForgettingState::Variable(vff), st.lambda, st, nu, x0)
+                (z - x0.dot(&theta_prev), x0)
             }
         };
         // Algorithm 1, step 4: rank-one SVD update of √λ·D* with the new row.
@@ -345,6 +343,16 @@ impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Gtls<T, NT, NE,
         }
         // Eq. 25 (with x̂₀ under the VFF, with x otherwise).
         let r = z - x0.dot(&theta);
+        // The VFF (eq. 28–33), independent of the steps above: updated in place, as the last step
+        // that can fail (`Vff::update` leaves its state unchanged when it fails, and nothing else is
+        // committed yet), so the state is not copied.
+        let (lambda_next, vff_step) = match &mut self.forgetting {
+            ForgettingState::Constant(l) => (*l, self.last_vff),
+            ForgettingState::Variable(vff) => {
+                let st = vff.update(&x0, nu).ok_or(Error::NumericalFault)?;
+                (st.lambda, st)
+            }
+        };
         // Commit.
         self.v = v;
         self.s = s;
@@ -356,7 +364,6 @@ impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Gtls<T, NT, NE,
         self.n_eff = n_eff;
         self.n_eff2 = lambda * lambda * self.n_eff2 + T::one();
         self.lambda = lambda_next;
-        self.forgetting = forgetting;
         self.last_vff = vff_step;
         self.check_cursor = check_cursor;
         let h = &mut self.health;
