@@ -261,7 +261,8 @@ pub fn rank_one_update<T: Real, const M: usize>(
                 }
             };
             let (tn, model) = match eta {
-                Some(e) if e.finite() && t + e > lo && t + e < hi => (t + e, true),
+                // False for a NaN or infinite e (see `quadratic_root_in`).
+                Some(e) if t + e > lo && t + e < hi => (t + e, true),
                 _ => ((lo + hi) * T::lit(0.5), false),
             };
             if tn == t {
@@ -461,7 +462,8 @@ fn local_tol<T: Real>(a: T) -> T {
 /// The root of `qa·x² − qb·x + qc = 0` strictly inside `(lo, hi)`, if there is one (stable formulas).
 #[inline(always)]
 fn quadratic_root_in<T: Real>(qa: T, qb: T, qc: T, lo: T, hi: T) -> Option<T> {
-    let inside = |e: T| e.finite() && e > lo && e < hi;
+    // `lo < e < hi` is false for NaN and for ±∞ whatever the bounds, so no separate finiteness test.
+    let inside = |e: T| e > lo && e < hi;
     if qa == T::zero() {
         let e = qc / qb;
         return if inside(e) { Some(e) } else { None };
