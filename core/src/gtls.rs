@@ -273,8 +273,22 @@ impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Gtls<T, NT, NE,
         for i in 0..NE {
             rho += x[i] * theta[i];
         }
-        let ca = self.c * a;
-        let wa = self.c.transpose() * ca; // W_T a
+        // C is upper triangular: the products skip its zero lower part.
+        let c = &self.c;
+        let ca = SVector::<T, NA>::from_fn(|i, _| {
+            let mut acc = T::zero();
+            for j in i..NA {
+                acc += c[(i, j)] * a[j];
+            }
+            acc
+        });
+        let wa = SVector::<T, NA>::from_fn(|i, _| {
+            let mut acc = T::zero();
+            for j in 0..i + 1 {
+                acc += c[(j, i)] * ca[j];
+            }
+            acc
+        }); // W_T a
         let awa = ca.dot(&ca);
         let mut out = *x;
         let mut zhat = z;
