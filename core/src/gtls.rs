@@ -481,7 +481,14 @@ impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Gtls<T, NT, NE,
         let mut mw = SMatrix::<T, NA, NA>::zeros();
         let mut rhs = SVector::<T, NA>::zeros();
         for r in 0..k {
-            let row = v.column(r).transpose() * self.c;
+            // v_rᵀ C over the upper triangle of C.
+            let row = SVector::<T, NA>::from_fn(|j, _| {
+                let mut acc = T::zero();
+                for i in 0..j + 1 {
+                    acc += v[(i, r)] * self.c[(i, j)];
+                }
+                acc
+            });
             for j in 0..nx {
                 mw[(r, j)] = row[j] / self.weights[NE + j];
             }
@@ -512,7 +519,16 @@ impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Gtls<T, NT, NE,
         let nx = Self::NX;
         let mut theta = SVector::<T, NT>::zeros();
         if NE > 0 {
-            let te = -(b.transpose() * (self.c * a));
+            // C·a over the upper triangle of C.
+            let c = &self.c;
+            let ca = SVector::<T, NA>::from_fn(|i, _| {
+                let mut acc = T::zero();
+                for j in i..NA {
+                    acc += c[(i, j)] * a[j];
+                }
+                acc
+            });
+            let te = -(b.transpose() * ca);
             for i in 0..NE {
                 theta[i] = te[i];
             }
