@@ -63,7 +63,7 @@ pub trait Estimator<T: Real, const NT: usize> {
 
 /// Refuses a sample with a non-finite or absurdly large element. `index == NT` denotes `z`.
 pub fn check_sample<T: Real, const NT: usize>(x: &SVector<T, NT>, z: T, max_abs: T) -> Result<(), Error> {
-    for i in 0..=NT {
+    for i in 0..NT + 1 {
         let v = if i < NT { x[i] } else { z };
         let index = i.min(u8::MAX as usize) as u8;
         if !v.finite() {

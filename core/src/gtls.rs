@@ -60,8 +60,8 @@
 use crate::estimator::{check_sample, Estimator, Solution, Step};
 use crate::linalg::secular::rank_one_update;
 use crate::linalg::{
-    cholesky_regularised, cholesky_upper, inv_upper, orthonormality_error, reorthonormalise, solve_spd_regularised,
-    solve_upper, solve_upper_transposed,
+    all_finite, cholesky_regularised, cholesky_upper, inv_upper, orthonormality_error, reorthonormalise,
+    solve_spd_regularised, solve_upper, solve_upper_transposed,
 };
 use crate::vff::{Vff, VffSettings, VffStep};
 use crate::{Error, Real};
@@ -273,8 +273,22 @@ impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Gtls<T, NT, NE,
         for i in 0..NE {
             rho += x[i] * theta[i];
         }
-        let ca = self.c * a;
-        let wa = self.c.transpose() * ca; // W_T a
+        // C is upper triangular: the products skip its zero lower part.
+        let c = &self.c;
+        let ca = SVector::<T, NA>::from_fn(|i, _| {
+            let mut acc = T::zero();
+            for j in i..NA {
+                acc += c[(i, j)] * a[j];
+            }
+            acc
+        });
+        let wa = SVector::<T, NA>::from_fn(|i, _| {
+            let mut acc = T::zero();
+            for j in 0..i + 1 {
+                acc += c[(j, i)] * ca[j];
+            }
+            acc
+        }); // W_T a
         let awa = ca.dot(&ca);
         let mut out = *x;
         let mut zhat = z;
@@ -319,18 +333,16 @@ impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Gtls<T, NT, NE,
         } else {
             (d_star, self.b, self.g11)
         };
-        let finite = w.iter().chain(b.iter()).chain(g11.iter()).all(|v| v.finite());
+        let finite = all_finite(&w) && all_finite(&b) && all_finite(&g11);
         if !finite {
             return Err(Error::NumericalFault);
         }
-        // Eq. 24 and the VFF (eq. 28–33) need only θ(t−1): done first, on a copy.
-        let (forgetting, lambda_next, vff_step, nu, x0) = match self.forgetting {
-            ForgettingState::Constant(l) => (self.forgetting, l, self.last_vff, z - x.dot(&theta_prev), *x),
-            ForgettingState::Variable(mut vff) => {
+        // Eq. 24 needs only θ(t−1); the VFF step itself (eq. 28–33) runs last, in place (below).
+        let (nu, x0) = match self.forgetting {
+            ForgettingState::Constant(_) => (z - x.dot(&theta_prev), *x),
+            ForgettingState::Variable(_) => {
                 let (x0, _) = self.corrected_regressor(x, z, &theta_prev);
-                let nu = z - x0.dot(&theta_prev);
-                let st = vff.update(&x0, nu).ok_or(Error::NumericalFault)?;
-                (ForgettingState::Variable(vff), st.lambda, st, nu, x0)
+                (z - x0.dot(&theta_prev), x0)
             }
         };
         // Algorithm 1, step 4: rank-one SVD update of √λ·D* with the new row.
@@ -340,11 +352,21 @@ impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Gtls<T, NT, NE,
         // Steps 5–9.
         let (k, solution, a) = self.solve(&v, &s, n_eff);
         let theta = self.theta_from(&a, &b);
-        if !theta.iter().all(|t| t.finite()) {
+        if !all_finite(&theta) {
             return Err(Error::NumericalFault);
         }
         // Eq. 25 (with x̂₀ under the VFF, with x otherwise).
         let r = z - x0.dot(&theta);
+        // The VFF (eq. 28–33), independent of the steps above: updated in place, as the last step
+        // that can fail (`Vff::update` leaves its state unchanged when it fails, and nothing else is
+        // committed yet), so the state is not copied.
+        let (lambda_next, vff_step) = match &mut self.forgetting {
+            ForgettingState::Constant(l) => (*l, self.last_vff),
+            ForgettingState::Variable(vff) => {
+                let st = vff.update(&x0, nu).ok_or(Error::NumericalFault)?;
+                (st.lambda, st)
+            }
+        };
         // Commit.
         self.v = v;
         self.s = s;
@@ -356,7 +378,6 @@ impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Gtls<T, NT, NE,
         self.n_eff = n_eff;
         self.n_eff2 = lambda * lambda * self.n_eff2 + T::one();
         self.lambda = lambda_next;
-        self.forgetting = forgetting;
         self.last_vff = vff_step;
         self.check_cursor = check_cursor;
         let h = &mut self.health;
@@ -442,7 +463,7 @@ impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Gtls<T, NT, NE,
         let a = solve_upper(&self.c, &vl);
         let nrm = a.norm();
         let last = a[nx];
-        if !(last.abs() > T::EPS.root() * nrm) {
+        if !(last.abs() > T::SQRT_EPS * nrm) {
             return None;
         }
         Some(a * (-T::one() / last))
@@ -460,15 +481,29 @@ impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Gtls<T, NT, NE,
         let mut mw = SMatrix::<T, NA, NA>::zeros();
         let mut rhs = SVector::<T, NA>::zeros();
         for r in 0..k {
-            let row = v.column(r).transpose() * self.c;
+            // v_rᵀ C over the upper triangle of C.
+            let row = SVector::<T, NA>::from_fn(|j, _| {
+                let mut acc = T::zero();
+                for i in 0..j + 1 {
+                    acc += v[(i, r)] * self.c[(i, j)];
+                }
+                acc
+            });
             for j in 0..nx {
                 mw[(r, j)] = row[j] / self.weights[NE + j];
             }
             rhs[r] = row[nx];
         }
-        let mut gram = mw * mw.transpose();
-        for r in k..NA {
-            gram[(r, r)] = T::one();
+        // Only the leading k×k block of M Mᵀ is non-zero; the rest is the identity.
+        let mut gram = SMatrix::<T, NA, NA>::identity();
+        for r in 0..k {
+            for c in 0..k {
+                let mut acc = T::zero();
+                for j in 0..nx {
+                    acc += mw[(r, j)] * mw[(c, j)];
+                }
+                gram[(r, c)] = acc;
+            }
         }
         if let Some(y) = solve_spd_regularised(&gram, &rhs) {
             let t = mw.transpose() * y;
@@ -484,7 +519,16 @@ impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Gtls<T, NT, NE,
         let nx = Self::NX;
         let mut theta = SVector::<T, NT>::zeros();
         if NE > 0 {
-            let te = -(b.transpose() * (self.c * a));
+            // C·a over the upper triangle of C.
+            let c = &self.c;
+            let ca = SVector::<T, NA>::from_fn(|i, _| {
+                let mut acc = T::zero();
+                for j in i..NA {
+                    acc += c[(i, j)] * a[j];
+                }
+                acc
+            });
+            let te = -(b.transpose() * ca);
             for i in 0..NE {
                 theta[i] = te[i];
             }
@@ -599,7 +643,7 @@ impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Estimator<T, NT
             }
         }
         let out = f1 * f1.transpose() + f2 * f2.transpose();
-        if out.iter().all(|x| x.finite()) {
+        if all_finite(&out) {
             Ok(out)
         } else {
             Err(Error::NumericalFault)

@@ -12,6 +12,10 @@ pub trait Real: RealField + Copy + Default {
     const EPS: Self;
     /// The smallest positive normal number.
     const MIN_POSITIVE: Self;
+    /// `EPS.root()`, bit for bit (a constant instead of a square root per call).
+    const SQRT_EPS: Self;
+    /// `MIN_POSITIVE.root()`, bit for bit.
+    const SQRT_MIN_POSITIVE: Self;
     /// Converts a literal (settings, constants) to this scalar.
     fn lit(x: f64) -> Self;
     /// Converts to `f64` (for reports and tests).
@@ -49,13 +53,27 @@ pub trait Real: RealField + Copy + Default {
 impl Real for f32 {
     const EPS: Self = f32::EPSILON;
     const MIN_POSITIVE: Self = f32::MIN_POSITIVE;
+    const SQRT_EPS: Self = sqrt_f32(f32::EPSILON);
+    const SQRT_MIN_POSITIVE: Self = sqrt_f32(f32::MIN_POSITIVE);
+    /// A multiplication by the normal number `2^e` when there is one (the same single rounding as
+    /// `ldexpf`), `ldexpf` otherwise.
     #[inline]
     fn scale_pow2(self, e: i32) -> Self {
-        libm::ldexpf(self, e)
+        if (-126..=127).contains(&e) {
+            self * f32::from_bits(((e + 127) as u32) << 23)
+        } else {
+            libm::ldexpf(self, e)
+        }
     }
+    /// Read from the exponent bits for normal numbers, `frexpf` otherwise.
     #[inline]
     fn exponent(self) -> i32 {
-        libm::frexpf(self).1
+        let biased = ((self.to_bits() >> 23) & 0xff) as i32;
+        if biased != 0 && biased != 0xff {
+            biased - 126
+        } else {
+            libm::frexpf(self).1
+        }
     }
     #[inline]
     fn lit(x: f64) -> Self {
@@ -89,6 +107,9 @@ impl Real for f32 {
 impl Real for f64 {
     const EPS: Self = f64::EPSILON;
     const MIN_POSITIVE: Self = f64::MIN_POSITIVE;
+    // 2⁻²⁶ and 2⁻⁵¹¹: exact square roots of 2⁻⁵² and 2⁻¹⁰²², which the correctly rounded `sqrt` returns.
+    const SQRT_EPS: Self = 1.490_116_119_384_765_6e-8;
+    const SQRT_MIN_POSITIVE: Self = 1.491_668_146_240_041_3e-154;
     #[inline]
     fn scale_pow2(self, e: i32) -> Self {
         libm::ldexp(self, e)
@@ -124,7 +145,14 @@ impl Real for f64 {
 /// `√x` in `f32` within 1 ulp: an exponent-halving first guess (≤ 3.5 % off), then three Newton
 /// steps `y ← (y + x/y)/2` (error 6·10⁻⁴, 2·10⁻⁷, then rounding). Subnormal `x` is scaled by 2²⁴
 /// first. `√±0 = ±0`, `√+∞ = +∞`, NaN for negative or NaN `x` (as IEEE `sqrt`).
-pub fn sqrt_f32(x: f32) -> f32 {
+pub const fn sqrt_f32(x: f32) -> f32 {
+    // Fast path first (positive normal finite `x`: one range test); the arithmetic is the same as
+    // on the general path, so the result is too.
+    let bits = x.to_bits();
+    // Positive normal finite: the bits lie in [MIN_POSITIVE, INFINITY) (one unsigned comparison).
+    if bits.wrapping_sub(0x0080_0000) < 0x7f00_0000 {
+        return sqrt_newton(x);
+    }
     if !(x > 0.0) {
         // ±0 stays, negative and NaN give NaN.
         return if x == 0.0 { x } else { f32::NAN };
@@ -132,16 +160,18 @@ pub fn sqrt_f32(x: f32) -> f32 {
     if x == f32::INFINITY {
         return x;
     }
-    let (x, scale) = if x < f32::MIN_POSITIVE {
-        (x * 16_777_216.0, 1.0 / 4096.0)
-    } else {
-        (x, 1.0)
-    };
+    // Subnormal.
+    sqrt_newton(x * 16_777_216.0) * (1.0 / 4096.0)
+}
+
+/// The first guess and three Newton steps of [`sqrt_f32`] for a positive normal finite `x`.
+#[inline(always)]
+const fn sqrt_newton(x: f32) -> f32 {
     let mut y = f32::from_bits((x.to_bits() >> 1) + 0x1fbd_1df5);
     y = 0.5 * (y + x / y);
     y = 0.5 * (y + x / y);
     y = 0.5 * (y + x / y);
-    y * scale
+    y
 }
 
 /// `(sin x, cos x)` in `f32`: for `|x| ≤ π/4` odd/even Taylor polynomials to `x¹¹`/`x¹²` in Horner
@@ -187,6 +217,35 @@ mod tests {
         assert_eq!(sqrt_f32(-0.0).to_bits(), (-0.0f32).to_bits());
         assert!(sqrt_f32(-1.0).is_nan() && sqrt_f32(f32::NAN).is_nan());
         assert_eq!(sqrt_f32(f32::INFINITY), f32::INFINITY);
+    }
+
+    #[test]
+    fn f32_exponent_and_scale_pow2_equal_libm() {
+        let mut bits = 1u32;
+        while bits < f32::INFINITY.to_bits() {
+            for x in [f32::from_bits(bits), -f32::from_bits(bits)] {
+                assert_eq!(x.exponent(), libm::frexpf(x).1, "{x:e}");
+                for e in [-300, -150, -127, -126, -40, -1, 0, 1, 40, 127, 128, 300] {
+                    assert_eq!(x.scale_pow2(e).to_bits(), libm::ldexpf(x, e).to_bits(), "{x:e} {e}");
+                }
+            }
+            bits += 99_991;
+        }
+        assert_eq!(0.0f32.exponent(), 0);
+    }
+
+    #[test]
+    fn hoisted_square_root_constants_equal_the_computed_ones() {
+        assert_eq!(<f32 as Real>::SQRT_EPS.to_bits(), f32::EPSILON.root().to_bits());
+        assert_eq!(
+            <f32 as Real>::SQRT_MIN_POSITIVE.to_bits(),
+            f32::MIN_POSITIVE.root().to_bits()
+        );
+        assert_eq!(<f64 as Real>::SQRT_EPS.to_bits(), f64::EPSILON.root().to_bits());
+        assert_eq!(
+            <f64 as Real>::SQRT_MIN_POSITIVE.to_bits(),
+            f64::MIN_POSITIVE.root().to_bits()
+        );
     }
 
     #[test]

@@ -30,6 +30,7 @@
 //! `O(n²)`. When the regressors are not excited and `λ_F < 1`, `P` would grow without bound
 //! ("wind-up"); the forgetting is not applied to `P` while `trace P` exceeds its initial value.
 
+use crate::linalg::{all_finite, slice_finite};
 use crate::{Error, Real};
 use nalgebra::{SMatrix, SVector};
 
@@ -229,7 +230,7 @@ impl<T: Real, const N: usize> Vff<T, N> {
         p = (p + p.transpose()) * T::lit(0.5);
         let grown = p / lam_old;
         let p = if grown.trace() <= self.p_trace_max { grown } else { p };
-        let finite = [q, sq2, snu2, seps2, lambda_new].iter().all(|v| v.finite()) && p.iter().all(|v| v.finite());
+        let finite = slice_finite(&[q, sq2, snu2, seps2, lambda_new]) && all_finite(&p);
         if !finite {
             return None;
         }

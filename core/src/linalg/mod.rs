@@ -8,16 +8,33 @@ pub mod secular;
 use crate::Real;
 use nalgebra::{SMatrix, SVector};
 
+/// `true` if every element is finite: branch-free, `Σ x·0` is `±0` for finite elements and NaN as
+/// soon as one is infinite or NaN (nalgebra's generic matrix iterator costs several times more).
+#[inline]
+pub fn all_finite<T: Real, const R: usize, const C: usize>(a: &SMatrix<T, R, C>) -> bool {
+    slice_finite(a.as_slice())
+}
+
+/// [`all_finite`] for a slice.
+#[inline]
+pub fn slice_finite<T: Real>(a: &[T]) -> bool {
+    let mut acc = T::zero();
+    for x in a {
+        acc += *x * T::zero();
+    }
+    acc == T::zero()
+}
+
 /// Upper-triangular Cholesky factor `C` with `A = Cᵀ C` (the convention of eq. 9: `W_T = CᵀC`).
 ///
 /// Returns `None` if `A` has a non-finite entry (anywhere, both triangles are checked), is not
 /// symmetric within `64·ε·max|A|`, or is not positive definite to working precision (a pivot is not
 /// positive and finite).
 pub fn cholesky_upper<T: Real, const N: usize>(a: &SMatrix<T, N, N>) -> Option<SMatrix<T, N, N>> {
-    if !a.iter().all(|x| x.finite()) {
+    if !all_finite(a) {
         return None;
     }
-    let scale = a.iter().fold(T::zero(), |m, x| m.maxr(x.abs()));
+    let scale = a.as_slice().iter().fold(T::zero(), |m, x| m.maxr(x.abs()));
     if !scale.finite() || scale <= T::zero() {
         return None;
     }
@@ -87,7 +104,7 @@ pub fn cholesky_regularised<T: Real, const N: usize>(a: &SMatrix<T, N, N>) -> Op
         tr += sym[(i, i)].abs();
     }
     let n = T::lit(N as f64);
-    let mu = T::lit(16.0) * n * T::EPS * (tr / n).maxr(T::MIN_POSITIVE.root());
+    let mu = T::lit(16.0) * n * T::EPS * (tr / n).maxr(T::SQRT_MIN_POSITIVE);
     let mut ar = sym;
     for i in 0..N {
         ar[(i, i)] += mu;
@@ -102,7 +119,7 @@ pub fn solve_spd_regularised<T: Real, const N: usize>(
 ) -> Option<SVector<T, N>> {
     let c = cholesky_regularised(a)?;
     let x = solve_upper_t_upper(&c, b);
-    if x.iter().all(|v| v.finite()) {
+    if all_finite(&x) {
         Some(x)
     } else {
         None
