@@ -526,6 +526,12 @@ fn pipeline_size() {
         std::mem::size_of::<aerosid_core::Gtls<f32, 6, 1, 6>>()
     );
     assert!(n32 < 8192);
+    // The goal: the six estimators' state ≤ 4 KB (measured 2·408 + 532 + 3·680 = 3 388 B).
+    let six = 2 * std::mem::size_of::<aerosid_core::Gtls<f32, 4, 1, 4>>()
+        + std::mem::size_of::<aerosid_core::Gtls<f32, 5, 1, 5>>()
+        + 3 * std::mem::size_of::<aerosid_core::Gtls<f32, 6, 1, 6>>();
+    println!("six estimators: {six} B");
+    assert!(six <= 4096, "six estimators {six} B");
 }
 
 /// GIVEN the default sensor specifications, THEN `W_T` of each model is as documented: `σ²` of each
