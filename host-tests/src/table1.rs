@@ -11,7 +11,7 @@
 //! `CLα̇`, `Cmα̇` terms is the model's own (the gust's `ẇ_g/V` is not added).
 
 use crate::sim::{Dryden, Turbulence};
-use aerosid_core::fem::models::{Longitudinal, LongitudinalGust};
+use aerosid_core::fem::models::{Longitudinal, LongitudinalGust, LongitudinalGustAz};
 use aerosid_core::fem::{bauer_andrisani, FemSettings, FilterError, Integrator, Model, Sensitivity};
 use nalgebra::{SMatrix, SVector};
 use rand::{Rng, SeedableRng};
@@ -28,6 +28,8 @@ pub const INTERNAL_DT_S: f64 = 0.005;
 pub const V0_MPS: f64 = 236.0;
 /// Altitude, m.
 pub const H0_M: f64 = 10_668.0;
+/// Accelerometer noise (1σ), m/s².
+pub const AZ_NOISE_MPS2: f64 = 0.05;
 /// Measurement noise (1σ) of `V, α, q, θ, h`.
 pub const NOISE: [f64; 5] = [0.3, 0.002, 0.002, 0.002, 1.0];
 
@@ -90,6 +92,8 @@ pub struct Flight {
     pub u: Vec<f64>,
     /// Measurements `V, α, q, θ, h` per sample.
     pub y: Vec<[f64; 5]>,
+    /// Measured body-z specific force per sample (accelerometer, noise [`AZ_NOISE_MPS2`]), m/s².
+    pub az: Vec<f64>,
     /// The trim state.
     pub x0: [f64; 5],
     /// The model with its trim thrust.
@@ -158,8 +162,9 @@ pub fn simulate(input: Input, seconds: f64, seed: u64) -> Flight {
     let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x0007_AB1E_0001);
     let mut x = SVector::<f64, 5>::new(V0_MPS, alpha0, 0.0, alpha0, H0_M);
     let x0 = [x[0], x[1], x[2], x[3], x[4]];
+    let mut g_prev = gust.gust_body_mps();
     let n = (seconds / DT_S).round() as usize;
-    let (mut us, mut ys) = (Vec::with_capacity(n), Vec::with_capacity(n));
+    let (mut us, mut ys, mut azs) = (Vec::with_capacity(n), Vec::with_capacity(n), Vec::with_capacity(n));
     for k in 0..n {
         let t = k as f64 * DT_S;
         let u = SVector::<f64, 1>::new(de0 + input.elevator_rad(t));
@@ -170,12 +175,17 @@ pub fn simulate(input: Input, seconds: f64, seed: u64) -> Flight {
         }
         us.push(u[0]);
         ys.push(y);
+        let xa = SVector::<f64, 5>::new(x[0] - g_prev[0], x[1] + g_prev[2] / x[0], x[2], x[3], x[4]);
+        let e: f64 = rng.sample(StandardNormal);
+        azs.push(model.specific_force_z(&xa, &u, &p) + AZ_NOISE_MPS2 * e);
         let g = gust.step();
+        g_prev = g;
         x = truth_step(&model, &p, &u, &g, &x);
     }
     Flight {
         u: us,
         y: ys,
+        az: azs,
         x0,
         model,
     }
@@ -330,16 +340,38 @@ pub struct Summary {
 /// [`RUNS`] seeded flights of `seconds` with `input`, identified with `sensitivity`, the gusts as
 /// filter states or as white process noise.
 pub fn campaign(input: Input, seconds: f64, sensitivity: Sensitivity, gust_states: bool) -> Summary {
+    campaign_by(
+        input,
+        seconds,
+        sensitivity,
+        if gust_states { Filter::GustStates } else { Filter::White },
+    )
+}
+
+/// Which filter a campaign runs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Filter {
+    /// Turbulence as white process noise, states measured (the paper).
+    White,
+    /// Gusts as filter states ([`identify_with_gust_states`]).
+    GustStates,
+    /// Gusts as filter states and a z accelerometer ([`identify_with_accelerometer`]).
+    Accelerometer,
+}
+
+/// [`campaign`] with any [`Filter`].
+pub fn campaign_by(input: Input, seconds: f64, sensitivity: Sensitivity, filter: Filter) -> Summary {
     let q = process_noise();
     let runs: Vec<Run> = (1..=RUNS)
         .into_par_iter()
         .map(|seed| {
             let f = simulate(input, seconds, seed);
-            if gust_states {
-                identify_with_gust_states(&f, 1e-8, sensitivity, None).expect("every step accepted")
-            } else {
-                identify(&f, &q, sensitivity, None).expect("every step accepted")
+            match filter {
+                Filter::GustStates => identify_with_gust_states(&f, 1e-8, sensitivity, None),
+                Filter::Accelerometer => identify_with_accelerometer(&f, 1e-8, sensitivity),
+                Filter::White => identify(&f, &q, sensitivity, None),
             }
+            .expect("every step accepted")
         })
         .collect();
     let truth = Longitudinal::<f64>::TABLE1_TRUE;
@@ -479,4 +511,45 @@ pub fn table1_report(out_dir: &std::path::Path) -> Result<(String, Vec<std::path
     let path = out_dir.join("table1_parameters.svg");
     fig.write_svg(&path).map_err(|e| format!("{e:?}"))?;
     Ok((out, vec![path]))
+}
+
+/// [`identify_with_gust_states`] with the z accelerometer as a sixth output ([`LongitudinalGustAz`]).
+pub fn identify_with_accelerometer(flight: &Flight, q_small: f64, sensitivity: Sensitivity) -> Option<Run> {
+    let mut r = [0.0; 6];
+    for i in 0..5 {
+        r[i] = NOISE[i] * NOISE[i];
+    }
+    r[5] = AZ_NOISE_MPS2 * AZ_NOISE_MPS2;
+    let l = 533.4;
+    let qg = 2.0 * V0_MPS / l;
+    let settings = FemSettings {
+        q_x: SMatrix::<f64, 7, 7>::from_diagonal(&SVector::from_fn(|i, _| if i >= 5 { qg } else { q_small })),
+        r_x: SMatrix::<f64, 6, 6>::from_diagonal(&SVector::from_fn(|i, _| r[i])),
+        dt_s: DT_S,
+        integrator: Integrator::Euler,
+        sensitivity,
+    };
+    let model = LongitudinalGustAz(LongitudinalGust {
+        base: flight.model,
+        length_u_m: l,
+        length_w_m: l,
+    });
+    let p0 = SVector::<f64, 9>::from_column_slice(&Longitudinal::<f64>::TABLE1_INITIAL);
+    let x0 = SVector::<f64, 7>::from_fn(|i, _| if i < 5 { flight.y[0][i] } else { 0.0 });
+    let p_x0 =
+        SMatrix::<f64, 7, 7>::from_diagonal(&SVector::from_fn(|i, _| if i >= 5 { 1.0 } else { NOISE[i] * NOISE[i] }));
+    let mut fem = FilterError::new(model, settings, x0, p_x0, p0, bauer_andrisani(&p0, 0.01)).ok()?;
+    for k in 0..flight.y.len() - 1 {
+        let u = SVector::<f64, 1>::new(flight.u[k]);
+        let un = SVector::<f64, 1>::new(flight.u[k + 1]);
+        let y = SVector::<f64, 6>::from_fn(|i, _| if i < 5 { flight.y[k + 1][i] } else { flight.az[k + 1] });
+        fem.step(&u, &un, &y).ok()?;
+    }
+    let mut run = Run {
+        p: [0.0; 9],
+        sigma: [0.0; 9],
+    };
+    run.p.copy_from_slice(fem.parameters().as_slice());
+    run.sigma.copy_from_slice(fem.parameter_sigma().as_slice());
+    Some(run)
 }

@@ -49,3 +49,16 @@ fn table1_with_gust_states() {
         }
     }
 }
+
+#[test]
+#[ignore = "in progress (issue 5 §2): gust states and a z accelerometer, printed for comparison"]
+fn table1_with_an_accelerometer() {
+    for sens in [Sensitivity::OneStep, Sensitivity::Propagated] {
+        let s =
+            aerosid_host::table1::campaign_by(Input::PAPER, 15.0, sens, aerosid_host::table1::Filter::Accelerometer);
+        print!(
+            "{}",
+            summary_table(&format!("gust states + a_z, 3-2-1-1, {sens:?}"), &s)
+        );
+    }
+}

@@ -326,3 +326,35 @@ impl<T: Real> Model<T, 7, 1, 5, 9> for LongitudinalGust<T> {
         SMatrix::<T, 5, 9>::zeros()
     }
 }
+
+impl<T: Real> Longitudinal<T> {
+    /// Specific force along body z (what a z accelerometer at the CG reads), m/s²:
+    /// `−(L cos α + D sin α)/m` with `L` including the `α̇` term (thrust is along body x).
+    pub fn specific_force_z(&self, x: &SVector<T, 5>, u: &SVector<T, 1>, p: &SVector<T, 9>) -> T {
+        let (v, alpha) = (x[0], x[1]);
+        let qbar_s = T::lit(0.5) * self.rho_kgpm3 * v * v * self.wing_area_m2;
+        let chat = self.chord_m / (T::lit(2.0) * v);
+        let ad = self.alpha_dot(x, u, p);
+        let cl = p[0] + p[1] * alpha + p[2] * ad * chat + p[3] * u[0];
+        let cd = self.cd0 + self.cd_alpha * alpha;
+        let (sa, ca) = alpha.sin_cos_fast();
+        -(qbar_s * (cl * ca + cd * sa)) / self.mass_kg
+    }
+}
+
+/// [`LongitudinalGust`] with a z accelerometer as a sixth output: `y = [V, α, q, θ, h, a_z]`, `a_z`
+/// from [`Longitudinal::specific_force_z`] at the air-relative state. The accelerometer sees the lift
+/// directly, which separates the lift derivatives from the vertical gust.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LongitudinalGustAz<T>(pub LongitudinalGust<T>);
+
+impl<T: Real> Model<T, 7, 1, 6, 9> for LongitudinalGustAz<T> {
+    fn f(&self, x: &SVector<T, 7>, u: &SVector<T, 1>, p: &SVector<T, 9>) -> SVector<T, 7> {
+        self.0.f(x, u, p)
+    }
+
+    fn h(&self, x: &SVector<T, 7>, u: &SVector<T, 1>, p: &SVector<T, 9>) -> SVector<T, 6> {
+        let xa = SVector::<T, 5>::new(x[0] - x[5], x[1] + x[6] / x[0], x[2], x[3], x[4]);
+        SVector::<T, 6>::new(x[0], x[1], x[2], x[3], x[4], self.0.base.specific_force_z(&xa, u, p))
+    }
+}
