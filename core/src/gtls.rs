@@ -275,13 +275,7 @@ impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Gtls<T, NT, NE,
         }
         // C is upper triangular: the products skip its zero lower part.
         let c = &self.c;
-        let ca = SVector::<T, NA>::from_fn(|i, _| {
-            let mut acc = T::zero();
-            for j in i..NA {
-                acc += c[(i, j)] * a[j];
-            }
-            acc
-        });
+        let ca = self.c_times(&a);
         let wa = SVector::<T, NA>::from_fn(|i, _| {
             let mut acc = T::zero();
             for j in 0..i + 1 {
@@ -514,20 +508,25 @@ impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Gtls<T, NT, NE,
         a
     }
 
+    /// `C·a` over the upper triangle of `C` (its lower part is zero).
+    #[inline(always)]
+    fn c_times(&self, a: &SVector<T, NA>) -> SVector<T, NA> {
+        let c = &self.c;
+        SVector::<T, NA>::from_fn(|i, _| {
+            let mut acc = T::zero();
+            for j in i..NA {
+                acc += c[(i, j)] * a[j];
+            }
+            acc
+        })
+    }
+
     /// `θ = [θ_e; θ_n]` from `a = [θ_n; −1]`, with `θ_e = −Bᵀ C a` (LS given `θ_n`).
     fn theta_from(&self, a: &SVector<T, NA>, b: &SMatrix<T, NA, NE>) -> SVector<T, NT> {
         let nx = Self::NX;
         let mut theta = SVector::<T, NT>::zeros();
         if NE > 0 {
-            // C·a over the upper triangle of C.
-            let c = &self.c;
-            let ca = SVector::<T, NA>::from_fn(|i, _| {
-                let mut acc = T::zero();
-                for j in i..NA {
-                    acc += c[(i, j)] * a[j];
-                }
-                acc
-            });
+            let ca = self.c_times(a);
             let te = -(b.transpose() * ca);
             for i in 0..NE {
                 theta[i] = te[i];

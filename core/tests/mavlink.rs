@@ -781,3 +781,21 @@ fn surface_config_validation() {
     c.aileron.rad_per_us = f32::NAN;
     assert!(c.validate().is_err());
 }
+
+#[test]
+fn coefficient_report_survives_debug_float_array_round_trip() {
+    use aerosid_core::mavlink::CoefficientReport;
+    let r = CoefficientReport {
+        coefficient: 4,
+        theta: [0.01, -1.3, -20.0, 1.0, 0.0, 0.0],
+        sigma: [1e-4, 0.008, 0.07, f32::NAN, 0.0, 0.0],
+        n_params: 4,
+        rank_k: 3,
+        lambda_f: 0.9995,
+        health_flags: 0b101,
+        refused: 12,
+    };
+    let back = CoefficientReport::from_debug_float_array(&r.to_debug_float_array(1_000).expect("encode"));
+    assert!(back.same_estimate_bits(&r));
+    assert_eq!((back.coefficient, back.health_flags, back.refused), (4, 0b101, 12));
+}

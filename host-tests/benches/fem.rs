@@ -6,72 +6,34 @@
 //!
 //! Run: `cargo bench -p aerosid-host --bench fem -- --warm-up-time 1 --measurement-time 3`.
 
-use aerosid_core::fem::models::{Hfb320, Longitudinal};
-use aerosid_core::fem::{bauer_andrisani, FemSettings, FilterError, Integrator, Sensitivity};
+use aerosid_core::fem::models::Longitudinal;
+use aerosid_core::fem::{bauer_andrisani, FemSettings, FilterError, Integrator, Model, Sensitivity};
 use aerosid_core::Real;
+use aerosid_host::fem_report::{default_hfb320_path, hfb320_filter, hfb320_rows, step_data};
 use aerosid_host::table1::{self, Input};
 use criterion::{criterion_group, criterion_main, Criterion};
 use nalgebra::{SMatrix, SVector};
 use std::hint::black_box;
 use std::time::Instant;
 
-fn hfb320_rows() -> Vec<[f64; 20]> {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/flight/hfb320_1_10.asc");
-    let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    text.lines()
-        .filter(|l| !l.trim().is_empty())
-        .map(|l| {
-            let v: Vec<f64> = l.split_whitespace().map(|t| t.parse().expect("number")).collect();
-            v.try_into().expect("20 columns")
-        })
-        .collect()
-}
-
-const START: [f64; 11] = [
-    5.67516e-3, 7.72612e-3, 0.674256, -0.318267, 0.260317, 5.37576, 4.98218e-2, 1.89182e-2, -0.498586, -25.8439,
-    -0.990687,
-];
-
-fn hfb320<T: Real>(c: &mut Criterion, name: &str, sensitivity: Sensitivity) {
-    let rows = hfb320_rows();
-    let l = T::lit;
-    let f = [0.358553, 2.42099e-3, 4.47607e-4, 1.73778e-3];
-    let r = [1.7587e-2, 9.902e-7, 1.977e-7, 3.384e-7, 3.168e-5, 4.191e-4, 2.020e-2];
-    let settings = FemSettings {
-        q_x: SMatrix::<T, 4, 4>::from_diagonal(&SVector::from_fn(|i, _| l(f[i] * f[i]))),
-        r_x: SMatrix::<T, 7, 7>::from_diagonal(&SVector::from_fn(|i, _| l(r[i]))),
-        dt_s: l(0.1),
-        integrator: Integrator::Euler,
-        sensitivity,
-    };
-    let x0 = SVector::<T, 4>::from_fn(|i, _| l(rows[0][4 + i]));
-    let p_x0 = SMatrix::<T, 4, 4>::from_diagonal(&SVector::from_fn(|i, _| l(r[i])));
-    let p0 = SVector::<T, 11>::from_fn(|i, _| l(START[i]));
-    let fem0 = FilterError::new(
-        Hfb320::<T>::default(),
-        settings,
-        x0,
-        p_x0,
-        p0,
-        bauer_andrisani(&p0, l(0.05)),
-    )
-    .expect("filter");
-    let data: Vec<_> = rows
-        .windows(2)
-        .map(|w| {
-            (
-                SVector::<T, 2>::new(l(w[0][1]), l(w[0][3])),
-                SVector::<T, 2>::new(l(w[1][1]), l(w[1][3])),
-                SVector::<T, 7>::from_fn(|i, _| l(w[1][4 + i])),
-            )
-        })
-        .collect();
+/// Times `fem0` over `data` (`(u, u_next, y_next)` per step): each iteration runs a fresh copy over
+/// the whole record and reports the time per step.
+#[allow(clippy::type_complexity)]
+fn time_record<T, M, const NX: usize, const NU: usize, const NY: usize, const NP: usize>(
+    c: &mut Criterion,
+    name: &str,
+    fem0: FilterError<T, M, NX, NU, NY, NP>,
+    data: &[(SVector<T, NU>, SVector<T, NU>, SVector<T, NY>)],
+) where
+    T: Real,
+    M: Model<T, NX, NU, NY, NP> + Copy,
+{
     c.bench_function(name, |b| {
         b.iter_custom(|iters| {
             let start = Instant::now();
             for _ in 0..iters {
                 let mut fem = fem0;
-                for (u, un, y) in &data {
+                for (u, un, y) in data {
                     let _ = black_box(fem.step(u, un, y));
                 }
                 black_box(fem.parameters());
@@ -79,6 +41,13 @@ fn hfb320<T: Real>(c: &mut Criterion, name: &str, sensitivity: Sensitivity) {
             start.elapsed() / data.len() as u32
         })
     });
+}
+
+fn hfb320<T: Real>(c: &mut Criterion, name: &str, sensitivity: Sensitivity) {
+    let rows = hfb320_rows(&default_hfb320_path()).expect("HFB-320 data");
+    let fem0 = hfb320_filter::<T>(&rows, sensitivity).expect("filter");
+    let data: Vec<_> = rows.windows(2).map(|w| step_data::<T>(&w[0], &w[1])).collect();
+    time_record(c, name, fem0, &data);
 }
 
 fn longitudinal<T: Real>(c: &mut Criterion, name: &str, sensitivity: Sensitivity) {
@@ -115,19 +84,7 @@ fn longitudinal<T: Real>(c: &mut Criterion, name: &str, sensitivity: Sensitivity
             )
         })
         .collect();
-    c.bench_function(name, |b| {
-        b.iter_custom(|iters| {
-            let start = Instant::now();
-            for _ in 0..iters {
-                let mut fem = fem0;
-                for (u, un, y) in &data {
-                    let _ = black_box(fem.step(u, un, y));
-                }
-                black_box(fem.parameters());
-            }
-            start.elapsed() / data.len() as u32
-        })
-    });
+    time_record(c, name, fem0, &data);
 }
 
 fn benches(c: &mut Criterion) {

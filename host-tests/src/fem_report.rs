@@ -5,6 +5,7 @@
 use crate::plot::{Band, Colour, Figure, Line, Panel, PlotError};
 use aerosid_core::fem::models::{hfb320_idx, Hfb320};
 use aerosid_core::fem::{bauer_andrisani, integrate, FemSettings, FilterError, Integrator, Model, Sensitivity};
+use aerosid_core::Real;
 use nalgebra::{SMatrix, SVector};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -68,39 +69,42 @@ pub fn default_hfb320_path() -> PathBuf {
 }
 
 /// The filter over the HFB-320 model with the book's noise, starting values and the
-/// Bauer–Andrisani prior (σ floor 0.05).
-pub fn hfb320_filter(
+/// Bauer–Andrisani prior (σ floor 0.05), in `f32` or `f64`.
+pub fn hfb320_filter<T: Real>(
     rows: &[[f64; 20]],
     sensitivity: Sensitivity,
-) -> Result<FilterError<f64, Hfb320<f64>, 4, 2, 7, 11>, String> {
+) -> Result<FilterError<T, Hfb320<T>, 4, 2, 7, 11>, String> {
+    let l = T::lit;
     let settings = FemSettings {
-        q_x: SMatrix::<f64, 4, 4>::from_diagonal(&SVector::from_fn(|i, _| PROCESS_F[i] * PROCESS_F[i])),
-        r_x: SMatrix::<f64, 7, 7>::from_diagonal(&SVector::from_fn(|i, _| R_DIAG[i])),
-        dt_s: 0.1,
+        q_x: SMatrix::<T, 4, 4>::from_diagonal(&SVector::from_fn(|i, _| l(PROCESS_F[i] * PROCESS_F[i]))),
+        r_x: SMatrix::<T, 7, 7>::from_diagonal(&SVector::from_fn(|i, _| l(R_DIAG[i]))),
+        dt_s: l(0.1),
         integrator: Integrator::Euler,
         sensitivity,
     };
     let r0 = rows.first().ok_or("no data")?;
-    let x0 = SVector::<f64, 4>::new(r0[4], r0[5], r0[6], r0[7]);
-    let p_x0 = SMatrix::<f64, 4, 4>::from_diagonal(&SVector::from_fn(|i, _| R_DIAG[i]));
-    let p0 = SVector::<f64, 11>::from_column_slice(&START);
-    FilterError::new(Hfb320::default(), settings, x0, p_x0, p0, bauer_andrisani(&p0, 0.05))
+    let x0 = SVector::<T, 4>::from_fn(|i, _| l(r0[4 + i]));
+    let p_x0 = SMatrix::<T, 4, 4>::from_diagonal(&SVector::from_fn(|i, _| l(R_DIAG[i])));
+    let p0 = SVector::<T, 11>::from_fn(|i, _| l(START[i]));
+    FilterError::new(Hfb320::default(), settings, x0, p_x0, p0, bauer_andrisani(&p0, l(0.05)))
         .map_err(|e| format!("{e:?}"))
 }
 
-/// One step's data: `(u(t), u(t+Δt), y(t+Δt))`.
-pub fn step_data(a: &[f64; 20], b: &[f64; 20]) -> (SVector<f64, 2>, SVector<f64, 2>, SVector<f64, 7>) {
+/// One step's data: `(u(t), u(t+Δt), y(t+Δt))` from two consecutive rows.
+#[allow(clippy::type_complexity)]
+pub fn step_data<T: Real>(a: &[f64; 20], b: &[f64; 20]) -> (SVector<T, 2>, SVector<T, 2>, SVector<T, 7>) {
+    let l = T::lit;
     (
-        SVector::<f64, 2>::new(a[1], a[3]),
-        SVector::<f64, 2>::new(b[1], b[3]),
-        SVector::<f64, 7>::from_fn(|i, _| b[4 + i]),
+        SVector::<T, 2>::new(l(a[1]), l(a[3])),
+        SVector::<T, 2>::new(l(b[1]), l(b[3])),
+        SVector::<T, 7>::from_fn(|i, _| l(b[4 + i])),
     )
 }
 
 /// Runs the report; returns the text and the figures written into `out_dir`.
 pub fn hfb320_report(data: &Path, out_dir: &Path) -> Result<(String, Vec<PathBuf>), String> {
     let rows = hfb320_rows(data)?;
-    let mut fem = hfb320_filter(&rows, Sensitivity::Propagated)?;
+    let mut fem = hfb320_filter::<f64>(&rows, Sensitivity::Propagated)?;
     let mut t = vec![rows[0][0]];
     let mut hist = vec![(*fem.parameters(), fem.parameter_sigma())];
     for w in rows.windows(2) {

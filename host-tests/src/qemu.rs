@@ -172,7 +172,7 @@ pub fn run(elf: &Path, samples: &[SensorSample<f32>], dir: &Path, timeout: Durat
         frames += 1;
         if let Message::DebugFloatArray(m) = f.message {
             if let Some(slot) = last.get_mut(usize::from(m.array_id)) {
-                *slot = Some(report_from(&m));
+                *slot = Some(CoefficientReport::from_debug_float_array(&m));
             }
         }
     });
@@ -211,23 +211,6 @@ fn decode_defmt(elf: &Path, stream: &Path) -> Option<String> {
         .output()
         .ok()?;
     Some(String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr))
-}
-
-fn report_from(m: &aerosid_core::mavlink::messages::DebugFloatArray) -> CoefficientReport {
-    use aerosid_core::mavlink::telemetry::slot;
-    let mut r = CoefficientReport {
-        coefficient: m.array_id as u8,
-        theta: [0.0; 6],
-        sigma: [0.0; 6],
-        n_params: m.data[slot::N_PARAMS] as u8,
-        rank_k: m.data[slot::RANK_K] as u8,
-        lambda_f: m.data[slot::LAMBDA_F],
-        health_flags: m.data[slot::HEALTH_FLAGS] as u32,
-        refused: m.data[slot::REFUSED] as u32,
-    };
-    r.theta.copy_from_slice(&m.data[slot::THETA..slot::THETA + 6]);
-    r.sigma.copy_from_slice(&m.data[slot::SIGMA..slot::SIGMA + 6]);
-    r
 }
 
 /// The host's `f32` run of the on-board pipeline ([`onboard::pipeline`]) over the same samples:

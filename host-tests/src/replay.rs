@@ -106,13 +106,7 @@ pub fn replay(log: &Path, with_qemu: bool) -> Result<String, String> {
             let _ = writeln!(out, "  coefficient {i}: no report received");
             continue;
         };
-        let n = usize::from(h.n_params);
-        let same = fw.rank_k == h.rank_k
-            && fw.lambda_f.to_bits() == h.lambda_f.to_bits()
-            && (0..n).all(|j| {
-                fw.theta[j].to_bits() == h.theta[j].to_bits()
-                    && (fw.sigma[j].to_bits() == h.sigma[j].to_bits() || (fw.sigma[j].is_nan() && h.sigma[j].is_nan()))
-            });
+        let same = fw.same_estimate_bits(h);
         equal &= same;
     }
     let _ = writeln!(

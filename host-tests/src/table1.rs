@@ -148,19 +148,46 @@ fn truth_step(
     x
 }
 
+/// The truth at trim: the true parameters, the model with its trim thrust, the trim state and
+/// elevator, and the seeded Dryden gusts (MIL-F-8785C above 2 000 ft, light).
+struct Truth {
+    p: SVector<f64, 9>,
+    model: Longitudinal<f64>,
+    x_trim: SVector<f64, 5>,
+    de0: f64,
+    gust: Dryden,
+}
+
+impl Truth {
+    fn at_trim(seed: u64) -> Self {
+        let p = SVector::<f64, 9>::from_column_slice(&Longitudinal::<f64>::TABLE1_TRUE);
+        let (alpha0, de0, thrust) = trim(&p);
+        let mut model = Longitudinal::<f64>::a4d();
+        model.thrust_n = thrust;
+        let turb = Turbulence {
+            lengths_m: [533.4; 3],
+            sigma_mps: [1.0; 3],
+        };
+        Self {
+            p,
+            model,
+            x_trim: SVector::<f64, 5>::new(V0_MPS, alpha0, 0.0, alpha0, H0_M),
+            de0,
+            gust: Dryden::new(&turb, V0_MPS, DT_S, seed),
+        }
+    }
+}
+
 /// Simulates `seconds` of flight with the true parameters, `input`, light turbulence, seeded.
 pub fn simulate(input: Input, seconds: f64, seed: u64) -> Flight {
-    let p = SVector::<f64, 9>::from_column_slice(&Longitudinal::<f64>::TABLE1_TRUE);
-    let (alpha0, de0, thrust) = trim(&p);
-    let mut model = Longitudinal::<f64>::a4d();
-    model.thrust_n = thrust;
-    let turb = Turbulence {
-        lengths_m: [533.4; 3],
-        sigma_mps: [1.0; 3],
-    };
-    let mut gust = Dryden::new(&turb, V0_MPS, DT_S, seed);
+    let Truth {
+        p,
+        model,
+        x_trim: mut x,
+        de0,
+        mut gust,
+    } = Truth::at_trim(seed);
     let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x0007_AB1E_0001);
-    let mut x = SVector::<f64, 5>::new(V0_MPS, alpha0, 0.0, alpha0, H0_M);
     let x0 = [x[0], x[1], x[2], x[3], x[4]];
     let mut g_prev = gust.gust_body_mps();
     let n = (seconds / DT_S).round() as usize;
@@ -196,18 +223,15 @@ pub fn simulate(input: Input, seconds: f64, seed: u64) -> Flight {
 /// `u64::MAX`) times `Δt` — what a flight-test engineer sets from the residuals, as the paper says
 /// ("adjusted using the residuals as guideline"). Diagonal.
 pub fn process_noise() -> SMatrix<f64, 5, 5> {
-    let p = SVector::<f64, 9>::from_column_slice(&Longitudinal::<f64>::TABLE1_TRUE);
-    // A calibration flight without measurement noise: reuse `simulate` and remove nothing — the
-    // residual of the *measured* states would contain the noise, so integrate the truth here.
-    let (alpha0, de0, thrust) = trim(&p);
-    let mut model = Longitudinal::<f64>::a4d();
-    model.thrust_n = thrust;
-    let turb = Turbulence {
-        lengths_m: [533.4; 3],
-        sigma_mps: [1.0; 3],
-    };
-    let mut gust = Dryden::new(&turb, V0_MPS, DT_S, u64::MAX);
-    let mut x = SVector::<f64, 5>::new(V0_MPS, alpha0, 0.0, alpha0, H0_M);
+    // A calibration flight without measurement noise: the residual of the *measured* states would
+    // contain the noise, so the truth is integrated here.
+    let Truth {
+        p,
+        model,
+        x_trim: mut x,
+        de0,
+        mut gust,
+    } = Truth::at_trim(u64::MAX);
     let u = SVector::<f64, 1>::new(de0);
     let mut sum = SVector::<f64, 5>::zeros();
     let n = 20_000;
@@ -239,27 +263,36 @@ pub fn identify(
     history: Option<&mut Vec<Run>>,
 ) -> Option<Run> {
     let r_x = SMatrix::<f64, 5, 5>::from_diagonal(&SVector::from_fn(|i, _| NOISE[i] * NOISE[i]));
+    let x0 = SVector::<f64, 5>::from_column_slice(&flight.y[0]);
+    let measured = |k: usize| SVector::<f64, 5>::from_column_slice(&flight.y[k]);
+    run_filter(flight.model, *q_x, r_x, x0, r_x, sensitivity, flight, measured, history)
+}
+
+/// Builds the filter (Table 1's initial values, the Bauer–Andrisani prior with σ 0.01 for `Cm0`)
+/// and runs it over `flight`, `measured(k)` giving `y(t_k)`; every step must be accepted. With
+/// `history`, the estimate after every step is appended to it.
+#[allow(clippy::too_many_arguments)]
+fn run_filter<M: Model<f64, NX, 1, NY, 9>, const NX: usize, const NY: usize>(
+    model: M,
+    q_x: SMatrix<f64, NX, NX>,
+    r_x: SMatrix<f64, NY, NY>,
+    x0: SVector<f64, NX>,
+    p_x0: SMatrix<f64, NX, NX>,
+    sensitivity: Sensitivity,
+    flight: &Flight,
+    measured: impl Fn(usize) -> SVector<f64, NY>,
+    mut history: Option<&mut Vec<Run>>,
+) -> Option<Run> {
     let settings = FemSettings {
-        q_x: *q_x,
+        q_x,
         r_x,
         dt_s: DT_S,
         integrator: Integrator::Euler,
         sensitivity,
     };
     let p0 = SVector::<f64, 9>::from_column_slice(&Longitudinal::<f64>::TABLE1_INITIAL);
-    let x0 = SVector::<f64, 5>::from_column_slice(&flight.y[0]);
-    let fem = FilterError::new(flight.model, settings, x0, r_x, p0, bauer_andrisani(&p0, 0.01)).ok()?;
-    run_filter(fem, flight, history)
-}
-
-/// Runs `fem` over `flight`; every step must be accepted. With `history`, the estimate after every
-/// step is appended to it.
-fn run_filter<M: Model<f64, NX, 1, 5, 9>, const NX: usize>(
-    mut fem: FilterError<f64, M, NX, 1, 5, 9>,
-    flight: &Flight,
-    mut history: Option<&mut Vec<Run>>,
-) -> Option<Run> {
-    let snapshot = |fem: &FilterError<f64, M, NX, 1, 5, 9>| {
+    let mut fem = FilterError::new(model, settings, x0, p_x0, p0, bauer_andrisani(&p0, 0.01)).ok()?;
+    let snapshot = |fem: &FilterError<f64, M, NX, 1, NY, 9>| {
         let mut run = Run {
             p: [0.0; 9],
             sigma: [0.0; 9],
@@ -271,13 +304,40 @@ fn run_filter<M: Model<f64, NX, 1, 5, 9>, const NX: usize>(
     for k in 0..flight.y.len() - 1 {
         let u = SVector::<f64, 1>::new(flight.u[k]);
         let un = SVector::<f64, 1>::new(flight.u[k + 1]);
-        let y = SVector::<f64, 5>::from_column_slice(&flight.y[k + 1]);
-        fem.step(&u, &un, &y).ok()?;
+        fem.step(&u, &un, &measured(k + 1)).ok()?;
         if let Some(h) = history.as_deref_mut() {
             h.push(snapshot(&fem));
         }
     }
     Some(snapshot(&fem))
+}
+
+/// Gust scale length of the filter's gust states, m (the truth's Dryden length).
+const GUST_LENGTH_M: f64 = 533.4;
+
+/// The gust model of the filter and its noise: the gust states' `Q = 2σ²V/L` (σ = 1 m/s),
+/// `q_small` on the flight states; the state and its covariance start at the first measurement
+/// and zero gust with σ 1 m/s.
+fn gust_filter(
+    flight: &Flight,
+    q_small: f64,
+) -> (
+    LongitudinalGust<f64>,
+    SMatrix<f64, 7, 7>,
+    SVector<f64, 7>,
+    SMatrix<f64, 7, 7>,
+) {
+    let qg = 2.0 * V0_MPS / GUST_LENGTH_M;
+    let q_x = SMatrix::<f64, 7, 7>::from_diagonal(&SVector::from_fn(|i, _| if i >= 5 { qg } else { q_small }));
+    let x0 = SVector::<f64, 7>::from_fn(|i, _| if i < 5 { flight.y[0][i] } else { 0.0 });
+    let p_x0 =
+        SMatrix::<f64, 7, 7>::from_diagonal(&SVector::from_fn(|i, _| if i >= 5 { 1.0 } else { NOISE[i] * NOISE[i] }));
+    let model = LongitudinalGust {
+        base: flight.model,
+        length_u_m: GUST_LENGTH_M,
+        length_w_m: GUST_LENGTH_M,
+    };
+    (model, q_x, x0, p_x0)
 }
 
 /// [`identify`] with the gusts as filter states ([`LongitudinalGust`], L = 533 m, the Dryden gust
@@ -289,30 +349,9 @@ pub fn identify_with_gust_states(
     history: Option<&mut Vec<Run>>,
 ) -> Option<Run> {
     let r_x = SMatrix::<f64, 5, 5>::from_diagonal(&SVector::from_fn(|i, _| NOISE[i] * NOISE[i]));
-    let l = 533.4;
-    let qg = 2.0 * 1.0 * V0_MPS / l;
-    let q_x = SMatrix::<f64, 7, 7>::from_diagonal(&SVector::from_fn(|i, _| if i >= 5 { qg } else { q_small }));
-    let settings = FemSettings {
-        q_x,
-        r_x: r_x.fixed_view::<5, 5>(0, 0).into(),
-        dt_s: DT_S,
-        integrator: Integrator::Euler,
-        sensitivity,
-    };
-    let model = LongitudinalGust {
-        base: flight.model,
-        length_u_m: l,
-        length_w_m: l,
-    };
-    let p0 = SVector::<f64, 9>::from_column_slice(&Longitudinal::<f64>::TABLE1_INITIAL);
-    let mut x0 = SVector::<f64, 7>::zeros();
-    for i in 0..5 {
-        x0[i] = flight.y[0][i];
-    }
-    let p_x0 =
-        SMatrix::<f64, 7, 7>::from_diagonal(&SVector::from_fn(|i, _| if i >= 5 { 1.0 } else { NOISE[i] * NOISE[i] }));
-    let fem = FilterError::new(model, settings, x0, p_x0, p0, bauer_andrisani(&p0, 0.01)).ok()?;
-    run_filter(fem, flight, history)
+    let (model, q_x, x0, p_x0) = gust_filter(flight, q_small);
+    let measured = |k: usize| SVector::<f64, 5>::from_column_slice(&flight.y[k]);
+    run_filter(model, q_x, r_x, x0, p_x0, sensitivity, flight, measured, history)
 }
 
 /// Runs per campaign.
@@ -515,41 +554,19 @@ pub fn table1_report(out_dir: &std::path::Path) -> Result<(String, Vec<std::path
 
 /// [`identify_with_gust_states`] with the z accelerometer as a sixth output ([`LongitudinalGustAz`]).
 pub fn identify_with_accelerometer(flight: &Flight, q_small: f64, sensitivity: Sensitivity) -> Option<Run> {
-    let mut r = [0.0; 6];
-    for i in 0..5 {
-        r[i] = NOISE[i] * NOISE[i];
-    }
-    r[5] = AZ_NOISE_MPS2 * AZ_NOISE_MPS2;
-    let l = 533.4;
-    let qg = 2.0 * V0_MPS / l;
-    let settings = FemSettings {
-        q_x: SMatrix::<f64, 7, 7>::from_diagonal(&SVector::from_fn(|i, _| if i >= 5 { qg } else { q_small })),
-        r_x: SMatrix::<f64, 6, 6>::from_diagonal(&SVector::from_fn(|i, _| r[i])),
-        dt_s: DT_S,
-        integrator: Integrator::Euler,
+    let noise = |i: usize| if i < 5 { NOISE[i] } else { AZ_NOISE_MPS2 };
+    let r_x = SMatrix::<f64, 6, 6>::from_diagonal(&SVector::from_fn(|i, _| noise(i) * noise(i)));
+    let (model, q_x, x0, p_x0) = gust_filter(flight, q_small);
+    let measured = |k: usize| SVector::<f64, 6>::from_fn(|i, _| if i < 5 { flight.y[k][i] } else { flight.az[k] });
+    run_filter(
+        LongitudinalGustAz(model),
+        q_x,
+        r_x,
+        x0,
+        p_x0,
         sensitivity,
-    };
-    let model = LongitudinalGustAz(LongitudinalGust {
-        base: flight.model,
-        length_u_m: l,
-        length_w_m: l,
-    });
-    let p0 = SVector::<f64, 9>::from_column_slice(&Longitudinal::<f64>::TABLE1_INITIAL);
-    let x0 = SVector::<f64, 7>::from_fn(|i, _| if i < 5 { flight.y[0][i] } else { 0.0 });
-    let p_x0 =
-        SMatrix::<f64, 7, 7>::from_diagonal(&SVector::from_fn(|i, _| if i >= 5 { 1.0 } else { NOISE[i] * NOISE[i] }));
-    let mut fem = FilterError::new(model, settings, x0, p_x0, p0, bauer_andrisani(&p0, 0.01)).ok()?;
-    for k in 0..flight.y.len() - 1 {
-        let u = SVector::<f64, 1>::new(flight.u[k]);
-        let un = SVector::<f64, 1>::new(flight.u[k + 1]);
-        let y = SVector::<f64, 6>::from_fn(|i, _| if i < 5 { flight.y[k + 1][i] } else { flight.az[k + 1] });
-        fem.step(&u, &un, &y).ok()?;
-    }
-    let mut run = Run {
-        p: [0.0; 9],
-        sigma: [0.0; 9],
-    };
-    run.p.copy_from_slice(fem.parameters().as_slice());
-    run.sigma.copy_from_slice(fem.parameter_sigma().as_slice());
-    Some(run)
+        flight,
+        measured,
+        None,
+    )
 }

@@ -2,12 +2,9 @@
 //! HFB-320 flight data against the published filter-error estimates (issue 5).
 
 use aerosid_core::fem::models::{hfb320_idx, Hfb320, Longitudinal};
-use aerosid_core::fem::{
-    bauer_andrisani, central_difference, FemSettings, FilterError, Integrator, Model, Sensitivity,
-};
+use aerosid_core::fem::{central_difference, FilterError, Model, Sensitivity};
+use aerosid_host::fem_report::{default_hfb320_path, hfb320_filter, step_data, PUBLISHED};
 use nalgebra::{SMatrix, SVector};
-
-use aerosid_host::fem_report::{default_hfb320_path, hfb320_filter, step_data, PUBLISHED, START};
 
 fn hfb320_rows() -> Vec<[f64; 20]> {
     aerosid_host::fem_report::hfb320_rows(&default_hfb320_path()).expect("HFB-320 data")
@@ -29,7 +26,7 @@ fn hfb320_analytic_parameter_jacobians_match_central_differences() {
 
 fn run_hfb320(filter: &mut FilterError<f64, Hfb320<f64>, 4, 2, 7, 11>) {
     for w in hfb320_rows().windows(2) {
-        let (u, un, y) = step_data(&w[0], &w[1]);
+        let (u, un, y) = step_data::<f64>(&w[0], &w[1]);
         filter.step(&u, &un, &y).expect("step");
     }
 }
@@ -42,7 +39,7 @@ fn hfb320_flight_data_against_the_published_filter_error_estimates() {
     // with the paper's one-step sensitivity and with the propagated one
     let mut results = Vec::new();
     for sensitivity in [Sensitivity::OneStep, Sensitivity::Propagated] {
-        let mut fem = hfb320_filter(&hfb320_rows(), sensitivity).expect("filter");
+        let mut fem = hfb320_filter::<f64>(&hfb320_rows(), sensitivity).expect("filter");
         run_hfb320(&mut fem);
         let (p, s) = (*fem.parameters(), fem.parameter_sigma());
         println!("{sensitivity:?}: param       ours ± σ              published   |Δ|/σ");
@@ -87,7 +84,7 @@ fn hfb320_flight_data_against_the_published_filter_error_estimates() {
 
 #[test]
 fn a_non_finite_measurement_is_refused_and_leaves_the_filter_untouched() {
-    let mut fem = hfb320_filter(&hfb320_rows(), Sensitivity::OneStep).expect("filter");
+    let mut fem = hfb320_filter::<f64>(&hfb320_rows(), Sensitivity::OneStep).expect("filter");
     let before = fem;
     let u = SVector::<f64, 2>::new(0.0, 10_000.0);
     let mut y = SVector::<f64, 7>::from_column_slice(&[106.0, 0.11, 0.1, 0.0, 0.0, 0.5, -9.8]);
@@ -123,37 +120,13 @@ fn longitudinal_model_solves_alpha_dot_consistently() {
 fn hfb320_in_f32_agrees_with_f64_within_a_quarter_of_sigma() {
     // GIVEN the same data and settings in f32 (as on the MCU)
     let rows = hfb320_rows();
-    let f = [0.358553f32, 2.42099e-3, 4.47607e-4, 1.73778e-3];
-    let r = [1.7587e-2f32, 9.902e-7, 1.977e-7, 3.384e-7, 3.168e-5, 4.191e-4, 2.020e-2];
-    let settings = FemSettings {
-        q_x: SMatrix::<f32, 4, 4>::from_diagonal(&SVector::from_fn(|i, _| f[i] * f[i])),
-        r_x: SMatrix::<f32, 7, 7>::from_diagonal(&SVector::from_fn(|i, _| r[i])),
-        dt_s: 0.1,
-        integrator: Integrator::Euler,
-        sensitivity: Sensitivity::Propagated,
-    };
-    let r0 = &rows[0];
-    let x0 = SVector::<f32, 4>::new(r0[4] as f32, r0[5] as f32, r0[6] as f32, r0[7] as f32);
-    let p_x0 = SMatrix::<f32, 4, 4>::from_diagonal(&SVector::from_fn(|i, _| r[i]));
-    let p0 = SVector::<f32, 11>::from_fn(|i, _| START[i] as f32);
-    let mut fem32 = FilterError::new(
-        Hfb320::<f32>::default(),
-        settings,
-        x0,
-        p_x0,
-        p0,
-        bauer_andrisani(&p0, 0.05),
-    )
-    .expect("filter");
+    let mut fem32 = hfb320_filter::<f32>(&rows, Sensitivity::Propagated).expect("filter");
     // WHEN it runs over the data (every step must be accepted)
     for w in rows.windows(2) {
-        let (a, b) = (&w[0], &w[1]);
-        let u = SVector::<f32, 2>::new(a[1] as f32, a[3] as f32);
-        let un = SVector::<f32, 2>::new(b[1] as f32, b[3] as f32);
-        let y = SVector::<f32, 7>::from_fn(|i, _| b[4 + i] as f32);
+        let (u, un, y) = step_data::<f32>(&w[0], &w[1]);
         fem32.step(&u, &un, &y).expect("f32 step");
     }
-    let mut fem64 = hfb320_filter(&hfb320_rows(), Sensitivity::Propagated).expect("filter");
+    let mut fem64 = hfb320_filter::<f64>(&rows, Sensitivity::Propagated).expect("filter");
     run_hfb320(&mut fem64);
     // THEN each parameter differs from the f64 run by less than a quarter of its σ — statistically
     // the same estimate (measured: at most 0.12σ, on CD0 and CDV: the f32 central-difference step

@@ -80,6 +80,38 @@ impl CoefficientReport {
     }
 }
 
+impl CoefficientReport {
+    /// The report a `DEBUG_FLOAT_ARRAY` of [`CoefficientReport::to_debug_float_array`] carries (the
+    /// ground side's decoding; health flags and refused counts as sent, i.e. below 2²⁴).
+    pub fn from_debug_float_array(m: &DebugFloatArray) -> Self {
+        let mut r = Self {
+            coefficient: m.array_id as u8,
+            theta: [0.0; MAX_PARAMETERS],
+            sigma: [0.0; MAX_PARAMETERS],
+            n_params: m.data[slot::N_PARAMS] as u8,
+            rank_k: m.data[slot::RANK_K] as u8,
+            lambda_f: m.data[slot::LAMBDA_F],
+            health_flags: m.data[slot::HEALTH_FLAGS] as u32,
+            refused: m.data[slot::REFUSED] as u32,
+        };
+        r.theta
+            .copy_from_slice(&m.data[slot::THETA..slot::THETA + MAX_PARAMETERS]);
+        r.sigma
+            .copy_from_slice(&m.data[slot::SIGMA..slot::SIGMA + MAX_PARAMETERS]);
+        r
+    }
+
+    /// `true` if `θ`, `σ` (NaN equal to NaN), `k`, `λ_F` and `n_θ` are the same bit for bit.
+    pub fn same_estimate_bits(&self, other: &Self) -> bool {
+        let n = usize::from(self.n_params).min(MAX_PARAMETERS);
+        let same = |a: f32, b: f32| a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan());
+        self.n_params == other.n_params
+            && self.rank_k == other.rank_k
+            && self.lambda_f.to_bits() == other.lambda_f.to_bits()
+            && (0..n).all(|j| same(self.theta[j], other.theta[j]) && same(self.sigma[j], other.sigma[j]))
+    }
+}
+
 /// The co-processor's telemetry writer: one [`Encoder`] (ids and sequence) for every frame it sends.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]

@@ -58,6 +58,19 @@ struct Args {
     seconds: f64,
 }
 
+/// The flags of a command whose only flag is `--out DIR` (default `out`).
+fn out_dir(it: &mut impl Iterator<Item = String>, cmd: &str) -> Result<std::path::PathBuf, String> {
+    let mut out = std::path::PathBuf::from("out");
+    while let Some(flag) = it.next() {
+        let value = it.next().ok_or_else(|| format!("`{flag}` needs a value"))?;
+        match flag.as_str() {
+            "--out" => out = value.into(),
+            _ => return Err(format!("unknown flag `{flag}` for `{cmd}`")),
+        }
+    }
+    Ok(out)
+}
+
 fn parse() -> Result<Option<Command>, String> {
     let mut it = std::env::args().skip(1);
     let cmd = match it.next().as_deref() {
@@ -83,26 +96,14 @@ fn parse() -> Result<Option<Command>, String> {
             return Ok(Some(Command::Simulate { out, seconds, seed }));
         }
         Some("table1") => {
-            let mut out = std::path::PathBuf::from("out");
-            while let Some(flag) = it.next() {
-                let value = it.next().ok_or_else(|| format!("`{flag}` needs a value"))?;
-                match flag.as_str() {
-                    "--out" => out = value.into(),
-                    _ => return Err(format!("unknown flag `{flag}` for `table1`")),
-                }
-            }
-            return Ok(Some(Command::Table1 { out }));
+            return Ok(Some(Command::Table1 {
+                out: out_dir(&mut it, "table1")?,
+            }))
         }
         Some("fem-hfb320") => {
-            let mut out = std::path::PathBuf::from("out");
-            while let Some(flag) = it.next() {
-                let value = it.next().ok_or_else(|| format!("`{flag}` needs a value"))?;
-                match flag.as_str() {
-                    "--out" => out = value.into(),
-                    _ => return Err(format!("unknown flag `{flag}` for `fem-hfb320`")),
-                }
-            }
-            return Ok(Some(Command::FemHfb320 { out }));
+            return Ok(Some(Command::FemHfb320 {
+                out: out_dir(&mut it, "fem-hfb320")?,
+            }))
         }
         Some("replay") => {
             let mut log = None;
