@@ -103,7 +103,9 @@ mod app {
         autopilot_rx: board::AutopilotRx,
     }
 
-    #[init]
+    #[init(local = [
+        pipeline: Result<aerosid_core::aero::Pipeline<f32>, aerosid_core::Error> = Err(aerosid_core::Error::InvalidSetting)
+    ])]
     fn init(cx: init::Context) -> (Shared, Local) {
         board::stack::paint();
         let mut core = cx.core;
@@ -119,7 +121,7 @@ mod app {
         );
         let b = board::init(cx.device, &clocks);
 
-        let estimator = match Estimator::new() {
+        let estimator = match Estimator::new(cx.local.pipeline) {
             Ok(e) => e,
             Err(e) => {
                 // A configuration error is a build defect; stop here, visibly.
