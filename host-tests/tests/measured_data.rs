@@ -114,6 +114,20 @@ fn attitude_vs_integrated_rates(f: &MeasuredFlight, angle: Quantity, window_s: f
     (c, sxy / sxx)
 }
 
+/// `Result::expect_err` without printing the (large) accepted value.
+trait MustFail {
+    fn must_fail(self, what: &str) -> ReadError;
+}
+
+impl<T> MustFail for Result<T, ReadError> {
+    fn must_fail(self, what: &str) -> ReadError {
+        match self {
+            Ok(_) => panic!("{what}: accepted, should have been refused"),
+            Err(e) => e,
+        }
+    }
+}
+
 fn assert_error(e: &ReadError, file_ends: &str, line: usize, column: usize, words: &[&str]) {
     let text = e.to_string();
     assert!(
@@ -122,7 +136,7 @@ fn assert_error(e: &ReadError, file_ends: &str, line: usize, column: usize, word
         e.file
     );
     assert_eq!((e.line, e.column), (line, column), "{text}");
-    let prefix = if column > 0 {
+    let prefix = if line > 0 && column > 0 {
         format!("{}:{line}:{column}: ", e.file)
     } else if line > 0 {
         format!("{}:{line}: ", e.file)
@@ -130,6 +144,10 @@ fn assert_error(e: &ReadError, file_ends: &str, line: usize, column: usize, word
         format!("{}: ", e.file)
     };
     assert!(text.starts_with(&prefix), "`{text}` should start with `{prefix}`");
+    if line == 0 && column > 0 {
+        let c = format!("column {column} ");
+        assert!(text.contains(&c), "`{text}` should name `{c}`");
+    }
     for w in words {
         assert!(text.contains(w), "`{text}` should mention `{w}`");
     }
@@ -275,4 +293,388 @@ fn attitudes_agree_with_integrated_rates() {
         assert!(c > 0.9, "{file}: correlation {c}");
         assert!((k - 1.0).abs() < 0.15, "{file}: slope {k}");
     }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Bad ASCII files and maps
+
+/// Writes `text` as `name` in `dir` and reads it through the map `map` (a path).
+fn read_text_with_map(dir: &Path, name: &str, text: &str, map: &Path) -> Result<MeasuredFlight, ReadError> {
+    let p = dir.join(name);
+    std::fs::write(&p, text).expect("write");
+    read_measured(&p, map)
+}
+
+fn shared_text(file: &str) -> String {
+    std::fs::read_to_string(flight_dir().join(file)).expect("data file")
+}
+
+/// Replaces column `col` (1-based) of line `line` (1-based) by `value`.
+fn set_cell(text: &str, line: usize, col: usize, value: &str) -> String {
+    let mut out = String::new();
+    for (i, l) in text.lines().enumerate() {
+        if i + 1 == line {
+            let mut cells: Vec<&str> = l.split_whitespace().collect();
+            cells[col - 1] = value;
+            out.push_str(&cells.join(" "));
+        } else {
+            out.push_str(l);
+        }
+        out.push('\n');
+    }
+    out
+}
+
+#[test]
+fn bad_ascii_files_name_file_line_and_column() {
+    let dir = scratch("ascii");
+    let hfb = shared_text("hfb320_1_10.asc");
+    let map = maps().join("hfb320.map");
+    // GIVEN line 50 lacks its last number WHEN read THEN line 50, column 20 (`rudder`) is named.
+    let short: String = hfb
+        .lines()
+        .enumerate()
+        .map(|(i, l)| {
+            if i == 49 {
+                let cells: Vec<&str> = l.split_whitespace().collect();
+                cells[..19].join(" ") + "\n"
+            } else {
+                format!("{l}\n")
+            }
+        })
+        .collect();
+    let e = read_text_with_map(&dir, "short.asc", &short, &map).must_fail("short line");
+    assert_error(&e, "short.asc", 50, 20, &["19 numbers", "says 20", "rudder"]);
+
+    // GIVEN a NaN run of 5 rows in α (column 6) from line 100 THEN line 100, column 6, run of 5.
+    let mut nan = hfb.clone();
+    for l in 100..105 {
+        nan = set_cell(&nan, l, 6, "NaN");
+    }
+    let e = read_text_with_map(&dir, "nan.asc", &nan, &map).must_fail("NaN run");
+    assert_error(
+        &e,
+        "nan.asc",
+        100,
+        6,
+        &["alpha", "NaN", "run of 5 rows", "lines 100–104", "refused"],
+    );
+    // An isolated NaN is refused as well (a run of 1).
+    let one = set_cell(&hfb, 300, 8, "nan");
+    let e = read_text_with_map(&dir, "one.asc", &one, &map).must_fail("one NaN");
+    assert_error(&e, "one.asc", 300, 8, &["pitch_rate", "run of 1 row"]);
+
+    // GIVEN a cell that is no number.
+    let junk = set_cell(&hfb, 7, 5, "1O6.2");
+    let e = read_text_with_map(&dir, "junk.asc", &junk, &map).must_fail("junk");
+    assert_error(&e, "junk.asc", 7, 5, &["airspeed", "`1O6.2` is not a number"]);
+
+    // GIVEN time going back at line 200 THEN line 200, column 1.
+    let back = set_cell(&hfb, 200, 1, "19.0");
+    let e = read_text_with_map(&dir, "back.asc", &back, &map).must_fail("time back");
+    assert_error(&e, "back.asc", 200, 1, &["time", "does not increase"]);
+
+    // GIVEN a map that calls the ATTAS α column (degrees) radians THEN α is refused as "degrees
+    // given as radians", at the first line beyond the hard bound |α| ≤ π, column 13.
+    let attas_map = std::fs::read_to_string(maps().join("attas.map"))
+        .expect("map")
+        .replace("channel.alpha = $13 deg", "channel.alpha = $13 rad");
+    let wrong = dir.join("attas_wrong.map");
+    std::fs::write(
+        &wrong,
+        attas_map.replace("../aircraft/", &format!("{}/", aircraft_dir().display())),
+    )
+    .expect("write");
+    let e = read_measured(&flight_dir().join("fAttasElv1_pqrDot.asc"), &wrong).must_fail("α in degrees");
+    let first = shared_text("fAttasElv1_pqrDot.asc")
+        .lines()
+        .position(|l| {
+            l.split_whitespace()
+                .nth(12)
+                .and_then(|s| s.parse::<f64>().ok())
+                .is_some_and(|a| a.abs() > PI)
+        })
+        .expect("an α above π degrees")
+        + 1;
+    assert_error(
+        &e,
+        "fAttasElv1_pqrDot.asc",
+        first,
+        13,
+        &["alpha", "degrees given as radians"],
+    );
+
+    // GIVEN the Twin Otter accelerations (g) declared m/s² THEN the accelerometer check refuses.
+    let totter = std::fs::read_to_string(maps().join("twin_otter.map"))
+        .expect("map")
+        .replace("$11 g", "$11 m/s2")
+        .replace("$12 g", "$12 m/s2")
+        .replace("$13 g", "$13 m/s2")
+        .replace("../aircraft/", &format!("{}/", aircraft_dir().display()));
+    let wrong = dir.join("totter_g.map");
+    std::fs::write(&wrong, totter).expect("write");
+    let e = read_measured(&flight_dir().join("totter_lon_020213f1_018_fdata.asc"), &wrong).must_fail("g");
+    assert_error(
+        &e,
+        "totter_lon_020213f1_018_fdata.asc",
+        0,
+        13,
+        &["accel_z", "0.103 g", "g or ft/s² given as m/s²"],
+    );
+
+    // GIVEN the Twin Otter pitch rate (deg/s) declared rad/s: |q| stays below the 5 rad/s bound,
+    // but the derivative checks see the factor 57.3 — first against q̇ (column 43, still deg/s²,
+    // which of the pair is wrong cannot be told, the message names both) …
+    let totter_with = |from: &[(&str, &str)], name: &str| {
+        let mut text = std::fs::read_to_string(maps().join("twin_otter.map"))
+            .expect("map")
+            .replace("../aircraft/", &format!("{}/", aircraft_dir().display()));
+        for (a, b) in from {
+            text = text.replace(a, b);
+        }
+        let p = dir.join(name);
+        std::fs::write(&p, text).expect("write");
+        read_measured(&flight_dir().join("totter_lon_020213f1_018_fdata.asc"), &p)
+    };
+    let e = totter_with(
+        &[("channel.pitch_rate = $6 deg/s", "channel.pitch_rate = $6 rad/s")],
+        "q.map",
+    )
+    .must_fail("q");
+    assert_error(
+        &e,
+        "totter_lon_020213f1_018_fdata.asc",
+        0,
+        43,
+        &["pitch_accel", "pitch_rate", "57.8", "degrees"],
+    );
+    // … and with q̇ declared rad/s² as well, against θ (dθ/dt = q/57.3).
+    let e = totter_with(
+        &[
+            ("channel.pitch_rate = $6 deg/s", "channel.pitch_rate = $6 rad/s"),
+            ("channel.pitch_accel = $43 deg/s2", "channel.pitch_accel = $43 rad/s2"),
+        ],
+        "q_qdot.map",
+    )
+    .must_fail("q and q̇");
+    assert_error(
+        &e,
+        "totter_lon_020213f1_018_fdata.asc",
+        0,
+        6,
+        &["pitch_rate", "`pitch`", "0.016 ×", "degrees"],
+    );
+
+    // GIVEN q̄ in lbf/ft² declared Pa THEN the implied density 2q̄/V² is refused.
+    let totter = std::fs::read_to_string(maps().join("twin_otter.map"))
+        .expect("map")
+        .replace("$27 lbf/ft2", "$27 Pa")
+        .replace("../aircraft/", &format!("{}/", aircraft_dir().display()));
+    let wrong = dir.join("totter_qbar.map");
+    std::fs::write(&wrong, totter).expect("write");
+    let e = read_measured(&flight_dir().join("totter_lon_020213f1_018_fdata.asc"), &wrong).must_fail("q̄");
+    assert_error(
+        &e,
+        "totter_lon_020213f1_018_fdata.asc",
+        0,
+        27,
+        &["dynamic_pressure", "2q̄/V²"],
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn bad_maps_and_aircraft_files_name_line_and_column() {
+    let dir = scratch("maps");
+    let ac = aircraft_dir().join("hfb320.aircraft");
+    let write = |name: &str, text: &str| {
+        let p = dir.join(name);
+        std::fs::write(&p, text).expect("write");
+        p
+    };
+    let head = format!(
+        "format = ascii\ncolumns = 20\naircraft = {}\ntime = $1 s\n",
+        ac.display()
+    );
+    let cases: [(&str, usize, usize, &[&str]); 6] = [
+        (
+            "channel.alpha = $6 m/s\n",
+            5,
+            20,
+            &["unit `m/s` does not fit", "rad deg"],
+        ),
+        ("channel.alpah = $6 rad\n", 5, 9, &["unknown quantity `alpah`"]),
+        ("channel.alpha = $21 rad\n", 5, 17, &["$1 … $20"]),
+        ("channel.alpha = $6 furlong\n", 5, 20, &["unknown unit `furlong`"]),
+        ("channel.alpha = $6 $7 rad\n", 5, 20, &["expected ` + ` or ` - `"]),
+        ("bias.alpha = 0.1\n", 5, 1, &["`bias.alpha` has no `channel.alpha`"]),
+    ];
+    let data = flight_dir().join("hfb320_1_10.asc");
+    for (line, l, c, words) in cases {
+        let m = write("bad.map", &(head.clone() + line));
+        let e = read_measured(&data, &m).must_fail(line);
+        assert_error(&e, "bad.map", l, c, words);
+    }
+    // Aircraft files.
+    let good = std::fs::read_to_string(&ac).expect("aircraft");
+    let line_of = |key: &str| good.lines().position(|l| l.starts_with(key)).expect("key") + 1;
+    let cases: [(String, usize, usize, &[&str]); 5] = [
+        (
+            good.replace("mass_kg = 7472", "mass_kgs = 7472"),
+            line_of("mass_kg"),
+            1,
+            &["unknown key `mass_kgs`", "mass_kg, mass_slug"],
+        ),
+        (
+            good.replace("mass_kg = 7472", "mass_kg = 7,472"),
+            line_of("mass_kg"),
+            11,
+            &["`7,472` is not a finite number"],
+        ),
+        (
+            good.replace("chord_m = 2.43", "chord_m = -2.43"),
+            line_of("chord_m"),
+            11,
+            &["`chord` must be positive"],
+        ),
+        (
+            good.replace("mass_kg = 7472", "mass_kg = unknown"),
+            line_of("mass_kg"),
+            11,
+            &["may not be `unknown`"],
+        ),
+        (
+            good.replace("thrust = measured", "thrust = jet"),
+            line_of("thrust ="),
+            10,
+            &["unknown thrust source `jet`"],
+        ),
+    ];
+    for (text, l, c, words) in cases {
+        let p = write("bad.aircraft", &text);
+        let e = read_measured(&dir.join("x.csv"), &p).must_fail("bad aircraft");
+        assert_error(&e, "bad.aircraft", l, c, words);
+    }
+    let missing = good.replace("mass_kg = 7472", "");
+    let e = parse_aircraft(&missing, "m.aircraft").must_fail("missing mass");
+    assert_error(&e, "m.aircraft", 0, 0, &["missing required key `mass`"]);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+// ---------------------------------------------------------------------------------------------
+// The project CSV
+
+/// The aircraft file of an on-board airframe (every key, shortest round-trip numbers).
+fn aircraft_text(name: &str, a: &SimAirframe) -> String {
+    let f = &a.frame;
+    let p = &f.propeller;
+    format!(
+        "name = {name}\nmass_kg = {:e}\njx_kgm2 = {:e}\njy_kgm2 = {:e}\njz_kgm2 = {:e}\njxz_kgm2 = {:e}\n\
+         wing_area_m2 = {:e}\nspan_m = {:e}\nchord_m = {:e}\nthrust = propeller\nprop_diameter_m = {:e}\n\
+         prop_ct0 = {:e}\nprop_ct1 = {:e}\nprop_ct2 = {:e}\nprop_cp0 = {:e}\nprop_cp1 = {:e}\nprop_cp2 = {:e}\n\
+         thrust_x_m = {:e}\nthrust_y_m = {:e}\nthrust_z_m = {:e}\nthrust_pitch_rad = {:e}\n",
+        f.mass_kg,
+        f.inertia_kgm2[(0, 0)],
+        f.inertia_kgm2[(1, 1)],
+        f.inertia_kgm2[(2, 2)],
+        -f.inertia_kgm2[(0, 2)],
+        f.wing_area_m2,
+        f.span_m,
+        f.chord_m,
+        p.diameter_m,
+        p.ct[0],
+        p.ct[1],
+        p.ct[2],
+        p.cp[0],
+        p.cp[1],
+        p.cp[2],
+        p.position_m.x,
+        p.position_m.y,
+        p.position_m.z,
+        p.pitch_rad,
+    )
+}
+
+fn simulated(seconds: f64, seed: u64) -> Vec<SensorSample<f64>> {
+    let out = aerosid_host::sim::simulate(&aerosid_host::flights::main_flight(seconds, seed)).expect("simulation");
+    out.samples
+}
+
+#[test]
+fn project_csv_reads_all_or_some_channels() {
+    let dir = scratch("csv");
+    let frame = SimAirframe::skywalker_2013_mod();
+    let ac_path = dir.join("skywalker.aircraft");
+    std::fs::write(&ac_path, aircraft_text("skywalker", &frame)).expect("write");
+    let aircraft = Aircraft::from_airframe("skywalker", &frame.frame);
+    let samples = simulated(6.0, 11);
+    let log = dir.join("flight.csv");
+    aerosid_host::io::log::write_log_file(&log, &samples).expect("log");
+    // GIVEN the full log THEN exactly `from_samples` (round trip exact), aircraft file included.
+    let f = read_measured(&log, &ac_path).unwrap_or_else(|e| panic!("{e}"));
+    let want = MeasuredFlight::from_samples(&log.display().to_string(), &samples, aircraft);
+    assert_eq!(f, want);
+    // GIVEN a log with only some columns (and a thrust column) THEN only those channels.
+    let mut text = String::from("t_s,gyro_rad_s_y,accel_mps2_z,airspeed_mps,thrust_n,truth_extra\n");
+    for s in &samples {
+        text.push_str(&format!(
+            "{:e},{:e},{:e},{:e},{:e},1\n",
+            s.t_s, s.gyro_rad_s.y, s.accel_mps2.z, s.airspeed_mps, 3.5
+        ));
+    }
+    let sub = dir.join("subset.csv");
+    std::fs::write(&sub, &text).expect("write");
+    let f = read_measured(&sub, &ac_path).unwrap_or_else(|e| panic!("{e}"));
+    let keys: Vec<Quantity> = f.channels.keys().copied().collect();
+    assert_eq!(
+        keys,
+        vec![
+            Quantity::AccelZ,
+            Quantity::PitchRate,
+            Quantity::Airspeed,
+            Quantity::Thrust
+        ]
+    );
+    assert_eq!(f.len(), samples.len());
+    assert_eq!(ch(&f, Quantity::PitchRate)[17], samples[17].gyro_rad_s.y);
+    // GIVEN a NaN in the subset log at data row 10 (line 11), column 3 THEN named.
+    let bad: String = text
+        .lines()
+        .enumerate()
+        .map(|(i, l)| {
+            if i == 10 {
+                let mut c: Vec<&str> = l.split(',').collect();
+                c[2] = "NaN";
+                c.join(",") + "\n"
+            } else {
+                format!("{l}\n")
+            }
+        })
+        .collect();
+    std::fs::write(&sub, &bad).expect("write");
+    let e = read_measured(&sub, &ac_path).must_fail("NaN");
+    assert_error(&e, "subset.csv", 11, 3, &["accel_mps2_z", "NaN"]);
+    // GIVEN the full log with time going back at data row 20 (line 21) THEN line 21, column 1.
+    let full = std::fs::read_to_string(&log).expect("read");
+    let back: String = full
+        .lines()
+        .enumerate()
+        .map(|(i, l)| {
+            if i == 20 {
+                let mut c: Vec<&str> = l.split(',').collect();
+                c[0] = "0";
+                c.join(",") + "\n"
+            } else {
+                format!("{l}\n")
+            }
+        })
+        .collect();
+    std::fs::write(&log, back).expect("write");
+    let e = read_measured(&log, &ac_path).must_fail("time back");
+    assert_error(&e, "flight.csv", 21, 1, &["t_s", "does not increase"]);
+    // GIVEN the subset log without `t_s` THEN the header line is named.
+    std::fs::write(&sub, text.replacen("t_s,", "time,", 1)).expect("write");
+    let e = read_measured(&sub, &ac_path).must_fail("no t_s");
+    assert_error(&e, "subset.csv", 1, 0, &["missing column 't_s'"]);
+    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -367,7 +367,7 @@ fn bounds(q: Quantity) -> Option<Bounds> {
         RollRate | PitchRate | YawRate => b(-20.0, 20.0, 5.0, "deg/s given as rad/s?"),
         RollAccel | PitchAccel | YawAccel => b(-200.0, 200.0, 50.0, "deg/s² given as rad/s²?"),
         Airspeed => b(-1.0, 350.0, 350.0, "ft/s or km/h given as m/s?"),
-        AirDensity => b(0.02, 1.6, 1.6, "slug/ft³ given as kg/m³?"),
+        AirDensity => b(0.1, 1.6, 1.6, "slug/ft³ given as kg/m³?"),
         DynamicPressure => b(-500.0, 1.0e5, 1.0e5, "hPa or kPa given as Pa?"),
         Throttle => b(-0.05, 1.05, 1.05, "percent given as a fraction 0…1?"),
         Mach => b(0.0, 3.0, 3.0, "not a Mach number?"),
@@ -413,7 +413,7 @@ impl MeasuredFlight {
     /// * the accelerometer: the mean specific-force magnitude between 0.5 g and 3 g (g or ft/s²
     ///   given as m/s²; with only `accel_z`, the mean `|a_z|` between 0.3 g and 3 g);
     /// * the dynamic pressure against the airspeed: the median implied `ρ = 2q̄/V²` (V > 10 m/s)
-    ///   between 0.02 and 1.6 kg/m³ (lbf/ft² given as Pa);
+    ///   between 0.1 and 1.6 kg/m³ (sea level to ≈ 17 km) (lbf/ft² given as Pa);
     /// * derivative consistency: a measured rate against the central difference of its
     ///   integral — `q̇` against `dq/dt`, `ṗ` against `dp/dt`, `ṙ` against `dr/dt`, and `dθ/dt`
     ///   against `q cos φ − r sin φ` (Euler kinematics, 3-2-1) — must have a least-squares scale
@@ -545,12 +545,12 @@ impl MeasuredFlight {
         }
         rho.sort_by(f64::total_cmp);
         let med = rho[rho.len() / 2];
-        if !(0.02..=1.6).contains(&med) {
+        if !(0.1..=1.6).contains(&med) {
             return Err(Invalid {
                 sample: None,
                 quantity: Some(Quantity::DynamicPressure),
                 message: format!(
-                    "the dynamic pressure and the airspeed imply a median density 2q̄/V² = {med:.4} kg/m³, outside [0.02, 1.6] (lbf/ft² or hPa given as Pa, or the airspeed not in m/s?)"
+                    "the dynamic pressure and the airspeed imply a median density 2q̄/V² = {med:.4} kg/m³, outside [0.1, 1.6] (lbf/ft² or hPa given as Pa, or the airspeed not in m/s?)"
                 ),
             });
         }

@@ -27,7 +27,8 @@ use std::fmt;
 use std::path::Path;
 
 /// What went wrong reading measured data: `file:line:column: message`, with `line` and `column`
-/// left out where they do not apply (0).
+/// left out where they do not apply (0). An error about a whole data column (a unit check) has
+/// line 0 and the column set; its message names the column.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct ReadError {
     /// The file at fault (the data file, the map or the aircraft file).
@@ -62,8 +63,6 @@ impl fmt::Display for ReadError {
             if self.column > 0 {
                 write!(f, ":{}", self.column)?;
             }
-        } else if self.column > 0 {
-            write!(f, ": column {}", self.column)?;
         }
         write!(f, ": {}", self.message)
     }
