@@ -678,3 +678,399 @@ fn project_csv_reads_all_or_some_channels() {
     assert_error(&e, "subset.csv", 1, 0, &["missing column 't_s'"]);
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+// ---------------------------------------------------------------------------------------------
+// PX4 ULog: a small writer (ULog file format as PX4 documents it: 16-byte header — magic
+// `ULog\x01\x12\x35`, version, start time µs —; then messages `[u16 size][u8 type][payload]`:
+// FlagBits 'B', formats 'F' ("name:type field;…"), subscriptions 'A' (multi id, msg id, name),
+// data 'D' (msg id, fields little-endian)).
+
+#[derive(Clone, Copy)]
+enum Ty {
+    U64,
+    F32,
+    F32s(usize),
+}
+
+struct ULogWriter {
+    bytes: Vec<u8>,
+    /// The subscriptions ('A', which open the data section) are written before the first data.
+    subscribed: bool,
+    /// Per topic: msg id and its fields.
+    topics: Vec<(String, Vec<(Ty, String)>)>,
+}
+
+impl ULogWriter {
+    fn new(start_us: u64) -> Self {
+        let mut bytes = b"ULog\x01\x12\x35".to_vec();
+        bytes.push(1); // version
+        bytes.extend_from_slice(&start_us.to_le_bytes());
+        let mut w = Self {
+            bytes,
+            subscribed: false,
+            topics: Vec::new(),
+        };
+        w.message(b'B', &[0u8; 40]); // no compat/incompat flags, no appended data
+        w
+    }
+
+    fn message(&mut self, kind: u8, payload: &[u8]) {
+        self.bytes.extend_from_slice(&(payload.len() as u16).to_le_bytes());
+        self.bytes.push(kind);
+        self.bytes.extend_from_slice(payload);
+    }
+
+    /// Defines a topic (its format now, its subscription as instance 0 before the first data);
+    /// returns its msg id.
+    fn topic(&mut self, name: &str, fields: &[(Ty, &str)]) -> u16 {
+        let mut f = format!("{name}:");
+        for (t, n) in fields {
+            let ty = match t {
+                Ty::U64 => "uint64_t".to_string(),
+                Ty::F32 => "float".to_string(),
+                Ty::F32s(k) => format!("float[{k}]"),
+            };
+            f.push_str(&format!("{ty} {n};"));
+        }
+        self.message(b'F', f.as_bytes());
+        let id = self.topics.len() as u16;
+        self.topics.push((
+            name.to_string(),
+            fields.iter().map(|(t, n)| (*t, n.to_string())).collect(),
+        ));
+        id
+    }
+
+    /// One data message: `time_us` for every u64 field, then the floats in field order.
+    fn data(&mut self, id: u16, time_us: u64, floats: &[f64]) {
+        if !self.subscribed {
+            self.subscribed = true;
+            for i in 0..self.topics.len() {
+                let mut a = vec![0u8];
+                a.extend_from_slice(&(i as u16).to_le_bytes());
+                a.extend_from_slice(self.topics[i].0.clone().as_bytes());
+                self.message(b'A', &a);
+            }
+        }
+        let mut p = id.to_le_bytes().to_vec();
+        let mut k = 0;
+        for (t, _) in &self.topics[id as usize].1 {
+            match t {
+                Ty::U64 => p.extend_from_slice(&time_us.to_le_bytes()),
+                Ty::F32 => {
+                    p.extend_from_slice(&(floats[k] as f32).to_le_bytes());
+                    k += 1;
+                }
+                Ty::F32s(n) => {
+                    for _ in 0..*n {
+                        p.extend_from_slice(&(floats[k] as f32).to_le_bytes());
+                        k += 1;
+                    }
+                }
+            }
+        }
+        assert_eq!(k, floats.len(), "floats for topic {}", self.topics[id as usize].0);
+        self.message(b'D', &p);
+    }
+}
+
+/// Body-to-NED quaternion `[w, x, y, z]` of Euler angles 3-2-1.
+fn euler_to_quaternion(e: [f64; 3]) -> [f64; 4] {
+    let (sr, cr) = (0.5 * e[0]).sin_cos();
+    let (sp, cp) = (0.5 * e[1]).sin_cos();
+    let (sy, cy) = (0.5 * e[2]).sin_cos();
+    [
+        cr * cp * cy + sr * sp * sy,
+        sr * cp * cy - cr * sp * sy,
+        cr * sp * cy + sr * cp * sy,
+        cr * cp * sy - sr * sp * cy,
+    ]
+}
+
+/// Elevator, aileron, rudder: radians per unit of `actuator_servos.control[0..2]`.
+const SERVO_RAD: [f64; 3] = [0.5, 0.4, 0.45];
+/// Boot time at the first sample, µs.
+const BOOT_US: u64 = 12_345_000;
+
+/// Options for [`write_ulog`].
+#[derive(Default)]
+struct UlogOptions {
+    /// Leave out `airspeed_validated`.
+    no_airspeed: bool,
+    /// Airspeed every n-th sample only (0: every sample).
+    airspeed_every: usize,
+    /// NaN airspeed at these sample indices.
+    nan_airspeed: Vec<usize>,
+}
+
+/// A fixed-wing ULog of simulated samples: every topic at the sample rate (airspeed as told).
+fn write_ulog(samples: &[SensorSample<f64>], o: &UlogOptions) -> Vec<u8> {
+    let mut w = ULogWriter::new(BOOT_US);
+    let att = w.topic("vehicle_attitude", &[(Ty::U64, "timestamp"), (Ty::F32s(4), "q")]);
+    let rates = w.topic(
+        "vehicle_angular_velocity",
+        &[
+            (Ty::U64, "timestamp"),
+            (Ty::U64, "timestamp_sample"),
+            (Ty::F32s(3), "xyz"),
+        ],
+    );
+    let acc = w.topic(
+        "vehicle_acceleration",
+        &[
+            (Ty::U64, "timestamp"),
+            (Ty::U64, "timestamp_sample"),
+            (Ty::F32s(3), "xyz"),
+        ],
+    );
+    let air = (!o.no_airspeed).then(|| {
+        w.topic(
+            "airspeed_validated",
+            &[
+                (Ty::U64, "timestamp"),
+                (Ty::F32, "indicated_airspeed_m_s"),
+                (Ty::F32, "true_airspeed_m_s"),
+            ],
+        )
+    });
+    let air_data = w.topic(
+        "vehicle_air_data",
+        &[(Ty::U64, "timestamp"), (Ty::F32, "baro_alt_meter"), (Ty::F32, "rho")],
+    );
+    let servos = w.topic("actuator_servos", &[(Ty::U64, "timestamp"), (Ty::F32s(8), "control")]);
+    let motors = w.topic("actuator_motors", &[(Ty::U64, "timestamp"), (Ty::F32s(12), "control")]);
+    let t0 = samples[0].t_s;
+    for (k, s) in samples.iter().enumerate() {
+        let t_us = BOOT_US + ((s.t_s - t0) * 1e6).round() as u64;
+        w.data(
+            att,
+            t_us,
+            &euler_to_quaternion([s.euler_rad.x, s.euler_rad.y, s.euler_rad.z]),
+        );
+        w.data(rates, t_us, &[s.gyro_rad_s.x, s.gyro_rad_s.y, s.gyro_rad_s.z]);
+        w.data(acc, t_us, &[s.accel_mps2.x, s.accel_mps2.y, s.accel_mps2.z]);
+        if let Some(air) = air {
+            if o.airspeed_every == 0 || k % o.airspeed_every == 0 {
+                let v = if o.nan_airspeed.contains(&k) {
+                    f64::NAN
+                } else {
+                    s.airspeed_mps
+                };
+                w.data(air, t_us, &[v, v]);
+            }
+        }
+        w.data(air_data, t_us, &[100.0, s.air_density_kgpm3]);
+        let mut c = [0.0; 8];
+        c[0] = s.elevator_rad / SERVO_RAD[0];
+        c[1] = s.aileron_rad / SERVO_RAD[1];
+        c[2] = s.rudder_rad / SERVO_RAD[2];
+        w.data(servos, t_us, &c);
+        let mut m = [0.0; 12];
+        m[0] = s.throttle;
+        w.data(motors, t_us, &m);
+    }
+    w.bytes
+}
+
+/// The ULog map of the test airframe: surfaces from `actuator_servos`.
+fn ulog_map(dir: &Path) -> PathBuf {
+    let frame = SimAirframe::skywalker_2013_mod();
+    std::fs::write(dir.join("sky.aircraft"), aircraft_text("skywalker", &frame)).expect("write");
+    let map = format!(
+        "format = ulog\naircraft = sky.aircraft\n\
+         channel.elevator = {}*actuator_servos.control[0] rad\n\
+         channel.aileron = {}*actuator_servos.control[1] rad\n\
+         channel.rudder = {}*actuator_servos.control[2] rad\n",
+        SERVO_RAD[0], SERVO_RAD[1], SERVO_RAD[2]
+    );
+    let p = dir.join("px4.map");
+    std::fs::write(&p, map).expect("write");
+    p
+}
+
+/// `|a − b| ≤ 2⁻²³·|b| + floor`: float32 rounding of `b` (half an ulp is 2⁻²⁴ relative; twice
+/// that covers one product with a float32 factor).
+fn f32_close(a: f64, b: f64, floor: f64) -> bool {
+    (a - b).abs() <= b.abs() * 2f64.powi(-23) + floor
+}
+
+#[test]
+fn ulog_of_a_simulated_flight_reads_back() {
+    let dir = scratch("ulog");
+    // 30 s of the main job's flight: 20 s cruise, then one round of 3-2-1-1s and doublets.
+    let samples = simulated(30.0, 7);
+    let ulg = dir.join("flight.ulg");
+    std::fs::write(&ulg, write_ulog(&samples, &UlogOptions::default())).expect("write");
+    let f = read_measured(&ulg, &ulog_map(&dir)).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(f.len(), samples.len());
+    let t0 = samples[0].t_s;
+    for (k, s) in samples.iter().enumerate() {
+        // Time: µs integers, exact to 1e-9 s after the offset.
+        assert!((f.t_s[k] - (BOOT_US as f64 * 1e-6 + s.t_s - t0)).abs() < 1e-9);
+        let cases = [
+            (Quantity::RollRate, s.gyro_rad_s.x, 0.0),
+            (Quantity::PitchRate, s.gyro_rad_s.y, 0.0),
+            (Quantity::YawRate, s.gyro_rad_s.z, 0.0),
+            (Quantity::AccelX, s.accel_mps2.x, 0.0),
+            (Quantity::AccelY, s.accel_mps2.y, 0.0),
+            (Quantity::AccelZ, s.accel_mps2.z, 0.0),
+            (Quantity::Airspeed, s.airspeed_mps, 0.0),
+            (Quantity::AirDensity, s.air_density_kgpm3, 0.0),
+            (Quantity::Throttle, s.throttle, 0.0),
+            // A surface is 0.5·f32(δ/0.5): two roundings.
+            (Quantity::Elevator, s.elevator_rad, 1e-12),
+            (Quantity::Aileron, s.aileron_rad, 1e-12),
+            (Quantity::Rudder, s.rudder_rad, 1e-12),
+        ];
+        for (q, want, floor) in cases {
+            let got = ch(&f, q)[k];
+            assert!(f32_close(got, want, floor), "sample {k} {q}: {got} against {want}");
+        }
+        // Euler angles through a float32 quaternion: each component rounded by ≤ 6e-8, so the
+        // angles by a few 1e-7 rad; 1e-6 rad stated (yaw compared modulo 2π).
+        let e = [s.euler_rad.x, s.euler_rad.y, s.euler_rad.z];
+        for (i, q) in [Quantity::Roll, Quantity::Pitch, Quantity::Yaw].into_iter().enumerate() {
+            let d = (ch(&f, q)[k] - e[i] + PI).rem_euclid(2.0 * PI) - PI;
+            assert!(d.abs() < 1e-6, "sample {k} {q}: {} against {}", ch(&f, q)[k], e[i]);
+        }
+    }
+    // Without a map (aircraft file only): the standard topics, no surfaces.
+    let f2 = read_measured(&ulg, &dir.join("sky.aircraft")).unwrap_or_else(|e| panic!("{e}"));
+    assert!(f2.get(Quantity::Elevator).is_none() && f2.get(Quantity::Pitch).is_some());
+    assert_eq!(f2.get(Quantity::PitchRate), f.get(Quantity::PitchRate));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn ulog_airspeed_at_a_lower_rate_is_interpolated_onto_the_rate_topic() {
+    let dir = scratch("ulog_rate");
+    let samples = simulated(24.0, 8);
+    let ulg = dir.join("slow_airspeed.ulg");
+    // Airspeed at 20 Hz (every 5th sample of 100 Hz).
+    let o = UlogOptions {
+        airspeed_every: 5,
+        ..UlogOptions::default()
+    };
+    std::fs::write(&ulg, write_ulog(&samples, &o)).expect("write");
+    let f = read_measured(&ulg, &ulog_map(&dir)).unwrap_or_else(|e| panic!("{e}"));
+    // The base is cut to the span the 20 Hz topic covers: up to its last sample.
+    let last = (samples.len() - 1) / 5 * 5;
+    assert_eq!(f.len(), last + 1);
+    let v = ch(&f, Quantity::Airspeed);
+    for (k, vk) in v.iter().enumerate() {
+        // Independent check: the straight line between the float32 neighbours.
+        let (a, b) = (k / 5 * 5, (k / 5 * 5 + 5).min(last));
+        let (va, vb) = (
+            samples[a].airspeed_mps as f32 as f64,
+            samples[b].airspeed_mps as f32 as f64,
+        );
+        let w = if b == a { 0.0 } else { (k - a) as f64 / 5.0 };
+        let want = va + w * (vb - va);
+        assert!((vk - want).abs() < 1e-9, "sample {k}: {vk} against {want}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn bad_ulogs_are_refused_naming_the_message() {
+    let dir = scratch("ulog_bad");
+    let samples = simulated(21.0, 9);
+    let map = ulog_map(&dir);
+    let bytes = write_ulog(&samples, &UlogOptions::default());
+    // GIVEN the file cut 5 bytes into its last message's payload THEN "truncated", with the
+    // message's index and byte offset.
+    let cut = dir.join("cut.ulg");
+    std::fs::write(&cut, &bytes[..bytes.len() - 40]).expect("write");
+    let e = read_measured(&cut, &map).must_fail("truncated");
+    assert_error(
+        &e,
+        "cut.ulg",
+        0,
+        0,
+        &["truncated ULog", "message #", "at byte", "declares"],
+    );
+    // Cut inside the header, and inside a message header.
+    std::fs::write(&cut, &bytes[..10]).expect("write");
+    let e = read_measured(&cut, &map).must_fail("header");
+    assert_error(&e, "cut.ulg", 0, 0, &["truncated ULog", "16"]);
+    // Every cut length is refused or read, never a panic (a sweep over the first 2 kB, where
+    // the definitions are, and a stride over the rest): a cut inside a message is refused as
+    // truncated; a cut on a message boundary is a shorter, valid log, read (or refused for a
+    // missing topic or too few samples).
+    let mut boundaries = std::collections::BTreeSet::new();
+    let mut pos = 16;
+    while pos + 3 <= bytes.len() {
+        boundaries.insert(pos);
+        pos += 3 + u16::from_le_bytes([bytes[pos], bytes[pos + 1]]) as usize;
+    }
+    let (mut refused, mut read) = (0, 0);
+    for n in (0..2048).chain((2048..bytes.len()).step_by(997)) {
+        std::fs::write(&cut, &bytes[..n]).expect("write");
+        match read_measured(&cut, &map) {
+            Err(e) => {
+                assert!(e.to_string().starts_with(&e.file) && e.file.ends_with("cut.ulg"), "{e}");
+                assert!(
+                    boundaries.contains(&n) || e.message.contains("truncated ULog"),
+                    "cut at {n}: {e}"
+                );
+                refused += 1;
+            }
+            Ok(f) => {
+                assert!(boundaries.contains(&n), "cut inside a message at {n} bytes accepted");
+                assert!(f.len() >= 2 && f.len() < samples.len());
+                read += 1;
+            }
+        }
+    }
+    println!("cut ULogs: {refused} refused, {read} read (cut on a message boundary)");
+    // GIVEN a log without airspeed THEN the missing topic is named.
+    let no_air = dir.join("no_air.ulg");
+    let o = UlogOptions {
+        no_airspeed: true,
+        ..UlogOptions::default()
+    };
+    std::fs::write(&no_air, write_ulog(&samples, &o)).expect("write");
+    let e = read_measured(&no_air, &map).must_fail("no airspeed");
+    assert_error(
+        &e,
+        "no_air.ulg",
+        0,
+        0,
+        &[
+            "required ULog topic missing",
+            "airspeed_validated.true_airspeed_m_s",
+            "vehicle_attitude",
+        ],
+    );
+    // GIVEN a NaN run of 3 airspeed messages THEN the first message and the run are named.
+    let nan = dir.join("nan.ulg");
+    let o = UlogOptions {
+        nan_airspeed: vec![500, 501, 502],
+        ..UlogOptions::default()
+    };
+    std::fs::write(&nan, write_ulog(&samples, &o)).expect("write");
+    let e = read_measured(&nan, &map).must_fail("NaN");
+    assert_error(
+        &e,
+        "nan.ulg",
+        0,
+        0,
+        &[
+            "ULog message #",
+            "airspeed_validated.true_airspeed_m_s",
+            "run of 3 messages",
+        ],
+    );
+    // GIVEN a map naming a field the topic does not have THEN the map line is named.
+    let bad_map = dir.join("bad.map");
+    std::fs::write(
+        &bad_map,
+        "format = ulog\naircraft = sky.aircraft\nchannel.flap = actuator_servos.flaps rad\n",
+    )
+    .expect("write");
+    let good = dir.join("good.ulg");
+    std::fs::write(&good, &bytes).expect("write");
+    let e = read_measured(&good, &bad_map).must_fail("bad field");
+    assert_error(&e, "good.ulg", 0, 0, &["no field `flaps`", "bad.map:3", "control[0]"]);
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -434,23 +434,18 @@ pub fn parse_ulog(bytes: &[u8], file: &str, map: &ColumnMap) -> Result<MeasuredF
                 ));
             };
             let Some(tp) = topics.get(topic.as_str()).filter(|t| !t.time_us.is_empty()) else {
-                return Err(ReadError::new(
-                    &map.file,
-                    e.line,
-                    0,
-                    format!("{file}: `channel.{q}` reads topic `{topic}`, which the log does not have (instance 0)"),
-                ));
+                return Err(err(format!(
+                    "required ULog topic missing: `{topic}` (instance 0), read by `channel.{q}` ({}:{})",
+                    map.file, e.line
+                )));
             };
             let Some(i) = tp.names.iter().position(|n| n == name) else {
-                return Err(ReadError::new(
-                    &map.file,
+                return Err(err(format!(
+                    "ULog topic `{topic}` has no field `{name}`, read by `channel.{q}` ({}:{}); its fields: {}",
+                    map.file,
                     e.line,
-                    0,
-                    format!(
-                        "{file}: topic `{topic}` has no field `{name}` (fields: {})",
-                        tp.names.join(", ")
-                    ),
-                ));
+                    tp.names.join(", ")
+                )));
             };
             let (key, _) = topics
                 .get_key_value(topic.as_str())
