@@ -4,6 +4,202 @@
 //!   [`aerosid_core::aero::SensorSample`], named columns, SI units, radians.
 //! * [`measured`] — measured flight data as the model-gap analysis reads it (named SI channels and
 //!   the aircraft's constants), whatever file it came from.
+//! * [`aircraft`] — the aircraft file (`key = value`, units in the key names) → [`measured::Aircraft`].
+//! * [`colmap`] — column-map files that say how to read a whitespace-separated ASCII flight-test
+//!   file (the shared HFB-320, ATTAS and Twin Otter data) or a PX4 ULog.
+//! * [`project_csv`] — the project's CSV log, all or a subset of its columns → [`MeasuredFlight`].
+//! * [`ulog`] — PX4 ULog (`.ulg`) through the `px4-ulog` crate, topics mapped and resampled.
+//!
+//! [`read_measured`] is the single entry point; every reader validates its result with
+//! [`MeasuredFlight::validate`], and every error is a [`ReadError`] naming the file and, where it
+//! applies, the line and column (or the ULog message). The formats and the checks are documented
+//! in `docs/measured-data.md`.
 
+pub mod aircraft;
+pub mod colmap;
 pub mod log;
 pub mod measured;
+pub mod project_csv;
+pub mod ulog;
+
+use measured::MeasuredFlight;
+use std::fmt;
+use std::path::Path;
+
+/// What went wrong reading measured data: `file:line:column: message`, with `line` and `column`
+/// left out where they do not apply (0). An error about a whole data column (a unit check) has
+/// line 0 and the column set; its message names the column.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ReadError {
+    /// The file at fault (the data file, the map or the aircraft file).
+    pub file: String,
+    /// Line, 1-based; 0 when not about one line (a ULog, a missing key, the whole file).
+    pub line: usize,
+    /// Column, 1-based (a data column, or the character position in a map or aircraft file); 0 when
+    /// not about one column.
+    pub column: usize,
+    /// What is wrong (for a data column, it names the column's quantity; for a ULog, the message
+    /// index, byte offset and topic).
+    pub message: String,
+}
+
+impl ReadError {
+    /// An error about `file` at `line`, `column` (0: not applicable).
+    pub fn new(file: &str, line: usize, column: usize, message: impl Into<String>) -> Self {
+        Self {
+            file: file.to_string(),
+            line,
+            column,
+            message: message.into(),
+        }
+    }
+}
+
+impl fmt::Display for ReadError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}", self.file)?;
+        if self.line > 0 {
+            write!(f, ":{}", self.line)?;
+            if self.column > 0 {
+                write!(f, ":{}", self.column)?;
+            }
+        }
+        write!(f, ": {}", self.message)
+    }
+}
+
+impl std::error::Error for ReadError {}
+
+/// One `key = value` line of a map or aircraft file.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct KeyValue<'a> {
+    /// Line, 1-based.
+    pub line: usize,
+    /// The key, trimmed.
+    pub key: &'a str,
+    /// Column of the key's first character, 1-based.
+    pub key_col: usize,
+    /// The value, trimmed (comment removed).
+    pub value: &'a str,
+    /// Column of the value's first character, 1-based.
+    pub value_col: usize,
+}
+
+/// Splits `text` into `key = value` lines: `#` starts a comment, blank lines are skipped, and a
+/// line without `=` or with an empty key or value is an error naming its line and column.
+pub(crate) fn key_values<'a>(text: &'a str, file: &str) -> Result<Vec<KeyValue<'a>>, ReadError> {
+    let mut out = Vec::new();
+    for (i, raw) in text.lines().enumerate() {
+        let line = i + 1;
+        let content = raw.split('#').next().unwrap_or("");
+        if content.trim().is_empty() {
+            continue;
+        }
+        let key_col = content.chars().take_while(|c| c.is_whitespace()).count() + 1;
+        let Some(eq) = content.find('=') else {
+            return Err(ReadError::new(file, line, key_col, "expected `key = value`"));
+        };
+        let key = content[..eq].trim();
+        let rest = &content[eq + 1..];
+        let value = rest.trim();
+        let value_col = content[..eq + 1].chars().count() + rest.chars().take_while(|c| c.is_whitespace()).count() + 1;
+        if key.is_empty() {
+            return Err(ReadError::new(file, line, key_col, "missing key before `=`"));
+        }
+        if value.is_empty() {
+            return Err(ReadError::new(
+                file,
+                line,
+                value_col,
+                format!("missing value for `{key}`"),
+            ));
+        }
+        if let Some(prev) = out.iter().find(|kv: &&KeyValue| kv.key == key) {
+            return Err(ReadError::new(
+                file,
+                line,
+                key_col,
+                format!("`{key}` already set on line {}", prev.line),
+            ));
+        }
+        out.push(KeyValue {
+            line,
+            key,
+            key_col,
+            value,
+            value_col,
+        });
+    }
+    Ok(out)
+}
+
+/// Reads a file to a string, the error naming the file.
+pub(crate) fn read_text(path: &Path) -> Result<String, ReadError> {
+    std::fs::read_to_string(path).map_err(|e| ReadError::new(&path.display().to_string(), 0, 0, e.to_string()))
+}
+
+/// Reads measured flight data, dispatching on the data file's extension:
+/// * `.csv` — the project's CSV log ([`project_csv`]); `companion` is an aircraft file;
+/// * `.asc` / `.txt` / `.dat` — a whitespace-separated ASCII file; `companion` is its column map
+///   ([`colmap`], `format = ascii`), which names the aircraft file;
+/// * `.ulg` — a PX4 ULog ([`ulog`]); `companion` is an aircraft file (the standard topics only) or a
+///   ULog column map (`format = ulog`: the standard topics plus the surfaces and throttle it maps).
+///
+/// The companion's kind is told by its extension: `.aircraft` or `.map`.
+pub fn read_measured(data: &Path, companion: &Path) -> Result<MeasuredFlight, ReadError> {
+    let name = data.display().to_string();
+    let ext = |p: &Path| p.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+    let companion_is_map = match ext(companion).as_deref() {
+        Some("map") => true,
+        Some("aircraft") => false,
+        _ => {
+            return Err(ReadError::new(
+                &companion.display().to_string(),
+                0,
+                0,
+                "the companion file must be a column map (`.map`) or an aircraft file (`.aircraft`)",
+            ))
+        }
+    };
+    match ext(data).as_deref() {
+        Some("csv") => {
+            if companion_is_map {
+                return Err(ReadError::new(
+                    &companion.display().to_string(),
+                    0,
+                    0,
+                    "a project CSV log has named SI columns and needs an aircraft file, not a column map",
+                ));
+            }
+            let aircraft = aircraft::read_aircraft(companion)?;
+            project_csv::read_project_csv(data, aircraft)
+        }
+        Some("asc") | Some("txt") | Some("dat") => {
+            if !companion_is_map {
+                return Err(ReadError::new(
+                    &companion.display().to_string(),
+                    0,
+                    0,
+                    "an ASCII flight-test file needs a column map (`.map`) saying which column is which",
+                ));
+            }
+            let map = colmap::read_map(companion)?;
+            colmap::read_ascii(data, &map)
+        }
+        Some("ulg") => {
+            if companion_is_map {
+                let map = colmap::read_map(companion)?;
+                ulog::read_ulog(data, &map)
+            } else {
+                let aircraft = aircraft::read_aircraft(companion)?;
+                ulog::read_ulog(data, &colmap::ColumnMap::ulog_default(aircraft))
+            }
+        }
+        _ => Err(ReadError::new(
+            &name,
+            0,
+            0,
+            "unknown data file type (expected .csv, .asc/.txt/.dat or .ulg)",
+        )),
+    }
+}

@@ -1,0 +1,694 @@
+//! Column-map files: how to read a flight-test file that is not in the project's layout.
+//!
+//! A map is a `key = value` text file (`#` comments, as the aircraft file) that says
+//! * `format = ascii` (whitespace-separated numbers, no header, one sample per line; exponents of
+//!   any width such as `5.008e+001`) or `format = ulog` (a PX4 log, see [`super::ulog`]);
+//! * `aircraft = PATH` — the aircraft file ([`super::aircraft`]), relative to the map's folder;
+//! * `columns = N` (ascii) — the number of numbers on every line; a line with another count is
+//!   refused;
+//! * `time = EXPR UNIT` (ascii) — the time, e.g. `time = $1 s`;
+//! * `time_base = TOPIC` (ulog, optional) — the topic whose timestamps are the output time base;
+//! * `channel.QUANTITY = EXPR UNIT` — one measured channel; `QUANTITY` is a
+//!   [`Quantity::name`] (`alpha`, `pitch_rate`, …), `UNIT` the unit of `EXPR` (converted to SI,
+//!   see [`UNITS`]; it must fit the quantity: `deg` for an angle, `kt` for a speed, …);
+//! * `constant.QUANTITY = VALUE UNIT` — a channel the source states as one constant (the HFB-320's
+//!   density), the same value at every sample;
+//! * `bias.QUANTITY = VALUE` — a constant subtracted after the conversion, in SI units (a
+//!   pre-processing step, e.g. the ATTAS sensor biases of the book's flight-path reconstruction);
+//! * `description = TEXT` — free text.
+//!
+//! `EXPR` is a linear combination of sources: terms separated by ` + ` or ` - ` (with spaces), each
+//! a source, a number, or `number*source`. A source is `$N` (1-based column, ascii) or
+//! `topic.field` (ulog, e.g. `actuator_servos.control[1]`). So a derived channel such as the ATTAS
+//! aileron `δa = (DAIL_R − DAIL_L)/2` is `channel.aileron = 0.5*$29 - 0.5*$28 deg`, and a total
+//! thrust `channel.thrust = $37 + $38 N`.
+//!
+//! Every error names the file, the line and the column (1-based); nothing panics.
+
+use super::aircraft::{read_aircraft, G0_MPS2, KG_PER_SLUG, M_PER_FT};
+use super::measured::{Aircraft, MeasuredFlight, Quantity};
+use super::{key_values, read_text, ReadError};
+use std::collections::BTreeMap;
+use std::f64::consts::PI;
+use std::path::Path;
+
+/// The physical dimension of a unit or a quantity.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Dimension {
+    /// rad.
+    Angle,
+    /// rad/s.
+    AngularRate,
+    /// rad/s².
+    AngularAcceleration,
+    /// m/s.
+    Speed,
+    /// m/s².
+    Acceleration,
+    /// Pa.
+    Pressure,
+    /// kg/m³.
+    Density,
+    /// m.
+    Length,
+    /// N.
+    Force,
+    /// A pure number.
+    Ratio,
+    /// s.
+    Time,
+}
+
+const LBF_N: f64 = 0.453_592_37 * G0_MPS2;
+
+/// The units a map may name: spelling, dimension and factor to SI.
+pub const UNITS: &[(&str, Dimension, f64)] = &[
+    ("rad", Dimension::Angle, 1.0),
+    ("deg", Dimension::Angle, PI / 180.0),
+    ("rad/s", Dimension::AngularRate, 1.0),
+    ("deg/s", Dimension::AngularRate, PI / 180.0),
+    ("rpm", Dimension::AngularRate, 2.0 * PI / 60.0),
+    ("rad/s2", Dimension::AngularAcceleration, 1.0),
+    ("deg/s2", Dimension::AngularAcceleration, PI / 180.0),
+    ("m/s", Dimension::Speed, 1.0),
+    ("ft/s", Dimension::Speed, M_PER_FT),
+    ("kt", Dimension::Speed, 1852.0 / 3600.0),
+    ("km/h", Dimension::Speed, 1.0 / 3.6),
+    ("m/s2", Dimension::Acceleration, 1.0),
+    ("ft/s2", Dimension::Acceleration, M_PER_FT),
+    ("g", Dimension::Acceleration, G0_MPS2),
+    ("Pa", Dimension::Pressure, 1.0),
+    ("hPa", Dimension::Pressure, 100.0),
+    ("kPa", Dimension::Pressure, 1000.0),
+    ("lbf/ft2", Dimension::Pressure, LBF_N / (M_PER_FT * M_PER_FT)),
+    ("kg/m3", Dimension::Density, 1.0),
+    (
+        "slug/ft3",
+        Dimension::Density,
+        KG_PER_SLUG / (M_PER_FT * M_PER_FT * M_PER_FT),
+    ),
+    ("m", Dimension::Length, 1.0),
+    ("ft", Dimension::Length, M_PER_FT),
+    ("N", Dimension::Force, 1.0),
+    ("lbf", Dimension::Force, LBF_N),
+    ("1", Dimension::Ratio, 1.0),
+    ("%", Dimension::Ratio, 0.01),
+    ("s", Dimension::Time, 1.0),
+    ("ms", Dimension::Time, 1e-3),
+    ("us", Dimension::Time, 1e-6),
+];
+
+/// The dimension of a quantity.
+pub fn dimension(q: Quantity) -> Dimension {
+    use Quantity::*;
+    match q {
+        AccelX | AccelY | AccelZ => Dimension::Acceleration,
+        RollRate | PitchRate | YawRate | PropSpeed => Dimension::AngularRate,
+        RollAccel | PitchAccel | YawAccel => Dimension::AngularAcceleration,
+        Airspeed => Dimension::Speed,
+        Alpha | Beta | Roll | Pitch | Yaw | Elevator | Aileron | Rudder | Flap => Dimension::Angle,
+        Throttle | Mach => Dimension::Ratio,
+        Thrust | ThrustDifference => Dimension::Force,
+        DynamicPressure => Dimension::Pressure,
+        AirDensity => Dimension::Density,
+        Altitude => Dimension::Length,
+    }
+}
+
+/// Where a term's number comes from.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Source {
+    /// A column of an ASCII file, 1-based.
+    Column(usize),
+    /// A field of a ULog topic (instance 0), e.g. `actuator_servos`, `control[1]`.
+    Field {
+        /// The topic.
+        topic: String,
+        /// The (flattened) field name.
+        field: String,
+    },
+}
+
+/// One term `coef·source`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Term {
+    /// The coefficient.
+    pub coef: f64,
+    /// The source.
+    pub source: Source,
+}
+
+/// A channel expression: `factor·(Σ coef·source + constant) − bias`, in SI units.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Expr {
+    /// The terms.
+    pub terms: Vec<Term>,
+    /// The constant term, in the source unit.
+    pub constant: f64,
+    /// The unit's factor to SI.
+    pub factor: f64,
+    /// The unit as written.
+    pub unit: String,
+    /// Subtracted after the conversion (SI).
+    pub bias: f64,
+    /// The map line that defined it.
+    pub line: usize,
+}
+
+impl Expr {
+    /// The SI value from the sources' values (in the order of `terms`).
+    pub fn eval(&self, values: impl Iterator<Item = f64>) -> f64 {
+        let s: f64 = self.terms.iter().zip(values).map(|(t, v)| t.coef * v).sum();
+        self.factor * (s + self.constant) - self.bias
+    }
+
+    /// The first column the expression reads (ASCII), for error messages.
+    pub fn first_column(&self) -> Option<usize> {
+        self.terms.iter().find_map(|t| match t.source {
+            Source::Column(c) => Some(c),
+            Source::Field { .. } => None,
+        })
+    }
+}
+
+/// The file layout a map describes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Format {
+    /// Whitespace-separated numbers, no header.
+    Ascii,
+    /// PX4 ULog.
+    Ulog,
+}
+
+/// A parsed column map.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ColumnMap {
+    /// The map file (for errors).
+    pub file: String,
+    /// The layout.
+    pub format: Format,
+    /// Numbers per line (ASCII).
+    pub columns: usize,
+    /// The time (ASCII).
+    pub time: Option<Expr>,
+    /// The time-base topic (ULog).
+    pub time_base: Option<String>,
+    /// The channels, in the order given.
+    pub channels: Vec<(Quantity, Expr)>,
+    /// The aircraft.
+    pub aircraft: Aircraft,
+}
+
+impl ColumnMap {
+    /// The ULog map used with a bare aircraft file: the standard topics only (see [`super::ulog`]).
+    pub fn ulog_default(aircraft: Aircraft) -> Self {
+        Self {
+            file: String::from("(built-in ULog map)"),
+            format: Format::Ulog,
+            columns: 0,
+            time: None,
+            time_base: None,
+            channels: Vec::new(),
+            aircraft,
+        }
+    }
+}
+
+fn parse_number(s: &str) -> Option<f64> {
+    s.parse::<f64>().ok().filter(|v| v.is_finite())
+}
+
+/// Parses `EXPR UNIT` (the value of a `time` or `channel.` key) at `col` of `line`.
+fn parse_expr(
+    value: &str,
+    file: &str,
+    line: usize,
+    col: usize,
+    format: Format,
+    columns: usize,
+    want: Dimension,
+) -> Result<Expr, ReadError> {
+    let err = |c: usize, m: String| ReadError::new(file, line, c, m);
+    let (body, unit) = match value.rsplit_once(char::is_whitespace) {
+        Some((b, u)) => (b.trim_end(), u),
+        None => return Err(err(col, format!("`{value}`: expected `EXPR UNIT` (e.g. `$6 deg`)"))),
+    };
+    let unit_col = col + value.len() - unit.len();
+    let Some(&(_, dim, factor)) = UNITS.iter().find(|(u, _, _)| *u == unit) else {
+        let known: Vec<&str> = UNITS.iter().map(|(u, _, _)| *u).collect();
+        return Err(err(
+            unit_col,
+            format!("unknown unit `{unit}` (one of {})", known.join(" ")),
+        ));
+    };
+    if dim != want {
+        let fits: Vec<&str> = UNITS
+            .iter()
+            .filter(|(_, d, _)| *d == want)
+            .map(|(u, _, _)| *u)
+            .collect();
+        return Err(err(
+            unit_col,
+            format!(
+                "unit `{unit}` does not fit this quantity (use one of {})",
+                fits.join(" ")
+            ),
+        ));
+    }
+    // Terms: split at " + " / " - " (spaces required, so `1e-3` and `-$2` stay whole).
+    let mut terms = Vec::new();
+    let mut constant = 0.0;
+    let mut sign = 1.0;
+    let mut pos = 0usize;
+    let toks: Vec<&str> = body.split(' ').collect();
+    let mut offsets = Vec::with_capacity(toks.len());
+    for t in &toks {
+        offsets.push(pos);
+        pos += t.len() + 1;
+    }
+    let mut expect_term = true;
+    for (t, off) in toks.iter().zip(offsets) {
+        let c = col + off;
+        if t.is_empty() {
+            continue;
+        }
+        if !expect_term {
+            match *t {
+                "+" => sign = 1.0,
+                "-" => sign = -1.0,
+                _ => return Err(err(c, format!("expected ` + ` or ` - ` before `{t}`"))),
+            }
+            expect_term = true;
+            continue;
+        }
+        expect_term = false;
+        let (neg, t) = match t.strip_prefix('-') {
+            Some(r) if r.starts_with('$') || r.chars().next().is_some_and(|ch| ch.is_ascii_alphabetic()) => (-1.0, r),
+            _ => (1.0, *t),
+        };
+        let mut coef = sign * neg;
+        let mut source: Option<Source> = None;
+        for factor in t.split('*') {
+            if let Some(v) = parse_number(factor) {
+                coef *= v;
+                continue;
+            }
+            if source.is_some() {
+                return Err(err(c, format!("`{t}`: a term has at most one source")));
+            }
+            source = Some(match (format, factor.strip_prefix('$')) {
+                (Format::Ascii, Some(n)) => match n.parse::<usize>() {
+                    Ok(k) if k >= 1 && k <= columns => Source::Column(k),
+                    _ => return Err(err(c, format!("`{factor}`: column must be $1 … ${columns}"))),
+                },
+                (Format::Ascii, None) => {
+                    return Err(err(c, format!("`{factor}` is neither a number nor a column `$N`")))
+                }
+                (Format::Ulog, Some(_)) => {
+                    return Err(err(
+                        c,
+                        format!("`{factor}`: a ULog map names `topic.field`, not columns"),
+                    ))
+                }
+                (Format::Ulog, None) => match factor.split_once('.') {
+                    Some((topic, field)) if !topic.is_empty() && !field.is_empty() => Source::Field {
+                        topic: topic.to_string(),
+                        field: field.to_string(),
+                    },
+                    _ => return Err(err(c, format!("`{factor}` is neither a number nor `topic.field`"))),
+                },
+            });
+        }
+        match source {
+            Some(source) => terms.push(Term { coef, source }),
+            None => constant += coef,
+        }
+        sign = 1.0;
+    }
+    if expect_term {
+        return Err(err(col, format!("`{body}`: incomplete expression")));
+    }
+    if terms.is_empty() {
+        return Err(err(col, format!("`{body}` reads no source")));
+    }
+    Ok(Expr {
+        terms,
+        constant,
+        factor,
+        unit: unit.to_string(),
+        bias: 0.0,
+        line,
+    })
+}
+
+/// Parses `VALUE UNIT` (a `constant.` key).
+fn parse_constant(value: &str, file: &str, line: usize, col: usize, want: Dimension) -> Result<Expr, ReadError> {
+    let err = |c: usize, m: String| ReadError::new(file, line, c, m);
+    let Some((num, unit)) = value.split_once(char::is_whitespace) else {
+        return Err(err(
+            col,
+            format!("`{value}`: expected `VALUE UNIT` (e.g. `0.792 kg/m3`)"),
+        ));
+    };
+    let unit = unit.trim();
+    let unit_col = col + value.len() - unit.len();
+    let Some(v) = parse_number(num) else {
+        return Err(err(col, format!("`{num}` is not a finite number")));
+    };
+    let Some(&(_, dim, factor)) = UNITS.iter().find(|(u, _, _)| *u == unit) else {
+        return Err(err(unit_col, format!("unknown unit `{unit}`")));
+    };
+    if dim != want {
+        return Err(err(unit_col, format!("unit `{unit}` does not fit this quantity")));
+    }
+    Ok(Expr {
+        terms: Vec::new(),
+        constant: v,
+        factor,
+        unit: unit.to_string(),
+        bias: 0.0,
+        line,
+    })
+}
+
+/// Parses a column map from `text`; `dir` is the map's folder (the aircraft path is relative to
+/// it).
+pub fn parse_map(text: &str, file: &str, dir: &Path) -> Result<ColumnMap, ReadError> {
+    let kvs = key_values(text, file)?;
+    let find = |k: &str| kvs.iter().find(|kv| kv.key == k);
+    let format = match find("format") {
+        Some(kv) => match kv.value {
+            "ascii" => Format::Ascii,
+            "ulog" => Format::Ulog,
+            v => {
+                return Err(ReadError::new(
+                    file,
+                    kv.line,
+                    kv.value_col,
+                    format!("unknown format `{v}` (ascii or ulog)"),
+                ))
+            }
+        },
+        None => return Err(ReadError::new(file, 0, 0, "missing key `format` (ascii or ulog)")),
+    };
+    let columns = match (format, find("columns")) {
+        (Format::Ascii, Some(kv)) => match kv.value.parse::<usize>() {
+            Ok(n) if n >= 1 => n,
+            _ => {
+                return Err(ReadError::new(
+                    file,
+                    kv.line,
+                    kv.value_col,
+                    format!("`{}` is not a positive column count", kv.value),
+                ))
+            }
+        },
+        (Format::Ascii, None) => return Err(ReadError::new(file, 0, 0, "missing key `columns` (numbers per line)")),
+        (Format::Ulog, Some(kv)) => {
+            return Err(ReadError::new(
+                file,
+                kv.line,
+                kv.key_col,
+                "`columns` applies to `format = ascii` only",
+            ))
+        }
+        (Format::Ulog, None) => 0,
+    };
+    let aircraft = match find("aircraft") {
+        Some(kv) => read_aircraft(&dir.join(kv.value)).map_err(|e| {
+            if e.line == 0 && e.message.contains("No such file") {
+                ReadError::new(file, kv.line, kv.value_col, format!("aircraft file: {e}"))
+            } else {
+                e
+            }
+        })?,
+        None => return Err(ReadError::new(file, 0, 0, "missing key `aircraft` (the aircraft file)")),
+    };
+    let mut time = None;
+    let mut time_base = None;
+    let mut channels: Vec<(Quantity, Expr)> = Vec::new();
+    let mut biases: Vec<(Quantity, f64, usize, usize)> = Vec::new();
+    for kv in &kvs {
+        match kv.key {
+            "format" | "columns" | "aircraft" | "description" => {}
+            "time" => {
+                if format == Format::Ulog {
+                    return Err(ReadError::new(
+                        file,
+                        kv.line,
+                        kv.key_col,
+                        "a ULog map sets `time_base = TOPIC`, not `time`",
+                    ));
+                }
+                time = Some(parse_expr(
+                    kv.value,
+                    file,
+                    kv.line,
+                    kv.value_col,
+                    format,
+                    columns,
+                    Dimension::Time,
+                )?);
+            }
+            "time_base" => {
+                if format == Format::Ascii {
+                    return Err(ReadError::new(
+                        file,
+                        kv.line,
+                        kv.key_col,
+                        "`time_base` applies to `format = ulog` only",
+                    ));
+                }
+                time_base = Some(kv.value.to_string());
+            }
+            key => {
+                let (kind, name) = key.split_once('.').unwrap_or((key, ""));
+                let q = match (kind, Quantity::from_name(name)) {
+                    ("channel" | "bias" | "constant", Some(q)) => q,
+                    ("channel" | "bias" | "constant", None) => {
+                        return Err(ReadError::new(
+                            file,
+                            kv.line,
+                            kv.key_col + kind.len() + 1,
+                            format!("unknown quantity `{name}`"),
+                        ))
+                    }
+                    _ => {
+                        return Err(ReadError::new(
+                            file,
+                            kv.line,
+                            kv.key_col,
+                            format!("unknown key `{key}`"),
+                        ))
+                    }
+                };
+                if channels.iter().any(|(c, _)| *c == q) && kind != "bias" {
+                    return Err(ReadError::new(
+                        file,
+                        kv.line,
+                        kv.key_col,
+                        format!("`{q}` is set twice (as a channel and a constant)"),
+                    ));
+                }
+                if kind == "channel" {
+                    let e = parse_expr(kv.value, file, kv.line, kv.value_col, format, columns, dimension(q))?;
+                    channels.push((q, e));
+                } else if kind == "constant" {
+                    channels.push((q, parse_constant(kv.value, file, kv.line, kv.value_col, dimension(q))?));
+                } else {
+                    let Some(b) = parse_number(kv.value) else {
+                        return Err(ReadError::new(
+                            file,
+                            kv.line,
+                            kv.value_col,
+                            format!(
+                                "`{}` is not a finite number (a bias is in SI units, no unit written)",
+                                kv.value
+                            ),
+                        ));
+                    };
+                    biases.push((q, b, kv.line, kv.key_col));
+                }
+            }
+        }
+    }
+    for (q, b, line, col) in biases {
+        match channels.iter_mut().find(|(c, _)| *c == q) {
+            Some((_, e)) => e.bias = b,
+            None if format == Format::Ulog => {
+                // A bias on a built-in ULog channel: kept as a channel-less bias is not supported.
+                return Err(ReadError::new(
+                    file,
+                    line,
+                    col,
+                    format!("`bias.{q}` needs a `channel.{q}` in this map"),
+                ));
+            }
+            None => {
+                return Err(ReadError::new(
+                    file,
+                    line,
+                    col,
+                    format!("`bias.{q}` has no `channel.{q}`"),
+                ))
+            }
+        }
+    }
+    if format == Format::Ascii && time.is_none() {
+        return Err(ReadError::new(file, 0, 0, "missing key `time` (e.g. `time = $1 s`)"));
+    }
+    Ok(ColumnMap {
+        file: file.to_string(),
+        format,
+        columns,
+        time,
+        time_base,
+        channels,
+        aircraft,
+    })
+}
+
+/// Reads a column map file.
+pub fn read_map(path: &Path) -> Result<ColumnMap, ReadError> {
+    let text = read_text(path)?;
+    let dir = path.parent().unwrap_or(Path::new("."));
+    parse_map(&text, &path.display().to_string(), dir)
+}
+
+/// Reads a whitespace-separated ASCII flight-test file through its map (`format = ascii`).
+pub fn read_ascii(path: &Path, map: &ColumnMap) -> Result<MeasuredFlight, ReadError> {
+    let file = path.display().to_string();
+    let text = read_text(path)?;
+    parse_ascii(&text, &file, map)
+}
+
+/// [`read_ascii`] on text already read (`file` names it in errors).
+pub fn parse_ascii(text: &str, file: &str, map: &ColumnMap) -> Result<MeasuredFlight, ReadError> {
+    if map.format != Format::Ascii {
+        return Err(ReadError::new(&map.file, 0, 0, "not an ASCII map (`format = ascii`)"));
+    }
+    let Some(time) = &map.time else {
+        return Err(ReadError::new(&map.file, 0, 0, "missing key `time`"));
+    };
+    let n_cols = map.columns;
+    // Which columns are read, and by which quantity (for messages).
+    let mut used: BTreeMap<usize, String> = BTreeMap::new();
+    for t in &time.terms {
+        if let Source::Column(c) = t.source {
+            used.entry(c).or_insert_with(|| "time".into());
+        }
+    }
+    for (q, e) in &map.channels {
+        for t in &e.terms {
+            if let Source::Column(c) = t.source {
+                used.entry(c).or_insert_with(|| q.name().into());
+            }
+        }
+    }
+    let lines: Vec<(usize, Vec<&str>)> = text
+        .lines()
+        .enumerate()
+        .filter(|(_, l)| !l.trim().is_empty())
+        .map(|(i, l)| (i + 1, l.split_whitespace().collect()))
+        .collect();
+    let mut t_s = Vec::with_capacity(lines.len());
+    let mut chans: Vec<Vec<f64>> = vec![Vec::with_capacity(lines.len()); map.channels.len()];
+    let mut row = vec![0.0; n_cols + 1];
+    for (k, (line, cells)) in lines.iter().enumerate() {
+        if cells.len() != n_cols {
+            let col = if cells.len() < n_cols {
+                cells.len() + 1
+            } else {
+                n_cols + 1
+            };
+            return Err(ReadError::new(
+                file,
+                *line,
+                col,
+                format!(
+                    "{} numbers on this line, the map ({}) says {n_cols}{}",
+                    cells.len(),
+                    map.file,
+                    used.get(&col)
+                        .map_or(String::new(), |q| format!(" (column {col} is `{q}`)"))
+                ),
+            ));
+        }
+        for (&c, what) in &used {
+            let cell = cells[c - 1];
+            match cell.parse::<f64>() {
+                Ok(v) if v.is_finite() => row[c] = v,
+                Ok(v) => {
+                    // A missing sample: report the run it starts.
+                    let run = lines[k..]
+                        .iter()
+                        .take_while(|(_, cs)| {
+                            cs.get(c - 1)
+                                .and_then(|s| s.parse::<f64>().ok())
+                                .is_some_and(|x| !x.is_finite())
+                        })
+                        .count();
+                    let last = lines[k + run - 1].0;
+                    return Err(ReadError::new(
+                        file,
+                        *line,
+                        c,
+                        format!(
+                            "column {c} (`{what}`): non-finite value `{cell}` ({v}), a run of {run} row{} (lines {line}–{last}); missing samples are refused, not interpolated",
+                            if run == 1 { "" } else { "s" }
+                        ),
+                    ));
+                }
+                Err(_) => {
+                    return Err(ReadError::new(
+                        file,
+                        *line,
+                        c,
+                        format!("column {c} (`{what}`): `{cell}` is not a number"),
+                    ))
+                }
+            }
+        }
+        let value = |e: &Expr| {
+            e.eval(e.terms.iter().map(|t| match t.source {
+                Source::Column(c) => row[c],
+                Source::Field { .. } => f64::NAN,
+            }))
+        };
+        t_s.push(value(time));
+        for (j, (_, e)) in map.channels.iter().enumerate() {
+            chans[j].push(value(e));
+        }
+    }
+    let mut channels = BTreeMap::new();
+    for ((q, _), v) in map.channels.iter().zip(chans) {
+        channels.insert(*q, v);
+    }
+    let flight = MeasuredFlight {
+        source: file.to_string(),
+        t_s,
+        channels,
+        aircraft: map.aircraft.clone(),
+    };
+    flight.validate().map_err(|inv| {
+        let line = inv.sample.and_then(|i| lines.get(i)).map_or(0, |(l, _)| *l);
+        let column = match inv.quantity {
+            Some(q) => map
+                .channels
+                .iter()
+                .find(|(c, _)| *c == q)
+                .and_then(|(_, e)| e.first_column()),
+            None => time.first_column(),
+        }
+        .unwrap_or(0);
+        let what = inv.quantity.map_or("time".to_string(), |q| q.name().to_string());
+        let msg = inv.message.clone();
+        ReadError::new(
+            file,
+            line,
+            column,
+            format!("column {column} (`{what}`, map {}): {msg}", map.file),
+        )
+    })?;
+    Ok(flight)
+}
