@@ -155,6 +155,10 @@ pub struct Compatibility {
     pub rms: Vec<OutputRms>,
     /// Reconstructed time histories `(channel, measured, reconstructed with the errors found)`.
     pub traces: Vec<(Quantity, Vec<f64>, Vec<f64>)>,
+    /// The reconstructed air data at the CG (`Airspeed`, `Alpha`, `Beta`), free of the sensor
+    /// errors and of the air-data sensors' white noise (Klein & Morelli §10.3 use such smoothed
+    /// states for equation-error modelling). Steady air only.
+    pub air_data: std::collections::BTreeMap<Quantity, Vec<f64>>,
 }
 
 impl Compatibility {
@@ -175,121 +179,244 @@ pub struct CompatSettings {
     pub max_added: usize,
 }
 
-/// A generic output-error problem: parameters `[fixed…, candidates…]`, a simulation returning one
-/// series per output, and the measured outputs.
+/// A segmented output-error problem: global sensor-error candidates, and per segment its own
+/// initial state (Jategaonkar §3.x, several manoeuvres evaluated together with separate initial
+/// conditions). **Why segments**: the inputs (accelerometers, gyros) carry white noise whose
+/// integral is a random walk; over a whole flight that random walk looks like a bias ramp and an
+/// output-error fit would "find" biases of the size of the noise's mean. Restarting the states
+/// every [`SEGMENT_S`] keeps the random walk below the output noise, while a real bias still
+/// ramps within every segment.
 struct Problem<'a> {
-    n_fixed: usize,
-    /// Which fixed parameters are fitted (the others stay at their initial value).
-    fixed_mask: Vec<bool>,
-    fixed_steps: Vec<f64>,
+    nx: usize,
+    x_mask: Vec<bool>,
+    x_steps: Vec<f64>,
+    segments: Vec<(usize, usize)>,
     candidates: Vec<SensorParam>,
-    sim: Box<dyn Fn(&[f64]) -> Vec<Vec<f64>> + 'a>,
+    /// `(candidate values, x0, start, end)` → outputs over `[start, end)`.
+    sim: Box<dyn Fn(&[f64], &[f64], usize, usize) -> Vec<Vec<f64>> + 'a>,
     measured: Vec<Vec<f64>>,
     outputs: Vec<Quantity>,
 }
 
+/// Segment length, s.
+pub const SEGMENT_S: f64 = 5.0;
+
 struct State {
-    p: Vec<f64>,
+    g: Vec<f64>,
     active: Vec<bool>,
+    x0: Vec<Vec<f64>>,
     weights: Vec<f64>,
 }
 
 impl Problem<'_> {
-    fn step(&self, j: usize) -> f64 {
-        if j < self.n_fixed {
-            self.fixed_steps[j]
-        } else {
-            self.candidates[j - self.n_fixed].fd_step()
-        }
+    fn n(&self) -> usize {
+        self.measured.first().map_or(0, |m| m.len())
     }
 
-    /// Stacked weighted residual and per-output residual variances.
-    fn residual(&self, y: &[Vec<f64>], weights: &[f64]) -> (Vec<f64>, Vec<f64>) {
-        let mut r = Vec::new();
-        let mut var = Vec::new();
-        for (o, (m, s)) in self.measured.iter().zip(y).enumerate() {
-            let d: Vec<f64> = m.iter().zip(s).map(|(a, b)| a - b).collect();
-            var.push(d.iter().map(|v| v * v).sum::<f64>() / d.len().max(1) as f64);
-            r.extend(d.iter().map(|v| v * weights[o].sqrt()));
+    /// Weighted residual rows of segment `s` (output-major within the segment).
+    fn seg_res(&self, g: &[f64], x0: &[f64], s: usize, w: &[f64]) -> Vec<f64> {
+        let (a, b) = self.segments[s];
+        let y = (self.sim)(g, x0, a, b);
+        let mut r = Vec::with_capacity(y.len() * (b - a));
+        for (o, yo) in y.iter().enumerate() {
+            let sw = w[o].sqrt();
+            r.extend(self.measured[o][a..b].iter().zip(yo).map(|(m, v)| (m - v) * sw));
         }
-        (r, var)
+        r
     }
 
-    fn sensitivity(&self, p: &[f64], j: usize, weights: &[f64]) -> Vec<f64> {
-        let h = self.step(j);
-        let (mut up, mut dn) = (p.to_vec(), p.to_vec());
-        up[j] += h;
-        dn[j] -= h;
-        let (yu, yd) = ((self.sim)(&up), (self.sim)(&dn));
-        let mut col = Vec::new();
-        for (o, (a, b)) in yu.iter().zip(&yd).enumerate() {
-            col.extend(a.iter().zip(b).map(|(x, y)| (x - y) / (2.0 * h) * weights[o].sqrt()));
+    /// Initial-state sensitivity columns of segment `s` (rows as [`Self::seg_res`]).
+    fn x0_cols(&self, st: &State, s: usize) -> Vec<Vec<f64>> {
+        let (a, b) = self.segments[s];
+        let mut cols = Vec::new();
+        for j in 0..self.nx {
+            if !self.x_mask[j] {
+                continue;
+            }
+            let h = self.x_steps[j];
+            let (mut up, mut dn) = (st.x0[s].clone(), st.x0[s].clone());
+            up[j] += h;
+            dn[j] -= h;
+            let (yu, yd) = ((self.sim)(&st.g, &up, a, b), (self.sim)(&st.g, &dn, a, b));
+            let mut c = Vec::new();
+            for (o, (u, d)) in yu.iter().zip(&yd).enumerate() {
+                let sw = st.weights[o].sqrt();
+                c.extend(u.iter().zip(d).map(|(x, y)| (x - y) / (2.0 * h) * sw));
+            }
+            cols.push(c);
         }
-        col
+        cols
     }
 
-    /// Gauss–Newton on the active parameters, weights re-estimated each iteration.
-    fn fit(&self, st: &mut State) {
-        let idx: Vec<usize> = (0..st.p.len()).filter(|&j| st.active[j]).collect();
-        let mut y = (self.sim)(&st.p);
-        for _ in 0..12 {
-            let (_, var) = self.residual(&y, &st.weights);
-            st.weights = var.iter().map(|v| 1.0 / v.max(1e-12)).collect();
-            let (r, _) = self.residual(&y, &st.weights);
-            let cost: f64 = r.iter().map(|v| v * v).sum();
-            let cols: Vec<Vec<f64>> = idx.iter().map(|&j| self.sensitivity(&st.p, j, &st.weights)).collect();
-            let Some(f) = ols(&cols, &r, r.len(), 0) else {
-                return;
-            };
-            let mut lambda = 1.0;
-            let mut improved = false;
-            for _ in 0..6 {
-                let mut trial = st.p.clone();
-                for (k, &j) in idx.iter().enumerate() {
-                    trial[j] += lambda * f.theta[k];
+    fn fit_x0(&self, st: &mut State, s: usize) {
+        for _ in 0..4 {
+            let r = self.seg_res(&st.g, &st.x0[s], s, &st.weights);
+            let cols = self.x0_cols(st, s);
+            let Some(f) = ols(&cols, &r, r.len(), 0) else { return };
+            let mut k = 0;
+            let mut change = 0.0f64;
+            for j in 0..self.nx {
+                if self.x_mask[j] {
+                    st.x0[s][j] += f.theta[k];
+                    change = change.max((f.theta[k] / self.x_steps[j]).abs());
+                    k += 1;
                 }
-                let yt = (self.sim)(&trial);
-                let (rt, _) = self.residual(&yt, &st.weights);
-                let ct: f64 = rt.iter().map(|v| v * v).sum();
-                if ct.is_finite() && ct <= cost {
-                    let rel = (cost - ct) / cost.max(1e-300);
-                    st.p = trial;
-                    y = yt;
-                    improved = rel > 1e-9;
+            }
+            if change < 1e-3 {
+                return;
+            }
+        }
+    }
+
+    /// Per-segment weighted residuals (segment-major) and per-output variances.
+    fn residual(&self, st: &State) -> (Vec<Vec<f64>>, Vec<f64>) {
+        let mut var = vec![0.0; self.measured.len()];
+        let mut rs = Vec::new();
+        for s in 0..self.segments.len() {
+            let ones = vec![1.0; self.measured.len()];
+            let r = self.seg_res(&st.g, &st.x0[s], s, &ones);
+            let len = self.segments[s].1 - self.segments[s].0;
+            for (o, v) in var.iter_mut().enumerate() {
+                *v += r[o * len..(o + 1) * len].iter().map(|x| x * x).sum::<f64>();
+            }
+            let sw: Vec<f64> = st.weights.iter().map(|w| w.sqrt()).collect();
+            rs.push(r.iter().enumerate().map(|(i, x)| x * sw[i / len]).collect());
+        }
+        let n = self.n().max(1) as f64;
+        (rs, var.iter().map(|v| v / n).collect())
+    }
+
+    /// Global sensitivity column of candidate `c` (segment-major rows).
+    fn g_col(&self, st: &State, c: usize) -> Vec<Vec<f64>> {
+        let h = self.candidates[c].fd_step();
+        let (mut up, mut dn) = (st.g.clone(), st.g.clone());
+        up[c] += h;
+        dn[c] -= h;
+        (0..self.segments.len())
+            .map(|s| {
+                let (a, b) = self.segments[s];
+                let (yu, yd) = ((self.sim)(&up, &st.x0[s], a, b), (self.sim)(&dn, &st.x0[s], a, b));
+                let mut col = Vec::new();
+                for (o, (u, d)) in yu.iter().zip(&yd).enumerate() {
+                    let sw = st.weights[o].sqrt();
+                    col.extend(u.iter().zip(d).map(|(x, y)| (x - y) / (2.0 * h) * sw));
+                }
+                col
+            })
+            .collect()
+    }
+
+    /// Projects per-segment rows out of that segment's initial-state columns (Frisch–Waugh–Lovell):
+    /// the global parameters are then estimated free of the nuisance initial states.
+    fn project(&self, x0c: &[Vec<Vec<f64>>], v: &[Vec<f64>]) -> Vec<f64> {
+        let mut out = Vec::new();
+        for (s, vs) in v.iter().enumerate() {
+            match ols(&x0c[s], vs, vs.len(), 0) {
+                Some(f) => out.extend(f.residual),
+                None => out.extend(vs.iter().copied()),
+            }
+        }
+        out
+    }
+
+    fn cost(&self, st: &State) -> f64 {
+        let (rs, _) = self.residual(st);
+        rs.iter().flatten().map(|x| x * x).sum()
+    }
+
+    /// The fit: initial states per segment, then Gauss–Newton on the active candidates.
+    fn fit(&self, st: &mut State) {
+        for it in 0..8 {
+            for s in 0..self.segments.len() {
+                self.fit_x0(st, s);
+            }
+            let (_, var) = self.residual(st);
+            st.weights = var.iter().map(|v| 1.0 / v.max(1e-12)).collect();
+            let act: Vec<usize> = (0..st.g.len()).filter(|&c| st.active[c]).collect();
+            // With no sensor error active, one more pass refits the initial states with the
+            // weights just estimated (the first pass used unit weights).
+            if (act.is_empty() && it >= 1) || it == 7 {
+                break;
+            }
+            if act.is_empty() {
+                continue;
+            }
+            let x0c: Vec<Vec<Vec<f64>>> = (0..self.segments.len()).map(|s| self.x0_cols(st, s)).collect();
+            let (rs, _) = self.residual(st);
+            let r = self.project(&x0c, &rs);
+            let cols: Vec<Vec<f64>> = act.iter().map(|&c| self.project(&x0c, &self.g_col(st, c))).collect();
+            let Some(f) = ols(&cols, &r, r.len(), 0) else { return };
+            let c0 = self.cost(st);
+            let mut lambda = 1.0;
+            let mut done = true;
+            for _ in 0..5 {
+                let mut trial = State {
+                    g: st.g.clone(),
+                    active: st.active.clone(),
+                    x0: st.x0.clone(),
+                    weights: st.weights.clone(),
+                };
+                for (k, &c) in act.iter().enumerate() {
+                    trial.g[c] += lambda * f.theta[k];
+                }
+                for s in 0..self.segments.len() {
+                    self.fit_x0(&mut trial, s);
+                }
+                let c1 = self.cost(&trial);
+                if c1.is_finite() && c1 <= c0 {
+                    done = (c0 - c1) / c0.max(1e-300) < 1e-7;
+                    *st = trial;
                     break;
                 }
                 lambda *= 0.5;
             }
-            if !improved {
+            if done {
                 break;
             }
         }
-        let (_, var) = self.residual(&y, &st.weights);
-        st.weights = var.iter().map(|v| 1.0 / v.max(1e-12)).collect();
     }
 
-    /// Linearised scores of the inactive candidates, and the σ of the active ones.
+    /// Scores of the inactive candidates and σ of the active ones.
     fn scores(&self, st: &State, max_lag: usize) -> (Vec<ParamScore>, Vec<(usize, f64)>) {
-        let y = (self.sim)(&st.p);
-        let (r, _) = self.residual(&y, &st.weights);
-        let n_out = self.measured.first().map_or(0, |m| m.len());
-        let idx: Vec<usize> = (0..st.p.len()).filter(|&j| st.active[j]).collect();
-        let cols: Vec<Vec<f64>> = idx.iter().map(|&j| self.sensitivity(&st.p, j, &st.weights)).collect();
-        let sig = ols(&cols, &r, n_out, max_lag)
-            .map(|f| idx.iter().zip(f.sigma).map(|(&j, s)| (j, s)).collect())
-            .unwrap_or_default();
+        let x0c: Vec<Vec<Vec<f64>>> = (0..self.segments.len()).map(|s| self.x0_cols(st, s)).collect();
+        let (rs, _) = self.residual(st);
+        let r = self.project(&x0c, &rs);
+        let act: Vec<usize> = (0..st.g.len()).filter(|&c| st.active[c]).collect();
+        let cols: Vec<Vec<f64>> = act.iter().map(|&c| self.project(&x0c, &self.g_col(st, c))).collect();
+        let n = r.len();
+        // Blocks for the coloured covariance: one per segment (rows are segment-major, outputs
+        // within): the typical block is one output of one segment.
+        let block = self.segments.first().map_or(n, |(a, b)| b - a);
+        let sig = if cols.is_empty() {
+            Vec::new()
+        } else {
+            ols(&cols, &r, block, max_lag)
+                .map(|f| act.iter().zip(f.sigma).map(|(&j, s)| (j, s)).collect())
+                .unwrap_or_default()
+        };
         let mut out = Vec::new();
         for (c, &param) in self.candidates.iter().enumerate() {
-            let j = self.n_fixed + c;
-            if st.active[j] {
+            if st.active[c] {
                 continue;
             }
-            let col = self.sensitivity(&st.p, j, &st.weights);
-            if let Some((f, t2)) = partial_test(&cols, &col, &r, n_out, max_lag) {
+            let col = self.project(&x0c, &self.g_col(st, c));
+            let res = if cols.is_empty() {
+                ols(&[col], &r, block, max_lag).map(|f| {
+                    let t2 = if f.sigma[0] > 0.0 {
+                        (f.theta[0] / f.sigma[0]).powi(2)
+                    } else {
+                        0.0
+                    };
+                    (f, t2)
+                })
+            } else {
+                partial_test(&cols, &col, &r, block, max_lag)
+            };
+            if let Some((f, t2)) = res {
                 let k = f.theta.len() - 1;
                 out.push(ParamScore {
                     param,
-                    value: st.p[j] + f.theta[k],
+                    value: st.g[c] + f.theta[k],
                     sigma: f.sigma[k],
                     t2,
                 });
@@ -298,27 +425,55 @@ impl Problem<'_> {
         (out, sig)
     }
 
-    fn rms(&self, p: &[f64]) -> Vec<f64> {
-        let y = (self.sim)(p);
-        self.measured
-            .iter()
-            .zip(&y)
-            .map(|(m, s)| (m.iter().zip(s).map(|(a, b)| (a - b) * (a - b)).sum::<f64>() / m.len().max(1) as f64).sqrt())
-            .collect()
+    fn rms(&self, st: &State) -> Vec<f64> {
+        let (_, var) = self.residual(st);
+        var.iter().map(|v| v.sqrt()).collect()
+    }
+
+    /// The reconstructed outputs over the whole flight.
+    fn outputs_of(&self, st: &State) -> Vec<Vec<f64>> {
+        let mut y = vec![Vec::new(); self.measured.len()];
+        for (s, &(a, b)) in self.segments.iter().enumerate() {
+            for (o, yo) in (self.sim)(&st.g, &st.x0[s], a, b).into_iter().enumerate() {
+                y[o].extend(yo);
+            }
+        }
+        y
     }
 }
 
+/// Splits `n` samples into segments of about `SEGMENT_S`.
+fn segments(n: usize, h_s: f64) -> Vec<(usize, usize)> {
+    let len = ((SEGMENT_S / h_s).round() as usize).max(50);
+    let k = (n / len).max(1);
+    (0..k).map(|i| (i * n / k, (i + 1) * n / k)).collect()
+}
+
 /// Runs a problem: baseline fit, forward selection of sensor errors. Returns (tested in the first
-/// round, found, rms before/after, final parameters).
-fn run(prob: &Problem, p0: Vec<f64>, s: &CompatSettings, part: &'static str) -> (Vec<ParamScore>, Vec<Found>, Vec<OutputRms>, Vec<f64>) {
-    let n = p0.len();
+/// round, found, rms before/after, final candidate values, reconstructed outputs, initial states).
+#[allow(clippy::type_complexity)]
+fn run(
+    prob: &Problem,
+    x0: Vec<Vec<f64>>,
+    s: &CompatSettings,
+    part: &'static str,
+) -> (
+    Vec<ParamScore>,
+    Vec<Found>,
+    Vec<OutputRms>,
+    Vec<f64>,
+    Vec<Vec<f64>>,
+    Vec<Vec<f64>>,
+) {
+    let nc = prob.candidates.len();
     let mut st = State {
-        p: p0,
-        active: (0..n).map(|j| j < prob.n_fixed && prob.fixed_mask[j]).collect(),
+        g: vec![0.0; nc],
+        active: vec![false; nc],
+        x0,
         weights: vec![1.0; prob.measured.len()],
     };
     prob.fit(&mut st);
-    let before = prob.rms(&st.p);
+    let before = prob.rms(&st);
     let mut first = None;
     let mut entered: Vec<(usize, f64)> = Vec::new();
     for _ in 0..s.max_added {
@@ -333,11 +488,13 @@ fn run(prob: &Problem, p0: Vec<f64>, s: &CompatSettings, part: &'static str) -> 
         }
         match best {
             Some(b) if b.t2 > s.threshold_t2 => {
-                let j = prob.n_fixed + prob.candidates.iter().position(|c| *c == b.param).unwrap_or(0);
-                st.active[j] = true;
-                st.p[j] = b.value;
+                let Some(c) = prob.candidates.iter().position(|c| *c == b.param) else {
+                    break;
+                };
+                st.active[c] = true;
+                st.g[c] = b.value;
                 prob.fit(&mut st);
-                entered.push((j, b.t2));
+                entered.push((c, b.t2));
             }
             _ => break,
         }
@@ -345,33 +502,44 @@ fn run(prob: &Problem, p0: Vec<f64>, s: &CompatSettings, part: &'static str) -> 
     let (_, sig) = prob.scores(&st, s.max_lag);
     let found = entered
         .iter()
-        .map(|&(j, t2)| Found {
-            param: prob.candidates[j - prob.n_fixed],
-            value: st.p[j],
-            sigma: sig.iter().find(|(k, _)| *k == j).map_or(f64::NAN, |x| x.1),
+        .map(|&(c, t2)| Found {
+            param: prob.candidates[c],
+            value: st.g[c],
+            sigma: sig.iter().find(|(k, _)| *k == c).map_or(f64::NAN, |x| x.1),
             t2,
             part,
         })
         .collect();
-    let after = prob.rms(&st.p);
+    let after = prob.rms(&st);
     let rms = prob
         .outputs
         .iter()
         .zip(before.iter().zip(&after))
-        .map(|(&channel, (&b, &a))| OutputRms { channel, before: b, after: a })
+        .map(|(&channel, (&b, &a))| OutputRms {
+            channel,
+            before: b,
+            after: a,
+        })
         .collect();
-    (first.unwrap_or_default(), found, rms, st.p)
+    let y = prob.outputs_of(&st);
+    (first.unwrap_or_default(), found, rms, st.g, y, st.x0)
 }
 
 /// RK4 over the sample grid with the inputs linearly interpolated; `f(x, k, frac)` is the state
 /// derivative at sample `k` plus `frac` of a step.
-fn integrate<const N: usize>(x0: [f64; N], n: usize, h: f64, f: impl Fn(&[f64; N], usize, f64) -> [f64; N]) -> Vec<[f64; N]> {
-    let mut xs = Vec::with_capacity(n);
+fn integrate<const N: usize>(
+    x0: [f64; N],
+    start: usize,
+    end: usize,
+    h: f64,
+    f: impl Fn(&[f64; N], usize, f64) -> [f64; N],
+) -> Vec<[f64; N]> {
+    let mut xs = Vec::with_capacity(end - start);
     let mut x = x0;
     let add = |a: &[f64; N], b: &[f64; N], s: f64| -> [f64; N] { core::array::from_fn(|i| a[i] + s * b[i]) };
-    for k in 0..n {
+    for k in start..end {
         xs.push(x);
-        if k + 1 == n {
+        if k + 1 == end {
             break;
         }
         let k1 = f(&x, k, 0.0);
@@ -414,10 +582,12 @@ pub fn check(flight: &MeasuredFlight, h_s: f64, s: &CompatSettings) -> Compatibi
     use Quantity::*;
     let mut out = Compatibility::default();
     let n = flight.len();
+    let segs = segments(n, h_s);
     let zeros = vec![0.0; n];
     let get = |q: Quantity| flight.get(q);
     let (Some(q_m), Some(theta_m)) = (get(PitchRate), get(Pitch)) else {
-        out.notes.push("no pitch rate or pitch attitude: compatibility check not performed".into());
+        out.notes
+            .push("no pitch rate or pitch attitude: compatibility check not performed".into());
         return out;
     };
     let lateral = get(RollRate).is_some() && get(YawRate).is_some() && get(Roll).is_some();
@@ -439,20 +609,19 @@ pub fn check(flight: &MeasuredFlight, h_s: f64, s: &CompatSettings) -> Compatibi
         outputs.push(Yaw);
         measured.push(psi.clone());
     }
-    let n_fixed = 3;
     let cands_a = cands.clone();
-    let bias_of = move |p: &[f64], q: Quantity| -> f64 {
+    let bias_of = move |g: &[f64], q: Quantity| -> f64 {
         cands_a
             .iter()
             .position(|c| *c == SensorParam::Bias(q))
-            .map_or(0.0, |i| p[n_fixed + i])
+            .map_or(0.0, |i| g[i])
     };
     let outs_a = outputs.clone();
     let sim_a = {
         let bias_of = bias_of.clone();
-        move |p: &[f64]| -> Vec<Vec<f64>> {
-            let (bp, bq, br) = (bias_of(p, RollRate), bias_of(p, PitchRate), bias_of(p, YawRate));
-            let xs = integrate([p[0], p[1], p[2]], n, h_s, |x, k, fr| {
+        move |g: &[f64], x0: &[f64], a: usize, b: usize| -> Vec<Vec<f64>> {
+            let (bp, bq, br) = (bias_of(g, RollRate), bias_of(g, PitchRate), bias_of(g, YawRate));
+            let xs = integrate([x0[0], x0[1], x0[2]], a, b, h_s, |x, k, fr| {
                 let (pp, qq, rr) = (lerp(p_m, k, fr) - bp, lerp(q_m, k, fr) - bq, lerp(r_m, k, fr) - br);
                 if !lateral {
                     return [0.0, qq, 0.0];
@@ -460,7 +629,11 @@ pub fn check(flight: &MeasuredFlight, h_s: f64, s: &CompatSettings) -> Compatibi
                 let (sf, cf) = x[0].sin_cos();
                 let (st, ct) = x[1].sin_cos();
                 let ct = if ct.abs() < 1e-3 { 1e-3f64.copysign(ct) } else { ct };
-                [pp + (qq * sf + rr * cf) * st / ct, qq * cf - rr * sf, (qq * sf + rr * cf) / ct]
+                [
+                    pp + (qq * sf + rr * cf) * st / ct,
+                    qq * cf - rr * sf,
+                    (qq * sf + rr * cf) / ct,
+                ]
             });
             outs_a
                 .iter()
@@ -475,32 +648,33 @@ pub fn check(flight: &MeasuredFlight, h_s: f64, s: &CompatSettings) -> Compatibi
                 .collect()
         }
     };
-    let p0 = {
-        let mut p = vec![phi_m[0], theta_m[0], psi_m.as_ref().map_or(0.0, |v| v[0])];
-        p.extend(cands.iter().map(|_| 0.0));
-        p
-    };
+    let x0: Vec<Vec<f64>> = segs
+        .iter()
+        .map(|&(a, _)| vec![phi_m[a], theta_m[a], psi_m.as_ref().map_or(0.0, |v| v[a])])
+        .collect();
     let prob_a = Problem {
-        n_fixed,
-        fixed_mask: vec![lateral, true, psi_m.is_some()],
-        fixed_steps: vec![1e-5; 3],
+        nx: 3,
+        x_mask: vec![lateral, true, psi_m.is_some()],
+        x_steps: vec![1e-4; 3],
+        segments: segs.clone(),
         candidates: cands.clone(),
         sim: Box::new(sim_a),
         measured,
         outputs: outputs.clone(),
     };
-    let (tested, found, rms, p_a) = run(&prob_a, p0, s, "attitude");
+    let (tested, found, rms, g_a, _, _) = run(&prob_a, x0, s, "attitude");
     let gyro_bias = [
-        bias_of(&p_a, RollRate),
-        bias_of(&p_a, PitchRate),
-        bias_of(&p_a, YawRate),
+        bias_of(&g_a, RollRate),
+        bias_of(&g_a, PitchRate),
+        bias_of(&g_a, YawRate),
     ];
     out.tested.extend(tested);
     out.found.extend(found);
     out.rms.extend(rms);
     // ---- Part B: velocity and air data.
     let (Some(ax), Some(az), Some(v_m), Some(a_m)) = (get(AccelX), get(AccelZ), get(Airspeed), get(Alpha)) else {
-        out.notes.push("no accelerometer x/z, airspeed or α: air-data compatibility not checked".into());
+        out.notes
+            .push("no accelerometer x/z, airspeed or α: air-data compatibility not checked".into());
         return out;
     };
     let lat_v = lateral && get(AccelY).is_some();
@@ -535,76 +709,106 @@ pub fn check(flight: &MeasuredFlight, h_s: f64, s: &CompatSettings) -> Compatibi
     let ac = &flight.aircraft;
     let (rv_a, rv_b) = (ac.alpha_vane_position_m, ac.beta_vane_position_m);
     let cands_b = cands.clone();
-    let par = move |p: &[f64], c: SensorParam| -> f64 {
-        cands_b.iter().position(|x| *x == c).map_or(0.0, |i| p[3 + i])
-    };
+    let par = move |g: &[f64], c: SensorParam| -> f64 { cands_b.iter().position(|x| *x == c).map_or(0.0, |i| g[i]) };
     let pc: Vec<f64> = p_m.iter().map(|v| v - gyro_bias[0]).collect();
     let qc: Vec<f64> = q_m.iter().map(|v| v - gyro_bias[1]).collect();
     let rc: Vec<f64> = r_m.iter().map(|v| v - gyro_bias[2]).collect();
     let (pc, qc, rc) = (&pc, &qc, &rc);
     let outs_b = outputs.clone();
-    let sim_b = move |p: &[f64]| -> Vec<Vec<f64>> {
+    let states = {
+        let par = par.clone();
+        move |g: &[f64], x0: &[f64], a: usize, b: usize| -> Vec<[f64; 3]> {
+            use SensorParam as S;
+            let (bx, by, bz) = (
+                par(g, S::Bias(AccelX)),
+                par(g, S::Bias(AccelY)),
+                par(g, S::Bias(AccelZ)),
+            );
+            integrate([x0[0], x0[1], x0[2]], a, b, h_s, |x, k, fr| {
+                let w = Vector3::new(lerp(pc, k, fr), lerp(qc, k, fr), lerp(rc, k, fr));
+                let (sf, cf) = lerp(phi_m, k, fr).sin_cos();
+                let (st, ct) = lerp(theta_m, k, fr).sin_cos();
+                let acc = Vector3::new(lerp(ax, k, fr) - bx, lerp(ay, k, fr) - by, lerp(az, k, fr) - bz);
+                let gv = Vector3::new(-st, ct * sf, ct * cf) * G_MPS2;
+                let v = Vector3::new(x[0], if lat_v { x[1] } else { 0.0 }, x[2]);
+                let d = acc + gv - w.cross(&v);
+                [d.x, if lat_v { d.y } else { 0.0 }, d.z]
+            })
+        }
+    };
+    let states_c = states.clone();
+    let sim_b = move |g: &[f64], x0: &[f64], a: usize, b: usize| -> Vec<Vec<f64>> {
         use SensorParam as S;
-        let (bx, by, bz) = (par(p, S::Bias(AccelX)), par(p, S::Bias(AccelY)), par(p, S::Bias(AccelZ)));
-        let xs = integrate([p[0], p[1], p[2]], n, h_s, |x, k, fr| {
-            let w = Vector3::new(lerp(pc, k, fr), lerp(qc, k, fr), lerp(rc, k, fr));
-            let (sf, cf) = lerp(phi_m, k, fr).sin_cos();
-            let (st, ct) = lerp(theta_m, k, fr).sin_cos();
-            let a = Vector3::new(lerp(ax, k, fr) - bx, lerp(ay, k, fr) - by, lerp(az, k, fr) - bz);
-            let g = Vector3::new(-st, ct * sf, ct * cf) * G_MPS2;
-            let v = Vector3::new(x[0], if lat_v { x[1] } else { 0.0 }, x[2]);
-            let d = a + g - w.cross(&v);
-            [d.x, if lat_v { d.y } else { 0.0 }, d.z]
-        });
+        let xs = states(g, x0, a, b);
         outs_b
             .iter()
             .map(|o| {
                 let base: Vec<f64> = xs
                     .iter()
                     .enumerate()
-                    .map(|(k, x)| {
+                    .map(|(i, x)| {
+                        let k = a + i;
                         let w = Vector3::new(pc[k], qc[k], rc[k]);
                         let v = Vector3::new(x[0], x[1], x[2]);
                         match o {
                             Airspeed => v.norm(),
                             Alpha => {
-                                let r = rv_a + Vector3::new(par(p, S::VaneX(Alpha)), 0.0, 0.0);
+                                let r = rv_a + Vector3::new(par(g, S::VaneX(Alpha)), 0.0, 0.0);
                                 let l = v + w.cross(&r);
                                 l.z.atan2(l.x)
                             }
                             _ => {
-                                let r = rv_b + Vector3::new(par(p, S::VaneX(Beta)), 0.0, 0.0);
+                                let r = rv_b + Vector3::new(par(g, S::VaneX(Beta)), 0.0, 0.0);
                                 let l = v + w.cross(&r);
                                 (l.y / l.norm().max(1e-6)).clamp(-1.0, 1.0).asin()
                             }
                         }
                     })
                     .collect();
-                let delayed = shift(&base, h_s, -par(p, S::Delay(*o)));
-                let (k, b) = (par(p, S::Scale(*o)), par(p, S::Bias(*o)));
-                delayed.iter().map(|y| (1.0 + k) * y + b).collect()
+                let delayed = shift(&base, h_s, -par(g, S::Delay(*o)));
+                let (k, bb) = (par(g, S::Scale(*o)), par(g, S::Bias(*o)));
+                delayed.iter().map(|y| (1.0 + k) * y + bb).collect()
             })
             .collect()
     };
-    let k0 = 10.min(n);
-    let (v0, al0) = (mean(&v_m[..k0]), mean(&a_m[..k0]));
-    let be0 = beta_m.map_or(0.0, |b| mean(&b[..k0]));
-    let mut p0 = vec![v0 * al0.cos() * be0.cos(), v0 * be0.sin(), v0 * al0.sin() * be0.cos()];
-    p0.extend(cands.iter().map(|_| 0.0));
+    let x0: Vec<Vec<f64>> = segs
+        .iter()
+        .map(|&(a, b)| {
+            let k1 = (a + 10).min(b);
+            let (v0, al0) = (mean(&v_m[a..k1]), mean(&a_m[a..k1]));
+            let be0 = beta_m.map_or(0.0, |bb| mean(&bb[a..k1]));
+            vec![v0 * al0.cos() * be0.cos(), v0 * be0.sin(), v0 * al0.sin() * be0.cos()]
+        })
+        .collect();
     let prob_b = Problem {
-        n_fixed: 3,
-        fixed_mask: vec![true, lat_v, true],
-        fixed_steps: vec![1e-3; 3],
+        nx: 3,
+        x_mask: vec![true, lat_v, true],
+        x_steps: vec![1e-3; 3],
+        segments: segs,
         candidates: cands,
         sim: Box::new(sim_b),
         measured: measured.clone(),
         outputs: outputs.clone(),
     };
-    let (tested, found, rms, p_b) = run(&prob_b, p0, s, "velocity");
+    let (tested, found, rms, g_b, y, x0_b) = run(&prob_b, x0, s, "velocity");
+    let mut air: [Vec<f64>; 3] = Default::default();
+    for (sg, &(a, b)) in prob_b.segments.iter().enumerate() {
+        for x in states_c(&g_b, &x0_b[sg], a, b) {
+            let v = Vector3::new(x[0], x[1], x[2]);
+            air[0].push(v.norm());
+            air[1].push(v.z.atan2(v.x));
+            air[2].push((v.y / v.norm().max(1e-6)).clamp(-1.0, 1.0).asin());
+        }
+    }
+    let [va, aa, ba] = air;
+    out.air_data.insert(Airspeed, va);
+    out.air_data.insert(Alpha, aa);
+    if lat_v {
+        out.air_data.insert(Beta, ba);
+    }
     out.tested.extend(tested);
     out.found.extend(found);
     out.rms.extend(rms);
-    let y = (prob_b.sim)(&p_b);
     for ((o, m), yy) in outputs.iter().zip(measured).zip(y) {
         out.traces.push((*o, m, yy));
     }

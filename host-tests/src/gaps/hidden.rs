@@ -2,7 +2,7 @@
 //!
 //! The flight: the skywalker at 15 m/s in calm air, white-noise sensors without biases (the
 //! default noise levels of [`crate::sim::SensorNoise`]), stabiliser and servos on; every 10 s from
-//! 2 s on an elevator 3-2-1-1 (0.4 s steps, ±0.15 rad) and a 2 s elevator doublet (±0.15 rad), an
+//! 2 s on an elevator 3-2-1-1 (0.4 s steps, ±0.15 rad) and a 2 s elevator doublet (±0.2 rad), an
 //! aileron 3-2-1-1 (0.3 s, ±0.15 rad) and a 2 s rudder doublet (±0.2 rad) overlapping them (so α
 //! and β move together: cross-coupling is excitable), and a 3 s throttle step (±0.3, sign
 //! alternating; airspeed and thrust vary, which separates thrust and speed terms and the `1/V²`
@@ -23,7 +23,8 @@ use super::model::CauseKind;
 /// The kinds of hidden effect.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub enum HiddenKind {
-    /// A lift-curve nonlinearity `C_Lα² α²`, `C_Lα²` in −[2, 6] /rad².
+    /// A lift-curve nonlinearity `C_Lα² α²`, `C_Lα²` in −[4, 10] /rad² (at α = 0.1 rad a lift loss of
+    /// 0.04–0.1, the curvature of a low-Reynolds-number airfoil's lift curve before stall).
     LiftQuadratic,
     /// A missing control term: elevator drag `k|δe|` in `C_D`, `k` in [0.08, 0.25] /rad.
     ElevatorDrag,
@@ -81,7 +82,7 @@ impl HiddenKind {
         let u = |rng: &mut dyn rand::RngCore, a: f64, b: f64| a + (b - a) * rng.random::<f64>();
         let deg = core::f64::consts::PI / 180.0;
         let (size, channel) = match self {
-            Self::LiftQuadratic => (-u(rng, 2.0, 6.0), None),
+            Self::LiftQuadratic => (-u(rng, 4.0, 10.0), None),
             Self::ElevatorDrag => (u(rng, 0.08, 0.25), None),
             Self::AlphaDot => (-u(rng, 4.0, 10.0), None),
             Self::ThrustMoment => (sign(rng) * u(rng, 0.04, 0.10), None),
@@ -157,7 +158,7 @@ pub fn config(effect: Option<&HiddenEffect>, duration_s: f64, seed: u64) -> SimC
         let sgn = if k % 2 == 0 { 1.0 } else { -1.0 };
         schedule = schedule
             .with(m(Channel::Elevator, Shape::Multistep3211, t, 0.15, 0.4))
-            .with(m(Channel::Elevator, Shape::Doublet, t + 4.0, 0.15, 1.0))
+            .with(m(Channel::Elevator, Shape::Doublet, t + 4.0, 0.2, 1.0))
             .with(m(Channel::Aileron, Shape::Multistep3211, t + 0.5, 0.15, 0.3))
             .with(m(Channel::Rudder, Shape::Doublet, t + 1.0, 0.2, 1.0))
             .with(m(Channel::Throttle, Shape::Step, t + 6.0, 0.3 * sgn, 3.0));

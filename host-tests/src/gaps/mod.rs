@@ -65,6 +65,9 @@ pub struct GapSettings {
     pub baseline: Option<[Vec<Term>; 6]>,
     /// Run the compatibility check. Default true.
     pub compatibility: bool,
+    /// Use the compatibility check's reconstructed airspeed and flow angles in the synthesis and
+    /// regressors ([`model::synthesise`]). Default true; switch off in turbulence.
+    pub reconstructed_air_data: bool,
 }
 
 impl Default for GapSettings {
@@ -77,6 +80,7 @@ impl Default for GapSettings {
             max_added: 2,
             baseline: None,
             compatibility: true,
+            reconstructed_air_data: true,
         }
     }
 }
@@ -295,7 +299,10 @@ fn check_input(flight: &MeasuredFlight) -> Result<f64, GapError> {
     for (i, w) in flight.t_s.windows(2).enumerate() {
         let d = w[1] - w[0];
         if !(d.is_finite() && (d - h).abs() <= 0.01 * h && h > 0.0) {
-            return Err(GapError::NonUniformTime { source: src(), index: i + 1 });
+            return Err(GapError::NonUniformTime {
+                source: src(),
+                index: i + 1,
+            });
         }
     }
     for (q, v) in &flight.channels {
@@ -336,7 +343,7 @@ pub fn run_gaps(flight: &MeasuredFlight, settings: &GapSettings) -> Result<GapRe
     let n_id = ((n as f64 * settings.identification_fraction).round() as usize).clamp(100, n - 50);
     // The candidate count (Bonferroni divisor) needs the table; synthesise once uncorrected to
     // learn which signals exist (the corrected table has the same signals).
-    let probe = model::synthesise(flight, h, &Corrections::default(), sg_half);
+    let probe = model::synthesise(flight, h, &Corrections::default(), sg_half, None);
     let baseline_of = |i: usize| -> Vec<Term> {
         match &settings.baseline {
             Some(b) => b[i].clone(),
@@ -359,7 +366,11 @@ pub fn run_gaps(flight: &MeasuredFlight, settings: &GapSettings) -> Result<GapRe
             .filter(|t| !base.contains(t) && t.column(&probe, &refs_probe).is_some())
             .count();
     }
-    let n_compat_est = if settings.compatibility { compat_candidate_count(flight) } else { 0 };
+    let n_compat_est = if settings.compatibility {
+        compat_candidate_count(flight)
+    } else {
+        0
+    };
     let m = (n_aero + n_compat_est).max(1);
     let z = signal::normal_upper_quantile(settings.alpha / (2.0 * m as f64));
     let threshold_t2 = z * z;
@@ -396,7 +407,12 @@ pub fn run_gaps(flight: &MeasuredFlight, settings: &GapSettings) -> Result<GapRe
         }
     }
     // 2–5. Aerodynamics on the corrected data.
-    let table = model::synthesise(flight, h, &corr, sg_half);
+    let air =
+        (settings.reconstructed_air_data && !compatibility.air_data.is_empty()).then_some(&compatibility.air_data);
+    if air.is_some() {
+        notes.push("regressors use the reconstructed airspeed and flow angles (steady air assumed)".into());
+    }
+    let table = model::synthesise(flight, h, &corr, sg_half, air);
     notes.extend(table.notes.iter().cloned());
     if table.z.iter().all(|z| z.is_none()) {
         return Err(GapError::NothingToAnalyse {
@@ -406,14 +422,27 @@ pub fn run_gaps(flight: &MeasuredFlight, settings: &GapSettings) -> Result<GapRe
     }
     let id_mean = |s: Signal| table.signals.get(&s).map(|v| signal::mean(&v[..n_id]));
     let refs = TermRefs {
-        alpha_break_rad: table.signals.get(&Signal::Alpha).map_or(0.0, |a| percentile(&a[..n_id], 0.85)),
+        alpha_break_rad: table
+            .signals
+            .get(&Signal::Alpha)
+            .map_or(0.0, |a| percentile(&a[..n_id], 0.85)),
         airspeed_mps: id_mean(Signal::Airspeed).unwrap_or(1.0).max(1.0),
         mach: id_mean(Signal::Mach).unwrap_or(0.0),
     };
     let mut coefficients = Vec::new();
     for i in 0..6 {
         let Some(zc) = &table.z[i] else { continue };
-        if let Some(g) = analyse_coefficient(i, zc, &table, &refs, &baseline_of(i), n_id, threshold_t2, max_lag, settings) {
+        if let Some(g) = analyse_coefficient(
+            i,
+            zc,
+            &table,
+            &refs,
+            &baseline_of(i),
+            n_id,
+            threshold_t2,
+            max_lag,
+            settings,
+        ) {
             coefficients.push(g);
         }
     }
@@ -539,7 +568,6 @@ fn analyse_coefficient(
         .collect();
     let mut candidates = Vec::new();
     let mut added: Vec<(Term, f64)> = Vec::new();
-    let mut cur_pse = baseline.identification.pse;
     for round in 0..settings.max_added {
         let cols: Vec<Vec<f64>> = cols_full.iter().map(id).collect();
         let mut best: Option<(Term, f64, f64)> = None;
@@ -552,7 +580,7 @@ fn analyse_coefficient(
             };
             let zhat: Vec<f64> = z_id.iter().zip(&f.residual).map(|(a, r)| a - r).collect();
             let pse = metrics(z_id, &zhat, cols.len() + 1).pse;
-            let significant = t2 > threshold_t2 && pse < cur_pse;
+            let significant = t2 > threshold_t2;
             if round == 0 {
                 candidates.push(CandidateScore {
                     term: t.name().into(),
@@ -566,12 +594,11 @@ fn analyse_coefficient(
                 best = Some((*t, t2, pse));
             }
         }
-        let Some((t, t2, pse)) = best else { break };
+        let Some((t, t2, _)) = best else { break };
         let c = library.iter().find(|(x, _)| *x == t).map(|x| x.1.clone())?;
         terms.push(t);
         cols_full.push(c);
         added.push((t, t2));
-        cur_pse = pse;
     }
     candidates.sort_by(|a, b| b.t2.total_cmp(&a.t2));
     let (extended, ext_pred, ext_fit) = fit_model(&cols_full, &terms)?;

@@ -96,13 +96,28 @@ pub struct Corrections {
 /// Builds the table: corrections, CG transfer, derivatives, smoothing (half-width `sg_half`),
 /// synthesis.
 #[allow(non_snake_case)]
-pub fn synthesise(flight: &MeasuredFlight, h_s: f64, corr: &Corrections, sg_half: usize) -> Table {
+///
+/// `air_data`: reconstructed `Airspeed`, `Alpha`, `Beta` at the CG from the compatibility check;
+/// when given they replace the (corrected) air-data channels. Why: the airspeed sensor's noise
+/// enters both `q̄` (so every coefficient) and any speed regressor, an errors-in-variables
+/// correlation that least squares turns into a spurious speed dependence; the reconstructed states
+/// carry only the integrated inertial noise.
+pub fn synthesise(
+    flight: &MeasuredFlight,
+    h_s: f64,
+    corr: &Corrections,
+    sg_half: usize,
+    air_data: Option<&BTreeMap<Quantity, Vec<f64>>>,
+) -> Table {
     use Quantity::*;
     let n = flight.len();
     let ac = &flight.aircraft;
     let mut notes = Vec::new();
     // Corrected raw channels.
     let raw = |q: Quantity| -> Option<Vec<f64>> {
+        if let Some(x) = air_data.and_then(|a| a.get(&q)) {
+            return Some(x.clone());
+        }
         let x = flight.get(q)?;
         let b = corr.bias.get(&q).copied().unwrap_or(0.0);
         let k = corr.scale.get(&q).copied().unwrap_or(0.0);
@@ -120,7 +135,11 @@ pub fn synthesise(flight: &MeasuredFlight, h_s: f64, corr: &Corrections, sg_half
             None => w.as_ref().map(|w| derivative(w, h_s)),
         }
     };
-    let (pd, qd, rd) = (rate_dot(RollAccel, &p), rate_dot(PitchAccel, &q), rate_dot(YawAccel, &r));
+    let (pd, qd, rd) = (
+        rate_dot(RollAccel, &p),
+        rate_dot(PitchAccel, &q),
+        rate_dot(YawAccel, &r),
+    );
     let sm = |x: Option<Vec<f64>>| x.map(|v| sg_smooth(&v, sg_half));
     let v = sm(raw(Airspeed));
     let wz = |x: &Option<Vec<f64>>| x.clone().unwrap_or_else(|| zeros.clone());
@@ -128,7 +147,11 @@ pub fn synthesise(flight: &MeasuredFlight, h_s: f64, corr: &Corrections, sg_half
     let (pd_s, qd_s, rd_s) = (sm(pd), sm(qd), sm(rd));
     let lateral_rates = p.is_some() && r.is_some();
     // Vane angles moved to the CG (before smoothing: the correction is linear in the rates).
+    let reconstructed = |q: Quantity| air_data.is_some_and(|a| a.contains_key(&q));
     let alpha_raw = raw(Alpha).map(|a| {
+        if reconstructed(Alpha) {
+            return a;
+        }
         let rv = ac.alpha_vane_position_m + Vector3::new(corr.vane_dx_m.get(&Alpha).copied().unwrap_or(0.0), 0.0, 0.0);
         let vv = raw(Airspeed);
         a.iter()
@@ -142,6 +165,9 @@ pub fn synthesise(flight: &MeasuredFlight, h_s: f64, corr: &Corrections, sg_half
             .collect::<Vec<f64>>()
     });
     let beta_raw = raw(Beta).map(|b| {
+        if reconstructed(Beta) {
+            return b;
+        }
         let rv = ac.beta_vane_position_m + Vector3::new(corr.vane_dx_m.get(&Beta).copied().unwrap_or(0.0), 0.0, 0.0);
         let vv = raw(Airspeed);
         b.iter()
@@ -271,7 +297,11 @@ pub fn synthesise(flight: &MeasuredFlight, h_s: f64, corr: &Corrections, sg_half
         z[1] = Some(cd);
     }
     if ays.is_some() {
-        z[2] = Some((0..n).map(|i| (ac.mass_kg * accel(i, &ays, 1).unwrap_or(0.0) - f_t[i].y) / qs[i]).collect());
+        z[2] = Some(
+            (0..n)
+                .map(|i| (ac.mass_kg * accel(i, &ays, 1).unwrap_or(0.0) - f_t[i].y) / qs[i])
+                .collect(),
+        );
     }
     if q_s.is_some() || lateral_rates {
         let mut mom = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
@@ -535,7 +565,9 @@ impl Term {
         use Term::*;
         match self {
             Alpha2 | Alpha3 | StallBreak => CauseKind::NonlinearAlpha,
-            AbsElevator | Elevator2 | AlphaElevator | AlphaAileron | Elevator | Aileron | Rudder => CauseKind::ControlTerm,
+            AbsElevator | Elevator2 | AlphaElevator | AlphaAileron | Elevator | Aileron | Rudder => {
+                CauseKind::ControlTerm
+            }
             AlphaDot | BetaDot => CauseKind::AlphaDot,
             Thrust | ThrustElevator => CauseKind::Thrust,
             AlphaBeta | AlphaP | AlphaR => CauseKind::CrossCoupling,

@@ -63,7 +63,9 @@ pub fn metrics(z: &[f64], zhat: &[f64], p: usize) -> Metrics {
 /// `X θ`, with `X` given as columns.
 pub fn predict(cols: &[Vec<f64>], theta: &[f64]) -> Vec<f64> {
     let n = cols.first().map_or(0, |c| c.len());
-    (0..n).map(|i| cols.iter().zip(theta).map(|(c, t)| c[i] * t).sum()).collect()
+    (0..n)
+        .map(|i| cols.iter().zip(theta).map(|(c, t)| c[i] * t).sum())
+        .collect()
 }
 
 /// The sum over blocks of `Σ_{|k|≤L} R_vv(k) Σᵢ wᵢ w_{i+k}` (lags never cross a block boundary;
@@ -172,7 +174,12 @@ mod tests {
         let sxx: f64 = x.iter().map(|v| (v - xbar).powi(2)).sum();
         let s_white = 0.1 / sxx.sqrt();
         assert!((fit.theta[1] - 2.0).abs() < 4.0 * s_white);
-        assert!((fit.sigma[1] / s_white - 1.0).abs() < 0.3, "{} vs {}", fit.sigma[1], s_white);
+        assert!(
+            (fit.sigma[1] / s_white - 1.0).abs() < 0.3,
+            "{} vs {}",
+            fit.sigma[1],
+            s_white
+        );
     }
 
     #[test]

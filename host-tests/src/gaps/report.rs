@@ -30,7 +30,13 @@ pub fn table(r: &GapReport) -> String {
     let _ = writeln!(s, "\n1. data compatibility (flight-path reconstruction)");
     let _ = writeln!(s, "   {:<10} {:>12} {:>12}", "output", "RMS before", "RMS after");
     for o in &r.compatibility.rms {
-        let _ = writeln!(s, "   {:<10} {:>12.5} {:>12.5}", format!("{:?}", o.channel), o.before, o.after);
+        let _ = writeln!(
+            s,
+            "   {:<10} {:>12.5} {:>12.5}",
+            format!("{:?}", o.channel),
+            o.before,
+            o.after
+        );
     }
     let mut tested = r.compatibility.tested.clone();
     tested.sort_by(|a, b| b.t2.total_cmp(&a.t2));
@@ -61,7 +67,10 @@ pub fn table(r: &GapReport) -> String {
             f.part
         );
     }
-    let _ = writeln!(s, "\n2–5. coefficients (R², RMS on the held-out segment; PSE on identification)");
+    let _ = writeln!(
+        s,
+        "\n2–5. coefficients (R², RMS on the held-out segment; PSE on identification)"
+    );
     let _ = writeln!(
         s,
         "   {:<5} {:>8} {:>10} {:>10} | {:>8} {:>10} {:>10} | {:<14} {:>9} | added",
@@ -86,7 +95,11 @@ pub fn table(r: &GapReport) -> String {
             c.extended.identification.pse,
             best.map_or("-".into(), |b| b.term.clone()),
             best.map_or(0.0, |b| b.t2),
-            if added.is_empty() { "nothing".into() } else { added.join(", ") }
+            if added.is_empty() {
+                "nothing".into()
+            } else {
+                added.join(", ")
+            }
         );
     }
     let _ = writeln!(s, "\n6. verdict");
@@ -191,9 +204,13 @@ pub fn write(r: &GapReport, dir: &Path) -> Result<Vec<PathBuf>, ReportError> {
     }
     if !r.compatibility.traces.is_empty() {
         let p = dir.join("compatibility.svg");
-        let mut fig = Figure::new("time [s]").title("flight-path reconstruction: measured vs reconstructed (errors found removed)");
+        let mut fig = Figure::new("time [s]")
+            .title("flight-path reconstruction: measured vs reconstructed (errors found removed)");
         let n = r.compatibility.traces[0].1.len();
-        let t: Vec<f64> = r.coefficients.first().map_or_else(|| (0..n).map(|i| i as f64).collect(), |c| c.traces.t_s.clone());
+        let t: Vec<f64> = r
+            .coefficients
+            .first()
+            .map_or_else(|| (0..n).map(|i| i as f64).collect(), |c| c.traces.t_s.clone());
         for (q, m, y) in &r.compatibility.traces {
             let res: Vec<f64> = m.iter().zip(y).map(|(a, b)| a - b).collect();
             fig = fig
@@ -202,7 +219,14 @@ pub fn write(r: &GapReport, dir: &Path) -> Result<Vec<PathBuf>, ReportError> {
                         .line(Line::new("measured", &t, m, Colour::GREY))
                         .line(Line::new("reconstructed", &t, y, Colour::BLUE)),
                 )
-                .panel(Panel::new(format!("{q:?} residual"), "measured − reconstructed").line(Line::new("residual", &t, &res, Colour::VERMILLION)));
+                .panel(
+                    Panel::new(format!("{q:?} residual"), "measured − reconstructed").line(Line::new(
+                        "residual",
+                        &t,
+                        &res,
+                        Colour::VERMILLION,
+                    )),
+                );
         }
         fig.write_svg(&p).map_err(ReportError::Plot)?;
         files.push(p);
@@ -222,7 +246,11 @@ pub fn coefficient_figure(c: &CoefficientGap) -> Figure {
             "{}: identification before {:.1} s, held out after; added: {}",
             c.name,
             t_split,
-            if added.is_empty() { "nothing".into() } else { added.join(", ") }
+            if added.is_empty() {
+                "nothing".into()
+            } else {
+                added.join(", ")
+            }
         ))
         .panel(
             Panel::new(format!("{} measured vs predicted", c.name), c.name.clone())
