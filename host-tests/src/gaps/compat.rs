@@ -193,10 +193,13 @@ struct Problem<'a> {
     segments: Vec<(usize, usize)>,
     candidates: Vec<SensorParam>,
     /// `(candidate values, x0, start, end)` → outputs over `[start, end)`.
-    sim: Box<dyn Fn(&[f64], &[f64], usize, usize) -> Vec<Vec<f64>> + 'a>,
+    sim: SegmentSim<'a>,
     measured: Vec<Vec<f64>>,
     outputs: Vec<Quantity>,
 }
+
+/// `(candidate values, x0, start, end)` → one series per output over `[start, end)`.
+type SegmentSim<'a> = Box<dyn Fn(&[f64], &[f64], usize, usize) -> Vec<Vec<f64>> + 'a>;
 
 /// Segment length, s.
 pub const SEGMENT_S: f64 = 5.0;

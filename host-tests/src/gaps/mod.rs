@@ -57,7 +57,8 @@ pub struct GapSettings {
     /// Savitzky–Golay half-width for smoothing, s. Default 0.1 (M = 10 at 100 Hz).
     pub smoothing_half_width_s: f64,
     /// Largest lag of the residual autocorrelation in the coloured-residual covariance, s.
-    /// Default 0.5.
+    /// Default 2.5: half the compatibility check's segment, because the reconstructed flow angles
+    /// carry errors that are constant over a segment (initial-state error) and the σ must see them.
     pub max_lag_s: f64,
     /// Most terms added per coefficient. Default 2.
     pub max_added: usize,
@@ -76,7 +77,7 @@ impl Default for GapSettings {
             identification_fraction: 0.6,
             alpha: 0.001,
             smoothing_half_width_s: 0.1,
-            max_lag_s: 0.5,
+            max_lag_s: 2.5,
             max_added: 2,
             baseline: None,
             compatibility: true,

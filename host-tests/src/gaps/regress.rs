@@ -95,6 +95,12 @@ pub fn coloured_variance(w: &[f64], v: &[f64], block_len: usize, max_lag: usize)
 /// are (numerically) dependent: a column whose part orthogonal to the others is below `1e-9` of its
 /// own norm.
 pub fn ols(cols: &[Vec<f64>], z: &[f64], block_len: usize, max_lag: usize) -> Option<Fit> {
+    ols_sigma(cols, z, block_len, max_lag, None)
+}
+
+/// [`ols`], with the coloured-residual σ computed only for parameter `only` when given (the
+/// others are then NaN): the partial test needs only the candidate's.
+pub fn ols_sigma(cols: &[Vec<f64>], z: &[f64], block_len: usize, max_lag: usize, only: Option<usize>) -> Option<Fit> {
     let n = z.len();
     let p = cols.len();
     if p == 0 || n <= p || cols.iter().any(|c| c.len() != n) {
@@ -126,6 +132,10 @@ pub fn ols(cols: &[Vec<f64>], z: &[f64], block_len: usize, max_lag: usize) -> Op
     let mut sigma = vec![0.0; p];
     for j in 0..p {
         theta[j] = ts[j] / scale[j];
+        if only.is_some_and(|k| k != j) {
+            sigma[j] = f64::NAN;
+            continue;
+        }
         let wj: Vec<f64> = w.column(j).iter().copied().collect();
         sigma[j] = coloured_variance(&wj, &residual, block_len, max_lag).sqrt() / scale[j];
     }
@@ -143,8 +153,8 @@ pub fn partial_test(
 ) -> Option<(Fit, f64)> {
     let mut ext = cols.to_vec();
     ext.push(candidate.to_vec());
-    let fit = ols(&ext, z, block_len, max_lag)?;
     let j = ext.len() - 1;
+    let fit = ols_sigma(&ext, z, block_len, max_lag, Some(j))?;
     let t2 = if fit.sigma[j] > 0.0 {
         (fit.theta[j] / fit.sigma[j]).powi(2)
     } else {
