@@ -13,6 +13,7 @@ pub mod data;
 pub mod experiment;
 pub mod fem_report;
 pub mod flights;
+pub mod gaps;
 pub mod io;
 pub mod mc;
 pub mod plot;

@@ -11,6 +11,10 @@
 //! on-board `f32` pipeline and, with `--qemu`, runs the firmware under QEMU on the same log and
 //! checks its telemetry against the host bit for bit ([`aerosid_host::replay`]).
 //!
+//! `aerosid gaps --simulate KIND | --clean [--seed N] [--seconds S] [--out DIR]`: the model-gap
+//! analysis (issue 6, [`aerosid_host::gaps::run_gaps`]) of a simulated flight with one hidden
+//! effect, or none; table on the terminal, `report.json`, `report.txt` and SVG figures in `DIR`.
+//!
 //! `aerosid demo [--seed N] [--seconds S]`: identifies a pitching-moment model
 //! `C_m = C_m0 + C_mα α + C_mq q_n + C_mδe δe` (seed 000, eq. 3e; values of the `skywalker_2013_mod`
 //! airframe) from generated 100 Hz data with realistic sensor noise on *every* regressor, running
@@ -49,6 +53,12 @@ enum Command {
         out: std::path::PathBuf,
     },
     Table1 {
+        out: std::path::PathBuf,
+    },
+    Gaps {
+        hidden: Option<aerosid_host::gaps::hidden::HiddenKind>,
+        seed: u64,
+        seconds: f64,
         out: std::path::PathBuf,
     },
 }
@@ -94,6 +104,47 @@ fn parse() -> Result<Option<Command>, String> {
             }
             let out = out.ok_or("simulate needs --out LOG.csv")?;
             return Ok(Some(Command::Simulate { out, seconds, seed }));
+        }
+        Some("gaps") => {
+            // `aerosid gaps --simulate KIND | --clean [--seed N] [--seconds S] [--out DIR]`.
+            let (mut hidden, mut clean, mut seed, mut seconds, mut out) =
+                (None, false, 1u64, 90.0, std::path::PathBuf::from("out/gaps"));
+            while let Some(flag) = it.next() {
+                if flag == "--clean" {
+                    clean = true;
+                    continue;
+                }
+                let value = it.next().ok_or_else(|| format!("`{flag}` needs a value"))?;
+                match flag.as_str() {
+                    "--simulate" => {
+                        hidden = Some(aerosid_host::gaps::hidden::HiddenKind::parse(&value).ok_or_else(|| {
+                            let names: Vec<&str> = aerosid_host::gaps::hidden::HiddenKind::ALL
+                                .iter()
+                                .map(|k| k.name())
+                                .collect();
+                            format!("--simulate {value}: unknown kind (one of {})", names.join(", "))
+                        })?)
+                    }
+                    "--seed" => seed = value.parse().map_err(|e| format!("--seed {value}: {e}"))?,
+                    "--seconds" => {
+                        seconds = value.parse().map_err(|e| format!("--seconds {value}: {e}"))?;
+                        if !(20.0..=3600.0).contains(&seconds) {
+                            return Err("--seconds for `gaps` must be between 20 and 3600".into());
+                        }
+                    }
+                    "--out" => out = value.into(),
+                    _ => return Err(format!("unknown flag `{flag}` for `gaps`")),
+                }
+            }
+            if hidden.is_some() == clean {
+                return Err("gaps needs exactly one of --simulate KIND or --clean".into());
+            }
+            return Ok(Some(Command::Gaps {
+                hidden,
+                seed,
+                seconds,
+                out,
+            }));
         }
         Some("table1") => {
             return Ok(Some(Command::Table1 {
@@ -301,6 +352,32 @@ fn run(args: &Args) {
     );
 }
 
+/// The hook every front end of the model-gap analysis calls: analyse `flight`, print the table,
+/// write `report.json`, `report.txt` and the figures to `out`.
+fn run_gaps_command(flight: &aerosid_host::io::measured::MeasuredFlight, out: &std::path::Path) -> ExitCode {
+    let report = match aerosid_host::gaps::run_gaps(flight, &aerosid_host::gaps::GapSettings::default()) {
+        Ok(r) => r,
+        Err(e) => {
+            eprintln!("aerosid gaps: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    print!("{}", aerosid_host::gaps::report::table(&report));
+    match aerosid_host::gaps::report::write(&report, out) {
+        Ok(files) => {
+            println!("\nfiles:");
+            for f in files {
+                println!("  {}", f.display());
+            }
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("aerosid gaps: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
 fn main() -> ExitCode {
     match parse() {
         Ok(Some(Command::Demo(args))) => {
@@ -379,6 +456,26 @@ fn main() -> ExitCode {
                 ExitCode::FAILURE
             }
         },
+        Ok(Some(Command::Gaps {
+            hidden,
+            seed,
+            seconds,
+            out,
+        })) => {
+            // A simulated flight with the hidden effect's size drawn from the seed; a file-reading
+            // front end calls the same `run_gaps` on the `MeasuredFlight` its reader produces.
+            use rand::SeedableRng;
+            let mut rng = ChaCha8Rng::seed_from_u64(seed);
+            let effect = hidden.map(|k| k.draw(&mut rng));
+            let flight = match aerosid_host::gaps::hidden::flight(effect.as_ref(), seconds, seed) {
+                Ok(f) => f,
+                Err(e) => {
+                    eprintln!("aerosid gaps: {e}");
+                    return ExitCode::FAILURE;
+                }
+            };
+            run_gaps_command(&flight, &out)
+        }
         Ok(None) => {
             println!("aerosid — on-line aerodynamic model identification\n");
             println!("usage: aerosid run [--out DIR] [--seed N] [--seconds S]");
@@ -386,6 +483,7 @@ fn main() -> ExitCode {
             println!("       aerosid replay LOG.csv [--qemu]");
             println!("       aerosid fem-hfb320 [--out DIR]");
             println!("       aerosid table1 [--out DIR]");
+            println!("       aerosid gaps --simulate KIND | --clean [--seed N] [--seconds S] [--out DIR]");
             println!("       aerosid demo [--seed N] [--seconds S]\n");
             println!("  run    simulate a flight of the default airframe, identify the six coefficients with the");
             println!("         on-board f32 pipeline, print the model beside the truth and RLS, write the figures");
@@ -396,6 +494,11 @@ fn main() -> ExitCode {
             println!("         --qemu also run the firmware under QEMU on it and compare bit for bit");
             println!("  fem-hfb320  the filter error method (seed 001) on the real HFB-320 flight: estimates ± σ");
             println!("         beside the published values, measured vs model outputs and residuals (SVG)");
+            println!("  gaps   the model-gap analysis (docs/model-gaps.md) of a simulated flight with one hidden");
+            println!("         effect (KIND: lift-quadratic, elevator-drag, alpha-dot, thrust-moment, cross-coupling,");
+            println!(
+                "         vane-scale, sensor-bias, time-delay; size drawn from the seed) or none: table, JSON, SVG"
+            );
             println!("  table1 seed 001's Table 1: 50 simulated A-4D flights, the paper's method and ours, and");
             println!("         the parameter histories ±σ of one flight (SVG)");
             println!("  demo   identify C_m from generated noisy 100 Hz data with the on-board f32 PCA-GTLS,");

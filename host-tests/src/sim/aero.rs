@@ -335,6 +335,16 @@ pub struct TruthEffects {
     pub thrust_moment: bool,
     /// Propeller reaction torque `−Q` about body x (a propeller turning clockwise seen from behind).
     pub prop_torque: bool,
+    /// A quadratic lift term `C_Lα² α²` (1/rad²) added to the linear lift before the drag effects
+    /// (issue 6 §3: a lift-curve nonlinearity eq. 3a lacks). Off by default.
+    pub lift_alpha2_per_rad2: Option<f64>,
+    /// A downwash-lag pitching moment `C_mα̇ · α̇ c̄/(2V)` (issue 6 §3). `α̇` is the rate of the
+    /// air-relative angle of attack (steady air; the gust is held over an output period), formed in
+    /// [`super::dynamics::Plant::evaluate`] from the body acceleration. Off by default.
+    pub pitch_alpha_dot: Option<f64>,
+    /// A cross-coupling rolling moment `C_lαβ · α β` (1/rad²): the dihedral effect growing with
+    /// angle of attack (issue 6 §3). Off by default.
+    pub roll_alpha_beta_per_rad2: Option<f64>,
 }
 
 impl TruthEffects {
@@ -352,6 +362,9 @@ impl TruthEffects {
             drag_abs_alpha: false,
             thrust_moment: true,
             prop_torque: true,
+            lift_alpha2_per_rad2: None,
+            pitch_alpha_dot: None,
+            roll_alpha_beta_per_rad2: None,
         }
     }
 }
@@ -382,6 +395,12 @@ impl TruthAero {
         let mut c = self.linear.eval(x);
         let a = x.alpha_rad;
         let e = &self.effects;
+        if let Some(k) = e.lift_alpha2_per_rad2 {
+            c.lift += k * a * a;
+        }
+        if let Some(k) = e.roll_alpha_beta_per_rad2 {
+            c.roll += k * a * x.beta_rad;
+        }
         if e.drag_abs_alpha {
             c.drag += self.linear.drag.alpha * (a.abs() - a);
         }

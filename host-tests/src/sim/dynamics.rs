@@ -226,6 +226,19 @@ impl Plant {
         let specific = (aero_force_n + thrust_force_n) / mass;
         let g_body = R.inverse_transform_vector(&Vector3::new(0.0, 0.0, self.gravity_mps2));
         let velocity_dot = specific + g_body - w.cross(&x.velocity_body_mps);
+        // Downwash lag (issue 6 §3): `α̇ = (u_r ẇ − w_r u̇)/(u_r² + w_r²)` with the air-relative
+        // velocity's rate equal to the body acceleration (wind steady, gust held over the step). The
+        // forces do not depend on `α̇`, so there is no algebraic loop.
+        let (mut coefficients, mut aero_moment_nm) = (coefficients, aero_moment_nm);
+        if let (Some(cm_ad), true) = (self.truth.effects.pitch_alpha_dot, self.aerodynamics) {
+            let den = vr.x * vr.x + vr.z * vr.z;
+            if den > 1e-6 && V > 1e-3 {
+                let alpha_dot = (vr.x * velocity_dot.z - vr.z * velocity_dot.x) / den;
+                let dcm = cm_ad * alpha_dot * c / (2.0 * V);
+                coefficients.pitch += dcm;
+                aero_moment_nm.y += qbar * af.frame.wing_area_m2 * c * dcm;
+            }
+        }
         let moment = aero_moment_nm + thrust_moment_nm - w.cross(&(J * w));
         let rate_dot = J.lu().solve(&moment).unwrap_or_else(Vector3::zeros);
         Evaluation {

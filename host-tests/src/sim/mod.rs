@@ -34,7 +34,7 @@ pub use airframe_file::{parse_airframe, read_airframe, AirframeFileError};
 pub use atmosphere::{Dryden, Turbulence};
 pub use dynamics::{Controls, Evaluation, Plant, RigidState};
 pub use manoeuvre::{Channel, Manoeuvre, Schedule, Shape};
-pub use sensors::{SensorModel, SensorNoise};
+pub use sensors::{FaultChannel, SensorFault, SensorModel, SensorNoise};
 pub use trim::{trim_level, Trim, TrimError};
 
 use aerosid_core::aero::SensorSample;
@@ -131,6 +131,8 @@ pub struct SimConfig {
     pub step_s: f64,
     /// Seed for turbulence and sensors.
     pub seed: u64,
+    /// Systematic sensor errors (scale factors, extra biases, delays); empty by default.
+    pub faults: Vec<sensors::SensorFault>,
 }
 
 impl Default for SimConfig {
@@ -149,6 +151,7 @@ impl Default for SimConfig {
             output_dt_s: 0.01,
             step_s: 0.002,
             seed: 0,
+            faults: Vec::new(),
         }
     }
 }
@@ -253,6 +256,7 @@ pub fn simulate(cfg: &SimConfig) -> Result<SimOutput, SimError> {
     let mut surfaces = trim.controls;
     let mut samples = Vec::with_capacity(n);
     let mut truth = Vec::with_capacity(n);
+    let mut ideal_history = Vec::new();
     for k in 0..n {
         let t = k as f64 * dt;
         let gust = dryden.as_ref().map_or_else(Vector3::zeros, Dryden::gust_body_mps);
@@ -281,7 +285,6 @@ pub fn simulate(cfg: &SimConfig) -> Result<SimOutput, SimError> {
         let u = applied_now(&cmd);
         let e = plant.evaluate(&x, &u, &gust, t);
         let ideal = ideal_sample(t, dt, &x, &u, &e);
-        samples.push(sensors.measure(&ideal));
         truth.push(TruthSample {
             t_s: t,
             state: x,
@@ -290,6 +293,13 @@ pub fn simulate(cfg: &SimConfig) -> Result<SimOutput, SimError> {
             eval: e,
             ideal,
         });
+        if cfg.faults.is_empty() {
+            samples.push(sensors.measure(&ideal));
+        } else {
+            ideal_history.push(ideal);
+            let faulty = sensors::apply_faults(&cfg.faults, &ideal_history, k, dt);
+            samples.push(sensors.measure(&faulty));
+        }
         for i in 0..n_sub {
             let t0 = i as f64 * h;
             x = match &cfg.servo {

@@ -190,3 +190,119 @@ impl SensorModel {
         }
     }
 }
+
+/// A sensor channel a [`SensorFault`] acts on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum FaultChannel {
+    /// The α vane, rad.
+    Alpha,
+    /// The β vane, rad.
+    Beta,
+    /// Airspeed, m/s.
+    Airspeed,
+    /// Accelerometer x, m/s².
+    AccelX,
+    /// Accelerometer y, m/s².
+    AccelY,
+    /// Accelerometer z, m/s².
+    AccelZ,
+    /// Gyro p, rad/s.
+    RollRate,
+    /// Gyro q, rad/s.
+    PitchRate,
+    /// Gyro r, rad/s.
+    YawRate,
+}
+
+impl FaultChannel {
+    fn get(self, s: &SensorSample<f64>) -> f64 {
+        match self {
+            Self::Alpha => s.alpha_rad,
+            Self::Beta => s.beta_rad,
+            Self::Airspeed => s.airspeed_mps,
+            Self::AccelX => s.accel_mps2.x,
+            Self::AccelY => s.accel_mps2.y,
+            Self::AccelZ => s.accel_mps2.z,
+            Self::RollRate => s.gyro_rad_s.x,
+            Self::PitchRate => s.gyro_rad_s.y,
+            Self::YawRate => s.gyro_rad_s.z,
+        }
+    }
+    fn set(self, s: &mut SensorSample<f64>, v: f64) {
+        match self {
+            Self::Alpha => s.alpha_rad = v,
+            Self::Beta => s.beta_rad = v,
+            Self::Airspeed => s.airspeed_mps = v,
+            Self::AccelX => s.accel_mps2.x = v,
+            Self::AccelY => s.accel_mps2.y = v,
+            Self::AccelZ => s.accel_mps2.z = v,
+            Self::RollRate => s.gyro_rad_s.x = v,
+            Self::PitchRate => s.gyro_rad_s.y = v,
+            Self::YawRate => s.gyro_rad_s.z = v,
+        }
+    }
+}
+
+/// A systematic sensor error beyond the per-run biases of [`SensorNoise`] (issue 6 §3: the
+/// measurement causes the model-gap analysis must find). Applied to the ideal sample before noise:
+/// first the delay, then the scale factor, then the bias.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum SensorFault {
+    /// `measured = (1 + factor) · true` (e.g. a vane in the wing's upwash).
+    Scale {
+        /// The channel.
+        channel: FaultChannel,
+        /// Relative scale error.
+        factor: f64,
+    },
+    /// `measured = true + value` (channel units).
+    Bias {
+        /// The channel.
+        channel: FaultChannel,
+        /// The bias, in the channel's unit.
+        value: f64,
+    },
+    /// `measured(t) = true(t − delay_s)` (linear interpolation between output samples; before the
+    /// first sample the first value).
+    Delay {
+        /// The channel.
+        channel: FaultChannel,
+        /// The delay, s (≥ 0).
+        delay_s: f64,
+    },
+}
+
+/// Applies `faults` to the ideal sample `history[k]`, reading earlier ideal samples of `history`
+/// (one per output period `dt_s`) for delays.
+pub fn apply_faults(faults: &[SensorFault], history: &[SensorSample<f64>], k: usize, dt_s: f64) -> SensorSample<f64> {
+    let mut s = history[k];
+    for f in faults {
+        if let SensorFault::Delay { channel, delay_s } = *f {
+            let back = (delay_s / dt_s).max(0.0);
+            let whole = back.floor() as usize;
+            let frac = back - back.floor();
+            let v = if whole >= k {
+                channel.get(&history[0])
+            } else {
+                let a = channel.get(&history[k - whole]);
+                let b = channel.get(&history[k - whole - 1]);
+                a + frac * (b - a)
+            };
+            channel.set(&mut s, v);
+        }
+    }
+    for f in faults {
+        match *f {
+            SensorFault::Scale { channel, factor } => {
+                let v = channel.get(&s) * (1.0 + factor);
+                channel.set(&mut s, v);
+            }
+            SensorFault::Bias { channel, value } => {
+                let v = channel.get(&s) + value;
+                channel.set(&mut s, v);
+            }
+            SensorFault::Delay { .. } => {}
+        }
+    }
+    s
+}

@@ -1,0 +1,819 @@
+//! Data compatibility (issue 6 §2.1): flight-path reconstruction from the inertial measurements, and
+//! the sensor errors that make the air data and attitude disagree with it.
+//!
+//! ## Method
+//! Output-error estimation on the kinematic equations (Klein & Morelli, *Aircraft System
+//! Identification*, 2006, ch. 10, eq. 10.4–10.15; Jategaonkar, *Flight Vehicle System
+//! Identification*, 2nd ed., ch. 10): the measured accelerations and rates are the **inputs** of the
+//! exact rigid-body kinematics, the air data and attitude the **outputs**; initial states and sensor
+//! errors are fitted by Gauss–Newton (finite-difference sensitivities, residual weighting by the
+//! inverse residual variance of each output, re-estimated every iteration, as in the output-error
+//! method of Klein & Morelli §6.2). Two parts:
+//!
+//! * **Attitude**: `φ̇ = p + (q sin φ + r cos φ) tan θ`, `θ̇ = q cos φ − r sin φ`,
+//!   `ψ̇ = (q sin φ + r cos φ)/cos θ`, rates corrected by gyro biases; outputs the measured `φ, θ, ψ`
+//!   (longitudinal data: `θ̇ = q`).
+//! * **Velocity**: `u̇ = a_x − g sin θ + r v − q w`, `v̇ = a_y + g cos θ sin φ + p w − r u`,
+//!   `ẇ = a_z + g cos θ cos φ + q u − p v` with accelerometer biases; outputs
+//!   `V_m = (1+k_V)V(t−τ_V) + b_V`, `α_m = (1+k_α)α_v(t−τ_α) + b_α`, `β_m` likewise, where `α_v`, `β_v`
+//!   are the angles of the local velocity `v + ω × r_vane` at the vane (known position plus an
+//!   estimated `Δx`) — the upwash of a vane ahead of the wing shows as `k_α`. **Reading**: the
+//!   gravity terms use the *measured* attitude, not the reconstructed one: with a MEMS gyro
+//!   (0.005 rad/s white noise) the integrated attitude random-walks by ~0.004 rad in 90 s, which
+//!   `g` turns into metres per second of velocity drift, while the measured attitude's white error
+//!   integrates to centimetres per second. Steady air is assumed (turbulence shows as
+//!   coloured output residuals, which the coloured-residual covariance below accounts for; wind is
+//!   not estimated).
+//!
+//! ## Which sensor errors: stepwise, as the aerodynamic terms
+//! The baseline fits only the initial states (perfect sensors). Every sensor-error parameter is a
+//! candidate; at the converged fit each is scored by the partial test of its sensitivity column
+//! against the weighted residuals, linearised about the fit ([`super::regress::partial_test`], the
+//! score form of the F-test), with standard errors from the coloured-residual covariance. The best
+//! candidate above the threshold enters, the model is refitted, and the others are scored again
+//! (forward selection, Klein & Morelli §5.4.1), at most `max_added` times. Integration is RK4 with
+//! inputs interpolated linearly between samples.
+
+use super::regress::{ols, partial_test};
+use super::signal::{mean, shift};
+use crate::io::measured::{MeasuredFlight, Quantity};
+use nalgebra::Vector3;
+
+/// Standard gravity, m/s².
+const G_MPS2: f64 = 9.806_65;
+
+/// A sensor-error parameter of the compatibility model.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+pub enum SensorParam {
+    /// Additive bias of a channel (its unit).
+    Bias(Quantity),
+    /// Relative scale factor error `k` (`measured = (1+k) true`).
+    Scale(Quantity),
+    /// Time delay of a channel, s.
+    Delay(Quantity),
+    /// Unknown extra x position of a vane, m (`Alpha` or `Beta`).
+    VaneX(Quantity),
+}
+
+impl SensorParam {
+    /// The channel.
+    pub fn channel(&self) -> Quantity {
+        match *self {
+            Self::Bias(q) | Self::Scale(q) | Self::Delay(q) | Self::VaneX(q) => q,
+        }
+    }
+    /// Short name for reports, e.g. `bias(Alpha)`.
+    pub fn name(&self) -> String {
+        match self {
+            Self::Bias(q) => format!("bias({q:?})"),
+            Self::Scale(q) => format!("scale({q:?})"),
+            Self::Delay(q) => format!("delay({q:?})"),
+            Self::VaneX(q) => format!("vane_x({q:?})"),
+        }
+    }
+    /// Unit of the estimate.
+    pub fn unit(&self) -> &'static str {
+        match self {
+            Self::Bias(q) => unit_of(*q),
+            Self::Scale(_) => "-",
+            Self::Delay(_) => "s",
+            Self::VaneX(_) => "m",
+        }
+    }
+    fn fd_step(&self) -> f64 {
+        match self {
+            Self::Bias(q) => match q {
+                Quantity::Airspeed => 1e-2,
+                Quantity::AccelX | Quantity::AccelY | Quantity::AccelZ => 1e-3,
+                _ => 1e-5,
+            },
+            Self::Scale(_) => 1e-4,
+            Self::Delay(_) => 2e-3,
+            Self::VaneX(_) => 1e-2,
+        }
+    }
+}
+
+fn unit_of(q: Quantity) -> &'static str {
+    match q {
+        Quantity::Airspeed => "m/s",
+        Quantity::AccelX | Quantity::AccelY | Quantity::AccelZ => "m/s²",
+        Quantity::RollRate | Quantity::PitchRate | Quantity::YawRate => "rad/s",
+        _ => "rad",
+    }
+}
+
+/// A candidate's score in one round.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ParamScore {
+    /// The parameter.
+    pub param: SensorParam,
+    /// Linearised estimate.
+    pub value: f64,
+    /// Its standard error (coloured residuals).
+    pub sigma: f64,
+    /// Partial test statistic `t²`.
+    pub t2: f64,
+}
+
+/// A sensor error found, with its final estimate.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Found {
+    /// The parameter.
+    pub param: SensorParam,
+    /// Estimate after the refit.
+    pub value: f64,
+    /// Standard error after the refit.
+    pub sigma: f64,
+    /// `t²` when it entered.
+    pub t2: f64,
+    /// Which part found it (`"attitude"` or `"velocity"`).
+    pub part: &'static str,
+}
+
+/// The RMS of one output's residual before (perfect sensors) and after (found errors) the fit.
+#[derive(Debug, Clone, PartialEq)]
+pub struct OutputRms {
+    /// The output.
+    pub channel: Quantity,
+    /// RMS with the baseline (initial states only).
+    pub before: f64,
+    /// RMS with the sensor errors found.
+    pub after: f64,
+}
+
+/// The result of the compatibility check.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Compatibility {
+    /// What was (not) done and why.
+    pub notes: Vec<String>,
+    /// First-round scores of every candidate of both parts.
+    pub tested: Vec<ParamScore>,
+    /// The sensor errors found, in the order they entered.
+    pub found: Vec<Found>,
+    /// Residual RMS per output.
+    pub rms: Vec<OutputRms>,
+    /// Reconstructed time histories `(channel, measured, reconstructed with the errors found)`.
+    pub traces: Vec<(Quantity, Vec<f64>, Vec<f64>)>,
+    /// The reconstructed air data at the CG (`Airspeed`, `Alpha`, `Beta`), free of the sensor
+    /// errors and of the air-data sensors' white noise (Klein & Morelli §10.3 use such smoothed
+    /// states for equation-error modelling). Steady air only.
+    pub air_data: std::collections::BTreeMap<Quantity, Vec<f64>>,
+}
+
+impl Compatibility {
+    /// The estimate of a found parameter (0 if not found).
+    pub fn value(&self, p: SensorParam) -> f64 {
+        self.found.iter().find(|f| f.param == p).map_or(0.0, |f| f.value)
+    }
+}
+
+/// Settings of the check.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CompatSettings {
+    /// Entry threshold on `t²`.
+    pub threshold_t2: f64,
+    /// Largest lag of the residual autocorrelation, samples.
+    pub max_lag: usize,
+    /// Most sensor errors entered per part.
+    pub max_added: usize,
+}
+
+/// A segmented output-error problem: global sensor-error candidates, and per segment its own
+/// initial state (Jategaonkar §3.x, several manoeuvres evaluated together with separate initial
+/// conditions). **Why segments**: the inputs (accelerometers, gyros) carry white noise whose
+/// integral is a random walk; over a whole flight that random walk looks like a bias ramp and an
+/// output-error fit would "find" biases of the size of the noise's mean. Restarting the states
+/// every [`SEGMENT_S`] keeps the random walk below the output noise, while a real bias still
+/// ramps within every segment.
+struct Problem<'a> {
+    nx: usize,
+    x_mask: Vec<bool>,
+    x_steps: Vec<f64>,
+    segments: Vec<(usize, usize)>,
+    candidates: Vec<SensorParam>,
+    /// `(candidate values, x0, start, end)` → outputs over `[start, end)`.
+    sim: SegmentSim<'a>,
+    measured: Vec<Vec<f64>>,
+    outputs: Vec<Quantity>,
+}
+
+/// `(candidate values, x0, start, end)` → one series per output over `[start, end)`.
+type SegmentSim<'a> = Box<dyn Fn(&[f64], &[f64], usize, usize) -> Vec<Vec<f64>> + 'a>;
+
+/// Segment length, s.
+pub const SEGMENT_S: f64 = 5.0;
+
+struct State {
+    g: Vec<f64>,
+    active: Vec<bool>,
+    x0: Vec<Vec<f64>>,
+    weights: Vec<f64>,
+}
+
+impl Problem<'_> {
+    fn n(&self) -> usize {
+        self.measured.first().map_or(0, |m| m.len())
+    }
+
+    /// Weighted residual rows of segment `s` (output-major within the segment).
+    fn seg_res(&self, g: &[f64], x0: &[f64], s: usize, w: &[f64]) -> Vec<f64> {
+        let (a, b) = self.segments[s];
+        let y = (self.sim)(g, x0, a, b);
+        let mut r = Vec::with_capacity(y.len() * (b - a));
+        for (o, yo) in y.iter().enumerate() {
+            let sw = w[o].sqrt();
+            r.extend(self.measured[o][a..b].iter().zip(yo).map(|(m, v)| (m - v) * sw));
+        }
+        r
+    }
+
+    /// Initial-state sensitivity columns of segment `s` (rows as [`Self::seg_res`]).
+    fn x0_cols(&self, st: &State, s: usize) -> Vec<Vec<f64>> {
+        let (a, b) = self.segments[s];
+        let mut cols = Vec::new();
+        for j in 0..self.nx {
+            if !self.x_mask[j] {
+                continue;
+            }
+            let h = self.x_steps[j];
+            let (mut up, mut dn) = (st.x0[s].clone(), st.x0[s].clone());
+            up[j] += h;
+            dn[j] -= h;
+            let (yu, yd) = ((self.sim)(&st.g, &up, a, b), (self.sim)(&st.g, &dn, a, b));
+            let mut c = Vec::new();
+            for (o, (u, d)) in yu.iter().zip(&yd).enumerate() {
+                let sw = st.weights[o].sqrt();
+                c.extend(u.iter().zip(d).map(|(x, y)| (x - y) / (2.0 * h) * sw));
+            }
+            cols.push(c);
+        }
+        cols
+    }
+
+    fn fit_x0(&self, st: &mut State, s: usize) {
+        for _ in 0..4 {
+            let r = self.seg_res(&st.g, &st.x0[s], s, &st.weights);
+            let cols = self.x0_cols(st, s);
+            let Some(f) = ols(&cols, &r, r.len(), 0) else { return };
+            let mut k = 0;
+            let mut change = 0.0f64;
+            for j in 0..self.nx {
+                if self.x_mask[j] {
+                    st.x0[s][j] += f.theta[k];
+                    change = change.max((f.theta[k] / self.x_steps[j]).abs());
+                    k += 1;
+                }
+            }
+            if change < 1e-3 {
+                return;
+            }
+        }
+    }
+
+    /// Per-segment weighted residuals (segment-major) and per-output variances.
+    fn residual(&self, st: &State) -> (Vec<Vec<f64>>, Vec<f64>) {
+        let mut var = vec![0.0; self.measured.len()];
+        let mut rs = Vec::new();
+        for s in 0..self.segments.len() {
+            let ones = vec![1.0; self.measured.len()];
+            let r = self.seg_res(&st.g, &st.x0[s], s, &ones);
+            let len = self.segments[s].1 - self.segments[s].0;
+            for (o, v) in var.iter_mut().enumerate() {
+                *v += r[o * len..(o + 1) * len].iter().map(|x| x * x).sum::<f64>();
+            }
+            let sw: Vec<f64> = st.weights.iter().map(|w| w.sqrt()).collect();
+            rs.push(r.iter().enumerate().map(|(i, x)| x * sw[i / len]).collect());
+        }
+        let n = self.n().max(1) as f64;
+        (rs, var.iter().map(|v| v / n).collect())
+    }
+
+    /// Global sensitivity column of candidate `c` (segment-major rows).
+    fn g_col(&self, st: &State, c: usize) -> Vec<Vec<f64>> {
+        let h = self.candidates[c].fd_step();
+        let (mut up, mut dn) = (st.g.clone(), st.g.clone());
+        up[c] += h;
+        dn[c] -= h;
+        (0..self.segments.len())
+            .map(|s| {
+                let (a, b) = self.segments[s];
+                let (yu, yd) = ((self.sim)(&up, &st.x0[s], a, b), (self.sim)(&dn, &st.x0[s], a, b));
+                let mut col = Vec::new();
+                for (o, (u, d)) in yu.iter().zip(&yd).enumerate() {
+                    let sw = st.weights[o].sqrt();
+                    col.extend(u.iter().zip(d).map(|(x, y)| (x - y) / (2.0 * h) * sw));
+                }
+                col
+            })
+            .collect()
+    }
+
+    /// Projects per-segment rows out of that segment's initial-state columns (Frisch–Waugh–Lovell):
+    /// the global parameters are then estimated free of the nuisance initial states.
+    fn project(&self, x0c: &[Vec<Vec<f64>>], v: &[Vec<f64>]) -> Vec<f64> {
+        let mut out = Vec::new();
+        for (s, vs) in v.iter().enumerate() {
+            match ols(&x0c[s], vs, vs.len(), 0) {
+                Some(f) => out.extend(f.residual),
+                None => out.extend(vs.iter().copied()),
+            }
+        }
+        out
+    }
+
+    fn cost(&self, st: &State) -> f64 {
+        let (rs, _) = self.residual(st);
+        rs.iter().flatten().map(|x| x * x).sum()
+    }
+
+    /// The fit: initial states per segment, then Gauss–Newton on the active candidates.
+    fn fit(&self, st: &mut State) {
+        for it in 0..8 {
+            for s in 0..self.segments.len() {
+                self.fit_x0(st, s);
+            }
+            let (_, var) = self.residual(st);
+            st.weights = var.iter().map(|v| 1.0 / v.max(1e-12)).collect();
+            let act: Vec<usize> = (0..st.g.len()).filter(|&c| st.active[c]).collect();
+            // With no sensor error active, one more pass refits the initial states with the
+            // weights just estimated (the first pass used unit weights).
+            if (act.is_empty() && it >= 1) || it == 7 {
+                break;
+            }
+            if act.is_empty() {
+                continue;
+            }
+            let x0c: Vec<Vec<Vec<f64>>> = (0..self.segments.len()).map(|s| self.x0_cols(st, s)).collect();
+            let (rs, _) = self.residual(st);
+            let r = self.project(&x0c, &rs);
+            let cols: Vec<Vec<f64>> = act.iter().map(|&c| self.project(&x0c, &self.g_col(st, c))).collect();
+            let Some(f) = ols(&cols, &r, r.len(), 0) else { return };
+            let c0 = self.cost(st);
+            let mut lambda = 1.0;
+            let mut done = true;
+            for _ in 0..5 {
+                let mut trial = State {
+                    g: st.g.clone(),
+                    active: st.active.clone(),
+                    x0: st.x0.clone(),
+                    weights: st.weights.clone(),
+                };
+                for (k, &c) in act.iter().enumerate() {
+                    trial.g[c] += lambda * f.theta[k];
+                }
+                for s in 0..self.segments.len() {
+                    self.fit_x0(&mut trial, s);
+                }
+                let c1 = self.cost(&trial);
+                if c1.is_finite() && c1 <= c0 {
+                    done = (c0 - c1) / c0.max(1e-300) < 1e-7;
+                    *st = trial;
+                    break;
+                }
+                lambda *= 0.5;
+            }
+            if done {
+                break;
+            }
+        }
+    }
+
+    /// Scores of the inactive candidates and σ of the active ones.
+    fn scores(&self, st: &State, max_lag: usize) -> (Vec<ParamScore>, Vec<(usize, f64)>) {
+        let x0c: Vec<Vec<Vec<f64>>> = (0..self.segments.len()).map(|s| self.x0_cols(st, s)).collect();
+        let (rs, _) = self.residual(st);
+        let r = self.project(&x0c, &rs);
+        let act: Vec<usize> = (0..st.g.len()).filter(|&c| st.active[c]).collect();
+        let cols: Vec<Vec<f64>> = act.iter().map(|&c| self.project(&x0c, &self.g_col(st, c))).collect();
+        let n = r.len();
+        // Blocks for the coloured covariance: one per segment (rows are segment-major, outputs
+        // within): the typical block is one output of one segment.
+        let block = self.segments.first().map_or(n, |(a, b)| b - a);
+        let sig = if cols.is_empty() {
+            Vec::new()
+        } else {
+            ols(&cols, &r, block, max_lag)
+                .map(|f| act.iter().zip(f.sigma).map(|(&j, s)| (j, s)).collect())
+                .unwrap_or_default()
+        };
+        let mut out = Vec::new();
+        for (c, &param) in self.candidates.iter().enumerate() {
+            if st.active[c] {
+                continue;
+            }
+            let col = self.project(&x0c, &self.g_col(st, c));
+            let res = if cols.is_empty() {
+                ols(&[col], &r, block, max_lag).map(|f| {
+                    let t2 = if f.sigma[0] > 0.0 {
+                        (f.theta[0] / f.sigma[0]).powi(2)
+                    } else {
+                        0.0
+                    };
+                    (f, t2)
+                })
+            } else {
+                partial_test(&cols, &col, &r, block, max_lag)
+            };
+            if let Some((f, t2)) = res {
+                let k = f.theta.len() - 1;
+                out.push(ParamScore {
+                    param,
+                    value: st.g[c] + f.theta[k],
+                    sigma: f.sigma[k],
+                    t2,
+                });
+            }
+        }
+        (out, sig)
+    }
+
+    fn rms(&self, st: &State) -> Vec<f64> {
+        let (_, var) = self.residual(st);
+        var.iter().map(|v| v.sqrt()).collect()
+    }
+
+    /// The reconstructed outputs over the whole flight.
+    fn outputs_of(&self, st: &State) -> Vec<Vec<f64>> {
+        let mut y = vec![Vec::new(); self.measured.len()];
+        for (s, &(a, b)) in self.segments.iter().enumerate() {
+            for (o, yo) in (self.sim)(&st.g, &st.x0[s], a, b).into_iter().enumerate() {
+                y[o].extend(yo);
+            }
+        }
+        y
+    }
+}
+
+/// Splits `n` samples into segments of about `SEGMENT_S`.
+fn segments(n: usize, h_s: f64) -> Vec<(usize, usize)> {
+    let len = ((SEGMENT_S / h_s).round() as usize).max(50);
+    let k = (n / len).max(1);
+    (0..k).map(|i| (i * n / k, (i + 1) * n / k)).collect()
+}
+
+/// Runs a problem: baseline fit, forward selection of sensor errors. Returns (tested in the first
+/// round, found, rms before/after, final candidate values, reconstructed outputs, initial states).
+#[allow(clippy::type_complexity)]
+fn run(
+    prob: &Problem,
+    x0: Vec<Vec<f64>>,
+    s: &CompatSettings,
+    part: &'static str,
+) -> (
+    Vec<ParamScore>,
+    Vec<Found>,
+    Vec<OutputRms>,
+    Vec<f64>,
+    Vec<Vec<f64>>,
+    Vec<Vec<f64>>,
+) {
+    let nc = prob.candidates.len();
+    let mut st = State {
+        g: vec![0.0; nc],
+        active: vec![false; nc],
+        x0,
+        weights: vec![1.0; prob.measured.len()],
+    };
+    prob.fit(&mut st);
+    let before = prob.rms(&st);
+    let mut first = None;
+    let mut entered: Vec<(usize, f64)> = Vec::new();
+    for _ in 0..s.max_added {
+        let (scores, _) = prob.scores(&st, s.max_lag);
+        let best = scores
+            .iter()
+            .filter(|c| c.t2.is_finite())
+            .max_by(|a, b| a.t2.total_cmp(&b.t2))
+            .cloned();
+        if first.is_none() {
+            first = Some(scores);
+        }
+        match best {
+            Some(b) if b.t2 > s.threshold_t2 => {
+                let Some(c) = prob.candidates.iter().position(|c| *c == b.param) else {
+                    break;
+                };
+                st.active[c] = true;
+                st.g[c] = b.value;
+                prob.fit(&mut st);
+                entered.push((c, b.t2));
+            }
+            _ => break,
+        }
+    }
+    let (_, sig) = prob.scores(&st, s.max_lag);
+    let found = entered
+        .iter()
+        .map(|&(c, t2)| Found {
+            param: prob.candidates[c],
+            value: st.g[c],
+            sigma: sig.iter().find(|(k, _)| *k == c).map_or(f64::NAN, |x| x.1),
+            t2,
+            part,
+        })
+        .collect();
+    let after = prob.rms(&st);
+    let rms = prob
+        .outputs
+        .iter()
+        .zip(before.iter().zip(&after))
+        .map(|(&channel, (&b, &a))| OutputRms {
+            channel,
+            before: b,
+            after: a,
+        })
+        .collect();
+    let y = prob.outputs_of(&st);
+    (first.unwrap_or_default(), found, rms, st.g, y, st.x0)
+}
+
+/// RK4 over the sample grid with the inputs linearly interpolated; `f(x, k, frac)` is the state
+/// derivative at sample `k` plus `frac` of a step.
+fn integrate<const N: usize>(
+    x0: [f64; N],
+    start: usize,
+    end: usize,
+    h: f64,
+    f: impl Fn(&[f64; N], usize, f64) -> [f64; N],
+) -> Vec<[f64; N]> {
+    let mut xs = Vec::with_capacity(end - start);
+    let mut x = x0;
+    let add = |a: &[f64; N], b: &[f64; N], s: f64| -> [f64; N] { core::array::from_fn(|i| a[i] + s * b[i]) };
+    for k in start..end {
+        xs.push(x);
+        if k + 1 == end {
+            break;
+        }
+        let k1 = f(&x, k, 0.0);
+        let k2 = f(&add(&x, &k1, h / 2.0), k, 0.5);
+        let k3 = f(&add(&x, &k2, h / 2.0), k, 0.5);
+        let k4 = f(&add(&x, &k3, h), k, 1.0);
+        x = core::array::from_fn(|i| x[i] + h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]));
+    }
+    xs
+}
+
+fn lerp(x: &[f64], k: usize, frac: f64) -> f64 {
+    if frac == 0.0 || k + 1 >= x.len() {
+        x[k]
+    } else {
+        x[k] + frac * (x[k + 1] - x[k])
+    }
+}
+
+/// Unwraps an angle series (removes 2π jumps).
+fn unwrap(x: &[f64]) -> Vec<f64> {
+    let mut out = Vec::with_capacity(x.len());
+    let mut off = 0.0;
+    for (i, &v) in x.iter().enumerate() {
+        if i > 0 {
+            let d = v + off - out[i - 1];
+            if d > core::f64::consts::PI {
+                off -= core::f64::consts::TAU;
+            } else if d < -core::f64::consts::PI {
+                off += core::f64::consts::TAU;
+            }
+        }
+        out.push(v + off);
+    }
+    out
+}
+
+/// The compatibility check of a flight (uniform time base `h_s`).
+pub fn check(flight: &MeasuredFlight, h_s: f64, s: &CompatSettings) -> Compatibility {
+    use Quantity::*;
+    let mut out = Compatibility::default();
+    let n = flight.len();
+    let segs = segments(n, h_s);
+    let zeros = vec![0.0; n];
+    let get = |q: Quantity| flight.get(q);
+    let (Some(q_m), Some(theta_m)) = (get(PitchRate), get(Pitch)) else {
+        out.notes
+            .push("no pitch rate or pitch attitude: compatibility check not performed".into());
+        return out;
+    };
+    let lateral = get(RollRate).is_some() && get(YawRate).is_some() && get(Roll).is_some();
+    let p_m = get(RollRate).unwrap_or(&zeros);
+    let r_m = get(YawRate).unwrap_or(&zeros);
+    let phi_m = get(Roll).unwrap_or(&zeros);
+    // ---- Part A: attitude.
+    let psi_m = get(Yaw).filter(|_| lateral).map(unwrap);
+    let mut outputs = vec![Pitch];
+    let mut measured = vec![theta_m.to_vec()];
+    let mut cands = vec![SensorParam::Bias(PitchRate)];
+    if lateral {
+        outputs.insert(0, Roll);
+        measured.insert(0, phi_m.to_vec());
+        cands.insert(0, SensorParam::Bias(RollRate));
+        cands.push(SensorParam::Bias(YawRate));
+    }
+    if let Some(psi) = &psi_m {
+        outputs.push(Yaw);
+        measured.push(psi.clone());
+    }
+    let cands_a = cands.clone();
+    let bias_of = move |g: &[f64], q: Quantity| -> f64 {
+        cands_a
+            .iter()
+            .position(|c| *c == SensorParam::Bias(q))
+            .map_or(0.0, |i| g[i])
+    };
+    let outs_a = outputs.clone();
+    let sim_a = {
+        let bias_of = bias_of.clone();
+        move |g: &[f64], x0: &[f64], a: usize, b: usize| -> Vec<Vec<f64>> {
+            let (bp, bq, br) = (bias_of(g, RollRate), bias_of(g, PitchRate), bias_of(g, YawRate));
+            let xs = integrate([x0[0], x0[1], x0[2]], a, b, h_s, |x, k, fr| {
+                let (pp, qq, rr) = (lerp(p_m, k, fr) - bp, lerp(q_m, k, fr) - bq, lerp(r_m, k, fr) - br);
+                if !lateral {
+                    return [0.0, qq, 0.0];
+                }
+                let (sf, cf) = x[0].sin_cos();
+                let (st, ct) = x[1].sin_cos();
+                let ct = if ct.abs() < 1e-3 { 1e-3f64.copysign(ct) } else { ct };
+                [
+                    pp + (qq * sf + rr * cf) * st / ct,
+                    qq * cf - rr * sf,
+                    (qq * sf + rr * cf) / ct,
+                ]
+            });
+            outs_a
+                .iter()
+                .map(|o| {
+                    let i = match o {
+                        Roll => 0,
+                        Pitch => 1,
+                        _ => 2,
+                    };
+                    xs.iter().map(|x| x[i]).collect()
+                })
+                .collect()
+        }
+    };
+    let x0: Vec<Vec<f64>> = segs
+        .iter()
+        .map(|&(a, _)| vec![phi_m[a], theta_m[a], psi_m.as_ref().map_or(0.0, |v| v[a])])
+        .collect();
+    let prob_a = Problem {
+        nx: 3,
+        x_mask: vec![lateral, true, psi_m.is_some()],
+        x_steps: vec![1e-4; 3],
+        segments: segs.clone(),
+        candidates: cands.clone(),
+        sim: Box::new(sim_a),
+        measured,
+        outputs: outputs.clone(),
+    };
+    let (tested, found, rms, g_a, _, _) = run(&prob_a, x0, s, "attitude");
+    let gyro_bias = [
+        bias_of(&g_a, RollRate),
+        bias_of(&g_a, PitchRate),
+        bias_of(&g_a, YawRate),
+    ];
+    out.tested.extend(tested);
+    out.found.extend(found);
+    out.rms.extend(rms);
+    // ---- Part B: velocity and air data.
+    let (Some(ax), Some(az), Some(v_m), Some(a_m)) = (get(AccelX), get(AccelZ), get(Airspeed), get(Alpha)) else {
+        out.notes
+            .push("no accelerometer x/z, airspeed or α: air-data compatibility not checked".into());
+        return out;
+    };
+    let lat_v = lateral && get(AccelY).is_some();
+    let ay = get(AccelY).unwrap_or(&zeros);
+    let beta_m = get(Beta).filter(|_| lat_v);
+    let mut outputs = vec![Airspeed, Alpha];
+    let mut measured = vec![v_m.to_vec(), a_m.to_vec()];
+    let mut cands = vec![
+        SensorParam::Bias(AccelX),
+        SensorParam::Bias(AccelZ),
+        SensorParam::Bias(Airspeed),
+        SensorParam::Scale(Airspeed),
+        SensorParam::Delay(Airspeed),
+        SensorParam::Bias(Alpha),
+        SensorParam::Scale(Alpha),
+        SensorParam::Delay(Alpha),
+        SensorParam::VaneX(Alpha),
+    ];
+    if lat_v {
+        cands.push(SensorParam::Bias(AccelY));
+    }
+    if let Some(b) = beta_m {
+        outputs.push(Beta);
+        measured.push(b.to_vec());
+        cands.extend([
+            SensorParam::Bias(Beta),
+            SensorParam::Scale(Beta),
+            SensorParam::Delay(Beta),
+            SensorParam::VaneX(Beta),
+        ]);
+    }
+    let ac = &flight.aircraft;
+    let (rv_a, rv_b) = (ac.alpha_vane_position_m, ac.beta_vane_position_m);
+    let cands_b = cands.clone();
+    let par = move |g: &[f64], c: SensorParam| -> f64 { cands_b.iter().position(|x| *x == c).map_or(0.0, |i| g[i]) };
+    let pc: Vec<f64> = p_m.iter().map(|v| v - gyro_bias[0]).collect();
+    let qc: Vec<f64> = q_m.iter().map(|v| v - gyro_bias[1]).collect();
+    let rc: Vec<f64> = r_m.iter().map(|v| v - gyro_bias[2]).collect();
+    let (pc, qc, rc) = (&pc, &qc, &rc);
+    let outs_b = outputs.clone();
+    let states = {
+        let par = par.clone();
+        move |g: &[f64], x0: &[f64], a: usize, b: usize| -> Vec<[f64; 3]> {
+            use SensorParam as S;
+            let (bx, by, bz) = (
+                par(g, S::Bias(AccelX)),
+                par(g, S::Bias(AccelY)),
+                par(g, S::Bias(AccelZ)),
+            );
+            integrate([x0[0], x0[1], x0[2]], a, b, h_s, |x, k, fr| {
+                let w = Vector3::new(lerp(pc, k, fr), lerp(qc, k, fr), lerp(rc, k, fr));
+                let (sf, cf) = lerp(phi_m, k, fr).sin_cos();
+                let (st, ct) = lerp(theta_m, k, fr).sin_cos();
+                let acc = Vector3::new(lerp(ax, k, fr) - bx, lerp(ay, k, fr) - by, lerp(az, k, fr) - bz);
+                let gv = Vector3::new(-st, ct * sf, ct * cf) * G_MPS2;
+                let v = Vector3::new(x[0], if lat_v { x[1] } else { 0.0 }, x[2]);
+                let d = acc + gv - w.cross(&v);
+                [d.x, if lat_v { d.y } else { 0.0 }, d.z]
+            })
+        }
+    };
+    let states_c = states.clone();
+    let sim_b = move |g: &[f64], x0: &[f64], a: usize, b: usize| -> Vec<Vec<f64>> {
+        use SensorParam as S;
+        let xs = states(g, x0, a, b);
+        outs_b
+            .iter()
+            .map(|o| {
+                let base: Vec<f64> = xs
+                    .iter()
+                    .enumerate()
+                    .map(|(i, x)| {
+                        let k = a + i;
+                        let w = Vector3::new(pc[k], qc[k], rc[k]);
+                        let v = Vector3::new(x[0], x[1], x[2]);
+                        match o {
+                            Airspeed => v.norm(),
+                            Alpha => {
+                                let r = rv_a + Vector3::new(par(g, S::VaneX(Alpha)), 0.0, 0.0);
+                                let l = v + w.cross(&r);
+                                l.z.atan2(l.x)
+                            }
+                            _ => {
+                                let r = rv_b + Vector3::new(par(g, S::VaneX(Beta)), 0.0, 0.0);
+                                let l = v + w.cross(&r);
+                                (l.y / l.norm().max(1e-6)).clamp(-1.0, 1.0).asin()
+                            }
+                        }
+                    })
+                    .collect();
+                let delayed = shift(&base, h_s, -par(g, S::Delay(*o)));
+                let (k, bb) = (par(g, S::Scale(*o)), par(g, S::Bias(*o)));
+                delayed.iter().map(|y| (1.0 + k) * y + bb).collect()
+            })
+            .collect()
+    };
+    let x0: Vec<Vec<f64>> = segs
+        .iter()
+        .map(|&(a, b)| {
+            let k1 = (a + 10).min(b);
+            let (v0, al0) = (mean(&v_m[a..k1]), mean(&a_m[a..k1]));
+            let be0 = beta_m.map_or(0.0, |bb| mean(&bb[a..k1]));
+            vec![v0 * al0.cos() * be0.cos(), v0 * be0.sin(), v0 * al0.sin() * be0.cos()]
+        })
+        .collect();
+    let prob_b = Problem {
+        nx: 3,
+        x_mask: vec![true, lat_v, true],
+        x_steps: vec![1e-3; 3],
+        segments: segs,
+        candidates: cands,
+        sim: Box::new(sim_b),
+        measured: measured.clone(),
+        outputs: outputs.clone(),
+    };
+    let (tested, found, rms, g_b, y, x0_b) = run(&prob_b, x0, s, "velocity");
+    let mut air: [Vec<f64>; 3] = Default::default();
+    for (sg, &(a, b)) in prob_b.segments.iter().enumerate() {
+        for x in states_c(&g_b, &x0_b[sg], a, b) {
+            let v = Vector3::new(x[0], x[1], x[2]);
+            air[0].push(v.norm());
+            air[1].push(v.z.atan2(v.x));
+            air[2].push((v.y / v.norm().max(1e-6)).clamp(-1.0, 1.0).asin());
+        }
+    }
+    let [va, aa, ba] = air;
+    out.air_data.insert(Airspeed, va);
+    out.air_data.insert(Alpha, aa);
+    if lat_v {
+        out.air_data.insert(Beta, ba);
+    }
+    out.tested.extend(tested);
+    out.found.extend(found);
+    out.rms.extend(rms);
+    for ((o, m), yy) in outputs.iter().zip(measured).zip(y) {
+        out.traces.push((*o, m, yy));
+    }
+    out
+}

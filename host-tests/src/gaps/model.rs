@@ -1,0 +1,630 @@
+//! Coefficient synthesis from a [`MeasuredFlight`] (seed 000 eq. 1–2) and the model terms: the
+//! regressors of eq. 3 and the library of candidate causes of issue 6 §2.4.
+//!
+//! ## Synthesis (the same equations as [`aerosid_core::aero::synthesise`], on named channels)
+//! * Sensor errors found by the compatibility check are removed first (bias, scale, delay), the
+//!   vane angles are moved to the CG (`α = α_v − (p y_v − q x_v)/V`, `β = β_v − (r x_v − p z_v)/V`,
+//!   small-angle form of Klein & Morelli eq. 10.12–10.13) and the accelerometer to the CG
+//!   (`a_cg = a − ω̇ × r − ω × (ω × r)`).
+//! * Angular accelerations: a measured `ṗ, q̇, ṙ` channel when present, otherwise the 5-point
+//!   central difference of the gyro. Then every channel is smoothed with the same Savitzky–Golay
+//!   filter ([`super::signal`]).
+//! * `q̄ = ½ρV²` (a `DynamicPressure` channel if measured; `ρ` from `AirDensity`, else from the
+//!   ISA at `Altitude`, else sea level — reported as a note).
+//! * Thrust: [`ThrustSource::Measured`] along its line at its point, [`ThrustSource::Propeller`]
+//!   from `PropSpeed` by the core's propeller model (torque sign −1, the core's default),
+//!   [`ThrustSource::Unknown`] zero (thrust then belongs to `C_D`).
+//! * `F_A = m a_cg − F_T`; stability axes: `C_D = −(F_x cos α + F_z sin α)/(q̄S)`,
+//!   `C_L = (F_x sin α − F_z cos α)/(q̄S)`, `C_Y = F_y/(q̄S)`;
+//!   `M_A = J ω̇ + ω × Jω − M_T`, `C_l = M_x/(q̄Sb)`, `C_m = M_y/(q̄Sc̄)`, `C_n = M_z/(q̄Sb)`.
+//!
+//! A coefficient is synthesised only when its channels are present: `C_L`, `C_D` need `a_x`, `a_z`,
+//! `V`, `α`; `C_m` needs `q`, `V`; `C_Y` needs `a_y`; `C_l`, `C_n` need `p`, `r` (plus `q`).
+
+use super::signal::{derivative, sg_smooth, shift};
+use crate::io::measured::{MeasuredFlight, Quantity, ThrustSource};
+use crate::sim::atmosphere::isa_density;
+use aerosid_core::aero::synthesis::{propeller_output, propulsion_force_moment};
+use nalgebra::Vector3;
+use std::collections::BTreeMap;
+
+/// The six coefficients, in the order of `aerosid_core::aero::model::idx`.
+pub const COEFFICIENTS: [&str; 6] = ["C_L", "C_D", "C_Y", "C_l", "C_m", "C_n"];
+
+/// Whether coefficient `i` is longitudinal (`C_L`, `C_D`, `C_m`).
+pub fn is_longitudinal(i: usize) -> bool {
+    matches!(i, 0 | 1 | 4)
+}
+
+/// A synthesised signal of the table.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+pub enum Signal {
+    /// α at the CG, rad.
+    Alpha,
+    /// β at the CG, rad.
+    Beta,
+    /// `p b/(2V)`.
+    PN,
+    /// `q c̄/(2V)`.
+    QN,
+    /// `r b/(2V)`.
+    RN,
+    /// δe, rad.
+    Elevator,
+    /// δa, rad.
+    Aileron,
+    /// δr, rad.
+    Rudder,
+    /// V, m/s.
+    Airspeed,
+    /// Mach number.
+    Mach,
+    /// Thrust coefficient `T/(q̄S)`.
+    ThrustCoeff,
+    /// `α̇ c̄/(2V)`.
+    AlphaDotN,
+    /// `β̇ b/(2V)`.
+    BetaDotN,
+}
+
+/// Coefficients and signals of a flight, per sample, after correction and smoothing.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Table {
+    /// Time, s.
+    pub t_s: Vec<f64>,
+    /// The synthesised coefficients (`None`: channels missing).
+    pub z: [Option<Vec<f64>>; 6],
+    /// The regressor signals available.
+    pub signals: BTreeMap<Signal, Vec<f64>>,
+    /// Notes (assumptions taken for missing channels).
+    pub notes: Vec<String>,
+}
+
+/// Corrections from the compatibility check.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Corrections {
+    /// Additive bias per channel.
+    pub bias: BTreeMap<Quantity, f64>,
+    /// Scale factor error per channel.
+    pub scale: BTreeMap<Quantity, f64>,
+    /// Delay per channel, s.
+    pub delay_s: BTreeMap<Quantity, f64>,
+    /// Extra vane x positions, m (`Alpha`, `Beta`).
+    pub vane_dx_m: BTreeMap<Quantity, f64>,
+}
+
+/// Builds the table: corrections, CG transfer, derivatives, smoothing (half-width `sg_half`),
+/// synthesis.
+#[allow(non_snake_case)]
+///
+/// `air_data`: reconstructed `Airspeed`, `Alpha`, `Beta` at the CG from the compatibility check;
+/// when given they replace the (corrected) air-data channels. Why: the airspeed sensor's noise
+/// enters both `q̄` (so every coefficient) and any speed regressor, an errors-in-variables
+/// correlation that least squares turns into a spurious speed dependence; the reconstructed states
+/// carry only the integrated inertial noise.
+pub fn synthesise(
+    flight: &MeasuredFlight,
+    h_s: f64,
+    corr: &Corrections,
+    sg_half: usize,
+    air_data: Option<&BTreeMap<Quantity, Vec<f64>>>,
+) -> Table {
+    use Quantity::*;
+    let n = flight.len();
+    let ac = &flight.aircraft;
+    let mut notes = Vec::new();
+    // Corrected raw channels.
+    let raw = |q: Quantity| -> Option<Vec<f64>> {
+        if let Some(x) = air_data.and_then(|a| a.get(&q)) {
+            return Some(x.clone());
+        }
+        let x = flight.get(q)?;
+        let b = corr.bias.get(&q).copied().unwrap_or(0.0);
+        let k = corr.scale.get(&q).copied().unwrap_or(0.0);
+        let v: Vec<f64> = x.iter().map(|m| (m - b) / (1.0 + k)).collect();
+        Some(match corr.delay_s.get(&q) {
+            Some(&tau) => shift(&v, h_s, tau),
+            None => v,
+        })
+    };
+    let zeros = vec![0.0; n];
+    let (p, q, r) = (raw(RollRate), raw(PitchRate), raw(YawRate));
+    let rate_dot = |acc: Quantity, w: &Option<Vec<f64>>| -> Option<Vec<f64>> {
+        match flight.get(acc) {
+            Some(x) => Some(x.to_vec()),
+            None => w.as_ref().map(|w| derivative(w, h_s)),
+        }
+    };
+    let (pd, qd, rd) = (
+        rate_dot(RollAccel, &p),
+        rate_dot(PitchAccel, &q),
+        rate_dot(YawAccel, &r),
+    );
+    let sm = |x: Option<Vec<f64>>| x.map(|v| sg_smooth(&v, sg_half));
+    let v = sm(raw(Airspeed));
+    let wz = |x: &Option<Vec<f64>>| x.clone().unwrap_or_else(|| zeros.clone());
+    let (p_s, q_s, r_s) = (sm(p.clone()), sm(q.clone()), sm(r.clone()));
+    let (pd_s, qd_s, rd_s) = (sm(pd), sm(qd), sm(rd));
+    let lateral_rates = p.is_some() && r.is_some();
+    // Vane angles moved to the CG (before smoothing: the correction is linear in the rates).
+    let reconstructed = |q: Quantity| air_data.is_some_and(|a| a.contains_key(&q));
+    let alpha_raw = raw(Alpha).map(|a| {
+        if reconstructed(Alpha) {
+            return a;
+        }
+        let rv = ac.alpha_vane_position_m + Vector3::new(corr.vane_dx_m.get(&Alpha).copied().unwrap_or(0.0), 0.0, 0.0);
+        let vv = raw(Airspeed);
+        a.iter()
+            .enumerate()
+            .map(|(i, &al)| {
+                let vi = vv.as_ref().map_or(f64::INFINITY, |x| x[i].max(1.0));
+                let pi = p.as_ref().map_or(0.0, |x| x[i]);
+                let qi = q.as_ref().map_or(0.0, |x| x[i]);
+                al - (pi * rv.y - qi * rv.x) / vi
+            })
+            .collect::<Vec<f64>>()
+    });
+    let beta_raw = raw(Beta).map(|b| {
+        if reconstructed(Beta) {
+            return b;
+        }
+        let rv = ac.beta_vane_position_m + Vector3::new(corr.vane_dx_m.get(&Beta).copied().unwrap_or(0.0), 0.0, 0.0);
+        let vv = raw(Airspeed);
+        b.iter()
+            .enumerate()
+            .map(|(i, &be)| {
+                let vi = vv.as_ref().map_or(f64::INFINITY, |x| x[i].max(1.0));
+                let pi = p.as_ref().map_or(0.0, |x| x[i]);
+                let ri = r.as_ref().map_or(0.0, |x| x[i]);
+                be - (ri * rv.x - pi * rv.z) / vi
+            })
+            .collect::<Vec<f64>>()
+    });
+    let alpha_dot = alpha_raw.as_ref().map(|a| sg_smooth(&derivative(a, h_s), sg_half));
+    let beta_dot = beta_raw.as_ref().map(|b| sg_smooth(&derivative(b, h_s), sg_half));
+    let alpha = sm(alpha_raw);
+    let beta = sm(beta_raw);
+    let (de, da, dr) = (sm(raw(Elevator)), sm(raw(Aileron)), sm(raw(Rudder)));
+    let (axs, ays, azs) = (sm(raw(AccelX)), sm(raw(AccelY)), sm(raw(AccelZ)));
+    // Density and dynamic pressure.
+    let rho: Option<Vec<f64>> = match (flight.get(AirDensity), flight.get(Altitude)) {
+        (Some(x), _) => Some(sg_smooth(x, sg_half)),
+        (None, Some(h)) => {
+            notes.push("air density from the ISA at the pressure altitude".into());
+            Some(h.iter().map(|&h| isa_density(h)).collect())
+        }
+        _ => None,
+    };
+    let qbar: Option<Vec<f64>> = match (flight.get(DynamicPressure), &rho, &v) {
+        (Some(x), _, _) => Some(sg_smooth(x, sg_half)),
+        (None, Some(rho), Some(v)) => Some(rho.iter().zip(v).map(|(r, v)| 0.5 * r * v * v).collect()),
+        (None, None, Some(v)) => {
+            notes.push("no density, dynamic pressure or altitude: ISA sea-level density assumed".into());
+            Some(v.iter().map(|v| 0.5 * 1.225 * v * v).collect())
+        }
+        _ => None,
+    };
+    let mut signals = BTreeMap::new();
+    let mut z: [Option<Vec<f64>>; 6] = Default::default();
+    let (S, b, c) = (ac.wing_area_m2, ac.span_m, ac.chord_m);
+    let J = ac.inertia_kgm2;
+    let (Some(v), Some(qbar)) = (v, qbar) else {
+        notes.push("no airspeed or dynamic pressure: no coefficient can be synthesised".into());
+        return Table {
+            t_s: flight.t_s.clone(),
+            z,
+            signals,
+            notes,
+        };
+    };
+    let vv: Vec<f64> = v.iter().map(|x| x.max(1.0)).collect();
+    let rho_v: Vec<f64> = (0..n).map(|i| 2.0 * qbar[i] / (vv[i] * vv[i])).collect();
+    let al = alpha.clone().unwrap_or_else(|| zeros.clone());
+    let be = beta.clone().unwrap_or_else(|| zeros.clone());
+    let (pw, qw, rw) = (wz(&p_s), wz(&q_s), wz(&r_s));
+    let (pdw, qdw, rdw) = (wz(&pd_s), wz(&qd_s), wz(&rd_s));
+    // Thrust force and moment.
+    let mut thrust_n = vec![0.0; n];
+    let mut f_t = vec![Vector3::zeros(); n];
+    let mut m_t = vec![Vector3::zeros(); n];
+    let mut thrust_known = true;
+    match &ac.thrust {
+        ThrustSource::Measured { position_m, pitch_rad } => match flight.get(Thrust) {
+            Some(tt) => {
+                let tt = sg_smooth(tt, sg_half);
+                let u = Vector3::new(pitch_rad.cos(), 0.0, -pitch_rad.sin());
+                for i in 0..n {
+                    thrust_n[i] = tt[i];
+                    f_t[i] = u * tt[i];
+                    m_t[i] = position_m.cross(&f_t[i]);
+                }
+            }
+            None => {
+                thrust_known = false;
+                notes.push("thrust declared measured but no Thrust channel: thrust taken as zero".into());
+            }
+        },
+        ThrustSource::Propeller(prop) => match sm(raw(PropSpeed)) {
+            Some(w) => {
+                for i in 0..n {
+                    let (sa, ca) = al[i].sin_cos();
+                    let (sp, cp) = prop.pitch_rad.sin_cos();
+                    let axial = vv[i] * be[i].cos() * (ca * cp - sa * sp);
+                    let o = propeller_output(prop, rho_v[i], axial, w[i]);
+                    let (f, m) = propulsion_force_moment(prop, &o, -1.0);
+                    thrust_n[i] = o.thrust_n;
+                    f_t[i] = f;
+                    m_t[i] = m;
+                }
+            }
+            None => {
+                thrust_known = false;
+                notes.push("propeller model but no PropSpeed channel: thrust taken as zero".into());
+            }
+        },
+        ThrustSource::Unknown => {
+            thrust_known = false;
+            notes.push("thrust unknown: it is part of C_D and no thrust candidate is tested".into());
+        }
+    }
+    // Accelerometer to the CG.
+    let ra = ac.accel_position_m;
+    let accel = |i: usize, x: &Option<Vec<f64>>, k: usize| -> Option<f64> {
+        let a = x.as_ref()?[i];
+        if ra == Vector3::zeros() {
+            return Some(a);
+        }
+        let w = Vector3::new(pw[i], qw[i], rw[i]);
+        let wd = Vector3::new(pdw[i], qdw[i], rdw[i]);
+        let corr = wd.cross(&ra) + w.cross(&w.cross(&ra));
+        Some(a - corr[k])
+    };
+    let qs: Vec<f64> = qbar.iter().map(|q| q * S).collect();
+    if let (Some(_), Some(_), Some(_)) = (&axs, &azs, &alpha) {
+        let mut cl = vec![0.0; n];
+        let mut cd = vec![0.0; n];
+        for i in 0..n {
+            let (Some(ax), Some(az)) = (accel(i, &axs, 0), accel(i, &azs, 2)) else {
+                continue;
+            };
+            let fx = ac.mass_kg * ax - f_t[i].x;
+            let fz = ac.mass_kg * az - f_t[i].z;
+            let (sa, ca) = al[i].sin_cos();
+            cd[i] = -(fx * ca + fz * sa) / qs[i];
+            cl[i] = (fx * sa - fz * ca) / qs[i];
+        }
+        z[0] = Some(cl);
+        z[1] = Some(cd);
+    }
+    if ays.is_some() {
+        z[2] = Some(
+            (0..n)
+                .map(|i| (ac.mass_kg * accel(i, &ays, 1).unwrap_or(0.0) - f_t[i].y) / qs[i])
+                .collect(),
+        );
+    }
+    if q_s.is_some() || lateral_rates {
+        let mut mom = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
+        for i in 0..n {
+            let w = Vector3::new(pw[i], qw[i], rw[i]);
+            let wd = Vector3::new(pdw[i], qdw[i], rdw[i]);
+            let m = J * wd + w.cross(&(J * w)) - m_t[i];
+            mom[0][i] = m.x / (qs[i] * b);
+            mom[1][i] = m.y / (qs[i] * c);
+            mom[2][i] = m.z / (qs[i] * b);
+        }
+        let [ml, mm, mn] = mom;
+        if q_s.is_some() {
+            z[4] = Some(mm);
+        }
+        if lateral_rates {
+            z[3] = Some(ml);
+            z[5] = Some(mn);
+        }
+    }
+    if let Some(a) = alpha {
+        signals.insert(Signal::Alpha, a);
+    }
+    if let Some(bb) = beta {
+        signals.insert(Signal::Beta, bb);
+    }
+    if let Some(x) = &p_s {
+        signals.insert(Signal::PN, (0..n).map(|i| x[i] * b / (2.0 * vv[i])).collect());
+    }
+    if let Some(x) = &q_s {
+        signals.insert(Signal::QN, (0..n).map(|i| x[i] * c / (2.0 * vv[i])).collect());
+    }
+    if let Some(x) = &r_s {
+        signals.insert(Signal::RN, (0..n).map(|i| x[i] * b / (2.0 * vv[i])).collect());
+    }
+    for (sig, x) in [(Signal::Elevator, de), (Signal::Aileron, da), (Signal::Rudder, dr)] {
+        if let Some(x) = x {
+            signals.insert(sig, x);
+        }
+    }
+    if let Some(m) = flight.get(Mach) {
+        signals.insert(Signal::Mach, sg_smooth(m, sg_half));
+    }
+    if thrust_known {
+        signals.insert(Signal::ThrustCoeff, (0..n).map(|i| thrust_n[i] / qs[i]).collect());
+    }
+    if let Some(x) = alpha_dot {
+        signals.insert(Signal::AlphaDotN, (0..n).map(|i| x[i] * c / (2.0 * vv[i])).collect());
+    }
+    if let Some(x) = beta_dot {
+        signals.insert(Signal::BetaDotN, (0..n).map(|i| x[i] * b / (2.0 * vv[i])).collect());
+    }
+    signals.insert(Signal::Airspeed, v);
+    Table {
+        t_s: flight.t_s.clone(),
+        z,
+        signals,
+        notes,
+    }
+}
+
+/// What kind of cause a term or sensor error stands for (issue 6 §2.4 and §3).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, serde::Serialize)]
+pub enum CauseKind {
+    /// α², α³, a stall break: a lift/drag/moment curve that is not linear in α.
+    NonlinearAlpha,
+    /// A control effect the baseline lacks (|δ|, δ², α·δ, or a missing δ).
+    ControlTerm,
+    /// α̇ (downwash lag) or β̇.
+    AlphaDot,
+    /// A thrust term (thrust-line moment, propwash).
+    Thrust,
+    /// Longitudinal–lateral coupling (α·β, α·p, α·r, β² in a longitudinal coefficient).
+    CrossCoupling,
+    /// Nonlinear in β within a lateral coefficient (β³).
+    NonlinearBeta,
+    /// Rate terms beyond eq. 3 (α·q).
+    RateNonlinearity,
+    /// Airspeed or Mach dependence.
+    SpeedDependence,
+    /// An eq. 3 regressor missing from the given baseline.
+    MissingBaselineTerm,
+    /// A sensor bias.
+    SensorBias,
+    /// A sensor scale factor (e.g. vane upwash).
+    ScaleFactor,
+    /// A channel's time delay.
+    TimeDelay,
+    /// A vane not where the aircraft file says (not at the CG).
+    VanePosition,
+}
+
+/// A model term: an eq. 3 regressor or a candidate of the library.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Term {
+    /// 1.
+    One,
+    /// α.
+    Alpha,
+    /// α².
+    Alpha2,
+    /// α³.
+    Alpha3,
+    /// `(α − α_b)₊²`: a stall break above `α_b`, the 85th percentile of α in the identification data.
+    StallBreak,
+    /// β.
+    Beta,
+    /// β².
+    Beta2,
+    /// |β|.
+    AbsBeta,
+    /// β³.
+    Beta3,
+    /// `p b/(2V)`.
+    P,
+    /// `q c̄/(2V)`.
+    Q,
+    /// `r b/(2V)`.
+    R,
+    /// δe.
+    Elevator,
+    /// δa.
+    Aileron,
+    /// δr.
+    Rudder,
+    /// |δe|.
+    AbsElevator,
+    /// δe².
+    Elevator2,
+    /// α·q_n.
+    AlphaQ,
+    /// α·δe.
+    AlphaElevator,
+    /// α·δa.
+    AlphaAileron,
+    /// α·β.
+    AlphaBeta,
+    /// α·p_n.
+    AlphaP,
+    /// α·r_n.
+    AlphaR,
+    /// `α̇ c̄/(2V)`.
+    AlphaDot,
+    /// `β̇ b/(2V)`.
+    BetaDot,
+    /// `(V − V_ref)/V_ref`, `V_ref` the identification mean.
+    Speed,
+    /// `M − M_ref`.
+    Mach,
+    /// Thrust coefficient `T/(q̄S)`.
+    Thrust,
+    /// `T/(q̄S) · δe` (propwash on the tail).
+    ThrustElevator,
+}
+
+/// Reference values of the terms that need them, from the identification segment.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TermRefs {
+    /// α of the stall break, rad.
+    pub alpha_break_rad: f64,
+    /// Reference airspeed, m/s.
+    pub airspeed_mps: f64,
+    /// Reference Mach number.
+    pub mach: f64,
+}
+
+impl Term {
+    /// The eq. 3 regressors (seed 000 with δa in `C_l`, `C_n`; the core's defaults).
+    pub fn eq3(coef: usize) -> Vec<Term> {
+        use Term::*;
+        match coef {
+            0 | 4 => vec![One, Alpha, Q, Elevator],
+            1 => vec![One, Alpha, Alpha2, Q, Elevator],
+            _ => vec![One, Beta, P, R, Aileron, Rudder],
+        }
+    }
+
+    /// The candidate library of a coefficient (before removing terms already in the model).
+    pub fn library(coef: usize) -> Vec<Term> {
+        use Term::*;
+        if is_longitudinal(coef) {
+            vec![
+                One,
+                Alpha,
+                Alpha2,
+                Alpha3,
+                StallBreak,
+                Q,
+                Elevator,
+                AbsElevator,
+                Elevator2,
+                AlphaElevator,
+                AlphaQ,
+                AlphaDot,
+                Beta2,
+                AbsBeta,
+                Speed,
+                Mach,
+                Thrust,
+                ThrustElevator,
+            ]
+        } else {
+            vec![
+                One,
+                Beta,
+                P,
+                R,
+                Aileron,
+                Rudder,
+                Beta3,
+                AlphaBeta,
+                AlphaP,
+                AlphaR,
+                AlphaAileron,
+                BetaDot,
+                Speed,
+                Mach,
+                Thrust,
+            ]
+        }
+    }
+
+    /// Printable name.
+    pub fn name(&self) -> &'static str {
+        use Term::*;
+        match self {
+            One => "1",
+            Alpha => "α",
+            Alpha2 => "α²",
+            Alpha3 => "α³",
+            StallBreak => "(α−α_b)₊²",
+            Beta => "β",
+            Beta2 => "β²",
+            AbsBeta => "|β|",
+            Beta3 => "β³",
+            P => "p_n",
+            Q => "q_n",
+            R => "r_n",
+            Elevator => "δe",
+            Aileron => "δa",
+            Rudder => "δr",
+            AbsElevator => "|δe|",
+            Elevator2 => "δe²",
+            AlphaQ => "α·q_n",
+            AlphaElevator => "α·δe",
+            AlphaAileron => "α·δa",
+            AlphaBeta => "α·β",
+            AlphaP => "α·p_n",
+            AlphaR => "α·r_n",
+            AlphaDot => "α̇_n",
+            BetaDot => "β̇_n",
+            Speed => "ΔV/V",
+            Mach => "ΔM",
+            Thrust => "C_T",
+            ThrustElevator => "C_T·δe",
+        }
+    }
+
+    /// The cause this term stands for when it is added to coefficient `coef`.
+    pub fn kind(&self, coef: usize) -> CauseKind {
+        use Term::*;
+        match self {
+            Alpha2 | Alpha3 | StallBreak => CauseKind::NonlinearAlpha,
+            AbsElevator | Elevator2 | AlphaElevator | AlphaAileron | Elevator | Aileron | Rudder => {
+                CauseKind::ControlTerm
+            }
+            AlphaDot | BetaDot => CauseKind::AlphaDot,
+            Thrust | ThrustElevator => CauseKind::Thrust,
+            AlphaBeta | AlphaP | AlphaR => CauseKind::CrossCoupling,
+            Beta2 | AbsBeta if is_longitudinal(coef) => CauseKind::CrossCoupling,
+            Beta2 | AbsBeta | Beta3 => CauseKind::NonlinearBeta,
+            AlphaQ => CauseKind::RateNonlinearity,
+            Speed | Mach => CauseKind::SpeedDependence,
+            One | Alpha | Beta | P | Q | R => CauseKind::MissingBaselineTerm,
+        }
+    }
+
+    /// The term's column, or `None` when a signal it needs is missing.
+    pub fn column(&self, t: &Table, refs: &TermRefs) -> Option<Vec<f64>> {
+        use Term::*;
+        let s = |x: Signal| t.signals.get(&x);
+        let n = t.t_s.len();
+        let map1 = |x: Signal, f: &dyn Fn(f64) -> f64| s(x).map(|v| v.iter().map(|&a| f(a)).collect());
+        let map2 = |x: Signal, y: Signal| Some(s(x)?.iter().zip(s(y)?).map(|(a, b)| a * b).collect());
+        match self {
+            One => Some(vec![1.0; n]),
+            Alpha => s(Signal::Alpha).cloned(),
+            Alpha2 => map1(Signal::Alpha, &|a| a * a),
+            Alpha3 => map1(Signal::Alpha, &|a| a * a * a),
+            StallBreak => {
+                let ab = refs.alpha_break_rad;
+                map1(Signal::Alpha, &|a| (a - ab).max(0.0).powi(2))
+            }
+            Beta => s(Signal::Beta).cloned(),
+            Beta2 => map1(Signal::Beta, &|a| a * a),
+            AbsBeta => map1(Signal::Beta, &|a| a.abs()),
+            Beta3 => map1(Signal::Beta, &|a| a * a * a),
+            P => s(Signal::PN).cloned(),
+            Q => s(Signal::QN).cloned(),
+            R => s(Signal::RN).cloned(),
+            Elevator => s(Signal::Elevator).cloned(),
+            Aileron => s(Signal::Aileron).cloned(),
+            Rudder => s(Signal::Rudder).cloned(),
+            AbsElevator => map1(Signal::Elevator, &|a| a.abs()),
+            Elevator2 => map1(Signal::Elevator, &|a| a * a),
+            AlphaQ => map2(Signal::Alpha, Signal::QN),
+            AlphaElevator => map2(Signal::Alpha, Signal::Elevator),
+            AlphaAileron => map2(Signal::Alpha, Signal::Aileron),
+            AlphaBeta => map2(Signal::Alpha, Signal::Beta),
+            AlphaP => map2(Signal::Alpha, Signal::PN),
+            AlphaR => map2(Signal::Alpha, Signal::RN),
+            AlphaDot => s(Signal::AlphaDotN).cloned(),
+            BetaDot => s(Signal::BetaDotN).cloned(),
+            Speed => {
+                let v0 = refs.airspeed_mps;
+                map1(Signal::Airspeed, &|v| (v - v0) / v0)
+            }
+            Mach => {
+                let m0 = refs.mach;
+                map1(Signal::Mach, &|m| m - m0)
+            }
+            Thrust => s(Signal::ThrustCoeff).cloned(),
+            ThrustElevator => map2(Signal::ThrustCoeff, Signal::Elevator),
+        }
+    }
+}

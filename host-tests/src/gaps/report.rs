@@ -1,0 +1,299 @@
+//! The report of the model-gap analysis: a terminal table a person reads, SVG figures, and the JSON
+//! document a script reads (schema `aerosid-gaps/1`, described in `docs/model-gaps.md`).
+
+use super::{CoefficientGap, GapReport};
+use crate::plot::{Colour, Figure, Line, Panel, PlotError};
+use serde_json::{json, Value};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+/// The terminal table.
+pub fn table(r: &GapReport) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "model-gap analysis — {}", r.source);
+    let _ = writeln!(
+        s,
+        "aircraft {}; identification {:.1}–{:.1} s, held out {:.1}–{:.1} s; {} candidates tested, threshold t² > {:.1} (α = {} / {} two-sided, and PSE must fall)",
+        r.aircraft,
+        r.identification_s[0],
+        r.identification_s[1],
+        r.validation_s[0],
+        r.validation_s[1],
+        r.candidates_tested,
+        r.threshold_t2,
+        r.settings.alpha,
+        r.candidates_tested
+    );
+    for n in r.notes.iter().chain(&r.compatibility.notes) {
+        let _ = writeln!(s, "note: {n}");
+    }
+    let _ = writeln!(s, "\n1. data compatibility (flight-path reconstruction)");
+    let _ = writeln!(s, "   {:<10} {:>12} {:>12}", "output", "RMS before", "RMS after");
+    for o in &r.compatibility.rms {
+        let _ = writeln!(
+            s,
+            "   {:<10} {:>12.5} {:>12.5}",
+            format!("{:?}", o.channel),
+            o.before,
+            o.after
+        );
+    }
+    let mut tested = r.compatibility.tested.clone();
+    tested.sort_by(|a, b| b.t2.total_cmp(&a.t2));
+    let _ = writeln!(s, "   best candidates (first round): ");
+    for c in tested.iter().take(5) {
+        let _ = writeln!(
+            s,
+            "     {:<18} t² {:>10.1}   {:+.5} ± {:.5} {}",
+            c.param.name(),
+            c.t2,
+            c.value,
+            c.sigma,
+            c.param.unit()
+        );
+    }
+    if r.compatibility.found.is_empty() {
+        let _ = writeln!(s, "   sensor errors found: none");
+    }
+    for f in &r.compatibility.found {
+        let _ = writeln!(
+            s,
+            "   FOUND {:<18} {:+.5} ± {:.5} {} (t² {:.1}, {} part)",
+            f.param.name(),
+            f.value,
+            f.sigma,
+            f.param.unit(),
+            f.t2,
+            f.part
+        );
+    }
+    let _ = writeln!(
+        s,
+        "\n2–5. coefficients (R², RMS on the held-out segment; PSE on identification)"
+    );
+    let _ = writeln!(
+        s,
+        "   {:<5} {:>8} {:>10} {:>10} | {:>8} {:>10} {:>10} | {:<14} {:>9} | added",
+        "coef", "R² base", "RMS base", "PSE base", "R² ext", "RMS ext", "PSE ext", "best candidate", "t²"
+    );
+    for c in &r.coefficients {
+        let best = c.candidates.first();
+        let added: Vec<String> = c
+            .added
+            .iter()
+            .map(|a| format!("{} = {:.4} ± {:.4} ({:?})", a.term, a.value, a.sigma, a.kind))
+            .collect();
+        let _ = writeln!(
+            s,
+            "   {:<5} {:>8.4} {:>10.3e} {:>10.3e} | {:>8.4} {:>10.3e} {:>10.3e} | {:<14} {:>9.1} | {}",
+            c.name,
+            c.baseline.validation.r2,
+            c.baseline.validation.rms,
+            c.baseline.identification.pse,
+            c.extended.validation.r2,
+            c.extended.validation.rms,
+            c.extended.identification.pse,
+            best.map_or("-".into(), |b| b.term.clone()),
+            best.map_or(0.0, |b| b.t2),
+            if added.is_empty() {
+                "nothing".into()
+            } else {
+                added.join(", ")
+            }
+        );
+    }
+    let _ = writeln!(s, "\n6. verdict");
+    match r.top_cause() {
+        None => {
+            let _ = writeln!(s, "   nothing missing: no candidate passes the threshold");
+        }
+        Some(t) => {
+            for (k, c) in r.named.iter().enumerate() {
+                let _ = writeln!(
+                    s,
+                    "   {} {:?} in {}: {} = {:.5} ± {:.5} (t² {:.1})",
+                    if k == 0 { "TOP" } else { "   " },
+                    c.kind,
+                    c.location,
+                    c.what,
+                    c.value,
+                    c.sigma,
+                    c.t2
+                );
+            }
+            let _ = t;
+        }
+    }
+    s
+}
+
+/// The JSON document (schema `aerosid-gaps/1`).
+pub fn json(r: &GapReport) -> Value {
+    let f = |x: f64| if x.is_finite() { json!(x) } else { Value::Null };
+    let compat = &r.compatibility;
+    json!({
+        "schema": "aerosid-gaps/1",
+        "source": r.source,
+        "aircraft": r.aircraft,
+        "segments": {
+            "identification_s": [f(r.identification_s[0]), f(r.identification_s[1])],
+            "validation_s": [f(r.validation_s[0]), f(r.validation_s[1])],
+        },
+        "criterion": {
+            "statistic": "partial t² (coloured-residual σ), forward selection",
+            "alpha": r.settings.alpha,
+            "candidates_tested": r.candidates_tested,
+            "threshold_t2": f(r.threshold_t2),
+            "pse_must_decrease": true,
+        },
+        "notes": r.notes.iter().chain(&compat.notes).collect::<Vec<_>>(),
+        "compatibility": {
+            "outputs": compat.rms.iter().map(|o| json!({
+                "channel": format!("{:?}", o.channel), "rms_before": f(o.before), "rms_after": f(o.after),
+            })).collect::<Vec<_>>(),
+            "tested": compat.tested.iter().map(|c| json!({
+                "parameter": c.param.name(), "channel": format!("{:?}", c.param.channel()),
+                "kind": format!("{:?}", super::param_kind(&c.param)), "unit": c.param.unit(),
+                "value": f(c.value), "sigma": f(c.sigma), "t2": f(c.t2),
+                "significant": c.t2 > r.threshold_t2,
+            })).collect::<Vec<_>>(),
+            "found": compat.found.iter().map(|c| json!({
+                "parameter": c.param.name(), "channel": format!("{:?}", c.param.channel()),
+                "kind": format!("{:?}", super::param_kind(&c.param)), "unit": c.param.unit(),
+                "value": f(c.value), "sigma": f(c.sigma), "t2": f(c.t2), "part": c.part,
+            })).collect::<Vec<_>>(),
+        },
+        "coefficients": r.coefficients.iter().map(coef_json).collect::<Vec<_>>(),
+        "named": r.named.iter().map(|c| json!({
+            "kind": c.kind, "location": c.location, "what": c.what,
+            "t2": f(c.t2), "value": f(c.value), "sigma": f(c.sigma),
+        })).collect::<Vec<_>>(),
+        "top_cause": r.top_cause().map(|c| json!({
+            "kind": c.kind, "location": c.location, "what": c.what, "t2": f(c.t2),
+        })),
+    })
+}
+
+fn coef_json(c: &CoefficientGap) -> Value {
+    // serde_json writes NaN as null.
+    json!({
+        "name": c.name,
+        "dropped_terms": c.dropped_terms,
+        "baseline": c.baseline,
+        "candidates": c.candidates,
+        "added": c.added,
+        "extended": c.extended,
+    })
+}
+
+/// Writes `report.json`, `report.txt` and the figures into `dir`; returns the files written.
+pub fn write(r: &GapReport, dir: &Path) -> Result<Vec<PathBuf>, ReportError> {
+    std::fs::create_dir_all(dir).map_err(|e| ReportError::Io(dir.to_path_buf(), e))?;
+    let mut files = Vec::new();
+    let j = dir.join("report.json");
+    let text = serde_json::to_string_pretty(&json(r)).map_err(|e| ReportError::Json(e.to_string()))?;
+    std::fs::write(&j, text).map_err(|e| ReportError::Io(j.clone(), e))?;
+    files.push(j);
+    let t = dir.join("report.txt");
+    std::fs::write(&t, table(r)).map_err(|e| ReportError::Io(t.clone(), e))?;
+    files.push(t);
+    for c in &r.coefficients {
+        let p = dir.join(format!("gap_{}.svg", c.name.replace('_', "")));
+        coefficient_figure(c).write_svg(&p).map_err(ReportError::Plot)?;
+        files.push(p);
+    }
+    if !r.compatibility.traces.is_empty() {
+        let p = dir.join("compatibility.svg");
+        let mut fig = Figure::new("time [s]")
+            .title("flight-path reconstruction: measured vs reconstructed (errors found removed)");
+        let n = r.compatibility.traces[0].1.len();
+        let t: Vec<f64> = r
+            .coefficients
+            .first()
+            .map_or_else(|| (0..n).map(|i| i as f64).collect(), |c| c.traces.t_s.clone());
+        for (q, m, y) in &r.compatibility.traces {
+            let res: Vec<f64> = m.iter().zip(y).map(|(a, b)| a - b).collect();
+            fig = fig
+                .panel(
+                    Panel::new(format!("{q:?}"), format!("{q:?}"))
+                        .line(Line::new("measured", &t, m, Colour::GREY))
+                        .line(Line::new("reconstructed", &t, y, Colour::BLUE)),
+                )
+                .panel(
+                    Panel::new(format!("{q:?} residual"), "measured − reconstructed").line(Line::new(
+                        "residual",
+                        &t,
+                        &res,
+                        Colour::VERMILLION,
+                    )),
+                );
+        }
+        fig.write_svg(&p).map_err(ReportError::Plot)?;
+        files.push(p);
+    }
+    Ok(files)
+}
+
+/// Measured vs baseline and extended predictions, and both residuals, of one coefficient.
+pub fn coefficient_figure(c: &CoefficientGap) -> Figure {
+    let tr = &c.traces;
+    let rb: Vec<f64> = tr.measured.iter().zip(&tr.baseline).map(|(a, b)| a - b).collect();
+    let re: Vec<f64> = tr.measured.iter().zip(&tr.extended).map(|(a, b)| a - b).collect();
+    let added: Vec<&str> = c.added.iter().map(|a| a.term.as_str()).collect();
+    let t_split = tr.t_s.get(tr.split).copied().unwrap_or(0.0);
+    Figure::new("time [s]")
+        .title(format!(
+            "{}: identification before {:.1} s, held out after; added: {}",
+            c.name,
+            t_split,
+            if added.is_empty() {
+                "nothing".into()
+            } else {
+                added.join(", ")
+            }
+        ))
+        .panel(
+            Panel::new(format!("{} measured vs predicted", c.name), c.name.clone())
+                .line(Line::new("synthesised (eq. 1–2)", &tr.t_s, &tr.measured, Colour::GREY))
+                .line(Line::new("baseline", &tr.t_s, &tr.baseline, Colour::BLUE))
+                .line(Line::new("extended", &tr.t_s, &tr.extended, Colour::VERMILLION).dashed()),
+        )
+        .panel(
+            Panel::new("residuals", "measured − predicted")
+                .line(Line::new(
+                    format!("baseline (held-out RMS {:.2e})", c.baseline.validation.rms),
+                    &tr.t_s,
+                    &rb,
+                    Colour::BLUE,
+                ))
+                .line(Line::new(
+                    format!("extended (held-out RMS {:.2e})", c.extended.validation.rms),
+                    &tr.t_s,
+                    &re,
+                    Colour::VERMILLION,
+                )),
+        )
+}
+
+/// Why the report could not be written.
+#[derive(Debug)]
+pub enum ReportError {
+    /// A file or directory could not be written.
+    Io(PathBuf, std::io::Error),
+    /// JSON serialisation failed.
+    Json(String),
+    /// A figure failed.
+    Plot(PlotError),
+}
+
+impl core::fmt::Display for ReportError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::Io(p, e) => write!(f, "{}: {e}", p.display()),
+            Self::Json(e) => write!(f, "JSON: {e}"),
+            Self::Plot(e) => write!(f, "figure: {e}"),
+        }
+    }
+}
+
+impl std::error::Error for ReportError {}
