@@ -11,6 +11,8 @@
 //! on-board `f32` pipeline and, with `--qemu`, runs the firmware under QEMU on the same log and
 //! checks its telemetry against the host bit for bit ([`aerosid_host::replay`]).
 //!
+//! `aerosid gaps --data FILE --with MAP_OR_AIRCRAFT [--out DIR]` (a measured flight, read by
+//! [`aerosid_host::io::read_measured`]) or
 //! `aerosid gaps --simulate KIND | --clean [--seed N] [--seconds S] [--out DIR]`: the model-gap
 //! analysis (issue 6, [`aerosid_host::gaps::run_gaps`]) of a simulated flight with one hidden
 //! effect, or none; table on the terminal, `report.json`, `report.txt` and SVG figures in `DIR`.
@@ -57,6 +59,8 @@ enum Command {
     },
     Gaps {
         hidden: Option<aerosid_host::gaps::hidden::HiddenKind>,
+        /// A measured flight and its column map or aircraft file, instead of a simulated flight.
+        data: Option<(std::path::PathBuf, std::path::PathBuf)>,
         seed: u64,
         seconds: f64,
         out: std::path::PathBuf,
@@ -109,6 +113,7 @@ fn parse() -> Result<Option<Command>, String> {
             // `aerosid gaps --simulate KIND | --clean [--seed N] [--seconds S] [--out DIR]`.
             let (mut hidden, mut clean, mut seed, mut seconds, mut out) =
                 (None, false, 1u64, 90.0, std::path::PathBuf::from("out/gaps"));
+            let (mut data, mut with): (Option<std::path::PathBuf>, Option<std::path::PathBuf>) = (None, None);
             while let Some(flag) = it.next() {
                 if flag == "--clean" {
                     clean = true;
@@ -133,14 +138,22 @@ fn parse() -> Result<Option<Command>, String> {
                         }
                     }
                     "--out" => out = value.into(),
+                    "--data" => data = Some(value.into()),
+                    "--with" => with = Some(value.into()),
                     _ => return Err(format!("unknown flag `{flag}` for `gaps`")),
                 }
             }
-            if hidden.is_some() == clean {
-                return Err("gaps needs exactly one of --simulate KIND or --clean".into());
+            let data = match (data, with) {
+                (Some(d), Some(w)) => Some((d, w)),
+                (None, None) => None,
+                _ => return Err("`gaps --data FILE` needs `--with MAP_OR_AIRCRAFT_FILE` (and the reverse)".into()),
+            };
+            if [hidden.is_some(), clean, data.is_some()].iter().filter(|b| **b).count() != 1 {
+                return Err("gaps needs exactly one of --data FILE --with FILE, --simulate KIND or --clean".into());
             }
             return Ok(Some(Command::Gaps {
                 hidden,
+                data,
                 seed,
                 seconds,
                 out,
@@ -457,7 +470,19 @@ fn main() -> ExitCode {
             }
         },
         Ok(Some(Command::Gaps {
+            data: Some((data, with)),
+            out,
+            ..
+        })) => match aerosid_host::io::read_measured(&data, &with) {
+            Ok(flight) => run_gaps_command(&flight, &out),
+            Err(e) => {
+                eprintln!("aerosid gaps: {e}");
+                ExitCode::FAILURE
+            }
+        },
+        Ok(Some(Command::Gaps {
             hidden,
+            data: None,
             seed,
             seconds,
             out,
@@ -483,6 +508,7 @@ fn main() -> ExitCode {
             println!("       aerosid replay LOG.csv [--qemu]");
             println!("       aerosid fem-hfb320 [--out DIR]");
             println!("       aerosid table1 [--out DIR]");
+            println!("       aerosid gaps --data FILE --with MAP_OR_AIRCRAFT [--out DIR]");
             println!("       aerosid gaps --simulate KIND | --clean [--seed N] [--seconds S] [--out DIR]");
             println!("       aerosid demo [--seed N] [--seconds S]\n");
             println!("  run    simulate a flight of the default airframe, identify the six coefficients with the");

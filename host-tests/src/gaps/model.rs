@@ -244,6 +244,31 @@ pub fn synthesise(
                 notes.push("thrust declared measured but no Thrust channel: thrust taken as zero".into());
             }
         },
+        ThrustSource::MeasuredTwin {
+            right_engine_position_m,
+            pitch_rad,
+        } => match flight.get(Thrust) {
+            Some(tt) => {
+                // Right engine at r_R, left at its mirror image; F_L − F_R from ThrustDifference
+                // (0, a symmetric split, when it is not measured).
+                let tt = sg_smooth(tt, sg_half);
+                let dt = flight.get(ThrustDifference).map(|d| sg_smooth(d, sg_half));
+                let u = Vector3::new(pitch_rad.cos(), 0.0, -pitch_rad.sin());
+                let r_r = *right_engine_position_m;
+                let r_l = Vector3::new(r_r.x, -r_r.y, r_r.z);
+                for i in 0..n {
+                    let d = dt.as_ref().map_or(0.0, |d| d[i]);
+                    let (t_l, t_r) = (0.5 * (tt[i] + d), 0.5 * (tt[i] - d));
+                    thrust_n[i] = tt[i];
+                    f_t[i] = u * tt[i];
+                    m_t[i] = r_r.cross(&(u * t_r)) + r_l.cross(&(u * t_l));
+                }
+            }
+            None => {
+                thrust_known = false;
+                notes.push("thrust declared measured but no Thrust channel: thrust taken as zero".into());
+            }
+        },
         ThrustSource::Propeller(prop) => match sm(raw(PropSpeed)) {
             Some(w) => {
                 for i in 0..n {
