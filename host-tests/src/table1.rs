@@ -396,6 +396,9 @@ pub enum Filter {
     GustStates,
     /// Gusts as filter states and a z accelerometer ([`identify_with_accelerometer`]).
     Accelerometer,
+    /// Not a filter: seed 000's equation-error PCA-GTLS ([`identify_equation_error`]), for the
+    /// comparison; the sensitivity setting does not apply to it.
+    EquationError,
 }
 
 /// [`campaign`] with any [`Filter`].
@@ -409,6 +412,7 @@ pub fn campaign_by(input: Input, seconds: f64, sensitivity: Sensitivity, filter:
                 Filter::GustStates => identify_with_gust_states(&f, 1e-8, sensitivity, None),
                 Filter::Accelerometer => identify_with_accelerometer(&f, 1e-8, sensitivity),
                 Filter::White => identify(&f, &q, sensitivity, None),
+                Filter::EquationError => Some(identify_equation_error(&f)),
             }
             .expect("every step accepted")
         })

@@ -2,11 +2,14 @@
 //! the project CSV, PX4 ULog (written here by a small ULog writer from a simulated flight), and
 //! bad files refused with errors naming the file, line and column (or the ULog message).
 
+mod common;
+
 use aerosid_core::aero::SensorSample;
 use aerosid_host::io::aircraft::parse_aircraft;
 use aerosid_host::io::measured::{Aircraft, MeasuredFlight, Quantity, ThrustSource};
 use aerosid_host::io::{read_measured, ReadError};
 use aerosid_host::sim::airframe::SimAirframe;
+use common::pearson;
 use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
 
@@ -61,17 +64,6 @@ fn raw_row(file: &str, line: usize) -> Vec<f64> {
         .collect()
 }
 
-fn correlation(a: &[f64], b: &[f64]) -> f64 {
-    let (ma, mb) = (mean(a), mean(b));
-    let (mut sab, mut saa, mut sbb) = (0.0, 0.0, 0.0);
-    for (x, y) in a.iter().zip(b) {
-        sab += (x - ma) * (y - mb);
-        saa += (x - ma) * (x - ma);
-        sbb += (y - mb) * (y - mb);
-    }
-    sab / (saa * sbb).sqrt()
-}
-
 /// Kinematic sanity (Euler 3-2-1 kinematics): over windows of `window_s` starting every second,
 /// the change of the attitude angle `angle` against the trapezoidal integral of its Euler rate
 /// (`θ̇ = q cos φ − r sin φ`, `φ̇ = p + (q sin φ + r cos φ) tan θ`); returns the correlation of the
@@ -108,7 +100,7 @@ fn attitude_vs_integrated_rates(f: &MeasuredFlight, angle: Quantity, window_s: f
             start += 1;
         }
     }
-    let c = correlation(&integ, &meas);
+    let c = pearson(&integ, &meas);
     let sxy: f64 = integ.iter().zip(&meas).map(|(a, b)| a * b).sum();
     let sxx: f64 = integ.iter().map(|a| a * a).sum();
     (c, sxy / sxx)

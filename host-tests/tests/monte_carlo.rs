@@ -22,10 +22,13 @@
 //!    2–9 %: curvature within one error draw (`1/V²`) lengthens the lower tail by ≈ `3·1.96 σ_V/(2V)`
 //!    ≈ 7 % at `V = 12` m/s, and eq. 41 takes the longer tail. All six coefficients are printed.
 
+mod common;
+
 use aerosid_host::mc::synth::{self, idx, Airframe, Coefficient, Sensors};
 use aerosid_host::mc::{
     self, coverage_bounds, phi, psd_cholesky, ErrorKind, Input, McError, McSettings, Problem, Sampler,
 };
+use common::pearson;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use std::time::Instant;
@@ -127,18 +130,6 @@ fn ranks(x: &[f64]) -> Vec<f64> {
         r[i] = k as f64;
     }
     r
-}
-
-fn pearson(a: &[f64], b: &[f64]) -> f64 {
-    let n = a.len() as f64;
-    let (ma, mb) = (a.iter().sum::<f64>() / n, b.iter().sum::<f64>() / n);
-    let (mut sab, mut saa, mut sbb) = (0.0, 0.0, 0.0);
-    for (x, y) in a.iter().zip(b) {
-        sab += (x - ma) * (y - mb);
-        saa += (x - ma) * (x - ma);
-        sbb += (y - mb) * (y - mb);
-    }
-    sab / (saa * sbb).sqrt()
 }
 
 #[test]

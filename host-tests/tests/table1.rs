@@ -66,43 +66,16 @@ fn table1_with_an_accelerometer() {
 #[test]
 #[ignore = "issue 5 §2 comparison: equation-error PCA-GTLS on the Table 1 flights, printed"]
 fn table1_equation_error_pca_gtls() {
-    use aerosid_host::table1::{identify_equation_error, simulate};
-    let truth = aerosid_core::fem::models::Longitudinal::<f64>::TABLE1_TRUE;
+    use aerosid_host::table1::{campaign_by, Filter};
     for (label, input, seconds) in [
         ("3-2-1-1", Input::PAPER, 15.0),
         ("dual 3-2-1-1", Input::DualMultistep { amplitude_rad: 0.0175 }, 20.0),
     ] {
-        let runs: Vec<_> = (1..=50u64)
-            .map(|seed| identify_equation_error(&simulate(input, seconds, seed)))
-            .collect();
-        println!("equation-error PCA-GTLS, {label}, {seconds} s, 50 runs:");
-        for j in 0..9 {
-            let mut e: Vec<f64> = runs
-                .iter()
-                .map(|r| {
-                    if truth[j] != 0.0 {
-                        ((r.p[j] - truth[j]) / truth[j]).abs()
-                    } else {
-                        (r.p[j] - truth[j]).abs()
-                    }
-                })
-                .collect();
-            e.sort_by(|a, b| a.total_cmp(b));
-            let mean = runs.iter().map(|r| r.p[j]).sum::<f64>() / 50.0;
-            let within = runs
-                .iter()
-                .filter(|r| (r.p[j] - truth[j]).abs() <= 2.0 * r.sigma[j])
-                .count();
-            let sig = runs.iter().map(|r| r.sigma[j]).sum::<f64>() / 50.0;
-            println!(
-                "  {:>10}: truth {:>7.3} mean {:>8.4} median |err| {:>7.3} σ {:>8.4} within 2σ {:>2}/50",
-                aerosid_core::fem::models::Longitudinal::<f64>::NAMES[j],
-                truth[j],
-                mean,
-                e[25],
-                sig,
-                within
-            );
-        }
+        // The sensitivity setting is a filter's; the equation-error method ignores it.
+        let s = campaign_by(input, seconds, Sensitivity::OneStep, Filter::EquationError);
+        print!(
+            "{}",
+            summary_table(&format!("equation-error PCA-GTLS, {label}, {seconds} s"), &s)
+        );
     }
 }

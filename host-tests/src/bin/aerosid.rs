@@ -367,6 +367,29 @@ fn run(args: &Args) {
 
 /// The hook every front end of the model-gap analysis calls: analyse `flight`, print the table,
 /// write `report.json`, `report.txt` and the figures to `out`.
+/// Prints a command's report and the files it wrote (under `heading`), or its error prefixed with
+/// `aerosid <cmd>:`.
+fn finish<E: std::fmt::Display>(
+    cmd: &str,
+    heading: &str,
+    result: Result<(String, Vec<std::path::PathBuf>), E>,
+) -> ExitCode {
+    match result {
+        Ok((text, files)) => {
+            print!("{text}");
+            println!("\n{heading}:");
+            for f in files {
+                println!("  {}", f.display());
+            }
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("aerosid {cmd}: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
 fn run_gaps_command(flight: &aerosid_host::io::measured::MeasuredFlight, out: &std::path::Path) -> ExitCode {
     let report = match aerosid_host::gaps::run_gaps(flight, &aerosid_host::gaps::GapSettings::default()) {
         Ok(r) => r,
@@ -375,20 +398,13 @@ fn run_gaps_command(flight: &aerosid_host::io::measured::MeasuredFlight, out: &s
             return ExitCode::FAILURE;
         }
     };
+    // The table first: it is printed even if the files cannot be written.
     print!("{}", aerosid_host::gaps::report::table(&report));
-    match aerosid_host::gaps::report::write(&report, out) {
-        Ok(files) => {
-            println!("\nfiles:");
-            for f in files {
-                println!("  {}", f.display());
-            }
-            ExitCode::SUCCESS
-        }
-        Err(e) => {
-            eprintln!("aerosid gaps: {e}");
-            ExitCode::FAILURE
-        }
-    }
+    finish(
+        "gaps",
+        "files",
+        aerosid_host::gaps::report::write(&report, out).map(|f| (String::new(), f)),
+    )
 }
 
 fn main() -> ExitCode {
@@ -429,36 +445,12 @@ fn main() -> ExitCode {
                 }
             }
         }
-        Ok(Some(Command::Table1 { out })) => match aerosid_host::table1::table1_report(&out) {
-            Ok((text, figures)) => {
-                print!("{text}");
-                println!("\nfigures:");
-                for f in figures {
-                    println!("  {}", f.display());
-                }
-                ExitCode::SUCCESS
-            }
-            Err(e) => {
-                eprintln!("aerosid table1: {e}");
-                ExitCode::FAILURE
-            }
-        },
-        Ok(Some(Command::FemHfb320 { out })) => {
-            match aerosid_host::fem_report::hfb320_report(&aerosid_host::fem_report::default_hfb320_path(), &out) {
-                Ok((text, figures)) => {
-                    print!("{text}");
-                    println!("\nfigures:");
-                    for f in figures {
-                        println!("  {}", f.display());
-                    }
-                    ExitCode::SUCCESS
-                }
-                Err(e) => {
-                    eprintln!("aerosid fem-hfb320: {e}");
-                    ExitCode::FAILURE
-                }
-            }
-        }
+        Ok(Some(Command::Table1 { out })) => finish("table1", "figures", aerosid_host::table1::table1_report(&out)),
+        Ok(Some(Command::FemHfb320 { out })) => finish(
+            "fem-hfb320",
+            "figures",
+            aerosid_host::fem_report::hfb320_report(&aerosid_host::fem_report::default_hfb320_path(), &out),
+        ),
         Ok(Some(Command::Replay { log, qemu })) => match aerosid_host::replay::replay(&log, qemu) {
             Ok(report) => {
                 print!("{report}");

@@ -148,37 +148,31 @@ pub fn synthesise(
     let lateral_rates = p.is_some() && r.is_some();
     // Vane angles moved to the CG (before smoothing: the correction is linear in the rates).
     let reconstructed = |q: Quantity| air_data.is_some_and(|a| a.contains_key(&q));
-    let alpha_raw = raw(Alpha).map(|a| {
-        if reconstructed(Alpha) {
-            return a;
-        }
-        let rv = ac.alpha_vane_position_m + Vector3::new(corr.vane_dx_m.get(&Alpha).copied().unwrap_or(0.0), 0.0, 0.0);
-        let vv = raw(Airspeed);
-        a.iter()
-            .enumerate()
-            .map(|(i, &al)| {
-                let vi = vv.as_ref().map_or(f64::INFINITY, |x| x[i].max(1.0));
-                let pi = p.as_ref().map_or(0.0, |x| x[i]);
-                let qi = q.as_ref().map_or(0.0, |x| x[i]);
-                al - (pi * rv.y - qi * rv.x) / vi
-            })
-            .collect::<Vec<f64>>()
+    // Each vane's angle less the flow its rotation about the CG induces, `(ω × r_v)/V` (`induced` is
+    // that component of `ω × r_v` at sample `i`); the vane position includes the `x` offset found by
+    // the compatibility check.
+    let at_cg = |ch: Quantity, position_m: Vector3<f64>, induced: &dyn Fn(usize, &Vector3<f64>) -> f64| {
+        raw(ch).map(|a| {
+            if reconstructed(ch) {
+                return a;
+            }
+            let rv = position_m + Vector3::new(corr.vane_dx_m.get(&ch).copied().unwrap_or(0.0), 0.0, 0.0);
+            let vv = raw(Airspeed);
+            a.iter()
+                .enumerate()
+                .map(|(i, &angle)| {
+                    let vi = vv.as_ref().map_or(f64::INFINITY, |x| x[i].max(1.0));
+                    angle - induced(i, &rv) / vi
+                })
+                .collect::<Vec<f64>>()
+        })
+    };
+    let rate = |x: &Option<Vec<f64>>, i: usize| x.as_ref().map_or(0.0, |x| x[i]);
+    let alpha_raw = at_cg(Alpha, ac.alpha_vane_position_m, &|i, rv| {
+        rate(&p, i) * rv.y - rate(&q, i) * rv.x
     });
-    let beta_raw = raw(Beta).map(|b| {
-        if reconstructed(Beta) {
-            return b;
-        }
-        let rv = ac.beta_vane_position_m + Vector3::new(corr.vane_dx_m.get(&Beta).copied().unwrap_or(0.0), 0.0, 0.0);
-        let vv = raw(Airspeed);
-        b.iter()
-            .enumerate()
-            .map(|(i, &be)| {
-                let vi = vv.as_ref().map_or(f64::INFINITY, |x| x[i].max(1.0));
-                let pi = p.as_ref().map_or(0.0, |x| x[i]);
-                let ri = r.as_ref().map_or(0.0, |x| x[i]);
-                be - (ri * rv.x - pi * rv.z) / vi
-            })
-            .collect::<Vec<f64>>()
+    let beta_raw = at_cg(Beta, ac.beta_vane_position_m, &|i, rv| {
+        rate(&r, i) * rv.x - rate(&p, i) * rv.z
     });
     let alpha_dot = alpha_raw.as_ref().map(|a| sg_smooth(&derivative(a, h_s), sg_half));
     let beta_dot = beta_raw.as_ref().map(|b| sg_smooth(&derivative(b, h_s), sg_half));
@@ -229,39 +223,35 @@ pub fn synthesise(
     let mut m_t = vec![Vector3::zeros(); n];
     let mut thrust_known = true;
     match &ac.thrust {
-        ThrustSource::Measured { position_m, pitch_rad } => match flight.get(Thrust) {
-            Some(tt) => {
-                let tt = sg_smooth(tt, sg_half);
-                let u = Vector3::new(pitch_rad.cos(), 0.0, -pitch_rad.sin());
-                for i in 0..n {
-                    thrust_n[i] = tt[i];
-                    f_t[i] = u * tt[i];
-                    m_t[i] = position_m.cross(&f_t[i]);
-                }
-            }
-            None => {
-                thrust_known = false;
-                notes.push("thrust declared measured but no Thrust channel: thrust taken as zero".into());
-            }
-        },
-        ThrustSource::MeasuredTwin {
-            right_engine_position_m,
+        // One engine on the thrust line, or a twin whose left engine mirrors the right one (the
+        // single engine is a twin with both at `position_m` and no thrust difference).
+        ThrustSource::Measured {
+            position_m: r_r,
+            pitch_rad,
+        }
+        | ThrustSource::MeasuredTwin {
+            right_engine_position_m: r_r,
             pitch_rad,
         } => match flight.get(Thrust) {
             Some(tt) => {
-                // Right engine at r_R, left at its mirror image; F_L − F_R from ThrustDifference
-                // (0, a symmetric split, when it is not measured).
+                let twin = matches!(ac.thrust, ThrustSource::MeasuredTwin { .. });
+                let r_l = if twin { Vector3::new(r_r.x, -r_r.y, r_r.z) } else { *r_r };
+                // F_L − F_R, when measured (0: a symmetric split).
+                let dt = flight
+                    .get(ThrustDifference)
+                    .filter(|_| twin)
+                    .map(|d| sg_smooth(d, sg_half));
                 let tt = sg_smooth(tt, sg_half);
-                let dt = flight.get(ThrustDifference).map(|d| sg_smooth(d, sg_half));
                 let u = Vector3::new(pitch_rad.cos(), 0.0, -pitch_rad.sin());
-                let r_r = *right_engine_position_m;
-                let r_l = Vector3::new(r_r.x, -r_r.y, r_r.z);
                 for i in 0..n {
-                    let d = dt.as_ref().map_or(0.0, |d| d[i]);
-                    let (t_l, t_r) = (0.5 * (tt[i] + d), 0.5 * (tt[i] - d));
                     thrust_n[i] = tt[i];
                     f_t[i] = u * tt[i];
-                    m_t[i] = r_r.cross(&(u * t_r)) + r_l.cross(&(u * t_l));
+                    m_t[i] = if twin {
+                        let d = dt.as_ref().map_or(0.0, |d| d[i]);
+                        r_r.cross(&(u * (0.5 * (tt[i] - d)))) + r_l.cross(&(u * (0.5 * (tt[i] + d))))
+                    } else {
+                        r_r.cross(&f_t[i])
+                    };
                 }
             }
             None => {

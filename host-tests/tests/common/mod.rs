@@ -43,3 +43,16 @@ pub fn rel_err_each(a: &[f64], b: &[f64]) -> f64 {
         .map(|(x, y)| if *y == 0.0 { x.abs() } else { (x - y).abs() / y.abs() })
         .fold(0.0, f64::max)
 }
+
+/// Pearson correlation of two equally long series.
+pub fn pearson(a: &[f64], b: &[f64]) -> f64 {
+    let n = a.len() as f64;
+    let (ma, mb) = (a.iter().sum::<f64>() / n, b.iter().sum::<f64>() / n);
+    let (mut sab, mut saa, mut sbb) = (0.0, 0.0, 0.0);
+    for (x, y) in a.iter().zip(b) {
+        sab += (x - ma) * (y - mb);
+        saa += (x - ma) * (x - ma);
+        sbb += (y - mb) * (y - mb);
+    }
+    sab / (saa * sbb).sqrt()
+}
