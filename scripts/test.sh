@@ -2,7 +2,7 @@
 # Runs all of the project's checks and tests, in the order CI runs them (.ci/run execs this file):
 # tools (QEMU, defmt-print), formatting, host clippy, firmware clippy, the core built for the MCU,
 # host tests (among them the firmware replayed under QEMU), the main job, the firmware release build
-# and its size. Stops at the first failure.
+# and its size, then a short run of every fuzz target. Stops at the first failure.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 
@@ -76,5 +76,11 @@ if [ -n "$size_tool" ]; then
 else
     echo "no llvm-size (cargo-binutils or rustup's llvm-tools): size not printed"
 fi
+
+step "fuzzing (issue 7, README \"Reliability\"): every libFuzzer target of fuzz/ for ${FUZZ_SECONDS:-6} s from its seeds"
+# Its own workspace and target directory (fuzz/target-ours); stable Rust, no cargo-fuzz needed
+# (scripts/fuzz.sh says how the build matches `cargo fuzz build -s none -a`). A crash fails CI and
+# leaves the input in fuzz/artifacts/.
+bash scripts/fuzz.sh ci "${FUZZ_SECONDS:-6}"
 
 step "all checks passed"

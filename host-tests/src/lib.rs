@@ -15,6 +15,7 @@ pub mod fem_report;
 pub mod flights;
 pub mod gaps;
 pub mod io;
+pub mod longrun;
 pub mod mc;
 pub mod plot;
 pub mod qemu;

@@ -272,7 +272,10 @@ impl<T: Real> RateDifferentiator<T> {
         for i in (1..4).rev() {
             self.dt_s[i] = self.dt_s[i - 1];
         }
-        self.dt_s[0] = dt_s;
+        // After an invalid gap this sample starts a new window, and its gap (to a sample outside
+        // the window) is shifted out before the window is full: it is never used, so it is stored as
+        // 0 rather than as the invalid (possibly NaN) value — the state stays finite.
+        self.dt_s[0] = if gap_ok { dt_s } else { T::zero() };
         self.run = (self.run + 1).min(Self::LEN as u8);
     }
 

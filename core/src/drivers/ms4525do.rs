@@ -145,16 +145,32 @@ impl Default for Config {
     }
 }
 
+/// Bounds of a valid [`Config`] beyond finiteness: every reading computed with it is then finite
+/// (the `drivers` fuzz target found that a subnormal density — finite and positive — gave an
+/// infinite airspeed, and a huge pressure range an infinite pressure). The widest MS4525DO range is
+/// 150 psi; 0.01 kg/m³ is the air density near 30 km.
+pub mod limits {
+    /// Largest `|p_min_psi|`, `|p_max_psi|`, psi.
+    pub const MAX_RANGE_PSI: f32 = 1000.0;
+    /// Smallest air density, kg/m³.
+    pub const MIN_DENSITY_KG_M3: f32 = 0.01;
+    /// Largest `|zero_offset_pa|` and `noise_band_pa`, Pa.
+    pub const MAX_OFFSET_PA: f32 = 1.0e6;
+}
+
 impl Config {
     fn is_valid(&self) -> bool {
-        self.p_min_psi.is_finite()
-            && self.p_max_psi.is_finite()
+        let range = |p: f32| p.is_finite() && p.abs() <= limits::MAX_RANGE_PSI;
+        range(self.p_min_psi)
+            && range(self.p_max_psi)
             && self.p_min_psi < self.p_max_psi
             && self.air_density_kg_m3.is_finite()
-            && self.air_density_kg_m3 > 0.0
+            && self.air_density_kg_m3 >= limits::MIN_DENSITY_KG_M3
             && self.zero_offset_pa.is_finite()
+            && self.zero_offset_pa.abs() <= limits::MAX_OFFSET_PA
             && self.noise_band_pa.is_finite()
             && self.noise_band_pa >= 0.0
+            && self.noise_band_pa <= limits::MAX_OFFSET_PA
     }
 
     /// Differential pressure, Pa, of a 14-bit bridge count (pressure output transfer function):
@@ -265,8 +281,9 @@ where
         &self.config
     }
 
-    /// Replace the configuration; an invalid one (non-finite values, `p_min ≥ p_max`, density
-    /// `≤ 0`, negative noise band) is refused with [`Error::InvalidConfig`] and the old one kept.
+    /// Replace the configuration; an invalid one (non-finite values, `p_min ≥ p_max`, a density
+    /// below [`limits::MIN_DENSITY_KG_M3`], a range, offset or noise band beyond [`limits`], a
+    /// negative noise band) is refused with [`Error::InvalidConfig`] and the old one kept.
     pub fn set_config(&mut self, config: Config) -> Result<(), Error<E>> {
         if !config.is_valid() {
             return Err(Error::InvalidConfig);

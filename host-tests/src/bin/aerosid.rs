@@ -57,6 +57,10 @@ enum Command {
     Table1 {
         out: std::path::PathBuf,
     },
+    LongRun {
+        hours: f64,
+        seed: u64,
+    },
     Gaps {
         hidden: Option<aerosid_host::gaps::hidden::HiddenKind>,
         /// A measured flight and its column map or aircraft file, instead of a simulated flight.
@@ -108,6 +112,23 @@ fn parse() -> Result<Option<Command>, String> {
             }
             let out = out.ok_or("simulate needs --out LOG.csv")?;
             return Ok(Some(Command::Simulate { out, seconds, seed }));
+        }
+        Some("long-run") => {
+            let (mut hours, mut seed) = (10.0, 1u64);
+            while let Some(flag) = it.next() {
+                let value = it.next().ok_or_else(|| format!("`{flag}` needs a value"))?;
+                match flag.as_str() {
+                    "--hours" => {
+                        hours = value.parse().map_err(|e| format!("--hours {value}: {e}"))?;
+                        if !(hours >= 0.05 && hours <= 100.0) {
+                            return Err("--hours must be between 0.05 and 100".into());
+                        }
+                    }
+                    "--seed" => seed = value.parse().map_err(|e| format!("--seed {value}: {e}"))?,
+                    _ => return Err(format!("unknown flag `{flag}` for `long-run`")),
+                }
+            }
+            return Ok(Some(Command::LongRun { hours, seed }));
         }
         Some("gaps") => {
             // `aerosid gaps --simulate KIND | --clean [--seed N] [--seconds S] [--out DIR]`.
@@ -445,6 +466,32 @@ fn main() -> ExitCode {
                 }
             }
         }
+        Ok(Some(Command::LongRun { hours, seed })) => {
+            let cfg = aerosid_host::longrun::LongRunConfig::hours(hours, seed);
+            let start = std::time::Instant::now();
+            let result = aerosid_host::longrun::run(&cfg, |t| {
+                if (t as u64) % 3600 == 0 && t > 0.0 {
+                    eprintln!(
+                        "long-run: {:.0} h simulated, {:.0} s wall",
+                        t / 3600.0,
+                        start.elapsed().as_secs_f64()
+                    );
+                }
+            });
+            match result {
+                Ok(r) => {
+                    print!(
+                        "{}",
+                        aerosid_host::longrun::format_report(&r, start.elapsed().as_secs_f64())
+                    );
+                    ExitCode::SUCCESS
+                }
+                Err(e) => {
+                    eprintln!("aerosid long-run: {e}");
+                    ExitCode::FAILURE
+                }
+            }
+        }
         Ok(Some(Command::Table1 { out })) => finish("table1", "figures", aerosid_host::table1::table1_report(&out)),
         Ok(Some(Command::FemHfb320 { out })) => finish(
             "fem-hfb320",
@@ -502,6 +549,7 @@ fn main() -> ExitCode {
             println!("       aerosid table1 [--out DIR]");
             println!("       aerosid gaps --data FILE --with MAP_OR_AIRCRAFT [--out DIR]");
             println!("       aerosid gaps --simulate KIND | --clean [--seed N] [--seconds S] [--out DIR]");
+            println!("       aerosid long-run [--hours H] [--seed N]");
             println!("       aerosid demo [--seed N] [--seconds S]\n");
             println!("  run    simulate a flight of the default airframe, identify the six coefficients with the");
             println!("         on-board f32 pipeline, print the model beside the truth and RLS, write the figures");
@@ -519,6 +567,9 @@ fn main() -> ExitCode {
             );
             println!("  table1 seed 001's Table 1: 50 simulated A-4D flights, the paper's method and ours, and");
             println!("         the parameter histories ±σ of one flight (SVG)");
+            println!("  long-run  H hours (default 10) of simulated flight through the on-board f32 pipeline:");
+            println!("         excitation, calm cruise, two parameter jumps; prints the worst orthonormality, λ_F,");
+            println!("         k, N_eff, refusals per coefficient and how each jump was tracked (issue 7)");
             println!("  demo   identify C_m from generated noisy 100 Hz data with the on-board f32 PCA-GTLS,");
             println!("         printing the estimates ± σ beside the truth and the RLS baseline");
             ExitCode::SUCCESS

@@ -237,35 +237,117 @@ pub fn ideal_sample(t_s: f64, dt_s: f64, x: &RigidState, u: &Controls, e: &Evalu
 
 /// Runs a flight: trim, then `duration_s/output_dt_s` samples (the first at t = 0).
 pub fn simulate(cfg: &SimConfig) -> Result<SimOutput, SimError> {
-    let ok = |x: f64| x.is_finite() && x > 0.0;
-    if !(ok(cfg.output_dt_s) && ok(cfg.step_s) && ok(cfg.duration_s)) {
-        return Err(SimError::BadTiming);
-    }
-    let plant = &cfg.plant;
-    let trim = trim_level(plant, cfg.airspeed_mps, cfg.altitude_m, cfg.heading_rad)?;
-    let dt = cfg.output_dt_s;
-    let n_sub = (dt / cfg.step_s).ceil().max(1.0) as usize;
-    let h = dt / n_sub as f64;
-    let n = (cfg.duration_s / dt).round() as usize;
-    let mut dryden = cfg
-        .turbulence
-        .map(|t| Dryden::new(&t, cfg.airspeed_mps, dt, cfg.seed ^ 0x9E37_79B9_7F4A_7C15));
-    let mut sensors = SensorModel::new(cfg.sensors, cfg.seed);
-    let mut x = trim.state;
-    // Surface positions (the servos' state); equal to the command without servos.
-    let mut surfaces = trim.controls;
+    let mut sim = Simulator::new(cfg.clone())?;
+    let n = (cfg.duration_s / cfg.output_dt_s).round() as usize;
     let mut samples = Vec::with_capacity(n);
     let mut truth = Vec::with_capacity(n);
-    let mut ideal_history = Vec::new();
-    for k in 0..n {
+    for _ in 0..n {
+        let (s, t) = sim.step();
+        samples.push(s);
+        truth.push(t);
+    }
+    Ok(SimOutput {
+        trim: sim.trim,
+        samples,
+        truth,
+        biases: sim.sensors.biases,
+    })
+}
+
+/// A flight one output period at a time, for flights too long to keep in memory (the long run of
+/// `crate::longrun`: 3.6 million samples). [`simulate`] is this, collected; `duration_s` is not
+/// used here (the caller decides when to stop).
+///
+/// The configuration may be changed between steps through [`Simulator::config_mut`]: the schedule
+/// (manoeuvres are evaluated at the absolute time of each step) and the plant (e.g. a second
+/// parameter jump after the first).
+#[derive(Debug, Clone)]
+pub struct Simulator {
+    cfg: SimConfig,
+    trim: Trim,
+    dryden: Option<Dryden>,
+    sensors: SensorModel,
+    /// The rigid-body state at the next output instant.
+    x: RigidState,
+    /// Surface positions (the servos' state); equal to the command without servos.
+    surfaces: Controls,
+    /// Ideal samples so far (kept only when the configuration has sensor faults with delays).
+    ideal_history: Vec<SensorSample<f64>>,
+    /// Index of the next output sample.
+    k: usize,
+    n_sub: usize,
+    h: f64,
+}
+
+impl Simulator {
+    /// Trims the plant and sets up turbulence and sensors (as [`simulate`]).
+    pub fn new(cfg: SimConfig) -> Result<Self, SimError> {
+        let ok = |x: f64| x.is_finite() && x > 0.0;
+        if !(ok(cfg.output_dt_s) && ok(cfg.step_s) && ok(cfg.duration_s)) {
+            return Err(SimError::BadTiming);
+        }
+        let trim = trim_level(&cfg.plant, cfg.airspeed_mps, cfg.altitude_m, cfg.heading_rad)?;
+        let dt = cfg.output_dt_s;
+        let n_sub = (dt / cfg.step_s).ceil().max(1.0) as usize;
+        let h = dt / n_sub as f64;
+        let dryden = cfg
+            .turbulence
+            .map(|t| Dryden::new(&t, cfg.airspeed_mps, dt, cfg.seed ^ 0x9E37_79B9_7F4A_7C15));
+        let sensors = SensorModel::new(cfg.sensors, cfg.seed);
+        Ok(Self {
+            x: trim.state,
+            surfaces: trim.controls,
+            trim,
+            dryden,
+            sensors,
+            cfg,
+            ideal_history: Vec::new(),
+            k: 0,
+            n_sub,
+            h,
+        })
+    }
+
+    /// The trim the flight started from.
+    pub fn trim(&self) -> &Trim {
+        &self.trim
+    }
+
+    /// The configuration in force.
+    pub fn config(&self) -> &SimConfig {
+        &self.cfg
+    }
+
+    /// The configuration, to change the schedule or the plant before the next step.
+    pub fn config_mut(&mut self) -> &mut SimConfig {
+        &mut self.cfg
+    }
+
+    /// The sensor biases of this run.
+    pub fn biases(&self) -> sensors::SensorBiases {
+        self.sensors.biases
+    }
+
+    /// Time of the next sample, s.
+    pub fn time_s(&self) -> f64 {
+        self.k as f64 * self.cfg.output_dt_s
+    }
+
+    /// The next sample and its truth; then integrates to the following output instant.
+    pub fn step(&mut self) -> (SensorSample<f64>, TruthSample) {
+        let cfg = &self.cfg;
+        let plant = &cfg.plant;
+        let trim = &self.trim;
+        let (k, dt, h, x) = (self.k, cfg.output_dt_s, self.h, self.x);
         let t = k as f64 * dt;
-        let gust = dryden.as_ref().map_or_else(Vector3::zeros, Dryden::gust_body_mps);
+        let gust = self.dryden.as_ref().map_or_else(Vector3::zeros, Dryden::gust_body_mps);
         let mut u = trim.controls;
         let m = cfg.schedule.input(t);
         u.elevator_rad += m.elevator_rad;
         u.aileron_rad += m.aileron_rad;
         u.rudder_rad += m.rudder_rad;
         u.throttle += m.throttle;
+        let surfaces = self.surfaces;
         let applied_now = |cmd: &Controls| match &cfg.servo {
             Some(_) => Controls {
                 throttle: cmd.throttle,
@@ -275,7 +357,7 @@ pub fn simulate(cfg: &SimConfig) -> Result<SimOutput, SimError> {
         };
         if let Some(st) = &cfg.stabiliser {
             let v = plant.evaluate(&x, &applied_now(&u), &gust, t).airspeed_mps;
-            let s = st.increments(plant, &trim, cfg.airspeed_mps, &x, v);
+            let s = st.increments(plant, trim, cfg.airspeed_mps, &x, v);
             u.elevator_rad += s.elevator_rad;
             u.aileron_rad += s.aileron_rad;
             u.rudder_rad += s.rudder_rad;
@@ -285,22 +367,23 @@ pub fn simulate(cfg: &SimConfig) -> Result<SimOutput, SimError> {
         let u = applied_now(&cmd);
         let e = plant.evaluate(&x, &u, &gust, t);
         let ideal = ideal_sample(t, dt, &x, &u, &e);
-        truth.push(TruthSample {
+        let truth = TruthSample {
             t_s: t,
             state: x,
             controls: u,
             gust_body_mps: gust,
             eval: e,
             ideal,
-        });
-        if cfg.faults.is_empty() {
-            samples.push(sensors.measure(&ideal));
+        };
+        let sample = if cfg.faults.is_empty() {
+            self.sensors.measure(&ideal)
         } else {
-            ideal_history.push(ideal);
-            let faulty = sensors::apply_faults(&cfg.faults, &ideal_history, k, dt);
-            samples.push(sensors.measure(&faulty));
-        }
-        for i in 0..n_sub {
+            self.ideal_history.push(ideal);
+            let faulty = sensors::apply_faults(&cfg.faults, &self.ideal_history, k, dt);
+            self.sensors.measure(&faulty)
+        };
+        let mut x = x;
+        for i in 0..self.n_sub {
             let t0 = i as f64 * h;
             x = match &cfg.servo {
                 Some(sv) => plant.rk4_step_with(&x, |s| sv.controls(&u, &cmd, t0 + s), &gust, t + t0, h),
@@ -308,16 +391,13 @@ pub fn simulate(cfg: &SimConfig) -> Result<SimOutput, SimError> {
             };
         }
         if let Some(sv) = &cfg.servo {
-            surfaces = sv.controls(&u, &cmd, dt);
+            self.surfaces = sv.controls(&u, &cmd, dt);
         }
-        if let Some(d) = dryden.as_mut() {
+        if let Some(d) = self.dryden.as_mut() {
             d.step();
         }
+        self.x = x;
+        self.k += 1;
+        (sample, truth)
     }
-    Ok(SimOutput {
-        trim,
-        samples,
-        truth,
-        biases: sensors.biases,
-    })
 }

@@ -1,0 +1,197 @@
+//! Stuck-sensor detection (issue 7 §3): a sensor that keeps returning the same reading — a frozen
+//! digital output, a jammed vane, a bus bridge replaying its last buffer — passes every range check,
+//! so the pipeline alone would identify on a constant. [`StuckDetector`] watches each channel of the
+//! [`SensorSample`]s and marks one *stuck* once its reading has repeated bit for bit for
+//! [`StuckSettings::samples`] consecutive samples; [`StuckDetector::apply`] then sets the channel to
+//! NaN, so the [`Pipeline`](super::Pipeline) refuses exactly the coefficients that need it (and
+//! counts it in its `Health::invalid_channel`), until the reading changes again.
+//!
+//! ## Why bit-identical repeats, and the default windows
+//! Every sensor here is quantised and noisy: a live one changes its least significant bits from
+//! sample to sample, a stuck one repeats them exactly, and no threshold needs tuning. What a live
+//! sensor may repeat by chance sets the window (100 Hz sampling):
+//! * IMU (accelerometer, gyroscope; ICM-42688-P, 16 bits): the three axes repeat together only if
+//!   the noise is below one LSB on each. The gyro's noise at ±2000 °/s is about ⅓ LSB (0.02 °/s
+//!   rms against 0.061 °/s per LSB at 50 Hz bandwidth) and the accelerometer's about 1 LSB, so a
+//!   still aircraft on the ground repeats a triple with a probability of at most ~0.1 per sample —
+//!   `0.1²⁰ = 10⁻²⁰` for 20 in a row; in flight, vibration makes it far smaller. Window **20**
+//!   samples (0.2 s).
+//! * Airspeed (MS4525DO, 14 bits: 0.06 m/s per count at 15 m/s; noise 1–2 counts): window **50**
+//!   (0.5 s).
+//! * α, β vanes (AS5600, 12 bits: 0.088° per count): a vane in smooth air can rest on one count for
+//!   a while, so the window is long, **200** (2 s); a vane that does not move for 2 s carries no
+//!   information for the estimator either, so a false alarm costs little.
+//! * Surfaces, throttle and RPM come from the autopilot's commands, which are legitimately constant
+//!   in steady cruise; air density is computed from a slowly varying temperature; `dt_s` is
+//!   constant by design. These are **off** (0) by default.
+//!
+//! The first `samples − 1` repeats of a stuck channel still reach the estimators (a causal detector
+//! cannot know earlier): a constant regressor adds no excitation, and a constant output carries the
+//! last true value, so the damage is a few samples' worth of weight on one point.
+//!
+//! A NaN (already invalid) or changed reading ends a run; so does a reading that differs only in
+//! the sign of zero.
+
+use super::model::{channel, ChannelMask};
+use super::SensorSample;
+use crate::Real;
+
+/// Per channel (indexed by the bit position of [`channel`]), the run of identical readings after
+/// which it is stuck; 0 turns the check off.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct StuckSettings {
+    /// Samples, by channel bit position.
+    pub samples: [u16; channel::COUNT],
+}
+
+impl Default for StuckSettings {
+    /// The module doc's windows at 100 Hz: IMU 20, airspeed 50, vanes 200, the rest off.
+    fn default() -> Self {
+        let mut samples = [0; channel::COUNT];
+        samples[bit(channel::ACCEL)] = 20;
+        samples[bit(channel::GYRO)] = 20;
+        samples[bit(channel::AIRSPEED)] = 50;
+        samples[bit(channel::ALPHA)] = 200;
+        samples[bit(channel::BETA)] = 200;
+        Self { samples }
+    }
+}
+
+/// The bit position of a one-bit channel mask.
+const fn bit(mask: ChannelMask) -> usize {
+    mask.trailing_zeros() as usize
+}
+
+/// Counters (saturating), by channel bit position.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct StuckHealth {
+    /// Times a channel became stuck.
+    pub episodes: [u32; channel::COUNT],
+    /// Samples a channel was reported stuck.
+    pub samples: [u32; channel::COUNT],
+}
+
+/// The detector (module doc). Small and `Copy`: 11 runs and 11 readings.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct StuckDetector {
+    settings: StuckSettings,
+    /// The last reading of each channel as bits (up to three components), valid while `run > 0`.
+    last: [[u64; 3]; channel::COUNT],
+    /// Consecutive samples with that reading (saturating).
+    run: [u16; channel::COUNT],
+    health: StuckHealth,
+}
+
+/// The readings of a sample per channel as bits (`None`: NaN, no reading).
+fn readings<T: Real>(s: &SensorSample<T>) -> [Option<[u64; 3]>; channel::COUNT] {
+    let one = |x: T| (!x.to_f64().is_nan()).then(|| [x.to_f64().to_bits(), 0, 0]);
+    let three = |v: &nalgebra::Vector3<T>| {
+        v.iter()
+            .all(|x| !x.to_f64().is_nan())
+            .then(|| [v.x.to_f64().to_bits(), v.y.to_f64().to_bits(), v.z.to_f64().to_bits()])
+    };
+    let mut r = [None; channel::COUNT];
+    r[bit(channel::ACCEL)] = three(&s.accel_mps2);
+    r[bit(channel::GYRO)] = three(&s.gyro_rad_s);
+    r[bit(channel::AIRSPEED)] = one(s.airspeed_mps);
+    r[bit(channel::ALPHA)] = one(s.alpha_rad);
+    r[bit(channel::BETA)] = one(s.beta_rad);
+    r[bit(channel::PROP)] = one(s.prop_speed_rad_s);
+    r[bit(channel::ELEVATOR)] = one(s.elevator_rad);
+    r[bit(channel::AILERON)] = one(s.aileron_rad);
+    r[bit(channel::RUDDER)] = one(s.rudder_rad);
+    r[bit(channel::DENSITY)] = one(s.air_density_kgpm3);
+    r[bit(channel::DT)] = one(s.dt_s);
+    r
+}
+
+impl StuckDetector {
+    /// A detector with no history.
+    pub fn new(settings: StuckSettings) -> Self {
+        Self {
+            settings,
+            last: [[0; 3]; channel::COUNT],
+            run: [0; channel::COUNT],
+            health: StuckHealth::default(),
+        }
+    }
+
+    /// The settings in force.
+    pub fn settings(&self) -> &StuckSettings {
+        &self.settings
+    }
+
+    /// The counters.
+    pub fn health(&self) -> &StuckHealth {
+        &self.health
+    }
+
+    /// Takes the next sample's readings; returns the channels that are stuck at this sample.
+    pub fn check<T: Real>(&mut self, s: &SensorSample<T>) -> ChannelMask {
+        let mut stuck = 0;
+        for (i, r) in readings(s).iter().enumerate() {
+            let window = self.settings.samples[i];
+            match r {
+                Some(bits) if self.run[i] > 0 && self.last[i] == *bits => {
+                    self.run[i] = self.run[i].saturating_add(1);
+                }
+                Some(bits) => {
+                    self.last[i] = *bits;
+                    self.run[i] = 1;
+                }
+                None => self.run[i] = 0,
+            }
+            if window > 0 && self.run[i] >= window {
+                if self.run[i] == window {
+                    self.health.episodes[i] = self.health.episodes[i].saturating_add(1);
+                }
+                self.health.samples[i] = self.health.samples[i].saturating_add(1);
+                stuck |= 1 << i;
+            }
+        }
+        stuck
+    }
+
+    /// [`Self::check`], then the stuck channels of `s` set to NaN; returns them.
+    pub fn apply<T: Real>(&mut self, s: &mut SensorSample<T>) -> ChannelMask {
+        let stuck = self.check(s);
+        let nan = T::lit(f64::NAN);
+        let on = |m: ChannelMask| stuck & m != 0;
+        if on(channel::ACCEL) {
+            s.accel_mps2 = nalgebra::Vector3::from_element(nan);
+        }
+        if on(channel::GYRO) {
+            s.gyro_rad_s = nalgebra::Vector3::from_element(nan);
+        }
+        if on(channel::AIRSPEED) {
+            s.airspeed_mps = nan;
+        }
+        if on(channel::ALPHA) {
+            s.alpha_rad = nan;
+        }
+        if on(channel::BETA) {
+            s.beta_rad = nan;
+        }
+        if on(channel::PROP) {
+            s.prop_speed_rad_s = nan;
+        }
+        if on(channel::ELEVATOR) {
+            s.elevator_rad = nan;
+        }
+        if on(channel::AILERON) {
+            s.aileron_rad = nan;
+        }
+        if on(channel::RUDDER) {
+            s.rudder_rad = nan;
+        }
+        if on(channel::DENSITY) {
+            s.air_density_kgpm3 = nan;
+        }
+        if on(channel::DT) {
+            s.dt_s = nan;
+        }
+        stuck
+    }
+}

@@ -1,0 +1,690 @@
+//! Fuzz target `drivers`: the three sensor drivers on fake buses whose every transaction fails or
+//! succeeds as the fuzz input says and whose every read returns fuzz bytes.
+//!
+//! ## Input
+//! A sequence of operations (a selector byte each): ICM-42688-P `init`, `read`, range and rate
+//! setters, axis map; MS4525DO `read`, `calibrate_zero`, `set_config` (floats from
+//! [`crate::input::scalar`]: NaN, ±∞, huge, tiny, …); AS5600 `read`, `read_raw_count`,
+//! `set_zero_here`, `set_config`. Each bus transaction first takes one byte: below 32 it fails with
+//! one of the bus's error kinds (I2C: NACK of address or data, arbitration loss, bus error,
+//! overrun; SPI: overrun, mode fault, frame format, chip-select fault); otherwise its reads are
+//! filled from the input.
+//!
+//! ## Invariants
+//! * Each `read` result equals an independent decoding of the bytes on the bus, re-typed here from
+//!   the datasheets (status bits, invalid markers, saturation, transfer functions, wrap-around):
+//!   the same error, or a reading within 1e-6 relative of the value computed in `f64` (values
+//!   within 1e-5 of a range limit may be classified either way).
+//! * Every reading is finite; raw AS5600 counts are 12-bit; a refused configuration leaves the old
+//!   one in force.
+//! * Each driver's health counters equal the outcomes counted here.
+
+use crate::input::{scalar, Input};
+use aerosid_core::drivers::as5600::{self, As5600, Direction, VaneConfig};
+use aerosid_core::drivers::icm42688::{self, AccelRange, AxisMap, GyroRange, Icm42688, Odr, SensorAxis};
+use aerosid_core::drivers::ms4525do::{self, Ms4525do, OutputType};
+use embedded_hal::delay::DelayNs;
+use embedded_hal::i2c::{self, ErrorKind as I2cErrorKind, NoAcknowledgeSource};
+use embedded_hal::spi::{self, ErrorKind as SpiErrorKind};
+use std::cell::RefCell;
+
+/// Most operations per input.
+pub const MAX_OPS: usize = 2000;
+
+/// One bus transaction as the fake bus served it.
+#[derive(Debug, Clone, Default)]
+pub struct Txn {
+    /// Whether it succeeded.
+    pub ok: bool,
+    /// The bytes its reads returned, in order.
+    pub reads: Vec<u8>,
+}
+
+/// The state both fake buses share: the input and the log of transactions of the current
+/// operation.
+pub struct Wire<'a> {
+    input: Input<'a>,
+    log: Vec<Txn>,
+}
+
+impl<'a> Wire<'a> {
+    fn begin(&mut self) -> Option<u8> {
+        let b = self.input.u8();
+        if b < 32 {
+            None
+        } else {
+            Some(b)
+        }
+    }
+}
+
+/// A fake I2C bus.
+pub struct FakeI2c<'w, 'a>(pub &'w RefCell<Wire<'a>>);
+/// A fake SPI device.
+pub struct FakeSpi<'w, 'a>(pub &'w RefCell<Wire<'a>>);
+/// A delay that does not wait.
+pub struct NoDelay;
+
+impl DelayNs for NoDelay {
+    fn delay_ns(&mut self, _ns: u32) {}
+}
+
+impl i2c::ErrorType for FakeI2c<'_, '_> {
+    type Error = I2cErrorKind;
+}
+
+impl i2c::I2c for FakeI2c<'_, '_> {
+    fn transaction(&mut self, _address: u8, operations: &mut [i2c::Operation<'_>]) -> Result<(), Self::Error> {
+        let mut w = self.0.borrow_mut();
+        let Some(b) = w.begin() else {
+            let e = match w.input.u8() % 6 {
+                0 => I2cErrorKind::NoAcknowledge(NoAcknowledgeSource::Address),
+                1 => I2cErrorKind::NoAcknowledge(NoAcknowledgeSource::Data),
+                2 => I2cErrorKind::ArbitrationLoss,
+                3 => I2cErrorKind::Bus,
+                4 => I2cErrorKind::Overrun,
+                _ => I2cErrorKind::Other,
+            };
+            w.log.push(Txn::default());
+            return Err(e);
+        };
+        let _ = b;
+        let mut t = Txn {
+            ok: true,
+            reads: Vec::new(),
+        };
+        for op in operations.iter_mut() {
+            if let i2c::Operation::Read(buf) = op {
+                for x in buf.iter_mut() {
+                    *x = w.input.u8();
+                    t.reads.push(*x);
+                }
+            }
+        }
+        w.log.push(t);
+        Ok(())
+    }
+}
+
+impl spi::ErrorType for FakeSpi<'_, '_> {
+    type Error = SpiErrorKind;
+}
+
+impl spi::SpiDevice for FakeSpi<'_, '_> {
+    fn transaction(&mut self, operations: &mut [spi::Operation<'_, u8>]) -> Result<(), Self::Error> {
+        let mut w = self.0.borrow_mut();
+        if w.begin().is_none() {
+            let e = match w.input.u8() % 5 {
+                0 => SpiErrorKind::Overrun,
+                1 => SpiErrorKind::ModeFault,
+                2 => SpiErrorKind::FrameFormat,
+                3 => SpiErrorKind::ChipSelectFault,
+                _ => SpiErrorKind::Other,
+            };
+            w.log.push(Txn::default());
+            return Err(e);
+        }
+        let mut t = Txn {
+            ok: true,
+            reads: Vec::new(),
+        };
+        for op in operations.iter_mut() {
+            match op {
+                spi::Operation::Read(buf) | spi::Operation::TransferInPlace(buf) => {
+                    for x in buf.iter_mut() {
+                        *x = w.input.u8();
+                        t.reads.push(*x);
+                    }
+                }
+                spi::Operation::Transfer(read, _) => {
+                    for x in read.iter_mut() {
+                        *x = w.input.u8();
+                        t.reads.push(*x);
+                    }
+                }
+                _ => {}
+            }
+        }
+        w.log.push(t);
+        Ok(())
+    }
+}
+
+/// `|got − want| ≤ 1e-6·|want| + 1e-30`.
+fn close(got: f32, want: f64) -> bool {
+    (f64::from(got) - want).abs() <= 1e-6 * want.abs() + 1e-30
+}
+
+#[derive(Default)]
+struct IcmCounts {
+    ok: u32,
+    bus: u32,
+    not_ready: u32,
+    invalid: u32,
+    saturated: u32,
+}
+
+#[derive(Default)]
+struct MsCounts {
+    ok: u32,
+    bus: u32,
+    stale: u32,
+    faults: u32,
+    out_of_range: u32,
+}
+
+#[derive(Default)]
+struct AsCounts {
+    ok: u32,
+    bus: u32,
+    missing: u32,
+    weak: u32,
+    strong: u32,
+    out_of_range: u32,
+}
+
+/// The fuzz entry point.
+pub fn run(data: &[u8]) {
+    let wire = RefCell::new(Wire {
+        input: Input::new(data),
+        log: Vec::new(),
+    });
+    let mut imu = Icm42688::new(FakeSpi(&wire), icm42688::Config::default());
+    let mut air = Ms4525do::new(FakeI2c(&wire), ms4525do::DEFAULT_ADDRESS);
+    let mut vane = As5600::new(FakeI2c(&wire));
+    let (mut ic, mut mc, mut ac) = (IcmCounts::default(), MsCounts::default(), AsCounts::default());
+    let mut ops = 0;
+    loop {
+        let op = {
+            let mut w = wire.borrow_mut();
+            if w.input.is_empty() || ops >= MAX_OPS {
+                break;
+            }
+            w.log.clear();
+            w.input.u8()
+        };
+        ops += 1;
+        match op % 12 {
+            0 => {
+                let r = imu.init(&mut NoDelay);
+                let log = wire.borrow().log.clone();
+                icm_init_oracle(&log, &r, &mut ic);
+            }
+            1..=3 => {
+                let r = imu.read();
+                let log = wire.borrow().log.clone();
+                icm_read_oracle(&log, &r, imu.config(), &mut ic);
+            }
+            4 => {
+                let sel = wire.borrow_mut().input.u8();
+                let before = *imu.config();
+                let r = match sel % 5 {
+                    0 => imu.set_gyro_range(
+                        [
+                            GyroRange::Dps2000,
+                            GyroRange::Dps1000,
+                            GyroRange::Dps500,
+                            GyroRange::Dps250,
+                        ][usize::from(sel >> 3) % 4],
+                    ),
+                    1 => imu.set_accel_range(
+                        [AccelRange::G16, AccelRange::G8, AccelRange::G4, AccelRange::G2][usize::from(sel >> 3) % 4],
+                    ),
+                    2 => {
+                        imu.set_gyro_odr([Odr::Hz1000, Odr::Hz200, Odr::Hz100, Odr::Hz8000][usize::from(sel >> 3) % 4])
+                    }
+                    3 => {
+                        imu.set_accel_odr([Odr::Hz1000, Odr::Hz200, Odr::Hz100, Odr::Hz500][usize::from(sel >> 3) % 4])
+                    }
+                    _ => {
+                        let axes = [
+                            SensorAxis::PlusX,
+                            SensorAxis::MinusX,
+                            SensorAxis::PlusY,
+                            SensorAxis::MinusY,
+                            SensorAxis::PlusZ,
+                            SensorAxis::MinusZ,
+                        ];
+                        let b = wire.borrow_mut().input.u16();
+                        let pick = |k: u16| axes[usize::from(k % 6)];
+                        if let Some(m) = AxisMap::new(pick(b), pick(b / 6), pick(b / 36)) {
+                            imu.set_axis_map(m);
+                        }
+                        Ok(())
+                    }
+                };
+                if sel % 5 < 4 {
+                    let log = wire.borrow().log.clone();
+                    assert_eq!(log.len(), 1, "a setter is one write");
+                    match (&r, log[0].ok) {
+                        (Ok(()), true) => {}
+                        (Err(icm42688::Error::Bus(_)), false) => {
+                            ic.bus += 1;
+                            assert_eq!(*imu.config(), before, "a failed write changed the cached configuration");
+                        }
+                        _ => panic!("setter outcome {r:?} for a bus that said {}", log[0].ok),
+                    }
+                }
+            }
+            5..=6 => {
+                let r = air.read();
+                let log = wire.borrow().log.clone();
+                ms_read_oracle(&log, &r, air.config(), &mut mc);
+            }
+            7 => {
+                let n = u16::from(wire.borrow_mut().input.u8() % 9);
+                let before = *air.config();
+                let r = air.calibrate_zero(&mut NoDelay, n, 100);
+                let log = wire.borrow().log.clone();
+                // Every transaction was one counted read; classify each as `ms_read_oracle` would.
+                let mut sub = MsCounts::default();
+                for t in &log {
+                    ms_classify(t, &before, &mut sub);
+                }
+                mc.ok += sub.ok;
+                mc.bus += sub.bus;
+                mc.stale += sub.stale;
+                mc.faults += sub.faults;
+                mc.out_of_range += sub.out_of_range;
+                match r {
+                    Ok(offset) => {
+                        assert!(offset.is_finite(), "zero offset {offset}");
+                        assert_eq!(air.config().zero_offset_pa.to_bits(), offset.to_bits());
+                    }
+                    Err(_) => assert_eq!(air.config().zero_offset_pa.to_bits(), before.zero_offset_pa.to_bits()),
+                }
+            }
+            8 => {
+                let mut w = wire.borrow_mut();
+                let inp = &mut w.input;
+                let c = ms4525do::Config {
+                    output_type: if inp.u8() & 1 == 0 {
+                        OutputType::A
+                    } else {
+                        OutputType::B
+                    },
+                    p_min_psi: scalar::<f32>(inp, 1.0, 1e6).0,
+                    p_max_psi: scalar::<f32>(inp, 1.0, 1e6).0,
+                    air_density_kg_m3: scalar::<f32>(inp, 1.0, 1e6).0,
+                    zero_offset_pa: scalar::<f32>(inp, 100.0, 1e6).0,
+                    noise_band_pa: scalar::<f32>(inp, 5.0, 1e6).0,
+                };
+                drop(w);
+                let before = *air.config();
+                if air.set_config(c).is_err() {
+                    assert_eq!(
+                        format!("{:?}", air.config()),
+                        format!("{before:?}"),
+                        "refused config changed the driver"
+                    );
+                }
+            }
+            9 => {
+                let r = vane.read();
+                let log = wire.borrow().log.clone();
+                as_oracle(
+                    &log,
+                    r.map(|x| (x.raw_count, Some(x.angle_rad))),
+                    vane.config(),
+                    true,
+                    &mut ac,
+                );
+            }
+            10 => {
+                let dir = wire.borrow_mut().input.u8();
+                let r = if dir & 1 == 0 {
+                    vane.read_raw_count()
+                } else {
+                    let d = if dir & 2 == 0 {
+                        Direction::CountsIncrease
+                    } else {
+                        Direction::CountsDecrease
+                    };
+                    let old = *vane.config();
+                    let r = vane.set_zero_here(d);
+                    match r {
+                        Ok(c) => assert_eq!((vane.config().zero_count, vane.config().direction), (c, d)),
+                        Err(_) => assert_eq!(*vane.config(), old, "failed set_zero_here changed the calibration"),
+                    }
+                    r
+                };
+                let log = wire.borrow().log.clone();
+                as_oracle(&log, r.map(|c| (c, None)), vane.config(), false, &mut ac);
+            }
+            _ => {
+                let mut w = wire.borrow_mut();
+                let inp = &mut w.input;
+                let c = VaneConfig {
+                    zero_count: inp.u16() % 4200,
+                    direction: if inp.u8() & 1 == 0 {
+                        Direction::CountsIncrease
+                    } else {
+                        Direction::CountsDecrease
+                    },
+                    scale: scalar::<f32>(inp, 1.0, 1e6).0,
+                    min_angle_rad: scalar::<f32>(inp, 1.0, 1e6).0,
+                    max_angle_rad: scalar::<f32>(inp, 1.0, 1e6).0,
+                };
+                drop(w);
+                let before = *vane.config();
+                if vane.set_config(c).is_err() {
+                    assert_eq!(*vane.config(), before, "refused vane config changed the driver");
+                }
+            }
+        }
+        let h = imu.health();
+        assert_eq!(
+            (h.reads_ok, h.bus_errors, h.not_ready, h.invalid, h.saturated),
+            (ic.ok, ic.bus, ic.not_ready, ic.invalid, ic.saturated),
+            "ICM-42688-P health counters"
+        );
+        let h = air.health();
+        assert_eq!(
+            (h.ok, h.bus_errors, h.stale, h.faults, h.out_of_range),
+            (mc.ok, mc.bus, mc.stale, mc.faults, mc.out_of_range),
+            "MS4525DO health counters"
+        );
+        let h = vane.health();
+        assert_eq!(
+            (
+                h.ok,
+                h.bus_errors,
+                h.magnet_missing,
+                h.magnet_too_weak,
+                h.magnet_too_strong,
+                h.out_of_range
+            ),
+            (ac.ok, ac.bus, ac.missing, ac.weak, ac.strong, ac.out_of_range),
+            "AS5600 health counters"
+        );
+    }
+}
+
+fn icm_init_oracle<E: core::fmt::Debug>(log: &[Txn], r: &Result<(), icm42688::Error<E>>, c: &mut IcmCounts) {
+    // WHO_AM_I read, then DEVICE_CONFIG, GYRO_CONFIG0, ACCEL_CONFIG0, PWR_MGMT0 writes; stops at the
+    // first failure or a wrong id.
+    let first = &log[0];
+    if !first.ok {
+        c.bus += 1;
+        assert!(matches!(r, Err(icm42688::Error::Bus(_))), "{r:?}");
+        assert_eq!(log.len(), 1);
+        return;
+    }
+    let id = first.reads.first().copied().unwrap_or(0);
+    if id != 0x47 {
+        assert!(
+            matches!(r, Err(icm42688::Error::WrongDevice(x)) if *x == id),
+            "id {id:#x}: {r:?}"
+        );
+        assert_eq!(log.len(), 1);
+        return;
+    }
+    match log[1..].iter().position(|t| !t.ok) {
+        Some(i) => {
+            c.bus += 1;
+            assert_eq!(log.len(), i + 2, "init went on after a failed write");
+            assert!(matches!(r, Err(icm42688::Error::Bus(_))), "{r:?}");
+        }
+        None => {
+            assert_eq!(log.len(), 5, "init is one read and four writes");
+            assert!(r.is_ok(), "{r:?}");
+        }
+    }
+}
+
+fn axis(a: SensorAxis, v: &[f64; 3]) -> f64 {
+    match a {
+        SensorAxis::PlusX => v[0],
+        SensorAxis::MinusX => -v[0],
+        SensorAxis::PlusY => v[1],
+        SensorAxis::MinusY => -v[1],
+        SensorAxis::PlusZ => v[2],
+        SensorAxis::MinusZ => -v[2],
+    }
+}
+
+fn icm_read_oracle<E: core::fmt::Debug>(
+    log: &[Txn],
+    r: &Result<icm42688::Reading, icm42688::Error<E>>,
+    cfg: &icm42688::Config,
+    c: &mut IcmCounts,
+) {
+    use icm42688::Error as E;
+    if !log[0].ok {
+        c.bus += 1;
+        assert!(matches!(r, Err(E::Bus(_))), "{r:?}");
+        return;
+    }
+    if log[0].reads[0] & 0x08 == 0 {
+        c.not_ready += 1;
+        assert!(matches!(r, Err(E::NotReady)), "DATA_RDY clear: {r:?}");
+        assert_eq!(log.len(), 1);
+        return;
+    }
+    let burst = &log[1];
+    if !burst.ok {
+        c.bus += 1;
+        assert!(matches!(r, Err(E::Bus(_))), "{r:?}");
+        return;
+    }
+    assert_eq!(burst.reads.len(), 14, "burst TEMP_DATA1..=GYRO_DATA_Z0");
+    let w = |i: usize| i16::from_be_bytes([burst.reads[2 * i], burst.reads[2 * i + 1]]);
+    let (t, a, g) = (w(0), [w(1), w(2), w(3)], [w(4), w(5), w(6)]);
+    let all_marker = |v: &[i16; 3]| v.iter().all(|x| *x == i16::MIN);
+    if t == i16::MIN || all_marker(&a) || all_marker(&g) {
+        c.invalid += 1;
+        assert!(matches!(r, Err(E::InvalidData)), "invalid marker: {r:?}");
+        return;
+    }
+    if a.iter().chain(g.iter()).any(|x| *x == i16::MIN || x.abs() >= 32767) {
+        c.saturated += 1;
+        assert!(matches!(r, Err(E::Saturated)), "full scale: {r:?}");
+        return;
+    }
+    let Ok(reading) = r else {
+        panic!("a good burst refused: {r:?}");
+    };
+    c.ok += 1;
+    let g_fs = [2000.0, 1000.0, 500.0, 250.0][cfg.gyro_range as usize];
+    let a_fs = [16.0, 8.0, 4.0, 2.0][cfg.accel_range as usize];
+    let av = a.map(|x| f64::from(x) * a_fs * 9.80665 / 32768.0);
+    let gv = g.map(|x| f64::from(x) * (g_fs as f64).to_radians() / 32768.0);
+    let map = cfg.axis_map.body_axes();
+    for i in 0..3 {
+        assert!(
+            close(reading.accel_mps2[i], axis(map[i], &av)),
+            "accel {i}: {reading:?} vs {av:?}"
+        );
+        assert!(
+            close(reading.gyro_rad_s[i], axis(map[i], &gv)),
+            "gyro {i}: {reading:?} vs {gv:?}"
+        );
+    }
+    // The temperature is `t/132.48 + 25` in f32: its rounding is relative to the 25 °C offset.
+    let want_t = f64::from(t) / 132.48 + 25.0;
+    assert!(
+        (f64::from(reading.temperature_c) - want_t).abs() <= 1e-6 * (25.0 + want_t.abs()),
+        "temperature {reading:?} vs {want_t}"
+    );
+}
+
+/// What one Read_DF4 transaction must give, counted.
+fn ms_classify(t: &Txn, cfg: &ms4525do::Config, c: &mut MsCounts) -> Expect {
+    if !t.ok {
+        c.bus += 1;
+        return Expect::Bus;
+    }
+    let b = &t.reads;
+    match b[0] >> 6 {
+        0 => {}
+        2 => {
+            c.stale += 1;
+            return Expect::Stale;
+        }
+        _ => {
+            c.faults += 1;
+            return Expect::Fault;
+        }
+    }
+    let count = (u16::from(b[0] & 0x3F) << 8) | u16::from(b[1]);
+    let (lo, hi) = match cfg.output_type {
+        OutputType::A => (0.1, 0.9),
+        OutputType::B => (0.05, 0.95),
+    };
+    // The driver compares in f32: the span limits as f32 products.
+    let (clo, chi) = (f64::from(lo as f32 * 16383.0), f64::from(hi as f32 * 16383.0));
+    let cf = f64::from(count);
+    if cf < clo || cf > chi {
+        c.out_of_range += 1;
+        return Expect::OutOfRange;
+    }
+    c.ok += 1;
+    let psi =
+        (cf - clo) * (f64::from(cfg.p_max_psi) - f64::from(cfg.p_min_psi)) / (chi - clo) + f64::from(cfg.p_min_psi);
+    let temp_count = (u16::from(b[2]) << 3) | u16::from((b[3] & 0xE0) >> 5);
+    Expect::Ok {
+        raw_pa: psi * 6894.757,
+        count,
+        temp_c: f64::from(temp_count) * 200.0 / 2047.0 - 50.0,
+        temp_count,
+    }
+}
+
+enum Expect {
+    Bus,
+    Stale,
+    Fault,
+    OutOfRange,
+    Ok {
+        raw_pa: f64,
+        count: u16,
+        temp_c: f64,
+        temp_count: u16,
+    },
+}
+
+fn ms_read_oracle<E: core::fmt::Debug>(
+    log: &[Txn],
+    r: &Result<ms4525do::Measurement, ms4525do::Error<E>>,
+    cfg: &ms4525do::Config,
+    c: &mut MsCounts,
+) {
+    use ms4525do::Error as E;
+    assert_eq!(log.len(), 1, "a read is one transaction");
+    match (ms_classify(&log[0], cfg, c), r) {
+        (Expect::Bus, Err(E::Bus(_))) | (Expect::Stale, Err(E::Stale)) | (Expect::OutOfRange, Err(E::OutOfRange)) => {}
+        (Expect::Fault, Err(E::Fault | E::ReservedStatus)) => {}
+        (
+            Expect::Ok {
+                raw_pa,
+                count,
+                temp_c,
+                temp_count,
+            },
+            Ok(m),
+        ) => {
+            assert_eq!((m.pressure_count, m.temperature_count), (count, temp_count));
+            let span = (f64::from(cfg.p_max_psi) - f64::from(cfg.p_min_psi)).abs() * 6894.757;
+            assert!(
+                // f32 rounding relative to the range, plus 1 µPa absolute: with a range of 1e-38 psi
+                // (valid, if absurd) the f32 arithmetic is in subnormals, where the relative error
+                // is large but the absolute one far below anything physical.
+                (f64::from(m.raw_pressure_pa) - raw_pa).abs() <= 1e-5 * (span + raw_pa.abs()) + 1e-6,
+                "pressure {m:?} vs {raw_pa}"
+            );
+            assert!(
+                close(m.temperature_c, temp_c) || (f64::from(m.temperature_c) - temp_c).abs() < 1e-4,
+                "{m:?}"
+            );
+            for v in [m.pressure_pa, m.raw_pressure_pa, m.temperature_c, m.airspeed_mps] {
+                assert!(v.is_finite(), "non-finite measurement {m:?} (config {cfg:?})");
+            }
+            assert!(
+                (m.airspeed_mps >= 0.0) == (m.pressure_pa >= -cfg.noise_band_pa),
+                "airspeed sign {m:?} (noise band {})",
+                cfg.noise_band_pa
+            );
+        }
+        (_, r) => panic!("MS4525DO result {r:?} disagrees with the frame {:?}", log[0]),
+    }
+}
+
+fn as_oracle<E: core::fmt::Debug>(
+    log: &[Txn],
+    r: Result<(u16, Option<f32>), as5600::Error<E>>,
+    cfg: &VaneConfig,
+    with_angle: bool,
+    c: &mut AsCounts,
+) {
+    use as5600::Error as E;
+    if !log[0].ok {
+        c.bus += 1;
+        assert!(matches!(r, Err(E::Bus(_))), "{r:?}");
+        return;
+    }
+    let status = log[0].reads[0];
+    match status & 0x38 {
+        0x20 => {}
+        0x10 | 0x30 => {
+            c.weak += 1;
+            assert!(matches!(r, Err(E::MagnetTooWeak)), "status {status:#x}: {r:?}");
+            return;
+        }
+        0x08 | 0x28 => {
+            c.strong += 1;
+            assert!(matches!(r, Err(E::MagnetTooStrong)), "status {status:#x}: {r:?}");
+            return;
+        }
+        0x00 => {
+            c.missing += 1;
+            assert!(matches!(r, Err(E::MagnetMissing)), "status {status:#x}: {r:?}");
+            return;
+        }
+        _ => {
+            c.missing += 1;
+            assert!(
+                matches!(r, Err(E::InvalidStatus(b)) if b == status),
+                "status {status:#x}: {r:?}"
+            );
+            return;
+        }
+    }
+    if !log[1].ok {
+        c.bus += 1;
+        assert!(matches!(r, Err(E::Bus(_))), "{r:?}");
+        return;
+    }
+    let raw = u16::from_be_bytes([log[1].reads[0], log[1].reads[1]]) & 0x0FFF;
+    if !with_angle {
+        c.ok += 1;
+        assert_eq!(r.map(|x| x.0).ok(), Some(raw), "raw count");
+        return;
+    }
+    let mut d = (i32::from(raw) - i32::from(cfg.zero_count)).rem_euclid(4096);
+    if d > 2048 {
+        d -= 4096;
+    }
+    if cfg.direction == Direction::CountsDecrease && d != 2048 {
+        d = -d;
+    }
+    let angle = f64::from(cfg.scale) * f64::from(d) * core::f64::consts::TAU / 4096.0;
+    let (lo, hi) = (f64::from(cfg.min_angle_rad), f64::from(cfg.max_angle_rad));
+    let pi = core::f64::consts::PI;
+    let inside = angle >= lo && angle <= hi && angle > -pi;
+    let edge = [lo, hi, -pi]
+        .iter()
+        .any(|e| (angle - e).abs() <= 1e-5 * (1.0 + angle.abs()));
+    match r {
+        Ok((count, Some(a))) => {
+            assert!(inside || edge, "angle {a} outside [{lo}, {hi}] accepted");
+            assert_eq!(count, raw);
+            assert!(a.is_finite() && close(a, angle), "angle {a} vs {angle}");
+            c.ok += 1;
+        }
+        Err(E::OutOfRange) => {
+            assert!(!inside || edge, "angle {angle} inside [{lo}, {hi}] refused");
+            c.out_of_range += 1;
+        }
+        r => panic!("AS5600 result {r:?} for raw count {raw}"),
+    }
+}
