@@ -27,10 +27,14 @@ use aerosid_host::sim;
 const SECONDS: f64 = 90.0;
 /// Largest difference of a final parameter between the faulty and the clean run, in units of its
 /// typical magnitude. A fault window removes at most 5 s of the 90 s (about 6 % of the weighted
-/// information with `λ_F = 1`); the measured largest difference over the scenarios was 0.011
-/// (`C_D`, whose `C_Dq` direction is below the excitation threshold, is the most sensitive); 0.05
-/// leaves room for other seeds while still failing if a fault corrupted an estimator.
+/// information with `λ_F = 1`); the measured largest difference over the channel scenarios was
+/// 0.031 (α vane NACK); 0.05 leaves room while still failing if a fault corrupted an estimator.
 const SURVIVAL_TOL: f64 = 0.05;
+/// The same for a stuck sensor, which is not a refusal for its first `window − 1` samples: those
+/// reach the estimators as wrong regressors (β constant through a rudder doublet). Measured 0.077
+/// (`C_Yr`, 0.0077 absolute) with the 50-sample vane window — what the detector's latency costs
+/// (0.55 with a 200-sample window, which is why the window is 50). Bound 0.15.
+const STUCK_TOL: f64 = 0.15;
 
 fn flight() -> Vec<SensorSample<f32>> {
     let out = sim::simulate(&main_flight(SECONDS, 3)).expect("simulation");
@@ -150,13 +154,17 @@ fn typical_row(i: usize) -> &'static [f64] {
 /// The largest final difference between two runs, in typical magnitudes.
 fn largest_difference(a: &Pipeline<f32>, b: &Pipeline<f32>) -> f64 {
     let (ta, tb) = (thetas(a), thetas(b));
-    let mut worst = 0.0f64;
+    let mut worst = (0.0f64, 0, 0);
     for i in 0..idx::COUNT {
         for (j, (x, y)) in ta[i].iter().zip(tb[i].iter()).enumerate() {
-            worst = worst.max((x - y).abs() / typical_row(i)[j]);
+            let d = (x - y).abs() / typical_row(i)[j];
+            if d > worst.0 {
+                worst = (d, i, j);
+            }
         }
     }
-    worst
+    println!("  (largest at coefficient {}, parameter {})", worst.1, worst.2);
+    worst.0
 }
 
 /// The coefficients whose telemetry report carries `CHANNEL_REFUSALS`.
@@ -337,7 +345,7 @@ fn a_stuck_beta_vane_is_caught_by_the_detector_and_its_coefficients_refused() {
     );
     let d = largest_difference(&clean.pipeline, &faulty.pipeline);
     println!("stuck β: largest final difference to the clean run {d:.4} typical magnitudes");
-    assert!(d <= SURVIVAL_TOL, "stuck β: final estimates differ by {d}");
+    assert!(d <= STUCK_TOL, "stuck β: final estimates differ by {d}");
 }
 
 #[test]

@@ -19,8 +19,11 @@
 //! * Airspeed (MS4525DO, 14 bits: 0.06 m/s per count at 15 m/s; noise 1–2 counts): window **50**
 //!   (0.5 s).
 //! * α, β vanes (AS5600, 12 bits: 0.088° per count): a vane in smooth air can rest on one count for
-//!   a while, so the window is long, **200** (2 s); a vane that does not move for 2 s carries no
-//!   information for the estimator either, so a false alarm costs little.
+//!   a while, but a vane that does not move carries no information for the estimator either, so a
+//!   false alarm costs little, while every undetected stuck sample is a wrong regressor: with a
+//!   2 s window a β vane stuck during the rudder doublets of the main job's flight shifted the
+//!   final lateral estimates by 0.55 of a parameter's typical magnitude
+//!   (`host-tests/tests/reliability_faults.rs`). Window **50** (0.5 s).
 //! * Surfaces, throttle and RPM come from the autopilot's commands, which are legitimately constant
 //!   in steady cruise; air density is computed from a slowly varying temperature; `dt_s` is
 //!   constant by design. These are **off** (0) by default.
@@ -46,14 +49,14 @@ pub struct StuckSettings {
 }
 
 impl Default for StuckSettings {
-    /// The module doc's windows at 100 Hz: IMU 20, airspeed 50, vanes 200, the rest off.
+    /// The module doc's windows at 100 Hz: IMU 20, airspeed 50, vanes 50, the rest off.
     fn default() -> Self {
         let mut samples = [0; channel::COUNT];
         samples[bit(channel::ACCEL)] = 20;
         samples[bit(channel::GYRO)] = 20;
         samples[bit(channel::AIRSPEED)] = 50;
-        samples[bit(channel::ALPHA)] = 200;
-        samples[bit(channel::BETA)] = 200;
+        samples[bit(channel::ALPHA)] = 50;
+        samples[bit(channel::BETA)] = 50;
         Self { samples }
     }
 }
