@@ -137,9 +137,9 @@ enum ForgettingState<T: Real, const NT: usize> {
 ///
 /// `V` is kept in two buffers: the update writes the new `V` into the spare one and a successful
 /// sample flips them, so no `NA×NA` matrix is copied per sample. The spare buffer is scratch, not
-/// state: equality (`PartialEq`) compares the state only.
+/// state: equality (`PartialEq`) and `Debug` cover the state only (the current `V`).
 #[allow(non_snake_case)]
-#[derive(Debug, Clone, Copy)]
+#[derive(Clone, Copy)]
 pub struct Gtls<T: Real, const NT: usize, const NE: usize, const NA: usize> {
     /// [`GtlsSettings::snr`], [`GtlsSettings::max_abs_input`], [`GtlsSettings::reorth_tol`] (the
     /// forgetting settings live in `forgetting`; [`Self::settings`] puts them together).
@@ -798,6 +798,33 @@ fn theta_from<T: Real, const NT: usize, const NE: usize, const NA: usize>(
         theta[NE + j] = a[j];
     }
     theta
+}
+
+impl<T: Real, const NT: usize, const NE: usize, const NA: usize> core::fmt::Debug for Gtls<T, NT, NE, NA> {
+    /// Every field of the state (the current `V`, not the scratch buffer).
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.debug_struct("Gtls")
+            .field("snr", &self.snr)
+            .field("max_abs_input", &self.max_abs_input)
+            .field("reorth_tol", &self.reorth_tol)
+            .field("c", &self.c)
+            .field("weights", &self.weights)
+            .field("v", self.right_singular_vectors())
+            .field("s2", &self.s2)
+            .field("g11", &self.g11)
+            .field("b", &self.b)
+            .field("theta", &self.theta)
+            .field("ca", &self.ca)
+            .field("k", &self.k)
+            .field("solution", &self.solution)
+            .field("n_eff", &self.n_eff)
+            .field("n_eff2", &self.n_eff2)
+            .field("lambda", &self.lambda)
+            .field("forgetting", &self.forgetting)
+            .field("check_cursor", &self.check_cursor)
+            .field("health", &self.health)
+            .finish()
+    }
 }
 
 impl<T: Real, const NT: usize, const NE: usize, const NA: usize> PartialEq for Gtls<T, NT, NE, NA> {
