@@ -2,6 +2,7 @@
 //! and the host tools can swap PCA-GTLS for the RLS baseline.
 
 use crate::linalg::secular::Outcome;
+use crate::vff::VffStep;
 use crate::{Error, Real};
 use nalgebra::{SMatrix, SVector};
 
@@ -43,6 +44,9 @@ pub struct Step<T> {
     pub secular: Outcome,
     /// Whether the orthonormality guard re-orthonormalised `V` after this sample.
     pub reorthonormalised: bool,
+    /// The variable forgetting factor's quantities of this sample (eq. 28–33; zero with constant
+    /// forgetting and for RLS).
+    pub vff: VffStep<T>,
 }
 
 /// A recursive estimator of `z ≈ xᵀθ` with `NT` parameters.

@@ -58,10 +58,10 @@
 //! the sample meets), and reuse that `x̂₀` in eq. 25, 29 and 30.
 
 use crate::estimator::{check_sample, Estimator, Solution, Step};
-use crate::linalg::secular::rank_one_update;
+use crate::linalg::secular::rank_one_update_into;
 use crate::linalg::{
-    all_finite, cholesky_regularised, cholesky_upper, inv_upper, orthonormality_error, reorthonormalise,
-    solve_spd_regularised, solve_upper, solve_upper_transposed,
+    all_finite, cholesky_regularised, cholesky_upper, const_identity, const_zeros, inv_upper, orthonormality_error,
+    reorthonormalise, slice_finite, solve_spd_regularised,
 };
 use crate::vff::{Vff, VffSettings, VffStep};
 use crate::{Error, Real};
@@ -90,6 +90,16 @@ pub struct GtlsSettings<T> {
     pub reorth_tol: T,
     /// Forgetting scheme.
     pub forgetting: Forgetting<T>,
+}
+
+impl<T: Real> GtlsSettings<T> {
+    /// A placeholder for `const` initialisers (no forgetting, `s/n = 1`, no input limit).
+    pub const PLACEHOLDER: Self = Self {
+        snr: T::ONE,
+        max_abs_input: T::ONE,
+        reorth_tol: T::ZERO,
+        forgetting: Forgetting::Constant(T::ONE),
+    };
 }
 
 impl<T: Real> Default for GtlsSettings<T> {
@@ -124,23 +134,36 @@ enum ForgettingState<T: Real, const NT: usize> {
 
 /// The recursive PCA-GTLS estimator (Algorithm 1) for `NT` parameters, `NE` of them on exact
 /// regressors, with TLS block dimension `NA = NT − NE + 1`.
+///
+/// `V` is kept in two buffers: the update writes the new `V` into the spare one and a successful
+/// sample flips them, so no `NA×NA` matrix is copied per sample. The spare buffer is scratch, not
+/// state: equality (`PartialEq`) and `Debug` cover the state only (the current `V`).
 #[allow(non_snake_case)]
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Clone, Copy)]
 pub struct Gtls<T: Real, const NT: usize, const NE: usize, const NA: usize> {
-    settings: GtlsSettings<T>,
+    /// [`GtlsSettings::snr`], [`GtlsSettings::max_abs_input`], [`GtlsSettings::reorth_tol`] (the
+    /// forgetting settings live in `forgetting`; [`Self::settings`] puts them together).
+    snr: T,
+    max_abs_input: T,
+    reorth_tol: T,
     /// `C` (upper triangular, `W_T = CᵀC`, eq. 9).
     c: SMatrix<T, NA, NA>,
     /// Diagonal of `W` (eq. 23), one weight per parameter (the exact entries are unused).
     weights: SVector<T, NT>,
-    /// Right singular vectors of the projected scaled data matrix, by decreasing singular value.
-    v: SMatrix<T, NA, NA>,
-    /// Singular values, decreasing (eq. 13).
-    s: SVector<T, NA>,
+    /// Right singular vectors of the projected scaled data matrix, by decreasing singular value:
+    /// `v[cur]`; the other buffer is scratch for the next update.
+    v: [SMatrix<T, NA, NA>; 2],
+    cur: u8,
+    /// Squared singular values `σ_j²`, decreasing (eq. 13): the eigenvalues of `D*ᵀD*`, which is
+    /// what the secular update produces (no square root per value) and what eq. 17 and eq. 21 use.
+    s2: SVector<T, NA>,
     /// `G₁₁`: weighted Gram matrix of the exact regressors.
     g11: SMatrix<T, NE, NE>,
     /// `B = G₂₁G₁₁⁻¹` in scaled coordinates.
     b: SMatrix<T, NA, NE>,
     theta: SVector<T, NT>,
+    /// `C·a` with `a = [θ_n; −1]` of the current `θ` (eq. 24 of the next sample needs `W_T a`).
+    ca: SVector<T, NA>,
     k: u8,
     solution: Solution,
     /// `N_eff = Σ Π λ` and `N₂ = Σ (Π λ)²`.
@@ -150,7 +173,6 @@ pub struct Gtls<T: Real, const NT: usize, const NE: usize, const NA: usize> {
     forgetting: ForgettingState<T, NT>,
     check_cursor: u16,
     health: GtlsHealth,
-    last_vff: VffStep<T>,
 }
 
 impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Gtls<T, NT, NE, NA> {
@@ -196,14 +218,18 @@ impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Gtls<T, NT, NE,
             }
         };
         Ok(Self {
-            settings,
+            snr: settings.snr,
+            max_abs_input: settings.max_abs_input,
+            reorth_tol: settings.reorth_tol,
             c,
             weights: *weights,
-            v: SMatrix::identity(),
-            s: SVector::zeros(),
+            v: [SMatrix::identity(); 2],
+            cur: 0,
+            s2: SVector::zeros(),
             g11: SMatrix::zeros(),
             b: SMatrix::zeros(),
             theta: SVector::zeros(),
+            ca: -c.column(NA - 1).into_owned(),
             k: 0,
             solution: Solution::NotEnoughData,
             n_eff: T::zero(),
@@ -212,24 +238,60 @@ impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Gtls<T, NT, NE,
             forgetting,
             check_cursor: 0,
             health: GtlsHealth::default(),
-            last_vff: VffStep::default(),
         })
     }
 
-    /// Singular values `σ_1 ≥ … ≥ σ_NA` of the (projected) scaled data matrix (eq. 13).
-    pub fn singular_values(&self) -> &SVector<T, NA> {
-        &self.s
+    /// A placeholder (`W_T = I`, unit weights, no forgetting, no data) for `const` initialisers: the
+    /// firmware's pipeline static starts with these and [`Self::new`]'s results replace them in
+    /// place, so that boot never holds the whole pipeline on the stack.
+    pub const PLACEHOLDER: Self = Self {
+        snr: T::ONE,
+        max_abs_input: T::ONE,
+        reorth_tol: T::ZERO,
+        c: const_identity(),
+        weights: SVector::from_array_storage(nalgebra::ArrayStorage([[T::ONE; NT]; 1])),
+        v: [const_identity(); 2],
+        cur: 0,
+        s2: const_zeros(),
+        g11: const_zeros(),
+        b: const_zeros(),
+        theta: const_zeros(),
+        ca: const_zeros(),
+        k: 0,
+        solution: Solution::NotEnoughData,
+        n_eff: T::ZERO,
+        n_eff2: T::ZERO,
+        lambda: T::ONE,
+        forgetting: ForgettingState::Constant(T::ONE),
+        check_cursor: 0,
+        health: GtlsHealth {
+            updates: 0,
+            reorthonormalisations: 0,
+            nongeneric: 0,
+            secular_not_converged: 0,
+        },
+    };
+
+    /// Singular values `σ_1 ≥ … ≥ σ_NA` of the (projected) scaled data matrix (eq. 13), computed
+    /// from [`Self::squared_singular_values`].
+    pub fn singular_values(&self) -> SVector<T, NA> {
+        self.s2.map(|x| x.root())
+    }
+
+    /// `σ_1² ≥ … ≥ σ_NA²`, as kept by the recursion.
+    pub fn squared_singular_values(&self) -> &SVector<T, NA> {
+        &self.s2
     }
 
     /// Right singular vectors `V` (eq. 12), columns in the order of [`Self::singular_values`].
     pub fn right_singular_vectors(&self) -> &SMatrix<T, NA, NA> {
-        &self.v
+        &self.v[usize::from(self.cur & 1)]
     }
 
     /// The excitation threshold of eq. 21, `(1 + s/n)·√(N_eff − n_θ)`, or `None` while
     /// `N_eff ≤ n_θ`.
     pub fn threshold(&self) -> Option<T> {
-        Self::threshold_for(self.n_eff, self.settings.snr)
+        Self::threshold_for(self.n_eff, self.snr)
     }
 
     /// Which solution produced the current `θ`.
@@ -242,110 +304,147 @@ impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Gtls<T, NT, NE,
         &self.health
     }
 
-    /// The VFF quantities of the last step (zero with constant forgetting).
-    pub fn last_vff(&self) -> &VffStep<T> {
-        &self.last_vff
-    }
-
     /// The settings in force.
-    pub fn settings(&self) -> &GtlsSettings<T> {
-        &self.settings
+    pub fn settings(&self) -> GtlsSettings<T> {
+        GtlsSettings {
+            snr: self.snr,
+            max_abs_input: self.max_abs_input,
+            reorth_tol: self.reorth_tol,
+            forgetting: match &self.forgetting {
+                ForgettingState::Constant(l) => Forgetting::Constant(*l),
+                ForgettingState::Variable(v) => Forgetting::Variable(*v.settings()),
+            },
+        }
     }
 
     /// `‖VᵀV − I‖_F`, the orthonormality error of `V`.
     pub fn orthonormality_error(&self) -> T {
-        orthonormality_error(&self.v)
+        orthonormality_error(self.right_singular_vectors())
     }
 
     /// The TLS-corrected regressor `x̂₀` (eq. 24–25) of the sample `(x, z)` for parameters `θ`, and the
     /// corrected output `ẑ = x̂₀ᵀθ`. Exact regressors are returned unchanged.
     pub fn corrected_regressor(&self, x: &SVector<T, NT>, z: T, theta: &SVector<T, NT>) -> (SVector<T, NT>, T) {
-        let nx = Self::NX;
         let mut a = SVector::<T, NA>::zeros();
-        let mut d = SVector::<T, NA>::zeros();
-        for i in 0..nx {
+        for i in 0..Self::NX {
             a[i] = theta[NE + i];
-            d[i] = x[NE + i];
         }
-        a[nx] = -T::one();
-        d[nx] = z;
-        let mut rho = d.dot(&a);
-        for i in 0..NE {
+        a[Self::NX] = -T::one();
+        self.corrected_with(x, z, theta, &self.c_times(&a))
+    }
+
+    /// [`Self::corrected_regressor`] given `ca = C·[θ_n; −1]` (the estimator keeps it for its own `θ`).
+    #[inline(always)]
+    fn corrected_with(
+        &self,
+        x: &SVector<T, NT>,
+        z: T,
+        theta: &SVector<T, NT>,
+        ca: &SVector<T, NA>,
+    ) -> (SVector<T, NT>, T) {
+        let nx = Self::NX;
+        // ρ = x_eᵀθ_e + dᵀa with d = [x_n, z], a = [θ_n; −1].
+        let mut rho = -z;
+        for i in 0..NT {
             rho += x[i] * theta[i];
         }
-        // C is upper triangular: the products skip its zero lower part.
-        let c = &self.c;
-        let ca = self.c_times(&a);
-        let wa = SVector::<T, NA>::from_fn(|i, _| {
+        // W_T a = Cᵀ(C a), over the upper triangle of C (column i of C holds C[(j, i)], j ≤ i).
+        let c = &self.c.data.0;
+        let mut wa = [T::zero(); NA];
+        let mut awa = T::zero();
+        for i in 0..NA {
+            let ci = &c[i];
             let mut acc = T::zero();
             for j in 0..i + 1 {
-                acc += c[(j, i)] * ca[j];
+                acc += ci[j] * ca[j];
             }
-            acc
-        }); // W_T a
-        let awa = ca.dot(&ca);
+            wa[i] = acc;
+            awa += ca[i] * ca[i];
+        }
         let mut out = *x;
         let mut zhat = z;
         if awa > T::zero() {
             let f = rho / awa;
             for i in 0..nx {
-                out[NE + i] = d[i] - f * wa[i];
+                out[NE + i] = x[NE + i] - f * wa[i];
             }
-            zhat = d[nx] - f * wa[nx];
+            zhat = z - f * wa[nx];
         }
         (out, zhat)
     }
 
-    /// Algorithm 1 for one sample, computed into locals and committed only when every part
-    /// succeeded (so a failure leaves `self` untouched without copying the whole state).
+    /// Algorithm 1 for one sample, computed into locals (the new `V` into the spare buffer) and
+    /// committed only when every part succeeded, so a failure leaves the state untouched without
+    /// copying it.
     fn apply(&mut self, x: &SVector<T, NT>, z: T) -> Result<Step<T>, Error> {
         let nx = Self::NX;
         let lambda = self.lambda;
-        let theta_prev = self.theta;
-        // Eq. 10: the noisy block scaled, d* = d C⁻¹ (as a column: C⁻ᵀ dᵀ).
-        let mut d = SVector::<T, NA>::zeros();
-        for i in 0..nx {
-            d[i] = x[NE + i];
+        // Eq. 10: the noisy block scaled, d* = d C⁻¹ (as a column: C⁻ᵀ dᵀ), by forward substitution
+        // with the columns of C (column i holds C[(k, i)], k ≤ i).
+        let c = &self.c.data.0;
+        let mut w = SVector::<T, NA>::zeros();
+        for i in 0..NA {
+            let ci = &c[i];
+            let mut acc = if i < nx { x[NE + i] } else { z };
+            for k in 0..i {
+                acc -= ci[k] * w[k];
+            }
+            w[i] = acc / ci[i];
         }
-        d[nx] = z;
-        let d_star = solve_upper_transposed(&self.c, &d);
         // Mixed LS–TLS: project out the exact regressors (module doc).
-        let (w, b, g11) = if NE > 0 {
+        let mut b = self.b;
+        let mut g11 = self.g11;
+        if NE == 1 {
+            // One exact regressor (the intercept): G₁₁ is a scalar.
+            let xe = x[0];
+            let g = lambda * self.g11[(0, 0)] + xe * xe;
+            let kk = if g > T::zero() { xe / g } else { T::zero() };
+            let f = (T::one() - xe * kk).maxr(T::zero()).root();
+            for i in 0..NA {
+                let e = w[i] - self.b[(i, 0)] * xe;
+                b[(i, 0)] = self.b[(i, 0)] + e * kk;
+                w[i] = e * f;
+            }
+            g11[(0, 0)] = g;
+        } else if NE > 1 {
             let mut xe = SVector::<T, NE>::zeros();
             for i in 0..NE {
                 xe[i] = x[i];
             }
-            let g11 = self.g11 * lambda + xe * xe.transpose();
+            g11 = self.g11 * lambda + xe * xe.transpose();
             let kk = solve_spd_regularised(&g11, &xe).ok_or(Error::NumericalFault)?;
             let rho = xe.dot(&kk);
-            let e = d_star - self.b * xe;
-            (
-                e * (T::one() - rho).maxr(T::zero()).root(),
-                self.b + e * kk.transpose(),
-                g11,
-            )
-        } else {
-            (d_star, self.b, self.g11)
-        };
-        let finite = all_finite(&w) && all_finite(&b) && all_finite(&g11);
-        if !finite {
+            let e = w - self.b * xe;
+            w = e * (T::one() - rho).maxr(T::zero()).root();
+            b = self.b + e * kk.transpose();
+        }
+        if !(all_finite(&w) && all_finite(&b) && all_finite(&g11)) {
             return Err(Error::NumericalFault);
         }
-        // Eq. 24 needs only θ(t−1); the VFF step itself (eq. 28–33) runs last, in place (below).
+        let theta_prev = &self.theta;
+        // Eq. 24 needs only θ(t−1) (and C·a of it, kept); the VFF step itself (eq. 28–33) runs last.
         let (nu, x0) = match self.forgetting {
-            ForgettingState::Constant(_) => (z - x.dot(&theta_prev), *x),
+            ForgettingState::Constant(_) => (z - x.dot(theta_prev), *x),
             ForgettingState::Variable(_) => {
-                let (x0, _) = self.corrected_regressor(x, z, &theta_prev);
-                (z - x0.dot(&theta_prev), x0)
+                let (x0, _) = self.corrected_with(x, z, theta_prev, &self.ca);
+                (z - x0.dot(theta_prev), x0)
             }
         };
-        // Algorithm 1, step 4: rank-one SVD update of √λ·D* with the new row.
-        let (mut v, s, secular) = rank_one_update(&self.v, &self.s, lambda, &w).ok_or(Error::NumericalFault)?;
+        // Algorithm 1, step 4: rank-one SVD update of √λ·D* with the new row, into the spare buffer.
+        let cur = usize::from(self.cur & 1);
+        let (first, second) = self.v.split_at_mut(1);
+        let (v_old, v) = if cur == 0 {
+            (&first[0], &mut second[0])
+        } else {
+            (&second[0], &mut first[0])
+        };
+        let mut s = SVector::<T, NA>::zeros();
+        let secular = rank_one_update_into(v_old, &self.s2, lambda, &w, v, &mut s).ok_or(Error::NumericalFault)?;
         let n_eff = lambda * self.n_eff + T::one();
-        let (check_cursor, reorthonormalised) = self.guard_orthonormality(&mut v);
+        let (check_cursor, reorthonormalised) = guard_orthonormality(v, self.check_cursor, self.reorth_tol);
         // Steps 5–9.
-        let (k, solution, a) = self.solve(&v, &s, n_eff);
-        let theta = self.theta_from(&a, &b);
+        let (k, solution, a, ca) = solve(&self.c, &self.weights, self.snr, v, &s, n_eff);
+        let theta = theta_from::<T, NT, NE, NA>(&a, &ca, &b);
         if !all_finite(&theta) {
             return Err(Error::NumericalFault);
         }
@@ -355,24 +454,24 @@ impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Gtls<T, NT, NE,
         // that can fail (`Vff::update` leaves its state unchanged when it fails, and nothing else is
         // committed yet), so the state is not copied.
         let (lambda_next, vff_step) = match &mut self.forgetting {
-            ForgettingState::Constant(l) => (*l, self.last_vff),
+            ForgettingState::Constant(l) => (*l, VffStep::default()),
             ForgettingState::Variable(vff) => {
                 let st = vff.update(&x0, nu).ok_or(Error::NumericalFault)?;
                 (st.lambda, st)
             }
         };
         // Commit.
-        self.v = v;
-        self.s = s;
+        self.cur = (cur as u8) ^ 1;
+        self.s2 = s;
         self.b = b;
         self.g11 = g11;
         self.theta = theta;
+        self.ca = ca;
         self.k = k as u8;
         self.solution = solution;
         self.n_eff = n_eff;
         self.n_eff2 = lambda * lambda * self.n_eff2 + T::one();
         self.lambda = lambda_next;
-        self.last_vff = vff_step;
         self.check_cursor = check_cursor;
         let h = &mut self.health;
         h.updates = h.updates.saturating_add(1);
@@ -392,150 +491,364 @@ impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Gtls<T, NT, NE,
             solution,
             secular,
             reorthonormalised,
+            vff: vff_step,
         })
     }
 
-    /// Checks one entry of `VᵀV − I` per call (cycling), re-orthonormalising `v` if it exceeds the
-    /// tolerance. Cost: one dot product of length `NA` per sample. Returns the next cursor and
-    /// whether `v` was re-orthonormalised.
-    fn guard_orthonormality(&self, v: &mut SMatrix<T, NA, NA>) -> (u16, bool) {
-        let pairs = NA * (NA + 1) / 2;
-        let mut c = (self.check_cursor as usize) % pairs;
-        let next = ((c + 1) % pairs) as u16;
-        // Map the cursor to (i, j), i ≤ j.
-        let mut i = 0usize;
-        while c >= NA - i {
-            c -= NA - i;
-            i += 1;
-        }
-        let j = i + c;
-        let mut dot = T::zero();
-        for r in 0..NA {
-            dot += v[(r, i)] * v[(r, j)];
-        }
-        if i == j {
-            dot -= T::one();
-        }
-        let tol = if self.settings.reorth_tol > T::zero() {
-            self.settings.reorth_tol
-        } else {
-            T::lit(4.0 * NA as f64) * T::EPS
-        };
-        let reorth = dot.abs() > tol && reorthonormalise(v);
-        (next, reorth)
-    }
-
-    /// Algorithm 1, steps 5–9: the threshold `k` (eq. 21) and `a = [θ_n; −1]` (eq. 16 or 22–23).
-    fn solve(&self, v: &SMatrix<T, NA, NA>, s: &SVector<T, NA>, n_eff: T) -> (usize, Solution, SVector<T, NA>) {
-        let nx = Self::NX;
-        let Some(thr) = Self::threshold_for(n_eff, self.settings.snr) else {
-            return (0, Solution::NotEnoughData, self.minimum_norm(v, 0));
-        };
-        let k = (0..nx).filter(|&j| s[j] > thr).count();
-        if k < nx {
-            return (k, Solution::MinimumNorm, self.minimum_norm(v, k));
-        }
-        match self.tls_direction(v) {
-            Some(a) => (k, Solution::Tls, a),
-            None => (k, Solution::Nongeneric, self.minimum_norm(v, nx - 1)),
-        }
-    }
-
     fn threshold_for(n_eff: T, snr: T) -> Option<T> {
-        let dof = n_eff - T::lit(NT as f64);
-        if dof > T::zero() {
-            Some((T::one() + snr) * dof.root())
-        } else {
-            None
-        }
-    }
-
-    /// Eq. 16: `[θ_n; −1] = h C⁻¹ v_NA`, or `None` if the output component is negligible.
-    fn tls_direction(&self, v: &SMatrix<T, NA, NA>) -> Option<SVector<T, NA>> {
-        let nx = Self::NX;
-        let vl = v.column(NA - 1).into_owned();
-        let a = solve_upper(&self.c, &vl);
-        let nrm = a.norm();
-        let last = a[nx];
-        if !(last.abs() > T::SQRT_EPS * nrm) {
-            return None;
-        }
-        Some(a * (-T::one() / last))
-    }
-
-    /// Eq. 22–23: the minimum `‖W θ_n‖` among `[θ_n; −1]` with `V₁ᵀ C [θ_n; −1] = 0`, `V₁ = v_1..v_k`.
-    fn minimum_norm(&self, v: &SMatrix<T, NA, NA>, k: usize) -> SVector<T, NA> {
-        let nx = Self::NX;
-        let mut a = SVector::<T, NA>::zeros();
-        a[nx] = -T::one();
-        if k == 0 {
-            return a;
-        }
-        // Rows r < k: (v_rᵀ C) split into M (first NX entries, scaled by W⁻¹) and b (last entry).
-        let mut mw = SMatrix::<T, NA, NA>::zeros();
-        let mut rhs = SVector::<T, NA>::zeros();
-        for r in 0..k {
-            // v_rᵀ C over the upper triangle of C.
-            let row = SVector::<T, NA>::from_fn(|j, _| {
-                let mut acc = T::zero();
-                for i in 0..j + 1 {
-                    acc += v[(i, r)] * self.c[(i, j)];
-                }
-                acc
-            });
-            for j in 0..nx {
-                mw[(r, j)] = row[j] / self.weights[NE + j];
-            }
-            rhs[r] = row[nx];
-        }
-        // Only the leading k×k block of M Mᵀ is non-zero; the rest is the identity.
-        let mut gram = SMatrix::<T, NA, NA>::identity();
-        for r in 0..k {
-            for c in 0..k {
-                let mut acc = T::zero();
-                for j in 0..nx {
-                    acc += mw[(r, j)] * mw[(c, j)];
-                }
-                gram[(r, c)] = acc;
-            }
-        }
-        if let Some(y) = solve_spd_regularised(&gram, &rhs) {
-            let t = mw.transpose() * y;
-            for j in 0..nx {
-                a[j] = t[j] / self.weights[NE + j];
-            }
-        }
-        a
+        threshold_for(n_eff, snr, NT)
     }
 
     /// `C·a` over the upper triangle of `C` (its lower part is zero).
     #[inline(always)]
     fn c_times(&self, a: &SVector<T, NA>) -> SVector<T, NA> {
-        let c = &self.c;
-        SVector::<T, NA>::from_fn(|i, _| {
-            let mut acc = T::zero();
-            for j in i..NA {
-                acc += c[(i, j)] * a[j];
-            }
-            acc
-        })
+        c_times(&self.c, a)
     }
+}
 
-    /// `θ = [θ_e; θ_n]` from `a = [θ_n; −1]`, with `θ_e = −Bᵀ C a` (LS given `θ_n`).
-    fn theta_from(&self, a: &SVector<T, NA>, b: &SMatrix<T, NA, NE>) -> SVector<T, NT> {
-        let nx = Self::NX;
-        let mut theta = SVector::<T, NT>::zeros();
-        if NE > 0 {
-            let ca = self.c_times(a);
-            let te = -(b.transpose() * ca);
-            for i in 0..NE {
-                theta[i] = te[i];
+/// Checks one entry of `VᵀV − I` per call (cycling from `cursor`), re-orthonormalising `v` if it
+/// exceeds the tolerance (`0`: the default `4·NA·ε`). Cost: one dot product of length `NA` per
+/// sample. Returns the next cursor and whether `v` was re-orthonormalised.
+fn guard_orthonormality<T: Real, const NA: usize>(v: &mut SMatrix<T, NA, NA>, cursor: u16, tol: T) -> (u16, bool) {
+    let pairs = NA * (NA + 1) / 2;
+    let mut c = (cursor as usize) % pairs;
+    let next = ((c + 1) % pairs) as u16;
+    // Map the cursor to (i, j), i ≤ j.
+    let mut i = 0usize;
+    while c >= NA - i {
+        c -= NA - i;
+        i += 1;
+    }
+    let j = i + c;
+    let cols = &v.data.0;
+    let (vi, vj) = (&cols[i.min(NA - 1)], &cols[j.min(NA - 1)]);
+    let mut dot = T::zero();
+    for r in 0..NA {
+        dot += vi[r] * vj[r];
+    }
+    if i == j {
+        dot -= T::one();
+    }
+    let tol = if tol > T::zero() {
+        tol
+    } else {
+        T::lit(4.0 * NA as f64) * T::EPS
+    };
+    let reorth = dot.abs() > tol && reorthonormalise(v);
+    (next, reorth)
+}
+
+/// Eq. 21's threshold `(1 + s/n)·√(N_eff − n_θ)`, or `None` while `N_eff ≤ n_θ`.
+fn threshold_for<T: Real>(n_eff: T, snr: T, nt: usize) -> Option<T> {
+    let dof = n_eff - T::lit(nt as f64);
+    if dof > T::zero() {
+        Some((T::one() + snr) * dof.root())
+    } else {
+        None
+    }
+}
+
+/// `C·a` over the upper triangle of `C` (its lower part is zero; column `j` holds `C[(i, j)]`).
+#[inline(always)]
+fn c_times<T: Real, const NA: usize>(c: &SMatrix<T, NA, NA>, a: &SVector<T, NA>) -> SVector<T, NA> {
+    let cols = &c.data.0;
+    let mut out = SVector::<T, NA>::zeros();
+    for j in 0..NA {
+        let cj = &cols[j];
+        let aj = a[j];
+        for i in 0..j + 1 {
+            out[i] += cj[i] * aj;
+        }
+    }
+    out
+}
+
+/// Algorithm 1, steps 5–9: the threshold `k` (eq. 21) and `a = [θ_n; −1]` (eq. 16 or 22–23), with
+/// `C·a`. `s2` holds the squared singular values.
+fn solve<T: Real, const NT: usize, const NA: usize>(
+    c: &SMatrix<T, NA, NA>,
+    weights: &SVector<T, NT>,
+    snr: T,
+    v: &SMatrix<T, NA, NA>,
+    s2: &SVector<T, NA>,
+    n_eff: T,
+) -> (usize, Solution, SVector<T, NA>, SVector<T, NA>) {
+    let nx = NA - 1;
+    let Some(thr) = threshold_for(n_eff, snr, NT) else {
+        let (a, ca) = minimum_norm(c, weights, v, 0);
+        return (0, Solution::NotEnoughData, a, ca);
+    };
+    // σ_j > thr compared as σ_j² > thr² (both sides non-negative).
+    let thr2 = thr * thr;
+    let mut k = 0;
+    for j in 0..nx {
+        k += usize::from(s2[j] > thr2);
+    }
+    if k < nx {
+        let (a, ca) = minimum_norm(c, weights, v, k);
+        return (k, Solution::MinimumNorm, a, ca);
+    }
+    match tls_direction(c, v) {
+        Some((a, ca)) => (k, Solution::Tls, a, ca),
+        None => {
+            let (a, ca) = minimum_norm(c, weights, v, nx - 1);
+            (k, Solution::Nongeneric, a, ca)
+        }
+    }
+}
+
+/// Eq. 16: `[θ_n; −1] = h C⁻¹ v_NA` (and `C·a = h v_NA`), or `None` if the output component is
+/// negligible (`|a_NA| ≤ √ε‖a‖`).
+fn tls_direction<T: Real, const NA: usize>(
+    c: &SMatrix<T, NA, NA>,
+    v: &SMatrix<T, NA, NA>,
+) -> Option<(SVector<T, NA>, SVector<T, NA>)> {
+    let nx = NA - 1;
+    let vl = &v.data.0[NA - 1];
+    let cols = &c.data.0;
+    // Back substitution C a = v_NA, row i of C being C[(i, k)] = cols[k][i].
+    let mut a = SVector::<T, NA>::zeros();
+    let mut nrm2 = T::zero();
+    for ii in 0..NA {
+        let i = NA - 1 - ii;
+        let mut acc = vl[i];
+        for k in (i + 1)..NA {
+            acc -= cols[k][i] * a[k];
+        }
+        let ai = acc / cols[i][i];
+        a[i] = ai;
+        nrm2 += ai * ai;
+    }
+    let last = a[nx];
+    if !(last * last > T::EPS * nrm2) {
+        return None;
+    }
+    let h = -T::one() / last;
+    let mut ca = SVector::<T, NA>::zeros();
+    for i in 0..NA {
+        a[i] *= h;
+        ca[i] = vl[i] * h;
+    }
+    // Exactly −1 (h·a_NA may round).
+    a[nx] = -T::one();
+    Some((a, ca))
+}
+
+/// Eq. 22–23: the minimum `‖W θ_n‖` among `[θ_n; −1]` with `V₁ᵀ C [θ_n; −1] = 0`, `V₁ = v_1..v_k`
+/// (and `C·a`).
+///
+/// The constraints are `M θ_n = b` with the rows `(v_rᵀ C)`, split into `M` (first `NX` entries) and
+/// `b` (the last, sign flipped by `a_NA = −1`); with `W = diag(weights)` the minimum is
+/// `θ_n = W⁻¹ (MW⁻¹)ᵀ y`, `(MW⁻¹)(MW⁻¹)ᵀ y = b` — a `k×k` system, solved by Cholesky (regularised
+/// as [`cholesky_regularised`] when singular to working precision).
+fn minimum_norm<T: Real, const NT: usize, const NA: usize>(
+    c: &SMatrix<T, NA, NA>,
+    weights: &SVector<T, NT>,
+    v: &SMatrix<T, NA, NA>,
+    k: usize,
+) -> (SVector<T, NA>, SVector<T, NA>) {
+    let nx = NA - 1;
+    let ne = NT + 1 - NA;
+    let mut a = SVector::<T, NA>::zeros();
+    a[nx] = -T::one();
+    let k = k.min(nx);
+    if k > 0 {
+        let vc = &v.data.0;
+        let cc = &c.data.0;
+        // Rows r < k of M W⁻¹ and b: (v_rᵀ C)_j = Σ_{i ≤ j} v_r[i]·C[(i, j)] (rows ≥ k unused, 0).
+        let mut rhs = [T::zero(); NA];
+        let mw: [[T; NA]; NA] = core::array::from_fn(|r| {
+            let vr = &vc[r];
+            core::array::from_fn(|j| {
+                if r >= k {
+                    return T::zero();
+                }
+                let cj = &cc[j];
+                let mut acc = T::zero();
+                for i in 0..j + 1 {
+                    acc += vr[i] * cj[i];
+                }
+                if j < nx {
+                    acc / weights[ne + j]
+                } else {
+                    rhs[r] = acc;
+                    T::zero()
+                }
+            })
+        });
+        if let Some(y) = solve_gram(&mw, &rhs, k, nx) {
+            for j in 0..nx {
+                let mut acc = T::zero();
+                for r in 0..k {
+                    acc += mw[r][j] * y[r];
+                }
+                a[j] = acc / weights[ne + j];
             }
         }
-        for j in 0..nx {
-            theta[NE + j] = a[j];
+    }
+    let ca = c_times(c, &a);
+    (a, ca)
+}
+
+/// Solves `G y = b` with the Gram matrix `G = M Mᵀ` of the first `k` rows of `m` over their first
+/// `n` entries (the lower triangle is formed and factorised in place by Cholesky), regularised by
+/// `μ = 16·k·ε·max(tr G/k, tiny)` on the diagonal if a pivot is not positive (as
+/// [`cholesky_regularised`]; `G` is then formed again, which is rare). `None` if that fails too or
+/// the result is not finite.
+fn solve_gram<T: Real, const N: usize>(m: &[[T; N]; N], b: &[T; N], k: usize, n: usize) -> Option<[T; N]> {
+    let gram = |mu: T| -> [[T; N]; N] {
+        core::array::from_fn(|r| {
+            core::array::from_fn(|q| {
+                if r >= k || q > r {
+                    return T::zero();
+                }
+                let mut acc = T::zero();
+                for j in 0..n.min(N) {
+                    acc += m[r][j] * m[q][j];
+                }
+                if q == r {
+                    acc + mu
+                } else {
+                    acc
+                }
+            })
+        })
+    };
+    let mut g = gram(T::zero());
+    if !cholesky_lower_in_place(&mut g, k) {
+        let mut tr = T::zero();
+        for r in 0..k.min(N) {
+            for j in 0..n.min(N) {
+                tr += m[r][j] * m[r][j];
+            }
         }
-        theta
+        let kf = T::lit(k as f64);
+        let mu = T::lit(16.0) * kf * T::EPS * (tr / kf).maxr(T::SQRT_MIN_POSITIVE);
+        g = gram(mu);
+        if !cholesky_lower_in_place(&mut g, k) {
+            return None;
+        }
+    }
+    // L Lᵀ y = b.
+    let k = k.min(N);
+    let mut y = [T::zero(); N];
+    for i in 0..k {
+        let mut acc = b[i];
+        for j in 0..i {
+            acc -= g[i][j] * y[j];
+        }
+        y[i] = acc / g[i][i];
+    }
+    for ii in 0..k {
+        let i = k - 1 - ii;
+        let mut acc = y[i];
+        for j in (i + 1)..k {
+            acc -= g[j][i] * y[j];
+        }
+        y[i] = acc / g[i][i];
+    }
+    if slice_finite(&y) {
+        Some(y)
+    } else {
+        None
+    }
+}
+
+/// Cholesky `G = L Lᵀ` of the leading `k×k` block in place (lower triangle); `false` if a pivot is
+/// not positive and finite.
+fn cholesky_lower_in_place<T: Real, const N: usize>(g: &mut [[T; N]; N], k: usize) -> bool {
+    for j in 0..k.min(N) {
+        let mut d = g[j][j];
+        for q in 0..j {
+            d -= g[j][q] * g[j][q];
+        }
+        if !(d > T::zero() && d.finite()) {
+            return false;
+        }
+        let ljj = d.root();
+        g[j][j] = ljj;
+        for i in (j + 1)..k.min(N) {
+            let mut acc = g[i][j];
+            for q in 0..j {
+                acc -= g[i][q] * g[j][q];
+            }
+            g[i][j] = acc / ljj;
+        }
+    }
+    true
+}
+
+/// `θ = [θ_e; θ_n]` from `a = [θ_n; −1]` and `C·a`, with `θ_e = −Bᵀ C a` (LS given `θ_n`).
+fn theta_from<T: Real, const NT: usize, const NE: usize, const NA: usize>(
+    a: &SVector<T, NA>,
+    ca: &SVector<T, NA>,
+    b: &SMatrix<T, NA, NE>,
+) -> SVector<T, NT> {
+    let mut theta = SVector::<T, NT>::zeros();
+    let bc = &b.data.0;
+    for e in 0..NE {
+        let be = &bc[e];
+        let mut acc = T::zero();
+        for i in 0..NA {
+            acc -= be[i] * ca[i];
+        }
+        theta[e] = acc;
+    }
+    for j in 0..NA - 1 {
+        theta[NE + j] = a[j];
+    }
+    theta
+}
+
+impl<T: Real, const NT: usize, const NE: usize, const NA: usize> core::fmt::Debug for Gtls<T, NT, NE, NA> {
+    /// Every field of the state (the current `V`, not the scratch buffer).
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.debug_struct("Gtls")
+            .field("snr", &self.snr)
+            .field("max_abs_input", &self.max_abs_input)
+            .field("reorth_tol", &self.reorth_tol)
+            .field("c", &self.c)
+            .field("weights", &self.weights)
+            .field("v", self.right_singular_vectors())
+            .field("s2", &self.s2)
+            .field("g11", &self.g11)
+            .field("b", &self.b)
+            .field("theta", &self.theta)
+            .field("ca", &self.ca)
+            .field("k", &self.k)
+            .field("solution", &self.solution)
+            .field("n_eff", &self.n_eff)
+            .field("n_eff2", &self.n_eff2)
+            .field("lambda", &self.lambda)
+            .field("forgetting", &self.forgetting)
+            .field("check_cursor", &self.check_cursor)
+            .field("health", &self.health)
+            .finish()
+    }
+}
+
+impl<T: Real, const NT: usize, const NE: usize, const NA: usize> PartialEq for Gtls<T, NT, NE, NA> {
+    /// The state only: the spare `V` buffer (scratch) is not compared.
+    fn eq(&self, other: &Self) -> bool {
+        self.snr == other.snr
+            && self.max_abs_input == other.max_abs_input
+            && self.reorth_tol == other.reorth_tol
+            && self.c == other.c
+            && self.weights == other.weights
+            && self.right_singular_vectors() == other.right_singular_vectors()
+            && self.s2 == other.s2
+            && self.g11 == other.g11
+            && self.b == other.b
+            && self.theta == other.theta
+            && self.ca == other.ca
+            && self.k == other.k
+            && self.solution == other.solution
+            && self.n_eff == other.n_eff
+            && self.n_eff2 == other.n_eff2
+            && self.lambda == other.lambda
+            && self.forgetting == other.forgetting
+            && self.check_cursor == other.check_cursor
+            && self.health == other.health
     }
 }
 
@@ -543,7 +856,7 @@ impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Estimator<T, NT
     /// Algorithm 1 for one sample. Refused (state untouched) if an element is non-finite or larger
     /// than `max_abs_input`, or if the update would leave a non-finite state.
     fn update(&mut self, x: &SVector<T, NT>, z: T) -> Result<Step<T>, Error> {
-        check_sample(x, z, self.settings.max_abs_input)?;
+        check_sample(x, z, self.max_abs_input)?;
         self.apply(x, z)
     }
 
@@ -562,11 +875,12 @@ impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Estimator<T, NT
         if !(dof > T::zero()) {
             return Err(Error::InsufficientExcitation);
         }
-        let s_last2 = self.s[NA - 1] * self.s[NA - 1];
+        let s_last2 = self.s2[NA - 1];
         let sigma2 = s_last2 / dof;
         let ratio = self.n_eff2 / self.n_eff;
         // Scaled-space TLS solution θ* from v_NA.
-        let vl = self.v.column(NA - 1);
+        let vv = self.right_singular_vectors();
+        let vl = vv.column(NA - 1);
         if !(vl[nx].abs() > T::EPS) {
             return Err(Error::InsufficientExcitation);
         }
@@ -578,10 +892,10 @@ impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Estimator<T, NT
         // G*ₓₓ − σ²_NA I, padded to NA×NA with 1 on the last diagonal entry.
         let mut g = SMatrix::<T, NA, NA>::zeros();
         for i in 0..NA {
-            let si2 = self.s[i] * self.s[i];
+            let si2 = self.s2[i];
             for r in 0..nx {
                 for c in 0..nx {
-                    g[(r, c)] += self.v[(r, i)] * si2 * self.v[(c, i)];
+                    g[(r, c)] += vv[(r, i)] * si2 * vv[(c, i)];
                 }
             }
         }

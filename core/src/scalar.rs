@@ -8,6 +8,10 @@ use nalgebra::RealField;
 /// analysis). All transcendental functions come from nalgebra's `RealField`, which uses `libm` in
 /// `no_std` builds, so the same code runs on both.
 pub trait Real: RealField + Copy + Default {
+    /// `0` as a constant (for `const` initialisers such as the firmware's statics).
+    const ZERO: Self;
+    /// `1` as a constant.
+    const ONE: Self;
     /// Machine epsilon (the gap between 1 and the next representable number).
     const EPS: Self;
     /// The smallest positive normal number.
@@ -51,6 +55,8 @@ pub trait Real: RealField + Copy + Default {
 }
 
 impl Real for f32 {
+    const ZERO: Self = 0.0;
+    const ONE: Self = 1.0;
     const EPS: Self = f32::EPSILON;
     const MIN_POSITIVE: Self = f32::MIN_POSITIVE;
     const SQRT_EPS: Self = sqrt_f32(f32::EPSILON);
@@ -105,6 +111,8 @@ impl Real for f32 {
 }
 
 impl Real for f64 {
+    const ZERO: Self = 0.0;
+    const ONE: Self = 1.0;
     const EPS: Self = f64::EPSILON;
     const MIN_POSITIVE: Self = f64::MIN_POSITIVE;
     // 2⁻²⁶ and 2⁻⁵¹¹: exact square roots of 2⁻⁵² and 2⁻¹⁰²², which the correctly rounded `sqrt` returns.

@@ -30,7 +30,7 @@
 //! `O(n²)`. When the regressors are not excited and `λ_F < 1`, `P` would grow without bound
 //! ("wind-up"); the forgetting is not applied to `P` while `trace P` exceeds its initial value.
 
-use crate::linalg::{all_finite, slice_finite};
+use crate::linalg::slice_finite;
 use crate::{Error, Real};
 use nalgebra::{SMatrix, SVector};
 
@@ -157,19 +157,36 @@ pub struct Vff<T: Real, const N: usize> {
     lambda: T,
 }
 
-/// The values of one VFF step (for plots and tests).
+/// The values of one VFF step (for plots and tests). The powers are kept squared (eq. 28 as it
+/// smooths them); eq. 32 compares them squared and only eq. 33 needs their square roots, so the
+/// step takes none unless `λ_F` leaves `λ_max`. [`Self::sigma_q`] etc. give the roots.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct VffStep<T> {
     /// `q(t)` of eq. 29.
     pub q: T,
-    /// `σ_q`, `σ_ν`, `σ_ε` of eq. 28 after the step.
-    pub sigma_q: T,
-    /// A priori residual power, square-rooted.
-    pub sigma_nu: T,
-    /// Noise power, square-rooted.
-    pub sigma_eps: T,
+    /// `σ_q²` of eq. 28a after the step.
+    pub power_q: T,
+    /// `σ_ν²` of eq. 28b (a priori residual power).
+    pub power_nu: T,
+    /// `σ_ε²` of eq. 28c (noise power).
+    pub power_eps: T,
     /// `λ_F(t)` (eq. 32–33, clamped to `[λ_min, λ_max]`).
     pub lambda: T,
+}
+
+impl<T: Real> VffStep<T> {
+    /// `σ_q`.
+    pub fn sigma_q(&self) -> T {
+        self.power_q.root()
+    }
+    /// `σ_ν`.
+    pub fn sigma_nu(&self) -> T {
+        self.power_nu.root()
+    }
+    /// `σ_ε`.
+    pub fn sigma_eps(&self) -> T {
+        self.power_eps.root()
+    }
 }
 
 impl<T: Real, const N: usize> Vff<T, N> {
@@ -206,8 +223,20 @@ impl<T: Real, const N: usize> Vff<T, N> {
     pub fn update(&mut self, x0: &SVector<T, N>, nu: T) -> Option<VffStep<T>> {
         let s = self.settings;
         let one = T::one();
-        let px = self.p * x0;
-        let q = x0.dot(&px); // eq. 29
+        // P x̂₀ (P symmetric: Σ_j P[:, j] x_j over its columns).
+        let pc = &self.p.data.0;
+        let mut px = [T::zero(); N];
+        for j in 0..N {
+            let col = &pc[j];
+            let xj = x0[j];
+            for i in 0..N {
+                px[i] += col[i] * xj;
+            }
+        }
+        let mut q = T::zero(); // eq. 29
+        for i in 0..N {
+            q += x0[i] * px[i];
+        }
         let (g_q, g_nu, g_eps) = match s.reading {
             Eq28Reading::Paleologu => (s.gamma2, s.gamma2, s.gamma1),
             Eq28Reading::Literal => (s.gamma1, s.gamma1, s.gamma2),
@@ -215,35 +244,52 @@ impl<T: Real, const N: usize> Vff<T, N> {
         let sq2 = g_q * self.sq2 + (one - g_q) * q * q; // 28a
         let snu2 = g_nu * self.snu2 + (one - g_nu) * nu * nu; // 28b
         let seps2 = g_eps * self.seps2 + (one - g_eps) * nu * nu; // 28c
-        let (sig_q, sig_nu, sig_eps) = (sq2.root(), snu2.root(), seps2.root());
-        let lambda_new = if sig_nu <= s.gamma0 * sig_eps {
-            s.lambda_max // eq. 32
+                                                                  // Eq. 32 (σ_ν ≤ γ₀σ_ε, compared squared), else eq. 33.
+        let lambda_new = if snu2 <= s.gamma0 * s.gamma0 * seps2 {
+            s.lambda_max
         } else {
+            let (sig_q, sig_nu, sig_eps) = (sq2.root(), snu2.root(), seps2.root());
             (sig_q * sig_eps / (s.varsigma + (sig_nu - sig_eps).abs())).minr(s.lambda_max)
-            // eq. 33
         }
         .maxr(s.lambda_min);
-        // Eq. 30 by Sherman–Morrison with λ_F(t−1): P ← (P − P x xᵀ P / (λ + q)) / λ.
+        // Eq. 30 by Sherman–Morrison with λ_F(t−1): P ← (P − P x xᵀ P / (λ + q)) / λ, the division
+        // by λ skipped while it would raise trace P above its initial value (module doc).
         let lam_old = self.lambda;
-        let denom = lam_old + q;
-        let mut p = self.p - px * px.transpose() / denom;
-        p = (p + p.transpose()) * T::lit(0.5);
-        let grown = p / lam_old;
-        let p = if grown.trace() <= self.p_trace_max { grown } else { p };
-        let finite = slice_finite(&[q, sq2, snu2, seps2, lambda_new]) && all_finite(&p);
+        let g = one / (lam_old + q);
+        let mut trace = T::zero();
+        for i in 0..N {
+            trace += pc[i][i] - px[i] * px[i] * g;
+        }
+        let scale = if trace / lam_old <= self.p_trace_max {
+            one / lam_old
+        } else {
+            one
+        };
+        // P stays positive semi-definite with trace ≤ its initial trace, so its entries are
+        // bounded: finite P x̂₀, powers, λ and trace make the new P finite.
+        let finite = slice_finite(&px) && slice_finite(&[q, g, sq2, snu2, seps2, lambda_new, trace]);
         if !finite {
             return None;
         }
-        self.p = p;
+        // The new P over the upper triangle, mirrored (exactly symmetric).
+        let pm = &mut self.p.data.0;
+        for j in 0..N {
+            let pj = px[j] * g;
+            for i in 0..j + 1 {
+                let val = (pm[j][i] - px[i] * pj) * scale;
+                pm[j][i] = val;
+                pm[i][j] = val;
+            }
+        }
         self.sq2 = sq2;
         self.snu2 = snu2;
         self.seps2 = seps2;
         self.lambda = lambda_new;
         Some(VffStep {
             q,
-            sigma_q: sig_q,
-            sigma_nu: sig_nu,
-            sigma_eps: sig_eps,
+            power_q: sq2,
+            power_nu: snu2,
+            power_eps: seps2,
             lambda: lambda_new,
         })
     }

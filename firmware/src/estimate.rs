@@ -5,8 +5,7 @@
 use crate::board::Counter;
 use crate::sample::Sample;
 use aerosid_core::aero::model::idx;
-use aerosid_core::aero::{onboard, Pipeline, Stage};
-use aerosid_core::Error;
+use aerosid_core::aero::{onboard, Pipeline, PipelineStep, Stage};
 
 /// Timing probes per sample: the whole step, the synthesis stage, then one per coefficient.
 pub const PROBES: usize = 2 + idx::COUNT;
@@ -18,10 +17,12 @@ pub struct StepCost {
     pub ticks: [u32; PROBES],
 }
 
-/// The estimator: the pipeline (≈ 4.4 KB), which lives in a static of `init` and is built there
-/// in place (see [`Estimator::new`]).
+/// The estimator: the pipeline (≈ 4.9 KB) and its per-sample result (≈ 0.5 KB), both in statics of
+/// `init` and built there in place (see [`Estimator::new`]).
 pub struct Estimator {
     pipeline: &'static mut Pipeline<f32>,
+    /// The pipeline's per-sample result, filled in place ([`Pipeline::process_into`]).
+    step: &'static mut PipelineStep<f32>,
 }
 
 /// Why the estimator could not be built (a configuration error, found at boot).
@@ -29,20 +30,23 @@ pub struct Estimator {
 pub struct ConfigError;
 
 impl Estimator {
-    /// The on-board pipeline, built into `slot` (an `init`-local static, `Err` until then).
+    /// The on-board pipeline, configured in place in `pipeline`, with the step buffer `step` (both
+    /// `init`-local statics that start as the core's `const` placeholders).
     ///
-    /// Why a slot and not the pipeline by value: RTIC moves `init`'s returned resources into their
-    /// statics and enables the interrupts before `init`'s stack frame is released, so every task's
-    /// first run (and, in a QEMU replay, the whole run) stacks on top of that frame. Returned by
-    /// value, the pipeline occupied the frame twice (the value and the `Shared` struct holding it):
-    /// 8.5 KB of stack under every task. Built here, in a frame of its own that is gone before the
-    /// interrupts are enabled, `Shared` holds only a reference.
+    /// Why statics and not values: RTIC moves `init`'s returned resources into their statics and
+    /// enables the interrupts before `init`'s stack frame is released, so every task's first run
+    /// (and, in a QEMU replay, the whole run) stacks on top of that frame. Returned by value, the
+    /// pipeline occupied the frame twice (the value and the `Shared` struct holding it): 8.5 KB of
+    /// stack under every task; built by value into a slot it still took 7.6 KB. Configured in place
+    /// ([`onboard::configure`]) the frame holds at most one estimator under construction, and
+    /// `Shared` holds only references.
     #[inline(never)]
-    pub fn new(slot: &'static mut Result<Pipeline<f32>, Error>) -> Result<Self, ConfigError> {
-        // Assigned whole, so that the pipeline is written straight into the slot (no copy of it in
-        // this frame).
-        *slot = onboard::pipeline();
-        slot.as_mut().map(|pipeline| Self { pipeline }).map_err(|_| ConfigError)
+    pub fn new(
+        pipeline: &'static mut Pipeline<f32>,
+        step: &'static mut PipelineStep<f32>,
+    ) -> Result<Self, ConfigError> {
+        onboard::configure(pipeline).map_err(|_| ConfigError)?;
+        Ok(Self { pipeline, step })
     }
 
     /// Runs one sample through the pipeline; returns how many coefficients updated and the cost.
@@ -50,7 +54,7 @@ impl Estimator {
         let mut cost = StepCost::default();
         let start = counter.now();
         let mut last = start;
-        let step = self.pipeline.process_probed(&sample.sensors, &mut |stage| {
+        self.pipeline.process_into(&sample.sensors, self.step, &mut |stage| {
             let now = counter.now();
             let slot = match stage {
                 Stage::Synthesis => 1,
@@ -60,7 +64,7 @@ impl Estimator {
             last = now;
         });
         cost.ticks[0] = counter.now().wrapping_sub(start);
-        let updated = step.status.iter().filter(|s| s.is_ok()).count() as u8;
+        let updated = self.step.status.iter().filter(|s| s.is_ok()).count() as u8;
         (updated, cost)
     }
 

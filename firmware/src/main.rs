@@ -104,7 +104,8 @@ mod app {
     }
 
     #[init(local = [
-        pipeline: Result<aerosid_core::aero::Pipeline<f32>, aerosid_core::Error> = Err(aerosid_core::Error::InvalidSetting)
+        pipeline: aerosid_core::aero::Pipeline<f32> = aerosid_core::aero::Pipeline::PLACEHOLDER,
+        step: aerosid_core::aero::PipelineStep<f32> = aerosid_core::aero::PipelineStep::WARMUP,
     ])]
     fn init(cx: init::Context) -> (Shared, Local) {
         board::stack::paint();
@@ -121,7 +122,7 @@ mod app {
         );
         let b = board::init(cx.device, &clocks);
 
-        let estimator = match Estimator::new(cx.local.pipeline) {
+        let estimator = match Estimator::new(cx.local.pipeline, cx.local.step) {
             Ok(e) => e,
             Err(e) => {
                 // A configuration error is a build defect; stop here, visibly.

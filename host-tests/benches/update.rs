@@ -330,7 +330,7 @@ fn bench_secular<T: Real, const NT: usize, const NA: usize>(c: &mut Criterion, i
         .collect();
     let lambda = T::lit(LAMBDA);
     let mut v = SMatrix::<T, NA, NA>::identity();
-    let mut sv = SVector::<T, NA>::zeros();
+    let mut sv = SVector::<T, NA>::zeros(); // squared singular values
     run(c, "secular_only", id, &rows, |w, _| {
         match rank_one_update(&v, &sv, lambda, w) {
             Some((v2, s2, outcome)) => {
@@ -409,8 +409,8 @@ fn secular_stats<T: Real + faer::traits::RealField, const NT: usize, const NE: u
     let mut reference = (NE == 0).then(|| FaerEigen::<T, NT, NA>::new(FaerApi::Preallocated));
     let (warm, measured) = samples.split_at(WARM_UP);
     let mut tally = |part: &[Sample<T, NT>], est: &mut Gtls<T, NT, NE, NA>| {
-        let (mut iterations, mut deflated, mut not_converged, mut tls, mut refused) =
-            (0u64, 0u64, 0u64, 0usize, 0usize);
+        let (mut iterations, mut deflated, mut not_converged, mut tls, mut refused, mut general) =
+            (0u64, 0u64, 0u64, 0usize, 0usize, 0usize);
         for s in part {
             if let Some(r) = reference.as_mut() {
                 // Same samples as the estimator: θ is compared at the end.
@@ -422,7 +422,9 @@ fn secular_stats<T: Real + faer::traits::RealField, const NT: usize, const NE: u
                         deflated: d,
                         iterations: it,
                         not_converged: nc,
+                        general: g,
                     } = step.secular;
+                    general += usize::from(g);
                     iterations += u64::from(it);
                     deflated += u64::from(d);
                     not_converged += u64::from(nc);
@@ -433,11 +435,12 @@ fn secular_stats<T: Real + faer::traits::RealField, const NT: usize, const NE: u
         }
         let n = part.len() as f64;
         format!(
-            "iterations/update {:.2}, per root {:.2}, deflations/update {:.3}, not converged {}, TLS solutions {}/{}, refused {}",
+            "iterations/update {:.2}, per root {:.2}, deflations/update {:.3}, not converged {}, general path {}, TLS solutions {}/{}, refused {}",
             iterations as f64 / n,
             iterations as f64 / (n * NA as f64 - deflated as f64).max(1.0),
             deflated as f64 / n,
             not_converged,
+            general,
             tls,
             part.len(),
             refused

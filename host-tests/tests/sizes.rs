@@ -1,7 +1,10 @@
 //! Memory of the on-board estimators (`core::mem::size_of`), as reported in the README.
 //!
-//! The firmware budget (issue: estimator state ≤ 4 KB for six estimators) gives ~680 bytes each;
-//! these tests fail if a change makes the `f32` state grow past the figures below.
+//! The firmware budget (issue 4: estimator state ≤ 4 KB for the six estimators, asserted in
+//! `synthesis.rs`) gives ~680 bytes each on average; these tests fail if a change makes the `f32`
+//! state grow past the figures below (measured + ~2.5 %). The dimension-6 estimator is 800 B since
+//! `V` is double-buffered (+144 B: the update writes the new `V` into the spare buffer instead of
+//! copying 144 B per sample) and keeps `C·a` of its `θ` (+24 B); it was 680 B before.
 
 use aerosid_core::{Gtls, Rls};
 use core::mem::size_of;
@@ -16,6 +19,6 @@ fn estimator_state_sizes() {
     println!("Gtls<f32, 6, 0, 7> (n_θ = 6, all regressors noisy): {gtls6_noisy} B");
     println!("Gtls<f32, 4, 1, 4>: {gtls4} B; Rls<f32, 6>: {rls6} B");
     println!("Gtls<f64, 6, 1, 6>: {} B", size_of::<Gtls<f64, 6, 1, 6>>());
-    assert!(gtls6_exact <= 700, "{gtls6_exact}");
-    assert!(gtls6_noisy <= 780, "{gtls6_noisy}");
+    assert!(gtls6_exact <= 820, "{gtls6_exact}");
+    assert!(gtls6_noisy <= 960, "{gtls6_noisy}");
 }

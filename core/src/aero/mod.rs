@@ -17,6 +17,7 @@ pub use pipeline::{Health, Limits, Pipeline, PipelineSettings, PipelineStep, Ref
 pub use stuck::{StuckDetector, StuckHealth, StuckSettings};
 pub use synthesis::{synthesise, Coefficients, ForceAxes, RateDifferentiator, Synthesis, SynthesisSettings};
 
+use crate::linalg::const_zeros;
 use crate::Real;
 use nalgebra::{Matrix3, Vector3};
 
@@ -111,6 +112,45 @@ impl<T: Real> Airframe<T> {
             },
         }
     }
+}
+
+impl<T: Real> SensorSample<T> {
+    /// Every field 0 (a `const`, e.g. for the firmware's statics; equal to `default()`).
+    pub const ZERO: Self = Self {
+        t_s: T::ZERO,
+        dt_s: T::ZERO,
+        accel_mps2: const_zeros(),
+        gyro_rad_s: const_zeros(),
+        airspeed_mps: T::ZERO,
+        alpha_rad: T::ZERO,
+        beta_rad: T::ZERO,
+        euler_rad: const_zeros(),
+        prop_speed_rad_s: T::ZERO,
+        elevator_rad: T::ZERO,
+        aileron_rad: T::ZERO,
+        rudder_rad: T::ZERO,
+        throttle: T::ZERO,
+        air_density_kgpm3: T::ZERO,
+    };
+}
+
+impl<T: Real> Airframe<T> {
+    /// Every constant 0: a placeholder for `const` initialisers, replaced before use
+    /// ([`Pipeline::configure`](crate::aero::Pipeline::configure)).
+    pub const ZERO: Self = Self {
+        mass_kg: T::ZERO,
+        inertia_kgm2: const_zeros(),
+        wing_area_m2: T::ZERO,
+        span_m: T::ZERO,
+        chord_m: T::ZERO,
+        propeller: Propeller {
+            diameter_m: T::ZERO,
+            ct: [T::ZERO; 3],
+            cp: [T::ZERO; 3],
+            position_m: const_zeros(),
+            pitch_rad: T::ZERO,
+        },
+    };
 }
 
 /// Conversion between scalar types (e.g. an `f64` simulator log replayed through the `f32`

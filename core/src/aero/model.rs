@@ -181,6 +181,18 @@ pub struct SensorNoise<T> {
     pub nominal_alpha_rad: T,
 }
 
+impl<T: Real> SensorNoise<T> {
+    /// Every specification 0: a placeholder for `const` initialisers.
+    pub const ZERO: Self = Self {
+        alpha_rad: T::ZERO,
+        beta_rad: T::ZERO,
+        gyro_rad_s: T::ZERO,
+        surface_rad: T::ZERO,
+        nominal_airspeed_mps: T::ZERO,
+        nominal_alpha_rad: T::ZERO,
+    };
+}
+
 impl<T: Real> Default for SensorNoise<T> {
     fn default() -> Self {
         let l = T::lit;
@@ -210,6 +222,16 @@ pub struct CoefficientModel<T, const NT: usize> {
 }
 
 impl<T: Real, const NT: usize> CoefficientModel<T, NT> {
+    /// A placeholder for `const` initialisers (every regressor the intercept: it does not
+    /// [`validate`](Self::validate)).
+    pub const fn placeholder() -> Self {
+        Self {
+            regressors: [Regressor::One; NT],
+            sigma_eps: T::ONE,
+            weights: [T::ONE; NT],
+        }
+    }
+
     /// A model with unit weights.
     pub fn new(regressors: [Regressor; NT], sigma_eps: T) -> Self {
         Self {
@@ -378,6 +400,17 @@ pub mod typical {
 }
 
 impl<T: Real> AeroModels<T> {
+    /// Placeholder models (intercept-only rows, `σ_ε = 1`) for `const` initialisers, replaced before
+    /// use ([`Pipeline::configure`](crate::aero::Pipeline::configure)).
+    pub const PLACEHOLDER: Self = Self {
+        lift: CoefficientModel::placeholder(),
+        drag: CoefficientModel::placeholder(),
+        side: CoefficientModel::placeholder(),
+        roll: CoefficientModel::placeholder(),
+        pitch: CoefficientModel::placeholder(),
+        yaw: CoefficientModel::placeholder(),
+    };
+
     /// The default regressor sets with the given `σ_ε` per coefficient, indexed by [`idx`], and the
     /// minimum-norm weights `W_j = 1/s_j` of [`typical`].
     ///

@@ -34,3 +34,13 @@ pub fn pipeline<T: Real>() -> Result<Pipeline<T>, Error> {
         settings(),
     )
 }
+
+/// Configures `pipeline` in place as the on-board pipeline ([`Pipeline::configure`]: the
+/// firmware's static, without the whole pipeline on the boot stack).
+pub fn configure<T: Real>(pipeline: &mut Pipeline<T>) -> Result<(), Error> {
+    pipeline.configure(
+        Airframe::skywalker_2013_mod(),
+        AeroModels::with_sigma_eps(SIGMA_EPS.map(T::lit)),
+        settings(),
+    )
+}

@@ -77,6 +77,23 @@ pub struct Limits<T> {
     pub dt_tolerance: T,
 }
 
+impl<T: Real> Limits<T> {
+    /// Every limit 0: a placeholder for `const` initialisers.
+    pub const ZERO: Self = Self {
+        max_accel_mps2: T::ZERO,
+        max_rate_rad_s: T::ZERO,
+        min_airspeed_mps: T::ZERO,
+        max_airspeed_mps: T::ZERO,
+        max_alpha_rad: T::ZERO,
+        max_beta_rad: T::ZERO,
+        max_prop_speed_rad_s: T::ZERO,
+        max_surface_rad: T::ZERO,
+        density_range_kgpm3: (T::ZERO, T::ZERO),
+        nominal_dt_s: T::ZERO,
+        dt_tolerance: T::ZERO,
+    };
+}
+
 impl<T: Real> Default for Limits<T> {
     fn default() -> Self {
         let l = T::lit;
@@ -157,6 +174,17 @@ pub struct PipelineSettings<T> {
     pub moment_prefilter: bool,
 }
 
+impl<T: Real> PipelineSettings<T> {
+    /// A placeholder for `const` initialisers, replaced before use.
+    pub const PLACEHOLDER: Self = Self {
+        synthesis: SynthesisSettings::ZERO,
+        limits: Limits::ZERO,
+        noise: SensorNoise::ZERO,
+        gtls: GtlsSettings::PLACEHOLDER,
+        moment_prefilter: false,
+    };
+}
+
 impl<T: Real> Default for PipelineSettings<T> {
     fn default() -> Self {
         Self {
@@ -213,6 +241,21 @@ pub struct Health {
     pub coefficients: [CoefficientHealth; idx::COUNT],
 }
 
+impl Health {
+    /// Every counter 0 (a `const`; equal to `default()`).
+    pub const ZERO: Self = Self {
+        samples: 0,
+        invalid_channel: [0; channel::COUNT],
+        axial_speed_fallbacks: 0,
+        coefficients: [CoefficientHealth {
+            updates: 0,
+            refused_channels: 0,
+            refused_warmup: 0,
+            refused_estimator: 0,
+        }; idx::COUNT],
+    };
+}
+
 /// A point in [`Pipeline::process_probed`] where the probe is called.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -236,6 +279,22 @@ pub struct PipelineStep<T: Real> {
     pub regressors: [[T; MAX_PARAMETERS]; idx::COUNT],
 }
 
+impl<T: Real> PipelineStep<T> {
+    /// Nothing synthesised, every coefficient in warm-up (a `const`, for the firmware's static).
+    pub const WARMUP: Self = Self {
+        synthesis: None,
+        status: [Err(Refusal::Warmup); idx::COUNT],
+        regressors: [[T::ZERO; MAX_PARAMETERS]; idx::COUNT],
+    };
+}
+
+impl<T: Real> Default for PipelineStep<T> {
+    /// [`Self::WARMUP`].
+    fn default() -> Self {
+        Self::WARMUP
+    }
+}
+
 /// Synthesis state and the six estimators (module doc).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Pipeline<T: Real> {
@@ -243,11 +302,14 @@ pub struct Pipeline<T: Real> {
     models: AeroModels<T>,
     settings: PipelineSettings<T>,
     differentiator: RateDifferentiator<T>,
-    /// Sanitised samples, newest first; the centre is `delay[DELAY_SAMPLES]`. Also the moment
+    /// Sanitised samples in a ring: the newest is `delay[head]`, the one of age `a` (samples)
+    /// `delay[(head + a) % DELAY_LEN]`; the centre has age `DELAY_SAMPLES`. Also the moment
     /// prefilter's window (the FIR is symmetric, so newest-first order is its order too).
     delay: [SensorSample<T>; DELAY_LEN],
     /// The valid channels of each sample in `delay`.
     delay_masks: [ChannelMask; DELAY_LEN],
+    /// Slot of the newest sample in `delay`.
+    head: u8,
     filled: u8,
     lift: Gtls<T, 4, 1, 4>,
     drag: Gtls<T, 5, 1, 5>,
@@ -268,16 +330,22 @@ fn prefilter_gain<T: Real>() -> T {
         .fold(T::zero(), |a, w| a + T::lit(*w) * T::lit(*w))
 }
 
-fn estimator<T: Real, const N: usize>(
+/// Builds one coefficient's estimator into `est`. Not inlined: its temporaries (`W_T`, its factor
+/// and inverse, the new estimator) live in its own frame, which the six calls reuse one after the
+/// other, not all at once in the caller's (the firmware builds the pipeline at boot).
+#[inline(never)]
+fn build_estimator<T: Real, const N: usize>(
+    est: &mut Gtls<T, N, 1, N>,
     m: &CoefficientModel<T, N>,
     s: &PipelineSettings<T>,
     af: &Airframe<T>,
     prefiltered: bool,
-) -> Result<Gtls<T, N, 1, N>, Error> {
+) -> Result<(), Error> {
     m.validate()?;
     let gain = if prefiltered { prefilter_gain() } else { T::one() };
     let w_t = m.error_covariance_filtered(&s.noise, af.span_m, af.chord_m, gain);
-    Gtls::new(&w_t, &m.weight_vector(), s.gtls)
+    *est = Gtls::new(&w_t, &m.weight_vector(), s.gtls)?;
+    Ok(())
 }
 
 /// The regressor row of one coefficient for the centre sample: from the centre alone, or (moment
@@ -285,7 +353,8 @@ fn estimator<T: Real, const N: usize>(
 struct Row<'a, T: Real> {
     centre: &'a SensorSample<T>,
     syn: &'a Synthesis<T>,
-    /// The window and [`MOMENT_PREFILTER`] in `T`, when the regressors are prefiltered.
+    /// The window (the ring) and [`MOMENT_PREFILTER`] in `T` in ring order, when the regressors are
+    /// prefiltered.
     window: Option<(&'a [SensorSample<T>; DELAY_LEN], &'a [T; DELAY_LEN])>,
     airframe: &'a Airframe<T>,
 }
@@ -308,34 +377,78 @@ fn update_one<T: Real, const N: usize>(
 }
 
 impl<T: Real> Pipeline<T> {
+    /// A placeholder pipeline (placeholder airframe, models and estimators, no data) for `const`
+    /// initialisers: the firmware's static starts as this and is [`configure`](Self::configure)d in
+    /// place at boot, so that the stack never holds the whole pipeline (≈ 5 KB).
+    pub const PLACEHOLDER: Self = Self {
+        airframe: Airframe::ZERO,
+        models: AeroModels::PLACEHOLDER,
+        settings: PipelineSettings::PLACEHOLDER,
+        differentiator: RateDifferentiator::new(),
+        delay: [SensorSample::ZERO; DELAY_LEN],
+        delay_masks: [0; DELAY_LEN],
+        head: 0,
+        filled: 0,
+        lift: Gtls::PLACEHOLDER,
+        drag: Gtls::PLACEHOLDER,
+        side: Gtls::PLACEHOLDER,
+        roll: Gtls::PLACEHOLDER,
+        pitch: Gtls::PLACEHOLDER,
+        yaw: Gtls::PLACEHOLDER,
+        health: Health::ZERO,
+    };
+
     /// A new pipeline. Errors: an invalid model ([`CoefficientModel::validate`]) or setting →
     /// [`Error::InvalidSetting`]; a `W_T` that is not positive definite →
     /// [`Error::NotPositiveDefinite`].
     pub fn new(airframe: Airframe<T>, models: AeroModels<T>, settings: PipelineSettings<T>) -> Result<Self, Error> {
+        let mut p = Self::PLACEHOLDER;
+        p.configure(airframe, models, settings)?;
+        Ok(p)
+    }
+
+    /// Configures the pipeline in place and starts it afresh (no data, empty delay line, zero
+    /// health counters): each estimator is built and stored in turn, so the stack holds at most one
+    /// estimator under construction (the firmware configures its static at boot this way). Errors
+    /// as [`Self::new`]; on `Err` the pipeline is the [`Self::PLACEHOLDER`] again (never half
+    /// configured).
+    pub fn configure(
+        &mut self,
+        airframe: Airframe<T>,
+        models: AeroModels<T>,
+        settings: PipelineSettings<T>,
+    ) -> Result<(), Error> {
         let lim = &settings.limits;
-        if !(lim.nominal_dt_s > T::zero() && lim.dt_tolerance > T::zero() && lim.min_airspeed_mps > T::zero()) {
+        let valid = lim.nominal_dt_s > T::zero()
+            && lim.dt_tolerance > T::zero()
+            && lim.min_airspeed_mps > T::zero()
+            && settings.noise.nominal_airspeed_mps > T::zero();
+        *self = Self::PLACEHOLDER;
+        if !valid {
             return Err(Error::InvalidSetting);
         }
-        if !(settings.noise.nominal_airspeed_mps > T::zero()) {
-            return Err(Error::InvalidSetting);
+        self.airframe = airframe;
+        self.models = models;
+        self.settings = settings;
+        if let Err(e) = self.build_estimators() {
+            *self = Self::PLACEHOLDER;
+            return Err(e);
         }
-        let af = &airframe;
-        Ok(Self {
-            lift: estimator(&models.lift, &settings, af, false)?,
-            drag: estimator(&models.drag, &settings, af, false)?,
-            side: estimator(&models.side, &settings, af, false)?,
-            roll: estimator(&models.roll, &settings, af, settings.moment_prefilter)?,
-            pitch: estimator(&models.pitch, &settings, af, settings.moment_prefilter)?,
-            yaw: estimator(&models.yaw, &settings, af, settings.moment_prefilter)?,
-            airframe,
-            models,
-            settings,
-            differentiator: RateDifferentiator::new(),
-            delay: [SensorSample::default(); DELAY_LEN],
-            delay_masks: [0; DELAY_LEN],
-            filled: 0,
-            health: Health::default(),
-        })
+        Ok(())
+    }
+
+    /// Builds the six estimators from the models, settings and airframe, one at a time in place.
+    #[inline(never)]
+    fn build_estimators(&mut self) -> Result<(), Error> {
+        let (m, s, af) = (self.models, self.settings, self.airframe);
+        let (m, s, af) = (&m, &s, &af);
+        let pre = s.moment_prefilter;
+        build_estimator(&mut self.lift, &m.lift, s, af, false)?;
+        build_estimator(&mut self.drag, &m.drag, s, af, false)?;
+        build_estimator(&mut self.side, &m.side, s, af, false)?;
+        build_estimator(&mut self.roll, &m.roll, s, af, pre)?;
+        build_estimator(&mut self.pitch, &m.pitch, s, af, pre)?;
+        build_estimator(&mut self.yaw, &m.yaw, s, af, pre)
     }
 
     /// The channels coefficient `i` ([`idx`]) needs: its output's and its regressors'.
@@ -381,6 +494,19 @@ impl<T: Real> Pipeline<T> {
     /// probe reads a counter there (instruction counts under QEMU, DWT cycles on hardware). The
     /// probe is not called during warm-up.
     pub fn process_probed(&mut self, sample: &SensorSample<T>, probe: &mut impl FnMut(Stage)) -> PipelineStep<T> {
+        let mut step = PipelineStep::default();
+        self.process_into(sample, &mut step, probe);
+        step
+    }
+
+    /// [`Self::process_probed`] writing the result into `step` (every field is overwritten), so that
+    /// the caller's buffer is filled in place: the on-board task keeps one and no result is copied.
+    pub fn process_into(
+        &mut self,
+        sample: &SensorSample<T>,
+        step: &mut PipelineStep<T>,
+        probe: &mut impl FnMut(Stage),
+    ) {
         let mask = self.settings.limits.valid_channels(sample);
         self.health.samples = self.health.samples.saturating_add(1);
         for bit in 0..channel::COUNT {
@@ -394,31 +520,33 @@ impl<T: Real> Pipeline<T> {
             mask & channel::GYRO != 0,
             mask & channel::DT != 0,
         );
-        self.delay.copy_within(0..DELAY_LEN - 1, 1);
-        self.delay_masks.copy_within(0..DELAY_LEN - 1, 1);
-        self.delay[0] = sanitise(sample, mask);
-        self.delay_masks[0] = mask;
+        // The ring moves back one slot (no sample is copied): the new head holds the newest.
+        let head = (usize::from(self.head) + DELAY_LEN - 1) % DELAY_LEN;
+        self.head = head as u8;
+        self.delay[head] = sanitise(sample, mask);
+        self.delay_masks[head] = mask;
         self.filled = (self.filled + 1).min(DELAY_LEN as u8);
 
-        let mut step = PipelineStep {
-            synthesis: None,
-            status: [Err(Refusal::Warmup); idx::COUNT],
-            regressors: [[T::zero(); MAX_PARAMETERS]; idx::COUNT],
-        };
+        step.synthesis = None;
+        step.status = [Err(Refusal::Warmup); idx::COUNT];
         let delay = RateDifferentiator::<T>::DELAY_SAMPLES;
         if (self.filled as usize) <= delay {
+            step.regressors = [[T::zero(); MAX_PARAMETERS]; idx::COUNT];
             self.count(&step.status);
-            return step;
+            return;
         }
-        let cmask = self.delay_masks[delay];
+        let centre = (head + delay) % DELAY_LEN;
+        let cmask = self.delay_masks[centre];
         // The prefilter's window is the whole delay line; the channels valid in all of it.
         let window_full = self.filled as usize == DELAY_LEN;
         let wmask = self.delay_masks.iter().fold(channel::ALL, |m, k| m & *k);
-        let weights = MOMENT_PREFILTER.map(T::lit);
+        // The prefilter's weights in ring order: slot (head + a) % L carries the weight of age a.
+        let weights: [T; DELAY_LEN] =
+            core::array::from_fn(|slot| T::lit(MOMENT_PREFILTER[(slot + DELAY_LEN - head) % DELAY_LEN]));
         let omega_dot = self.differentiator.derivative();
         let syn = if cmask & (channel::AIRSPEED | channel::DENSITY) == (channel::AIRSPEED | channel::DENSITY) {
             synthesise(
-                &self.delay[delay],
+                &self.delay[centre],
                 &self.airframe,
                 &omega_dot.unwrap_or_else(Vector3::zeros),
                 &self.settings.synthesis,
@@ -443,6 +571,7 @@ impl<T: Real> Pipeline<T> {
                 missing |= self.regressor_channels(i) & !wmask;
             }
             let x_out = &mut step.regressors[i];
+            *x_out = [T::zero(); MAX_PARAMETERS];
             step.status[i] = match syn {
                 _ if missing != 0 => Err(Refusal::Channels(missing)),
                 None => Err(Refusal::Channels(channel::AIRSPEED | channel::DENSITY)),
@@ -450,7 +579,7 @@ impl<T: Real> Pipeline<T> {
                 Some(ref y) => {
                     let c = &y.coefficients;
                     let row = Row {
-                        centre: &self.delay[delay],
+                        centre: &self.delay[centre],
                         syn: y,
                         window: filtered.then_some((&self.delay, &weights)),
                         airframe: &self.airframe,
@@ -468,7 +597,6 @@ impl<T: Real> Pipeline<T> {
             probe(Stage::Coefficient(i));
         }
         self.count(&step.status);
-        step
     }
 
     fn count(&mut self, status: &[CoefficientStatus<T>; idx::COUNT]) {

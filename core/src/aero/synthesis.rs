@@ -43,6 +43,7 @@
 //! the synthesised sample is time-consistent (the identification lags the sensors by 20 ms).
 
 use super::{Airframe, Propeller, SensorSample};
+use crate::linalg::const_zeros;
 use crate::Real;
 use nalgebra::Vector3;
 
@@ -65,6 +66,14 @@ pub struct SynthesisSettings<T> {
     /// Sign `s_Q` of the propeller torque as a rolling moment on the airframe, `±1`. Default `−1`
     /// (reaction to a propeller turning positively about body `+x`).
     pub prop_torque_sign: T,
+}
+
+impl<T: Real> SynthesisSettings<T> {
+    /// A placeholder for `const` initialisers (the stability axes, `s_Q = 0`).
+    pub const ZERO: Self = Self {
+        force_axes: ForceAxes::Stability,
+        prop_torque_sign: T::ZERO,
+    };
 }
 
 impl<T: Real> Default for SynthesisSettings<T> {
@@ -246,8 +255,12 @@ impl<T: Real> RateDifferentiator<T> {
     pub const LEN: usize = 5;
 
     /// An empty differentiator.
-    pub fn new() -> Self {
-        Self::default()
+    pub const fn new() -> Self {
+        Self {
+            window: [const_zeros(); 5],
+            dt_s: [T::ZERO; 4],
+            run: 0,
+        }
     }
 
     /// Forgets the window (after a gap or an invalid gyro sample).
