@@ -120,7 +120,7 @@ fn parse() -> Result<Option<Command>, String> {
                 match flag.as_str() {
                     "--hours" => {
                         hours = value.parse().map_err(|e| format!("--hours {value}: {e}"))?;
-                        if !(hours >= 0.05 && hours <= 100.0) {
+                        if !(0.05..=100.0).contains(&hours) {
                             return Err("--hours must be between 0.05 and 100".into());
                         }
                     }
@@ -470,7 +470,7 @@ fn main() -> ExitCode {
             let cfg = aerosid_host::longrun::LongRunConfig::hours(hours, seed);
             let start = std::time::Instant::now();
             let result = aerosid_host::longrun::run(&cfg, |t| {
-                if (t as u64) % 3600 == 0 && t > 0.0 {
+                if (t as u64).is_multiple_of(3600) && t > 0.0 {
                     eprintln!(
                         "long-run: {:.0} h simulated, {:.0} s wall",
                         t / 3600.0,
