@@ -7,7 +7,7 @@
 //! Run: `cargo bench -p aerosid-host --bench fem -- --warm-up-time 1 --measurement-time 3`.
 
 use aerosid_core::fem::models::Longitudinal;
-use aerosid_core::fem::{bauer_andrisani, FemSettings, FilterError, Integrator, Model, Sensitivity};
+use aerosid_core::fem::{bauer_andrisani, FemSettings, FilterError, InputHold, Integrator, Model, Sensitivity};
 use aerosid_core::Real;
 use aerosid_host::fem_report::{default_hfb320_path, hfb320_filter, hfb320_rows, step_data};
 use aerosid_host::table1::{self, Input};
@@ -59,6 +59,7 @@ fn longitudinal<T: Real>(c: &mut Criterion, name: &str, sensitivity: Sensitivity
         r_x: SMatrix::<T, 5, 5>::from_diagonal(&SVector::from_fn(|i, _| l(table1::NOISE[i] * table1::NOISE[i]))),
         dt_s: l(table1::DT_S),
         integrator: Integrator::Euler,
+        input_hold: InputHold::Zero,
         sensitivity,
     };
     let m = flight.model;
