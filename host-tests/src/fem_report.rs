@@ -209,6 +209,34 @@ pub fn variants(rows: &[[f64; 20]]) -> Result<Vec<VariantResult>, String> {
         .collect()
 }
 
+/// The noise check of [`hfb320_filter`] on the record: per output, the mean squared one-step
+/// prediction error `Δz²` (eq. 7, before the parameter update) over the mean of its predicted
+/// variance, the diagonal of `C P⁻ Cᵀ + R_x` (eq. 9 plus the measurement noise) — 1 when the
+/// filter's noise model (`Q = F Fᵀ`, `R`) matches the data.
+pub fn innovation_ratio(rows: &[[f64; 20]]) -> Result<[f64; 7], String> {
+    let mut fem = hfb320_filter::<f64>(rows, Sensitivity::Propagated)?;
+    let s = *fem.settings();
+    let m = *fem.model();
+    let (mut dz2, mut pred) = ([0.0; 7], [0.0; 7]);
+    for w in rows.windows(2) {
+        let (u, un, y) = step_data::<f64>(&w[0], &w[1]);
+        let (x, p_x, p) = (*fem.state(), *fem.state_covariance(), *fem.parameters());
+        let step = |xx: &SVector<f64, 4>| integrate(&m, s.integrator, s.input_hold, s.dt_s, xx, &u, &un, &p);
+        let phi: SMatrix<f64, 4, 4> = aerosid_core::fem::central_difference(&x, step);
+        let c = m.dh_dx(&step(&x), &un, &p);
+        let r_p = c * (phi * p_x * phi.transpose() + s.q_x * s.dt_s) * c.transpose() + s.r_x;
+        let dz = fem
+            .step(&u, &un, &y)
+            .map_err(|e| format!("t = {} s: {e:?}", w[1][0]))?
+            .prediction_error;
+        for i in 0..7 {
+            dz2[i] += dz[i] * dz[i];
+            pred[i] += r_p[(i, i)];
+        }
+    }
+    Ok(core::array::from_fn(|i| dz2[i] / pred[i]))
+}
+
 /// [`variants`] as a table: `|Δ|/σ` of each parameter from the published value.
 fn variants_table(rows: &[[f64; 20]]) -> Result<String, String> {
     let mut out = String::new();
@@ -276,6 +304,15 @@ pub fn hfb320_report(data: &Path, out_dir: &Path) -> Result<(String, Vec<PathBuf
     }
 
     out += &variants_table(&rows)?;
+    let ratio = innovation_ratio(&rows)?;
+    let _ = writeln!(
+        out,
+        "noise check: mean Δz² over the predicted C P⁻ Cᵀ + R per output (1 if the book's F, R fit this filter):"
+    );
+    for (name, r) in OUTPUTS.iter().zip(ratio) {
+        let _ = write!(out, " {name} {r:.2};");
+    }
+    let _ = writeln!(out);
 
     // The identified model simulated over the record from the first measured state with the measured
     // inputs (RK4 at the sample period), against the measurements; the published values likewise.
