@@ -6,7 +6,9 @@
 //! * **Input** `fem_steps.bin` in QEMU's working directory, read over semihosting, little-endian
 //!   `f32`: a header of [`HEADER_WORDS`] — the filter's settings and start (`Q_x` and `R_x`
 //!   diagonals, `Δt`, integrator, input hold, sensitivity, `x̂₀`, `P_x0` diagonal, `p₀`, `P_p0`
-//!   diagonal) — then one record of [`STEP_WORDS`] per step: `u(t)`, `u(t + Δt)`, `y(t + Δt)`.
+//!   diagonal, and 0 for the recursive filter or 1 for one Gauss–Newton pass linearised at `p₀`,
+//!   `FilterError::new_pass`) — then one record of [`STEP_WORDS`] per step: `u(t)`, `u(t + Δt)`,
+//!   `y(t + Δt)`.
 //! * **Output** `fem_out.bin`: one little-endian `u32` per step, the TIM2 ticks of
 //!   `FilterError::step` (one tick per guest instruction under `-icount shift=0,align=off,
 //!   sleep=off`, TOOLCHAIN.md), then the final estimate, its σ, and the health counters as `u32`.
@@ -32,8 +34,8 @@ const NU: usize = 2;
 const NY: usize = 7;
 const NP: usize = 11;
 /// Header words: Q (NX), R (NY), Δt, integrator, hold, sensitivity, x̂₀ (NX), P_x0 (NX), p₀ (NP),
-/// P_p0 (NP).
-const HEADER_WORDS: usize = NX + NY + 4 + NX + NX + NP + NP;
+/// P_p0 (NP), recursive (0) or pass (1).
+const HEADER_WORDS: usize = NX + NY + 4 + NX + NX + NP + NP + 1;
 /// Words per step: u, u_next, y.
 const STEP_WORDS: usize = NU + NU + NY;
 
@@ -112,9 +114,13 @@ fn main() -> ! {
     let p_x0 = SMatrix::<f32, NX, NX>::from_diagonal(&SVector::from_column_slice(take(NX)));
     let p0 = SVector::<f32, NP>::from_column_slice(take(NP));
     let p_p0 = SMatrix::<f32, NP, NP>::from_diagonal(&SVector::from_column_slice(take(NP)));
-    let Ok(mut fem) = FilterError::new(Hfb320::<f32>::default(), settings, x0, p_x0, p0, p_p0) else {
-        exit(2)
+    let model = Hfb320::<f32>::default();
+    let made = if take(1)[0] as u32 == 1 {
+        FilterError::new_pass(model, settings, x0, p_x0, p0, p0, p_p0)
+    } else {
+        FilterError::new(model, settings, x0, p_x0, p0, p_p0)
     };
+    let Ok(mut fem) = made else { exit(2) };
 
     while let Some(s) = read_words::<STEP_WORDS>(&mut input) {
         let u = SVector::<f32, NU>::from_column_slice(&s[..NU]);
