@@ -253,8 +253,9 @@ fn batch_sigma_is_honest() {
         let s = summary(input, Method::Batch);
         // GIVEN 50 runs of the batch method, WHEN each data-determined parameter's normalised
         // error z = (p̂ − p)/σ is pooled, THEN √(mean z²) is within 1 ± 0.3 (for honest σ its
-        // 50-run sampling σ is 1/√100 = 0.1; measured 0.88–1.24, CLα and Cmα highest: the
-        // propagated sensitivity holds the Kalman gain fixed) and each is within 2σ in ≥ 43 runs
+        // 50-run sampling σ is 1/√100 = 0.1; measured 0.88–1.24, CLα and Cmα highest, which the
+        // Kalman gain held fixed in the propagated sensitivity may account for) and each is within
+        // 2σ in ≥ 43 runs
         // (binomial 95.4 % of 50 less three of its σ of 1.5 runs; measured 45–50) …
         for j in DATA_DETERMINED {
             assert!(

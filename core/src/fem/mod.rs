@@ -177,11 +177,13 @@ pub struct FemHealth {
 /// What one accepted step did.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct FemStep<T: Real, const NY: usize, const NP: usize> {
-    /// The predicted-output error `Δz` of eq. 7 (with `p̄`, before the update).
+    /// The predicted-output error `Δz` of eq. 7 (with `p̄`, before the update; in a Gauss–Newton
+    /// pass, with the pass's `p_lin`).
     pub prediction_error: SVector<T, NY>,
     /// The parameter correction `Δp̂` of eq. 11.
     pub delta_p: SVector<T, NP>,
-    /// The state filter's innovation `y − h(x̂⁻, p̂)`.
+    /// The state filter's innovation `y − h(x̂⁻, p̂)` (in a pass, at `p_lin`: equal to
+    /// `prediction_error`).
     pub innovation: SVector<T, NY>,
 }
 
