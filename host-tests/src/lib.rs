@@ -11,6 +11,7 @@
 
 pub mod data;
 pub mod experiment;
+pub mod fem_batch;
 pub mod fem_report;
 pub mod flights;
 pub mod gaps;

@@ -1,18 +1,27 @@
 //! Seed 001's example (Section 4, Table 1) on a simulator of its own model: the A-4D longitudinal
 //! model ([`Longitudinal::a4d`]) with Table 1's true parameters, Dryden turbulence as process noise,
 //! white measurement noise, an elevator multistep, and the filter error method started from Table 1's
-//! ±15 % initial values with Bauer & Andrisani's prior.
+//! ±15 % initial values with Bauer & Andrisani's prior (issue 5 §2).
 //!
 //! The truth integrates the model with RK4 at [`INTERNAL_DT_S`] with the aerodynamics evaluated at the
 //! air-relative state: `V_a = V − u_g`, `α_a = α + w_g/V` (Dryden gusts, MIL-F-8785C above
-//! 2 000 ft: `L = 1 750 ft`, light `σ = 1 m/s`), while `θ̇ = q` and `ḣ = V sin(θ − α)` stay inertial. The
-//! measurements are the inertial states (`V, α, q, θ, h` as from an INS/air-data blend) plus white
-//! noise, so the gusts are *process* noise for the filter, as in the paper. The α̇ of the
-//! `CLα̇`, `Cmα̇` terms is the model's own (the gust's `ẇ_g/V` is not added).
+//! 2 000 ft: `L = 1 750 ft`, light `σ = 1 m/s`, the gust held over each sample), while `θ̇ = q` and
+//! `ḣ = V sin(θ − α)` stay inertial. The measurements are the inertial states (`V, α, q, θ, h` as
+//! from an INS/air-data blend) and the body-z specific force (an accelerometer), plus white noise,
+//! so the gusts are *process* noise for the filter, as in the paper. The α̇ of the `CLα̇`, `Cmα̇`
+//! terms is the model's own (the gust's `ẇ_g/V` is not added).
+//!
+//! Four estimators run on the same flights ([`Method`]): the paper's (one recursive pass, one-step
+//! sensitivity, the turbulence as white process noise, the five states measured); ours on board
+//! (one recursive pass, the gusts as Dryden-shaped filter states, the accelerometer as a sixth
+//! output, the sensitivity propagated through the state filter); ours offline (the same filter,
+//! batch Gauss–Newton over the record, [`crate::fem_batch`]); and seed 000's equation-error
+//! PCA-GTLS. [`cramer_rao`] gives the information the record holds on each parameter.
 
+use crate::fem_batch::{self, Sample, StateStart};
 use crate::sim::{Dryden, Turbulence};
-use aerosid_core::fem::models::{Longitudinal, LongitudinalGust, LongitudinalGustAz};
-use aerosid_core::fem::{bauer_andrisani, FemSettings, FilterError, Integrator, Model, Sensitivity};
+use aerosid_core::fem::models::{Longitudinal, LongitudinalDryden};
+use aerosid_core::fem::{bauer_andrisani, FemSettings, FilterError, InputHold, Integrator, Model, Sensitivity};
 use nalgebra::{SMatrix, SVector};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -28,62 +37,77 @@ pub const INTERNAL_DT_S: f64 = 0.005;
 pub const V0_MPS: f64 = 236.0;
 /// Altitude, m.
 pub const H0_M: f64 = 10_668.0;
+/// Turbulence intensity of the truth (Dryden, all three axes), m/s: light.
+pub const GUST_SIGMA_MPS: f64 = 1.0;
+/// Turbulence scale length (MIL-F-8785C above 2 000 ft: 1 750 ft), m.
+pub const GUST_LENGTH_M: f64 = 533.4;
 /// Accelerometer noise (1σ), m/s².
 pub const AZ_NOISE_MPS2: f64 = 0.05;
-/// Measurement noise (1σ) of `V, α, q, θ, h`.
+/// Measurement noise (1σ) of `V, α, q, θ, h` (m/s, rad, rad/s, rad, m).
 pub const NOISE: [f64; 5] = [0.3, 0.002, 0.002, 0.002, 1.0];
+/// Runs per campaign.
+pub const RUNS: u64 = 50;
+/// Names of the nine parameters, Table 1's order.
+pub const NAMES: [&str; 9] = Longitudinal::<f64>::NAMES;
 
 /// The elevator input.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Input {
-    /// A 3-2-1-1 multistep of `step_s` per unit and `amplitude_rad`, from 1 s (our stand-in for the
-    /// paper's Fig. 5 multistep, whose timing is not printed): `step_s = 0.4`, `0.0175` rad.
+    /// A 3-2-1-1 multistep of `step_s` per unit and `amplitude_rad`, from 1 s.
     Multistep3211 {
         /// Unit step duration, s.
         step_s: f64,
         /// Amplitude, rad.
         amplitude_rad: f64,
     },
-    /// Two 3-2-1-1 of different units back to back (short period and slower), designed to separate
-    /// `α̇` from `q`: `α̇ − q` is the normal acceleration, which a slow pulse excites without pitch
-    /// rate and a fast one with it.
-    DualMultistep {
-        /// Amplitude, rad.
-        amplitude_rad: f64,
-    },
 }
 
 impl Input {
-    /// The paper's kind of input (see [`Input::Multistep3211`]).
+    /// The paper's kind of input, our stand-in for its Fig. 5 multistep (whose timing is not
+    /// printed): a 3-2-1-1 of 0.4 s units, 1° (15 s record).
     pub const PAPER: Input = Input::Multistep3211 {
         step_s: 0.4,
+        amplitude_rad: 0.0175,
+    };
+    /// The designed input: the same amplitude, the unit chosen by the Cramér–Rao scan of
+    /// `aerosid table1` ([`design_scan`]) to minimise the bound on `Cmα̇` and `Cmq` (30 s record).
+    pub const DESIGNED: Input = Input::Multistep3211 {
+        step_s: DESIGNED_STEP_S,
         amplitude_rad: 0.0175,
     };
 
     /// Deflection increment at `t_s`.
     pub fn elevator_rad(&self, t_s: f64) -> f64 {
-        let m3211 = |t: f64, dt: f64, a: f64| {
-            let k = t / dt;
-            if !(0.0..7.0).contains(&k) {
-                0.0
-            } else if k < 3.0 {
-                a
-            } else if k < 5.0 {
-                -a
-            } else if k < 6.0 {
-                a
-            } else {
-                -a
-            }
-        };
         match *self {
-            Input::Multistep3211 { step_s, amplitude_rad } => m3211(t_s - 1.0, step_s, amplitude_rad),
-            Input::DualMultistep { amplitude_rad } => {
-                m3211(t_s - 1.0, 0.3, amplitude_rad) + m3211(t_s - 5.0, 1.0, 0.6 * amplitude_rad)
+            Input::Multistep3211 { step_s, amplitude_rad } => {
+                let k = (t_s - 1.0) / step_s;
+                if !(0.0..7.0).contains(&k) {
+                    0.0
+                } else if k < 3.0 || (5.0..6.0).contains(&k) {
+                    amplitude_rad
+                } else {
+                    -amplitude_rad
+                }
+            }
+        }
+    }
+
+    /// A short label.
+    pub fn label(&self) -> String {
+        match *self {
+            Input::Multistep3211 { step_s, amplitude_rad } => {
+                format!("3-2-1-1, {step_s} s units, {:.1}°", amplitude_rad.to_degrees())
             }
         }
     }
 }
+
+/// The unit of [`Input::DESIGNED`], s (from [`design_scan`]).
+pub const DESIGNED_STEP_S: f64 = 4.0;
+/// Record length with the paper's input, s.
+pub const PAPER_SECONDS: f64 = 15.0;
+/// Record length with the designed input, s.
+pub const DESIGNED_SECONDS: f64 = 30.0;
 
 /// One simulated flight: inputs `u(t_k)` and measurements `y(t_k)`.
 #[derive(Debug, Clone)]
@@ -165,8 +189,8 @@ impl Truth {
         let mut model = Longitudinal::<f64>::a4d();
         model.thrust_n = thrust;
         let turb = Turbulence {
-            lengths_m: [533.4; 3],
-            sigma_mps: [1.0; 3],
+            lengths_m: [GUST_LENGTH_M; 3],
+            sigma_mps: [GUST_SIGMA_MPS; 3],
         };
         Self {
             p,
@@ -248,331 +272,756 @@ pub fn process_noise() -> SMatrix<f64, 5, 5> {
 /// The result of one identification run.
 #[derive(Debug, Clone, Copy)]
 pub struct Run {
-    /// Estimates.
+    /// Estimates, Table 1's order.
     pub p: [f64; 9],
     /// Their σ.
     pub sigma: [f64; 9],
+    /// Their covariance (row-major).
+    pub covariance: [[f64; 9]; 9],
 }
 
-/// Identifies the nine parameters from `flight` with the filter error method started from Table 1's
-/// initial values; `P₀ = diag((0.25 p̄)²)` with σ 0.01 for `Cm0` (the paper's `P₀ = 10⁻⁴`).
-pub fn identify(
-    flight: &Flight,
-    q_x: &SMatrix<f64, 5, 5>,
-    sensitivity: Sensitivity,
-    history: Option<&mut Vec<Run>>,
-) -> Option<Run> {
-    let r_x = SMatrix::<f64, 5, 5>::from_diagonal(&SVector::from_fn(|i, _| NOISE[i] * NOISE[i]));
-    let x0 = SVector::<f64, 5>::from_column_slice(&flight.y[0]);
-    let measured = |k: usize| SVector::<f64, 5>::from_column_slice(&flight.y[k]);
-    run_filter(flight.model, *q_x, r_x, x0, r_x, sensitivity, flight, measured, history)
-}
-
-/// Builds the filter (Table 1's initial values, the Bauer–Andrisani prior with σ 0.01 for `Cm0`)
-/// and runs it over `flight`, `measured(k)` giving `y(t_k)`; every step must be accepted. With
-/// `history`, the estimate after every step is appended to it.
-#[allow(clippy::too_many_arguments)]
-fn run_filter<M: Model<f64, NX, 1, NY, 9>, const NX: usize, const NY: usize>(
-    model: M,
-    q_x: SMatrix<f64, NX, NX>,
-    r_x: SMatrix<f64, NY, NY>,
-    x0: SVector<f64, NX>,
-    p_x0: SMatrix<f64, NX, NX>,
-    sensitivity: Sensitivity,
-    flight: &Flight,
-    measured: impl Fn(usize) -> SVector<f64, NY>,
-    mut history: Option<&mut Vec<Run>>,
-) -> Option<Run> {
-    let settings = FemSettings {
-        q_x,
-        r_x,
-        dt_s: DT_S,
-        integrator: Integrator::Euler,
-        sensitivity,
-    };
-    let p0 = SVector::<f64, 9>::from_column_slice(&Longitudinal::<f64>::TABLE1_INITIAL);
-    let mut fem = FilterError::new(model, settings, x0, p_x0, p0, bauer_andrisani(&p0, 0.01)).ok()?;
-    let snapshot = |fem: &FilterError<f64, M, NX, 1, NY, 9>| {
-        let mut run = Run {
-            p: [0.0; 9],
-            sigma: [0.0; 9],
-        };
-        run.p.copy_from_slice(fem.parameters().as_slice());
-        run.sigma.copy_from_slice(fem.parameter_sigma().as_slice());
-        run
-    };
-    for k in 0..flight.y.len() - 1 {
-        let u = SVector::<f64, 1>::new(flight.u[k]);
-        let un = SVector::<f64, 1>::new(flight.u[k + 1]);
-        fem.step(&u, &un, &measured(k + 1)).ok()?;
-        if let Some(h) = history.as_deref_mut() {
-            h.push(snapshot(&fem));
+impl Run {
+    fn from_estimate(p: &SVector<f64, 9>, cov: &SMatrix<f64, 9, 9>) -> Self {
+        Self {
+            p: core::array::from_fn(|j| p[j]),
+            sigma: core::array::from_fn(|j| cov[(j, j)].max(0.0).sqrt()),
+            covariance: core::array::from_fn(|i| core::array::from_fn(|j| cov[(i, j)])),
         }
     }
-    Some(snapshot(&fem))
 }
 
-/// Gust scale length of the filter's gust states, m (the truth's Dryden length).
-const GUST_LENGTH_M: f64 = 533.4;
-
-/// The gust model of the filter and its noise: the gust states' `Q = 2σ²V/L` (σ = 1 m/s),
-/// `q_small` on the flight states; the state and its covariance start at the first measurement
-/// and zero gust with σ 1 m/s.
-fn gust_filter(
-    flight: &Flight,
-    q_small: f64,
-) -> (
-    LongitudinalGust<f64>,
-    SMatrix<f64, 7, 7>,
-    SVector<f64, 7>,
-    SMatrix<f64, 7, 7>,
-) {
-    let qg = 2.0 * V0_MPS / GUST_LENGTH_M;
-    let q_x = SMatrix::<f64, 7, 7>::from_diagonal(&SVector::from_fn(|i, _| if i >= 5 { qg } else { q_small }));
-    let x0 = SVector::<f64, 7>::from_fn(|i, _| if i < 5 { flight.y[0][i] } else { 0.0 });
-    let p_x0 =
-        SMatrix::<f64, 7, 7>::from_diagonal(&SVector::from_fn(|i, _| if i >= 5 { 1.0 } else { NOISE[i] * NOISE[i] }));
-    let model = LongitudinalGust {
-        base: flight.model,
-        length_u_m: GUST_LENGTH_M,
-        length_w_m: GUST_LENGTH_M,
-    };
-    (model, q_x, x0, p_x0)
+/// An estimator of the campaign (module doc).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Method {
+    /// The paper's: one recursive pass, Euler (eq. 3), one-step sensitivity (eq. 6), the
+    /// turbulence as white process noise ([`process_noise`]), the five states measured.
+    Paper,
+    /// Ours on board: one recursive pass of [`LongitudinalDryden`] (the gusts as Dryden-shaped
+    /// states, the accelerometer as a sixth output), RK4, the propagated sensitivity.
+    Recursive,
+    /// Ours offline: the same filter, batch Gauss–Newton over the record ([`fem_batch`]).
+    Batch,
+    /// Seed 000's equation-error PCA-GTLS ([`identify_equation_error`]).
+    EquationError,
 }
 
-/// [`identify`] with the gusts as filter states ([`LongitudinalGust`], L = 533 m, the Dryden gust
-/// intensity 1 m/s: `Q = 2σ²V/L` on the gust states, `q_small` on the flight states).
-pub fn identify_with_gust_states(
-    flight: &Flight,
-    q_small: f64,
-    sensitivity: Sensitivity,
-    history: Option<&mut Vec<Run>>,
-) -> Option<Run> {
+impl Method {
+    /// All four, in table order.
+    pub const ALL: [Method; 4] = [Method::Paper, Method::Recursive, Method::Batch, Method::EquationError];
+
+    /// A short label.
+    pub fn label(&self) -> &'static str {
+        match self {
+            Method::Paper => "paper's FEM (1 pass, white Q, 1-step H)",
+            Method::Recursive => "ours on board (1 pass, Dryden states + a_z)",
+            Method::Batch => "ours offline (Gauss-Newton, same filter)",
+            Method::EquationError => "equation-error PCA-GTLS (seed 000)",
+        }
+    }
+}
+
+/// Table 1's initial values and the Bauer–Andrisani prior `diag((0.25 p̄)²)` with σ 0.01 for `Cm0`
+/// (the paper's Table 2: `P₀ = 10⁻⁴`).
+pub fn prior() -> (SVector<f64, 9>, SMatrix<f64, 9, 9>) {
+    let p0 = SVector::<f64, 9>::from_column_slice(&Longitudinal::<f64>::TABLE1_INITIAL);
+    (p0, bauer_andrisani(&p0, 0.01))
+}
+
+/// The paper's filter: [`Longitudinal`] with the states measured, `Q_x` from [`process_noise`],
+/// `R_x` the measurement noise, Euler, one-step sensitivity, `x̂₀ = y₀`, `P_x0 = R_x`.
+fn paper_filter(flight: &Flight, q_x: &SMatrix<f64, 5, 5>) -> StateStart<Longitudinal<f64>, 5, 5> {
     let r_x = SMatrix::<f64, 5, 5>::from_diagonal(&SVector::from_fn(|i, _| NOISE[i] * NOISE[i]));
-    let (model, q_x, x0, p_x0) = gust_filter(flight, q_small);
-    let measured = |k: usize| SVector::<f64, 5>::from_column_slice(&flight.y[k]);
-    run_filter(model, q_x, r_x, x0, p_x0, sensitivity, flight, measured, history)
+    StateStart {
+        model: flight.model,
+        settings: FemSettings {
+            q_x: *q_x,
+            r_x,
+            dt_s: DT_S,
+            integrator: Integrator::Euler,
+            input_hold: InputHold::Zero,
+            sensitivity: Sensitivity::OneStep,
+        },
+        x0: SVector::<f64, 5>::from_column_slice(&flight.y[0]),
+        p_x0: r_x,
+    }
 }
 
-/// Runs per campaign.
-pub const RUNS: u64 = 50;
+/// Our filter: [`LongitudinalDryden`] with the truth's gust model (`τ = V₀/L`, `σ` 1 m/s: `Q` is
+/// `2σ²τ` on `u_g` and `σ²` on `w₂`, 10⁻⁸ on the flight states), the accelerometer as a sixth
+/// output, RK4 with the input held (as the truth holds it), the propagated sensitivity; the flight
+/// states start at the first measurement with the measurement noise as covariance, the gusts at zero
+/// with their stationary covariance.
+pub fn dryden_filter(flight: &Flight) -> StateStart<LongitudinalDryden<f64>, 8, 6> {
+    dryden_filter_in(flight, &Conditions::SIMULATED)
+}
+
+/// Noise levels relative to the simulated ones, for the question "what would it take":
+/// [`cramer_rao`] with the filter's noise model scaled.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Conditions {
+    /// Scale of the measurement noise σ of `V, α, q, θ, h`.
+    pub state_noise: f64,
+    /// Scale of the accelerometer noise σ.
+    pub accelerometer_noise: f64,
+    /// Scale of the turbulence intensity σ_u, σ_w.
+    pub turbulence: f64,
+}
+
+impl Conditions {
+    /// The simulated flights: [`NOISE`], [`AZ_NOISE_MPS2`], [`GUST_SIGMA_MPS`].
+    pub const SIMULATED: Conditions = Conditions {
+        state_noise: 1.0,
+        accelerometer_noise: 1.0,
+        turbulence: 1.0,
+    };
+
+    /// A short label.
+    pub fn label(&self) -> String {
+        format!(
+            "states ×{}, a_z ×{}, turbulence ×{}",
+            self.state_noise, self.accelerometer_noise, self.turbulence
+        )
+    }
+}
+
+/// [`dryden_filter`] with the noise model scaled by `c`.
+pub fn dryden_filter_in(flight: &Flight, c: &Conditions) -> StateStart<LongitudinalDryden<f64>, 8, 6> {
+    let noise = |i: usize| {
+        if i < 5 {
+            NOISE[i] * c.state_noise
+        } else {
+            AZ_NOISE_MPS2 * c.accelerometer_noise
+        }
+    };
+    let sigma2 = (GUST_SIGMA_MPS * c.turbulence).powi(2);
+    let tau = V0_MPS / GUST_LENGTH_M;
+    let q_x = SMatrix::<f64, 8, 8>::from_diagonal(&SVector::from_fn(|i, _| match i {
+        5 => 2.0 * sigma2 * tau,
+        6 => 0.0,
+        7 => sigma2,
+        _ => 1e-8,
+    }));
+    // The stationary covariance of the gust states: σ² for u_g; σ²·diag(1/(4τ³), 1/(4τ)) for
+    // (w₁, w₂), the solution of A P + P Aᵀ + B Bᵀσ² = 0 for the controllable form.
+    let p_x0 = SMatrix::<f64, 8, 8>::from_diagonal(&SVector::from_fn(|i, _| match i {
+        5 => sigma2,
+        6 => sigma2 / (4.0 * tau * tau * tau),
+        7 => sigma2 / (4.0 * tau),
+        _ => noise(i) * noise(i),
+    }));
+    StateStart {
+        model: LongitudinalDryden {
+            base: flight.model,
+            tau_u_per_s: tau,
+            tau_w_per_s: tau,
+        },
+        settings: FemSettings {
+            q_x,
+            r_x: SMatrix::<f64, 6, 6>::from_diagonal(&SVector::from_fn(|i, _| noise(i) * noise(i))),
+            dt_s: DT_S,
+            integrator: Integrator::Rk4,
+            input_hold: InputHold::Zero,
+            sensitivity: Sensitivity::Propagated,
+        },
+        x0: SVector::<f64, 8>::from_fn(|i, _| if i < 5 { flight.y[0][i] } else { 0.0 }),
+        p_x0,
+    }
+}
+
+/// The flight as filter steps `(u(t), u(t + Δt), y(t + Δt))` with `NY` = 5 (the states) or 6 (and
+/// the accelerometer).
+pub fn steps<const NY: usize>(flight: &Flight) -> Vec<Sample<1, NY>> {
+    (0..flight.y.len().saturating_sub(1))
+        .map(|k| {
+            (
+                SVector::<f64, 1>::new(flight.u[k]),
+                SVector::<f64, 1>::new(flight.u[k + 1]),
+                SVector::<f64, NY>::from_fn(|i, _| if i < 5 { flight.y[k + 1][i] } else { flight.az[k + 1] }),
+            )
+        })
+        .collect()
+}
+
+/// One recursive pass from the prior; with `history`, the estimate after every step is appended.
+fn recursive<M, const NX: usize, const NY: usize>(
+    start: &StateStart<M, NX, NY>,
+    data: &[Sample<1, NY>],
+    mut history: Option<&mut Vec<Run>>,
+) -> Option<Run>
+where
+    M: Model<f64, NX, 1, NY, 9> + Copy,
+{
+    let (p0, p_p0) = prior();
+    let mut fem = FilterError::new(start.model, start.settings, start.x0, start.p_x0, p0, p_p0).ok()?;
+    for (u, un, y) in data {
+        fem.step(u, un, y).ok()?;
+        if let Some(h) = history.as_deref_mut() {
+            h.push(Run::from_estimate(fem.parameters(), fem.parameter_covariance()));
+        }
+    }
+    Some(Run::from_estimate(fem.parameters(), fem.parameter_covariance()))
+}
+
+/// Gauss–Newton iterations of the batch method: at most this many passes.
+pub const BATCH_MAX_ITERATIONS: usize = 10;
+/// … stopping when a step moves every parameter by less than this fraction of its σ.
+pub const BATCH_TOLERANCE_SIGMA: f64 = 0.01;
+
+/// Identifies the nine parameters from `flight` with `method`, started from Table 1's initial values
+/// with the Bauer–Andrisani prior. `None` if a filter refuses a step or the batch iteration does not
+/// converge. With `history` (recursive methods), the estimate after every step is appended.
+pub fn identify(flight: &Flight, method: Method, history: Option<&mut Vec<Run>>) -> Option<Run> {
+    match method {
+        Method::Paper => recursive(
+            &paper_filter(flight, process_noise_cached()),
+            &steps::<5>(flight),
+            history,
+        ),
+        Method::Recursive => recursive(&dryden_filter(flight), &steps::<6>(flight), history),
+        Method::Batch => {
+            let (p0, p_p0) = prior();
+            let fit = fem_batch::gauss_newton(
+                &dryden_filter(flight),
+                &p0,
+                &p0,
+                &p_p0,
+                &steps::<6>(flight),
+                BATCH_MAX_ITERATIONS,
+                BATCH_TOLERANCE_SIGMA,
+            )?;
+            fit.converged.then(|| Run::from_estimate(&fit.p, &fit.covariance))
+        }
+        Method::EquationError => Some(identify_equation_error(flight)),
+    }
+}
+
+/// [`process_noise`], computed once.
+fn process_noise_cached() -> &'static SMatrix<f64, 5, 5> {
+    static Q: std::sync::OnceLock<SMatrix<f64, 5, 5>> = std::sync::OnceLock::new();
+    Q.get_or_init(process_noise)
+}
+
+/// The Cramér–Rao bound of the nine parameters for `input` over `seconds` (flight `seed`): the
+/// inverse Fisher information of the record for [`dryden_filter_in`]'s model with the noise levels
+/// `conditions`, at the true parameters, without the prior ([`fem_batch::cramer_rao`]). The flight
+/// only sets the trajectory the model is linearised along; the noise enters through the filter.
+pub fn cramer_rao(input: Input, seconds: f64, seed: u64, conditions: &Conditions) -> Option<SMatrix<f64, 9, 9>> {
+    let flight = simulate(input, seconds, seed);
+    let truth = SVector::<f64, 9>::from_column_slice(&Longitudinal::<f64>::TABLE1_TRUE);
+    fem_batch::cramer_rao(
+        &dryden_filter_in(&flight, conditions),
+        &truth,
+        &prior().1,
+        &steps::<6>(&flight),
+    )
+}
 
 /// What a campaign of [`RUNS`] flights gives.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone)]
 pub struct Summary {
+    /// Runs identified (a refused or non-converged run is left out and counted here).
+    pub runs: usize,
+    /// Runs that failed.
+    pub failed: usize,
     /// Posterior σ of CLα̇ over its prior σ, smallest over the runs.
     pub cl_alphadot_sigma_ratio_min: f64,
     /// Median over the runs of |relative error| (absolute for a zero truth).
     pub median_abs_rel_error: [f64; 9],
+    /// Median over the runs of the |relative error| of `Cmα̇ + Cmq`, the combination the data
+    /// determine ([`predicted_null_direction`]).
+    pub median_abs_rel_error_cm_damping_sum: f64,
     /// Runs with all nine parameters within 2σ of the truth.
     pub all_within_2sigma: usize,
+    /// The fraction of runs with all nine within 2σ that honest Gaussian σ would give: the mean
+    /// over the runs of `P(|z_j| ≤ 2 ∀j)` for `z ~ N(0, corr)` with each run's correlation
+    /// (seeded Monte Carlo, 4 000 draws per run).
+    pub expected_all_within_2sigma: f64,
     /// Runs with each parameter within 2σ.
     pub per_param_within_2sigma: [usize; 9],
-    /// Mean σ over the runs.
-    pub mean_sigma: [f64; 9],
+    /// Mean error over the runs.
+    pub bias: [f64; 9],
     /// Standard deviation of the estimates over the runs.
     pub spread: [f64; 9],
+    /// Mean σ over the runs.
+    pub mean_sigma: [f64; 9],
+    /// `√(mean z²)` with `z = (p̂ − p)/σ` per run: 1 for honest σ, above 1 when σ is too small.
+    pub rms_z: [f64; 9],
     /// The run with the median sum of squared normalised errors.
     pub median_run: Run,
 }
 
-/// [`RUNS`] seeded flights of `seconds` with `input`, identified with `sensitivity`, the gusts as
-/// filter states or as white process noise.
-pub fn campaign(input: Input, seconds: f64, sensitivity: Sensitivity, gust_states: bool) -> Summary {
-    campaign_by(
-        input,
-        seconds,
-        sensitivity,
-        if gust_states { Filter::GustStates } else { Filter::White },
-    )
-}
-
-/// Which filter a campaign runs.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Filter {
-    /// Turbulence as white process noise, states measured (the paper).
-    White,
-    /// Gusts as filter states ([`identify_with_gust_states`]).
-    GustStates,
-    /// Gusts as filter states and a z accelerometer ([`identify_with_accelerometer`]).
-    Accelerometer,
-    /// Not a filter: seed 000's equation-error PCA-GTLS ([`identify_equation_error`]), for the
-    /// comparison; the sensitivity setting does not apply to it.
-    EquationError,
-}
-
-/// [`campaign`] with any [`Filter`].
-pub fn campaign_by(input: Input, seconds: f64, sensitivity: Sensitivity, filter: Filter) -> Summary {
-    let q = process_noise();
-    let runs: Vec<Run> = (1..=RUNS)
+/// [`RUNS`] seeded flights (seeds 1…[`RUNS`]) of `seconds` with `input`, identified by `method`.
+pub fn campaign(input: Input, seconds: f64, method: Method) -> Summary {
+    let runs: Vec<Option<Run>> = (1..=RUNS)
         .into_par_iter()
-        .map(|seed| {
-            let f = simulate(input, seconds, seed);
-            match filter {
-                Filter::GustStates => identify_with_gust_states(&f, 1e-8, sensitivity, None),
-                Filter::Accelerometer => identify_with_accelerometer(&f, 1e-8, sensitivity),
-                Filter::White => identify(&f, &q, sensitivity, None),
-                Filter::EquationError => Some(identify_equation_error(&f)),
-            }
-            .expect("every step accepted")
-        })
+        .map(|seed| identify(&simulate(input, seconds, seed), method, None))
         .collect();
-    let truth = Longitudinal::<f64>::TABLE1_TRUE;
-    let prior = 0.25 * Longitudinal::<f64>::TABLE1_INITIAL[2];
-    let mut s = Summary {
-        cl_alphadot_sigma_ratio_min: runs.iter().map(|r| r.sigma[2] / prior).fold(f64::INFINITY, f64::min),
-        median_abs_rel_error: [0.0; 9],
-        all_within_2sigma: 0,
-        per_param_within_2sigma: [0; 9],
-        mean_sigma: [0.0; 9],
-        spread: [0.0; 9],
-        median_run: runs[0],
-    };
-    for r in &runs {
-        let mut all = true;
-        for j in 0..9 {
-            let ok = (r.p[j] - truth[j]).abs() <= 2.0 * r.sigma[j];
-            all &= ok;
-            s.per_param_within_2sigma[j] += ok as usize;
-            s.mean_sigma[j] += r.sigma[j] / RUNS as f64;
-        }
-        s.all_within_2sigma += all as usize;
-    }
-    for j in 0..9 {
-        let mean = runs.iter().map(|r| r.p[j]).sum::<f64>() / RUNS as f64;
-        s.spread[j] = (runs.iter().map(|r| (r.p[j] - mean).powi(2)).sum::<f64>() / (RUNS - 1) as f64).sqrt();
-        let mut e: Vec<f64> = runs
-            .iter()
-            .map(|r| {
-                if truth[j] != 0.0 {
-                    ((r.p[j] - truth[j]) / truth[j]).abs()
-                } else {
-                    (r.p[j] - truth[j]).abs()
-                }
-            })
-            .collect();
-        e.sort_by(|a, b| a.total_cmp(b));
-        s.median_abs_rel_error[j] = e[e.len() / 2];
-    }
-    // The median run: median of the summed squared normalised errors.
-    let mut order: Vec<(f64, usize)> = runs
-        .iter()
-        .enumerate()
-        .map(|(i, r)| {
-            (
-                (0..9).map(|j| ((r.p[j] - truth[j]) / r.sigma[j]).powi(2)).sum::<f64>(),
-                i,
-            )
-        })
-        .collect();
-    order.sort_by(|a, b| a.0.total_cmp(&b.0));
-    s.median_run = runs[order[order.len() / 2].1];
+    let failed = runs.iter().filter(|r| r.is_none()).count();
+    let runs: Vec<Run> = runs.into_iter().flatten().collect();
+    let mut s = summarise(&runs);
+    s.failed = failed;
     s
 }
 
-/// The campaign as a table beside Table 1 of the seed.
+/// The statistics of `runs` against Table 1's truth.
+pub fn summarise(runs: &[Run]) -> Summary {
+    let truth = Longitudinal::<f64>::TABLE1_TRUE;
+    let prior_cl_alphadot = prior().1[(2, 2)].sqrt();
+    let n = runs.len().max(1) as f64;
+    let within = |r: &Run, j: usize| (r.p[j] - truth[j]).abs() <= 2.0 * r.sigma[j];
+    let err = |r: &Run, j: usize| r.p[j] - truth[j];
+    let mut s = Summary {
+        runs: runs.len(),
+        failed: 0,
+        cl_alphadot_sigma_ratio_min: runs
+            .iter()
+            .map(|r| r.sigma[2] / prior_cl_alphadot)
+            .fold(f64::INFINITY, f64::min),
+        median_abs_rel_error: [f64::NAN; 9],
+        median_abs_rel_error_cm_damping_sum: f64::NAN,
+        all_within_2sigma: runs.iter().filter(|r| (0..9).all(|j| within(r, j))).count(),
+        expected_all_within_2sigma: runs.iter().map(honest_all_within_2sigma).sum::<f64>() / n,
+        per_param_within_2sigma: core::array::from_fn(|j| runs.iter().filter(|r| within(r, j)).count()),
+        bias: core::array::from_fn(|j| runs.iter().map(|r| err(r, j)).sum::<f64>() / n),
+        spread: [0.0; 9],
+        mean_sigma: core::array::from_fn(|j| runs.iter().map(|r| r.sigma[j]).sum::<f64>() / n),
+        rms_z: core::array::from_fn(|j| {
+            (runs.iter().map(|r| (err(r, j) / r.sigma[j]).powi(2)).sum::<f64>() / n).sqrt()
+        }),
+        median_run: runs.first().copied().unwrap_or(Run {
+            p: [f64::NAN; 9],
+            sigma: [f64::NAN; 9],
+            covariance: [[f64::NAN; 9]; 9],
+        }),
+    };
+    for j in 0..9 {
+        let mean = s.bias[j] + truth[j];
+        s.spread[j] = (runs.iter().map(|r| (r.p[j] - mean).powi(2)).sum::<f64>() / (n - 1.0).max(1.0)).sqrt();
+        let scale = if truth[j] != 0.0 { truth[j].abs() } else { 1.0 };
+        let mut e: Vec<f64> = runs.iter().map(|r| (err(r, j) / scale).abs()).collect();
+        e.sort_by(|a, b| a.total_cmp(b));
+        if !e.is_empty() {
+            s.median_abs_rel_error[j] = e[e.len() / 2];
+        }
+    }
+    let sum_truth = truth[6] + truth[7];
+    let mut e: Vec<f64> = runs
+        .iter()
+        .map(|r| ((r.p[6] + r.p[7] - sum_truth) / sum_truth).abs())
+        .collect();
+    e.sort_by(|a, b| a.total_cmp(b));
+    if !e.is_empty() {
+        s.median_abs_rel_error_cm_damping_sum = e[e.len() / 2];
+    }
+    let mut order: Vec<(f64, usize)> = runs
+        .iter()
+        .enumerate()
+        .map(|(i, r)| ((0..9).map(|j| (err(r, j) / r.sigma[j]).powi(2)).sum::<f64>(), i))
+        .collect();
+    order.sort_by(|a, b| a.0.total_cmp(&b.0));
+    if let Some(&(_, i)) = order.get(order.len() / 2) {
+        s.median_run = runs[i];
+    }
+    s
+}
+
+/// `P(|z_j| ≤ 2 ∀j)` for `z ~ N(0, corr)` with the run's correlation, by 4 000 seeded draws; 0 if
+/// the covariance has no Cholesky factor (a NaN σ of the equation-error method).
+fn honest_all_within_2sigma(r: &Run) -> f64 {
+    let corr = SMatrix::<f64, 9, 9>::from_fn(|i, j| r.covariance[i][j] / (r.sigma[i] * r.sigma[j]));
+    let Some(chol) = corr.cholesky() else {
+        return 0.0;
+    };
+    let l = chol.l();
+    let mut rng = ChaCha8Rng::seed_from_u64(0x0007_AB1E_2516);
+    let draws = 4000;
+    let hits = (0..draws)
+        .filter(|_| {
+            let n = SVector::<f64, 9>::from_fn(|_, _| rng.sample(StandardNormal));
+            (l * n).iter().all(|z| z.abs() <= 2.0)
+        })
+        .count();
+    hits as f64 / draws as f64
+}
+
+/// `|e|` of a parameter as a percentage of its truth, or absolute for a zero truth.
+fn rel(j: usize, v: f64) -> String {
+    let t = Longitudinal::<f64>::TABLE1_TRUE[j];
+    if t != 0.0 {
+        format!("{:6.1}%", 100.0 * ((v - t) / t).abs())
+    } else {
+        format!("{:7.5}", (v - t).abs())
+    }
+}
+
+/// One campaign as a table beside Table 1 of the seed: true, initial, the seed's estimate ± σ, the
+/// median run's ± σ, the seed's error and our median error, and σ's honesty (mean σ, spread, rms z,
+/// runs within 2σ).
 pub fn summary_table(label: &str, s: &Summary) -> String {
     let mut out = String::new();
     let t = Longitudinal::<f64>::TABLE1_TRUE;
     let init = Longitudinal::<f64>::TABLE1_INITIAL;
     let (seed, seed_s) = (Longitudinal::<f64>::TABLE1_SEED, Longitudinal::<f64>::TABLE1_SEED_SIGMA);
+    let expected = if s.mean_sigma.iter().any(|v| v.is_nan()) {
+        "σ missing where the method gives none".to_string()
+    } else {
+        format!(
+            "honest Gaussian σ would give {:.0} %",
+            100.0 * s.expected_all_within_2sigma
+        )
+    };
     let _ = writeln!(
         out,
-        "\n{label}: {RUNS} runs; all nine within 2σ in {}/{RUNS}",
-        s.all_within_2sigma
+        "\n{label}: {} runs ({} failed); all nine within 2σ in {}/{} ({expected})",
+        s.runs, s.failed, s.all_within_2sigma, s.runs
     );
     let _ = writeln!(
         out,
-        "{:>11} {:>8} {:>8} {:>20} {:>20} {:>8} {:>8} {:>7} {:>7} {:>6}",
-        "param", "true", "initial", "seed ± σ", "ours (median) ± σ", "seed err", "our err", "mean σ", "spread", "in 2σ"
+        "{:>10} {:>7} {:>7} {:>19} {:>21} {:>7} {:>7} {:>9} {:>9} {:>5} {:>6}",
+        "param",
+        "true",
+        "initial",
+        "seed ± σ",
+        "ours (median run) ± σ",
+        "seed e",
+        "med. e",
+        "mean σ",
+        "spread",
+        "rms z",
+        "in 2σ"
     );
     for j in 0..9 {
-        let rel = |v: f64| {
-            if t[j] != 0.0 {
-                format!("{:7.1}%", 100.0 * ((v - t[j]) / t[j]).abs())
-            } else {
-                format!("{:8.5}", (v - t[j]).abs())
-            }
-        };
+        let m = &s.median_run;
         let _ = writeln!(
             out,
-            "{:>11} {:>+8.4} {:>+8.4} {:>+10.5} ± {:7.5} {:>+10.5} ± {:7.5} {} {} {:7.4} {:7.4} {:>4}/{RUNS}",
-            Longitudinal::<f64>::NAMES[j],
+            "{:>10} {:>+7.3} {:>+7.3} {:>+9.5} ± {:7.5} {:>+10.5} ± {:8.5} {} {} {:9.5} {:9.5} {:5.2} {:>3}/{}",
+            NAMES[j],
             t[j],
             init[j],
             seed[j],
             seed_s[j],
-            s.median_run.p[j],
-            s.median_run.sigma[j],
-            rel(seed[j]),
-            rel(s.median_run.p[j]),
+            m.p[j],
+            m.sigma[j],
+            rel(j, seed[j]),
+            if t[j] != 0.0 {
+                format!("{:6.1}%", 100.0 * s.median_abs_rel_error[j])
+            } else {
+                format!("{:7.5}", s.median_abs_rel_error[j])
+            },
             s.mean_sigma[j],
             s.spread[j],
-            s.per_param_within_2sigma[j]
+            s.rms_z[j],
+            s.per_param_within_2sigma[j],
+            s.runs
         );
     }
-    let _ = writeln!(out, "median |rel. error| per parameter: {:.3?}", s.median_abs_rel_error);
     out
 }
 
-/// `aerosid table1 [--out DIR]`: the campaign with the paper's input by the paper's method
-/// (one-step sensitivity, turbulence as white process noise) and by ours (propagated sensitivity,
-/// gusts as filter states), as tables beside Table 1, and the parameter histories ±σ of seed 1
-/// (like the seed's Fig. 6–10) as SVG.
-pub fn table1_report(out_dir: &std::path::Path) -> Result<(String, Vec<std::path::PathBuf>), String> {
-    use crate::plot::{Band, Colour, Figure, Line, Panel};
+/// The methods side by side: median |error| per parameter (% of the truth; absolute for `Cm0`),
+/// runs with all nine within 2σ, and `rms z` of the data-determined parameters.
+pub fn comparison_table(title: &str, rows: &[(Method, &Summary)]) -> String {
     let mut out = String::new();
-    let paper = campaign(Input::PAPER, 15.0, Sensitivity::OneStep, false);
-    out += &summary_table(
-        "the paper's method (one-step sensitivity, white process noise), 3-2-1-1",
-        &paper,
+    let _ = writeln!(
+        out,
+        "\n{title}: median |error| per parameter (% of the truth; Cm0 absolute), all nine within 2σ"
     );
-    let ours = campaign(Input::PAPER, 15.0, Sensitivity::Propagated, true);
-    out += &summary_table("ours (propagated sensitivity, gust states), 3-2-1-1", &ours);
-    let flight = simulate(Input::PAPER, 15.0, 1);
+    let _ = write!(out, "{:>44}", "method");
+    for name in NAMES {
+        let _ = write!(out, " {name:>8}");
+    }
+    let _ = writeln!(out, " {:>9} {:>7}", "Cmα̇+Cmq", "in 2σ");
+    for (method, s) in rows {
+        let _ = write!(out, "{:>44}", method.label());
+        for j in 0..9 {
+            let v = s.median_abs_rel_error[j];
+            if Longitudinal::<f64>::TABLE1_TRUE[j] != 0.0 {
+                let _ = write!(out, " {:>7.1}%", 100.0 * v);
+            } else {
+                let _ = write!(out, " {v:>8.5}");
+            }
+        }
+        let _ = writeln!(
+            out,
+            " {:>8.1}% {:>3}/{}",
+            100.0 * s.median_abs_rel_error_cm_damping_sum,
+            s.all_within_2sigma,
+            s.runs
+        );
+    }
+    let _ = write!(out, "{:>44}", "seed 001 (Table 1)");
+    let (t, seed) = (Longitudinal::<f64>::TABLE1_TRUE, Longitudinal::<f64>::TABLE1_SEED);
+    for j in 0..9 {
+        let _ = write!(out, " {:>8}", rel(j, seed[j]).trim());
+    }
+    let _ = writeln!(
+        out,
+        " {:>8.1}%",
+        100.0 * ((seed[6] + seed[7] - t[6] - t[7]) / (t[6] + t[7])).abs()
+    );
+    out
+}
+
+/// The Cramér–Rao bound of one input: σ per parameter, the bound on `Cmα̇ + Cmq`, and the largest
+/// principal axis of the bound (the worst-determined combination).
+#[derive(Debug, Clone, Copy)]
+pub struct Bound {
+    /// The input.
+    pub input: Input,
+    /// Record length, s.
+    pub seconds: f64,
+    /// The noise levels.
+    pub conditions: Conditions,
+    /// `σ_CRB` per parameter.
+    pub sigma: [f64; 9],
+    /// `σ_CRB` of `Cmα̇ + Cmq`.
+    pub sigma_cm_damping_sum: f64,
+    /// Correlation of `Cmα̇` and `Cmq` in the bound.
+    pub corr_cmalphadot_cmq: f64,
+    /// The unit eigenvector of the largest eigenvalue of the bound, scaled so that its `Cmα̇`
+    /// component is 1 (Table 1's order).
+    pub worst_direction: [f64; 9],
+    /// Peak `|a_z − a_z(0)|` of the seed-1 flight (with turbulence and noise), m/s².
+    pub peak_delta_az_mps2: f64,
+}
+
+/// [`cramer_rao`] of `input` over `seconds` (flight seed 1) as a [`Bound`].
+pub fn bound(input: Input, seconds: f64, conditions: Conditions) -> Option<Bound> {
+    let c = cramer_rao(input, seconds, 1, &conditions)?;
+    let sym = nalgebra::SymmetricEigen::new(c);
+    let k = (0..9).max_by(|&a, &b| sym.eigenvalues[a].total_cmp(&sym.eigenvalues[b]))?;
+    let v = sym.eigenvectors.column(k);
+    let flight = simulate(input, seconds, 1);
+    let az0 = flight.az[0];
+    Some(Bound {
+        input,
+        seconds,
+        conditions,
+        sigma: core::array::from_fn(|j| c[(j, j)].sqrt()),
+        sigma_cm_damping_sum: (c[(6, 6)] + c[(7, 7)] + 2.0 * c[(6, 7)]).sqrt(),
+        corr_cmalphadot_cmq: c[(6, 7)] / (c[(6, 6)] * c[(7, 7)]).sqrt(),
+        worst_direction: core::array::from_fn(|j| v[j] / v[6]),
+        peak_delta_az_mps2: flight.az.iter().map(|a| (a - az0).abs()).fold(0.0, f64::max),
+    })
+}
+
+/// The direction in which the pitching-moment data carry no first-order information: with
+/// `α̇ = q + A`, `A = α̇ − q = −(q̄S/(mV))(C_L0 + C_Lα α + C_Lδe δe + …) + (g/V) cos γ − …`, raising
+/// `Cmα̇` by ε and lowering `Cmq` by ε changes `Cm` by `ε ĉ A` (`ĉ = c̄/(2V)`), which
+/// `ΔCmα = ε ĉ Z_α` and `ΔCmδe = ε ĉ Z_δe` (`Z_x = q̄S C_Lx/(mV)`, 1/s) and a `ΔCm0` (≈ 0 at
+/// trim, where the lift balances the weight) cancel to first order. Returns the direction in
+/// Table 1's order scaled to `ΔCmα̇ = 1`: `[0, 0, 0, 0, 0, ĉZ_α, 1, −1, ĉZ_δe]`.
+pub fn predicted_null_direction() -> [f64; 9] {
+    let m = Longitudinal::<f64>::a4d();
+    let t = Longitudinal::<f64>::TABLE1_TRUE;
+    let qs_over_mv = 0.5 * m.rho_kgpm3 * V0_MPS * m.wing_area_m2 / m.mass_kg;
+    let chat = m.chord_m / (2.0 * V0_MPS);
+    [
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        chat * qs_over_mv * t[1],
+        1.0,
+        -1.0,
+        chat * qs_over_mv * t[3],
+    ]
+}
+
+/// The 3-2-1-1 units scanned by [`design_scan`], s.
+pub const DESIGN_UNITS_S: [f64; 10] = [0.2, 0.3, 0.4, 0.6, 0.8, 1.0, 1.5, 2.0, 3.0, 4.0];
+
+/// The input design: the Cramér–Rao bound of 1° 3-2-1-1 inputs of each unit in [`DESIGN_UNITS_S`]
+/// over [`DESIGNED_SECONDS`] (all the same length, so that only the shape differs). The designed
+/// input is the unit that minimises `σ_CRB(Cmα̇)·σ_CRB(Cmq)` (the issue's target pair).
+pub fn design_scan() -> Vec<Bound> {
+    DESIGN_UNITS_S
+        .par_iter()
+        .filter_map(|&step_s| {
+            bound(
+                Input::Multistep3211 {
+                    step_s,
+                    amplitude_rad: 0.0175,
+                },
+                DESIGNED_SECONDS,
+                Conditions::SIMULATED,
+            )
+        })
+        .collect()
+}
+
+/// The bounds as a table (relative σ; absolute for `Cm0`).
+pub fn bound_table(bounds: &[Bound]) -> String {
+    let mut out = String::new();
+    let t = Longitudinal::<f64>::TABLE1_TRUE;
+    let _ = writeln!(
+        out,
+        "\nCramér–Rao bound (no prior) per input, σ_CRB as % of the truth (Cm0 absolute); flight seed 1"
+    );
+    let _ = write!(out, "{:>34} {:>5}", "input", "T (s)");
+    for name in NAMES {
+        let _ = write!(out, " {name:>8}");
+    }
+    let _ = writeln!(out, " {:>9} {:>8} {:>7}", "Cmα̇+Cmq", "ρ(α̇,q)", "|Δaz|");
+    for b in bounds {
+        let _ = write!(out, "{:>34} {:>5.0}", b.input.label(), b.seconds);
+        for j in 0..9 {
+            if t[j] != 0.0 {
+                let _ = write!(out, " {:>7.1}%", 100.0 * b.sigma[j] / t[j].abs());
+            } else {
+                let _ = write!(out, " {:>8.5}", b.sigma[j]);
+            }
+        }
+        let _ = writeln!(
+            out,
+            " {:>8.1}% {:>8.4} {:>7.2}",
+            100.0 * b.sigma_cm_damping_sum / (t[6] + t[7]).abs(),
+            b.corr_cmalphadot_cmq,
+            b.peak_delta_az_mps2
+        );
+    }
+    out
+}
+
+/// The noise levels [`requirement_table`] tries: the simulated ones, a 10× better accelerometer,
+/// all sensors 10× better, still air (turbulence ×0.01), and still air with 10× better sensors.
+pub const WHAT_IT_TAKES: [Conditions; 5] = [
+    Conditions::SIMULATED,
+    Conditions {
+        state_noise: 1.0,
+        accelerometer_noise: 0.1,
+        turbulence: 1.0,
+    },
+    Conditions {
+        state_noise: 0.1,
+        accelerometer_noise: 0.1,
+        turbulence: 1.0,
+    },
+    Conditions {
+        state_noise: 1.0,
+        accelerometer_noise: 1.0,
+        turbulence: 0.01,
+    },
+    Conditions {
+        state_noise: 0.1,
+        accelerometer_noise: 0.1,
+        turbulence: 0.01,
+    },
+];
+
+/// The bound `σ_CRB` below which an unbiased Gaussian estimate has a median |error| under 5 %:
+/// the median of `|N(0, σ²)|` is `0.674σ`, so `σ < 5 %/0.674 = 7.4 %` of the truth.
+pub const SIGMA_FOR_5_PERCENT_MEDIAN: f64 = 0.05 / 0.674_489_75;
+
+/// [`bound`] of `CLα̇`, `Cmα̇`, `Cmq` for each of [`WHAT_IT_TAKES`] with both inputs.
+pub fn requirement_bounds() -> Vec<Bound> {
+    let cases: Vec<(Input, f64, Conditions)> = [(Input::PAPER, PAPER_SECONDS), (Input::DESIGNED, DESIGNED_SECONDS)]
+        .iter()
+        .flat_map(|&(i, s)| WHAT_IT_TAKES.iter().map(move |&c| (i, s, c)))
+        .collect();
+    cases.par_iter().filter_map(|&(i, s, c)| bound(i, s, c)).collect()
+}
+
+/// What it would take: the bounds of [`requirement_bounds`] as a table, beside the 7.4 % that a
+/// 5 % median error needs.
+pub fn requirement_table(bounds: &[Bound]) -> String {
+    let mut out = String::new();
+    let t = Longitudinal::<f64>::TABLE1_TRUE;
+    let _ = writeln!(
+        out,
+        "
+What it would take: σ_CRB (% of the truth) under other noise levels; a 5 % median error needs σ < {:.1} %",
+        100.0 * SIGMA_FOR_5_PERCENT_MEDIAN
+    );
+    let _ = writeln!(
+        out,
+        "{:>34} {:>44} {:>9} {:>9} {:>9}",
+        "input", "noise", "CLα̇", "Cmα̇", "Cmq"
+    );
+    for b in bounds {
+        let _ = writeln!(
+            out,
+            "{:>34} {:>44} {:>8.1}% {:>8.1}% {:>8.1}%",
+            b.input.label(),
+            b.conditions.label(),
+            100.0 * b.sigma[2] / t[2],
+            100.0 * b.sigma[6] / t[6].abs(),
+            100.0 * b.sigma[7] / t[7].abs()
+        );
+    }
+    out
+}
+
+/// `aerosid table1 [--out DIR]`: the Cramér–Rao scan that designs the input, the four methods on
+/// [`RUNS`] flights with the paper's input and with the designed one, each as a table beside
+/// Table 1 and side by side, the weakest direction of the bound against the predicted one, and
+/// the parameter histories ±σ of flight 1 (like the seed's Fig. 6–10) as SVG.
+pub fn table1_report(out_dir: &std::path::Path) -> Result<(String, Vec<std::path::PathBuf>), String> {
+    let mut out = String::new();
+    let mut bounds = vec![bound(Input::PAPER, PAPER_SECONDS, Conditions::SIMULATED).ok_or("bound refused")?];
+    bounds.extend(design_scan());
+    out += &bound_table(&bounds);
+    let predicted = predicted_null_direction();
+    let _ = writeln!(
+        out,
+        "worst-determined direction of the bound (scaled to ΔCmα̇ = 1), paper's input: {}",
+        fmt9(&bounds[0].worst_direction)
+    );
+    let _ = writeln!(
+        out,
+        "predicted first-order null direction (Cmα̇ ↑, Cmq ↓, Cmα by ĉZα, Cmδe by ĉZδe):  {}",
+        fmt9(&predicted)
+    );
+    out += &requirement_table(&requirement_bounds());
+    let mut figures = Vec::new();
+    for (input, seconds) in [(Input::PAPER, PAPER_SECONDS), (Input::DESIGNED, DESIGNED_SECONDS)] {
+        let summaries: Vec<(Method, Summary)> = Method::ALL.iter().map(|&m| (m, campaign(input, seconds, m))).collect();
+        for (m, s) in &summaries {
+            out += &summary_table(&format!("{}, {}, {seconds} s", m.label(), input.label()), s);
+        }
+        let rows: Vec<(Method, &Summary)> = summaries.iter().map(|(m, s)| (*m, s)).collect();
+        out += &comparison_table(&format!("{}, {seconds} s", input.label()), &rows);
+        figures.push(history_figure(input, seconds, out_dir)?);
+    }
+    Ok((out, figures))
+}
+
+fn fmt9(v: &[f64; 9]) -> String {
+    v.iter().map(|x| format!("{x:+.5}")).collect::<Vec<_>>().join(" ")
+}
+
+/// The parameter histories ±σ of flight 1 by the paper's method and by ours on board.
+fn history_figure(input: Input, seconds: f64, out_dir: &std::path::Path) -> Result<std::path::PathBuf, String> {
+    use crate::plot::{Band, Colour, Figure, Line, Panel};
+    let flight = simulate(input, seconds, 1);
     let (mut h_paper, mut h_ours) = (Vec::new(), Vec::new());
-    identify(&flight, &process_noise(), Sensitivity::OneStep, Some(&mut h_paper))
-        .ok_or("paper's method refused a step")?;
-    identify_with_gust_states(&flight, 1e-8, Sensitivity::Propagated, Some(&mut h_ours))
-        .ok_or("ours refused a step")?;
+    identify(&flight, Method::Paper, Some(&mut h_paper)).ok_or("the paper's method refused a step")?;
+    identify(&flight, Method::Recursive, Some(&mut h_ours)).ok_or("ours refused a step")?;
     let t: Vec<f64> = (1..=h_ours.len()).map(|k| k as f64 * DT_S).collect();
-    let mut fig = Figure::new("t (s)").title("Seed 001 example (A-4D), seed 1: parameter estimates ±σ");
+    let mut fig = Figure::new("t (s)").title(format!(
+        "Seed 001 example (A-4D), {}, flight 1: parameter estimates ±σ",
+        input.label()
+    ));
     for j in 0..9 {
         let col = |h: &[Run], f: fn(&Run, usize) -> f64| h.iter().map(|r| f(r, j)).collect::<Vec<f64>>();
         let (po, so) = (col(&h_ours, |r, j| r.p[j]), col(&h_ours, |r, j| r.sigma[j]));
-        let pp = col(&h_paper, |r, j| r.p[j]);
+        let (pp, sp) = (col(&h_paper, |r, j| r.p[j]), col(&h_paper, |r, j| r.sigma[j]));
         let truth = vec![Longitudinal::<f64>::TABLE1_TRUE[j]; t.len()];
         fig = fig.panel(
-            Panel::new(Longitudinal::<f64>::NAMES[j], Longitudinal::<f64>::NAMES[j])
+            Panel::new(NAMES[j], NAMES[j])
+                .band(Band::around("paper's ±σ", &t, &pp, &sp, 1.0, Colour::ORANGE))
                 .band(Band::around("ours ±σ", &t, &po, &so, 1.0, Colour::BLUE))
-                .line(Line::new("ours", &t, &po, Colour::BLUE))
                 .line(Line::new("paper's method", &t, &pp, Colour::ORANGE))
+                .line(Line::new("ours on board", &t, &po, Colour::BLUE))
                 .line(Line::new("truth", &t, &truth, Colour::BLACK).dashed()),
         );
     }
     std::fs::create_dir_all(out_dir).map_err(|e| format!("{}: {e}", out_dir.display()))?;
-    let path = out_dir.join("table1_parameters.svg");
+    let Input::Multistep3211 { step_s, .. } = input;
+    let path = out_dir.join(format!("table1_parameters_3211_{}ms.svg", (step_s * 1000.0).round()));
     fig.write_svg(&path).map_err(|e| format!("{e:?}"))?;
-    Ok((out, vec![path]))
-}
-
-/// [`identify_with_gust_states`] with the z accelerometer as a sixth output ([`LongitudinalGustAz`]).
-pub fn identify_with_accelerometer(flight: &Flight, q_small: f64, sensitivity: Sensitivity) -> Option<Run> {
-    let noise = |i: usize| if i < 5 { NOISE[i] } else { AZ_NOISE_MPS2 };
-    let r_x = SMatrix::<f64, 6, 6>::from_diagonal(&SVector::from_fn(|i, _| noise(i) * noise(i)));
-    let (model, q_x, x0, p_x0) = gust_filter(flight, q_small);
-    let measured = |k: usize| SVector::<f64, 6>::from_fn(|i, _| if i < 5 { flight.y[k][i] } else { flight.az[k] });
-    run_filter(
-        LongitudinalGustAz(model),
-        q_x,
-        r_x,
-        x0,
-        p_x0,
-        sensitivity,
-        flight,
-        measured,
-        None,
-    )
+    Ok(path)
 }
 
 /// Seed 000's equation-error PCA-GTLS on the same flight, for issue 5 §2's comparison: the lift and
@@ -634,6 +1083,7 @@ pub fn identify_equation_error(flight: &Flight) -> Run {
         return Run {
             p: [f64::NAN; 9],
             sigma: [f64::NAN; 9],
+            covariance: [[f64::NAN; 9]; 9],
         };
     };
     for k in 1..n.saturating_sub(1) {
@@ -651,12 +1101,29 @@ pub fn identify_equation_error(flight: &Flight) -> Run {
         let _ = pitch.update(&SVector::from([1.0, de, alpha, alpha_dot * chat, q * chat]), cm);
     }
     let (tl, tm) = (lift.theta(), pitch.theta());
-    let sl = lift.covariance().map(|c| c.diagonal().map(f64::sqrt));
-    let sm = pitch.covariance().map(|c| c.diagonal().map(f64::sqrt));
-    let sl = |i: usize| sl.as_ref().map(|s| s[i]).unwrap_or(f64::NAN);
-    let sm = |i: usize| sm.as_ref().map(|s| s[i]).unwrap_or(f64::NAN);
+    // Regressor slots of each Table 1 parameter: (estimator, slot); lift [1, δe, α, α̇ĉ], moment
+    // [1, δe, α, α̇ĉ, qĉ].
+    const SLOT: [(usize, usize); 9] = [(0, 0), (0, 2), (0, 3), (0, 1), (1, 0), (1, 2), (1, 3), (1, 4), (1, 1)];
+    let (cl, cm) = (lift.covariance(), pitch.covariance());
+    let cov = |a: usize, b: usize| -> f64 {
+        let ((ea, sa), (eb, sb)) = (SLOT[a], SLOT[b]);
+        match (ea, eb) {
+            (0, 0) => cl.as_ref().map(|c| c[(sa, sb)]).unwrap_or(f64::NAN),
+            (1, 1) => cm.as_ref().map(|c| c[(sa, sb)]).unwrap_or(f64::NAN),
+            _ => 0.0,
+        }
+    };
+    let p: [f64; 9] = core::array::from_fn(|j| {
+        let (e, slot) = SLOT[j];
+        if e == 0 {
+            tl[slot]
+        } else {
+            tm[slot]
+        }
+    });
     Run {
-        p: [tl[0], tl[2], tl[3], tl[1], tm[0], tm[2], tm[3], tm[4], tm[1]],
-        sigma: [sl(0), sl(2), sl(3), sl(1), sm(0), sm(2), sm(3), sm(4), sm(1)],
+        p,
+        sigma: core::array::from_fn(|j| cov(j, j).sqrt()),
+        covariance: core::array::from_fn(|a| core::array::from_fn(|b| cov(a, b))),
     }
 }

@@ -8,9 +8,10 @@
 //! measurement `y(t+Δt)`, and does:
 //!
 //! 1. **Prediction** (eq. 3): `x̂⁻ = x̂ + f(x̂, u, p̄)Δt` (Euler, as the paper; [`Integrator::Rk2`] and
-//!    [`Integrator::Rk4`] are offered), its transition `Φ = ∂x̂⁻/∂x̂` and sensitivity
-//!    `S = ∂x̂⁻/∂p` (Euler: `Φ = I + AΔt`, `S = Δt ∂f/∂p`; RK: central differences of the step), and
-//!    the state covariance `P⁻ = Φ P Φᵀ + Q_x Δt`.
+//!    [`Integrator::Rk4`] are offered, with the input held or interpolated between the samples,
+//!    [`InputHold`]), its transition `Φ = ∂x̂⁻/∂x̂` and sensitivity `S = ∂x̂⁻/∂p` (Euler:
+//!    `Φ = I + AΔt`, `S = Δt ∂f/∂p`; RK: central differences of the step), and the state covariance
+//!    `P⁻ = Φ P Φᵀ + Q_x Δt`.
 //! 2. **Parameter filter** (eq. 6–12): the predicted-output error `Δz = y − h(x̂⁻, u(t+Δt), p̄)`, its
 //!    sensitivity `H = C S + D` (eq. 7, with `C = ∂h/∂x` and `D = ∂h/∂p`; the paper's `h` has no
 //!    direct `p` dependence, but outputs such as `q̇`, `a_x`, `a_z` do, so `D` is kept), its noise
@@ -28,10 +29,20 @@
 //! A step whose inputs are not finite, or whose update is not finite or loses definiteness, is
 //! refused: the filter's state is left exactly as it was and [`FemHealth`] counts it.
 //!
+//! **Gauss–Newton passes** ([`FilterError::new_pass`]): the same two filters with the model held at
+//! a fixed `p_lin` for a whole pass over a stored record, so that the parameter filter is a linear
+//! Kalman filter and the pass is one Gauss–Newton step of the batch filter error method (host-side;
+//! `aerosid_host::fem_batch` iterates it).
+//!
 //! *Math note*: eq. 6 linearises the prediction in `p` about `p̄` and neglects the correlation
 //! between the state error and `Δp` (the paper's `E{ê_x v_xᵀ} = 0`); the parameter covariance is
-//! therefore that of a one-step-ahead prediction-error estimator, and is checked against the
-//! spread over Monte Carlo runs in `host-tests`.
+//! therefore that of a one-step-ahead prediction-error estimator, `(P₀⁻¹ + Σ Hᵀ R_p⁻¹ H)⁻¹`, with
+//! each term evaluated at the running estimate. Checked against the spread over Monte Carlo runs in
+//! `host-tests/tests/table1.rs`: where a direction of `p` is weakly determined and its
+//! sensitivity depends on the other parameters (Table 1's `CL0`, `Cm0`, confounded with the
+//! record's mean vertical gust), the sum over the path overstates the information (σ 2.4× too
+//! small); a pass at one point does not ([`FilterError::new_pass`]). The gain `K_x` is held fixed
+//! in the propagated sensitivity (`∂K_x/∂p` neglected).
 
 pub mod models;
 
@@ -105,6 +116,20 @@ pub enum Integrator {
     Rk4,
 }
 
+/// How the input is taken between two samples by the prediction's integrator.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum InputHold {
+    /// `u(t)` held over `[t, t + Δt)` (zero-order hold; eq. 3 evaluates `f` at `u(t)`).
+    #[default]
+    Zero,
+    /// Linear between `u(t)` and `u(t + Δt)` (first-order hold): the RK stages at `t + Δt/2` take
+    /// the mean of the two and those at `t + Δt` take `u(t + Δt)`, as in Jategaonkar's `ruku4`;
+    /// Euler's single stage at `t` is unchanged. At a 10 Hz sample rate the zero-order hold is a
+    /// half-sample (50 ms) lag of the elevator, which the estimator turns into damping.
+    Linear,
+}
+
 /// How the predicted state's sensitivity to the parameters, `∂x̂⁻/∂p`, is formed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -131,6 +156,8 @@ pub struct FemSettings<T: Real, const NX: usize, const NY: usize> {
     pub dt_s: T,
     /// The prediction's integrator. Default Euler (eq. 3).
     pub integrator: Integrator,
+    /// How the integrator takes the input between samples. Default [`InputHold::Zero`].
+    pub input_hold: InputHold,
     /// How `∂x̂⁻/∂p` is formed. Default [`Sensitivity::OneStep`] (the paper).
     pub sensitivity: Sensitivity,
 }
@@ -150,11 +177,13 @@ pub struct FemHealth {
 /// What one accepted step did.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct FemStep<T: Real, const NY: usize, const NP: usize> {
-    /// The predicted-output error `Δz` of eq. 7 (with `p̄`, before the update).
+    /// The predicted-output error `Δz` of eq. 7 (with `p̄`, before the update; in a Gauss–Newton
+    /// pass, with the pass's `p_lin`).
     pub prediction_error: SVector<T, NY>,
     /// The parameter correction `Δp̂` of eq. 11.
     pub delta_p: SVector<T, NP>,
-    /// The state filter's innovation `y − h(x̂⁻, p̂)`.
+    /// The state filter's innovation `y − h(x̂⁻, p̂)` (in a pass, at `p_lin`: equal to
+    /// `prediction_error`).
     pub innovation: SVector<T, NY>,
 }
 
@@ -169,6 +198,9 @@ pub struct FilterError<T: Real, M, const NX: usize, const NU: usize, const NY: u
     p_p: SMatrix<T, NP, NP>,
     /// `∂x̂/∂p` of the filtered state ([`Sensitivity::Propagated`]; zero otherwise).
     s_x: SMatrix<T, NX, NP>,
+    /// The fixed linearisation point of a Gauss–Newton pass ([`FilterError::new_pass`]); `None`:
+    /// the recursive method, linearised at the running estimate.
+    p_lin: Option<SVector<T, NP>>,
     health: FemHealth,
 }
 
@@ -191,6 +223,53 @@ where
         p0: SVector<T, NP>,
         p_p0: SMatrix<T, NP, NP>,
     ) -> Result<Self, Error> {
+        Self::build(model, settings, x0, p_x0, p0, p_p0, None)
+    }
+
+    /// One **Gauss–Newton pass** of the batch filter error method over a record (Jategaonkar's
+    /// formulation; the host or a stored record — not the on-line method of the paper). For the
+    /// whole pass the model, the state filter and the sensitivities stay at the fixed `p_lin`, so
+    /// `Δz(p) ≈ Δz(p_lin) − H (p − p_lin)` (eq. 7 linearised once, not at every step) and the
+    /// parameter filter (eq. 10–12) is a linear Kalman filter for `p`, started from the prior mean
+    /// `p_prior` with covariance `p_p0`: its measurement is `Δz − H(p̄ − p_lin)`. After the pass,
+    /// [`FilterError::parameters`] is the Gauss–Newton step from `p_lin` on the criterion
+    /// `(p − p_prior)ᵀP_p0⁻¹(p − p_prior) + Σ Δzᵀ R_p⁻¹ Δz` and [`FilterError::parameter_covariance`]
+    /// is `(P_p0⁻¹ + Σ Hᵀ R_p⁻¹ H)⁻¹` at `p_lin` — the information of the whole record evaluated at
+    /// one point. Passes repeated with `p_lin` set to the last result converge to the batch
+    /// estimate. With a very broad `p_p0`, the covariance after a pass at the true parameters is the
+    /// Cramér–Rao bound of the record.
+    ///
+    /// *Why it exists*: the recursive filter sums `Hᵀ R_p⁻¹ H` along the path of its running
+    /// estimate; where a direction of the parameters is weakly determined and its sensitivity
+    /// depends on the other parameters, the sum over different linearisation points overstates the
+    /// information (measured in `host-tests/tests/table1.rs`).
+    ///
+    /// Refuses what [`FilterError::new`] refuses, and a non-finite `p_lin`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn new_pass(
+        model: M,
+        settings: FemSettings<T, NX, NY>,
+        x0: SVector<T, NX>,
+        p_x0: SMatrix<T, NX, NX>,
+        p_lin: SVector<T, NP>,
+        p_prior: SVector<T, NP>,
+        p_p0: SMatrix<T, NP, NP>,
+    ) -> Result<Self, Error> {
+        if !p_lin.iter().all(|v| v.finite()) {
+            return Err(Error::InvalidSetting);
+        }
+        Self::build(model, settings, x0, p_x0, p_prior, p_p0, Some(p_lin))
+    }
+
+    fn build(
+        model: M,
+        settings: FemSettings<T, NX, NY>,
+        x0: SVector<T, NX>,
+        p_x0: SMatrix<T, NX, NX>,
+        p0: SVector<T, NP>,
+        p_p0: SMatrix<T, NP, NP>,
+        p_lin: Option<SVector<T, NP>>,
+    ) -> Result<Self, Error> {
         let finite = x0
             .iter()
             .chain(p0.iter())
@@ -211,6 +290,7 @@ where
             p: p0,
             p_p: p_p0,
             s_x: SMatrix::zeros(),
+            p_lin,
             health: FemHealth::default(),
         })
     }
@@ -247,14 +327,31 @@ where
     pub fn settings(&self) -> &FemSettings<T, NX, NY> {
         &self.settings
     }
+    /// The fixed linearisation point of a Gauss–Newton pass ([`FilterError::new_pass`]), `None`
+    /// for the recursive method.
+    pub fn linearisation_point(&self) -> Option<&SVector<T, NP>> {
+        self.p_lin.as_ref()
+    }
 
-    /// One step of the integrator from `x` with `u` held and parameters `p`.
-    fn integrate(&self, x: &SVector<T, NX>, u: &SVector<T, NU>, p: &SVector<T, NP>) -> SVector<T, NX> {
-        integrate(&self.model, self.settings.integrator, self.settings.dt_s, x, u, p)
+    /// One step of the integrator from `x` with the input from `u` to `u_next` and parameters `p`.
+    fn integrate(
+        &self,
+        x: &SVector<T, NX>,
+        u: &SVector<T, NU>,
+        u_next: &SVector<T, NU>,
+        p: &SVector<T, NP>,
+    ) -> SVector<T, NX> {
+        let s = &self.settings;
+        integrate(&self.model, s.integrator, s.input_hold, s.dt_s, x, u, u_next, p)
     }
 
     /// `(Φ, S)`: the prediction's transition and parameter sensitivity (module doc, step 1).
-    fn prediction_jacobians(&self, u: &SVector<T, NU>, p: &SVector<T, NP>) -> (SMatrix<T, NX, NX>, SMatrix<T, NX, NP>) {
+    fn prediction_jacobians(
+        &self,
+        u: &SVector<T, NU>,
+        u_next: &SVector<T, NU>,
+        p: &SVector<T, NP>,
+    ) -> (SMatrix<T, NX, NX>, SMatrix<T, NX, NP>) {
         let dt = self.settings.dt_s;
         match self.settings.integrator {
             Integrator::Euler => {
@@ -262,8 +359,8 @@ where
                 (phi, self.model.df_dp(&self.x, u, p) * dt)
             }
             _ => (
-                central_difference(&self.x, |xx| self.integrate(xx, u, p)),
-                central_difference(p, |pp| self.integrate(&self.x, u, pp)),
+                central_difference(&self.x, |xx| self.integrate(xx, u, u_next, p)),
+                central_difference(p, |pp| self.integrate(&self.x, u, u_next, pp)),
             ),
         }
     }
@@ -316,31 +413,47 @@ where
     )> {
         let dt = self.settings.dt_s;
         let p_bar = self.p;
-        // 1. Prediction (eq. 3) with p̄, its Jacobians and the state covariance.
-        let x_pred = self.integrate(&self.x, u, &p_bar);
-        let (phi, S_step) = self.prediction_jacobians(u, &p_bar);
+        // The model's parameters: the running estimate (recursive) or the pass's fixed point.
+        let p_model = self.p_lin.unwrap_or(p_bar);
+        // 1. Prediction (eq. 3), its Jacobians and the state covariance.
+        let x_pred = self.integrate(&self.x, u, u_next, &p_model);
+        let (phi, S_step) = self.prediction_jacobians(u, u_next, &p_model);
         let S = match self.settings.sensitivity {
             Sensitivity::OneStep => S_step,
             Sensitivity::Propagated => phi * self.s_x + S_step,
         };
         let P_pred = symmetric(&(phi * self.p_x * phi.transpose() + self.settings.q_x * dt));
         // 2. Parameter filter (eq. 6–12).
-        let C = self.model.dh_dx(&x_pred, u_next, &p_bar);
-        let D = self.model.dh_dp(&x_pred, u_next, &p_bar);
+        let C = self.model.dh_dx(&x_pred, u_next, &p_model);
+        let D = self.model.dh_dp(&x_pred, u_next, &p_model);
         let H = C * S + D;
-        let dz = y_next - self.model.h(&x_pred, u_next, &p_bar);
+        let dz = y_next - self.model.h(&x_pred, u_next, &p_model);
+        // A pass linearised at p_lin: Δz(p̄) ≈ Δz(p_lin) − H (p̄ − p_lin).
+        let dz_p = match self.p_lin {
+            None => dz,
+            Some(p_lin) => dz - H * (p_bar - p_lin),
+        };
         let R_p = symmetric(&(C * P_pred * C.transpose() + self.settings.r_x)); // eq. 9
         let P_bar = self.p_p;
         let S_p = symmetric(&(H * P_bar * H.transpose() + R_p));
         let K = gain(&S_p, &(P_bar * H.transpose()))?; // NP × NY
-        let delta_p = K * dz; // eq. 11
+        let delta_p = K * dz_p; // eq. 11
         let I_KH = SMatrix::<T, NP, NP>::identity() - K * H;
         let P_p = symmetric(&(I_KH * P_bar * I_KH.transpose() + K * R_p * K.transpose())); // eq. 12
         let p_hat = p_bar + delta_p;
-        // 3. State filter with the updated parameters.
-        let x_pred2 = self.integrate(&self.x, u, &p_hat);
-        let C2 = self.model.dh_dx(&x_pred2, u_next, &p_hat);
-        let innovation = y_next - self.model.h(&x_pred2, u_next, &p_hat);
+        // 3. State filter: with the updated parameters (recursive), or at p_lin (a pass).
+        let (x_pred2, C2, D2, innovation) = match self.p_lin {
+            None => {
+                let x_pred2 = self.integrate(&self.x, u, u_next, &p_hat);
+                let C2 = self.model.dh_dx(&x_pred2, u_next, &p_hat);
+                let D2 = match self.settings.sensitivity {
+                    Sensitivity::OneStep => D,
+                    Sensitivity::Propagated => self.model.dh_dp(&x_pred2, u_next, &p_hat),
+                };
+                (x_pred2, C2, D2, y_next - self.model.h(&x_pred2, u_next, &p_hat))
+            }
+            Some(_) => (x_pred, C, D, dz),
+        };
         let S_x = symmetric(&(C2 * P_pred * C2.transpose() + self.settings.r_x));
         let K_x = gain(&S_x, &(P_pred * C2.transpose()))?; // NX × NY
         let x_new = x_pred2 + K_x * innovation;
@@ -348,7 +461,7 @@ where
         let P_x = symmetric(&(I_KC * P_pred * I_KC.transpose() + K_x * self.settings.r_x * K_x.transpose()));
         let s_new = match self.settings.sensitivity {
             Sensitivity::OneStep => self.s_x,
-            Sensitivity::Propagated => I_KC * S - K_x * self.model.dh_dp(&x_pred2, u_next, &p_hat),
+            Sensitivity::Propagated => I_KC * S - K_x * D2,
         };
 
         let finite = x_new.iter().chain(p_hat.iter()).all(|v| v.finite())
@@ -373,13 +486,17 @@ where
     }
 }
 
-/// `x(t + Δt)` by `integrator` from `x` with `u` held and parameters `p`.
+/// `x(t + Δt)` by `integrator` from `x` with parameters `p` and the input `u(t)` → `u_next`
+/// (`u(t + Δt)`) taken as `hold` says.
+#[allow(clippy::too_many_arguments)]
 pub fn integrate<T, M, const NX: usize, const NU: usize, const NY: usize, const NP: usize>(
     model: &M,
     integrator: Integrator,
+    hold: InputHold,
     dt: T,
     x: &SVector<T, NX>,
     u: &SVector<T, NU>,
+    u_next: &SVector<T, NU>,
     p: &SVector<T, NP>,
 ) -> SVector<T, NX>
 where
@@ -387,18 +504,22 @@ where
     M: Model<T, NX, NU, NY, NP> + ?Sized,
 {
     let half = T::lit(0.5);
+    let (u_mid, u_end) = match hold {
+        InputHold::Zero => (*u, *u),
+        InputHold::Linear => ((u + u_next) * half, *u_next),
+    };
     match integrator {
         Integrator::Euler => x + model.f(x, u, p) * dt,
         Integrator::Rk2 => {
             let k1 = model.f(x, u, p);
-            let k2 = model.f(&(x + k1 * dt), u, p);
+            let k2 = model.f(&(x + k1 * dt), &u_end, p);
             x + (k1 + k2) * (dt * half)
         }
         Integrator::Rk4 => {
             let k1 = model.f(x, u, p);
-            let k2 = model.f(&(x + k1 * (dt * half)), u, p);
-            let k3 = model.f(&(x + k2 * (dt * half)), u, p);
-            let k4 = model.f(&(x + k3 * dt), u, p);
+            let k2 = model.f(&(x + k1 * (dt * half)), &u_mid, p);
+            let k3 = model.f(&(x + k2 * (dt * half)), &u_mid, p);
+            let k4 = model.f(&(x + k3 * dt), &u_end, p);
             x + (k1 + (k2 + k3) * T::lit(2.0) + k4) * (dt / T::lit(6.0))
         }
     }

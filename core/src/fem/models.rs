@@ -1,6 +1,7 @@
 //! Models for the filter error method: the HFB-320 longitudinal model of the flight-data README
-//! (Jategaonkar's test case 4) and the longitudinal model of seed 001's example (Section 4, with the
-//! `α̇` derivatives kept apart from `q`).
+//! (Jategaonkar's test case 4), the longitudinal model of seed 001's example (Section 4, with the
+//! `α̇` derivatives kept apart from `q`), and that model with the turbulence as Dryden-shaped states
+//! (the "dynamic compensation with colored process noise" of the seed's conclusion).
 
 use super::Model;
 use crate::Real;
@@ -279,54 +280,6 @@ impl<T: Real> Model<T, 5, 1, 5, 9> for Longitudinal<T> {
     }
 }
 
-/// [`Longitudinal`] with the turbulence as two more states (the "dynamic compensation with
-/// colored process noise" of seed 001's conclusion): `x = [V, α, q, θ, h, u_g, w_g]`, first-order
-/// Gauss–Markov gusts `u̇_g = −(V/L_u) u_g + ω_u`, `ẇ_g = −(V/L_w) w_g + ω_w` (Dryden's `u` channel
-/// exactly; a first-order stand-in for its second-order `w` channel). The aerodynamics see the
-/// air-relative state `V_a = V − u_g`, `α_a = α + w_g/V`; `θ̇ = q`, `ḣ = V sin(θ − α)` stay inertial.
-/// Outputs are the five flight states (the gusts are not measured). With white process noise on the
-/// gust states only, the filter's noise model matches coloured turbulence instead of pretending it
-/// is white. Jacobians by central differences.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct LongitudinalGust<T> {
-    /// The aircraft.
-    pub base: Longitudinal<T>,
-    /// Gust scale length along x, m.
-    pub length_u_m: T,
-    /// Gust scale length along z, m.
-    pub length_w_m: T,
-}
-
-impl<T: Real> Model<T, 7, 1, 5, 9> for LongitudinalGust<T> {
-    fn f(&self, x: &SVector<T, 7>, u: &SVector<T, 1>, p: &SVector<T, 9>) -> SVector<T, 7> {
-        let (ug, wg) = (x[5], x[6]);
-        let xa = SVector::<T, 5>::new(x[0] - ug, x[1] + wg / x[0], x[2], x[3], x[4]);
-        let d = self.base.f(&xa, u, p);
-        let (sg, _) = (x[3] - x[1]).sin_cos_fast();
-        SVector::<T, 7>::from_column_slice(&[
-            d[0],
-            d[1],
-            d[2],
-            x[2],
-            x[0] * sg,
-            -x[0] / self.length_u_m * ug,
-            -x[0] / self.length_w_m * wg,
-        ])
-    }
-
-    fn h(&self, x: &SVector<T, 7>, _u: &SVector<T, 1>, _p: &SVector<T, 9>) -> SVector<T, 5> {
-        SVector::<T, 5>::new(x[0], x[1], x[2], x[3], x[4])
-    }
-
-    fn dh_dx(&self, _x: &SVector<T, 7>, _u: &SVector<T, 1>, _p: &SVector<T, 9>) -> SMatrix<T, 5, 7> {
-        SMatrix::<T, 5, 7>::identity()
-    }
-
-    fn dh_dp(&self, _x: &SVector<T, 7>, _u: &SVector<T, 1>, _p: &SVector<T, 9>) -> SMatrix<T, 5, 9> {
-        SMatrix::<T, 5, 9>::zeros()
-    }
-}
-
 impl<T: Real> Longitudinal<T> {
     /// Specific force along body z (what a z accelerometer at the CG reads), m/s²:
     /// `−(L cos α + D sin α)/m` with `L` including the `α̇` term (thrust is along body x).
@@ -342,19 +295,80 @@ impl<T: Real> Longitudinal<T> {
     }
 }
 
-/// [`LongitudinalGust`] with a z accelerometer as a sixth output: `y = [V, α, q, θ, h, a_z]`, `a_z`
-/// from [`Longitudinal::specific_force_z`] at the air-relative state. The accelerometer sees the lift
-/// directly, which separates the lift derivatives from the vertical gust.
+/// [`Longitudinal`] with the turbulence as states shaped exactly like the Dryden filters of
+/// MIL-F-8785C that the Table 1 simulator uses: `x = [V, α, q, θ, h, u_g, w₁, w₂]`, with
+/// `u̇_g = −τ_u u_g + ω_u` (first order, `τ_u = V₀/L_u`) and the second-order vertical channel
+/// `ẇ₁ = w₂`, `ẇ₂ = −τ_w² w₁ − 2τ_w w₂ + ω_w`, `w_g = τ_w^{3/2}(w₁ + √3 w₂/τ_w)` (`τ_w = V₀/L_w`;
+/// the Dryden transfer function `σ_w √(L_w/(πV₀))·(1 + √3 L_w s/V₀)/(1 + L_w s/V₀)²` in
+/// controllable form, scaled so that a unit-intensity `ω_w` gives `σ_w = 1`). The process noise of
+/// the filter is then `Q = diag(…, 2σ_u²τ_u, 0, σ_w²)` on the gust states. The aerodynamics see the
+/// air-relative `V_a = V − u_g`, `α_a = α + w_g/V`. Outputs: the five flight states
+/// (`Model<T, 8, 1, 5, 9>`) or those and the body-z specific force of
+/// [`Longitudinal::specific_force_z`] (`Model<T, 8, 1, 6, 9>`). Jacobians by central differences.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct LongitudinalGustAz<T>(pub LongitudinalGust<T>);
+pub struct LongitudinalDryden<T> {
+    /// The aircraft.
+    pub base: Longitudinal<T>,
+    /// `τ_u = V₀/L_u`, 1/s.
+    pub tau_u_per_s: T,
+    /// `τ_w = V₀/L_w`, 1/s.
+    pub tau_w_per_s: T,
+}
 
-impl<T: Real> Model<T, 7, 1, 6, 9> for LongitudinalGustAz<T> {
-    fn f(&self, x: &SVector<T, 7>, u: &SVector<T, 1>, p: &SVector<T, 9>) -> SVector<T, 7> {
-        self.0.f(x, u, p)
+impl<T: Real> LongitudinalDryden<T> {
+    /// The vertical gust `w_g` of the state, m/s.
+    pub fn gust_w_mps(&self, x: &SVector<T, 8>) -> T {
+        let tau = self.tau_w_per_s;
+        tau * tau.root() * (x[6] + T::lit(3.0).root() * x[7] / tau)
     }
 
-    fn h(&self, x: &SVector<T, 7>, u: &SVector<T, 1>, p: &SVector<T, 9>) -> SVector<T, 6> {
-        let xa = SVector::<T, 5>::new(x[0] - x[5], x[1] + x[6] / x[0], x[2], x[3], x[4]);
-        SVector::<T, 6>::new(x[0], x[1], x[2], x[3], x[4], self.0.base.specific_force_z(&xa, u, p))
+    /// The air-relative flight state `[V − u_g, α + w_g/V, q, θ, h]`.
+    fn air_relative(&self, x: &SVector<T, 8>) -> SVector<T, 5> {
+        SVector::<T, 5>::new(x[0] - x[5], x[1] + self.gust_w_mps(x) / x[0], x[2], x[3], x[4])
+    }
+
+    fn dynamics(&self, x: &SVector<T, 8>, u: &SVector<T, 1>, p: &SVector<T, 9>) -> SVector<T, 8> {
+        let d = self.base.f(&self.air_relative(x), u, p);
+        let (sg, _) = (x[3] - x[1]).sin_cos_fast();
+        let (tu, tw) = (self.tau_u_per_s, self.tau_w_per_s);
+        SVector::<T, 8>::from_column_slice(&[
+            d[0],
+            d[1],
+            d[2],
+            x[2],
+            x[0] * sg,
+            -tu * x[5],
+            x[7],
+            -tw * tw * x[6] - T::lit(2.0) * tw * x[7],
+        ])
+    }
+}
+
+impl<T: Real> Model<T, 8, 1, 5, 9> for LongitudinalDryden<T> {
+    fn f(&self, x: &SVector<T, 8>, u: &SVector<T, 1>, p: &SVector<T, 9>) -> SVector<T, 8> {
+        self.dynamics(x, u, p)
+    }
+
+    fn h(&self, x: &SVector<T, 8>, _u: &SVector<T, 1>, _p: &SVector<T, 9>) -> SVector<T, 5> {
+        SVector::<T, 5>::new(x[0], x[1], x[2], x[3], x[4])
+    }
+
+    fn dh_dx(&self, _x: &SVector<T, 8>, _u: &SVector<T, 1>, _p: &SVector<T, 9>) -> SMatrix<T, 5, 8> {
+        SMatrix::<T, 5, 8>::identity()
+    }
+
+    fn dh_dp(&self, _x: &SVector<T, 8>, _u: &SVector<T, 1>, _p: &SVector<T, 9>) -> SMatrix<T, 5, 9> {
+        SMatrix::<T, 5, 9>::zeros()
+    }
+}
+
+impl<T: Real> Model<T, 8, 1, 6, 9> for LongitudinalDryden<T> {
+    fn f(&self, x: &SVector<T, 8>, u: &SVector<T, 1>, p: &SVector<T, 9>) -> SVector<T, 8> {
+        self.dynamics(x, u, p)
+    }
+
+    fn h(&self, x: &SVector<T, 8>, u: &SVector<T, 1>, p: &SVector<T, 9>) -> SVector<T, 6> {
+        let az = self.base.specific_force_z(&self.air_relative(x), u, p);
+        SVector::<T, 6>::new(x[0], x[1], x[2], x[3], x[4], az)
     }
 }

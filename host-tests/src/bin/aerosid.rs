@@ -559,14 +559,17 @@ fn main() -> ExitCode {
             println!("  replay identify the six coefficients from a CSV log with the on-board f32 pipeline; with");
             println!("         --qemu also run the firmware under QEMU on it and compare bit for bit");
             println!("  fem-hfb320  the filter error method (seed 001) on the real HFB-320 flight: estimates ± σ");
-            println!("         beside the published values, measured vs model outputs and residuals (SVG)");
+            println!("         beside the published values, the prediction variants (Euler/RK4, held/interpolated");
+            println!("         input, recursive/batch), measured vs model outputs and residuals (SVG)");
             println!("  gaps   the model-gap analysis (docs/model-gaps.md) of a simulated flight with one hidden");
             println!("         effect (KIND: lift-quadratic, elevator-drag, alpha-dot, thrust-moment, cross-coupling,");
             println!(
                 "         vane-scale, sensor-bias, time-delay; size drawn from the seed) or none: table, JSON, SVG"
             );
-            println!("  table1 seed 001's Table 1: 50 simulated A-4D flights, the paper's method and ours, and");
-            println!("         the parameter histories ±σ of one flight (SVG)");
+            println!("  table1 seed 001's Table 1: the Cramér–Rao bound and input design, then 50 simulated A-4D");
+            println!("         flights with the paper's and the designed input through the paper's method, ours");
+            println!("         (recursive and batch) and equation-error PCA-GTLS, beside Table 1; the parameter");
+            println!("         histories ±σ of one flight per input (SVG)");
             println!("  long-run  H hours (default 10) of simulated flight through the on-board f32 pipeline:");
             println!("         excitation, calm cruise, two parameter jumps; prints the worst orthonormality, λ_F,");
             println!("         k, N_eff, refusals per coefficient and how each jump was tracked (issue 7)");
