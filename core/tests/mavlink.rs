@@ -374,6 +374,39 @@ fn telemetry_round_trip() {
     }
 }
 
+#[test]
+fn health_report_round_trip() {
+    use aerosid_core::mavlink::telemetry::{health_slot, HealthReport, HEALTH_ARRAY_ID};
+    // GIVEN a health report with a distinct value in every slot, one of them above 2^24
+    let mut h = HealthReport::default();
+    for (i, v) in h.values.iter_mut().enumerate() {
+        *v = 1000 * i as u32 + 7;
+    }
+    h.values[health_slot::SAMPLED] = u32::MAX;
+    // WHEN it is sent and parsed
+    let mut t = Telemetry::new(1, 191);
+    let mut buf = [0u8; 300];
+    let n = t.health(&h, 99, &mut buf).unwrap();
+    assert!(n <= 12 + 20 + 4 * health_slot::COUNT, "{n} bytes");
+    let (frames, _) = parse(&buf[..n]);
+    assert_eq!(frames.len(), 1);
+    let Message::DebugFloatArray(m) = frames[0].message else {
+        panic!("{:?}", frames[0])
+    };
+    // THEN it is the health report (not a coefficient's), every value as sent, the large one
+    // saturated at 2^24, and a coefficient report is not mistaken for it
+    assert_eq!(
+        (m.array_id, &m.name[..6], m.time_us),
+        (HEALTH_ARRAY_ID, &b"health"[..], 99)
+    );
+    let back = HealthReport::from_debug_float_array(&m).expect("a health report");
+    let mut want = h;
+    want.values[health_slot::SAMPLED] = 1 << 24;
+    assert_eq!(back, want);
+    let c = report().to_debug_float_array(0).unwrap();
+    assert_eq!(HealthReport::from_debug_float_array(&c), None);
+}
+
 // ---- parser robustness ----
 
 #[test]

@@ -1,11 +1,17 @@
 //! The estimator run by the mid-priority `estimate` task on every sample: the core's six-coefficient
 //! pipeline (synthesis of eq. 1–2, then recursive PCA-GTLS with VFF per coefficient), configured by
 //! `aerosid_core::aero::onboard`, timed stage by stage with the board's counter.
+//!
+//! In front of the pipeline, the sequence check ([`SequenceCheck`]): when the `sample` task had to
+//! drop samples (the queue was full), the next sample's `dt_s` still says one period; the check
+//! sees the gap in the sequence numbers and sets `dt_s` to the real time since the last sample
+//! processed, which the pipeline's `dt` check refuses, so the rate differentiator restarts instead
+//! of taking a 20 ms step for 10 ms. A sample not newer than the last one is not processed.
 
 use crate::board::Counter;
 use crate::sample::Sample;
-use aerosid_core::aero::model::idx;
-use aerosid_core::aero::{onboard, Pipeline, PipelineStep, Stage};
+use aerosid_core::aero::model::{channel, idx, ChannelMask};
+use aerosid_core::aero::{onboard, Admission, Pipeline, PipelineStep, SequenceCheck, SequenceHealth, Stage};
 
 /// Timing probes per sample: the whole step, the synthesis stage, then one per coefficient.
 pub const PROBES: usize = 2 + idx::COUNT;
@@ -23,6 +29,10 @@ pub struct Estimator {
     pipeline: &'static mut Pipeline<f32>,
     /// The pipeline's per-sample result, filled in place ([`Pipeline::process_into`]).
     step: &'static mut PipelineStep<f32>,
+    /// Gaps in the sample sequence (module doc).
+    sequence: SequenceCheck,
+    /// Channels the pipeline found invalid at the last sample.
+    invalid_now: ChannelMask,
 }
 
 /// Why the estimator could not be built (a configuration error, found at boot).
@@ -46,15 +56,33 @@ impl Estimator {
         step: &'static mut PipelineStep<f32>,
     ) -> Result<Self, ConfigError> {
         onboard::configure(pipeline).map_err(|_| ConfigError)?;
-        Ok(Self { pipeline, step })
+        Ok(Self {
+            pipeline,
+            step,
+            sequence: SequenceCheck::NEW,
+            invalid_now: 0,
+        })
     }
 
-    /// Runs one sample through the pipeline; returns how many coefficients updated and the cost.
-    pub fn step(&mut self, sample: &Sample, counter: &impl Counter) -> (u8, StepCost) {
+    /// Runs one sample through the sequence check (which may re-stamp it: hence `&mut`) and the
+    /// pipeline; returns how many coefficients updated and the cost, or `None` for a stale sample
+    /// (not processed).
+    pub fn step(&mut self, sample: &mut Sample, counter: &impl Counter) -> Option<(u8, StepCost)> {
+        let sensors = &mut sample.sensors;
+        match self.sequence.admit(sample.seq, sample.t_us, sensors) {
+            Admission::Stale => {
+                defmt::warn!("estimate: sample {=u32} is stale, not processed", sample.seq);
+                return None;
+            }
+            Admission::Gap { missed } => {
+                defmt::warn!("estimate: {=u32} samples missed before {=u32}", missed, sample.seq);
+            }
+            Admission::Next => {}
+        }
         let mut cost = StepCost::default();
         let start = counter.now();
         let mut last = start;
-        self.pipeline.process_into(&sample.sensors, self.step, &mut |stage| {
+        self.pipeline.process_into(sensors, self.step, &mut |stage| {
             let now = counter.now();
             let slot = match stage {
                 Stage::Synthesis => 1,
@@ -64,12 +92,24 @@ impl Estimator {
             last = now;
         });
         cost.ticks[0] = counter.now().wrapping_sub(start);
+        // Outside the timed region: the mask the pipeline computed, for the health report.
+        self.invalid_now = !self.pipeline.settings().limits.valid_channels(sensors) & channel::ALL;
         let updated = self.step.status.iter().filter(|s| s.is_ok()).count() as u8;
-        (updated, cost)
+        Some((updated, cost))
     }
 
     /// The pipeline (for telemetry reports).
     pub fn pipeline(&self) -> &Pipeline<f32> {
         self.pipeline
+    }
+
+    /// The sequence check's counters.
+    pub fn sequence(&self) -> &SequenceHealth {
+        self.sequence.health()
+    }
+
+    /// Channels the pipeline found invalid at the last processed sample.
+    pub fn invalid_now(&self) -> ChannelMask {
+        self.invalid_now
     }
 }

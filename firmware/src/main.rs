@@ -106,6 +106,7 @@ mod app {
     #[init(local = [
         pipeline: aerosid_core::aero::Pipeline<f32> = aerosid_core::aero::Pipeline::PLACEHOLDER,
         step: aerosid_core::aero::PipelineStep<f32> = aerosid_core::aero::PipelineStep::WARMUP,
+        frames: [u8; crate::telemetry::FRAME_BUFFER] = [0; crate::telemetry::FRAME_BUFFER],
     ])]
     fn init(cx: init::Context) -> (Shared, Local) {
         board::stack::paint();
@@ -140,7 +141,7 @@ mod app {
                 estimator,
                 out: Out {
                     port: b.telemetry,
-                    link: Link::default(),
+                    link: Link::new(cx.local.frames),
                 },
             },
             Local {
@@ -170,21 +171,27 @@ mod app {
         let nominal_dt_s = SAMPLE_PERIOD_MS as f32 * 1e-3;
         let mut next = Mono::now();
         loop {
-            let t_us = u64::from(Mono::now().duration_since_epoch().as_ticks()) * US_PER_TICK;
-            let (t_s, dt_s) = cx.local.sampler.stamp(t_us, nominal_dt_s);
+            let now_us = u64::from(Mono::now().duration_since_epoch().as_ticks()) * US_PER_TICK;
+            let (t_s, dt_s) = cx.local.sampler.stamp(now_us, nominal_dt_s);
             let Some(sensors) = cx.local.sensors.read(t_s, dt_s) else {
                 let _ = cx.local.tx.send(Msg::End).await;
                 return;
             };
-            let msg = Msg::Sample(cx.local.sampler.number(sensors));
-            let faults = cx.local.sensors.faults();
-            #[cfg(feature = "qemu")]
-            let queued = cx.local.tx.send(msg).await.is_ok();
-            #[cfg(not(feature = "qemu"))]
-            let queued = cx.local.tx.try_send(msg).is_ok();
+            let t_us = cx.local.sensors.time_us(now_us);
+            let msg = Msg::Sample(cx.local.sampler.number(t_us, sensors));
+            let health = cx.local.sensors.health();
+            let queued = if cx.local.sensors.drop_injected() {
+                false
+            } else {
+                #[cfg(feature = "qemu")]
+                let queued = cx.local.tx.send(msg).await.is_ok();
+                #[cfg(not(feature = "qemu"))]
+                let queued = cx.local.tx.try_send(msg).is_ok();
+                queued
+            };
             cx.shared.stats.lock(|stats| {
                 stats.record_sample(queued);
-                stats.faults = faults;
+                stats.sensors = health;
             });
             #[cfg(not(feature = "qemu"))]
             {
@@ -209,11 +216,12 @@ mod app {
     async fn estimate(mut cx: estimate::Context) {
         while let Ok(msg) = cx.local.rx.recv().await {
             match msg {
-                Msg::Sample(sample) => {
+                Msg::Sample(mut sample) => {
                     let counter = &*cx.local.counter;
-                    let (updated, cost) = cx.shared.estimator.lock(|e| e.step(&sample, counter));
-                    cx.shared.stats.lock(|stats| stats.record_step(updated, cost));
-                    cx.local.counts.write(&cost.ticks);
+                    if let Some((updated, cost)) = cx.shared.estimator.lock(|e| e.step(&mut sample, counter)) {
+                        cx.shared.stats.lock(|stats| stats.record_step(updated, cost));
+                        cx.local.counts.write(&cost.ticks);
+                    }
                 }
                 Msg::End => {
                     #[cfg(feature = "qemu")]
@@ -247,8 +255,7 @@ mod app {
             Mono::delay_until(next).await;
             let stats = cx.shared.stats.lock(|s| *s);
             let t_us = u64::from(Mono::now().duration_since_epoch().as_ticks()) * US_PER_TICK;
-            (&mut cx.shared.estimator, &mut cx.shared.out)
-                .lock(|e, out| out.link.send(e.pipeline(), &stats, t_us, &mut out.port));
+            (&mut cx.shared.estimator, &mut cx.shared.out).lock(|e, out| out.link.send(e, &stats, t_us, &mut out.port));
         }
     }
 
@@ -258,8 +265,7 @@ mod app {
     async fn final_report(mut cx: final_report::Context) {
         let stats = cx.shared.stats.lock(|s| *s);
         let t_us = u64::from(Mono::now().duration_since_epoch().as_ticks()) * US_PER_TICK;
-        (&mut cx.shared.estimator, &mut cx.shared.out)
-            .lock(|e, out| out.link.send(e.pipeline(), &stats, t_us, &mut out.port));
+        (&mut cx.shared.estimator, &mut cx.shared.out).lock(|e, out| out.link.send(e, &stats, t_us, &mut out.port));
         board::halt(0)
     }
 }

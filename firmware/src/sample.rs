@@ -7,6 +7,9 @@ use aerosid_core::aero::SensorSample;
 pub struct Sample {
     /// Sequence number, +1 per sampling period (wraps at 2³²); a gap means samples were dropped.
     pub seq: u32,
+    /// Time stamp, µs since boot, on the clock `sensors.dt_s` was measured with (the estimator
+    /// re-stamps the sample after a gap from it: `aerosid_core::aero::SequenceCheck`).
+    pub t_us: u64,
     /// Every sensor at the sampling instant (bad channels NaN; see `board::SensorSource`).
     pub sensors: SensorSample<f32>,
 }
@@ -30,10 +33,11 @@ impl Sampler {
         (t_us as f32 * 1e-6, dt_s)
     }
 
-    /// Wraps the sensors' reading into the next [`Sample`].
-    pub fn number(&mut self, sensors: SensorSample<f32>) -> Sample {
+    /// Wraps the sensors' reading, taken at `t_us`, into the next [`Sample`].
+    pub fn number(&mut self, t_us: u64, sensors: SensorSample<f32>) -> Sample {
         let s = Sample {
             seq: self.next_seq,
+            t_us,
             sensors,
         };
         self.next_seq = self.next_seq.wrapping_add(1);

@@ -1,15 +1,20 @@
 //! Counters shared by the tasks, and the telemetry frames the low-priority `telemetry` task sends.
 //!
-//! Link: MAVLink 2 on the telemetry UART (layout in `aerosid_core::mavlink`), transmit-only (the
-//! co-processor accepts no commands). Every [`REPORT_PERIOD_MS`]: the six coefficient reports
-//! (`DEBUG_FLOAT_ARRAY` "CL" … "Cn": θ, σ, k, λ_F, health, refused) and a `NAMED_VALUE_FLOAT` set
-//! of counters; every second a `HEARTBEAT`. At 57 600 baud that is 2 × (600 + 5 × 30) + 21 ≈ 1.3 kB/s
-//! of the 5.76 kB/s link (`stack_hw` is the stack high-water mark in bytes).
+//! Link: MAVLink 2 on the telemetry UART (layout in `aerosid_core::mavlink`), transmit-only: the
+//! firmware never reads USART1 (its receiver is not even enabled) and accepts no command on any
+//! link, so nothing received can reset an estimator or change a setting; the only input link is
+//! the autopilot's actuator stream on USART2 (`board`). Every [`REPORT_PERIOD_MS`]: the six
+//! coefficient reports (`DEBUG_FLOAT_ARRAY` "CL" … "Cn": θ, σ, k, λ_F, health, refused), the
+//! health report (`DEBUG_FLOAT_ARRAY` "health", id 100: sample, sensor, stuck-channel and link
+//! counters, layout `aerosid_core::mavlink::telemetry::health_slot`) and a `NAMED_VALUE_FLOAT` set
+//! of counters; every second a `HEARTBEAT`. At 57 600 baud that is 2 × (600 + 164 + 5 × 30) + 21
+//! ≈ 1.85 kB/s of the 5.76 kB/s link (`stack_hw` is the stack high-water mark in bytes).
 
-use crate::board::{SensorFaults, TelemetryPort};
-use crate::estimate::{StepCost, PROBES};
+use crate::board::{ChipHealth, SensorHealth, TelemetryPort};
+use crate::estimate::{Estimator, StepCost, PROBES};
 use aerosid_core::aero::Pipeline;
-use aerosid_core::mavlink::{frame::MAV_COMP_ID_ONBOARD_COMPUTER, telemetry::reports, Telemetry};
+use aerosid_core::mavlink::telemetry::{health_slot as slot, reports, HealthReport};
+use aerosid_core::mavlink::{frame::MAV_COMP_ID_ONBOARD_COMPUTER, Telemetry};
 
 /// Coefficient reports every 500 ms (2 Hz).
 pub const REPORT_PERIOD_MS: u32 = 500;
@@ -31,8 +36,8 @@ pub struct Stats {
     pub last: StepCost,
     /// Most ticks of one whole step since boot.
     pub max_step_ticks: u32,
-    /// Failed sensor reads.
-    pub faults: SensorFaults,
+    /// Failed sensor reads, re-initialisations, stuck channels, the autopilot link.
+    pub sensors: SensorHealth,
 }
 
 impl Stats {
@@ -53,32 +58,97 @@ impl Stats {
     }
 }
 
-/// The telemetry writer: the MAVLink encoder and a frame buffer.
+/// Bytes of the frame buffer: six coefficient reports (600 bytes) at once.
+pub const FRAME_BUFFER: usize = 640;
+
+/// The telemetry writer: the MAVLink encoder and a frame buffer (a static of `init`: returned by
+/// value in `Shared`, it would sit in `init`'s frame, which RTIC keeps under every task's first run).
 pub struct Link {
     mav: Telemetry,
-    buf: [u8; 640],
+    buf: &'static mut [u8; FRAME_BUFFER],
     reports_sent: u32,
 }
 
-impl Default for Link {
-    fn default() -> Self {
+impl Link {
+    /// A writer using `buf`.
+    pub fn new(buf: &'static mut [u8; FRAME_BUFFER]) -> Self {
         Self {
             mav: Telemetry::new(SYSTEM_ID, MAV_COMP_ID_ONBOARD_COMPUTER),
-            buf: [0; 640],
+            buf,
             reports_sent: 0,
         }
     }
 }
 
+/// The health report of `stats` and `estimator` (slots in `health_slot`).
+pub fn health_report(stats: &Stats, estimator: &Estimator) -> HealthReport {
+    let mut r = HealthReport::default();
+    let v = &mut r.values;
+    let h = &stats.sensors;
+    let seq = estimator.sequence();
+    let chips: [(&ChipHealth, usize, usize); 4] = [
+        (&h.imu, slot::IMU_FAULTS, slot::IMU_REINITS),
+        (&h.airspeed, slot::AIRSPEED_FAULTS, slot::AIRSPEED_REINITS),
+        (&h.alpha_vane, slot::ALPHA_FAULTS, slot::ALPHA_REINITS),
+        (&h.beta_vane, slot::BETA_FAULTS, slot::BETA_REINITS),
+    ];
+    v[slot::SAMPLED] = stats.sampled;
+    v[slot::DROPPED] = stats.dropped;
+    v[slot::GAPS] = seq.gaps;
+    v[slot::MISSED] = seq.missed;
+    v[slot::STALE] = seq.stale;
+    for (c, faults, reinits) in chips {
+        v[faults] = c.faults;
+        v[reinits] = c.reinits;
+    }
+    v[slot::AUTOPILOT_FAULTS] = h.autopilot_faults;
+    v[slot::STUCK_NOW] = u32::from(h.stuck_now);
+    v[slot::STUCK_EPISODES] = h.stuck_episodes;
+    v[slot::STUCK_SAMPLES] = h.stuck_samples;
+    v[slot::LINK_FRAMES] = h.link.frames;
+    v[slot::LINK_REJECTED] = h.link.rejected;
+    v[slot::LINK_DISCARDED] = h.link.discarded;
+    v[slot::LINK_LOST] = h.link.lost;
+    v[slot::INVALID_NOW] = u32::from(estimator.invalid_now());
+    for (o, c) in v[slot::INVALID..]
+        .iter_mut()
+        .zip(estimator.pipeline().health().invalid_channel.iter())
+    {
+        *o = *c;
+    }
+    r
+}
+
 impl Link {
-    /// Sends the six coefficient reports of `pipeline` and the counters, and every second report
-    /// period a heartbeat.
-    pub fn send(&mut self, pipeline: &Pipeline<f32>, stats: &Stats, time_us: u64, port: &mut impl TelemetryPort) {
+    /// Sends the six coefficient reports of the estimator's pipeline, the health report and the
+    /// counters, and every second report period a heartbeat. Each part in its own (not inlined)
+    /// function, so that the stack holds one part's frame at a time.
+    pub fn send(&mut self, estimator: &Estimator, stats: &Stats, time_us: u64, port: &mut impl TelemetryPort) {
+        self.send_coefficients(estimator.pipeline(), time_us, port);
+        self.send_health(estimator, stats, time_us, port);
+        self.send_counters(stats, time_us, port);
+    }
+
+    #[inline(never)]
+    fn send_coefficients(&mut self, pipeline: &Pipeline<f32>, time_us: u64, port: &mut impl TelemetryPort) {
         let reports = reports(pipeline);
-        match self.mav.coefficients(&reports, time_us, &mut self.buf) {
-            Ok(n) => port.send(&self.buf[..n.min(self.buf.len())]),
+        match self.mav.coefficients(&reports, time_us, self.buf.as_mut_slice()) {
+            Ok(n) => port.send(self.buf.get(..n).unwrap_or(&[])),
             Err(e) => defmt::error!("telemetry: encode {}", e),
         }
+    }
+
+    #[inline(never)]
+    fn send_health(&mut self, estimator: &Estimator, stats: &Stats, time_us: u64, port: &mut impl TelemetryPort) {
+        let report = health_report(stats, estimator);
+        match self.mav.health(&report, time_us, self.buf.as_mut_slice()) {
+            Ok(n) => port.send(self.buf.get(..n).unwrap_or(&[])),
+            Err(e) => defmt::error!("telemetry: encode {}", e),
+        }
+    }
+
+    #[inline(never)]
+    fn send_counters(&mut self, stats: &Stats, time_us: u64, port: &mut impl TelemetryPort) {
         let ms = (time_us / 1000) as u32;
         let counters: [(&str, f32); 5] = [
             ("samples", stats.sampled as f32),
@@ -88,13 +158,13 @@ impl Link {
             ("stack_hw", crate::board::stack::high_water_bytes() as f32),
         ];
         for (name, value) in counters {
-            if let Ok(n) = self.mav.named_value(name, value, ms, &mut self.buf) {
-                port.send(&self.buf[..n.min(self.buf.len())]);
+            if let Ok(n) = self.mav.named_value(name, value, ms, self.buf.as_mut_slice()) {
+                port.send(self.buf.get(..n).unwrap_or(&[]));
             }
         }
         if self.reports_sent.is_multiple_of(2) {
-            if let Ok(n) = self.mav.heartbeat(MAV_STATE_ACTIVE, &mut self.buf) {
-                port.send(&self.buf[..n.min(self.buf.len())]);
+            if let Ok(n) = self.mav.heartbeat(MAV_STATE_ACTIVE, self.buf.as_mut_slice()) {
+                port.send(self.buf.get(..n).unwrap_or(&[]));
             }
         }
         self.reports_sent = self.reports_sent.wrapping_add(1);

@@ -23,9 +23,12 @@ pub mod gtls;
 pub mod input;
 pub mod mavlink;
 pub mod pipeline;
+#[cfg(feature = "readers")]
 pub mod readers;
+#[cfg(feature = "seeds")]
 pub mod seeds;
 
+#[cfg(feature = "readers")]
 pub use readers::{read_aircraft, read_colmap_ascii, read_log, read_project_csv, read_ulog};
 
 use aerosid_core::Real;

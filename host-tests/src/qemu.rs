@@ -1,13 +1,28 @@
 //! The firmware under QEMU: build the `qemu` board, replay a flight log through it, and read back
 //! what it sent (MAVLink on USART1), what it logged (defmt over semihosting) and what each sample
-//! cost (TIM2 instruction counts). Used by `tests/qemu_replay.rs` and `aerosid qemu`.
+//! cost (TIM2 instruction counts). Used by `tests/qemu_replay.rs`, `tests/qemu_faults.rs` and
+//! `aerosid qemu`.
 //!
 //! The run: `qemu-system-arm -machine netduinoplus2 -icount shift=0,align=off,sleep=off` (one TIM2
-//! tick per guest instruction; TOOLCHAIN.md) in a scratch folder holding `replay.bin`; the firmware
-//! writes `icount.bin` there over semihosting and its telemetry to `-serial file:telemetry.bin`.
+//! tick per guest instruction; TOOLCHAIN.md) in a scratch folder holding `replay.bin` and,
+//! optionally, the faults to inject (`faults.bin`, [`FaultEvent`]) and the autopilot's MAVLink
+//! stream (`autopilot.bin`, [`autopilot_stream`]); the firmware writes `icount.bin` there over
+//! semihosting and its telemetry to `-serial file:telemetry.bin`.
+//!
+//! [`emulate`] is the host's model of what the firmware does with the same input: the sensor
+//! layer (injected faults, the per-chip fault counters and re-initialisations, the autopilot link,
+//! the stuck-sensor check), the sampler (dropped samples still numbered), the estimator's sequence
+//! check and the `f32` pipeline, and the health report the firmware sends. The chip counters are
+//! re-implemented here from the firmware's documentation (`board::ChipHealth`), independently.
 
-use aerosid_core::aero::{model::idx, onboard, SensorSample};
-use aerosid_core::mavlink::{telemetry::reports, CoefficientReport, Message, Parser};
+use aerosid_core::aero::model::{channel, ChannelMask};
+use aerosid_core::aero::{model::idx, onboard, Admission, SensorSample, SequenceCheck, StuckDetector};
+use aerosid_core::mavlink::messages::{Attitude, Rpm, ServoOutputRaw};
+use aerosid_core::mavlink::telemetry::{health_slot, HealthReport};
+use aerosid_core::mavlink::{
+    telemetry::reports, CoefficientReport, Encoder, MavlinkSurfaces, Message, Parser, SurfaceSource,
+};
+use nalgebra::Vector3;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
@@ -103,6 +118,8 @@ pub fn write_replay(path: &Path, samples: &[SensorSample<f32>]) -> Result<(), Qe
 pub struct QemuRun {
     /// The last coefficient report of each coefficient received over the telemetry UART, by `idx`.
     pub reports: [Option<CoefficientReport>; idx::COUNT],
+    /// The last health report received.
+    pub health: Option<HealthReport>,
     /// MAVLink frames received, and frames the parser rejected.
     pub frames: (u32, u32),
     /// Instruction counts per processed sample, `[whole step, synthesis, C_L … C_n]`.
@@ -116,10 +133,34 @@ pub struct QemuRun {
 /// Runs the firmware `elf` under QEMU on `samples` in the scratch folder `dir`, with a wall-clock
 /// `timeout` (the run is deterministic; the timeout only guards against a hang).
 pub fn run(elf: &Path, samples: &[SensorSample<f32>], dir: &Path, timeout: Duration) -> Result<QemuRun, QemuError> {
+    run_scenario(elf, &Scenario::clean(samples), dir, timeout)
+}
+
+/// [`run`] with the scenario's faults and autopilot stream.
+pub fn run_scenario(elf: &Path, scenario: &Scenario<'_>, dir: &Path, timeout: Duration) -> Result<QemuRun, QemuError> {
     std::fs::create_dir_all(dir).map_err(io(dir))?;
-    write_replay(&dir.join("replay.bin"), samples)?;
-    for f in ["icount.bin", "telemetry.bin", "defmt.bin"] {
+    write_replay(&dir.join("replay.bin"), scenario.samples)?;
+    for f in [
+        "icount.bin",
+        "telemetry.bin",
+        "defmt.bin",
+        "faults.bin",
+        "autopilot.bin",
+    ] {
         let _ = std::fs::remove_file(dir.join(f));
+    }
+    if !scenario.faults.is_empty() {
+        write_faults(&dir.join("faults.bin"), scenario.faults)?;
+    }
+    if let Some(chunks) = scenario.autopilot {
+        let p = dir.join("autopilot.bin");
+        let mut bytes = Vec::new();
+        for c in chunks {
+            let n = u16::try_from(c.len()).map_err(|_| QemuError::Output("autopilot chunk over 65535 bytes".into()))?;
+            bytes.extend_from_slice(&n.to_le_bytes());
+            bytes.extend_from_slice(c);
+        }
+        std::fs::write(&p, bytes).map_err(io(&p))?;
     }
     let defmt_path = dir.join("defmt.bin");
     let defmt_out = std::fs::File::create(&defmt_path).map_err(io(&defmt_path))?;
@@ -167,11 +208,14 @@ pub fn run(elf: &Path, samples: &[SensorSample<f32>], dir: &Path, timeout: Durat
     let tel = std::fs::read(&tel_path).map_err(io(&tel_path))?;
     let mut parser = Parser::new();
     let mut last: [Option<CoefficientReport>; idx::COUNT] = [None; idx::COUNT];
+    let mut health = None;
     let mut frames = 0u32;
     parser.feed(&tel, |f| {
         frames += 1;
         if let Message::DebugFloatArray(m) = f.message {
-            if let Some(slot) = last.get_mut(usize::from(m.array_id)) {
+            if let Some(h) = HealthReport::from_debug_float_array(&m) {
+                health = Some(h);
+            } else if let Some(slot) = last.get_mut(usize::from(m.array_id)) {
                 *slot = Some(CoefficientReport::from_debug_float_array(&m));
             }
         }
@@ -194,6 +238,7 @@ pub fn run(elf: &Path, samples: &[SensorSample<f32>], dir: &Path, timeout: Durat
     let log = decode_defmt(elf, &defmt_path).unwrap_or_default();
     Ok(QemuRun {
         reports: last,
+        health,
         frames: (frames, rejected),
         counts,
         log,
@@ -213,14 +258,375 @@ fn decode_defmt(elf: &Path, stream: &Path) -> Option<String> {
     Some(String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr))
 }
 
-/// The host's `f32` run of the on-board pipeline ([`onboard::pipeline`]) over the same samples:
-/// the six reports the firmware should send at the end.
+/// The host's `f32` run of the firmware's path ([`emulate`], no faults, surfaces from the log) over
+/// the same samples: the six reports the firmware should send at the end.
 pub fn host_reports(samples: &[SensorSample<f32>]) -> Result<[CoefficientReport; idx::COUNT], QemuError> {
-    let mut p = onboard::pipeline::<f32>().map_err(|e| QemuError::Output(format!("on-board configuration: {e:?}")))?;
-    for s in samples {
-        p.process(s);
+    Ok(emulate(&Scenario::clean(samples))?.reports)
+}
+
+/// What the QEMU board is given: the replay log, the faults to inject and, optionally, the
+/// autopilot's MAVLink stream (one chunk of bytes per replay record).
+#[derive(Debug, Clone, Copy)]
+pub struct Scenario<'a> {
+    /// The replay log.
+    pub samples: &'a [SensorSample<f32>],
+    /// Faults, by replay record.
+    pub faults: &'a [FaultEvent],
+    /// Per record, the bytes of the autopilot link fed before it is read; `None`: the surfaces,
+    /// throttle, RPM and attitude come from the log.
+    pub autopilot: Option<&'a [Vec<u8>]>,
+}
+
+impl<'a> Scenario<'a> {
+    /// The log alone.
+    pub fn clean(samples: &'a [SensorSample<f32>]) -> Self {
+        Self {
+            samples,
+            faults: &[],
+            autopilot: None,
+        }
     }
-    Ok(reports(&p))
+}
+
+/// A chip of the flight computer (the target of a [`Fault::Bus`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Chip {
+    /// ICM-42688-P: accelerometer and gyro.
+    Imu = 0,
+    /// MS4525DO: airspeed and density.
+    Airspeed = 1,
+    /// AS5600 α vane.
+    AlphaVane = 2,
+    /// AS5600 β vane.
+    BetaVane = 3,
+    /// The autopilot link: the record's bytes are lost.
+    Autopilot = 4,
+}
+
+/// A fault the QEMU board injects (firmware `board::qemu`, `faults.bin`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Fault {
+    /// Every read of the chip fails (a NACK, arbitration loss, SPI error…): its channels NaN.
+    Bus(Chip),
+    /// The channel (one [`channel`] bit) keeps its value of the first record.
+    Stuck(ChannelMask),
+    /// The channel reads this value (NaN, ±∞, out of range).
+    Value(ChannelMask, f32),
+    /// The sample is dropped as if the estimator's queue were full.
+    Drop,
+    /// The first record's sample is taken this many µs late.
+    Late(u32),
+}
+
+/// A fault over `count` replay records from record `first` (0-based).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FaultEvent {
+    /// First record.
+    pub first: u32,
+    /// Records.
+    pub count: u32,
+    /// The fault.
+    pub fault: Fault,
+}
+
+impl FaultEvent {
+    fn active(&self, k: u32) -> bool {
+        k >= self.first && k - self.first < self.count
+    }
+
+    /// The firmware's 16-byte record (`board::qemu::FAULT_RECORD_BYTES`).
+    pub fn to_record(&self) -> [u8; 16] {
+        let bit = |m: ChannelMask| m.trailing_zeros() as u8;
+        let (kind, target, param) = match self.fault {
+            Fault::Bus(c) => (1u8, c as u8, [0; 4]),
+            Fault::Stuck(m) => (2, bit(m), [0; 4]),
+            Fault::Value(m, v) => (3, bit(m), v.to_le_bytes()),
+            Fault::Drop => (4, 0, [0; 4]),
+            Fault::Late(us) => (5, 0, us.to_le_bytes()),
+        };
+        let mut r = [0u8; 16];
+        r[0..4].copy_from_slice(&self.first.to_le_bytes());
+        r[4..8].copy_from_slice(&self.count.to_le_bytes());
+        r[8] = kind;
+        r[9] = target;
+        r[12..16].copy_from_slice(&param);
+        r
+    }
+}
+
+/// Most fault records the firmware reads (`board::qemu::MAX_FAULTS`).
+pub const MAX_FAULTS: usize = 32;
+
+/// Writes `faults.bin`.
+pub fn write_faults(path: &Path, faults: &[FaultEvent]) -> Result<(), QemuError> {
+    if faults.len() > MAX_FAULTS {
+        return Err(QemuError::Output(format!(
+            "{} faults, the firmware reads {MAX_FAULTS}",
+            faults.len()
+        )));
+    }
+    let bytes: Vec<u8> = faults.iter().flat_map(|f| f.to_record()).collect();
+    std::fs::write(path, bytes).map_err(io(path))
+}
+
+/// The autopilot's MAVLink stream for `samples`, one chunk per sample as the firmware's sensor
+/// layer would find it in its receive ring: a `SERVO_OUTPUT_RAW` (PWM of the sample's surfaces and
+/// throttle through [`onboard::AUTOPILOT_LINK`]'s calibration, rounded to the µs) and an
+/// `ATTITUDE` every sample, an ArduPilot `RPM` every fifth, from system 1.
+pub fn autopilot_stream(samples: &[SensorSample<f32>]) -> Vec<Vec<u8>> {
+    let cfg = onboard::AUTOPILOT_LINK;
+    let mut enc = Encoder::new(cfg.source_system_id, 1);
+    let pwm = |rad: f32, c: &aerosid_core::mavlink::surfaces::ServoCalibration| -> u16 {
+        (f64::from(c.pwm_neutral_us) + f64::from(rad) / f64::from(c.rad_per_us))
+            .round()
+            .clamp(0.0, 65535.0) as u16
+    };
+    let mut buf = [0u8; 300];
+    samples
+        .iter()
+        .enumerate()
+        .map(|(k, s)| {
+            let mut chunk = Vec::new();
+            let mut servo = ServoOutputRaw {
+                time_us: (k as u32).wrapping_mul(10_000),
+                port: cfg.port,
+                ..ServoOutputRaw::default()
+            };
+            let t = &cfg.throttle;
+            servo.servo_raw_us[usize::from(cfg.elevator.channel)] = pwm(s.elevator_rad, &cfg.elevator);
+            servo.servo_raw_us[usize::from(cfg.aileron.channel)] = pwm(s.aileron_rad, &cfg.aileron);
+            servo.servo_raw_us[usize::from(cfg.rudder.channel)] = pwm(s.rudder_rad, &cfg.rudder);
+            servo.servo_raw_us[usize::from(t.channel)] = (f64::from(t.pwm_idle_us)
+                + f64::from(s.throttle) * f64::from(t.pwm_full_us - t.pwm_idle_us))
+            .round()
+            .clamp(0.0, 65535.0) as u16;
+            if let Ok(n) = enc.encode(&servo, &mut buf) {
+                chunk.extend_from_slice(&buf[..n]);
+            }
+            let att = Attitude {
+                time_boot_ms: (k as u32).wrapping_mul(10),
+                euler_rad: [s.euler_rad.x, s.euler_rad.y, s.euler_rad.z],
+                ..Attitude::default()
+            };
+            if let Ok(n) = enc.encode(&att, &mut buf) {
+                chunk.extend_from_slice(&buf[..n]);
+            }
+            if k % 5 == 0 {
+                let rpm = Rpm {
+                    rpm: [s.prop_speed_rad_s * (60.0 / std::f32::consts::TAU), 0.0],
+                };
+                if let Ok(n) = enc.encode(&rpm, &mut buf) {
+                    chunk.extend_from_slice(&buf[..n]);
+                }
+            }
+            chunk
+        })
+        .collect()
+}
+
+/// What [`emulate`] predicts the firmware sends at the end.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Emulation {
+    /// The six coefficient reports.
+    pub reports: [CoefficientReport; idx::COUNT],
+    /// The health report.
+    pub health: HealthReport,
+    /// Samples the pipeline processed.
+    pub processed: usize,
+}
+
+/// Failed reads in a row after which the firmware re-initialises a chip (`board::REINIT_AFTER`).
+pub const REINIT_AFTER: u32 = 50;
+
+/// The firmware's handling of a chip's read outcomes (`board::ChipHealth`), re-implemented.
+#[derive(Debug, Clone, Copy, Default)]
+struct ChipModel {
+    faults: u32,
+    reinits: u32,
+    streak: u32,
+}
+
+impl ChipModel {
+    fn read(&mut self, ok: bool) {
+        if ok {
+            self.streak = 0;
+        } else {
+            self.faults += 1;
+            self.streak += 1;
+            if self.streak == REINIT_AFTER {
+                self.streak = 0;
+                self.reinits += 1;
+            }
+        }
+    }
+}
+
+/// The channel of `s` at the one-bit mask `m`, as a slice of up to three components.
+fn channel_mut(s: &mut SensorSample<f32>, m: ChannelMask) -> &mut [f32] {
+    match m {
+        channel::ACCEL => s.accel_mps2.as_mut_slice(),
+        channel::GYRO => s.gyro_rad_s.as_mut_slice(),
+        channel::AIRSPEED => std::slice::from_mut(&mut s.airspeed_mps),
+        channel::ALPHA => std::slice::from_mut(&mut s.alpha_rad),
+        channel::BETA => std::slice::from_mut(&mut s.beta_rad),
+        channel::PROP => std::slice::from_mut(&mut s.prop_speed_rad_s),
+        channel::ELEVATOR => std::slice::from_mut(&mut s.elevator_rad),
+        channel::AILERON => std::slice::from_mut(&mut s.aileron_rad),
+        channel::RUDDER => std::slice::from_mut(&mut s.rudder_rad),
+        channel::DENSITY => std::slice::from_mut(&mut s.air_density_kgpm3),
+        channel::DT => std::slice::from_mut(&mut s.dt_s),
+        _ => &mut [],
+    }
+}
+
+/// The host's model of the firmware on a scenario (module doc): what it sends at the end.
+pub fn emulate(sc: &Scenario<'_>) -> Result<Emulation, QemuError> {
+    let mut p = onboard::pipeline::<f32>().map_err(|e| QemuError::Output(format!("on-board configuration: {e:?}")))?;
+    let mut stuck = StuckDetector::new(onboard::stuck_settings());
+    let mut sequence = SequenceCheck::NEW;
+    let mut link = match sc.autopilot {
+        Some(_) => Some(
+            MavlinkSurfaces::new(onboard::AUTOPILOT_LINK)
+                .map_err(|e| QemuError::Output(format!("autopilot link: {e:?}")))?,
+        ),
+        None => None,
+    };
+    let mut chips = [ChipModel::default(); 4];
+    let mut holds: Vec<[f32; 3]> = vec![[0.0; 3]; sc.faults.len()];
+    let (mut sampled, mut dropped, mut autopilot_faults, mut link_lost) = (0u32, 0u32, 0u32, 0u32);
+    let (mut stuck_now, mut invalid_now, mut processed) = (0u16, 0u16, 0usize);
+    let mut late_carry_s = 0.0f32;
+    for (k, rec) in sc.samples.iter().enumerate() {
+        let k32 = k as u32;
+        let mut s = *rec;
+        s.dt_s -= late_carry_s;
+        late_carry_s = 0.0;
+        let mut t_us = (f64::from(s.t_s) * 1e6 + 0.5) as u64;
+        let mut drop = false;
+        let mut failing = [false; 5];
+        for (f, hold) in sc.faults.iter().zip(holds.iter_mut()).filter(|(f, _)| f.active(k32)) {
+            match f.fault {
+                Fault::Bus(c) => failing[c as usize] = true,
+                Fault::Stuck(m) => {
+                    let ch = channel_mut(&mut s, m);
+                    if k32 == f.first {
+                        hold[..ch.len()].copy_from_slice(ch);
+                    }
+                    let n = ch.len();
+                    ch.copy_from_slice(&hold[..n]);
+                }
+                Fault::Value(m, v) => channel_mut(&mut s, m).iter_mut().for_each(|x| *x = v),
+                Fault::Drop => drop = true,
+                Fault::Late(us) if k32 == f.first => {
+                    let late_s = us as f32 * 1e-6;
+                    s.t_s += late_s;
+                    s.dt_s += late_s;
+                    t_us += u64::from(us);
+                    late_carry_s = late_s;
+                }
+                Fault::Late(_) => {}
+            }
+        }
+        let chip_channels = [
+            channel::ACCEL | channel::GYRO,
+            channel::AIRSPEED | channel::DENSITY,
+            channel::ALPHA,
+            channel::BETA,
+        ];
+        for (c, (model, bits)) in chips.iter_mut().zip(chip_channels).enumerate() {
+            if failing[c] {
+                for b in 0..channel::COUNT {
+                    if bits & (1 << b) != 0 {
+                        channel_mut(&mut s, 1 << b).iter_mut().for_each(|x| *x = f32::NAN);
+                    }
+                }
+            }
+            model.read(!failing[c]);
+        }
+        if let (Some(link), Some(chunks)) = (link.as_mut(), sc.autopilot) {
+            let chunk = chunks.get(k).map_or(&[][..], Vec::as_slice);
+            if failing[Chip::Autopilot as usize] {
+                link_lost += chunk.len() as u32;
+            } else {
+                link.receive(chunk, t_us);
+            }
+            let nan = f32::NAN;
+            let r = link.surfaces(t_us);
+            s.elevator_rad = r.as_ref().ok().and_then(|r| r.elevator_rad.ok()).unwrap_or(nan);
+            s.aileron_rad = r.as_ref().ok().and_then(|r| r.aileron_rad.ok()).unwrap_or(nan);
+            s.rudder_rad = r.as_ref().ok().and_then(|r| r.rudder_rad.ok()).unwrap_or(nan);
+            s.throttle = r.as_ref().ok().and_then(|r| r.throttle.ok()).unwrap_or(nan);
+            s.prop_speed_rad_s = link.prop_speed_rad_s(t_us).unwrap_or(nan);
+            s.euler_rad = link.euler_rad(t_us).map_or(Vector3::from_element(nan), Vector3::from);
+            let all = [
+                s.elevator_rad,
+                s.aileron_rad,
+                s.rudder_rad,
+                s.throttle,
+                s.prop_speed_rad_s,
+            ]
+            .iter()
+            .chain(s.euler_rad.iter())
+            .all(|v| !v.is_nan());
+            if !all {
+                autopilot_faults += 1;
+            }
+        }
+        stuck_now = stuck.apply(&mut s);
+        sampled += 1;
+        if drop {
+            dropped += 1;
+            continue;
+        }
+        if sequence.admit(k32, t_us, &mut s) == Admission::Stale {
+            continue;
+        }
+        p.process(&s);
+        invalid_now = !p.settings().limits.valid_channels(&s) & channel::ALL;
+        processed += 1;
+    }
+    let mut h = HealthReport::default();
+    let v = &mut h.values;
+    let seq = sequence.health();
+    v[health_slot::SAMPLED] = sampled;
+    v[health_slot::DROPPED] = dropped;
+    v[health_slot::GAPS] = seq.gaps;
+    v[health_slot::MISSED] = seq.missed;
+    v[health_slot::STALE] = seq.stale;
+    let faults = [
+        health_slot::IMU_FAULTS,
+        health_slot::AIRSPEED_FAULTS,
+        health_slot::ALPHA_FAULTS,
+        health_slot::BETA_FAULTS,
+    ];
+    let reinits = [
+        health_slot::IMU_REINITS,
+        health_slot::AIRSPEED_REINITS,
+        health_slot::ALPHA_REINITS,
+        health_slot::BETA_REINITS,
+    ];
+    for (c, m) in chips.iter().enumerate() {
+        v[faults[c]] = m.faults;
+        v[reinits[c]] = m.reinits;
+    }
+    v[health_slot::AUTOPILOT_FAULTS] = autopilot_faults;
+    v[health_slot::STUCK_NOW] = u32::from(stuck_now);
+    v[health_slot::STUCK_EPISODES] = stuck.health().episodes.iter().sum();
+    v[health_slot::STUCK_SAMPLES] = stuck.health().samples.iter().sum();
+    if let Some(link) = &link {
+        let st = link.parser_stats();
+        v[health_slot::LINK_FRAMES] = st.frames;
+        v[health_slot::LINK_REJECTED] = st.bad_crc + st.bad_length + st.bad_incompat_flags;
+        v[health_slot::LINK_DISCARDED] = st.discarded_bytes;
+    }
+    v[health_slot::LINK_LOST] = link_lost;
+    v[health_slot::INVALID_NOW] = u32::from(invalid_now);
+    v[health_slot::INVALID..].copy_from_slice(&p.health().invalid_channel);
+    Ok(Emulation {
+        reports: reports(&p),
+        health: h,
+        processed,
+    })
 }
 
 /// Minimum, median and maximum of one probe over the samples where it ran (non-zero counts).

@@ -9,11 +9,13 @@
 pub mod model;
 pub mod onboard;
 pub mod pipeline;
+pub mod sequence;
 pub mod stuck;
 pub mod synthesis;
 
 pub use model::{AeroModels, CoefficientModel, Regressor, SensorNoise};
 pub use pipeline::{Health, Limits, Pipeline, PipelineSettings, PipelineStep, Refusal, Stage};
+pub use sequence::{Admission, SequenceCheck, SequenceHealth};
 pub use stuck::{StuckDetector, StuckHealth, StuckSettings};
 pub use synthesis::{synthesise, Coefficients, ForceAxes, RateDifferentiator, Synthesis, SynthesisSettings};
 

@@ -87,27 +87,30 @@ pub struct StuckDetector {
     health: StuckHealth,
 }
 
-/// The readings of a sample per channel as bits (`None`: NaN, no reading).
-fn readings<T: Real>(s: &SensorSample<T>) -> [Option<[u64; 3]>; channel::COUNT] {
+/// The reading of channel `i` (bit position) of a sample as bits (`None`: NaN, no reading).
+/// Channel by channel, so that no array of all readings sits on the caller's stack (the firmware
+/// runs this in its highest-priority task, whose frame adds to every other task's).
+fn reading<T: Real>(s: &SensorSample<T>, i: usize) -> Option<[u64; 3]> {
     let one = |x: T| (!x.to_f64().is_nan()).then(|| [x.to_f64().to_bits(), 0, 0]);
     let three = |v: &nalgebra::Vector3<T>| {
         v.iter()
             .all(|x| !x.to_f64().is_nan())
             .then(|| [v.x.to_f64().to_bits(), v.y.to_f64().to_bits(), v.z.to_f64().to_bits()])
     };
-    let mut r = [None; channel::COUNT];
-    r[bit(channel::ACCEL)] = three(&s.accel_mps2);
-    r[bit(channel::GYRO)] = three(&s.gyro_rad_s);
-    r[bit(channel::AIRSPEED)] = one(s.airspeed_mps);
-    r[bit(channel::ALPHA)] = one(s.alpha_rad);
-    r[bit(channel::BETA)] = one(s.beta_rad);
-    r[bit(channel::PROP)] = one(s.prop_speed_rad_s);
-    r[bit(channel::ELEVATOR)] = one(s.elevator_rad);
-    r[bit(channel::AILERON)] = one(s.aileron_rad);
-    r[bit(channel::RUDDER)] = one(s.rudder_rad);
-    r[bit(channel::DENSITY)] = one(s.air_density_kgpm3);
-    r[bit(channel::DT)] = one(s.dt_s);
-    r
+    match 1u16 << i {
+        channel::ACCEL => three(&s.accel_mps2),
+        channel::GYRO => three(&s.gyro_rad_s),
+        channel::AIRSPEED => one(s.airspeed_mps),
+        channel::ALPHA => one(s.alpha_rad),
+        channel::BETA => one(s.beta_rad),
+        channel::PROP => one(s.prop_speed_rad_s),
+        channel::ELEVATOR => one(s.elevator_rad),
+        channel::AILERON => one(s.aileron_rad),
+        channel::RUDDER => one(s.rudder_rad),
+        channel::DENSITY => one(s.air_density_kgpm3),
+        channel::DT => one(s.dt_s),
+        _ => None,
+    }
 }
 
 impl StuckDetector {
@@ -134,14 +137,14 @@ impl StuckDetector {
     /// Takes the next sample's readings; returns the channels that are stuck at this sample.
     pub fn check<T: Real>(&mut self, s: &SensorSample<T>) -> ChannelMask {
         let mut stuck = 0;
-        for (i, r) in readings(s).iter().enumerate() {
+        for i in 0..channel::COUNT {
             let window = self.settings.samples[i];
-            match r {
-                Some(bits) if self.run[i] > 0 && self.last[i] == *bits => {
+            match reading(s, i) {
+                Some(bits) if self.run[i] > 0 && self.last[i] == bits => {
                     self.run[i] = self.run[i].saturating_add(1);
                 }
                 Some(bits) => {
-                    self.last[i] = *bits;
+                    self.last[i] = bits;
                     self.run[i] = 1;
                 }
                 None => self.run[i] = 0,

@@ -160,6 +160,11 @@ impl Telemetry {
         Ok(at)
     }
 
+    /// Writes the health report (164 bytes at most) into `out`; returns its length.
+    pub fn health(&mut self, report: &HealthReport, time_us: u64, out: &mut [u8]) -> Result<usize, EncodeError> {
+        self.encoder.encode(&report.to_debug_float_array(time_us), out)
+    }
+
     /// Writes one `NAMED_VALUE_FLOAT` (30 bytes at most) into `out`; returns its length.
     pub fn named_value(
         &mut self,
@@ -174,6 +179,114 @@ impl Telemetry {
             value,
         };
         self.encoder.encode(&m, out)
+    }
+}
+
+/// `DEBUG_FLOAT_ARRAY.name` of the co-processor's health report ([`HealthReport`]).
+pub const HEALTH_NAME: &str = "health";
+/// `DEBUG_FLOAT_ARRAY.array_id` of the health report (clear of the coefficients' 0…5).
+pub const HEALTH_ARRAY_ID: u16 = 100;
+
+/// Positions in `DEBUG_FLOAT_ARRAY.data` of the [`HealthReport`]: counters since boot (integers,
+/// saturating at 2²⁴ on the wire) and masks of [`crate::aero::model::channel`] bits.
+pub mod health_slot {
+    /// Samples taken by the sampling task.
+    pub const SAMPLED: usize = 0;
+    /// Samples dropped because the estimator's queue was full.
+    pub const DROPPED: usize = 1;
+    /// Gaps in the sample sequence the estimator saw ([`crate::aero::SequenceHealth::gaps`]).
+    pub const GAPS: usize = 2;
+    /// Samples missing in those gaps.
+    pub const MISSED: usize = 3;
+    /// Samples refused as not newer than the last one.
+    pub const STALE: usize = 4;
+    /// Failed reads of the IMU (bus error, not ready, invalid data, saturated).
+    pub const IMU_FAULTS: usize = 5;
+    /// Failed reads of the airspeed sensor.
+    pub const AIRSPEED_FAULTS: usize = 6;
+    /// Failed reads of the α vane.
+    pub const ALPHA_FAULTS: usize = 7;
+    /// Failed reads of the β vane.
+    pub const BETA_FAULTS: usize = 8;
+    /// Samples with a surface, the throttle, the RPM or the attitude missing or stale on the
+    /// autopilot link.
+    pub const AUTOPILOT_FAULTS: usize = 9;
+    /// Re-initialisations of the IMU (after a run of failed reads).
+    pub const IMU_REINITS: usize = 10;
+    /// Re-initialisations of the airspeed sensor's bus.
+    pub const AIRSPEED_REINITS: usize = 11;
+    /// Re-initialisations of the α vane's bus.
+    pub const ALPHA_REINITS: usize = 12;
+    /// Re-initialisations of the β vane's bus.
+    pub const BETA_REINITS: usize = 13;
+    /// Channels stuck at the last sample (a mask of channel bits).
+    pub const STUCK_NOW: usize = 14;
+    /// Times a channel became stuck, all channels.
+    pub const STUCK_EPISODES: usize = 15;
+    /// Samples with a channel reported stuck, summed over the channels.
+    pub const STUCK_SAMPLES: usize = 16;
+    /// Frames received on the autopilot link.
+    pub const LINK_FRAMES: usize = 17;
+    /// Frames rejected on the autopilot link (bad checksum, bad length, unknown incompatibility
+    /// flags).
+    pub const LINK_REJECTED: usize = 18;
+    /// Bytes discarded by the link's parser while looking for a frame.
+    pub const LINK_DISCARDED: usize = 19;
+    /// Received bytes lost on the autopilot link (receiver overrun or full ring).
+    pub const LINK_LOST: usize = 20;
+    /// Channels the pipeline found invalid (missing, NaN, out of range) at the last sample (a
+    /// mask of channel bits).
+    pub const INVALID_NOW: usize = 21;
+    /// Samples with each channel invalid, at `INVALID + bit` for the 11 channel bits
+    /// ([`crate::aero::Health::invalid_channel`]).
+    pub const INVALID: usize = 22;
+    /// Number of slots used.
+    pub const COUNT: usize = INVALID + crate::aero::model::channel::COUNT;
+}
+
+/// The co-processor's health report (counters and masks by [`health_slot`]), sent as one
+/// `DEBUG_FLOAT_ARRAY` named [`HEALTH_NAME`] with `array_id` [`HEALTH_ARRAY_ID`]: 20 + 33·4 =
+/// 152 payload bytes, a 164-byte frame.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct HealthReport {
+    /// The values by [`health_slot`].
+    pub values: [u32; health_slot::COUNT],
+}
+
+impl Default for HealthReport {
+    fn default() -> Self {
+        Self {
+            values: [0; health_slot::COUNT],
+        }
+    }
+}
+
+impl HealthReport {
+    /// The report as a `DEBUG_FLOAT_ARRAY` stamped `time_us` (each value saturated at 2²⁴).
+    pub fn to_debug_float_array(&self, time_us: u64) -> DebugFloatArray {
+        let mut m = DebugFloatArray {
+            time_us,
+            array_id: HEALTH_ARRAY_ID,
+            name: name10(HEALTH_NAME).unwrap_or([0; 10]),
+            ..DebugFloatArray::default()
+        };
+        for (d, v) in m.data.iter_mut().zip(self.values.iter()) {
+            *d = (*v).min(F32_EXACT_MAX) as f32;
+        }
+        m
+    }
+
+    /// The report a `DEBUG_FLOAT_ARRAY` carries, if it is one (`array_id` [`HEALTH_ARRAY_ID`]).
+    pub fn from_debug_float_array(m: &DebugFloatArray) -> Option<Self> {
+        if m.array_id != HEALTH_ARRAY_ID {
+            return None;
+        }
+        let mut r = Self::default();
+        for (v, d) in r.values.iter_mut().zip(m.data.iter()) {
+            *v = *d as u32;
+        }
+        Some(r)
     }
 }
 

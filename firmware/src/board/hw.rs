@@ -43,11 +43,13 @@
 //!   the driver's equivalent airspeed (at 1.225 kg/m³) times `sqrt(1.225 / ρ)`.
 //! * **α, β** — AS5600 vanes on I2C1 and I2C2, calibrations [`ALPHA_VANE`], [`BETA_VANE`].
 //! * **surfaces, throttle, RPM, Euler angles** — the autopilot's `SERVO_OUTPUT_RAW`, `RPM` and
-//!   `ATTITUDE` on USART2 ([`MavlinkSurfaces`], calibrations in [`AUTOPILOT`]).
+//!   `ATTITUDE` on USART2 ([`MavlinkSurfaces`], calibrations in `aerosid_core::aero::onboard::AUTOPILOT_LINK`).
 //!
 //! The calibrations (vane zero counts, servo neutral and gain, …) are placeholders for a typical
 //! airframe: set them for the aircraft. Every failed read makes its channels NaN, never a stale
-//! value, and counts in [`SensorFaults`]. A chip that fails [`REINIT_AFTER`] reads in a row
+//! value, and counts in [`SensorHealth`]; a channel that repeats its reading bit for bit for
+//! its window (a frozen chip, a jammed vane) is set to NaN too ([`Finish`], the core's
+//! `StuckDetector`). A chip that fails [`REINIT_AFTER`] reads in a row
 //! (0.5 s) is re-initialised: the IMU with its full `init` (WHO_AM_I, soft reset, configuration,
 //! ≈ 1.2 ms busy wait inside the sampling task), an I2C chip by resetting its bus peripheral (the
 //! MS4525DO and the AS5600 keep no configuration on the chip). A chip absent at boot is retried the
@@ -59,12 +61,12 @@ mod uart;
 use core::convert::Infallible;
 use core::sync::atomic::{AtomicBool, Ordering};
 
+use aerosid_core::aero::onboard::AUTOPILOT_LINK;
 use aerosid_core::aero::SensorSample;
 use aerosid_core::drivers::as5600::{As5600, Direction, VaneConfig};
 use aerosid_core::drivers::icm42688::{self, AccelRange, AxisMap, GyroRange, Icm42688, Odr};
 use aerosid_core::drivers::ms4525do::{self, Ms4525do};
-use aerosid_core::mavlink::surfaces::{RpmSource, ServoCalibration, ThrottleCalibration};
-use aerosid_core::mavlink::{MavlinkSurfaces, SurfaceConfig, SurfaceSource};
+use aerosid_core::mavlink::MavlinkSurfaces;
 use embedded_hal_bus::i2c::{AtomicDevice, AtomicError};
 use embedded_hal_bus::spi::{DeviceError, ExclusiveDevice};
 use embedded_hal_bus::util::AtomicCell;
@@ -72,20 +74,17 @@ use heapless::spsc::Queue;
 use nalgebra::Vector3;
 use stm32f4::stm32f405 as pac;
 
-use super::{Counter, SensorFaults, SensorSource};
+use super::{autopilot, Counter, Finish, LinkHealth, SensorHealth, SensorSource, REINIT_AFTER};
 use bus::{ChipSelectPa4, CycleDelay, I2cBus, I2cError, Spi1Bus, SpiError};
 pub use uart::AutopilotRx;
 use uart::{AutopilotBytes, TelemetryUart};
 
-/// The sensors of this board.
-pub type Sensors = FlightSensors;
+/// The sensors of this board (in a static: see [`init`]).
+pub type Sensors = &'static mut FlightSensors;
 /// The telemetry port of this board.
 pub type Port = TelemetryUart;
 /// The step counter of this board.
 pub type CycleCounter = Dwt;
-
-/// Failed reads in a row after which a chip is re-initialised (0.5 s at 100 Hz).
-pub const REINIT_AFTER: u16 = 50;
 
 /// Field (static) pressure for the air density, Pa: ISA sea level. Set the airfield's QFE.
 pub const FIELD_PRESSURE_PA: f32 = 101_325.0;
@@ -108,40 +107,6 @@ pub const ALPHA_VANE: VaneConfig = VaneConfig {
 /// β vane: as the α vane. Placeholder.
 pub const BETA_VANE: VaneConfig = ALPHA_VANE;
 
-/// A ±25° surface over ±500 µs of PWM around 1500 µs. Placeholder.
-const fn servo(channel: u8, rad_per_us: f32) -> ServoCalibration {
-    ServoCalibration {
-        channel,
-        pwm_neutral_us: 1500.0,
-        rad_per_us,
-        limits_rad: (-0.44, 0.44),
-    }
-}
-
-/// The autopilot link: system 1, ArduPilot Plane's default outputs (SERVO1 aileron, SERVO2
-/// elevator, SERVO3 throttle, SERVO4 rudder; `SERVOn_FUNCTION`), RPM sensor 1. Stream rates the
-/// timeouts assume: `SERVO_OUTPUT_RAW` and `ATTITUDE` ≥ 20 Hz, `RPM` ≥ 4 Hz (ArduPilot
-/// `SRn_RC_CHAN`, `SRn_EXTRA1`, `SRn_EXTRA3` on the port wired to USART2).
-pub const AUTOPILOT: SurfaceConfig = SurfaceConfig {
-    source_system_id: 1,
-    port: 0,
-    elevator: servo(1, 0.000_873),
-    aileron: servo(0, 0.000_873),
-    aileron_2: None,
-    rudder: servo(3, 0.000_873),
-    throttle: ThrottleCalibration {
-        channel: 2,
-        pwm_idle_us: 1100,
-        pwm_full_us: 1900,
-    },
-    pwm_valid_us: [800, 2200],
-    servo_timeout_us: 100_000,
-    rpm: RpmSource::ArduPilotRpm { sensor: 0 },
-    rpm_scale: 1.0,
-    rpm_timeout_us: 500_000,
-    attitude_timeout_us: 100_000,
-};
-
 /// Autopilot bytes the ring holds: 44 ms at 115200 baud, four sample periods of slack.
 const RX_RING: usize = 512;
 
@@ -159,7 +124,7 @@ static I2C2_RECOVER: AtomicBool = AtomicBool::new(false);
 /// The board's parts, handed to the tasks by `init`.
 pub struct Board {
     /// The sensors.
-    pub sensors: FlightSensors,
+    pub sensors: &'static mut FlightSensors,
     /// Telemetry UART (USART1).
     pub telemetry: TelemetryUart,
     /// DWT cycle counter.
@@ -180,7 +145,11 @@ impl CountLog {
 
 /// Brings up the board: clocks to the peripherals, pins, buses, UARTs, then the chips. A chip that
 /// does not answer is reported and retried by [`FlightSensors::read`]; nothing here stops the boot.
-/// Only a second call (a program error: the static buffers are already handed out) halts.
+/// Only a second call (a program error: the static buffers are already handed out) halts. The
+/// sensors (drivers, link parser, stuck detector) go into a static, built in this function's frame,
+/// which is not inlined: RTIC keeps `init`'s own frame under every task's first run
+/// (`crate::estimate::Estimator::new`), so what `init` gets back must be small.
+#[inline(never)]
 pub fn init(dp: pac::Peripherals, clocks: &super::clocks::Clocks) -> Board {
     enable_clocks(&dp.RCC);
     configure_pins(&dp.GPIOA, &dp.GPIOB);
@@ -241,7 +210,7 @@ pub fn init(dp: pac::Peripherals, clocks: &super::clocks::Clocks) -> Board {
         defmt::error!("beta vane: calibration refused");
     }
 
-    let autopilot = match MavlinkSurfaces::new(AUTOPILOT) {
+    let autopilot = match MavlinkSurfaces::new(AUTOPILOT_LINK) {
         Ok(s) => Some(s),
         Err(e) => {
             defmt::error!("autopilot link: configuration refused ({})", e);
@@ -249,20 +218,24 @@ pub fn init(dp: pac::Peripherals, clocks: &super::clocks::Clocks) -> Board {
         }
     };
 
+    let Some(sensors) = cortex_m::singleton!(: FlightSensors = FlightSensors {
+        imu,
+        airspeed,
+        alpha,
+        beta,
+        autopilot,
+        rx: consumer,
+        delay,
+        now_us: 0,
+        rx_lost_seen: 0,
+        health: SensorHealth::default(),
+        finish: Finish::new(),
+    }) else {
+        defmt::error!("board: init called twice");
+        halt(4)
+    };
     Board {
-        sensors: FlightSensors {
-            imu,
-            airspeed,
-            alpha,
-            beta,
-            autopilot,
-            rx: consumer,
-            delay,
-            now_us: 0,
-            rx_lost_seen: 0,
-            faults: SensorFaults::default(),
-            streak: Streaks::default(),
-        },
+        sensors,
         telemetry,
         counter: Dwt,
         counts: CountLog,
@@ -365,32 +338,6 @@ fn airspeed_error(e: ms4525do::Error<AtomicError<I2cError>>) -> ms4525do::Error<
     }
 }
 
-/// Failed reads in a row, per chip.
-#[derive(Default)]
-struct Streaks {
-    imu: u16,
-    airspeed: u16,
-    alpha: u16,
-    beta: u16,
-}
-
-/// Counts one outcome: `true` when the chip has now failed [`REINIT_AFTER`] times in a row (the
-/// streak starts again, so a dead chip is retried every [`REINIT_AFTER`] samples).
-fn streak(count: &mut u16, fault: &mut u32, ok: bool) -> bool {
-    if ok {
-        *count = 0;
-        return false;
-    }
-    *fault = fault.saturating_add(1);
-    *count = count.saturating_add(1);
-    if *count >= REINIT_AFTER {
-        *count = 0;
-        true
-    } else {
-        false
-    }
-}
-
 /// The sensors on their buses and the autopilot link, as a [`SensorSource`].
 pub struct FlightSensors {
     imu: Icm42688<ImuSpi>,
@@ -404,16 +351,19 @@ pub struct FlightSensors {
     /// differences, so exact), for the autopilot messages' ages.
     now_us: u64,
     rx_lost_seen: u32,
-    faults: SensorFaults,
-    streak: Streaks,
+    health: SensorHealth,
+    /// The stuck-sensor check on the finished sample.
+    finish: Finish,
 }
 
 impl FlightSensors {
     /// Drains the USART2 ring into the MAVLink parser, stamping the bytes with `now_us` (they arrived
-    /// within the last sample period, so ages read up to 10 ms short).
+    /// within the last sample period, so ages read up to 10 ms short). Bounded: at most a ring's
+    /// worth of bytes per sample (more than arrive in a period at 115200 baud), so a flood on the
+    /// link cannot hold the sampling task; the parser's work per byte is bounded too.
     fn receive_autopilot(&mut self) {
         let mut chunk = [0u8; 64];
-        loop {
+        for _ in 0..RX_RING.div_ceil(64) {
             let mut n = 0;
             for slot in chunk.iter_mut() {
                 match self.rx.dequeue() {
@@ -454,7 +404,7 @@ impl SensorSource for FlightSensors {
             s.accel_mps2 = Vector3::from(r.accel_mps2);
             s.gyro_rad_s = Vector3::from(r.gyro_rad_s);
         }
-        if streak(&mut self.streak.imu, &mut self.faults.imu, imu.is_ok()) {
+        if self.health.imu.record(imu.is_ok()) {
             match self.imu.init(&mut self.delay) {
                 Ok(()) => defmt::warn!("imu: re-initialised"),
                 Err(e) => defmt::warn!("imu: re-init failed ({})", imu_error(e)),
@@ -470,7 +420,7 @@ impl SensorSource for FlightSensors {
                 s.airspeed_mps = m.airspeed_mps * libm::sqrtf(ms4525do::ISA_SEA_LEVEL_DENSITY_KG_M3 / rho);
             }
         }
-        if streak(&mut self.streak.airspeed, &mut self.faults.airspeed, air.is_ok()) {
+        if self.health.airspeed.record(air.is_ok()) {
             defmt::warn!("airspeed: {=u16} failed reads, I2C1 reset", REINIT_AFTER);
             I2C1_RECOVER.store(true, Ordering::Relaxed);
         }
@@ -480,7 +430,7 @@ impl SensorSource for FlightSensors {
         if let Ok(r) = &alpha {
             s.alpha_rad = r.angle_rad;
         }
-        if streak(&mut self.streak.alpha, &mut self.faults.alpha_vane, alpha.is_ok()) {
+        if self.health.alpha_vane.record(alpha.is_ok()) {
             defmt::warn!("alpha vane: {=u16} failed reads, I2C1 reset", REINIT_AFTER);
             I2C1_RECOVER.store(true, Ordering::Relaxed);
         }
@@ -488,7 +438,7 @@ impl SensorSource for FlightSensors {
         if let Ok(r) = &beta {
             s.beta_rad = r.angle_rad;
         }
-        if streak(&mut self.streak.beta, &mut self.faults.beta_vane, beta.is_ok()) {
+        if self.health.beta_vane.record(beta.is_ok()) {
             defmt::warn!("beta vane: {=u16} failed reads, I2C2 reset", REINIT_AFTER);
             I2C2_RECOVER.store(true, Ordering::Relaxed);
         }
@@ -496,36 +446,25 @@ impl SensorSource for FlightSensors {
         // The autopilot: surfaces, throttle, RPM, attitude.
         self.receive_autopilot();
         let now_us = self.now_us;
-        if let Some(link) = self.autopilot.as_mut() {
-            if let Ok(r) = link.surfaces(now_us) {
-                s.elevator_rad = r.elevator_rad.unwrap_or(nan);
-                s.aileron_rad = r.aileron_rad.unwrap_or(nan);
-                s.rudder_rad = r.rudder_rad.unwrap_or(nan);
-                s.throttle = r.throttle.unwrap_or(nan);
+        let autopilot_ok = match self.autopilot.as_mut() {
+            Some(link) => {
+                let ok = autopilot::fill(link, now_us, &mut s);
+                self.health.link = LinkHealth::from_parser(link.parser_stats(), self.rx_lost_seen);
+                ok
             }
-            s.prop_speed_rad_s = link.prop_speed_rad_s(now_us).unwrap_or(nan);
-            if let Ok(e) = link.euler_rad(now_us) {
-                s.euler_rad = Vector3::from(e);
-            }
-        }
-        let autopilot_ok = [
-            s.elevator_rad,
-            s.aileron_rad,
-            s.rudder_rad,
-            s.throttle,
-            s.prop_speed_rad_s,
-        ]
-        .iter()
-        .chain(s.euler_rad.iter())
-        .all(|v| !v.is_nan());
+            None => false,
+        };
         if !autopilot_ok {
-            self.faults.surfaces = self.faults.surfaces.saturating_add(1);
+            self.health.autopilot_faults = self.health.autopilot_faults.saturating_add(1);
         }
+
+        // A sensor stuck at one reading: its channels NaN.
+        self.finish.apply(&mut s, &mut self.health);
         Some(s)
     }
 
-    fn faults(&self) -> SensorFaults {
-        self.faults
+    fn health(&self) -> SensorHealth {
+        self.health
     }
 }
 

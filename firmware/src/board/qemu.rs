@@ -4,6 +4,20 @@
 //! * **Sensors**: `replay.bin` in QEMU's working directory, read over semihosting: binary records of
 //!   [`REPLAY_RECORD_BYTES`] (the [`SensorSample`] fields as little-endian `f32`, CSV column order),
 //!   written by the host from a CSV log (`aerosid replay-bin`). The end of the file ends the run.
+//!   Each finished sample goes through the same stuck-sensor check as on the flight computer
+//!   ([`super::Finish`]).
+//! * **Fault injection** (issue 7 §3, optional): `faults.bin`, up to [`MAX_FAULTS`] records of
+//!   [`FAULT_RECORD_BYTES`] ([`Fault`]), each acting on a range of replay records: a chip's reads
+//!   fail (its channels NaN; counted, and after [`super::REINIT_AFTER`] failures in a row a
+//!   re-initialisation is counted, as [`super::ChipHealth`] does on the flight computer), a channel
+//!   stuck at its first value or forced to a value (NaN, ±∞, out of range), a sample dropped as if
+//!   the estimator's queue were full, a sample taken late.
+//! * **Autopilot link** (optional): `autopilot.bin`, per replay record a little-endian `u16` length
+//!   and that many bytes of the autopilot's MAVLink stream (valid frames, and whatever garbage the
+//!   host put in), fed to the same [`MavlinkSurfaces`] as the flight computer's USART2 bytes, with
+//!   the same calibration ([`aerosid_core::aero::onboard::AUTOPILOT_LINK`]); the surfaces,
+//!   throttle, RPM and attitude of the sample then come from the link ([`super::autopilot::fill`]),
+//!   not from the record. Without the file they come from the record.
 //! * **Telemetry**: USART1's data register; QEMU's `-serial file:…` (or `stdio`) receives the bytes.
 //!   QEMU's STM32F2xx USART model sends each byte written to DR at once and keeps TXE set.
 //! * **Counter**: TIM2 free-running with PSC = 0, ARR = 2³² − 1. Under `-icount shift=0,align=off,
@@ -13,23 +27,91 @@
 //!   [`crate::estimate::PROBES`] little-endian `u32` (whole step, synthesis, six coefficients),
 //!   written over semihosting outside the timed region.
 
-use super::{Counter, SensorFaults, SensorSource, TelemetryPort};
+use super::{autopilot, ChipHealth, Counter, Finish, LinkHealth, SensorHealth, SensorSource, TelemetryPort};
+use aerosid_core::aero::model::channel;
+use aerosid_core::aero::onboard::AUTOPILOT_LINK;
 use aerosid_core::aero::{SensorSample, REPLAY_RECORD_BYTES};
+use aerosid_core::mavlink::MavlinkSurfaces;
 use semihosting::fs::File;
 use semihosting::io::{Read, Write};
 use stm32f4::stm32f405 as pac;
 
-/// The sensors of this board.
-pub type Sensors = Replay;
+/// The sensors of this board (in a static: see [`init`]).
+pub type Sensors = &'static mut Replay;
 /// The telemetry port of this board.
 pub type Port = Usart;
 /// The step counter of this board.
 pub type CycleCounter = Tim2Counter;
 
+/// Most fault records read from `faults.bin`.
+pub const MAX_FAULTS: usize = 32;
+/// Bytes of one fault record: first record index `u32`, number of records `u32`, kind `u8`,
+/// target `u8`, two reserved bytes, parameter (`f32` value or `u32` µs), all little-endian.
+pub const FAULT_RECORD_BYTES: usize = 16;
+
+/// Fault kinds (byte 8 of a record).
+pub mod kind {
+    /// The reads of chip `target` fail ([`super::chip`]).
+    pub const BUS: u8 = 1;
+    /// Channel `target` (a bit position of `channel`) keeps its value of the first record.
+    pub const STUCK: u8 = 2;
+    /// Channel `target` reads the parameter (an `f32`).
+    pub const VALUE: u8 = 3;
+    /// The sample is dropped as if the estimator's queue were full.
+    pub const DROP: u8 = 4;
+    /// The first record's sample is taken the parameter (µs, `u32`) late: its `t_s`, `dt_s` and
+    /// time stamp later by that much, the next sample's `dt_s` shorter by it.
+    pub const LATE: u8 = 5;
+}
+
+/// Chips (the target of a [`kind::BUS`] fault).
+pub mod chip {
+    /// ICM-42688-P: accelerometer and gyro.
+    pub const IMU: u8 = 0;
+    /// MS4525DO: airspeed and (from its temperature) density.
+    pub const AIRSPEED: u8 = 1;
+    /// AS5600 α vane.
+    pub const ALPHA: u8 = 2;
+    /// AS5600 β vane.
+    pub const BETA: u8 = 3;
+    /// The autopilot link: the record's bytes of `autopilot.bin` are lost.
+    pub const AUTOPILOT: u8 = 4;
+}
+
+/// One fault record of `faults.bin` (module doc).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Fault {
+    first: u32,
+    count: u32,
+    kind: u8,
+    target: u8,
+    param: [u8; 4],
+    /// The value a stuck channel keeps (captured at its first record).
+    hold: [f32; 3],
+}
+
+impl Fault {
+    fn parse(b: &[u8; FAULT_RECORD_BYTES]) -> Self {
+        let u32_at = |i: usize| u32::from_le_bytes([b[i], b[i + 1], b[i + 2], b[i + 3]]);
+        Self {
+            first: u32_at(0),
+            count: u32_at(4),
+            kind: b[8],
+            target: b[9],
+            param: [b[12], b[13], b[14], b[15]],
+            hold: [0.0; 3],
+        }
+    }
+
+    fn active(&self, k: u32) -> bool {
+        k >= self.first && k - self.first < self.count
+    }
+}
+
 /// The board's parts, handed to the tasks by `init`.
 pub struct Board {
     /// The replay log.
-    pub sensors: Replay,
+    pub sensors: &'static mut Replay,
     /// USART1.
     pub telemetry: Usart,
     /// TIM2.
@@ -38,7 +120,12 @@ pub struct Board {
     pub counts: CountLog,
 }
 
-/// Sets up TIM2 and USART1, opens the replay log and the count file.
+/// Sets up TIM2 and USART1, opens the replay log, the fault schedule, the autopilot stream and the
+/// count file. The replay state (≈ 2.5 KB: the faults, the link's parser, a chunk buffer, the
+/// stuck detector) goes into a static, built in this function's frame, which is not inlined: RTIC
+/// keeps `init`'s own frame under every task's first run (`crate::estimate::Estimator::new`), so
+/// what `init` gets back must be small.
+#[inline(never)]
 pub fn init(dp: pac::Peripherals, _clocks: &super::clocks::Clocks) -> Board {
     dp.RCC.apb1enr().modify(|_, w| w.tim2en().set_bit());
     dp.RCC.apb2enr().modify(|_, w| w.usart1en().set_bit());
@@ -49,13 +136,10 @@ pub fn init(dp: pac::Peripherals, _clocks: &super::clocks::Clocks) -> Board {
     tim2.cr1().modify(|_, w| w.cen().set_bit());
     let usart = dp.USART1;
     usart.cr1().modify(|_, w| w.ue().set_bit().te().set_bit());
-    let open = |name: &core::ffi::CStr| match File::open(name) {
+    let replay = match File::open(c"replay.bin") {
         Ok(f) => Some(f),
         Err(_) => {
-            defmt::error!(
-                "qemu: cannot open {=str} over semihosting",
-                name.to_str().unwrap_or("?")
-            );
+            defmt::error!("qemu: cannot open replay.bin over semihosting");
             None
         }
     };
@@ -63,23 +147,73 @@ pub fn init(dp: pac::Peripherals, _clocks: &super::clocks::Clocks) -> Board {
     if counts.is_none() {
         defmt::error!("qemu: cannot create icount.bin over semihosting");
     }
-    Board {
-        sensors: Replay {
-            file: open(c"replay.bin"),
-            records: 0,
-            faults: SensorFaults::default(),
+    let mut faults = [Fault::default(); MAX_FAULTS];
+    let mut n_faults = 0;
+    if let Ok(mut f) = File::open(c"faults.bin") {
+        let mut rec = [0u8; FAULT_RECORD_BYTES];
+        for slot in faults.iter_mut() {
+            if f.read_exact(&mut rec).is_err() {
+                break;
+            }
+            *slot = Fault::parse(&rec);
+            n_faults += 1;
+        }
+        defmt::info!("qemu: {=usize} injected faults", n_faults);
+    }
+    let link = match File::open(c"autopilot.bin") {
+        Ok(f) => match MavlinkSurfaces::new(AUTOPILOT_LINK) {
+            Ok(m) => Some((f, m)),
+            Err(e) => {
+                defmt::error!("qemu: autopilot link configuration refused ({})", e);
+                None
+            }
         },
+        Err(_) => None,
+    };
+    let Some(sensors) = cortex_m::singleton!(: Replay = Replay {
+        file: replay,
+        records: 0,
+        faults,
+        n_faults,
+        link,
+        chunk: [0; CHUNK],
+        late_carry_s: 0.0,
+        t_us: 0,
+        drop: false,
+        health: SensorHealth::default(),
+        finish: Finish::new(),
+    }) else {
+        defmt::error!("qemu: init called twice");
+        halt(4)
+    };
+    Board {
+        sensors,
         telemetry: Usart { usart },
         counter: Tim2Counter { tim2 },
         counts: CountLog { file: counts },
     }
 }
 
-/// The replay log as a [`SensorSource`].
+/// Bytes of `autopilot.bin` fed to the parser at a time.
+const CHUNK: usize = 256;
+
+/// The replay log as a [`SensorSource`], with the injected faults and the autopilot stream.
 pub struct Replay {
     file: Option<File>,
     records: u32,
-    faults: SensorFaults,
+    faults: [Fault; MAX_FAULTS],
+    n_faults: usize,
+    /// `autopilot.bin` and the MAVLink receiver it feeds.
+    link: Option<(File, MavlinkSurfaces)>,
+    chunk: [u8; CHUNK],
+    /// What a late sample took from the next one's `dt_s`, s.
+    late_carry_s: f32,
+    /// Time stamp of the last record, µs (from its `t_s`).
+    t_us: u64,
+    /// The last record is to be dropped.
+    drop: bool,
+    health: SensorHealth,
+    finish: Finish,
 }
 
 impl Replay {
@@ -87,26 +221,164 @@ impl Replay {
     pub fn records(&self) -> u32 {
         self.records
     }
+
+    /// Feeds this record's bytes of `autopilot.bin` to the link (or, when `lost`, counts them as
+    /// lost) and writes the link's values into `s`. After the end of the stream nothing is fed
+    /// (the link goes stale).
+    #[inline(never)]
+    fn autopilot(&mut self, s: &mut SensorSample<f32>, lost: bool) {
+        let Some((file, link)) = self.link.as_mut() else {
+            return;
+        };
+        let mut len = [0u8; 2];
+        let mut left = if file.read_exact(&mut len).is_ok() {
+            usize::from(u16::from_le_bytes(len))
+        } else {
+            0
+        };
+        while left > 0 {
+            let n = left.min(CHUNK);
+            let Some(buf) = self.chunk.get_mut(..n) else {
+                break;
+            };
+            if file.read_exact(buf).is_err() {
+                break;
+            }
+            if lost {
+                self.health.link.lost = self.health.link.lost.saturating_add(n as u32);
+            } else {
+                link.receive(buf, self.t_us);
+            }
+            left -= n;
+        }
+        let ok = autopilot::fill(link, self.t_us, s);
+        if !ok {
+            self.health.autopilot_faults = self.health.autopilot_faults.saturating_add(1);
+        }
+        let lost = self.health.link.lost;
+        self.health.link = LinkHealth::from_parser(link.parser_stats(), lost);
+    }
+}
+
+/// The time stamp of a replayed sample, µs: its `t_s` rounded (0 for a negative or NaN `t_s`).
+fn stamp_us(t_s: f32) -> u64 {
+    (f64::from(t_s) * 1e6 + 0.5) as u64
+}
+
+/// The channel at bit position `bit` of `s`: up to three components.
+fn channel_mut(s: &mut SensorSample<f32>, bit: u8) -> &mut [f32] {
+    match 1u16 << (bit % 16) {
+        channel::ACCEL => s.accel_mps2.as_mut_slice(),
+        channel::GYRO => s.gyro_rad_s.as_mut_slice(),
+        channel::AIRSPEED => core::slice::from_mut(&mut s.airspeed_mps),
+        channel::ALPHA => core::slice::from_mut(&mut s.alpha_rad),
+        channel::BETA => core::slice::from_mut(&mut s.beta_rad),
+        channel::PROP => core::slice::from_mut(&mut s.prop_speed_rad_s),
+        channel::ELEVATOR => core::slice::from_mut(&mut s.elevator_rad),
+        channel::AILERON => core::slice::from_mut(&mut s.aileron_rad),
+        channel::RUDDER => core::slice::from_mut(&mut s.rudder_rad),
+        channel::DENSITY => core::slice::from_mut(&mut s.air_density_kgpm3),
+        channel::DT => core::slice::from_mut(&mut s.dt_s),
+        _ => &mut [],
+    }
+}
+
+/// A chip's reads this record: `ok`, else its channels NaN. Counted as on the flight computer; a
+/// re-initialisation there is a reset of the chip or its bus, here only counted and logged.
+#[inline(never)]
+fn chip_read(health: &mut ChipHealth, ok: bool, name: &str, s: &mut SensorSample<f32>, bits: u16) {
+    if !ok {
+        for bit in 0..channel::COUNT as u8 {
+            if bits & (1 << bit) != 0 {
+                channel_mut(s, bit).iter_mut().for_each(|v| *v = f32::NAN);
+            }
+        }
+    }
+    if health.record(ok) {
+        defmt::warn!(
+            "qemu: {=str}: {=u16} failed reads, re-initialised",
+            name,
+            super::REINIT_AFTER
+        );
+    }
 }
 
 impl SensorSource for Replay {
-    /// The next record; the log's own `t_s`, `dt_s` stand (they are what the sensors timestamped),
-    /// so the arguments are unused here.
+    /// The next record, with the faults active at it; the log's own `t_s`, `dt_s` stand (they are
+    /// what the sensors timestamped), so the arguments are unused here.
+    #[inline(never)]
     fn read(&mut self, _t_s: f32, _dt_s: f32) -> Option<SensorSample<f32>> {
         let file = self.file.as_mut()?;
         let mut rec = [0u8; REPLAY_RECORD_BYTES];
-        match file.read_exact(&mut rec) {
-            Ok(()) => {
-                self.records = self.records.saturating_add(1);
-                Some(SensorSample::from_replay_record(&rec))
+        // The end of the log (or a truncated last record) ends the run.
+        file.read_exact(&mut rec).ok()?;
+        let k = self.records;
+        self.records = self.records.saturating_add(1);
+        let mut s = SensorSample::from_replay_record(&rec);
+        s.dt_s -= self.late_carry_s;
+        self.late_carry_s = 0.0;
+        self.t_us = stamp_us(s.t_s);
+        self.drop = false;
+        let mut failing = [false; 5];
+        let n = self.n_faults.min(MAX_FAULTS);
+        for f in self.faults.iter_mut().take(n).filter(|f| f.active(k)) {
+            let param = f32::from_le_bytes(f.param);
+            match f.kind {
+                kind::BUS => {
+                    if let Some(c) = failing.get_mut(usize::from(f.target)) {
+                        *c = true;
+                    }
+                }
+                kind::STUCK => {
+                    let ch = channel_mut(&mut s, f.target);
+                    if k == f.first {
+                        for (h, v) in f.hold.iter_mut().zip(ch.iter()) {
+                            *h = *v;
+                        }
+                    }
+                    for (v, h) in ch.iter_mut().zip(f.hold.iter()) {
+                        *v = *h;
+                    }
+                }
+                kind::VALUE => channel_mut(&mut s, f.target).iter_mut().for_each(|v| *v = param),
+                kind::DROP => self.drop = true,
+                kind::LATE if k == f.first => {
+                    let late_us = u32::from_le_bytes(f.param);
+                    let late_s = late_us as f32 * 1e-6;
+                    s.t_s += late_s;
+                    s.dt_s += late_s;
+                    self.t_us = self.t_us.saturating_add(u64::from(late_us));
+                    self.late_carry_s = late_s;
+                }
+                _ => {}
             }
-            // The end of the log (or a truncated last record) ends the run.
-            Err(_) => None,
         }
+        let ok = |c: u8| !failing.get(usize::from(c)).copied().unwrap_or(false);
+        let h = &mut self.health;
+        chip_read(&mut h.imu, ok(chip::IMU), "imu", &mut s, channel::ACCEL | channel::GYRO);
+        let airspeed_bits = channel::AIRSPEED | channel::DENSITY;
+        chip_read(&mut h.airspeed, ok(chip::AIRSPEED), "airspeed", &mut s, airspeed_bits);
+        chip_read(&mut h.alpha_vane, ok(chip::ALPHA), "alpha vane", &mut s, channel::ALPHA);
+        chip_read(&mut h.beta_vane, ok(chip::BETA), "beta vane", &mut s, channel::BETA);
+        // Checked here, not in `autopilot`: its frame (the link's parser and frame) is not needed
+        // on the stack of a replay without a link.
+        if self.link.is_some() {
+            self.autopilot(&mut s, !ok(chip::AUTOPILOT));
+        }
+        self.finish.apply(&mut s, &mut self.health);
+        Some(s)
     }
 
-    fn faults(&self) -> SensorFaults {
-        self.faults
+    fn health(&self) -> SensorHealth {
+        self.health
+    }
+
+    fn time_us(&self, _sampler_us: u64) -> u64 {
+        self.t_us
+    }
+
+    fn drop_injected(&self) -> bool {
+        self.drop
     }
 }
 
