@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # Runs all of the project's checks and tests, in the order CI runs them (.ci/run execs this file):
 # tools (QEMU, defmt-print), formatting, host clippy, firmware clippy, the core built for the MCU,
-# host tests (among them the firmware replayed under QEMU), the main job, the firmware release build
-# and its size, then a short run of every fuzz target. Stops at the first failure.
+# host tests (among them the firmware replayed under QEMU, with and without injected faults), the
+# main job, the firmware release build, its panic audit and its size, then a short run of the core
+# fuzz targets. Stops at the first failure.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 
@@ -11,9 +12,9 @@ readonly FW_ELF="${CARGO_TARGET_DIR:-target}/$THUMB/release/aerosid-firmware"
 
 step() { printf '\n==> %s\n' "$*"; }
 
-step "toolchain: $THUMB target, clippy, rustfmt (idempotent)"
+step "toolchain: $THUMB target, clippy, rustfmt, llvm-tools (idempotent)"
 rustup target add "$THUMB"
-rustup component add clippy rustfmt
+rustup component add clippy rustfmt llvm-tools
 
 step "QEMU and defmt-print for the firmware replay test (installed if missing)"
 if ! command -v qemu-system-arm >/dev/null 2>&1; then
@@ -28,8 +29,9 @@ if ! command -v defmt-print >/dev/null 2>&1; then
     cargo install defmt-print --locked
 fi
 
-step "format: cargo fmt --all -- --check"
+step "format: cargo fmt --all -- --check (and the fuzz workspace)"
 cargo fmt --all -- --check
+cargo fmt --manifest-path fuzz/Cargo.toml --all -- --check
 
 step "host clippy: cargo clippy --workspace --all-targets -- -D warnings"
 cargo clippy --workspace --all-targets -- -D warnings
@@ -52,6 +54,9 @@ cargo run --release -p aerosid-host --bin aerosid -- run --out target/main-job
 
 step "firmware release build: cargo fw-build"
 cargo fw-build
+
+step "panic audit of the release firmware (issue 7 §5): aerosid panic-audit $FW_ELF firmware/panic-allow.txt"
+cargo run --release -p aerosid-host --bin aerosid -- panic-audit "$FW_ELF" firmware/panic-allow.txt
 
 step "firmware size ($FW_ELF)"
 size_tool=""
@@ -77,10 +82,10 @@ else
     echo "no llvm-size (cargo-binutils or rustup's llvm-tools): size not printed"
 fi
 
-step "fuzzing (issue 7, README \"Reliability\"): every libFuzzer target of fuzz/ for ${FUZZ_SECONDS:-6} s from its seeds"
+step "fuzzing (issue 7, README \"Reliability\"): the core libFuzzer targets of fuzz/ for ${FUZZ_SECONDS:-6} s each from their seeds"
 # Its own workspace and target directory (fuzz/target-ours); stable Rust, no cargo-fuzz needed
-# (scripts/fuzz.sh says how the build matches `cargo fuzz build -s none -a`). A crash fails CI and
-# leaves the input in fuzz/artifacts/.
+# (scripts/fuzz.sh says how the build matches `cargo fuzz build -s none -a`, and why the reader
+# targets run as a host test here). A crash fails CI and leaves the input in fuzz/artifacts/.
 bash scripts/fuzz.sh ci "${FUZZ_SECONDS:-6}"
 
 step "all checks passed"

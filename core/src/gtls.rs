@@ -229,7 +229,10 @@ impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Gtls<T, NT, NE,
             g11: SMatrix::zeros(),
             b: SMatrix::zeros(),
             theta: SVector::zeros(),
-            ca: -c.column(NA - 1).into_owned(),
+            // Element by element, not `column(..).into_owned()`: a view's copy goes through
+            // nalgebra's iterator constructor, whose length assertion stays in the firmware as a
+            // panic path (README "Reliability").
+            ca: SVector::from_fn(|i, _| -c[(i, NA - 1)]),
             k: 0,
             solution: Solution::NotEnoughData,
             n_eff: T::zero(),

@@ -88,7 +88,9 @@ impl Estimator {
                 Stage::Synthesis => 1,
                 Stage::Coefficient(i) => 2 + i.min(idx::COUNT - 1),
             };
-            cost.ticks[slot] = now.wrapping_sub(last);
+            if let Some(t) = cost.ticks.get_mut(slot) {
+                *t = now.wrapping_sub(last);
+            }
             last = now;
         });
         cost.ticks[0] = counter.now().wrapping_sub(start);

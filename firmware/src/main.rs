@@ -20,6 +20,9 @@
 //! `cargo build --workspace` works on x86_64; build the firmware with `cargo fw-build`.
 #![cfg_attr(target_os = "none", no_std)]
 #![cfg_attr(target_os = "none", no_main)]
+// No panic path of ours (README "Reliability"; the release image is audited by `aerosid
+// panic-audit`): the core's denials, and no slice indexing that could fail.
+#![deny(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
 
 #[cfg(target_os = "none")]
 mod board;

@@ -98,8 +98,12 @@ pub fn health_report(stats: &Stats, estimator: &Estimator) -> HealthReport {
     v[slot::MISSED] = seq.missed;
     v[slot::STALE] = seq.stale;
     for (c, faults, reinits) in chips {
-        v[faults] = c.faults;
-        v[reinits] = c.reinits;
+        if let Some(o) = v.get_mut(faults) {
+            *o = c.faults;
+        }
+        if let Some(o) = v.get_mut(reinits) {
+            *o = c.reinits;
+        }
     }
     v[slot::AUTOPILOT_FAULTS] = h.autopilot_faults;
     v[slot::STUCK_NOW] = u32::from(h.stuck_now);

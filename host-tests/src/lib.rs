@@ -18,6 +18,7 @@ pub mod gaps;
 pub mod io;
 pub mod longrun;
 pub mod mc;
+pub mod panic_audit;
 pub mod plot;
 pub mod qemu;
 pub mod reference;

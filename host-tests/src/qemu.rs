@@ -433,6 +433,8 @@ pub struct Emulation {
     pub health: HealthReport,
     /// Samples the pipeline processed.
     pub processed: usize,
+    /// The pipeline's own counters.
+    pub pipeline_health: aerosid_core::aero::Health,
 }
 
 /// Failed reads in a row after which the firmware re-initialises a chip (`board::REINIT_AFTER`).
@@ -626,6 +628,7 @@ pub fn emulate(sc: &Scenario<'_>) -> Result<Emulation, QemuError> {
         reports: reports(&p),
         health: h,
         processed,
+        pipeline_health: *p.health(),
     })
 }
 

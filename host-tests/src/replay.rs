@@ -1,5 +1,6 @@
 //! Replaying a flight log (the project's CSV layout) through the on-board pipeline: on the host in
-//! `f32` exactly as the firmware computes, and optionally through the firmware itself under QEMU
+//! `f32` exactly as the firmware computes (its sensor layer's stuck-sensor check, then the
+//! pipeline: [`qemu::emulate`]), and optionally through the firmware itself under QEMU
 //! ([`crate::qemu`]), with the two compared bit for bit. `aerosid simulate` writes such a log from
 //! the simulator; `aerosid replay LOG.csv [--qemu]` runs this.
 
@@ -7,8 +8,7 @@ use crate::io::log::{read_log_file, write_log_file};
 use crate::qemu;
 use crate::report::parameter_name;
 use aerosid_core::aero::model::idx;
-use aerosid_core::aero::{onboard, SensorSample};
-use aerosid_core::mavlink::telemetry::reports;
+use aerosid_core::aero::SensorSample;
 use aerosid_core::mavlink::CoefficientReport;
 use std::fmt::Write as _;
 use std::path::Path;
@@ -66,11 +66,8 @@ pub fn replay(log: &Path, with_qemu: bool) -> Result<String, String> {
         .iter()
         .map(|s| s.cast::<f32>())
         .collect();
-    let mut p = onboard::pipeline::<f32>().map_err(|e| format!("on-board configuration: {e:?}"))?;
-    for s in &samples {
-        p.process(s);
-    }
-    let host = reports(&p);
+    let emu = qemu::emulate(&qemu::Scenario::clean(&samples)).map_err(|e| e.to_string())?;
+    let host = emu.reports;
     let mut out = String::new();
     let _ = writeln!(
         out,
@@ -79,7 +76,7 @@ pub fn replay(log: &Path, with_qemu: bool) -> Result<String, String> {
         samples.len()
     );
     report_table(&host, &mut out);
-    let h = p.health();
+    let h = &emu.pipeline_health;
     let _ = writeln!(
         out,
         "\nhealth: {} samples; invalid channels per bit {:?}; axial-speed fallbacks {}",

@@ -45,16 +45,20 @@ pub trait Decode: MavMessage + Sized {
     fn decode_payload(payload: &Payload) -> Self;
 }
 
+// The byte copies below zip the two slices instead of `copy_from_slice`: the lengths agree by
+// construction, but the compiler cannot always see it and would keep the length check's panic
+// path in the firmware (README "Reliability": no reachable panic).
+
 fn put(payload: &mut [u8], at: usize, bytes: &[u8]) {
     if let Some(dst) = payload.get_mut(at..at + bytes.len()) {
-        dst.copy_from_slice(bytes);
+        dst.iter_mut().zip(bytes).for_each(|(d, s)| *d = *s);
     }
 }
 
 fn get<const N: usize>(payload: &[u8], at: usize) -> [u8; N] {
     let mut out = [0; N];
     if let Some(src) = payload.get(at..at + N) {
-        out.copy_from_slice(src);
+        out.iter_mut().zip(src).for_each(|(d, s)| *d = *s);
     }
     out
 }
@@ -88,7 +92,10 @@ fn get_u8(p: &[u8], at: usize) -> u8 {
 pub fn name10(name: &str) -> Option<[u8; 10]> {
     let bytes = name.as_bytes();
     let mut out = [0u8; 10];
-    out.get_mut(..bytes.len())?.copy_from_slice(bytes);
+    out.get_mut(..bytes.len())?
+        .iter_mut()
+        .zip(bytes)
+        .for_each(|(d, s)| *d = *s);
     Some(out)
 }
 

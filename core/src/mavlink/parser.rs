@@ -210,8 +210,7 @@ impl Parser {
     /// Moves the queued bytes to start at `at`.
     fn compact(&mut self, at: usize) {
         let n = self.q_end - self.q_start;
-        if at + n <= QUEUE_LEN {
-            self.queue.copy_within(self.q_start..self.q_end, at);
+        if at + n <= QUEUE_LEN && copy_within(&mut self.queue, self.q_start, self.q_end, at) {
             self.q_start = at;
             self.q_end = at + n;
         }
@@ -229,7 +228,7 @@ impl Parser {
                 self.queue.get_mut(start..self.q_start),
                 self.frame.get(bytes_from..bytes_to),
             ) {
-                dst.copy_from_slice(src);
+                copy(dst, src);
                 self.q_start = start;
                 return;
             }
@@ -347,13 +346,13 @@ impl Parser {
         }
         let mut payload: Payload = [0; MAX_PAYLOAD_LEN];
         if let (Some(dst), Some(src)) = (payload.get_mut(..payload_len), self.frame.get(header_len..body_end)) {
-            dst.copy_from_slice(src);
+            copy(dst, src);
         }
         self.frame_len = 0;
         if signature > 0 {
             // Keep the signature until the next byte shows it was one (module doc).
             let sig_start = body_end + CHECKSUM_LEN;
-            self.frame.copy_within(sig_start..sig_start + SIGNATURE_LEN, 0);
+            copy_within(&mut self.frame, sig_start, sig_start + SIGNATURE_LEN, 0);
             self.frame_len = SIGNATURE_LEN;
             self.pending = Pending::Signature;
         }
@@ -391,4 +390,38 @@ impl Parser {
             }
         }
     }
+}
+
+/// `dst.copy_from_slice(src)` for slices the caller made the same length, without the length
+/// check's panic path (the compiler cannot always see that the lengths agree; the release firmware
+/// is shown to have no reachable panic, README "Reliability").
+fn copy(dst: &mut [u8], src: &[u8]) {
+    for (d, s) in dst.iter_mut().zip(src) {
+        *d = *s;
+    }
+}
+
+/// `buf.copy_within(from..to, at)`, or nothing (`false`) if a range is out of bounds. Byte by byte
+/// through `get` (forwards or backwards, as the overlap needs), so there is no panic path: the
+/// compiler keeps `copy_within`'s own bounds assertion even behind the same checks.
+fn copy_within(buf: &mut [u8], from: usize, to: usize, at: usize) -> bool {
+    let Some(n) = to.checked_sub(from) else {
+        return false;
+    };
+    if to > buf.len() || at > buf.len() - n {
+        return false;
+    }
+    let mut move_one = |i: usize| {
+        if let Some(v) = buf.get(from + i).copied() {
+            if let Some(d) = buf.get_mut(at + i) {
+                *d = v;
+            }
+        }
+    };
+    if at <= from {
+        (0..n).for_each(&mut move_one);
+    } else {
+        (0..n).rev().for_each(&mut move_one);
+    }
+    true
 }

@@ -92,13 +92,13 @@ pub struct Fault {
 
 impl Fault {
     fn parse(b: &[u8; FAULT_RECORD_BYTES]) -> Self {
-        let u32_at = |i: usize| u32::from_le_bytes([b[i], b[i + 1], b[i + 2], b[i + 3]]);
+        let [f0, f1, f2, f3, c0, c1, c2, c3, kind, target, _, _, p0, p1, p2, p3] = *b;
         Self {
-            first: u32_at(0),
-            count: u32_at(4),
-            kind: b[8],
-            target: b[9],
-            param: [b[12], b[13], b[14], b[15]],
+            first: u32::from_le_bytes([f0, f1, f2, f3]),
+            count: u32::from_le_bytes([c0, c1, c2, c3]),
+            kind,
+            target,
+            param: [p0, p1, p2, p3],
             hold: [0.0; 3],
         }
     }
@@ -425,7 +425,7 @@ impl CountLog {
                 chunk.copy_from_slice(&c.to_le_bytes());
             }
             let n = (4 * counts.len()).min(buf.len());
-            if f.write_all(&buf[..n]).is_err() {
+            if f.write_all(buf.get(..n).unwrap_or(&[])).is_err() {
                 self.file = None;
             }
         }

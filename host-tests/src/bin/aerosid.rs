@@ -17,6 +17,10 @@
 //! analysis (issue 6, [`aerosid_host::gaps::run_gaps`]) of a simulated flight with one hidden
 //! effect, or none; table on the terminal, `report.json`, `report.txt` and SVG figures in `DIR`.
 //!
+//! `aerosid panic-audit ELF ALLOW`: every panic path left in a firmware image, checked against the
+//! allow-list `ALLOW` ([`aerosid_host::panic_audit`]; CI runs it on the release firmware with
+//! `firmware/panic-allow.txt`).
+//!
 //! `aerosid demo [--seed N] [--seconds S]`: identifies a pitching-moment model
 //! `C_m = C_m0 + C_mα α + C_mq q_n + C_mδe δe` (seed 000, eq. 3e; values of the `skywalker_2013_mod`
 //! airframe) from generated 100 Hz data with realistic sensor noise on *every* regressor, running
@@ -56,6 +60,10 @@ enum Command {
     },
     Table1 {
         out: std::path::PathBuf,
+    },
+    PanicAudit {
+        elf: std::path::PathBuf,
+        allow: std::path::PathBuf,
     },
     LongRun {
         hours: f64,
@@ -112,6 +120,14 @@ fn parse() -> Result<Option<Command>, String> {
             }
             let out = out.ok_or("simulate needs --out LOG.csv")?;
             return Ok(Some(Command::Simulate { out, seconds, seed }));
+        }
+        Some("panic-audit") => {
+            let elf = it.next().ok_or("panic-audit needs the firmware ELF")?;
+            let allow = it.next().ok_or("panic-audit needs the allow-list file")?;
+            return Ok(Some(Command::PanicAudit {
+                elf: elf.into(),
+                allow: allow.into(),
+            }));
         }
         Some("long-run") => {
             let (mut hours, mut seed) = (10.0, 1u64);
@@ -466,6 +482,29 @@ fn main() -> ExitCode {
                 }
             }
         }
+        Ok(Some(Command::PanicAudit { elf, allow })) => match aerosid_host::panic_audit::audit_elf(&elf, &allow) {
+            Ok(a) => {
+                print!("{}", a.report());
+                if a.uncovered().is_empty() {
+                    println!(
+                        "panic audit: every panic path is on the allow-list ({})",
+                        allow.display()
+                    );
+                    ExitCode::SUCCESS
+                } else {
+                    eprintln!(
+                        "aerosid panic-audit: {} new panic path(s) in {}",
+                        a.uncovered().len(),
+                        elf.display()
+                    );
+                    ExitCode::FAILURE
+                }
+            }
+            Err(e) => {
+                eprintln!("aerosid panic-audit: {e}");
+                ExitCode::FAILURE
+            }
+        },
         Ok(Some(Command::LongRun { hours, seed })) => {
             let cfg = aerosid_host::longrun::LongRunConfig::hours(hours, seed);
             let start = std::time::Instant::now();
@@ -550,6 +589,7 @@ fn main() -> ExitCode {
             println!("       aerosid gaps --data FILE --with MAP_OR_AIRCRAFT [--out DIR]");
             println!("       aerosid gaps --simulate KIND | --clean [--seed N] [--seconds S] [--out DIR]");
             println!("       aerosid long-run [--hours H] [--seed N]");
+            println!("       aerosid panic-audit ELF ALLOW");
             println!("       aerosid demo [--seed N] [--seconds S]\n");
             println!("  run    simulate a flight of the default airframe, identify the six coefficients with the");
             println!("         on-board f32 pipeline, print the model beside the truth and RLS, write the figures");
@@ -570,6 +610,8 @@ fn main() -> ExitCode {
             println!("         flights with the paper's and the designed input through the paper's method, ours");
             println!("         (recursive and batch) and equation-error PCA-GTLS, beside Table 1; the parameter");
             println!("         histories ±σ of one flight per input (SVG)");
+            println!("  panic-audit ELF ALLOW  every panic path left in a firmware image against the allow-list");
+            println!("         (issue 7 §5; `firmware/panic-allow.txt`, README \"Reliability\")");
             println!("  long-run  H hours (default 10) of simulated flight through the on-board f32 pipeline:");
             println!("         excitation, calm cruise, two parameter jumps; prints the worst orthonormality, λ_F,");
             println!("         k, N_eff, refusals per coefficient and how each jump was tracked (issue 7)");

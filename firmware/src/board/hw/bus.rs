@@ -281,7 +281,10 @@ where
                 .iter()
                 .take_while(|op| matches!(op, Operation::Read(_)) == reading)
                 .count();
-            let (run, tail) = core::mem::take(&mut rest).split_at_mut(len);
+            // `len ≤ rest.len()` (a count of `rest`'s elements); the checked split has no panic path.
+            let Some((run, tail)) = core::mem::take(&mut rest).split_at_mut_checked(len) else {
+                return Err(I2cError::Bus);
+            };
             rest = tail;
             let end = if rest.is_empty() { End::Stop } else { End::Restart };
             self.start(address, reading)?;
