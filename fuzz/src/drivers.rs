@@ -476,7 +476,7 @@ fn icm_read_oracle<E: core::fmt::Debug>(
         assert!(matches!(r, Err(E::InvalidData)), "invalid marker: {r:?}");
         return;
     }
-    if a.iter().chain(g.iter()).any(|x| *x == i16::MIN || x.abs() >= 32767) {
+    if a.iter().chain(g.iter()).any(|x| *x == i16::MIN || x.abs() == i16::MAX) {
         c.saturated += 1;
         assert!(matches!(r, Err(E::Saturated)), "full scale: {r:?}");
         return;
@@ -485,18 +485,18 @@ fn icm_read_oracle<E: core::fmt::Debug>(
         panic!("a good burst refused: {r:?}");
     };
     c.ok += 1;
-    let g_fs = [2000.0, 1000.0, 500.0, 250.0][cfg.gyro_range as usize];
+    let g_fs: f64 = [2000.0, 1000.0, 500.0, 250.0][cfg.gyro_range as usize];
     let a_fs = [16.0, 8.0, 4.0, 2.0][cfg.accel_range as usize];
     let av = a.map(|x| f64::from(x) * a_fs * 9.80665 / 32768.0);
-    let gv = g.map(|x| f64::from(x) * (g_fs as f64).to_radians() / 32768.0);
+    let gv = g.map(|x| f64::from(x) * g_fs.to_radians() / 32768.0);
     let map = cfg.axis_map.body_axes();
-    for i in 0..3 {
+    for (i, &m) in map.iter().enumerate() {
         assert!(
-            close(reading.accel_mps2[i], axis(map[i], &av)),
+            close(reading.accel_mps2[i], axis(m, &av)),
             "accel {i}: {reading:?} vs {av:?}"
         );
         assert!(
-            close(reading.gyro_rad_s[i], axis(map[i], &gv)),
+            close(reading.gyro_rad_s[i], axis(m, &gv)),
             "gyro {i}: {reading:?} vs {gv:?}"
         );
     }

@@ -70,7 +70,7 @@ fn largest<T: Real>() -> T {
     // The largest finite value of T: 2^(emax) · (2 − ε).
     let mut x = T::one();
     while (x * T::lit(2.0)).finite() {
-        x = x * T::lit(2.0);
+        x *= T::lit(2.0);
     }
     x * (T::lit(2.0) - T::EPS)
 }

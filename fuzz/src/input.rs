@@ -173,8 +173,9 @@ pub fn above<T: Real>(x: T) -> T {
     }
     let mut step = (x * T::EPS).maxr(T::MIN_POSITIVE);
     // `x + ε·x` may round back to `x` for values just below a power of two: double until it moves.
+    #[allow(clippy::neg_cmp_op_on_partial_ord)] // `!(a > b)`: also true for a NaN, on purpose
     while !(x + step > x) {
-        step = step * T::lit(2.0);
+        step *= T::lit(2.0);
     }
     x + step
 }

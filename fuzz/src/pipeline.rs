@@ -14,10 +14,10 @@
 //!
 //! ## Invariants (every sample)
 //! * A coefficient refused for any reason (warm-up, channels, its estimator) has its estimator
-//!   equal (`==`, which also fails on any NaN) to before the sample, and bit-identical
-//!   ([`crate::snapshot`], which also tells `-0.0` from `0.0`) on every 8th sample (the full text
-//!   comparison of six estimators per sample would cost most of the run); an estimator refusal is only ever
-//!   `NumericalFault` (the channel checks must keep NaN, ±∞ and out-of-range values from it).
+//!   bit-identical to before the sample, on every sample ([`crate::snapshot`], which also tells
+//!   `-0.0` from `0.0`; measured: 16 % of the run time over the saved corpus, against comparing only
+//!   every 8th sample); an estimator refusal is only ever `NumericalFault` (the channel checks must
+//!   keep NaN, ±∞ and out-of-range values from it).
 //! * An updated coefficient's estimator passes [`crate::gtls::check_estimator`].
 //! * A synthesis, when there is one, is finite; the whole pipeline state (delay line,
 //!   differentiator, six estimators, counters) is finite (checked every 32 samples and at the end).
@@ -184,12 +184,12 @@ fn fuzz<T: Real + Debug>(mut p: Pipeline<T>, inp: &mut Input<'_>) {
                 let mut s = sig.next::<T>();
                 match inp.u8() % 6 {
                     0 => s.dt_s = T::zero(),
-                    1 => s.dt_s = s.dt_s * T::lit(2.0),
+                    1 => s.dt_s *= T::lit(2.0),
                     2 => s.dt_s = -s.dt_s,
                     3 => s.dt_s = T::lit(f64::NAN),
                     4 => s.dt_s = T::lit(1e6),
                     _ => {
-                        s.t_s = s.t_s - T::lit(f64::from(inp.u8()));
+                        s.t_s -= T::lit(f64::from(inp.u8()));
                     }
                 }
                 last = s;
@@ -200,14 +200,8 @@ fn fuzz<T: Real + Debug>(mut p: Pipeline<T>, inp: &mut Input<'_>) {
     assert_state_finite("pipeline at the end", &p);
 }
 
-fn unchanged<E: Debug + PartialEq>(before: &E, after: &E, bits: bool) {
-    assert!(
-        before == after,
-        "refused sample changed the estimator:\nbefore {before:?}\nafter  {after:?}"
-    );
-    if bits {
-        assert_unchanged(before, after);
-    }
+fn unchanged<E: Debug>(before: &E, after: &E) {
+    assert_unchanged(before, after);
 }
 
 fn step<T: Real + Debug>(p: &mut Pipeline<T>, s: &SensorSample<T>, lambda: LambdaRange<T>, c: &mut Counts) {
@@ -243,16 +237,14 @@ fn step<T: Real + Debug>(p: &mut Pipeline<T>, s: &SensorSample<T>, lambda: Lambd
                         "coefficient {i}: the estimator saw a bad input: {s:?}"
                     );
                 }
-                // `==` on every refusal (it fails on any changed field, and on a NaN); the whole
-                // bit pattern (`Debug` text: also the sign of zero) on every 8th sample.
-                let bits = c.samples % 8 == 0;
+                // The whole bit pattern (`Debug` text: every field, also the sign of zero).
                 match i {
-                    idx::LIFT => unchanged(before.lift(), p.lift(), bits),
-                    idx::DRAG => unchanged(before.drag(), p.drag(), bits),
-                    idx::SIDE => unchanged(before.side(), p.side(), bits),
-                    idx::ROLL => unchanged(before.roll(), p.roll(), bits),
-                    idx::PITCH => unchanged(before.pitch(), p.pitch(), bits),
-                    _ => unchanged(before.yaw(), p.yaw(), bits),
+                    idx::LIFT => unchanged(before.lift(), p.lift()),
+                    idx::DRAG => unchanged(before.drag(), p.drag()),
+                    idx::SIDE => unchanged(before.side(), p.side()),
+                    idx::ROLL => unchanged(before.roll(), p.roll()),
+                    idx::PITCH => unchanged(before.pitch(), p.pitch()),
+                    _ => unchanged(before.yaw(), p.yaw()),
                 }
             }
         }
@@ -267,7 +259,7 @@ fn step<T: Real + Debug>(p: &mut Pipeline<T>, s: &SensorSample<T>, lambda: Lambd
         assert_eq!(sum, c.samples, "coefficient {i}: counters {ch:?} do not add up");
         assert_eq!(u64::from(ch.updates), c.updates[i], "coefficient {i}: updates");
     }
-    if c.samples % 32 == 0 {
+    if c.samples.is_multiple_of(32) {
         assert_state_finite("pipeline", p);
     }
 }
