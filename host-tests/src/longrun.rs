@@ -128,7 +128,7 @@ pub struct CoefficientExtremes {
     pub max_n_eff: f64,
     /// Largest `σ_1`.
     pub max_sigma1: f64,
-    /// Largest `|θ_i|`.
+    /// Largest `|θ_i|` after the first 60 s (the first seconds of an estimator are its transient).
     pub max_abs_theta: f64,
     /// Accepted updates.
     pub updates: u32,
@@ -406,7 +406,9 @@ pub fn run(cfg: &LongRunConfig, mut progress: impl FnMut(f64)) -> Result<LongRun
             e.k.1 = e.k.1.max(w.k);
             e.max_n_eff = e.max_n_eff.max(w.n_eff);
             e.max_sigma1 = e.max_sigma1.max(w.sigma1);
-            e.max_abs_theta = w.theta.iter().fold(e.max_abs_theta, |a, x| a.max(x.abs()));
+            if t >= 60.0 {
+                e.max_abs_theta = w.theta.iter().fold(e.max_abs_theta, |a, x| a.max(x.abs()));
+            }
             e.reorthonormalisations = w.reorth;
             if w.lambda <= floor {
                 e.at_floor += 1;
