@@ -20,43 +20,26 @@
 //!   attitude finite.
 
 use crate::input::Input;
+use aerosid_core::aero::onboard;
 use aerosid_core::mavlink::crc::{accumulate, accumulate_slice, CRC_INIT};
 use aerosid_core::mavlink::messages::{spec, Message, Payload};
-use aerosid_core::mavlink::surfaces::{RpmSource, ServoCalibration, ThrottleCalibration};
+use aerosid_core::mavlink::surfaces::{RpmSource, ServoCalibration};
 use aerosid_core::mavlink::{Frame, MavlinkSurfaces, Parser, SurfaceConfig, SurfaceSource};
 
-/// The firmware's autopilot link settings (`firmware/src/board/hw.rs`, `AUTOPILOT`), with the system
-/// id and the RPM source chosen by the input.
+/// The firmware's autopilot link settings ([`onboard::AUTOPILOT_LINK`]), with the system id and the
+/// RPM source chosen by the input, and a second aileron (so the averaging path is covered too).
 pub fn config(any_system: bool, esc: bool) -> SurfaceConfig {
-    let servo = |channel, rad_per_us| ServoCalibration {
-        channel,
-        pwm_neutral_us: 1500.0,
-        rad_per_us,
-        limits_rad: (-0.44, 0.44),
-    };
-    SurfaceConfig {
-        source_system_id: if any_system { 0 } else { 1 },
-        port: 0,
-        elevator: servo(1, 0.000_873),
-        aileron: servo(0, 0.000_873),
-        aileron_2: Some(servo(4, -0.000_873)),
-        rudder: servo(3, 0.000_873),
-        throttle: ThrottleCalibration {
-            channel: 2,
-            pwm_idle_us: 1100,
-            pwm_full_us: 1900,
-        },
-        pwm_valid_us: [800, 2200],
-        servo_timeout_us: 100_000,
-        rpm: if esc {
-            RpmSource::EscStatus { esc: 1 }
-        } else {
-            RpmSource::ArduPilotRpm { sensor: 0 }
-        },
-        rpm_scale: 1.0,
-        rpm_timeout_us: 500_000,
-        attitude_timeout_us: 100_000,
+    let mut c = onboard::AUTOPILOT_LINK;
+    c.source_system_id = if any_system { 0 } else { c.source_system_id };
+    c.aileron_2 = Some(ServoCalibration {
+        channel: 4,
+        rad_per_us: -c.aileron.rad_per_us,
+        ..c.aileron
+    });
+    if esc {
+        c.rpm = RpmSource::EscStatus { esc: 1 };
     }
+    c
 }
 
 /// Every CRC-valid frame of a known id in `bytes`, at any offset, as `Debug` text of

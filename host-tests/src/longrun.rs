@@ -130,6 +130,9 @@ pub struct CoefficientExtremes {
     pub max_sigma1: f64,
     /// Largest `|θ_i|` after the first 60 s (the first seconds of an estimator are its transient).
     pub max_abs_theta: f64,
+    /// When it was reached: time, s, the parameter's index, `k` at that sample, and the `σ` the
+    /// telemetry reported for that parameter then (NaN where it reports none).
+    pub max_abs_theta_at: (f64, usize, u8, f64),
     /// Accepted updates.
     pub updates: u32,
     /// Re-orthonormalisations of `V`.
@@ -153,6 +156,7 @@ impl Default for CoefficientExtremes {
             max_n_eff: 0.0,
             max_sigma1: 0.0,
             max_abs_theta: 0.0,
+            max_abs_theta_at: (0.0, 0, 0, f64::NAN),
             updates: 0,
             reorthonormalisations: 0,
             refused_estimator: 0,
@@ -407,7 +411,14 @@ pub fn run(cfg: &LongRunConfig, mut progress: impl FnMut(f64)) -> Result<LongRun
             e.max_n_eff = e.max_n_eff.max(w.n_eff);
             e.max_sigma1 = e.max_sigma1.max(w.sigma1);
             if t >= 60.0 {
-                e.max_abs_theta = w.theta.iter().fold(e.max_abs_theta, |a, x| a.max(x.abs()));
+                for (p, x) in w.theta.iter().enumerate() {
+                    if x.abs() > e.max_abs_theta {
+                        // What the telemetry would have said of it (rare: only at a new maximum).
+                        let sigma = aerosid_core::mavlink::telemetry::reports(&pipeline)[i].sigma[p];
+                        e.max_abs_theta = x.abs();
+                        e.max_abs_theta_at = (t, p, w.k, f64::from(sigma));
+                    }
+                }
             }
             e.reorthonormalisations = w.reorth;
             if w.lambda <= floor {
@@ -524,6 +535,14 @@ pub fn format_report(r: &LongRunReport, wall_s: f64) -> String {
         s,
         "worst orthonormality error of any estimator: {worst:.2e} (bound 1e-5)"
     );
+    for (i, e) in r.coefficients.iter().enumerate() {
+        let (t, p, k, sigma) = e.max_abs_theta_at;
+        let _ = writeln!(
+            s,
+            "largest |θ| of {} after the first minute: {:.3} (parameter {p}) at {t:.2} s, k = {k}, reported σ {sigma:.3}",
+            names[i], e.max_abs_theta
+        );
+    }
     let _ = writeln!(s, "\njump  param        truth before → after    estimate before   settled within ¼ of the jump   estimate at phase end");
     for t in &r.tracking {
         let _ = writeln!(
