@@ -544,11 +544,19 @@ pub fn steady_update<T: Real, const M: usize>(
     if !ok {
         return None;
     }
-    // Pole differences pd[k][j] = δ_j − δ_k (exactly antisymmetric) and their reciprocals (k ≠ j),
-    // built element by element (no zero-fill of the tables first).
-    let pd: [[T; M]; M] = core::array::from_fn(|k| core::array::from_fn(|j| d[j] - d[k]));
-    let rp: [[T; M]; M] =
-        core::array::from_fn(|k| core::array::from_fn(|j| if j == k { T::zero() } else { T::one() / pd[k][j] }));
+    // Pole differences pd[k][j] = δ_j − δ_k (exactly antisymmetric) and their reciprocals (k ≠ j).
+    let mut pd = [[T::zero(); M]; M];
+    let mut rp = [[T::zero(); M]; M];
+    for k in 0..M {
+        for j in (k + 1)..M {
+            let t = d[j] - d[k];
+            let r = T::one() / t;
+            pd[k][j] = t;
+            pd[j][k] = -t;
+            rp[k][j] = r;
+            rp[j][k] = -r;
+        }
+    }
     // First-order denominators 1 + A_k, A_k = Σ_{j≠k} z_j²/(δ_j − δ_k): the root near pole k lies
     // above it at ≈ z_k²/(1 + A_k) if 1 + A_k > 0, below it if 1 + A_k < 0.
     let den: [T; M] = core::array::from_fn(|k| {
@@ -647,10 +655,13 @@ pub fn steady_update<T: Real, const M: usize>(
         origin[r] = kq;
     }
     // diff[r][j] = δ_j − μ_r (never 0: τ_r is strictly between its origin pole and the midpoint).
-    let diff: [[T; M]; M] = core::array::from_fn(|r| {
+    let mut diff = [[T::zero(); M]; M];
+    for r in 0..M {
         let dk = &pd[origin[r]];
-        core::array::from_fn(|j| dk[j] - tau[r])
-    });
+        for j in 0..M {
+            diff[r][j] = dk[j] - tau[r];
+        }
+    }
     // Gu–Eisenstat: ẑ_j² = Π_i (μ_i − δ_j) / Π_{i≠j} (δ_i − δ_j), every factor pair positive.
     let mut zhat = [T::zero(); M];
     for j in 0..M {
