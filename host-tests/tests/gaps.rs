@@ -60,7 +60,6 @@ fn case(effect: Option<HiddenEffect>, seed: u64) -> Outcome {
 }
 
 #[test]
-#[ignore = "open: measured 38/40 named correctly (95.0 %) but 18/20 clean flights quiet (90.0 %, below 95 %): a weak spurious ΔV/V in C_L (t² 21–22 against the threshold 19.1) remains; ~70 s on 2 cores"]
 fn the_analysis_names_the_hidden_effect_and_nothing_on_clean_flights() {
     // GIVEN 40 hidden effects drawn by a seeded generator from 8 kinds, and 20 clean flights
     let mut rng = ChaCha8Rng::seed_from_u64(0x6a95);
@@ -141,12 +140,11 @@ fn each_kind_of_hidden_effect_is_named_in_its_place() {
         .enumerate()
         .map(|(i, e)| case(Some(*e), 300 + i as u64))
         .collect();
-    // THEN each is named as the top cause, kind and place — all but at most one: the rate
-    // is 95 %, and with p = 0.95 per flight P(≥ 2 misses in 8) = 5.7 %, P(≥ 3) = 0.4 %; measured with
-    // these draws: 7/8 (the lift quadratic −4.95 is named as α·q_n in C_L, t² 33)
+    // THEN each is named as the top cause, kind and place — every one: a kind that is never named
+    // could hide inside the 5 % the campaign allows, so each kind is required on its own flight
     for o in &out {
         println!("{}", o.detail);
     }
     let missed: Vec<&String> = out.iter().filter(|o| !o.correct).map(|o| &o.detail).collect();
-    assert!(missed.len() <= 1, "missed: {missed:?}");
+    assert!(missed.is_empty(), "missed: {missed:?}");
 }

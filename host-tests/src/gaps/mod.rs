@@ -37,6 +37,7 @@
 pub mod compat;
 pub mod hidden;
 pub mod model;
+pub mod noise;
 pub mod regress;
 pub mod report;
 pub mod signal;
@@ -44,7 +45,8 @@ pub mod signal;
 use crate::io::measured::MeasuredFlight;
 use compat::{CompatSettings, Compatibility, SensorParam};
 use model::{CauseKind, Corrections, Signal, Table, Term, TermRefs, COEFFICIENTS};
-use regress::{metrics, ols, partial_test, predict, Metrics};
+use noise::{ColumnErrors, MonteCarlo};
+use regress::{corrected_ls, gtls_fit, metrics, ols, predict, EivModel, Metrics};
 
 /// Settings of the analysis. `Default` is what the tests and the command use.
 #[derive(Debug, Clone, PartialEq)]
@@ -57,8 +59,12 @@ pub struct GapSettings {
     /// Savitzky–Golay half-width for smoothing, s. Default 0.1 (M = 10 at 100 Hz).
     pub smoothing_half_width_s: f64,
     /// Largest lag of the residual autocorrelation in the coloured-residual covariance, s.
-    /// Default 2.5: half the compatibility check's segment, because the reconstructed flow angles
-    /// carry errors that are constant over a segment (initial-state error) and the σ must see them.
+    /// Default [`compat::SEGMENT_S`] (5 s): the reconstructed states carry an initial-state error
+    /// that is constant over a whole segment of the flight-path reconstruction, plus the random
+    /// walk of the integrated inertial noise, so the residuals of both the compatibility check and
+    /// the coefficient fits are correlated over a segment's length. (With 2.5 s the σ of a
+    /// gyro or accelerometer bias was understated: clean flights reached `t²` 16–20 for
+    /// `bias(YawRate)`, `bias(AccelY)`; with 5 s at most 15.9 over the 60 campaign flights.)
     pub max_lag_s: f64,
     /// Most terms added per coefficient. Default 2.
     pub max_added: usize,
@@ -69,6 +75,9 @@ pub struct GapSettings {
     /// Use the compatibility check's reconstructed airspeed and flow angles in the synthesis and
     /// regressors ([`model::synthesise`]). Default true; switch off in turbulence.
     pub reconstructed_air_data: bool,
+    /// The errors-in-variables model of the fits ([`noise`]): `Some` (default) — PCA-GTLS with
+    /// `W_T` from the Monte Carlo; `None` — every column exact (ordinary least squares).
+    pub errors_in_variables: Option<MonteCarlo>,
 }
 
 impl Default for GapSettings {
@@ -77,11 +86,12 @@ impl Default for GapSettings {
             identification_fraction: 0.6,
             alpha: 0.001,
             smoothing_half_width_s: 0.1,
-            max_lag_s: 2.5,
+            max_lag_s: compat::SEGMENT_S,
             max_added: 2,
             baseline: None,
             compatibility: true,
             reconstructed_air_data: true,
+            errors_in_variables: Some(MonteCarlo::default()),
         }
     }
 }
@@ -161,15 +171,29 @@ pub struct CandidateScore {
 pub struct Parameter {
     /// The term.
     pub term: String,
-    /// Estimate.
+    /// Estimate (PCA-GTLS).
     pub value: f64,
-    /// Standard error (coloured residuals).
+    /// Standard error for coloured residuals (the GTLS sandwich, [`regress::gtls`]).
     pub sigma: f64,
+    /// The estimator's own standard error, eq. 17 (white residuals); NaN when eq. 17 does not
+    /// apply.
+    pub sigma_eq17: f64,
+    /// Whether the column was treated as exact (no error in `W_T`).
+    pub exact: bool,
+    /// Ordinary least squares on the same columns (the cross-check).
+    pub ols_value: f64,
 }
 
 /// A model fitted to one coefficient.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct ModelFit {
+    /// The estimator: `"PCA-GTLS"` (the core's [`aerosid_core::gtls::Gtls`]), or `"OLS"` when
+    /// every column is exact or the errors-in-variables model is switched off.
+    pub estimator: String,
+    /// How the estimator ended (eq. 21): `"Tls"` when every direction is excited.
+    pub solution: String,
+    /// The output entry of `W_T` ([`regress::corrected_ls`]).
+    pub sigma_z2: f64,
     /// Parameters.
     pub parameters: Vec<Parameter>,
     /// Metrics on the identification segment.
@@ -430,6 +454,38 @@ pub fn run_gaps(flight: &MeasuredFlight, settings: &GapSettings) -> Result<GapRe
         airspeed_mps: id_mean(Signal::Airspeed).unwrap_or(1.0).max(1.0),
         mach: id_mean(Signal::Mach).unwrap_or(0.0),
     };
+    // The errors-in-variables model of every column the analysis may fit.
+    let baselines: [Vec<Term>; 6] = core::array::from_fn(baseline_of);
+    let all_terms: [Vec<Term>; 6] = core::array::from_fn(|i| {
+        let mut v = baselines[i].clone();
+        for t in Term::library(i) {
+            if !v.contains(&t) {
+                v.push(t);
+            }
+        }
+        v
+    });
+    let errors: [Option<ColumnErrors>; 6] = match &settings.errors_in_variables {
+        Some(mc) => {
+            let syn = noise::Synthesis {
+                flight,
+                h_s: h,
+                corrections: &corr,
+                sg_half,
+                compat: air.map(|_| &compatibility),
+                refs: &refs,
+                n_id,
+            };
+            noise::column_errors(&syn, &table, &all_terms, mc)
+        }
+        None => Default::default(),
+    };
+    if settings.errors_in_variables.is_some() {
+        notes.push(format!(
+            "fits by PCA-GTLS (aerosid_core::gtls::Gtls) with W_T from a {}-replica Monte Carlo of the sensors' white noise",
+            settings.errors_in_variables.map_or(0, |m| m.replicas)
+        ));
+    }
     let mut coefficients = Vec::new();
     for i in 0..6 {
         let Some(zc) = &table.z[i] else { continue };
@@ -438,11 +494,12 @@ pub fn run_gaps(flight: &MeasuredFlight, settings: &GapSettings) -> Result<GapRe
             zc,
             &table,
             &refs,
-            &baseline_of(i),
+            &baselines[i],
             n_id,
             threshold_t2,
             max_lag,
             settings,
+            errors[i].as_ref(),
         ) {
             coefficients.push(g);
         }
@@ -473,7 +530,18 @@ pub fn run_gaps(flight: &MeasuredFlight, settings: &GapSettings) -> Result<GapRe
             })
         })
         .collect();
-    aero.sort_by(|a, b| b.t2.total_cmp(&a.t2));
+    // Each list by the partial t² of the cause in the final joint fit (the entry order depends on
+    // the path of the selection).
+    let final_t2 = |c: &NamedCause| {
+        let t = (c.value / c.sigma).powi(2);
+        if t.is_finite() {
+            t
+        } else {
+            -1.0
+        }
+    };
+    named.sort_by(|a, b| final_t2(b).total_cmp(&final_t2(a)));
+    aero.sort_by(|a, b| final_t2(b).total_cmp(&final_t2(a)));
     named.extend(aero);
     let t = &flight.t_s;
     Ok(GapReport {
@@ -512,6 +580,11 @@ fn compat_candidate_count(flight: &MeasuredFlight) -> usize {
     c
 }
 
+/// Candidates scored above the threshold by the closed form are confirmed by the estimator, best
+/// first, at most this many per round (the closed form and the estimator agree to rounding, so the
+/// first is normally confirmed).
+const CONFIRM_PER_ROUND: usize = 3;
+
 #[allow(clippy::too_many_arguments)]
 fn analyse_coefficient(
     i: usize,
@@ -523,6 +596,7 @@ fn analyse_coefficient(
     threshold_t2: f64,
     max_lag: usize,
     settings: &GapSettings,
+    errors: Option<&ColumnErrors>,
 ) -> Option<CoefficientGap> {
     let n = zc.len();
     let mut dropped = Vec::new();
@@ -537,22 +611,32 @@ fn analyse_coefficient(
             None => dropped.push(t.name().to_string()),
         }
     }
+    let eiv_of = |terms: &[Term]| errors.map_or_else(|| EivModel::exact(terms.len()), |e| e.eiv(terms));
     let id = |c: &Vec<f64>| c[..n_id].to_vec();
     let z_id = &zc[..n_id];
     let z_val = &zc[n_id..];
-    let fit_model = |cols_full: &[Vec<f64>], terms: &[Term]| -> Option<(ModelFit, Vec<f64>, regress::Fit)> {
+    let fit_model = |cols_full: &[Vec<f64>], terms: &[Term]| -> Option<(ModelFit, Vec<f64>, regress::GtlsFit)> {
         let cols: Vec<Vec<f64>> = cols_full.iter().map(id).collect();
-        let f = ols(&cols, z_id, n_id, max_lag)?;
+        let eiv = eiv_of(terms);
+        let f = gtls_fit(&cols, z_id, &eiv, n_id, max_lag, None)?;
+        let o = ols(&cols, z_id, n_id, 0)?;
         let pred = predict(cols_full, &f.theta);
         let p = terms.len();
+        let all_exact = eiv.exact.iter().all(|e| *e);
         let mf = ModelFit {
+            estimator: if all_exact { "OLS" } else { "PCA-GTLS" }.into(),
+            solution: format!("{:?}", f.solution),
+            sigma_z2: f.sigma_z2,
             parameters: terms
                 .iter()
-                .zip(f.theta.iter().zip(&f.sigma))
-                .map(|(t, (v, s))| Parameter {
+                .enumerate()
+                .map(|(k, t)| Parameter {
                     term: t.name().into(),
-                    value: *v,
-                    sigma: *s,
+                    value: f.theta[k],
+                    sigma: f.sigma[k],
+                    sigma_eq17: f.sigma_eq17[k],
+                    exact: eiv.exact[k],
+                    ols_value: o.theta[k],
                 })
                 .collect(),
             identification: metrics(z_id, &pred[..n_id], p),
@@ -569,37 +653,89 @@ fn analyse_coefficient(
         .collect();
     let mut candidates = Vec::new();
     let mut added: Vec<(Term, f64)> = Vec::new();
+    // Terms that entered once (they are not offered again, whether or not they were removed).
+    let mut entered_once: Vec<Term> = Vec::new();
     for round in 0..settings.max_added {
         let cols: Vec<Vec<f64>> = cols_full.iter().map(id).collect();
-        let mut best: Option<(Term, f64, f64)> = None;
+        // Score every candidate by the closed form of the GTLS solution (regress::corrected_ls).
+        let mut scored: Vec<(Term, f64)> = Vec::new();
         for (t, c) in &library {
-            if terms.contains(t) {
+            if terms.contains(t) || (round > 0 && entered_once.contains(t)) {
                 continue;
             }
-            let Some((f, t2)) = partial_test(&cols, &c[..n_id], z_id, n_id, max_lag) else {
+            let mut ext = cols.clone();
+            ext.push(c[..n_id].to_vec());
+            let mut ext_terms = terms.clone();
+            ext_terms.push(*t);
+            let j = ext.len() - 1;
+            let Some((f, _)) = corrected_ls(&ext, z_id, &eiv_of(&ext_terms), n_id, max_lag, Some(j)) else {
                 continue;
             };
+            let t2 = if f.sigma[j] > 0.0 {
+                (f.theta[j] / f.sigma[j]).powi(2)
+            } else {
+                0.0
+            };
             let zhat: Vec<f64> = z_id.iter().zip(&f.residual).map(|(a, r)| a - r).collect();
-            let pse = metrics(z_id, &zhat, cols.len() + 1).pse;
-            let significant = t2 > threshold_t2;
+            let pse = metrics(z_id, &zhat, ext.len()).pse;
             if round == 0 {
                 candidates.push(CandidateScore {
                     term: t.name().into(),
                     kind: t.kind(i),
                     t2,
                     pse,
-                    significant,
+                    significant: t2 > threshold_t2,
                 });
             }
-            if significant && best.as_ref().is_none_or(|b| t2 > b.1) {
-                best = Some((*t, t2, pse));
+            if t2 > threshold_t2 {
+                scored.push((*t, t2));
             }
         }
-        let Some((t, t2, _)) = best else { break };
-        let c = library.iter().find(|(x, _)| *x == t).map(|x| x.1.clone())?;
+        scored.sort_by(|a, b| b.1.total_cmp(&a.1));
+        // The best significant candidate whose estimator fit confirms it enters.
+        let mut entered = None;
+        for (t, _) in scored.iter().take(CONFIRM_PER_ROUND) {
+            let c = library.iter().find(|(x, _)| x == t).map(|x| x.1.clone())?;
+            let mut ext = cols.clone();
+            ext.push(c[..n_id].to_vec());
+            let mut ext_terms = terms.clone();
+            ext_terms.push(*t);
+            let j = ext.len() - 1;
+            let Some(g) = gtls_fit(&ext, z_id, &eiv_of(&ext_terms), n_id, max_lag, Some(j)) else {
+                continue;
+            };
+            let t2 = (g.theta[j] / g.sigma[j]).powi(2);
+            if t2.is_finite() && t2 > threshold_t2 {
+                entered = Some((*t, t2, c));
+                break;
+            }
+        }
+        let Some((t, t2, c)) = entered else { break };
         terms.push(t);
         cols_full.push(c);
         added.push((t, t2));
+        entered_once.push(t);
+        // The removal step of stepwise regression (Klein & Morelli 2006 §5.4.1), as in the
+        // compatibility check: an added term whose partial t² in the joint fit fell below the
+        // threshold leaves (and may not re-enter: it stays in `entered_once`).
+        while added.len() > 1 {
+            let cols: Vec<Vec<f64>> = cols_full.iter().map(id).collect();
+            let Some(g) = gtls_fit(&cols, z_id, &eiv_of(&terms), n_id, max_lag, None) else {
+                break;
+            };
+            let p0 = terms.len() - added.len();
+            let weakest = (0..added.len())
+                .map(|k| (k, (g.theta[p0 + k] / g.sigma[p0 + k]).powi(2)))
+                .min_by(|a, b| a.1.total_cmp(&b.1));
+            match weakest {
+                Some((k, t2)) if t2.is_nan() || t2 <= threshold_t2 => {
+                    added.remove(k);
+                    terms.remove(p0 + k);
+                    cols_full.remove(p0 + k);
+                }
+                _ => break,
+            }
+        }
     }
     candidates.sort_by(|a, b| b.t2.total_cmp(&a.t2));
     let (extended, ext_pred, ext_fit) = fit_model(&cols_full, &terms)?;
