@@ -41,6 +41,7 @@ pub mod noise;
 pub mod regress;
 pub mod report;
 pub mod signal;
+pub mod simulate;
 
 use crate::io::measured::MeasuredFlight;
 use compat::{CompatSettings, Compatibility, SensorParam};
@@ -235,6 +236,12 @@ pub struct CoefficientGap {
     /// Time histories for the figures: time, measured, baseline prediction, extended prediction.
     #[serde(skip)]
     pub traces: Traces,
+    /// The baseline's terms with their estimates (for the simulation).
+    #[serde(skip)]
+    pub baseline_model: Vec<(Term, f64)>,
+    /// The extended model's terms with their estimates.
+    #[serde(skip)]
+    pub extended_model: Vec<(Term, f64)>,
 }
 
 /// Time histories of one coefficient.
@@ -290,6 +297,9 @@ pub struct GapReport {
     pub compatibility: Compatibility,
     /// Per coefficient.
     pub coefficients: Vec<CoefficientGap>,
+    /// The simulation of the held-out segment with the baseline and the extended models
+    /// ([`simulate`]).
+    pub simulation: simulate::Simulation,
     /// Causes named, top cause first.
     pub named: Vec<NamedCause>,
     /// Notes (assumptions, skipped steps).
@@ -504,6 +514,20 @@ pub fn run_gaps(flight: &MeasuredFlight, settings: &GapSettings) -> Result<GapRe
             coefficients.push(g);
         }
     }
+    // What the simulation gets wrong: both model sets simulate the held-out segment.
+    let model_set = |ext: bool| -> simulate::ModelSet {
+        core::array::from_fn(|i| {
+            coefficients.iter().find(|c| c.name == COEFFICIENTS[i]).map(|c| {
+                if ext {
+                    c.extended_model.clone()
+                } else {
+                    c.baseline_model.clone()
+                }
+            })
+        })
+    };
+    let (set_b, set_e) = (model_set(false), model_set(true));
+    let simulation = simulate::simulate(&table, &flight.aircraft, h, &refs, n_id, [&set_b, &set_e]);
     // Verdict.
     let mut named: Vec<NamedCause> = compatibility
         .found
@@ -554,6 +578,7 @@ pub fn run_gaps(flight: &MeasuredFlight, settings: &GapSettings) -> Result<GapRe
         settings: settings.clone(),
         compatibility,
         coefficients,
+        simulation,
         named,
         notes,
     })
@@ -618,13 +643,22 @@ fn analyse_coefficient(
     let fit_model = |cols_full: &[Vec<f64>], terms: &[Term]| -> Option<(ModelFit, Vec<f64>, regress::GtlsFit)> {
         let cols: Vec<Vec<f64>> = cols_full.iter().map(id).collect();
         let eiv = eiv_of(terms);
-        let f = gtls_fit(&cols, z_id, &eiv, n_id, max_lag, None)?;
+        let all_exact = eiv.exact.iter().all(|e| *e);
+        // GTLS when it applies; OLS (said so) when the errors-in-variables model cannot be
+        // formed: XᵀX − N·W̃ not positive definite (a column whose estimated error variance is as
+        // large as its own variation: not excited in the sense of eq. 21) or W_T indefinite.
+        let (f, estimator) = match gtls_fit(&cols, z_id, &eiv, n_id, max_lag, None) {
+            Some(f) => (f, if all_exact { "OLS" } else { "PCA-GTLS" }),
+            None => (
+                gtls_fit(&cols, z_id, &EivModel::exact(terms.len()), n_id, max_lag, None)?,
+                "OLS (GTLS not applicable: W_T exceeds a column's variation)",
+            ),
+        };
         let o = ols(&cols, z_id, n_id, 0)?;
         let pred = predict(cols_full, &f.theta);
         let p = terms.len();
-        let all_exact = eiv.exact.iter().all(|e| *e);
         let mf = ModelFit {
-            estimator: if all_exact { "OLS" } else { "PCA-GTLS" }.into(),
+            estimator: estimator.into(),
             solution: format!("{:?}", f.solution),
             sigma_z2: f.sigma_z2,
             parameters: terms
@@ -644,7 +678,8 @@ fn analyse_coefficient(
         };
         Some((mf, pred, f))
     };
-    let (baseline, base_pred, _) = fit_model(&cols_full, &terms)?;
+    let (baseline, base_pred, base_fit) = fit_model(&cols_full, &terms)?;
+    let baseline_model: Vec<(Term, f64)> = terms.iter().copied().zip(base_fit.theta.iter().copied()).collect();
     // Candidate columns.
     let library: Vec<(Term, Vec<f64>)> = Term::library(i)
         .into_iter()
@@ -765,5 +800,7 @@ fn analyse_coefficient(
             extended: ext_pred,
             split: n_id.min(n),
         },
+        baseline_model,
+        extended_model: terms.iter().copied().zip(ext_fit.theta.iter().copied()).collect(),
     })
 }

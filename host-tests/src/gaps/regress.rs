@@ -69,7 +69,7 @@ pub fn predict(cols: &[Vec<f64>], theta: &[f64]) -> Vec<f64> {
 }
 
 /// The sum over blocks of `Σ_{|k|≤L} R_vv(k) Σᵢ wᵢ w_{i+k}` (lags never cross a block boundary;
-/// `R_vv` estimated per block with divisor `N_block`).
+/// `R_vv` estimated per block with divisor `N_block`), each block's sum floored at its lag-0 term.
 pub fn coloured_variance(w: &[f64], v: &[f64], block_len: usize, max_lag: usize) -> f64 {
     let n = w.len();
     let bl = block_len.max(1);
@@ -80,11 +80,23 @@ pub fn coloured_variance(w: &[f64], v: &[f64], block_len: usize, max_lag: usize)
         let (wb, vb) = (&w[start..end], &v[start..end]);
         let nb = wb.len();
         let lmax = max_lag.min(nb.saturating_sub(1));
+        let mut block = 0.0;
+        let mut white = 0.0;
         for k in 0..=lmax {
             let (r, ww) = lagged_products(vb, wb, k);
             let r = r / nb as f64;
-            total += if k == 0 { r * ww } else { 2.0 * r * ww };
+            if k == 0 {
+                white = r * ww;
+                block += white;
+            } else {
+                block += 2.0 * r * ww;
+            }
         }
+        // Floor: never below the white-residual variance. The autocorrelation of *fitted*
+        // residuals is biased low at long lags (the fit absorbs their slow part: for the intercept
+        // the sum over all lags of a zero-mean residual's autocorrelation is zero), so a truncated
+        // sum below its lag-0 term is an estimation artefact, not a real negative correlation.
+        total += block.max(white);
         start = end;
     }
     total.max(0.0)
