@@ -80,6 +80,20 @@ impl SensorParam {
             Self::VaneX(_) => "m",
         }
     }
+    /// Whether `value` is within the physical range of this kind of sensor error: a scale factor
+    /// within ±50 % (vane upwash and calibration errors are tens of per cent), a delay within
+    /// ±0.5 s (sensor lags and sampling skews; longer is a clock error, not a sensor); biases and
+    /// vane offsets are not bounded. A candidate outside its range is not a sensor error of its
+    /// kind — the reconstruction fails for that channel (on the longitudinal Twin Otter record,
+    /// `scale(β) = −1.05`: the vane shows none of the reconstructed β's drift) — and is not entered.
+    pub fn plausible(&self, value: f64) -> bool {
+        match self {
+            Self::Scale(_) => value.abs() <= 0.5,
+            Self::Delay(_) => value.abs() <= 0.5,
+            Self::Bias(_) | Self::VaneX(_) => value.is_finite(),
+        }
+    }
+
     fn fd_step(&self) -> f64 {
         match self {
             Self::Bias(q) => match q {
@@ -497,7 +511,7 @@ fn run(
         let (scores, _) = prob.scores(&st, s.max_lag);
         let best = scores
             .iter()
-            .filter(|c| c.t2.is_finite())
+            .filter(|c| c.t2.is_finite() && c.param.plausible(c.value))
             .filter(|c| !removed.iter().any(|&r| prob.candidates[r] == c.param))
             .max_by(|a, b| a.t2.total_cmp(&b.t2))
             .cloned();
@@ -633,6 +647,61 @@ struct VelocityProblem<'a> {
 /// `(sensor-error values, x0, start, end)` → body velocity `[u, v, w]` at the CG per sample.
 type VelocityStates<'a> = std::rc::Rc<dyn Fn(&[f64], &[f64], usize, usize) -> Vec<[f64; 3]> + 'a>;
 
+/// The sensor-error candidates of the attitude part (gyro biases).
+pub fn attitude_candidates(flight: &MeasuredFlight) -> Vec<SensorParam> {
+    use Quantity::*;
+    let get = |q: Quantity| flight.get(q);
+    if get(PitchRate).is_none() || get(Pitch).is_none() {
+        return Vec::new();
+    }
+    if get(RollRate).is_some() && get(YawRate).is_some() && get(Roll).is_some() {
+        vec![
+            SensorParam::Bias(RollRate),
+            SensorParam::Bias(PitchRate),
+            SensorParam::Bias(YawRate),
+        ]
+    } else {
+        vec![SensorParam::Bias(PitchRate)]
+    }
+}
+
+/// The sensor-error candidates of the velocity part: accelerometer biases; per air-data channel
+/// bias, scale factor and delay; the vanes' x position.
+pub fn velocity_candidates(flight: &MeasuredFlight) -> Vec<SensorParam> {
+    use Quantity::*;
+    let get = |q: Quantity| flight.get(q);
+    let (Some(_), Some(_), Some(_), Some(_), Some(_), Some(_)) = (
+        get(PitchRate),
+        get(Pitch),
+        get(AccelX),
+        get(AccelZ),
+        get(Airspeed),
+        get(Alpha),
+    ) else {
+        return Vec::new();
+    };
+    let lateral = get(RollRate).is_some() && get(YawRate).is_some() && get(Roll).is_some();
+    let lat_v = lateral && get(AccelY).is_some();
+    let mut cands = vec![SensorParam::Bias(AccelX), SensorParam::Bias(AccelZ)];
+    let air = |q: Quantity, vane: bool, cands: &mut Vec<SensorParam>| {
+        cands.push(SensorParam::Bias(q));
+        cands.push(SensorParam::Scale(q));
+        cands.push(SensorParam::Delay(q));
+        if vane {
+            cands.push(SensorParam::VaneX(q));
+        }
+    };
+    air(Airspeed, false, &mut cands);
+    air(Alpha, true, &mut cands);
+    if lat_v {
+        cands.push(SensorParam::Bias(AccelY));
+        if get(Beta).is_some() {
+            air(Beta, true, &mut cands);
+        }
+    }
+    cands
+}
+
 /// Builds the velocity problem (`None` without `a_x`, `a_z`, `V`, `α`). `gyro_bias` is removed
 /// from the rates (the attitude part's estimate).
 fn velocity_problem(flight: &MeasuredFlight, h_s: f64, gyro_bias: [f64; 3]) -> Option<VelocityProblem<'_>> {
@@ -656,30 +725,11 @@ fn velocity_problem(flight: &MeasuredFlight, h_s: f64, gyro_bias: [f64; 3]) -> O
     let beta_m = get(Beta).filter(|_| lat_v);
     let mut outputs = vec![Airspeed, Alpha];
     let mut measured = vec![v_m.to_vec(), a_m.to_vec()];
-    let mut cands = vec![
-        SensorParam::Bias(AccelX),
-        SensorParam::Bias(AccelZ),
-        SensorParam::Bias(Airspeed),
-        SensorParam::Scale(Airspeed),
-        SensorParam::Delay(Airspeed),
-        SensorParam::Bias(Alpha),
-        SensorParam::Scale(Alpha),
-        SensorParam::Delay(Alpha),
-        SensorParam::VaneX(Alpha),
-    ];
-    if lat_v {
-        cands.push(SensorParam::Bias(AccelY));
-    }
     if let Some(b) = beta_m {
         outputs.push(Beta);
         measured.push(b.to_vec());
-        cands.extend([
-            SensorParam::Bias(Beta),
-            SensorParam::Scale(Beta),
-            SensorParam::Delay(Beta),
-            SensorParam::VaneX(Beta),
-        ]);
     }
+    let cands = velocity_candidates(flight);
     let ac = &flight.aircraft;
     let (rv_a, rv_b, r_pitot) = (
         ac.alpha_vane_position_m,
@@ -919,12 +969,10 @@ pub fn check(flight: &MeasuredFlight, h_s: f64, s: &CompatSettings) -> Compatibi
     let psi_m = get(Yaw).filter(|_| lateral).map(unwrap);
     let mut outputs = vec![Pitch];
     let mut measured = vec![theta_m.to_vec()];
-    let mut cands = vec![SensorParam::Bias(PitchRate)];
+    let cands = attitude_candidates(flight);
     if lateral {
         outputs.insert(0, Roll);
         measured.insert(0, phi_m.to_vec());
-        cands.insert(0, SensorParam::Bias(RollRate));
-        cands.push(SensorParam::Bias(YawRate));
     }
     if let Some(psi) = &psi_m {
         outputs.push(Yaw);

@@ -586,23 +586,7 @@ pub fn run_gaps(flight: &MeasuredFlight, settings: &GapSettings) -> Result<GapRe
 
 /// How many sensor-error candidates the compatibility check will test on this flight.
 fn compat_candidate_count(flight: &MeasuredFlight) -> usize {
-    use crate::io::measured::Quantity::*;
-    let has = |q| flight.get(q).is_some();
-    if !(has(PitchRate) && has(Pitch)) {
-        return 0;
-    }
-    let lateral = has(RollRate) && has(YawRate) && has(Roll);
-    let mut c = if lateral { 3 } else { 1 };
-    if has(AccelX) && has(AccelZ) && has(Airspeed) && has(Alpha) {
-        c += 9;
-        if lateral && has(AccelY) {
-            c += 1;
-            if has(Beta) {
-                c += 4;
-            }
-        }
-    }
-    c
+    compat::attitude_candidates(flight).len() + compat::velocity_candidates(flight).len()
 }
 
 /// Candidates scored above the threshold by the closed form are confirmed by the estimator, best

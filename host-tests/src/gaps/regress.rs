@@ -623,6 +623,92 @@ mod tests {
         );
     }
 
+    /// `z = 1 + 2 x + e_z` with `x` measured with error `e_x` (`σ_x`, `σ_z` white, seeded).
+    fn eiv_data(n: usize, sigma_x: f64, sigma_z: f64, seed: u64) -> (Vec<Vec<f64>>, Vec<f64>) {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let ex = Normal::new(0.0, sigma_x).unwrap();
+        let ez = Normal::new(0.0, sigma_z).unwrap();
+        let xt: Vec<f64> = (0..n)
+            .map(|i| (i as f64 * 0.013).sin() + 0.3 * (i as f64 * 0.0071).cos())
+            .collect();
+        let z: Vec<f64> = xt.iter().map(|x| 1.0 + 2.0 * x + ez.sample(&mut rng)).collect();
+        let xm: Vec<f64> = xt.iter().map(|x| x + ex.sample(&mut rng)).collect();
+        (vec![vec![1.0; n], xm], z)
+    }
+
+    #[test]
+    fn the_core_gtls_equals_the_closed_form_at_its_output_variance() {
+        // GIVEN errors in x (σ_x = 0.3 against a signal of RMS 0.74) and W_T's regressor part known
+        let (cols, z) = eiv_data(3000, 0.3, 0.1, 5);
+        let eiv = EivModel {
+            exact: vec![true, false],
+            w_xx: vec![0.09],
+            w_xz: vec![0.0],
+        };
+        // WHEN both are solved
+        let (cls, s2) = corrected_ls(&cols, &z, &eiv, 3000, 0, None).unwrap();
+        let g = gtls_fit(&cols, &z, &eiv, 3000, 0, None).unwrap();
+        // THEN the recursive estimator ends on the closed form (to rounding: 1e-8 relative) with
+        // the output variance the closed form chose; that variance is the residual's (0.37) less the
+        // regressor error's share (4·0.09), so its standard error is 0.37·√(2/N) ≈ 0.0096: the
+        // truth 0.01 within 3 of those
+        assert_eq!(g.solution, aerosid_core::Solution::Tls);
+        for j in 0..2 {
+            assert!(
+                (g.theta[j] - cls.theta[j]).abs() < 1e-8 * cls.theta[j].abs().max(1.0),
+                "{j}: {} vs {}",
+                g.theta[j],
+                cls.theta[j]
+            );
+        }
+        assert!((s2 - 0.01).abs() < 3.0 * 0.37 * (2.0f64 / 3000.0).sqrt(), "{s2}");
+        assert!((g.sigma_z2 - s2).abs() < 1e-15);
+    }
+
+    #[test]
+    fn gtls_removes_the_attenuation_of_least_squares() {
+        // GIVEN σ_x = 0.3: OLS's slope is attenuated by var(x)/(var(x) + σ_x²) ≈ 0.86
+        let (cols, z) = eiv_data(3000, 0.3, 0.1, 6);
+        let eiv = EivModel {
+            exact: vec![true, false],
+            w_xx: vec![0.09],
+            w_xz: vec![0.0],
+        };
+        let o = ols(&cols, &z, 3000, 0).unwrap();
+        let g = gtls_fit(&cols, &z, &eiv, 3000, 0, None).unwrap();
+        // THEN OLS misses the slope 2 by more than 10 %, GTLS is within 3σ of it
+        assert!(o.theta[1] < 1.8, "OLS {}", o.theta[1]);
+        assert!(
+            (g.theta[1] - 2.0).abs() < 3.0 * g.sigma[1],
+            "GTLS {} ± {}",
+            g.theta[1],
+            g.sigma[1]
+        );
+    }
+
+    #[test]
+    fn the_sandwich_sigma_is_eq17_for_white_residuals() {
+        // GIVEN white errors (σ_x = 0.05 on a signal of RMS 0.74, σ_z = 0.1): eq. 17 holds
+        let (cols, z) = eiv_data(4000, 0.05, 0.1, 7);
+        let eiv = EivModel {
+            exact: vec![true, false],
+            w_xx: vec![0.0025],
+            w_xz: vec![0.0],
+        };
+        // WHEN the coloured-residual sandwich is computed with 20 lags
+        let g = gtls_fit(&cols, &z, &eiv, 4000, 20, None).unwrap();
+        // THEN it agrees with eq. 17 within 15 % (the truncated autocorrelation sum's own
+        // estimation noise, as in the OLS test above)
+        for j in 0..2 {
+            assert!(
+                (g.sigma[j] / g.sigma_eq17[j] - 1.0).abs() < 0.15,
+                "{j}: sandwich {} eq. 17 {}",
+                g.sigma[j],
+                g.sigma_eq17[j]
+            );
+        }
+    }
+
     #[test]
     fn dependent_columns_are_refused() {
         let x: Vec<f64> = (0..100).map(|i| i as f64).collect();
