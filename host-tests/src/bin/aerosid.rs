@@ -11,14 +11,16 @@
 //! on-board `f32` pipeline and, with `--qemu`, runs the firmware under QEMU on the same log and
 //! checks its telemetry against the host bit for bit ([`aerosid_host::replay`]).
 //!
-//! `aerosid gaps --data FILE --with MAP_OR_AIRCRAFT [--air-data measured|reconstructed] [--out DIR]`
+//! `aerosid gaps --data FILE --with MAP_OR_AIRCRAFT [--air-data measured|reconstructed] [--baseline SPEC] [--out DIR]`
 //! (a measured flight, read by [`aerosid_host::io::read_measured`]) or
 //! `aerosid gaps --simulate KIND | --clean [--seed N] [--seconds S] [--out DIR]`: the model-gap
 //! analysis (issue 6, [`aerosid_host::gaps::run_gaps`]) of a measured flight, or of a simulated
 //! flight with one hidden effect or none; table on the terminal, `report.json`, `report.txt` and
 //! SVG figures in `DIR`. `--air-data measured` takes the regressors from the corrected air-data
 //! sensors rather than from the flight-path reconstruction (which assumes steady air: use it for
-//! turbulent data).
+//! turbulent data). `--baseline "CL=1,alpha,dV;Cm=1,alpha,dV,q,de"` replaces eq. 3 for the
+//! coefficients it names ([`aerosid_host::gaps::model::parse_baseline`]); `--compatibility off`
+//! skips the flight-path reconstruction.
 //!
 //! `aerosid demo [--seed N] [--seconds S]`: identifies a pitching-moment model
 //! `C_m = C_m0 + C_mα α + C_mq q_n + C_mδe δe` (seed 000, eq. 3e; values of the `skywalker_2013_mod`
@@ -70,6 +72,10 @@ enum Command {
         /// `--air-data measured`: regressors from the corrected air-data sensors instead of the
         /// reconstructed states (turbulent data).
         measured_air_data: bool,
+        /// `--baseline SPEC`: the baseline models (eq. 3 where not given).
+        baseline: Option<[Vec<aerosid_host::gaps::model::Term>; 6]>,
+        /// `--compatibility off`: skip the flight-path reconstruction (the data are used as they are).
+        compatibility: bool,
     },
 }
 
@@ -121,6 +127,8 @@ fn parse() -> Result<Option<Command>, String> {
                 (None, false, 1u64, 90.0, std::path::PathBuf::from("out/gaps"));
             let (mut data, mut with): (Option<std::path::PathBuf>, Option<std::path::PathBuf>) = (None, None);
             let mut measured_air_data = false;
+            let mut baseline = None;
+            let mut compatibility = true;
             while let Some(flag) = it.next() {
                 if flag == "--clean" {
                     clean = true;
@@ -146,6 +154,19 @@ fn parse() -> Result<Option<Command>, String> {
                     }
                     "--out" => out = value.into(),
                     "--data" => data = Some(value.into()),
+                    "--baseline" => {
+                        baseline = Some(
+                            aerosid_host::gaps::model::parse_baseline(&value)
+                                .map_err(|e| format!("--baseline: {e}"))?,
+                        )
+                    }
+                    "--compatibility" => {
+                        compatibility = match value.as_str() {
+                            "on" => true,
+                            "off" => false,
+                            _ => return Err(format!("--compatibility {value}: `on` or `off`")),
+                        }
+                    }
                     "--air-data" => {
                         measured_air_data = match value.as_str() {
                             "measured" => true,
@@ -172,6 +193,8 @@ fn parse() -> Result<Option<Command>, String> {
                 seconds,
                 out,
                 measured_air_data,
+                baseline,
+                compatibility,
             }));
         }
         Some("table1") => {
@@ -409,9 +432,13 @@ fn run_gaps_command(
     flight: &aerosid_host::io::measured::MeasuredFlight,
     out: &std::path::Path,
     measured_air_data: bool,
+    baseline: Option<[Vec<aerosid_host::gaps::model::Term>; 6]>,
+    compatibility: bool,
 ) -> ExitCode {
     let settings = aerosid_host::gaps::GapSettings {
         reconstructed_air_data: !measured_air_data,
+        compatibility,
+        baseline,
         ..aerosid_host::gaps::GapSettings::default()
     };
     let report = match aerosid_host::gaps::run_gaps(flight, &settings) {
@@ -488,9 +515,11 @@ fn main() -> ExitCode {
             data: Some((data, with)),
             out,
             measured_air_data,
+            baseline,
+            compatibility,
             ..
         })) => match aerosid_host::io::read_measured(&data, &with) {
-            Ok(flight) => run_gaps_command(&flight, &out, measured_air_data),
+            Ok(flight) => run_gaps_command(&flight, &out, measured_air_data, baseline, compatibility),
             Err(e) => {
                 eprintln!("aerosid gaps: {e}");
                 ExitCode::FAILURE
@@ -503,6 +532,8 @@ fn main() -> ExitCode {
             seconds,
             out,
             measured_air_data,
+            baseline,
+            compatibility,
         })) => {
             // A simulated flight with the hidden effect's size drawn from the seed; a file-reading
             // front end calls the same `run_gaps` on the `MeasuredFlight` its reader produces.
@@ -516,7 +547,7 @@ fn main() -> ExitCode {
                     return ExitCode::FAILURE;
                 }
             };
-            run_gaps_command(&flight, &out, measured_air_data)
+            run_gaps_command(&flight, &out, measured_air_data, baseline, compatibility)
         }
         Ok(None) => {
             println!("aerosid — on-line aerodynamic model identification\n");
@@ -525,7 +556,8 @@ fn main() -> ExitCode {
             println!("       aerosid replay LOG.csv [--qemu]");
             println!("       aerosid fem-hfb320 [--out DIR]");
             println!("       aerosid table1 [--out DIR]");
-            println!("       aerosid gaps --data FILE --with MAP_OR_AIRCRAFT [--air-data measured|reconstructed] [--out DIR]");
+            println!("       aerosid gaps --data FILE --with MAP_OR_AIRCRAFT [--air-data measured|reconstructed]");
+            println!("                    [--baseline \"CL=1,alpha,dV;Cm=1,alpha,q,de\"] [--compatibility on|off] [--out DIR]");
             println!("       aerosid gaps --simulate KIND | --clean [--seed N] [--seconds S] [--out DIR]");
             println!("       aerosid demo [--seed N] [--seconds S]\n");
             println!("  run    simulate a flight of the default airframe, identify the six coefficients with the");

@@ -31,6 +31,38 @@ use std::collections::BTreeMap;
 /// The six coefficients, in the order of `aerosid_core::aero::model::idx`.
 pub const COEFFICIENTS: [&str; 6] = ["C_L", "C_D", "C_Y", "C_l", "C_m", "C_n"];
 
+/// A baseline from a specification `COEF=term,term;COEF=…` (coefficients as in
+/// [`COEFFICIENTS`] or without the underscore, terms as [`Term::parse`] reads them); coefficients
+/// not named keep eq. 3. E.g. the HFB-320 book model: `CL=1,alpha,dV;CD=1,alpha,dV;Cm=1,alpha,dV,q,de`.
+pub fn parse_baseline(spec: &str) -> Result<[Vec<Term>; 6], String> {
+    let mut out: [Vec<Term>; 6] = core::array::from_fn(Term::eq3);
+    for part in spec.split(';').map(str::trim).filter(|p| !p.is_empty()) {
+        let (coef, terms) = part
+            .split_once('=')
+            .ok_or_else(|| format!("`{part}`: expected COEF=term,term"))?;
+        let coef = coef.trim();
+        let i = COEFFICIENTS
+            .iter()
+            .position(|c| *c == coef || c.replace('_', "") == coef)
+            .ok_or_else(|| format!("`{coef}`: unknown coefficient (one of {})", COEFFICIENTS.join(", ")))?;
+        let mut v = Vec::new();
+        for t in terms.split(',').map(str::trim).filter(|t| !t.is_empty()) {
+            let term = Term::parse(t).ok_or_else(|| {
+                let names: Vec<&str> = Term::ALL.iter().map(|t| t.ascii()).collect();
+                format!("`{t}`: unknown term (one of {})", names.join(", "))
+            })?;
+            if !v.contains(&term) {
+                v.push(term);
+            }
+        }
+        if v.is_empty() {
+            return Err(format!("`{coef}`: no terms"));
+        }
+        out[i] = v;
+    }
+    Ok(out)
+}
+
 /// Whether coefficient `i` is longitudinal (`C_L`, `C_D`, `C_m`).
 pub fn is_longitudinal(i: usize) -> bool {
     matches!(i, 0 | 1 | 4)
@@ -781,6 +813,47 @@ impl Term {
             ThrustElevator => g(Signal::ThrustCoeff)? * g(Signal::Elevator)?,
         };
         Some(v)
+    }
+
+    /// An ASCII name for the command line (`alpha`, `q`, `de`, `dV` …).
+    pub fn ascii(&self) -> &'static str {
+        use Term::*;
+        match self {
+            One => "1",
+            Alpha => "alpha",
+            Alpha2 => "alpha2",
+            Alpha3 => "alpha3",
+            StallBreak => "stall",
+            Beta => "beta",
+            Beta2 => "beta2",
+            AbsBeta => "absbeta",
+            Beta3 => "beta3",
+            P => "p",
+            Q => "q",
+            R => "r",
+            Elevator => "de",
+            Aileron => "da",
+            Rudder => "dr",
+            AbsElevator => "absde",
+            Elevator2 => "de2",
+            AlphaQ => "alpha_q",
+            AlphaElevator => "alpha_de",
+            AlphaAileron => "alpha_da",
+            AlphaBeta => "alpha_beta",
+            AlphaP => "alpha_p",
+            AlphaR => "alpha_r",
+            AlphaDot => "alphadot",
+            BetaDot => "betadot",
+            Speed => "dV",
+            Mach => "dMach",
+            Thrust => "CT",
+            ThrustElevator => "CT_de",
+        }
+    }
+
+    /// The term of a name ([`Term::name`] or [`Term::ascii`]).
+    pub fn parse(s: &str) -> Option<Term> {
+        Term::ALL.into_iter().find(|t| t.name() == s || t.ascii() == s)
     }
 
     /// Every term (the union of the libraries and eq. 3).
