@@ -31,8 +31,11 @@
 //! against the weighted residuals, linearised about the fit ([`super::regress::partial_test`], the
 //! score form of the F-test), with standard errors from the coloured-residual covariance. The best
 //! candidate above the threshold enters, the model is refitted, and the others are scored again
-//! (forward selection, Klein & Morelli §5.4.1), at most `max_added` times. Integration is RK4 with
-//! inputs interpolated linearly between samples.
+//! (forward selection, Klein & Morelli §5.4.1), at most `max_added` times; after each entry an
+//! entered parameter whose partial `t²` in the joint fit fell below the threshold leaves (the
+//! removal step) and may not re-enter. A candidate whose estimate is outside the physical range of
+//! its kind ([`SensorParam::plausible`]) is not entered. Integration is RK4 with inputs
+//! interpolated linearly between samples.
 
 use super::regress::{ols, partial_test};
 use super::signal::{mean, shift};

@@ -3,9 +3,10 @@
 //!
 //! ## Synthesis (the same equations as [`aerosid_core::aero::synthesise`], on named channels)
 //! * Sensor errors found by the compatibility check are removed first (bias, scale, delay), the
-//!   vane angles are moved to the CG (`α = α_v − (p y_v − q x_v)/V`, `β = β_v − (r x_v − p z_v)/V`,
-//!   small-angle form of Klein & Morelli eq. 10.12–10.13) and the accelerometer to the CG
-//!   (`a_cg = a − ω̇ × r − ω × (ω × r)`).
+//!   air data are moved to the CG exactly (`v_cg = V(cos α cos β, sin β, sin α cos β) − ω × r`
+//!   at each sensor's position, α, β, V recomputed; to first order Klein & Morelli eq.
+//!   10.12–10.13, `α = α_v − (p y_v − q x_v)/V`) and the accelerometer to the CG
+//!   (`a_cg = a − ω̇ × r − ω × (ω × r)`); moments are taken about the moment reference point.
 //! * Angular accelerations: a measured `ṗ, q̇, ṙ` channel when present, otherwise the 5-point
 //!   central difference of the gyro. Then every channel is smoothed with the same Savitzky–Golay
 //!   filter ([`super::signal`]).

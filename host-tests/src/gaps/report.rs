@@ -1,5 +1,5 @@
 //! The report of the model-gap analysis: a terminal table a person reads, SVG figures, and the JSON
-//! document a script reads (schema `aerosid-gaps/1`, described in `docs/model-gaps.md`).
+//! document a script reads (schema `aerosid-gaps/2`, described in `docs/model-gaps.md`).
 
 use super::{CoefficientGap, GapReport};
 use crate::plot::{Colour, Figure, Line, Panel, PlotError};
@@ -179,12 +179,12 @@ pub fn table(r: &GapReport) -> String {
     s
 }
 
-/// The JSON document (schema `aerosid-gaps/1`).
+/// The JSON document (schema `aerosid-gaps/2`).
 pub fn json(r: &GapReport) -> Value {
     let f = |x: f64| if x.is_finite() { json!(x) } else { Value::Null };
     let compat = &r.compatibility;
     json!({
-        "schema": "aerosid-gaps/1",
+        "schema": "aerosid-gaps/2",
         "source": r.source,
         "aircraft": r.aircraft,
         "segments": {
