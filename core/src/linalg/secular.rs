@@ -101,6 +101,7 @@ pub fn rank_one_update_into<T: Real, const M: usize>(
 /// The general update (module doc, steps 0–4): scaling, deflation, roots from either pole, sort.
 /// Same contract as [`rank_one_update`].
 #[allow(non_snake_case)]
+#[inline(never)]
 pub fn general_update<T: Real, const M: usize>(
     v: &SMatrix<T, M, M>,
     s2: &SVector<T, M>,
@@ -456,7 +457,12 @@ const STEADY_ITERATIONS: u16 = 8;
 ///
 /// Math note: the stopping test, the bisection bracket and the eigenvector formula (`q_r` plus a
 /// correction, `û_r − 1` without cancellation) are [`general_update`]'s.
+///
+/// Not inlined (nor is [`general_update`]): measured on the QEMU replay, the median step is 500
+/// instructions shorter this way than with the two inlined into their caller, and the firmware
+/// 1.6 KB smaller.
 #[allow(clippy::needless_range_loop)]
+#[inline(never)]
 pub fn steady_update<T: Real, const M: usize>(
     v: &SMatrix<T, M, M>,
     s2: &SVector<T, M>,
