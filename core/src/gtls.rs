@@ -660,25 +660,22 @@ fn minimum_norm<T: Real, const NT: usize, const NA: usize>(
         let cc = &c.data.0;
         // Rows r < k of M W⁻¹ and b: (v_rᵀ C)_j = Σ_{i ≤ j} v_r[i]·C[(i, j)] (rows ≥ k unused, 0).
         let mut rhs = [T::zero(); NA];
-        let mw: [[T; NA]; NA] = core::array::from_fn(|r| {
+        let mut mw = [[T::zero(); NA]; NA];
+        for r in 0..k {
             let vr = &vc[r];
-            core::array::from_fn(|j| {
-                if r >= k {
-                    return T::zero();
-                }
+            for j in 0..NA {
                 let cj = &cc[j];
                 let mut acc = T::zero();
                 for i in 0..j + 1 {
                     acc += vr[i] * cj[i];
                 }
                 if j < nx {
-                    acc / weights[ne + j]
+                    mw[r][j] = acc / weights[ne + j];
                 } else {
                     rhs[r] = acc;
-                    T::zero()
                 }
-            })
-        });
+            }
+        }
         if let Some(y) = solve_gram(&mw, &rhs, k, nx) {
             for j in 0..nx {
                 let mut acc = T::zero();
@@ -699,25 +696,19 @@ fn minimum_norm<T: Real, const NT: usize, const NA: usize>(
 /// [`cholesky_regularised`]; `G` is then formed again, which is rare). `None` if that fails too or
 /// the result is not finite.
 fn solve_gram<T: Real, const N: usize>(m: &[[T; N]; N], b: &[T; N], k: usize, n: usize) -> Option<[T; N]> {
-    let gram = |mu: T| -> [[T; N]; N] {
-        core::array::from_fn(|r| {
-            core::array::from_fn(|q| {
-                if r >= k || q > r {
-                    return T::zero();
-                }
+    let gram = |g: &mut [[T; N]; N], mu: T| {
+        for r in 0..k.min(N) {
+            for q in 0..r + 1 {
                 let mut acc = T::zero();
                 for j in 0..n.min(N) {
                     acc += m[r][j] * m[q][j];
                 }
-                if q == r {
-                    acc + mu
-                } else {
-                    acc
-                }
-            })
-        })
+                g[r][q] = if q == r { acc + mu } else { acc };
+            }
+        }
     };
-    let mut g = gram(T::zero());
+    let mut g = [[T::zero(); N]; N];
+    gram(&mut g, T::zero());
     if !cholesky_lower_in_place(&mut g, k) {
         let mut tr = T::zero();
         for r in 0..k.min(N) {
@@ -727,7 +718,7 @@ fn solve_gram<T: Real, const N: usize>(m: &[[T; N]; N], b: &[T; N], k: usize, n:
         }
         let kf = T::lit(k as f64);
         let mu = T::lit(16.0) * kf * T::EPS * (tr / kf).maxr(T::SQRT_MIN_POSITIVE);
-        g = gram(mu);
+        gram(&mut g, mu);
         if !cholesky_lower_in_place(&mut g, k) {
             return None;
         }

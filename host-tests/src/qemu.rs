@@ -69,6 +69,16 @@ pub fn workspace_root() -> PathBuf {
 /// target folder, so a build from inside `cargo test` does not wait on the test's lock); returns
 /// the ELF.
 pub fn build_firmware() -> Result<PathBuf, QemuError> {
+    build_qemu_binary(None)
+}
+
+/// Builds the firmware example `name` (`firmware/examples/`) with the QEMU board, as
+/// [`build_firmware`]; returns the ELF.
+pub fn build_firmware_example(name: &str) -> Result<PathBuf, QemuError> {
+    build_qemu_binary(Some(name))
+}
+
+fn build_qemu_binary(example: Option<&str>) -> Result<PathBuf, QemuError> {
     let root = workspace_root();
     let target_dir = root.join("target").join("qemu");
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
@@ -84,6 +94,7 @@ pub fn build_firmware() -> Result<PathBuf, QemuError> {
             "--features",
             "qemu",
         ])
+        .args(example.map(|e| vec!["--example", e]).unwrap_or_default())
         .args(
             std::env::var("AEROSID_FW_CONFIG")
                 .map(|c| vec!["--config".to_string(), c])
@@ -98,10 +109,11 @@ pub fn build_firmware() -> Result<PathBuf, QemuError> {
             "firmware build failed ({status}); is the target installed? `rustup target add thumbv7em-none-eabihf`"
         )));
     }
-    Ok(target_dir
-        .join("thumbv7em-none-eabihf")
-        .join("release")
-        .join("aerosid-firmware"))
+    let release = target_dir.join("thumbv7em-none-eabihf").join("release");
+    Ok(match example {
+        Some(e) => release.join("examples").join(e),
+        None => release.join("aerosid-firmware"),
+    })
 }
 
 /// Writes the samples as the firmware's binary replay log.

@@ -60,7 +60,6 @@ fn case(effect: Option<HiddenEffect>, seed: u64) -> Outcome {
 }
 
 #[test]
-#[ignore = "open: measured 38/40 named correctly (95.0 %) but 18/20 clean flights quiet (90.0 %, below 95 %): a weak spurious ΔV/V in C_L (t² 21–22 against the threshold 19.1) remains; ~70 s on 2 cores"]
 fn the_analysis_names_the_hidden_effect_and_nothing_on_clean_flights() {
     // GIVEN 40 hidden effects drawn by a seeded generator from 8 kinds, and 20 clean flights
     let mut rng = ChaCha8Rng::seed_from_u64(0x6a95);
@@ -141,12 +140,159 @@ fn each_kind_of_hidden_effect_is_named_in_its_place() {
         .enumerate()
         .map(|(i, e)| case(Some(*e), 300 + i as u64))
         .collect();
-    // THEN each is named as the top cause, kind and place — all but at most one: the rate
-    // is 95 %, and with p = 0.95 per flight P(≥ 2 misses in 8) = 5.7 %, P(≥ 3) = 0.4 %; measured with
-    // these draws: 7/8 (the lift quadratic −4.95 is named as α·q_n in C_L, t² 33)
+    // THEN each is named as the top cause, kind and place — every one: a kind that is never named
+    // could hide inside the 5 % the campaign allows, so each kind is required on its own flight
     for o in &out {
         println!("{}", o.detail);
     }
     let missed: Vec<&String> = out.iter().filter(|o| !o.correct).map(|o| &o.detail).collect();
-    assert!(missed.len() <= 1, "missed: {missed:?}");
+    assert!(missed.is_empty(), "missed: {missed:?}");
+}
+
+/// The flight of a campaign case with its truth (the simulator's output).
+fn simulated(
+    effect: Option<&HiddenEffect>,
+    seed: u64,
+) -> (aerosid_host::io::measured::MeasuredFlight, aerosid_host::sim::SimOutput) {
+    use aerosid_host::io::measured::{Aircraft, MeasuredFlight};
+    use aerosid_host::sim::{simulate, SimAirframe};
+    let out = simulate(&aerosid_host::gaps::hidden::config(effect, DURATION_S, seed)).expect("trims");
+    let nominal = SimAirframe::skywalker_2013_mod();
+    let f = MeasuredFlight::from_samples(
+        "simulated",
+        &out.samples,
+        Aircraft::from_airframe("skywalker_2013_mod", &nominal.frame),
+    );
+    (f, out)
+}
+
+#[test]
+fn the_monte_carlo_error_model_matches_the_reconstructions_actual_error() {
+    use aerosid_host::gaps::compat::{check, CompatSettings};
+    use aerosid_host::gaps::model::{synthesise, Corrections, Signal, Term, TermRefs};
+    use aerosid_host::gaps::noise::{column_errors, MonteCarlo, Synthesis};
+    use aerosid_host::gaps::signal::sg_smooth;
+    // GIVEN three clean flights (seeds outside the campaign's) and their truth
+    for seed in [7001u64, 7002, 7003] {
+        let (f, out) = simulated(None, seed);
+        let h = 0.01;
+        let c = check(
+            &f,
+            h,
+            &CompatSettings {
+                threshold_t2: 19.1,
+                max_lag: 500,
+                max_added: 3,
+            },
+        );
+        let corr = Corrections::default();
+        let table = synthesise(&f, h, &corr, 10, Some(&c.air_data));
+        let n_id = 5400;
+        let refs = TermRefs {
+            alpha_break_rad: 0.1,
+            airspeed_mps: 15.0,
+            mach: 0.0,
+        };
+        // WHEN the Monte Carlo estimates the error variance of the α and ΔV/V columns of C_L
+        let terms: [Vec<Term>; 6] =
+            core::array::from_fn(|i| if i == 0 { vec![Term::Alpha, Term::Speed] } else { vec![] });
+        let syn = Synthesis {
+            flight: &f,
+            h_s: h,
+            corrections: &corr,
+            sg_half: 10,
+            compat: Some(&c),
+            refs: &refs,
+            n_id,
+        };
+        let e = column_errors(&syn, &table, &terms, &MonteCarlo::default());
+        let e = e[0].as_ref().expect("C_L synthesised");
+        // AND the actual errors are the table's columns less the smoothed truth
+        let truth_alpha: Vec<f64> = out.truth.iter().map(|t| t.eval.alpha_rad).collect();
+        let truth_v: Vec<f64> = out.truth.iter().map(|t| t.eval.airspeed_mps).collect();
+        let (ta, tv) = (sg_smooth(&truth_alpha, 10), sg_smooth(&truth_v, 10));
+        let rms =
+            |x: &[f64], y: &[f64]| (x.iter().zip(y).map(|(a, b)| (a - b).powi(2)).sum::<f64>() / x.len() as f64).sqrt();
+        let actual_alpha = rms(&table.signals[&Signal::Alpha][..n_id], &ta[..n_id]);
+        let actual_v = rms(&table.signals[&Signal::Airspeed][..n_id], &tv[..n_id]) / 15.0;
+        let mc_alpha = e.variance(&Term::Alpha).sqrt();
+        let mc_v = e.variance(&Term::Speed).sqrt();
+        println!(
+            "seed {seed}: α error {actual_alpha:.2e} (MC {mc_alpha:.2e}), ΔV/V error {actual_v:.2e} (MC {mc_v:.2e})"
+        );
+        // THEN the two agree within a factor 1.6: the Monte Carlo's own spread is ±15 % (8 replicas
+        // of ~11 segments), and the actual error of one flight is itself one draw of a
+        // segment-correlated error (~11 segments in the identification part: ±30 % in RMS at 2σ)
+        for (a, m) in [(actual_alpha, mc_alpha), (actual_v, mc_v)] {
+            assert!(m / a < 1.6 && a / m < 1.6, "actual {a:.3e}, Monte Carlo {m:.3e}");
+        }
+    }
+}
+
+#[test]
+fn every_term_evaluates_on_a_snapshot_as_its_column() {
+    use aerosid_host::gaps::model::{synthesise, Corrections, Term, TermRefs};
+    // GIVEN a simulated flight's table
+    let (f, _) = simulated(None, 7004);
+    let t = synthesise(&f, 0.01, &Corrections::default(), 10, None);
+    let refs = TermRefs {
+        alpha_break_rad: 0.08,
+        airspeed_mps: 15.0,
+        mach: 0.0,
+    };
+    // THEN every term's per-sample value equals its column (the simulation relies on it)
+    for term in Term::ALL {
+        let Some(col) = term.column(&t, &refs) else { continue };
+        for k in (0..col.len()).step_by(97) {
+            let v = term.eval(&t.snapshot(k, 0.0), &refs).expect("the signals exist");
+            assert!(
+                (v - col[k]).abs() <= 1e-12 * col[k].abs().max(1.0),
+                "{}: {v} vs {}",
+                term.name(),
+                col[k]
+            );
+        }
+    }
+}
+
+#[test]
+fn the_simulation_of_the_held_out_segment_shows_the_gap_and_the_gain() {
+    // GIVEN a flight with a lift quadratic and one with a thrust-line offset (first draws of seed 9)
+    let mut rng = ChaCha8Rng::seed_from_u64(9);
+    let lift = HiddenKind::LiftQuadratic.draw(&mut rng);
+    let thrust = HiddenKind::ThrustMoment.draw(&mut rng);
+    for (e, output) in [(lift, "Alpha"), (thrust, "PitchRate")] {
+        let f = flight(Some(&e), DURATION_S, 7010).expect("trims");
+        // WHEN the analysis simulates the held-out segment with the baseline and the extended models
+        let r = run_gaps(&f, &GapSettings::default()).expect("runs");
+        let o = r
+            .simulation
+            .outputs
+            .iter()
+            .find(|o| o.channel == output)
+            .expect("simulated");
+        println!(
+            "{}: {} RMS {:.3e} → {:.3e}, R² {:.4} → {:.4}, PSE {:.3e} → {:.3e}",
+            e.describe(),
+            output,
+            o.baseline.rms,
+            o.extended.rms,
+            o.baseline.r2,
+            o.extended.r2,
+            o.baseline.pse,
+            o.extended.pse
+        );
+        // THEN nothing diverged, the baseline follows the motion broadly (R² > 0.9; measured 0.998
+        // for α, 0.960 for q with the thrust moment missing), and the extended model — with the
+        // hidden effect found — simulates the affected state better (measured: α RMS −10 %, q
+        // RMS −89 %)
+        assert_eq!(o.diverged, [0, 0]);
+        assert!(o.baseline.r2 > 0.9, "{}", o.baseline.r2);
+        assert!(
+            o.extended.rms < o.baseline.rms,
+            "{} → {}",
+            o.baseline.rms,
+            o.extended.rms
+        );
+    }
 }

@@ -86,6 +86,9 @@ pub mod channel {
 /// A set of [`channel`] bits.
 pub type ChannelMask = u16;
 
+/// Number of noisy regressors ([`Regressor::NOISY`], the slots of [`Regressor::raw_row`]).
+pub const RAW_COUNT: usize = 9;
+
 /// One regressor of eq. 3.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -148,6 +151,36 @@ impl Regressor {
             Regressor::Aileron => s.aileron_rad,
             Regressor::Rudder => s.rudder_rad,
         }
+    }
+
+    /// Every regressor but the intercept, in the order of [`Regressor::raw_row`]'s slots.
+    pub const NOISY: [Regressor; RAW_COUNT] = [
+        Regressor::Alpha,
+        Regressor::Alpha2,
+        Regressor::Beta,
+        Regressor::RollRateN,
+        Regressor::PitchRateN,
+        Regressor::YawRateN,
+        Regressor::Elevator,
+        Regressor::Aileron,
+        Regressor::Rudder,
+    ];
+
+    /// The regressor's slot in [`Regressor::raw_row`] (`None` for the intercept).
+    pub fn raw_slot(self) -> Option<usize> {
+        Self::NOISY.iter().position(|r| *r == self)
+    }
+
+    /// Every noisy regressor's [`Self::value_raw`] of one sample, computed once when the sample
+    /// enters the pipeline's window (the moment prefilter then only weights and sums them). The
+    /// normalised rates are 0 where the airspeed is not positive (a sanitised sample with an
+    /// invalid airspeed; they are not used then, since their channel is invalid).
+    pub fn raw_row<T: Real>(s: &SensorSample<T>, span_m: T, chord_m: T) -> [T; RAW_COUNT] {
+        let v_ok = s.airspeed_mps > T::zero();
+        Self::NOISY.map(|r| match r {
+            Regressor::RollRateN | Regressor::PitchRateN | Regressor::YawRateN if !v_ok => T::zero(),
+            r => r.value_raw(s, span_m, chord_m),
+        })
     }
 
     /// The channels the regressor needs.
@@ -280,6 +313,21 @@ impl<T: Real, const NT: usize> CoefficientModel<T, NT> {
     /// The regressor vector `x` of eq. 4 for a sample.
     pub fn regressor_vector(&self, s: &SensorSample<T>, syn: &Synthesis<T>) -> SVector<T, NT> {
         SVector::<T, NT>::from_fn(|i, _| self.regressors[i].value(s, syn))
+    }
+
+    /// [`Self::filtered_regressor_vector`] from the window's [`Regressor::raw_row`]s (bit-identical
+    /// to it where the rates are defined): what the pipeline calls.
+    pub fn filtered_from_raw<const L: usize>(&self, raw: &[[T; RAW_COUNT]; L], weights: &[T; L]) -> SVector<T, NT> {
+        SVector::<T, NT>::from_fn(|i, _| match self.regressors[i].raw_slot() {
+            None => T::one(),
+            Some(slot) => {
+                let mut acc = T::zero();
+                for (row, w) in raw.iter().zip(weights.iter()) {
+                    acc += *w * row[slot.min(RAW_COUNT - 1)];
+                }
+                acc
+            }
+        })
     }
 
     /// The regressor vector of the centre of a window of `L` samples passed through the FIR

@@ -42,7 +42,7 @@
 //! plus `α` for `C_L`, `C_D` (and `α, β` for all three in [`ForceAxes::Wind`]); moments
 //! `gyro, airspeed, density, prop` and a full differentiator window.
 
-use super::model::{channel, idx, AeroModels, ChannelMask, CoefficientModel, SensorNoise};
+use super::model::{channel, idx, AeroModels, ChannelMask, CoefficientModel, Regressor, SensorNoise, RAW_COUNT};
 use super::synthesis::{synthesise, ForceAxes, RateDifferentiator, Synthesis, SynthesisSettings};
 use super::{Airframe, SensorSample};
 use crate::estimator::{Estimator, Step};
@@ -310,6 +310,8 @@ pub struct Pipeline<T: Real> {
     delay_masks: [ChannelMask; DELAY_LEN],
     /// Slot of the newest sample in `delay`.
     head: u8,
+    /// [`Regressor::raw_row`] of each sample in `delay` (same slots): the moment prefilter's inputs.
+    raw: [[T; RAW_COUNT]; DELAY_LEN],
     filled: u8,
     lift: Gtls<T, 4, 1, 4>,
     drag: Gtls<T, 5, 1, 5>,
@@ -353,10 +355,9 @@ fn build_estimator<T: Real, const N: usize>(
 struct Row<'a, T: Real> {
     centre: &'a SensorSample<T>,
     syn: &'a Synthesis<T>,
-    /// The window (the ring) and [`MOMENT_PREFILTER`] in `T` in ring order, when the regressors are
-    /// prefiltered.
-    window: Option<(&'a [SensorSample<T>; DELAY_LEN], &'a [T; DELAY_LEN])>,
-    airframe: &'a Airframe<T>,
+    /// The window's [`Regressor::raw_row`]s (the ring) and [`MOMENT_PREFILTER`] in `T` in ring
+    /// order, when the regressors are prefiltered.
+    window: Option<(&'a [[T; RAW_COUNT]; DELAY_LEN], &'a [T; DELAY_LEN])>,
 }
 
 fn update_one<T: Real, const N: usize>(
@@ -367,7 +368,7 @@ fn update_one<T: Real, const N: usize>(
     out: &mut [T; MAX_PARAMETERS],
 ) -> CoefficientStatus<T> {
     let x = match row.window {
-        Some((w, weights)) => model.filtered_regressor_vector(w, weights, row.airframe.span_m, row.airframe.chord_m),
+        Some((raw, weights)) => model.filtered_from_raw(raw, weights),
         None => model.regressor_vector(row.centre, row.syn),
     };
     for (o, v) in out.iter_mut().zip(x.iter()) {
@@ -388,6 +389,7 @@ impl<T: Real> Pipeline<T> {
         delay: [SensorSample::ZERO; DELAY_LEN],
         delay_masks: [0; DELAY_LEN],
         head: 0,
+        raw: [[T::ZERO; RAW_COUNT]; DELAY_LEN],
         filled: 0,
         lift: Gtls::PLACEHOLDER,
         drag: Gtls::PLACEHOLDER,
@@ -525,6 +527,7 @@ impl<T: Real> Pipeline<T> {
         self.head = head as u8;
         self.delay[head] = sanitise(sample, mask);
         self.delay_masks[head] = mask;
+        self.raw[head] = Regressor::raw_row(&self.delay[head], self.airframe.span_m, self.airframe.chord_m);
         self.filled = (self.filled + 1).min(DELAY_LEN as u8);
 
         step.synthesis = None;
@@ -581,8 +584,7 @@ impl<T: Real> Pipeline<T> {
                     let row = Row {
                         centre: &self.delay[centre],
                         syn: y,
-                        window: filtered.then_some((&self.delay, &weights)),
-                        airframe: &self.airframe,
+                        window: filtered.then_some((&self.raw, &weights)),
                     };
                     match i {
                         idx::LIFT => update_one(&mut self.lift, &self.models.lift, &row, c.lift, x_out),

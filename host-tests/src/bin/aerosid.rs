@@ -11,11 +11,16 @@
 //! on-board `f32` pipeline and, with `--qemu`, runs the firmware under QEMU on the same log and
 //! checks its telemetry against the host bit for bit ([`aerosid_host::replay`]).
 //!
-//! `aerosid gaps --data FILE --with MAP_OR_AIRCRAFT [--out DIR]` (a measured flight, read by
-//! [`aerosid_host::io::read_measured`]) or
+//! `aerosid gaps --data FILE --with MAP_OR_AIRCRAFT [--air-data measured|reconstructed] [--baseline SPEC] [--out DIR]`
+//! (a measured flight, read by [`aerosid_host::io::read_measured`]) or
 //! `aerosid gaps --simulate KIND | --clean [--seed N] [--seconds S] [--out DIR]`: the model-gap
-//! analysis (issue 6, [`aerosid_host::gaps::run_gaps`]) of a simulated flight with one hidden
-//! effect, or none; table on the terminal, `report.json`, `report.txt` and SVG figures in `DIR`.
+//! analysis (issue 6, [`aerosid_host::gaps::run_gaps`]) of a measured flight, or of a simulated
+//! flight with one hidden effect or none; table on the terminal, `report.json`, `report.txt` and
+//! SVG figures in `DIR`. `--air-data measured` takes the regressors from the corrected air-data
+//! sensors rather than from the flight-path reconstruction (which assumes steady air: use it for
+//! turbulent data). `--baseline "CL=1,alpha,dV;Cm=1,alpha,dV,q,de"` replaces eq. 3 for the
+//! coefficients it names ([`aerosid_host::gaps::model::parse_baseline`]); `--compatibility off`
+//! skips the flight-path reconstruction.
 //!
 //! `aerosid panic-audit ELF ALLOW`: every panic path left in a firmware image, checked against the
 //! allow-list `ALLOW` ([`aerosid_host::panic_audit`]; CI runs it on the release firmware with
@@ -76,6 +81,13 @@ enum Command {
         seed: u64,
         seconds: f64,
         out: std::path::PathBuf,
+        /// `--air-data measured`: regressors from the corrected air-data sensors instead of the
+        /// reconstructed states (turbulent data).
+        measured_air_data: bool,
+        /// `--baseline SPEC`: the baseline models (eq. 3 where not given).
+        baseline: Option<[Vec<aerosid_host::gaps::model::Term>; 6]>,
+        /// `--compatibility off`: skip the flight-path reconstruction (the data are used as they are).
+        compatibility: bool,
     },
 }
 
@@ -151,6 +163,9 @@ fn parse() -> Result<Option<Command>, String> {
             let (mut hidden, mut clean, mut seed, mut seconds, mut out) =
                 (None, false, 1u64, 90.0, std::path::PathBuf::from("out/gaps"));
             let (mut data, mut with): (Option<std::path::PathBuf>, Option<std::path::PathBuf>) = (None, None);
+            let mut measured_air_data = false;
+            let mut baseline = None;
+            let mut compatibility = true;
             while let Some(flag) = it.next() {
                 if flag == "--clean" {
                     clean = true;
@@ -176,6 +191,26 @@ fn parse() -> Result<Option<Command>, String> {
                     }
                     "--out" => out = value.into(),
                     "--data" => data = Some(value.into()),
+                    "--baseline" => {
+                        baseline = Some(
+                            aerosid_host::gaps::model::parse_baseline(&value)
+                                .map_err(|e| format!("--baseline: {e}"))?,
+                        )
+                    }
+                    "--compatibility" => {
+                        compatibility = match value.as_str() {
+                            "on" => true,
+                            "off" => false,
+                            _ => return Err(format!("--compatibility {value}: `on` or `off`")),
+                        }
+                    }
+                    "--air-data" => {
+                        measured_air_data = match value.as_str() {
+                            "measured" => true,
+                            "reconstructed" => false,
+                            _ => return Err(format!("--air-data {value}: `measured` or `reconstructed`")),
+                        }
+                    }
                     "--with" => with = Some(value.into()),
                     _ => return Err(format!("unknown flag `{flag}` for `gaps`")),
                 }
@@ -194,6 +229,9 @@ fn parse() -> Result<Option<Command>, String> {
                 seed,
                 seconds,
                 out,
+                measured_air_data,
+                baseline,
+                compatibility,
             }));
         }
         Some("table1") => {
@@ -427,8 +465,20 @@ fn finish<E: std::fmt::Display>(
     }
 }
 
-fn run_gaps_command(flight: &aerosid_host::io::measured::MeasuredFlight, out: &std::path::Path) -> ExitCode {
-    let report = match aerosid_host::gaps::run_gaps(flight, &aerosid_host::gaps::GapSettings::default()) {
+fn run_gaps_command(
+    flight: &aerosid_host::io::measured::MeasuredFlight,
+    out: &std::path::Path,
+    measured_air_data: bool,
+    baseline: Option<[Vec<aerosid_host::gaps::model::Term>; 6]>,
+    compatibility: bool,
+) -> ExitCode {
+    let settings = aerosid_host::gaps::GapSettings {
+        reconstructed_air_data: !measured_air_data,
+        compatibility,
+        baseline,
+        ..aerosid_host::gaps::GapSettings::default()
+    };
+    let report = match aerosid_host::gaps::run_gaps(flight, &settings) {
         Ok(r) => r,
         Err(e) => {
             eprintln!("aerosid gaps: {e}");
@@ -550,9 +600,12 @@ fn main() -> ExitCode {
         Ok(Some(Command::Gaps {
             data: Some((data, with)),
             out,
+            measured_air_data,
+            baseline,
+            compatibility,
             ..
         })) => match aerosid_host::io::read_measured(&data, &with) {
-            Ok(flight) => run_gaps_command(&flight, &out),
+            Ok(flight) => run_gaps_command(&flight, &out, measured_air_data, baseline, compatibility),
             Err(e) => {
                 eprintln!("aerosid gaps: {e}");
                 ExitCode::FAILURE
@@ -564,6 +617,9 @@ fn main() -> ExitCode {
             seed,
             seconds,
             out,
+            measured_air_data,
+            baseline,
+            compatibility,
         })) => {
             // A simulated flight with the hidden effect's size drawn from the seed; a file-reading
             // front end calls the same `run_gaps` on the `MeasuredFlight` its reader produces.
@@ -577,7 +633,7 @@ fn main() -> ExitCode {
                     return ExitCode::FAILURE;
                 }
             };
-            run_gaps_command(&flight, &out)
+            run_gaps_command(&flight, &out, measured_air_data, baseline, compatibility)
         }
         Ok(None) => {
             println!("aerosid — on-line aerodynamic model identification\n");
@@ -586,7 +642,8 @@ fn main() -> ExitCode {
             println!("       aerosid replay LOG.csv [--qemu]");
             println!("       aerosid fem-hfb320 [--out DIR]");
             println!("       aerosid table1 [--out DIR]");
-            println!("       aerosid gaps --data FILE --with MAP_OR_AIRCRAFT [--out DIR]");
+            println!("       aerosid gaps --data FILE --with MAP_OR_AIRCRAFT [--air-data measured|reconstructed]");
+            println!("                    [--baseline \"CL=1,alpha,dV;Cm=1,alpha,q,de\"] [--compatibility on|off] [--out DIR]");
             println!("       aerosid gaps --simulate KIND | --clean [--seed N] [--seconds S] [--out DIR]");
             println!("       aerosid long-run [--hours H] [--seed N]");
             println!("       aerosid panic-audit ELF ALLOW");
@@ -601,11 +658,10 @@ fn main() -> ExitCode {
             println!("  fem-hfb320  the filter error method (seed 001) on the real HFB-320 flight: estimates ± σ");
             println!("         beside the published values, the prediction variants (Euler/RK4, held/interpolated");
             println!("         input, recursive/batch), measured vs model outputs and residuals (SVG)");
-            println!("  gaps   the model-gap analysis (docs/model-gaps.md) of a simulated flight with one hidden");
-            println!("         effect (KIND: lift-quadratic, elevator-drag, alpha-dot, thrust-moment, cross-coupling,");
-            println!(
-                "         vane-scale, sensor-bias, time-delay; size drawn from the seed) or none: table, JSON, SVG"
-            );
+            println!("  gaps   the model-gap analysis (docs/model-gaps.md) of a measured flight, or of a simulated");
+            println!("         flight with one hidden effect (KIND: lift-quadratic, elevator-drag, alpha-dot,");
+            println!("         thrust-moment, cross-coupling, vane-scale, sensor-bias, time-delay; size drawn from");
+            println!("         the seed) or none: table, JSON, SVG");
             println!("  table1 seed 001's Table 1: the Cramér–Rao bound and input design, then 50 simulated A-4D");
             println!("         flights with the paper's and the designed input through the paper's method, ours");
             println!("         (recursive and batch) and equation-error PCA-GTLS, beside Table 1; the parameter");

@@ -3,9 +3,10 @@
 //!
 //! ## Synthesis (the same equations as [`aerosid_core::aero::synthesise`], on named channels)
 //! * Sensor errors found by the compatibility check are removed first (bias, scale, delay), the
-//!   vane angles are moved to the CG (`α = α_v − (p y_v − q x_v)/V`, `β = β_v − (r x_v − p z_v)/V`,
-//!   small-angle form of Klein & Morelli eq. 10.12–10.13) and the accelerometer to the CG
-//!   (`a_cg = a − ω̇ × r − ω × (ω × r)`).
+//!   air data are moved to the CG exactly (`v_cg = V(cos α cos β, sin β, sin α cos β) − ω × r`
+//!   at each sensor's position, α, β, V recomputed; to first order Klein & Morelli eq.
+//!   10.12–10.13, `α = α_v − (p y_v − q x_v)/V`) and the accelerometer to the CG
+//!   (`a_cg = a − ω̇ × r − ω × (ω × r)`); moments are taken about the moment reference point.
 //! * Angular accelerations: a measured `ṗ, q̇, ṙ` channel when present, otherwise the 5-point
 //!   central difference of the gyro. Then every channel is smoothed with the same Savitzky–Golay
 //!   filter ([`super::signal`]).
@@ -30,6 +31,38 @@ use std::collections::BTreeMap;
 
 /// The six coefficients, in the order of `aerosid_core::aero::model::idx`.
 pub const COEFFICIENTS: [&str; 6] = ["C_L", "C_D", "C_Y", "C_l", "C_m", "C_n"];
+
+/// A baseline from a specification `COEF=term,term;COEF=…` (coefficients as in
+/// [`COEFFICIENTS`] or without the underscore, terms as [`Term::parse`] reads them); coefficients
+/// not named keep eq. 3. E.g. the HFB-320 book model: `CL=1,alpha,dV;CD=1,alpha,dV;Cm=1,alpha,dV,q,de`.
+pub fn parse_baseline(spec: &str) -> Result<[Vec<Term>; 6], String> {
+    let mut out: [Vec<Term>; 6] = core::array::from_fn(Term::eq3);
+    for part in spec.split(';').map(str::trim).filter(|p| !p.is_empty()) {
+        let (coef, terms) = part
+            .split_once('=')
+            .ok_or_else(|| format!("`{part}`: expected COEF=term,term"))?;
+        let coef = coef.trim();
+        let i = COEFFICIENTS
+            .iter()
+            .position(|c| *c == coef || c.replace('_', "") == coef)
+            .ok_or_else(|| format!("`{coef}`: unknown coefficient (one of {})", COEFFICIENTS.join(", ")))?;
+        let mut v = Vec::new();
+        for t in terms.split(',').map(str::trim).filter(|t| !t.is_empty()) {
+            let term = Term::parse(t).ok_or_else(|| {
+                let names: Vec<&str> = Term::ALL.iter().map(|t| t.ascii()).collect();
+                format!("`{t}`: unknown term (one of {})", names.join(", "))
+            })?;
+            if !v.contains(&term) {
+                v.push(term);
+            }
+        }
+        if v.is_empty() {
+            return Err(format!("`{coef}`: no terms"));
+        }
+        out[i] = v;
+    }
+    Ok(out)
+}
 
 /// Whether coefficient `i` is longitudinal (`C_L`, `C_D`, `C_m`).
 pub fn is_longitudinal(i: usize) -> bool {
@@ -67,6 +100,49 @@ pub enum Signal {
     BetaDotN,
 }
 
+impl Signal {
+    /// Every signal.
+    pub const ALL: [Signal; 13] = [
+        Signal::Alpha,
+        Signal::Beta,
+        Signal::PN,
+        Signal::QN,
+        Signal::RN,
+        Signal::Elevator,
+        Signal::Aileron,
+        Signal::Rudder,
+        Signal::Airspeed,
+        Signal::Mach,
+        Signal::ThrustCoeff,
+        Signal::AlphaDotN,
+        Signal::BetaDotN,
+    ];
+
+    /// Position in [`Signal::ALL`].
+    pub fn index(self) -> usize {
+        Signal::ALL.iter().position(|s| *s == self).unwrap_or(0)
+    }
+}
+
+/// The value of every signal at one instant (NaN: not available), indexed by [`Signal::index`].
+pub type Snapshot = [f64; 13];
+
+impl Table {
+    /// The signals at sample `k` plus `frac` of a step (linear interpolation; NaN where absent).
+    pub fn snapshot(&self, k: usize, frac: f64) -> Snapshot {
+        let mut out = [f64::NAN; 13];
+        for (sig, v) in &self.signals {
+            let a = v[k];
+            out[sig.index()] = if frac == 0.0 || k + 1 >= v.len() {
+                a
+            } else {
+                a + frac * (v[k + 1] - a)
+            };
+        }
+        out
+    }
+}
+
 /// Coefficients and signals of a flight, per sample, after correction and smoothing.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Table {
@@ -78,6 +154,30 @@ pub struct Table {
     pub signals: BTreeMap<Signal, Vec<f64>>,
     /// Notes (assumptions taken for missing channels).
     pub notes: Vec<String>,
+    /// The quantities eq. 1–2 used besides the coefficients (for the simulation of
+    /// [`super::simulate`]); `None` when no coefficient could be synthesised.
+    pub kinematics: Option<Kinematics>,
+}
+
+/// The smoothed, corrected quantities the synthesis used, per sample.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Kinematics {
+    /// Body rates `p, q, r`, rad/s (zero where not measured).
+    pub rates_rad_s: [Vec<f64>; 3],
+    /// Roll and pitch attitude, rad (zero where not measured).
+    pub attitude_rad: [Vec<f64>; 2],
+    /// Dynamic pressure, Pa.
+    pub qbar_pa: Vec<f64>,
+    /// Air density `2q̄/V²`, kg/m³.
+    pub density_kgpm3: Vec<f64>,
+    /// Thrust force (body), N.
+    pub thrust_force_n: Vec<Vector3<f64>>,
+    /// Thrust moment about the CG (body), N·m.
+    pub thrust_moment_nm: Vec<Vector3<f64>>,
+    /// Aerodynamic force `m a_cg − F_T` (body), N (zero in an axis without an accelerometer).
+    pub aero_force_n: Vec<Vector3<f64>>,
+    /// Whether the roll and pitch attitude were measured.
+    pub attitude_measured: bool,
 }
 
 /// Corrections from the compatibility check.
@@ -141,39 +241,70 @@ pub fn synthesise(
         rate_dot(YawAccel, &r),
     );
     let sm = |x: Option<Vec<f64>>| x.map(|v| sg_smooth(&v, sg_half));
-    let v = sm(raw(Airspeed));
     let wz = |x: &Option<Vec<f64>>| x.clone().unwrap_or_else(|| zeros.clone());
     let (p_s, q_s, r_s) = (sm(p.clone()), sm(q.clone()), sm(r.clone()));
     let (pd_s, qd_s, rd_s) = (sm(pd), sm(qd), sm(rd));
     let lateral_rates = p.is_some() && r.is_some();
-    // Vane angles moved to the CG (before smoothing: the correction is linear in the rates).
+    // Air data moved to the CG (before smoothing), exactly as the book's pre-processing of the
+    // ATTAS noseboom data (README s.2): the measured V, α, β give the air-relative velocity at
+    // each sensor, `v_s = V (cos α cos β, sin β, sin α cos β)`; the velocity its rotation about the
+    // CG induces, `ω × r_s`, is removed, `v_cg = v_s − ω × r_s`, and α, β, V are recomputed from
+    // `v_cg`. Each angle uses its own vane's position (plus the `x` offset the compatibility check
+    // found), the airspeed the pitot's (`airspeed_*` keys). (Reading chosen: the angle a vane
+    // measures is taken with the airspeed and the other angle as measured, i.e. both vanes see the
+    // same local velocity apart from the rotation term.) Reconstructed air data are CG values
+    // already.
     let reconstructed = |q: Quantity| air_data.is_some_and(|a| a.contains_key(&q));
-    // Each vane's angle less the flow its rotation about the CG induces, `(ω × r_v)/V` (`induced` is
-    // that component of `ω × r_v` at sample `i`); the vane position includes the `x` offset found by
-    // the compatibility check.
-    let at_cg = |ch: Quantity, position_m: Vector3<f64>, induced: &dyn Fn(usize, &Vector3<f64>) -> f64| {
-        raw(ch).map(|a| {
-            if reconstructed(ch) {
-                return a;
-            }
-            let rv = position_m + Vector3::new(corr.vane_dx_m.get(&ch).copied().unwrap_or(0.0), 0.0, 0.0);
-            let vv = raw(Airspeed);
-            a.iter()
-                .enumerate()
-                .map(|(i, &angle)| {
-                    let vi = vv.as_ref().map_or(f64::INFINITY, |x| x[i].max(1.0));
-                    angle - induced(i, &rv) / vi
-                })
-                .collect::<Vec<f64>>()
-        })
-    };
+    let (v_raw, a_raw, b_raw) = (raw(Airspeed), raw(Alpha), raw(Beta));
     let rate = |x: &Option<Vec<f64>>, i: usize| x.as_ref().map_or(0.0, |x| x[i]);
-    let alpha_raw = at_cg(Alpha, ac.alpha_vane_position_m, &|i, rv| {
-        rate(&p, i) * rv.y - rate(&q, i) * rv.x
+    let omega = |i: usize| Vector3::new(rate(&p, i), rate(&q, i), rate(&r, i));
+    let sensor_velocity = |i: usize| -> Option<Vector3<f64>> {
+        let vv = v_raw.as_ref()?[i];
+        let al = a_raw.as_ref().map_or(0.0, |a| a[i]);
+        let be = b_raw.as_ref().map_or(0.0, |b| b[i]);
+        Some(Vector3::new(al.cos() * be.cos(), be.sin(), al.sin() * be.cos()) * vv)
+    };
+    let dx = |ch: Quantity| Vector3::new(corr.vane_dx_m.get(&ch).copied().unwrap_or(0.0), 0.0, 0.0);
+    let r_alpha = ac.alpha_vane_position_m + dx(Alpha);
+    let r_beta = ac.beta_vane_position_m + dx(Beta);
+    let r_pitot = ac.airspeed_position_m;
+    let moved = |r_s: Vector3<f64>| r_s != Vector3::zeros();
+    let alpha_raw = a_raw.clone().map(|a| {
+        if reconstructed(Alpha) || !moved(r_alpha) {
+            return a;
+        }
+        (0..n)
+            .map(|i| match sensor_velocity(i) {
+                Some(vs) => {
+                    let v = vs - omega(i).cross(&r_alpha);
+                    v.z.atan2(v.x)
+                }
+                None => a[i],
+            })
+            .collect::<Vec<f64>>()
     });
-    let beta_raw = at_cg(Beta, ac.beta_vane_position_m, &|i, rv| {
-        rate(&r, i) * rv.x - rate(&p, i) * rv.z
+    let beta_raw = b_raw.clone().map(|b| {
+        if reconstructed(Beta) || !moved(r_beta) {
+            return b;
+        }
+        (0..n)
+            .map(|i| match sensor_velocity(i) {
+                Some(vs) => {
+                    let v = vs - omega(i).cross(&r_beta);
+                    (v.y / v.norm().max(1e-6)).clamp(-1.0, 1.0).asin()
+                }
+                None => b[i],
+            })
+            .collect::<Vec<f64>>()
     });
+    let v = sm(v_raw.clone().map(|vm| {
+        if reconstructed(Airspeed) || !moved(r_pitot) {
+            return vm;
+        }
+        (0..n)
+            .map(|i| sensor_velocity(i).map_or(vm[i], |vs| (vs - omega(i).cross(&r_pitot)).norm()))
+            .collect::<Vec<f64>>()
+    }));
     let alpha_dot = alpha_raw.as_ref().map(|a| sg_smooth(&derivative(a, h_s), sg_half));
     let beta_dot = beta_raw.as_ref().map(|b| sg_smooth(&derivative(b, h_s), sg_half));
     let alpha = sm(alpha_raw);
@@ -209,6 +340,7 @@ pub fn synthesise(
             z,
             signals,
             notes,
+            kinematics: None,
         };
     };
     let vv: Vec<f64> = v.iter().map(|x| x.max(1.0)).collect();
@@ -318,12 +450,36 @@ pub fn synthesise(
                 .collect(),
         );
     }
+    // An inertia the aircraft file gives as unknown (the longitudinal HFB-320 test has only Iy)
+    // enters as zero in the gyroscopic term `ω × Jω` (reading chosen: for a longitudinal
+    // manoeuvre the `(Ix − Iz) p r` and `Ixz (p² − r²)` parts of the pitching moment are second
+    // order, and the book's HFB-320 model leaves them out); `C_l`, `C_n` then need the span and
+    // Ix, Iz and are not synthesised.
+    let lateral_inertia = [J[(0, 0)], J[(2, 2)], J[(0, 2)]].iter().all(|x| x.is_finite()) && b.is_finite();
+    let j_known = J.map(|x| if x.is_finite() { x } else { 0.0 });
+    if !lateral_inertia && lateral_rates {
+        notes.push(
+            "Ix, Iz, Ixz or the span unknown: C_l, C_n not synthesised; the unknown inertias taken as zero in ω × Jω of C_m"
+                .into(),
+        );
+    }
+    let lateral_rates = lateral_rates && lateral_inertia;
     if q_s.is_some() || lateral_rates {
         let mut mom = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
         for i in 0..n {
             let w = Vector3::new(pw[i], qw[i], rw[i]);
             let wd = Vector3::new(pdw[i], qdw[i], rdw[i]);
-            let m = J * wd + w.cross(&(J * w)) - m_t[i];
+            let mut m = j_known * wd + w.cross(&(j_known * w)) - m_t[i];
+            // About the moment reference point `r_P` (README s.2 for the ATTAS):
+            // `M_P = M_CG − r_P × F_A` with the aerodynamic force `F_A = m a_cg − F_T`.
+            if ac.moment_reference_m != Vector3::zeros() {
+                let fa = Vector3::new(
+                    accel(i, &axs, 0).map_or(0.0, |a| ac.mass_kg * a - f_t[i].x),
+                    accel(i, &ays, 1).map_or(0.0, |a| ac.mass_kg * a - f_t[i].y),
+                    accel(i, &azs, 2).map_or(0.0, |a| ac.mass_kg * a - f_t[i].z),
+                );
+                m -= ac.moment_reference_m.cross(&fa);
+            }
             mom[0][i] = m.x / (qs[i] * b);
             mom[1][i] = m.y / (qs[i] * c);
             mom[2][i] = m.z / (qs[i] * b);
@@ -343,13 +499,14 @@ pub fn synthesise(
     if let Some(bb) = beta {
         signals.insert(Signal::Beta, bb);
     }
-    if let Some(x) = &p_s {
+    // The lateral normalisations need the span (unknown for the longitudinal HFB-320 test).
+    if let (Some(x), true) = (&p_s, b.is_finite()) {
         signals.insert(Signal::PN, (0..n).map(|i| x[i] * b / (2.0 * vv[i])).collect());
     }
     if let Some(x) = &q_s {
         signals.insert(Signal::QN, (0..n).map(|i| x[i] * c / (2.0 * vv[i])).collect());
     }
-    if let Some(x) = &r_s {
+    if let (Some(x), true) = (&r_s, b.is_finite()) {
         signals.insert(Signal::RN, (0..n).map(|i| x[i] * b / (2.0 * vv[i])).collect());
     }
     for (sig, x) in [(Signal::Elevator, de), (Signal::Aileron, da), (Signal::Rudder, dr)] {
@@ -366,15 +523,36 @@ pub fn synthesise(
     if let Some(x) = alpha_dot {
         signals.insert(Signal::AlphaDotN, (0..n).map(|i| x[i] * c / (2.0 * vv[i])).collect());
     }
-    if let Some(x) = beta_dot {
+    if let (Some(x), true) = (beta_dot, b.is_finite()) {
         signals.insert(Signal::BetaDotN, (0..n).map(|i| x[i] * b / (2.0 * vv[i])).collect());
     }
+    let aero_force_n: Vec<Vector3<f64>> = (0..n)
+        .map(|i| {
+            Vector3::new(
+                accel(i, &axs, 0).map_or(0.0, |a| ac.mass_kg * a - f_t[i].x),
+                accel(i, &ays, 1).map_or(0.0, |a| ac.mass_kg * a - f_t[i].y),
+                accel(i, &azs, 2).map_or(0.0, |a| ac.mass_kg * a - f_t[i].z),
+            )
+        })
+        .collect();
     signals.insert(Signal::Airspeed, v);
+    let attitude_measured = flight.get(Pitch).is_some();
+    let att = |q: Quantity| sm(flight.get(q).map(|x| x.to_vec())).unwrap_or_else(|| zeros.clone());
     Table {
         t_s: flight.t_s.clone(),
         z,
         signals,
         notes,
+        kinematics: Some(Kinematics {
+            rates_rad_s: [pw, qw, rw],
+            attitude_rad: [att(Roll), att(Pitch)],
+            qbar_pa: qbar,
+            density_kgpm3: rho_v,
+            thrust_force_n: f_t,
+            thrust_moment_nm: m_t,
+            aero_force_n,
+            attitude_measured,
+        }),
     }
 }
 
@@ -593,6 +771,124 @@ impl Term {
             One | Alpha | Beta | P | Q | R => CauseKind::MissingBaselineTerm,
         }
     }
+
+    /// The term's value at one instant ([`Table::snapshot`], possibly with simulated signals
+    /// written into it); `None` when a signal it needs is absent (NaN). Equal to
+    /// [`Term::column`] sample by sample.
+    pub fn eval(&self, s: &Snapshot, refs: &TermRefs) -> Option<f64> {
+        use Term::*;
+        let g = |x: Signal| {
+            let v = s[x.index()];
+            (!v.is_nan()).then_some(v)
+        };
+        let a = || g(Signal::Alpha);
+        let v = match self {
+            One => 1.0,
+            Alpha => a()?,
+            Alpha2 => a()?.powi(2),
+            Alpha3 => a()?.powi(3),
+            StallBreak => (a()? - refs.alpha_break_rad).max(0.0).powi(2),
+            Beta => g(Signal::Beta)?,
+            Beta2 => g(Signal::Beta)?.powi(2),
+            AbsBeta => g(Signal::Beta)?.abs(),
+            Beta3 => g(Signal::Beta)?.powi(3),
+            P => g(Signal::PN)?,
+            Q => g(Signal::QN)?,
+            R => g(Signal::RN)?,
+            Elevator => g(Signal::Elevator)?,
+            Aileron => g(Signal::Aileron)?,
+            Rudder => g(Signal::Rudder)?,
+            AbsElevator => g(Signal::Elevator)?.abs(),
+            Elevator2 => g(Signal::Elevator)?.powi(2),
+            AlphaQ => a()? * g(Signal::QN)?,
+            AlphaElevator => a()? * g(Signal::Elevator)?,
+            AlphaAileron => a()? * g(Signal::Aileron)?,
+            AlphaBeta => a()? * g(Signal::Beta)?,
+            AlphaP => a()? * g(Signal::PN)?,
+            AlphaR => a()? * g(Signal::RN)?,
+            AlphaDot => g(Signal::AlphaDotN)?,
+            BetaDot => g(Signal::BetaDotN)?,
+            Speed => (g(Signal::Airspeed)? - refs.airspeed_mps) / refs.airspeed_mps,
+            Mach => g(Signal::Mach)? - refs.mach,
+            Thrust => g(Signal::ThrustCoeff)?,
+            ThrustElevator => g(Signal::ThrustCoeff)? * g(Signal::Elevator)?,
+        };
+        Some(v)
+    }
+
+    /// An ASCII name for the command line (`alpha`, `q`, `de`, `dV` …).
+    pub fn ascii(&self) -> &'static str {
+        use Term::*;
+        match self {
+            One => "1",
+            Alpha => "alpha",
+            Alpha2 => "alpha2",
+            Alpha3 => "alpha3",
+            StallBreak => "stall",
+            Beta => "beta",
+            Beta2 => "beta2",
+            AbsBeta => "absbeta",
+            Beta3 => "beta3",
+            P => "p",
+            Q => "q",
+            R => "r",
+            Elevator => "de",
+            Aileron => "da",
+            Rudder => "dr",
+            AbsElevator => "absde",
+            Elevator2 => "de2",
+            AlphaQ => "alpha_q",
+            AlphaElevator => "alpha_de",
+            AlphaAileron => "alpha_da",
+            AlphaBeta => "alpha_beta",
+            AlphaP => "alpha_p",
+            AlphaR => "alpha_r",
+            AlphaDot => "alphadot",
+            BetaDot => "betadot",
+            Speed => "dV",
+            Mach => "dMach",
+            Thrust => "CT",
+            ThrustElevator => "CT_de",
+        }
+    }
+
+    /// The term of a name ([`Term::name`] or [`Term::ascii`]).
+    pub fn parse(s: &str) -> Option<Term> {
+        Term::ALL.into_iter().find(|t| t.name() == s || t.ascii() == s)
+    }
+
+    /// Every term (the union of the libraries and eq. 3).
+    pub const ALL: [Term; 29] = [
+        Term::One,
+        Term::Alpha,
+        Term::Alpha2,
+        Term::Alpha3,
+        Term::StallBreak,
+        Term::Beta,
+        Term::Beta2,
+        Term::AbsBeta,
+        Term::Beta3,
+        Term::P,
+        Term::Q,
+        Term::R,
+        Term::Elevator,
+        Term::Aileron,
+        Term::Rudder,
+        Term::AbsElevator,
+        Term::Elevator2,
+        Term::AlphaQ,
+        Term::AlphaElevator,
+        Term::AlphaAileron,
+        Term::AlphaBeta,
+        Term::AlphaP,
+        Term::AlphaR,
+        Term::AlphaDot,
+        Term::BetaDot,
+        Term::Speed,
+        Term::Mach,
+        Term::Thrust,
+        Term::ThrustElevator,
+    ];
 
     /// The term's column, or `None` when a signal it needs is missing.
     pub fn column(&self, t: &Table, refs: &TermRefs) -> Option<Vec<f64>> {

@@ -1,5 +1,5 @@
 //! The report of the model-gap analysis: a terminal table a person reads, SVG figures, and the JSON
-//! document a script reads (schema `aerosid-gaps/1`, described in `docs/model-gaps.md`).
+//! document a script reads (schema `aerosid-gaps/2`, described in `docs/model-gaps.md`).
 
 use super::{CoefficientGap, GapReport};
 use crate::plot::{Colour, Figure, Line, Panel, PlotError};
@@ -13,7 +13,7 @@ pub fn table(r: &GapReport) -> String {
     let _ = writeln!(s, "model-gap analysis — {}", r.source);
     let _ = writeln!(
         s,
-        "aircraft {}; identification {:.1}–{:.1} s, held out {:.1}–{:.1} s; {} candidates tested, threshold t² > {:.1} (α = {} / {} two-sided, and PSE must fall)",
+        "aircraft {}; identification {:.1}–{:.1} s, held out {:.1}–{:.1} s; {} candidates tested, threshold t² > {:.1} (α = {} / {} two-sided)",
         r.aircraft,
         r.identification_s[0],
         r.identification_s[1],
@@ -102,6 +102,58 @@ pub fn table(r: &GapReport) -> String {
             }
         );
     }
+    let _ = writeln!(
+        s,
+        "\n   estimates (PCA-GTLS ± coloured-residual σ [eq. 17 σ]; OLS cross-check):"
+    );
+    for c in &r.coefficients {
+        let f = &c.extended;
+        let _ = writeln!(s, "   {} ({}, {}):", c.name, f.estimator, f.solution);
+        for p in &f.parameters {
+            let _ = writeln!(
+                s,
+                "     {:<10} {:>12.5} ± {:<9.5} [{:.5}]  OLS {:>12.5}{}",
+                p.term,
+                p.value,
+                p.sigma,
+                p.sigma_eq17,
+                p.ols_value,
+                if p.exact { "  (exact)" } else { "" }
+            );
+        }
+    }
+    let sim = &r.simulation;
+    let _ = writeln!(
+        s,
+        "\n3. simulation of the held-out segment with the fitted models ({:.0} s pieces from the measured state)",
+        sim.piece_s
+    );
+    for n in &sim.notes {
+        let _ = writeln!(s, "   note: {n}");
+    }
+    if !sim.outputs.is_empty() {
+        let _ = writeln!(
+            s,
+            "   {:<10} {:>8} {:>10} {:>10} | {:>8} {:>10} {:>10} | diverged",
+            "output", "R² base", "RMS base", "PSE base", "R² ext", "RMS ext", "PSE ext"
+        );
+    }
+    for o in &sim.outputs {
+        let _ = writeln!(
+            s,
+            "   {:<10} {:>8.4} {:>10.3e} {:>10.3e} | {:>8.4} {:>10.3e} {:>10.3e} | {}/{} ({})",
+            o.channel,
+            o.baseline.r2,
+            o.baseline.rms,
+            o.baseline.pse,
+            o.extended.r2,
+            o.extended.rms,
+            o.extended.pse,
+            o.diverged[0],
+            o.diverged[1],
+            o.unit
+        );
+    }
     let _ = writeln!(s, "\n6. verdict");
     match r.top_cause() {
         None => {
@@ -127,12 +179,12 @@ pub fn table(r: &GapReport) -> String {
     s
 }
 
-/// The JSON document (schema `aerosid-gaps/1`).
+/// The JSON document (schema `aerosid-gaps/2`).
 pub fn json(r: &GapReport) -> Value {
     let f = |x: f64| if x.is_finite() { json!(x) } else { Value::Null };
     let compat = &r.compatibility;
     json!({
-        "schema": "aerosid-gaps/1",
+        "schema": "aerosid-gaps/2",
         "source": r.source,
         "aircraft": r.aircraft,
         "segments": {
@@ -144,7 +196,7 @@ pub fn json(r: &GapReport) -> Value {
             "alpha": r.settings.alpha,
             "candidates_tested": r.candidates_tested,
             "threshold_t2": f(r.threshold_t2),
-            "pse_must_decrease": true,
+            "pse_must_decrease": false,
         },
         "notes": r.notes.iter().chain(&compat.notes).collect::<Vec<_>>(),
         "compatibility": {
@@ -164,6 +216,11 @@ pub fn json(r: &GapReport) -> Value {
             })).collect::<Vec<_>>(),
         },
         "coefficients": r.coefficients.iter().map(coef_json).collect::<Vec<_>>(),
+        "simulation": {
+            "piece_s": r.simulation.piece_s,
+            "notes": r.simulation.notes,
+            "outputs": r.simulation.outputs,
+        },
         "named": r.named.iter().map(|c| json!({
             "kind": c.kind, "location": c.location, "what": c.what,
             "t2": f(c.t2), "value": f(c.value), "sigma": f(c.sigma),
@@ -202,6 +259,13 @@ pub fn write(r: &GapReport, dir: &Path) -> Result<Vec<PathBuf>, ReportError> {
         coefficient_figure(c).write_svg(&p).map_err(ReportError::Plot)?;
         files.push(p);
     }
+    if !r.simulation.traces.is_empty() {
+        let p = dir.join("simulation.svg");
+        simulation_figure(&r.simulation)
+            .write_svg(&p)
+            .map_err(ReportError::Plot)?;
+        files.push(p);
+    }
     if !r.compatibility.traces.is_empty() {
         let p = dir.join("compatibility.svg");
         let mut fig = Figure::new("time [s]")
@@ -232,6 +296,45 @@ pub fn write(r: &GapReport, dir: &Path) -> Result<Vec<PathBuf>, ReportError> {
         files.push(p);
     }
     Ok(files)
+}
+
+/// The held-out segment simulated with the baseline and the extended models: per output, the
+/// measured (reconstructed) state and both simulations, and both errors.
+pub fn simulation_figure(sim: &super::simulate::Simulation) -> Figure {
+    let mut fig = Figure::new("time [s]").title(format!(
+        "held-out segment simulated with the fitted models ({:.0} s pieces, each from the measured state)",
+        sim.piece_s
+    ));
+    for (tr, o) in sim.traces.iter().zip(&sim.outputs) {
+        let eb: Vec<f64> = tr.measured.iter().zip(&tr.baseline).map(|(a, b)| a - b).collect();
+        let ee: Vec<f64> = tr.measured.iter().zip(&tr.extended).map(|(a, b)| a - b).collect();
+        fig = fig
+            .panel(
+                Panel::new(
+                    format!("{} measured vs simulated", tr.channel),
+                    format!("{} [{}]", tr.channel, o.unit),
+                )
+                .line(Line::new("measured", &tr.t_s, &tr.measured, Colour::GREY))
+                .line(Line::new("baseline", &tr.t_s, &tr.baseline, Colour::BLUE))
+                .line(Line::new("extended", &tr.t_s, &tr.extended, Colour::VERMILLION).dashed()),
+            )
+            .panel(
+                Panel::new(format!("{} error", tr.channel), "measured − simulated")
+                    .line(Line::new(
+                        format!("baseline (RMS {:.2e}, R² {:.3})", o.baseline.rms, o.baseline.r2),
+                        &tr.t_s,
+                        &eb,
+                        Colour::BLUE,
+                    ))
+                    .line(Line::new(
+                        format!("extended (RMS {:.2e}, R² {:.3})", o.extended.rms, o.extended.r2),
+                        &tr.t_s,
+                        &ee,
+                        Colour::VERMILLION,
+                    )),
+            );
+    }
+    fig
 }
 
 /// Measured vs baseline and extended predictions, and both residuals, of one coefficient.

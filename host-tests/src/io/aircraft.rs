@@ -14,7 +14,8 @@
 //! | `jx`, `jy`, `jz`, `jxz` (positive `Jxz`, stored `−Jxz` off the diagonal) | `_kgm2`, `_slugft2` | `jy`; `jx`, `jz` yes but may be `unknown`; `jxz` default 0 |
 //! | `wing_area` | `_m2`, `_ft2` | yes |
 //! | `span`, `chord` | `_m`, `_ft` | `chord`; `span` yes but may be `unknown` |
-//! | `accel_x`, `accel_y`, `accel_z`, `alpha_vane_…`, `beta_vane_…` (relative to the CG, body FRD) | `_m`, `_ft`, `_in` | no, default 0 |
+//! | `accel_x`, `accel_y`, `accel_z`, `alpha_vane_…`, `beta_vane_…`, `airspeed_…` (pitot) (relative to the CG, body FRD) | `_m`, `_ft`, `_in` | no, default 0 |
+//! | `moment_reference_x`, `…_y`, `…_z` (the point the moment coefficients refer to, relative to the CG) | `_m`, `_ft`, `_in` | no, default 0 (the CG) |
 //! | `thrust` | `measured`, `measured_twin`, `propeller`, `unknown` | no, default `unknown` |
 //! | `thrust_x`, `thrust_y`, `thrust_z` (thrust point; the right engine for `measured_twin`) | `_m`, `_ft`, `_in` | no, default 0 |
 //! | `thrust_pitch` (positive nose up) | `_rad`, `_deg` | no, default 0 |
@@ -70,6 +71,12 @@ const NUMERIC: &[NumericKey] = &[
     ("beta_vane_x", LENGTH, false),
     ("beta_vane_y", LENGTH, false),
     ("beta_vane_z", LENGTH, false),
+    ("airspeed_x", LENGTH, false),
+    ("airspeed_y", LENGTH, false),
+    ("airspeed_z", LENGTH, false),
+    ("moment_reference_x", LENGTH, false),
+    ("moment_reference_y", LENGTH, false),
+    ("moment_reference_z", LENGTH, false),
     ("thrust_x", LENGTH, false),
     ("thrust_y", LENGTH, false),
     ("thrust_z", LENGTH, false),
@@ -334,6 +341,8 @@ pub fn parse_aircraft(text: &str, file: &str) -> Result<Aircraft, ReadError> {
         accel_position_m: vec3("accel"),
         alpha_vane_position_m: vec3("alpha_vane"),
         beta_vane_position_m: vec3("beta_vane"),
+        airspeed_position_m: vec3("airspeed"),
+        moment_reference_m: vec3("moment_reference"),
         thrust,
     })
 }

@@ -118,6 +118,10 @@ pub struct Aircraft {
     pub alpha_vane_position_m: Vector3<f64>,
     /// β vane position relative to the CG, body FRD, m.
     pub beta_vane_position_m: Vector3<f64>,
+    /// Airspeed (pitot) position relative to the CG, body FRD, m.
+    pub airspeed_position_m: Vector3<f64>,
+    /// The point the moment coefficients refer to, relative to the CG, body FRD, m (zero: the CG).
+    pub moment_reference_m: Vector3<f64>,
     /// Thrust.
     pub thrust: ThrustSource,
 }
@@ -135,6 +139,8 @@ impl Aircraft {
             accel_position_m: Vector3::zeros(),
             alpha_vane_position_m: Vector3::zeros(),
             beta_vane_position_m: Vector3::zeros(),
+            airspeed_position_m: Vector3::zeros(),
+            moment_reference_m: Vector3::zeros(),
             thrust: ThrustSource::Propeller(frame.propeller),
         }
     }

@@ -1,0 +1,235 @@
+//! The errors-in-variables model of the analysis: `W_T` (seed 000 eq. 9) of every regressor column
+//! and of every synthesised coefficient, by Monte Carlo propagation of the sensors' white noise
+//! through the whole chain (seed 000 §V, eq. 34–41 build `σ_ε` the same way: by sampling the
+//! errors of the measured inputs of a compound quantity).
+//!
+//! ## Why it matters here
+//! The regressors are measured or reconstructed, not known: the reconstructed angle of attack
+//! carries an error of ~0.0007 rad on the simulated flights (an initial-state error per 5 s
+//! segment plus the random walk of the integrated accelerometer, gyro and attitude noise). Under
+//! the stabiliser and the phugoid, α is almost a linear function of `q`, `δe` and `V`
+//! (`α ≈ α₀(V₀/V)²`; the part of α the other regressors do not explain has a standard deviation of
+//! only ~0.0036 rad), so ordinary least squares attenuates `C_Lα` by several per cent and loads the
+//! lost part onto the correlated regressors — measured on the clean flights, a spurious `ΔV/V` in
+//! `C_L` of about −0.045 (`t²` ≈ 10 on average, above the Bonferroni threshold on 2 of 20 flights)
+//! and a spurious `C_Lq`. With the vane's own 0.5° noise instead of the reconstruction the
+//! attenuation is ~40 %. This is the errors-in-variables problem PCA-GTLS exists for; it needs
+//! the error covariance of the columns, which this module estimates.
+//!
+//! ## Method
+//! 1. The white-noise level of every measured channel, from its third differences
+//!    ([`super::signal::white_noise_sd`]).
+//! 2. `R` replicas of the flight with independent white noise of those levels added to every
+//!    channel (seeded ChaCha8, so the result is reproducible). For each replica the flight-path
+//!    reconstruction is repeated with the sensor errors found held fixed
+//!    ([`super::compat::reconstruct_air_data`]: only the segments' initial states are refitted, so
+//!    the replica's reconstructed air data carry the reconstruction's own error structure), and
+//!    the coefficients and every candidate column are synthesised again.
+//! 3. The difference of each replica's columns and coefficients from the nominal ones is a draw
+//!    of their errors; their second moments over the replicas and the identification samples are
+//!    `W_T` — the full covariance, including the correlation of the airspeed's error in `q̄` (the
+//!    coefficient) with the same error in a speed regressor.
+//!
+//! The added noise has the level of the measured noise, so a replica's difference has the
+//! distribution of the data's own error to first order (the data are noisy already: the
+//! linearisation point carries one noise realisation, a second-order effect).
+//!
+//! A column whose error variance is below `1e-12` of its mean square (the intercept; a commanded
+//! throttle) is exact.
+
+use super::compat::{reconstruct_air_data, Compatibility};
+use super::model::{synthesise, Corrections, Table, Term, TermRefs};
+use super::regress::EivModel;
+use super::signal::white_noise_sd;
+use crate::io::measured::{MeasuredFlight, Quantity};
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, StandardNormal};
+use std::collections::BTreeMap;
+
+/// The white-noise standard deviation of every channel (SI units).
+pub fn channel_noise(flight: &MeasuredFlight) -> BTreeMap<Quantity, f64> {
+    flight.channels.iter().map(|(q, v)| (*q, white_noise_sd(v))).collect()
+}
+
+/// The error second moments of one coefficient's columns.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ColumnErrors {
+    /// The terms, in the order of `cov`.
+    pub terms: Vec<Term>,
+    /// `(T + 1)²` row-major: the terms' errors, then the coefficient's.
+    pub cov: Vec<f64>,
+    /// Mean square of each term's column on the identification segment.
+    pub mean_square: Vec<f64>,
+}
+
+impl ColumnErrors {
+    fn index(&self, t: &Term) -> Option<usize> {
+        self.terms.iter().position(|x| x == t)
+    }
+
+    /// The error variance of a term's column (0 if unknown).
+    pub fn variance(&self, t: &Term) -> f64 {
+        let k = self.terms.len() + 1;
+        self.index(t).map_or(0.0, |i| self.cov[i * k + i])
+    }
+
+    /// The error variance of the coefficient.
+    pub fn output_variance(&self) -> f64 {
+        let k = self.terms.len() + 1;
+        self.cov[k * k - 1]
+    }
+
+    /// Whether a term's column is exact (error variance below `1e-12` of its mean square, or no
+    /// error estimate for it).
+    pub fn is_exact(&self, t: &Term) -> bool {
+        match self.index(t) {
+            None => true,
+            Some(i) => self.variance(t) <= 1e-12 * self.mean_square[i],
+        }
+    }
+
+    /// The errors-in-variables model of a regression on `terms`.
+    pub fn eiv(&self, terms: &[Term]) -> EivModel {
+        let k = self.terms.len() + 1;
+        let exact: Vec<bool> = terms.iter().map(|t| self.is_exact(t)).collect();
+        let noisy: Vec<usize> = terms
+            .iter()
+            .zip(&exact)
+            .filter(|(_, e)| !**e)
+            .filter_map(|(t, _)| self.index(t))
+            .collect();
+        let nx = noisy.len();
+        let mut w_xx = vec![0.0; nx * nx];
+        let mut w_xz = vec![0.0; nx];
+        for (r, &a) in noisy.iter().enumerate() {
+            for (c, &b) in noisy.iter().enumerate() {
+                w_xx[r * nx + c] = self.cov[a * k + b];
+            }
+            w_xz[r] = self.cov[a * k + (k - 1)];
+        }
+        EivModel { exact, w_xx, w_xz }
+    }
+}
+
+/// Settings of the Monte Carlo.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MonteCarlo {
+    /// Replicas. Default 8: the reconstruction error is nearly constant over a 5 s segment, so its
+    /// variance is estimated from about `8 × 11` segment draws on a 90 s flight (±15 %).
+    pub replicas: usize,
+    /// Seed of the added noise.
+    pub seed: u64,
+}
+
+impl Default for MonteCarlo {
+    fn default() -> Self {
+        Self {
+            replicas: 8,
+            seed: 0x006e_6f69_7365,
+        }
+    }
+}
+
+/// The inputs of [`column_errors`] that describe how the nominal table was made.
+pub struct Synthesis<'a> {
+    /// The flight.
+    pub flight: &'a MeasuredFlight,
+    /// Time step, s.
+    pub h_s: f64,
+    /// Sensor corrections applied.
+    pub corrections: &'a Corrections,
+    /// Savitzky–Golay half-width, samples.
+    pub sg_half: usize,
+    /// The compatibility check whose reconstructed air data the table used (`None`: measured air
+    /// data).
+    pub compat: Option<&'a Compatibility>,
+    /// Term references.
+    pub refs: &'a TermRefs,
+    /// Identification samples (the moments are taken over `0..n_id`).
+    pub n_id: usize,
+}
+
+/// The error moments of every coefficient's `terms` (`None` where the coefficient is absent).
+pub fn column_errors(
+    s: &Synthesis,
+    table: &Table,
+    terms: &[Vec<Term>; 6],
+    mc: &MonteCarlo,
+) -> [Option<ColumnErrors>; 6] {
+    let n_id = s.n_id.min(table.t_s.len());
+    let noise = channel_noise(s.flight);
+    // Nominal columns.
+    let nominal: Vec<Option<Vec<Option<Vec<f64>>>>> = (0..6)
+        .map(|i| {
+            table.z[i]
+                .as_ref()
+                .map(|_| terms[i].iter().map(|t| t.column(table, s.refs)).collect())
+        })
+        .collect();
+    let mut sums: Vec<Option<Vec<f64>>> = (0..6)
+        .map(|i| nominal[i].as_ref().map(|_| vec![0.0; (terms[i].len() + 1).pow(2)]))
+        .collect();
+    let mut count = 0usize;
+    for r in 0..mc.replicas {
+        let mut rng = ChaCha8Rng::seed_from_u64(mc.seed.wrapping_add(r as u64));
+        let mut pert = s.flight.clone();
+        for (q, v) in pert.channels.iter_mut() {
+            let sd = noise.get(q).copied().unwrap_or(0.0);
+            if sd > 0.0 {
+                for x in v.iter_mut() {
+                    let e: f64 = StandardNormal.sample(&mut rng);
+                    *x += sd * e;
+                }
+            }
+        }
+        let air = s.compat.map(|c| reconstruct_air_data(&pert, s.h_s, c));
+        let air = air.filter(|a| !a.is_empty());
+        let tk = synthesise(&pert, s.h_s, s.corrections, s.sg_half, air.as_ref());
+        count += n_id;
+        for i in 0..6 {
+            let (Some(nom), Some(sum), Some(z0), Some(zk)) = (&nominal[i], &mut sums[i], &table.z[i], &tk.z[i]) else {
+                continue;
+            };
+            let k = terms[i].len() + 1;
+            let mut d: Vec<Vec<f64>> = terms[i]
+                .iter()
+                .zip(nom)
+                .map(|(t, c0)| match (c0, t.column(&tk, s.refs)) {
+                    (Some(c0), Some(ck)) => (0..n_id).map(|j| ck[j] - c0[j]).collect(),
+                    _ => vec![0.0; n_id],
+                })
+                .collect();
+            d.push((0..n_id).map(|j| zk[j] - z0[j]).collect());
+            for a in 0..k {
+                for b in a..k {
+                    let v: f64 = d[a].iter().zip(&d[b]).map(|(x, y)| x * y).sum();
+                    sum[a * k + b] += v;
+                    if a != b {
+                        sum[b * k + a] += v;
+                    }
+                }
+            }
+        }
+    }
+    let mut out: [Option<ColumnErrors>; 6] = Default::default();
+    for i in 0..6 {
+        let (Some(nom), Some(sum)) = (&nominal[i], &sums[i]) else {
+            continue;
+        };
+        let mean_square = nom
+            .iter()
+            .map(|c| {
+                c.as_ref().map_or(0.0, |c| {
+                    c[..n_id].iter().map(|v| v * v).sum::<f64>() / n_id.max(1) as f64
+                })
+            })
+            .collect();
+        out[i] = Some(ColumnErrors {
+            terms: terms[i].clone(),
+            cov: sum.iter().map(|v| v / count.max(1) as f64).collect(),
+            mean_square,
+        });
+    }
+    out
+}
