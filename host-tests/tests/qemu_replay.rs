@@ -16,9 +16,10 @@ use std::time::Duration;
 const STEP_BUDGET_MEDIAN: u32 = 31_500;
 /// See [`STEP_BUDGET_MEDIAN`].
 const STEP_BUDGET_MAX: u32 = 48_500;
-/// Stack high-water mark (painted stack, measured 4 684 B since the pipeline is configured in place
-/// in its static; 8 740 B before), regression budget.
-const STACK_BUDGET_BYTES: u32 = 5_000;
+/// Stack high-water mark (painted stack), regression budget: measured 5 028 B with the issue-7
+/// fault handling on the sampling path (stuck detector, sequence check, health report); 4 684 B
+/// before it, 8 740 B before the pipeline was configured in place in its static.
+const STACK_BUDGET_BYTES: u32 = 5_300;
 
 fn flight_samples(seconds: f64, seed: u64) -> Vec<SensorSample<f32>> {
     let out = sim::simulate(&flights::main_flight(seconds, seed)).expect("simulation");

@@ -205,6 +205,8 @@ pub fn general_update<T: Real, const M: usize>(
             m += 1;
         }
     }
+    // m ≤ M by construction; said to the compiler so that the loops below carry no bounds check.
+    let m = m.min(M);
     out.deflated = (M - m) as u8;
 
     // 2. Roots. Compact copies of the secular problem (ascending poles ac², weights zc).
@@ -212,8 +214,9 @@ pub fn general_update<T: Real, const M: usize>(
     let mut zc = [T::zero(); M];
     let mut zr2 = T::zero();
     for j in 0..m {
-        ac[j] = a[idx[j]];
-        zc[j] = z[idx[j]];
+        let k = below::<M>(idx[j]);
+        ac[j] = a[k];
+        zc[j] = z[k];
         zr2 += zc[j] * zc[j];
     }
     // Pole differences pd[K][j] = δ_j − δ_K, each formed from singular values (no cancellation).
@@ -232,8 +235,9 @@ pub fn general_update<T: Real, const M: usize>(
     let mut active = [false; M];
     for r in 0..m {
         let last = r + 1 == m;
-        // Midpoint of the gap (the last root: the upper bound δ_m + ‖z‖²), bracket (lo, hi).
-        let mut t = if !last { pd[r][r + 1] * T::lit(0.5) } else { zr2 };
+        let r1 = below::<M>(r + 1); // the upper pole (used only when !last, then r + 1 < m ≤ M)
+                                    // Midpoint of the gap (the last root: the upper bound δ_m + ‖z‖²), bracket (lo, hi).
+        let mut t = if !last { pd[r][r1] * T::lit(0.5) } else { zr2 };
         let mut lo = T::zero();
         let mut hi = t;
         let mut ev = secular_terms(&pd[r], &zc, m, r, t);
@@ -245,14 +249,14 @@ pub fn general_update<T: Real, const M: usize>(
         let mut kq = r;
         if !last && f0 < T::zero() {
             // Nearer the upper pole. The function values at the midpoint do not depend on the origin.
-            kq = r + 1;
+            kq = r1;
             t = -t;
             lo = t;
             hi = T::zero();
         }
         origin[r] = kq;
         let dk = &pd[kq];
-        let (pl, ph) = if last { (r.saturating_sub(1), r) } else { (r, r + 1) };
+        let (pl, ph) = if last { (r.saturating_sub(1), r) } else { (r, r1) };
         let (zl2, zh2) = if pl == ph {
             (T::zero(), zc[ph] * zc[ph])
         } else {
@@ -286,7 +290,7 @@ pub fn general_update<T: Real, const M: usize>(
         if active[r] {
             out.not_converged = out.not_converged.saturating_add(1);
         }
-        let dk = &pd[origin[r]];
+        let dk = &pd[below::<M>(origin[r])];
         for j in 0..m {
             let mut dj = dk[j] - tau[r];
             if dj == T::zero() {
@@ -315,7 +319,7 @@ pub fn general_update<T: Real, const M: usize>(
             }
         }
         let mag = p.maxr(T::zero()).root();
-        zhat[j] = if z[idx[j]] < T::zero() { -mag } else { mag };
+        zhat[j] = if z[below::<M>(idx[j])] < T::zero() { -mag } else { mag };
     }
     // New values and vectors, then sort decreasingly.
     let mut sig = [T::zero(); M];
@@ -323,9 +327,10 @@ pub fn general_update<T: Real, const M: usize>(
     let mut slot = 0usize;
     for k in 0..M {
         if defl[k] {
-            sig[slot] = a[k] * a[k];
+            let at = below::<M>(slot); // slots: one per deflated k, then one per root: < M
+            sig[at] = a[k] * a[k];
             for row in 0..M {
-                cols[(row, slot)] = q[(row, k)];
+                cols[(row, at)] = q[(row, k)];
             }
             slot += 1;
         }
@@ -334,7 +339,7 @@ pub fn general_update<T: Real, const M: usize>(
     let mut qc = [[T::zero(); M]; M];
     for j in 0..m {
         for row in 0..M {
-            qc[j][row] = q[(row, idx[j])];
+            qc[j][row] = q[(row, below::<M>(idx[j]))];
         }
     }
     for r in 0..m {
@@ -348,7 +353,7 @@ pub fn general_update<T: Real, const M: usize>(
         // pole (noise-free data: a zero singular value and a tiny `z_K`) cannot overflow `u`. If the
         // root sits on the pole in floating point, or `u_K` underflows, the eigenvector is the
         // pole's own vector to working precision and the column is kept.
-        let kq = origin[r];
+        let kq = below::<M>(origin[r]);
         let dkq = diff[r][kq];
         let mut u = [T::zero(); M];
         let mut off = T::zero();
@@ -389,11 +394,12 @@ pub fn general_update<T: Real, const M: usize>(
                 }
             }
         }
+        let slot_r = below::<M>(slot);
         for row in 0..M {
-            cols[(row, slot)] = qc[kq][row] + acc[row];
+            cols[(row, slot_r)] = qc[kq][row] + acc[row];
         }
         let ak = ac[kq];
-        sig[slot] = (ak * ak + tau[r]).maxr(T::zero());
+        sig[slot_r] = (ak * ak + tau[r]).maxr(T::zero());
         slot += 1;
     }
     // Insertion sort by decreasing σ (M is small), carrying the columns.
@@ -403,7 +409,7 @@ pub fn general_update<T: Real, const M: usize>(
     }
     for i in 1..M {
         let mut j = i;
-        while j > 0 && sig[order[j - 1]] < sig[order[j]] {
+        while j > 0 && sig[below::<M>(order[j - 1])] < sig[below::<M>(order[j])] {
             order.swap(j - 1, j);
             j -= 1;
         }
@@ -412,6 +418,7 @@ pub fn general_update<T: Real, const M: usize>(
     let mut s_new = SVector::<T, M>::zeros();
     let up = T::one().scale_pow2(e);
     for (dst, &src) in order.iter().enumerate() {
+        let src = below::<M>(src);
         // σ² scaled back by 2^2e in two exact steps (2^2e alone may not be representable).
         s_new[dst] = sig[src] * up * up;
         for row in 0..M {
@@ -585,7 +592,7 @@ pub fn steady_update<T: Real, const M: usize>(
     // diff[r][j] = δ_j − μ_r (never 0: τ_r is strictly between its origin pole and the midpoint).
     let mut diff = [[T::zero(); M]; M];
     for r in 0..M {
-        let dk = &pd[origin[r]];
+        let dk = &pd[below::<M>(origin[r])];
         for j in 0..M {
             diff[r][j] = dk[j] - tau[r];
         }
@@ -605,7 +612,7 @@ pub fn steady_update<T: Real, const M: usize>(
     // Eigenvector r with origin K: u_j = ẑ_j·(δ_K − μ_r)/(δ_j − μ_r) (|ratio| ≤ 1), u_K = ẑ_K; new
     // column q_K + (û_K − 1)·q_K + Σ_{j≠K} û_j q_j (module doc, step 3).
     for r in 0..M {
-        let kq = origin[r];
+        let kq = below::<M>(origin[r]);
         let mut coef = [T::zero(); M];
         let mut off = T::zero();
         let dkq = diff[r][kq];
@@ -676,7 +683,7 @@ fn bns_iteration<T: Real, const M: usize>(
     }
     let d1 = dk[r] - *t; // δ_r − μ < 0
     let eta = if !last {
-        let d2 = dk[r + 1] - *t; // δ_{r+1} − μ > 0
+        let d2 = dk[below::<M>(r + 1)] - *t; // δ_{r+1} − μ > 0 (r + 1 < M when !last)
         let s1 = d1 * d1 * dpsi;
         let s2 = d2 * d2 * dphi;
         let c = f - d1 * dpsi - d2 * dphi;
@@ -713,12 +720,26 @@ fn secular_terms<T: Real, const M: usize>(dk: &[T; M], zc: &[T; M], m: usize, r:
         psi += zc[j] * term;
         dpsi += term * term;
     }
-    for j in (r + 1)..m {
+    for j in (r + 1)..m.min(M) {
         let term = zc[j] / (dk[j] - t);
         phi += zc[j] * term;
         dphi += term * term;
     }
     (psi, dpsi, phi, dphi)
+}
+
+/// `i` clamped into `0..M`. Every index this module keeps in an array (`idx`, `origin`) is below
+/// `M` by construction, so this is the identity on every value it is given; it only lets the
+/// compiler see the bound and drop the bounds check, and with it a panic path from the release
+/// firmware (issue 7 §5, `firmware/panic-allow.txt`). One compare and a conditional move, the cost
+/// of the check it replaces.
+#[inline(always)]
+fn below<const M: usize>(i: usize) -> usize {
+    if i < M {
+        i
+    } else {
+        M.saturating_sub(1)
+    }
 }
 
 /// Deflation tolerance local to the pole `a²`: `8ε·a²` (floored at the smallest normal number).
