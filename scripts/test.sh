@@ -33,6 +33,9 @@ step "format: cargo fmt --all -- --check (and the fuzz workspace)"
 cargo fmt --all -- --check
 cargo fmt --manifest-path fuzz/Cargo.toml --all -- --check
 
+step "fuzz crate clippy (its own workspace; the core targets, as CI fuzzes them): cargo clippy --manifest-path fuzz/Cargo.toml --no-default-features --bins -- -D warnings"
+cargo clippy --manifest-path fuzz/Cargo.toml --no-default-features --bins -- -D warnings
+
 step "host clippy: cargo clippy --workspace --all-targets -- -D warnings"
 cargo clippy --workspace --all-targets -- -D warnings
 

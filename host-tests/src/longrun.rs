@@ -209,6 +209,97 @@ pub struct LongRunReport {
     pub final_theta: [(Vec<f64>, Vec<f64>); idx::COUNT],
 }
 
+/// The invariants of issue 7 §2 a long run must keep ([`LongRunReport::violations`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Invariants {
+    /// Bound on every estimator's `‖VᵀV − I‖_F` at every sample (issue 7: 1e-5).
+    pub orthonormality: f64,
+    /// Largest settling time after a jump, s.
+    pub settle_s: f64,
+    /// Largest parameter change over the calm cruise, in typical magnitudes.
+    pub calm_drift: f64,
+    /// Range `λ_F` must stay in.
+    pub lambda: (f64, f64),
+}
+
+impl Invariants {
+    /// The bounds the CI slice asserts (`tests/reliability_long_run.rs`, where each is justified):
+    /// orthonormality 1e-5, settling within 30 s, calm drift ≤ 0.8 typical magnitudes, `λ_F` in
+    /// `[0.8, 1]` (the on-board VFF's floor).
+    pub const ISSUE_7: Self = Self {
+        orthonormality: 1e-5,
+        settle_s: 30.0,
+        calm_drift: 0.8,
+        lambda: (0.8 - 1e-6, 1.0),
+    };
+}
+
+impl LongRunReport {
+    /// Every invariant the run broke, as a sentence each (empty: none): orthonormality, non-finite
+    /// state, refusals by an estimator, `λ_F` out of range, a jump not tracked (not settled within
+    /// `settle_s`, or outside a quarter of the jump at the end of its phase), drift in the calm
+    /// cruise, samples not all processed.
+    // Negated comparisons on purpose: a NaN figure counts as broken.
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
+    pub fn violations(&self, inv: &Invariants) -> Vec<String> {
+        let mut v = Vec::new();
+        let names = ["C_L", "C_D", "C_Y", "C_l", "C_m", "C_n"];
+        if u64::from(self.health.samples) != self.samples {
+            v.push(format!(
+                "{} of {} samples reached the pipeline",
+                self.health.samples, self.samples
+            ));
+        }
+        for (i, e) in self.coefficients.iter().enumerate() {
+            let n = names.get(i).copied().unwrap_or("?");
+            if !(e.worst_orthonormality < inv.orthonormality) {
+                v.push(format!(
+                    "{n}: ‖VᵀV − I‖_F reached {:.2e} (bound {:.0e})",
+                    e.worst_orthonormality, inv.orthonormality
+                ));
+            }
+            if e.non_finite != 0 {
+                v.push(format!("{n}: {} samples with non-finite state", e.non_finite));
+            }
+            if e.refused_estimator != 0 {
+                v.push(format!("{n}: {} samples refused by the estimator", e.refused_estimator));
+            }
+            if !(e.lambda.0 >= inv.lambda.0 && e.lambda.1 <= inv.lambda.1) {
+                v.push(format!("{n}: λ_F {:?} outside {:?}", e.lambda, inv.lambda));
+            }
+        }
+        for t in &self.tracking {
+            let band = 0.25 * (t.truth.1 - t.truth.0).abs();
+            match t.settle_s {
+                Some(s) if s <= inv.settle_s => {}
+                s => v.push(format!(
+                    "jump {}: {:?} settled after {s:?} s (bound {} s)",
+                    t.jump + 1,
+                    t.regressor,
+                    inv.settle_s
+                )),
+            }
+            if !((t.after - t.truth.1).abs() <= band) {
+                v.push(format!(
+                    "jump {}: {:?} ended at {} (truth {}, band ±{band})",
+                    t.jump + 1,
+                    t.regressor,
+                    t.after,
+                    t.truth.1
+                ));
+            }
+        }
+        if !(self.calm_drift.0 <= inv.calm_drift) {
+            let (d, i, p) = self.calm_drift;
+            v.push(format!(
+                "calm cruise: coefficient {i} parameter {p} moved {d:.3} typical magnitudes (bound {})",
+                inv.calm_drift
+            ));
+        }
+        v
+    }
+}
+
 /// Why a long run could not run.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum LongRunError {

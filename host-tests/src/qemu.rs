@@ -31,6 +31,27 @@ use std::time::{Duration, Instant};
 /// `estimate::PROBES`).
 pub const PROBES: usize = 8;
 
+/// Stack high-water mark of the QEMU firmware (painted stack), the regression budget of every
+/// QEMU run (`tests/qemu_replay.rs`, `tests/qemu_faults.rs`): measured 5 028 B on the clean replay
+/// with the issue-7 fault handling on the sampling path (stuck detector, sequence check, health
+/// report); 4 684 B before it, 8 740 B before the pipeline was configured in place in its static.
+pub const STACK_BUDGET_BYTES: u32 = 5_300;
+
+/// Instructions of the whole six-coefficient step on its worst sample: the regression budget of
+/// the clean replay (`tests/qemu_replay.rs`, measured max 44 414) and the ceiling of the fault run
+/// (`tests/qemu_faults.rs`: no fault, and no garbage on the link, may stall the step).
+pub const STEP_BUDGET_MAX: u32 = 48_500;
+
+/// Whether `defmt-print` (which decodes the firmware's defmt log, and with it the stack figure) is
+/// on the `PATH`.
+pub fn defmt_print_installed() -> bool {
+    Command::new("defmt-print")
+        .arg("--version")
+        .output()
+        .map(|o| o.status.success())
+        .unwrap_or(false)
+}
+
 /// Why a QEMU run failed.
 #[derive(Debug)]
 pub enum QemuError {

@@ -10,7 +10,7 @@
 //! * no drift in the calm cruise: no parameter of a fully excited coefficient moves by more than
 //!   [`CALM_DRIFT`] of its typical magnitude.
 
-use aerosid_host::longrun::{format_report, run, LongRunConfig};
+use aerosid_host::longrun::{format_report, run, Invariants, LongRunConfig};
 
 /// Largest settling time after a jump, s. The slice's excitation phase after each jump is 50 s
 /// (its first manoeuvre 4 s after the jump); the VFF detects a jump within ~2 s and re-converges
@@ -66,6 +66,10 @@ fn ten_minute_slice_keeps_every_invariant_and_tracks_both_jumps() {
         drift <= CALM_DRIFT,
         "calm cruise: coefficient {i} parameter {p} moved {drift} typical magnitudes"
     );
+    // … and the report's own check (what `aerosid long-run` exits on) agrees
+    let inv = Invariants::ISSUE_7;
+    assert_eq!((inv.settle_s, inv.calm_drift), (SETTLE_S, CALM_DRIFT));
+    assert_eq!(r.violations(&inv), Vec::<String>::new());
 }
 
 /// The 10-hour run of BENCHMARKS.md (`aerosid long-run --hours 10` prints the same table): not a CI
@@ -77,4 +81,7 @@ fn ten_hours() {
     let start = std::time::Instant::now();
     let r = run(&LongRunConfig::hours(10.0, 1), |_| {}).expect("long run");
     println!("{}", format_report(&r, start.elapsed().as_secs_f64()));
+    assert_eq!(r.samples, 3_600_000);
+    assert_eq!(r.tracking.len(), 5, "three C_m and two C_l parameters change");
+    assert_eq!(r.violations(&Invariants::ISSUE_7), Vec::<String>::new());
 }

@@ -269,14 +269,15 @@ fn exactly_collinear_and_stuck_regressors<T: Tol>() {
         let mut k_max = 0;
         for k in 0..60_000 {
             let mut xt = excited(k);
-            // x₃ = 2·x₂ exactly (noise included), or x₃ ≡ 0 (no noise either: a dead channel)
+            // x₃ = 2·x₂ exactly (noise included), or x₃ ≡ 0 (no noise either: a dead channel, so
+            // its true value is zeroed before the output is formed from it)
+            if case == "stuck at zero" {
+                xt[2] = 0.0;
+            }
             let (mut x, z) = sample::<T>(xt, &THETA, &mut rng);
             match case {
                 "collinear" => x[3] = x[2] * T::lit(2.0),
-                _ => {
-                    xt[2] = 0.0;
-                    x[3] = T::zero();
-                }
+                _ => x[3] = T::zero(),
             }
             k_max = k_max.max(check(&mut e, &x, z, k));
         }

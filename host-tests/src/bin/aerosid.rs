@@ -573,7 +573,16 @@ fn main() -> ExitCode {
                         "{}",
                         aerosid_host::longrun::format_report(&r, start.elapsed().as_secs_f64())
                     );
-                    ExitCode::SUCCESS
+                    let broken = r.violations(&aerosid_host::longrun::Invariants::ISSUE_7);
+                    if broken.is_empty() {
+                        println!("invariants (issue 7 §2): all kept");
+                        ExitCode::SUCCESS
+                    } else {
+                        for b in &broken {
+                            eprintln!("aerosid long-run: invariant broken: {b}");
+                        }
+                        ExitCode::FAILURE
+                    }
                 }
                 Err(e) => {
                     eprintln!("aerosid long-run: {e}");
