@@ -35,6 +35,15 @@ pub fn all() -> Vec<(&'static str, String, Vec<u8>)> {
     for (name, bytes) in mavlink() {
         out.push(("mavlink", name, bytes));
     }
+    // Inputs that once broke an invariant (`fuzz/regressions/`), kept as seeds so that every run
+    // starts by re-checking them. ms4525do-speed-underflow (libFuzzer crash-2c94843a): a Δp of
+    // −3.7e-23 Pa over a huge configured density, whose speed underflows to −0.0 — the oracle's
+    // sign check, not the driver, was wrong.
+    out.push((
+        "drivers",
+        "regression-ms4525do-speed-underflow".into(),
+        include_bytes!("../regressions/drivers/ms4525do-speed-underflow").to_vec(),
+    ));
     let samples = flight(0.3);
     let mut csv = Vec::new();
     if log::write_log(&mut csv, "seed.csv", &samples).is_ok() {
