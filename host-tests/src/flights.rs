@@ -55,6 +55,20 @@ pub fn fig1_config(cruise_s: f64, duration_s: f64, seed: u64) -> SimConfig {
     }
 }
 
+/// The `C_m` change of the Fig. 2 flight and of the long run's first jump (damage or a
+/// configuration change): `ΔC_m0 = 0.005`, `ΔCmα = 0.4`, `ΔCmq = 4`.
+pub fn pitch_jump() -> LinearAero {
+    LinearAero {
+        pitch: CoeffModel {
+            c0: 0.005,
+            alpha: 0.4,
+            q_n: 4.0,
+            ..CoeffModel::default()
+        },
+        ..LinearAero::default()
+    }
+}
+
 /// Elevator excitation until `excite_until_s` — every 8 s a 3-2-1-1 (0.4 s steps, ±0.2 rad) and,
 /// from 2.6 s later, a 4 s doublet (±0.3 rad; with the trim elevator it may touch the ±0.349 rad
 /// stop) — a jump of the `C_m` parameters at `jump_s`, then unexcited cruise until `duration_s`.
@@ -75,16 +89,10 @@ pub fn fig2_config(jump_s: f64, excite_until_s: f64, duration_s: f64, seed: u64)
         t += 8.0;
     }
     let mut plant = Plant::new(SimAirframe::skywalker_2013_mod(), TruthEffects::all());
-    let delta = LinearAero {
-        pitch: CoeffModel {
-            c0: 0.005,
-            alpha: 0.4,
-            q_n: 4.0,
-            ..CoeffModel::default()
-        },
-        ..LinearAero::default()
-    };
-    plant.jump = Some(ParameterJump { at_s: jump_s, delta });
+    plant.jump = Some(ParameterJump {
+        at_s: jump_s,
+        delta: pitch_jump(),
+    });
     SimConfig {
         plant,
         schedule,

@@ -95,15 +95,7 @@ impl LongRunConfig {
 /// The two parameter changes (module doc).
 pub fn jump_deltas() -> [LinearAero; 2] {
     [
-        LinearAero {
-            pitch: CoeffModel {
-                c0: 0.005,
-                alpha: 0.4,
-                q_n: 4.0,
-                ..CoeffModel::default()
-            },
-            ..LinearAero::default()
-        },
+        crate::flights::pitch_jump(),
         LinearAero {
             roll: CoeffModel {
                 p_n: 0.2,

@@ -496,24 +496,6 @@ impl ChipModel {
     }
 }
 
-/// The channel of `s` at the one-bit mask `m`, as a slice of up to three components.
-fn channel_mut(s: &mut SensorSample<f32>, m: ChannelMask) -> &mut [f32] {
-    match m {
-        channel::ACCEL => s.accel_mps2.as_mut_slice(),
-        channel::GYRO => s.gyro_rad_s.as_mut_slice(),
-        channel::AIRSPEED => std::slice::from_mut(&mut s.airspeed_mps),
-        channel::ALPHA => std::slice::from_mut(&mut s.alpha_rad),
-        channel::BETA => std::slice::from_mut(&mut s.beta_rad),
-        channel::PROP => std::slice::from_mut(&mut s.prop_speed_rad_s),
-        channel::ELEVATOR => std::slice::from_mut(&mut s.elevator_rad),
-        channel::AILERON => std::slice::from_mut(&mut s.aileron_rad),
-        channel::RUDDER => std::slice::from_mut(&mut s.rudder_rad),
-        channel::DENSITY => std::slice::from_mut(&mut s.air_density_kgpm3),
-        channel::DT => std::slice::from_mut(&mut s.dt_s),
-        _ => &mut [],
-    }
-}
-
 /// The host's model of the firmware on a scenario (module doc): what it sends at the end.
 pub fn emulate(sc: &Scenario<'_>) -> Result<Emulation, QemuError> {
     let mut p = onboard::pipeline::<f32>().map_err(|e| QemuError::Output(format!("on-board configuration: {e:?}")))?;
@@ -543,14 +525,14 @@ pub fn emulate(sc: &Scenario<'_>) -> Result<Emulation, QemuError> {
             match f.fault {
                 Fault::Bus(c) => failing[c as usize] = true,
                 Fault::Stuck(m) => {
-                    let ch = channel_mut(&mut s, m);
+                    let ch = s.channel_mut(m);
                     if k32 == f.first {
                         hold[..ch.len()].copy_from_slice(ch);
                     }
                     let n = ch.len();
                     ch.copy_from_slice(&hold[..n]);
                 }
-                Fault::Value(m, v) => channel_mut(&mut s, m).iter_mut().for_each(|x| *x = v),
+                Fault::Value(m, v) => s.channel_mut(m).iter_mut().for_each(|x| *x = v),
                 Fault::Drop => drop = true,
                 Fault::Late(us) if k32 == f.first => {
                     let late_s = us as f32 * 1e-6;
@@ -570,11 +552,7 @@ pub fn emulate(sc: &Scenario<'_>) -> Result<Emulation, QemuError> {
         ];
         for (c, (model, bits)) in chips.iter_mut().zip(chip_channels).enumerate() {
             if failing[c] {
-                for b in 0..channel::COUNT {
-                    if bits & (1 << b) != 0 {
-                        channel_mut(&mut s, 1 << b).iter_mut().for_each(|x| *x = f32::NAN);
-                    }
-                }
+                s.invalidate(bits);
             }
             model.read(!failing[c]);
         }

@@ -8,9 +8,10 @@
 //! dropped and counted, the frames after it are recovered, and the surfaces stay within their
 //! calibration.
 
+use aerosid_core::aero::onboard;
 use aerosid_core::mavlink::frame::{frame_crc, MAX_FRAME_LEN};
 use aerosid_core::mavlink::messages::{Heartbeat, ServoOutputRaw};
-use aerosid_core::mavlink::surfaces::{RpmSource, ServoCalibration, ThrottleCalibration};
+use aerosid_core::mavlink::surfaces::RpmSource;
 use aerosid_core::mavlink::{Encoder, MavlinkSurfaces, Message, Parser, SurfaceConfig, SurfaceError, SurfaceSource};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -36,31 +37,11 @@ fn parse(bytes: &[u8]) -> (Vec<Message>, Parser) {
     (out, p)
 }
 
+/// The firmware's autopilot link ([`onboard::AUTOPILOT_LINK`]) without an RPM source.
 fn config() -> SurfaceConfig {
-    let servo = |channel| ServoCalibration {
-        channel,
-        pwm_neutral_us: 1500.0,
-        rad_per_us: 0.000_873,
-        limits_rad: (-0.44, 0.44),
-    };
     SurfaceConfig {
-        source_system_id: 1,
-        port: 0,
-        elevator: servo(1),
-        aileron: servo(0),
-        aileron_2: None,
-        rudder: servo(3),
-        throttle: ThrottleCalibration {
-            channel: 2,
-            pwm_idle_us: 1100,
-            pwm_full_us: 1900,
-        },
-        pwm_valid_us: [800, 2200],
-        servo_timeout_us: 100_000,
         rpm: RpmSource::None,
-        rpm_scale: 1.0,
-        rpm_timeout_us: 500_000,
-        attitude_timeout_us: 100_000,
+        ..onboard::AUTOPILOT_LINK
     }
 }
 

@@ -155,6 +155,60 @@ impl<T: Real> Airframe<T> {
     };
 }
 
+/// The sample channel by channel ([`model::channel`]).
+impl<T: Real> SensorSample<T> {
+    /// The measured channel `m` (one bit of [`model::channel`]) of this sample: its three components
+    /// (accelerometer, gyroscope) or its one; empty for a mask that is not a single such channel
+    /// (`THROTTLE` and the attitude are not among them).
+    pub fn channel(&self, m: model::ChannelMask) -> &[T] {
+        use model::channel as c;
+        match m {
+            c::ACCEL => self.accel_mps2.as_slice(),
+            c::GYRO => self.gyro_rad_s.as_slice(),
+            c::AIRSPEED => core::slice::from_ref(&self.airspeed_mps),
+            c::ALPHA => core::slice::from_ref(&self.alpha_rad),
+            c::BETA => core::slice::from_ref(&self.beta_rad),
+            c::PROP => core::slice::from_ref(&self.prop_speed_rad_s),
+            c::ELEVATOR => core::slice::from_ref(&self.elevator_rad),
+            c::AILERON => core::slice::from_ref(&self.aileron_rad),
+            c::RUDDER => core::slice::from_ref(&self.rudder_rad),
+            c::DENSITY => core::slice::from_ref(&self.air_density_kgpm3),
+            c::DT => core::slice::from_ref(&self.dt_s),
+            _ => &[],
+        }
+    }
+
+    /// [`Self::channel`], mutable.
+    pub fn channel_mut(&mut self, m: model::ChannelMask) -> &mut [T] {
+        use model::channel as c;
+        match m {
+            c::ACCEL => self.accel_mps2.as_mut_slice(),
+            c::GYRO => self.gyro_rad_s.as_mut_slice(),
+            c::AIRSPEED => core::slice::from_mut(&mut self.airspeed_mps),
+            c::ALPHA => core::slice::from_mut(&mut self.alpha_rad),
+            c::BETA => core::slice::from_mut(&mut self.beta_rad),
+            c::PROP => core::slice::from_mut(&mut self.prop_speed_rad_s),
+            c::ELEVATOR => core::slice::from_mut(&mut self.elevator_rad),
+            c::AILERON => core::slice::from_mut(&mut self.aileron_rad),
+            c::RUDDER => core::slice::from_mut(&mut self.rudder_rad),
+            c::DENSITY => core::slice::from_mut(&mut self.air_density_kgpm3),
+            c::DT => core::slice::from_mut(&mut self.dt_s),
+            _ => &mut [],
+        }
+    }
+
+    /// Every channel named in `mask` set to NaN: no reading (what a failed or stuck sensor gives).
+    pub fn invalidate(&mut self, mask: model::ChannelMask) {
+        let nan = T::lit(f64::NAN);
+        for b in 0..model::channel::COUNT {
+            let m = 1 << b;
+            if mask & m != 0 {
+                self.channel_mut(m).iter_mut().for_each(|x| *x = nan);
+            }
+        }
+    }
+}
+
 /// Conversion between scalar types (e.g. an `f64` simulator log replayed through the `f32`
 /// on-board path): every field is rounded to the nearest value of `U`.
 impl<T: Real> SensorSample<T> {

@@ -91,26 +91,15 @@ pub struct StuckDetector {
 /// Channel by channel, so that no array of all readings sits on the caller's stack (the firmware
 /// runs this in its highest-priority task, whose frame adds to every other task's).
 fn reading<T: Real>(s: &SensorSample<T>, i: usize) -> Option<[u64; 3]> {
-    let one = |x: T| (!x.to_f64().is_nan()).then(|| [x.to_f64().to_bits(), 0, 0]);
-    let three = |v: &nalgebra::Vector3<T>| {
-        v.iter()
-            .all(|x| !x.to_f64().is_nan())
-            .then(|| [v.x.to_f64().to_bits(), v.y.to_f64().to_bits(), v.z.to_f64().to_bits()])
-    };
-    match 1u16 << i {
-        channel::ACCEL => three(&s.accel_mps2),
-        channel::GYRO => three(&s.gyro_rad_s),
-        channel::AIRSPEED => one(s.airspeed_mps),
-        channel::ALPHA => one(s.alpha_rad),
-        channel::BETA => one(s.beta_rad),
-        channel::PROP => one(s.prop_speed_rad_s),
-        channel::ELEVATOR => one(s.elevator_rad),
-        channel::AILERON => one(s.aileron_rad),
-        channel::RUDDER => one(s.rudder_rad),
-        channel::DENSITY => one(s.air_density_kgpm3),
-        channel::DT => one(s.dt_s),
-        _ => None,
+    let c = s.channel(1 << i);
+    if c.is_empty() || c.iter().any(|x| x.to_f64().is_nan()) {
+        return None;
     }
+    let mut bits = [0; 3];
+    for (b, x) in bits.iter_mut().zip(c) {
+        *b = x.to_f64().to_bits();
+    }
+    Some(bits)
 }
 
 impl StuckDetector {
@@ -163,41 +152,7 @@ impl StuckDetector {
     /// [`Self::check`], then the stuck channels of `s` set to NaN; returns them.
     pub fn apply<T: Real>(&mut self, s: &mut SensorSample<T>) -> ChannelMask {
         let stuck = self.check(s);
-        let nan = T::lit(f64::NAN);
-        let on = |m: ChannelMask| stuck & m != 0;
-        if on(channel::ACCEL) {
-            s.accel_mps2 = nalgebra::Vector3::from_element(nan);
-        }
-        if on(channel::GYRO) {
-            s.gyro_rad_s = nalgebra::Vector3::from_element(nan);
-        }
-        if on(channel::AIRSPEED) {
-            s.airspeed_mps = nan;
-        }
-        if on(channel::ALPHA) {
-            s.alpha_rad = nan;
-        }
-        if on(channel::BETA) {
-            s.beta_rad = nan;
-        }
-        if on(channel::PROP) {
-            s.prop_speed_rad_s = nan;
-        }
-        if on(channel::ELEVATOR) {
-            s.elevator_rad = nan;
-        }
-        if on(channel::AILERON) {
-            s.aileron_rad = nan;
-        }
-        if on(channel::RUDDER) {
-            s.rudder_rad = nan;
-        }
-        if on(channel::DENSITY) {
-            s.air_density_kgpm3 = nan;
-        }
-        if on(channel::DT) {
-            s.dt_s = nan;
-        }
+        s.invalidate(stuck);
         stuck
     }
 }

@@ -267,20 +267,7 @@ fn stamp_us(t_s: f32) -> u64 {
 
 /// The channel at bit position `bit` of `s`: up to three components.
 fn channel_mut(s: &mut SensorSample<f32>, bit: u8) -> &mut [f32] {
-    match 1u16 << (bit % 16) {
-        channel::ACCEL => s.accel_mps2.as_mut_slice(),
-        channel::GYRO => s.gyro_rad_s.as_mut_slice(),
-        channel::AIRSPEED => core::slice::from_mut(&mut s.airspeed_mps),
-        channel::ALPHA => core::slice::from_mut(&mut s.alpha_rad),
-        channel::BETA => core::slice::from_mut(&mut s.beta_rad),
-        channel::PROP => core::slice::from_mut(&mut s.prop_speed_rad_s),
-        channel::ELEVATOR => core::slice::from_mut(&mut s.elevator_rad),
-        channel::AILERON => core::slice::from_mut(&mut s.aileron_rad),
-        channel::RUDDER => core::slice::from_mut(&mut s.rudder_rad),
-        channel::DENSITY => core::slice::from_mut(&mut s.air_density_kgpm3),
-        channel::DT => core::slice::from_mut(&mut s.dt_s),
-        _ => &mut [],
-    }
+    s.channel_mut(1u16 << (bit % 16))
 }
 
 /// A chip's reads this record: `ok`, else its channels NaN. Counted as on the flight computer; a
@@ -288,11 +275,7 @@ fn channel_mut(s: &mut SensorSample<f32>, bit: u8) -> &mut [f32] {
 #[inline(never)]
 fn chip_read(health: &mut ChipHealth, ok: bool, name: &str, s: &mut SensorSample<f32>, bits: u16) {
     if !ok {
-        for bit in 0..channel::COUNT as u8 {
-            if bits & (1 << bit) != 0 {
-                channel_mut(s, bit).iter_mut().for_each(|v| *v = f32::NAN);
-            }
-        }
+        s.invalidate(bits);
     }
     if health.record(ok) {
         defmt::warn!(
