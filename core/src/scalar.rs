@@ -71,14 +71,20 @@ impl Real for f32 {
             libm::ldexpf(self, e)
         }
     }
-    /// Read from the exponent bits for normal numbers, `frexpf` otherwise.
+    /// Read from the bits, as `frexpf` defines it: for a normal number from the exponent field,
+    /// for a subnormal one from the position of the mantissa's leading one (`m·2⁻¹⁴⁹` with
+    /// `m < 2²³`), 0 for zero, ±∞ and NaN. (libm's `frexpf` handles subnormals by recursing once,
+    /// which the firmware's static stack bound would have to special-case.)
     #[inline]
     fn exponent(self) -> i32 {
-        let biased = ((self.to_bits() >> 23) & 0xff) as i32;
-        if biased != 0 && biased != 0xff {
-            biased - 126
-        } else {
-            libm::frexpf(self).1
+        let bits = self.to_bits();
+        let biased = ((bits >> 23) & 0xff) as i32;
+        let mantissa = bits & 0x007f_ffff;
+        match biased {
+            0xff => 0,
+            0 if mantissa == 0 => 0,
+            0 => (32 - mantissa.leading_zeros()) as i32 - 149,
+            _ => biased - 126,
         }
     }
     #[inline]
@@ -240,6 +246,17 @@ mod tests {
             bits += 99_991;
         }
         assert_eq!(0.0f32.exponent(), 0);
+        // Every subnormal binade, its ends, and the non-finite values.
+        for k in 0..23 {
+            for m in [1u32 << k, (2u32 << k) - 1] {
+                for x in [f32::from_bits(m), -f32::from_bits(m)] {
+                    assert_eq!(x.exponent(), libm::frexpf(x).1, "{x:e}");
+                }
+            }
+        }
+        for x in [f32::INFINITY, f32::NEG_INFINITY, f32::NAN, -0.0] {
+            assert_eq!(x.exponent(), libm::frexpf(x).1, "{x:e}");
+        }
     }
 
     #[test]

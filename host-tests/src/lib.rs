@@ -25,4 +25,5 @@ pub mod reference;
 pub mod replay;
 pub mod report;
 pub mod sim;
+pub mod stack_bound;
 pub mod table1;

@@ -26,6 +26,12 @@
 //! allow-list `ALLOW` ([`aerosid_host::panic_audit`]; CI runs it on the release firmware with
 //! `firmware/panic-allow.txt`).
 //!
+//! `aerosid stack-bound ELF CONFIG [--ram-budget BYTES]`: a static bound on the stack of a
+//! firmware image from its machine code ([`aerosid_host::stack_bound`]; `CONFIG` gives the
+//! handlers' priorities and resolves the indirect calls, `firmware/stack-bound.txt`), added to its
+//! static RAM; with `--ram-budget` it fails when the sum exceeds the budget (CI: the flight
+//! computer, 16 384 B).
+//!
 //! `aerosid demo [--seed N] [--seconds S]`: identifies a pitching-moment model
 //! `C_m = C_m0 + C_mα α + C_mq q_n + C_mδe δe` (seed 000, eq. 3e; values of the `skywalker_2013_mod`
 //! airframe) from generated 100 Hz data with realistic sensor noise on *every* regressor, running
@@ -65,6 +71,11 @@ enum Command {
     },
     Table1 {
         out: std::path::PathBuf,
+    },
+    StackBound {
+        elf: std::path::PathBuf,
+        indirect: std::path::PathBuf,
+        ram_budget: Option<u64>,
     },
     PanicAudit {
         elf: std::path::PathBuf,
@@ -139,6 +150,27 @@ fn parse() -> Result<Option<Command>, String> {
             return Ok(Some(Command::PanicAudit {
                 elf: elf.into(),
                 allow: allow.into(),
+            }));
+        }
+        Some("stack-bound") => {
+            let elf = it.next().ok_or("stack-bound needs the firmware ELF")?;
+            let indirect = it
+                .next()
+                .ok_or("stack-bound needs the configuration file (firmware/stack-bound.txt)")?;
+            let mut ram_budget = None;
+            while let Some(flag) = it.next() {
+                let value = it.next().ok_or_else(|| format!("`{flag}` needs a value"))?;
+                match flag.as_str() {
+                    "--ram-budget" => {
+                        ram_budget = Some(value.parse().map_err(|e| format!("--ram-budget {value}: {e}"))?)
+                    }
+                    _ => return Err(format!("unknown flag `{flag}` for `stack-bound`")),
+                }
+            }
+            return Ok(Some(Command::StackBound {
+                elf: elf.into(),
+                indirect: indirect.into(),
+                ram_budget,
             }));
         }
         Some("long-run") => {
@@ -532,6 +564,36 @@ fn main() -> ExitCode {
                 }
             }
         }
+        Ok(Some(Command::StackBound {
+            elf,
+            indirect,
+            ram_budget,
+        })) => match aerosid_host::stack_bound::analyse_elf(&elf, &indirect) {
+            Ok(b) => {
+                print!("{}", b.report());
+                match ram_budget {
+                    Some(budget) if b.ram() > budget => {
+                        eprintln!(
+                            "aerosid stack-bound: {}: RAM {} B (static {} + stack {}) exceeds the budget of {budget} B",
+                            elf.display(),
+                            b.ram(),
+                            b.static_ram,
+                            b.total
+                        );
+                        ExitCode::FAILURE
+                    }
+                    Some(budget) => {
+                        println!("RAM within the budget: {} B ≤ {budget} B", b.ram());
+                        ExitCode::SUCCESS
+                    }
+                    None => ExitCode::SUCCESS,
+                }
+            }
+            Err(e) => {
+                eprintln!("aerosid stack-bound: {e}");
+                ExitCode::FAILURE
+            }
+        },
         Ok(Some(Command::PanicAudit { elf, allow })) => match aerosid_host::panic_audit::audit_elf(&elf, &allow) {
             Ok(a) => {
                 print!("{}", a.report());
@@ -656,6 +718,7 @@ fn main() -> ExitCode {
             println!("       aerosid gaps --simulate KIND | --clean [--seed N] [--seconds S] [--out DIR]");
             println!("       aerosid long-run [--hours H] [--seed N]");
             println!("       aerosid panic-audit ELF ALLOW");
+            println!("       aerosid stack-bound ELF CONFIG [--ram-budget BYTES]");
             println!("       aerosid demo [--seed N] [--seconds S]\n");
             println!("  run    simulate a flight of the default airframe, identify the six coefficients with the");
             println!("         on-board f32 pipeline, print the model beside the truth and RLS, write the figures");
@@ -677,6 +740,10 @@ fn main() -> ExitCode {
             println!("         histories ±σ of one flight per input (SVG)");
             println!("  panic-audit ELF ALLOW  every panic path left in a firmware image against the allow-list");
             println!("         (issue 7 §5; `firmware/panic-allow.txt`, README \"Reliability\")");
+            println!(
+                "  stack-bound ELF INDIRECT  a static bound on a firmware image's stack from its machine code, plus"
+            );
+            println!("         its static RAM; fails above --ram-budget (issue 4 §5)");
             println!("  long-run  H hours (default 10) of simulated flight through the on-board f32 pipeline:");
             println!("         excitation, calm cruise, two parameter jumps; prints the worst orthonormality, λ_F,");
             println!("         k, N_eff, refusals per coefficient and how each jump was tracked (issue 7)");
