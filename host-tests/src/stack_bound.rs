@@ -11,26 +11,39 @@
 //! grow it; `pop`/`vpop`/`ldm sp!`, `add sp, #n` and post-indexed loads from `[sp], #n` shrink
 //! it. Where paths join, the larger depth is kept. Any other write to `sp` fails the analysis, so an
 //! unknown idiom cannot silently lower the bound. Conditional instructions are taken at their
-//! worst (a conditional shrink is ignored). Code reached only through a jump table (`tbb`/`tbh`)
-//! starts at the depth of the table's branch.
+//! worst (a conditional shrink is ignored). Jump tables (`tbb`/`tbh`) are decoded from the data
+//! that follows them; code no path reaches (padding, after calls that never return) is dead.
 //!
 //! The bound of a function is the larger of its own deepest point and, over its calls
 //! (`bl`, branches out of the function, fall-through into the next symbol), the depth at the call
-//! plus the callee's bound. An indirect call (`blx rN`, `bx rN`) may reach any *address-taken*
-//! function: one whose address (with the Thumb bit) appears as a word in `.rodata`, `.data` or a
-//! literal pool of `.text`, or is built by a `movw`/`movt` pair; the bound takes the worst of
-//! them. Recursion, through direct or indirect calls, is an error: no finite bound exists.
+//! plus the callee's bound. An indirect call (`blx rN`, `bx rN`) reaches the *address-taken*
+//! functions (whose address, with the Thumb bit, appears as a word in `.rodata`, `.data` or a
+//! literal pool of `.text`, or is built by a `movw`/`movt` pair) that the configuration names for
+//! its caller, each line with its reason; an indirect call the configuration does not resolve is an
+//! error. Recursion, through direct or indirect calls, is an error: no finite bound exists.
 //!
 //! Calls into the panic machinery ([`crate::panic_audit::is_panic_entry`]) are not followed: a
 //! panic ends the program (the panic handler halts it), so the stack it uses cannot corrupt
 //! anything that is still needed, and the panic paths left are audited separately.
 //!
-//! The whole image's bound: the reset handler's (the thread mode: `main`, `init`, `idle`) plus, for
-//! every distinct exception or interrupt handler in the vector table, its bound and the exception
-//! frame the core pushes on entry (26 words with the FPU's context, plus 4 bytes of alignment:
-//! 108 B). That assumes every handler can be active once at a time, all nested, which is the worst
-//! case for handlers at distinct priorities (as RTIC's dispatchers and hardware tasks are) and an
-//! over-estimate otherwise: a handler cannot preempt itself or another at its own priority.
+//! Along the same data flow the interrupt masking is tracked: `cpsid i`/`cpsie i`, `msr primask`,
+//! and BASEPRI, which RTIC's `lock` raises to the resource's ceiling (`msr basepri_max` of a
+//! constant, converted to a logical priority with the configured priority bits). A restore of a
+//! saved value (`mrs` into a register, possibly spilled to the stack) is followed exactly; any
+//! other restore counts as no masking at all. Masking a callee leaves behind is taken from its
+//! returns; calls to a configured critical section (defmt's logger lock, which keeps its restore
+//! value in memory) mask on acquire and restore on release.
+//!
+//! The whole image's bound nests the handlers as the hardware can (the stack resource policy RTIC
+//! relies on): a handler of priority `p` (from the configuration) preempts a point only if the
+//! point's effective level — the running handler's priority or the masking, whichever is higher —
+//! is below `p`, and each preemption adds the exception frame the core pushes (26 words with the
+//! FPU context, plus 4 bytes of alignment: 108 B). Thread mode (`main`: `init` with interrupts
+//! masked, then `idle`) is the base. Handlers the configuration does not list (the faults, the
+//! default handler) are added on top of the worst nesting, each once.
+//!
+//! The configuration ([`Config`], `firmware/stack-bound.txt`) carries what the machine code does not
+//! say: the handlers' priorities, the targets of indirect calls, and the critical sections.
 
 use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::path::Path;
@@ -89,6 +102,7 @@ pub struct Resolution {
 /// * `prio-bits | N | why`: the NVIC's priority bits (4 on the STM32F4), to read BASEPRI values;
 /// * `priority | HANDLER | P | why`: the RTIC logical priority `P` of a vector-table handler
 ///   (exact function name); handlers not listed are taken to preempt everything, each other too;
+///   `priority?` for a handler that only some images have (no error when it is absent);
 /// * `indirect | caller | callee, callee | why`: see [`Resolution`];
 /// * `critical-section | ACQUIRE, ACQUIRE | RELEASE | why`: calls to `ACQUIRE` mask interrupts
 ///   and save the masking where a later call to `RELEASE` restores it (exact function names).
@@ -98,6 +112,8 @@ pub struct Config {
     pub prio_bits: u32,
     /// Handler function → logical priority.
     pub priorities: Vec<(String, u8)>,
+    /// Handlers that one board's image has and another's not (`priority?`): no error when absent.
+    pub optional: Vec<String>,
     /// Indirect-call resolutions.
     pub indirect: Vec<Resolution>,
     /// Critical sections entered and left by calls: the acquire functions (exact names), and the
@@ -127,13 +143,16 @@ pub fn parse_config(text: &str) -> Result<Config, String> {
                     .filter(|b| (1..=8).contains(b))
                     .ok_or_else(|| bad("prio-bits | 1..8 | why"))?;
             }
-            ["priority", h, p, why] if !h.is_empty() && !why.is_empty() => {
+            [kind @ ("priority" | "priority?"), h, p, why] if !h.is_empty() && !why.is_empty() => {
                 let p = p
                     .parse()
                     .ok()
                     .filter(|p| (1..=254).contains(p))
                     .ok_or_else(|| bad("priority | HANDLER | 1..254 | why"))?;
                 c.priorities.push((h.to_string(), p));
+                if *kind == "priority?" {
+                    c.optional.push(h.to_string());
+                }
             }
             ["critical-section", acquire, release, why]
                 if !acquire.is_empty() && !release.is_empty() && !why.is_empty() =>
@@ -471,6 +490,12 @@ fn containing(funcs: &[Function], addr: u64) -> Option<usize> {
     i.checked_sub(1)
 }
 
+/// A saved masking: BASEPRI level, PRIMASK, absolute.
+type Mask = (u8, bool, bool);
+
+/// The worst nesting above a level: bytes, and (handler, bytes it adds) in order.
+type Nesting = (u64, Vec<(String, u64)>);
+
 /// The data-flow state at an instruction: stack bytes in use, the BASEPRI level, PRIMASK, and
 /// whether the masking is absolute (see [`Level`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -487,7 +512,7 @@ struct State {
     section: Option<(u8, bool, bool)>,
     /// Saved maskings spilled to the stack (`str rN, [sp, #off]`), by their distance from the
     /// function's entry stack pointer, so that a reload before the restore stays exact.
-    slots: [Option<(i64, (u8, bool, bool))>; 4],
+    slots: [Option<(i64, Mask)>; 4],
 }
 
 /// Mnemonics that write no general-purpose register (stores, compares, branches, barriers).
@@ -797,7 +822,7 @@ impl Graph<'_> {
                 *e = (*e).max(s.depth.max(0) as u64);
             }
             let next = k + 1;
-            let mut fall = !(ret && !cond);
+            let mut fall = !ret || cond;
             if ret || (base == "bx" && insn.operands.trim() == "lr") {
                 exit = Some(exit.map_or(after, |e| e.join(after)));
             }
@@ -1115,11 +1140,7 @@ struct Handler {
 /// The worst extra stack above a point at masking level `m`: the handlers that may preempt it
 /// (priority above `m`), each at its deepest point at every level, and recursively what may
 /// preempt that point. Returns the bytes and the chain of (handler, bytes it adds).
-fn worst_above(
-    m: u8,
-    handlers: &[Handler],
-    memo: &mut HashMap<u8, (u64, Vec<(String, u64)>)>,
-) -> (u64, Vec<(String, u64)>) {
+fn worst_above(m: u8, handlers: &[Handler], memo: &mut HashMap<u8, Nesting>) -> (u64, Vec<(String, u64)>) {
     if let Some(r) = memo.get(&m) {
         return r.clone();
     }
@@ -1269,7 +1290,7 @@ pub fn analyse(
             (_, None) => unlisted.push((function, p.max + EXCEPTION_FRAME_BYTES)),
         }
     }
-    for (h, _) in &config.priorities {
+    for (h, _) in config.priorities.iter().filter(|(h, _)| !config.optional.contains(h)) {
         if !roots.iter().any(|r| r.function == *h && r.priority.is_some()) {
             return Err(format!("`priority | {h}`: no handler of that name in the vector table"));
         }

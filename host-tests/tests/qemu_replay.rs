@@ -85,6 +85,16 @@ fn qemu_replay_equals_host_f32_and_meets_the_instruction_budget() {
         Some(bytes) => {
             println!("stack high water: {bytes} B");
             assert!(bytes <= STACK_BUDGET_BYTES, "stack {bytes} B > {STACK_BUDGET_BYTES} B");
+            // … and the static bound of the same image (`aerosid stack-bound`, the analysis CI
+            // applies to the flight computer, which cannot be run here) is not below it.
+            let config = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../firmware/stack-bound.txt");
+            let bound = aerosid_host::stack_bound::analyse_elf(&elf, &config).expect("stack bound of the QEMU image");
+            println!("{}", bound.report());
+            assert!(
+                u64::from(bytes) <= bound.total,
+                "painted stack {bytes} B above the static bound {} B: the analysis is unsound",
+                bound.total
+            );
         }
         None if std::env::var_os("CI").is_some() || qemu::defmt_print_installed() => {
             panic!("no stack figure in the defmt log (defmt-print missing?)")
