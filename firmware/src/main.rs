@@ -53,7 +53,7 @@ mod app {
     use crate::board::{self, SensorSource};
     use crate::estimate::Estimator;
     use crate::sample::{Sample, Sampler};
-    use crate::telemetry::{Link, Stats, REPORT_PERIOD_MS};
+    use crate::telemetry::{Link, Part, Stats, REPORT_PERIOD_MS};
     use rtic_monotonics::systick::prelude::*;
     use rtic_sync::{
         channel::{Receiver, Sender},
@@ -258,7 +258,21 @@ mod app {
             Mono::delay_until(next).await;
             let stats = cx.shared.stats.lock(|s| *s);
             let t_us = u64::from(Mono::now().duration_since_epoch().as_ticks()) * US_PER_TICK;
-            (&mut cx.shared.estimator, &mut cx.shared.out).lock(|e, out| out.link.send(e, &stats, t_us, &mut out.port));
+            report(&mut cx.shared.estimator, &mut cx.shared.out, &stats, t_us);
+        }
+    }
+
+    /// One report period: each part encoded with the estimator locked (no I/O under the lock, so
+    /// the estimate task waits only for the encoding), then sent with the lock released.
+    fn report(
+        estimator: &mut impl rtic::Mutex<T = Estimator>,
+        out: &mut impl rtic::Mutex<T = Out>,
+        stats: &Stats,
+        t_us: u64,
+    ) {
+        for part in Part::ALL {
+            let n = estimator.lock(|e| out.lock(|o| o.link.encode(part, e, stats, t_us)));
+            out.lock(|o| o.link.transmit(n, &mut o.port));
         }
     }
 
@@ -268,7 +282,7 @@ mod app {
     async fn final_report(mut cx: final_report::Context) {
         let stats = cx.shared.stats.lock(|s| *s);
         let t_us = u64::from(Mono::now().duration_since_epoch().as_ticks()) * US_PER_TICK;
-        (&mut cx.shared.estimator, &mut cx.shared.out).lock(|e, out| out.link.send(e, &stats, t_us, &mut out.port));
+        report(&mut cx.shared.estimator, &mut cx.shared.out, &stats, t_us);
         board::halt(0)
     }
 }

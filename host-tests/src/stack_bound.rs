@@ -417,7 +417,10 @@ fn stack_effect(base: &str, ops: &str) -> Result<(i64, bool), String> {
             return Ok((-n, ops_t.starts_with("pc,")));
         }
     }
+    // A load or store multiple with `sp` as its base and no writeback (`ldm sp, {r0, r2}`) reads it.
+    let multiple = ["ldm", "stm", "vldm", "vstm"].iter().any(|m| base.starts_with(m));
     let writes_sp = ops_t.starts_with("sp,")
+        && !multiple
         && !matches!(
             base,
             "cmp" | "cmn" | "tst" | "teq" | "str" | "strd" | "strb" | "strh" | "vstr"
@@ -1531,5 +1534,8 @@ indirect | main | callback | the only callback
         assert_eq!(split_mnemonic("bleq"), ("bl".into(), true));
         assert_eq!(list_bytes("{s16-s31}").expect("list"), (64, false));
         assert_eq!(list_bytes("{r4, r5, r7, pc}").expect("list"), (16, true));
+        assert_eq!(stack_effect("ldm", "sp, {r0, r2, r3}"), Ok((0, false)));
+        assert_eq!(stack_effect("ldm", "sp!, {r4, pc}"), Ok((-8, true)));
+        assert!(stack_effect("mov", "sp, r7").is_err());
     }
 }

@@ -54,7 +54,8 @@ impl TelemetryUart {
 
 impl TelemetryPort for TelemetryUart {
     /// Blocks for the UART (174 µs a byte at 57600 baud); a byte whose TXE does not come within
-    /// [`TXE_POLLS`] ends the message (the receiver's MAVLink parser drops the partial frame).
+    /// [`TXE_POLLS`] ends the call: the rest of that report part (the receiver's MAVLink parser
+    /// drops the partial frame).
     fn send(&mut self, bytes: &[u8]) {
         for b in bytes {
             if !(0..TXE_POLLS).any(|_| self.usart.sr().read().txe().bit_is_set()) {
