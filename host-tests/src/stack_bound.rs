@@ -417,8 +417,18 @@ fn stack_effect(base: &str, ops: &str) -> Result<(i64, bool), String> {
             return Ok((-n, ops_t.starts_with("pc,")));
         }
     }
-    // A load or store multiple with `sp` as its base and no writeback (`ldm sp, {r0, r2}`) reads it.
+    // A load or store multiple with `sp` as its base and no writeback (`ldm sp, {r0, r2}`) reads it;
+    // with writeback, only the forms matched above are understood.
     let multiple = ["ldm", "stm", "vldm", "vstm"].iter().any(|m| base.starts_with(m));
+    if multiple && ops_t.starts_with("sp!") {
+        return Err(format!("unrecognised write to sp: `{base} {ops}`"));
+    }
+    if multiple && ops_t.contains("pc}") {
+        return Err(format!("unrecognised write to pc: `{base} {ops}`"));
+    }
+    if base == "msr" && ["msp,", "psp,", "control,"].iter().any(|r| ops_t.starts_with(r)) {
+        return Err(format!("a write to the stack pointer or CONTROL: `{base} {ops}`"));
+    }
     let writes_sp = ops_t.starts_with("sp,")
         && !multiple
         && !matches!(
@@ -435,6 +445,35 @@ fn stack_effect(base: &str, ops: &str) -> Result<(i64, bool), String> {
 fn target(ops: &str) -> Option<u64> {
     let t = ops.split_whitespace().find(|w| w.starts_with("0x"))?;
     u64::from_str_radix(t.trim_start_matches("0x").trim_end_matches(','), 16).ok()
+}
+
+/// The entries of the jump table after the `tbb`/`tbh` at `f.insns[at]`: target addresses. Trailing
+/// zero bytes are padding; any other entry must name an instruction.
+fn table_targets(f: &Function, at: usize, index: &HashMap<u64, usize>) -> Result<Vec<u64>, String> {
+    let insn = &f.insns[at];
+    let table = insn.addr + 4;
+    let bytes = table_bytes(&f.insns[at + 1..]);
+    let (base, _) = split_mnemonic(&insn.mnemonic);
+    let mut entries: Vec<u64> = if base == "tbb" {
+        bytes.iter().map(|&b| u64::from(b)).collect()
+    } else {
+        bytes
+            .chunks_exact(2)
+            .map(|c| u64::from(u16::from_le_bytes([c[0], c[1]])))
+            .collect()
+    };
+    while entries.last() == Some(&0) && entries.len() > 1 {
+        entries.pop();
+    }
+    let targets: Vec<u64> = entries.iter().map(|e| table + 2 * e).collect();
+    match targets.iter().find(|t| !index.contains_key(t)) {
+        Some(t) => Err(format!(
+            "{} at {:#x}: a jump-table entry ({t:#x}) that is not an instruction",
+            f.name, insn.addr
+        )),
+        None if targets.is_empty() => Err(format!("{} at {:#x}: a jump table without entries", f.name, insn.addr)),
+        None => Ok(targets),
+    }
 }
 
 /// The bytes of the data directives (`.word`, `.short`, `.byte`) at the start of `insns`.
@@ -489,8 +528,13 @@ enum Callee {
 
 /// Index of the function containing `addr`.
 fn containing(funcs: &[Function], addr: u64) -> Option<usize> {
-    let i = funcs.partition_point(|f| f.start <= addr);
-    i.checked_sub(1)
+    let i = funcs.partition_point(|f| f.start <= addr).checked_sub(1)?;
+    // Past the last instruction of the last symbol is outside the code.
+    let end = funcs.get(i + 1).map_or_else(
+        || funcs[i].insns.last().map_or(funcs[i].start, |l| l.addr + 4),
+        |g| g.start,
+    );
+    (addr < end).then_some(i)
 }
 
 /// A saved masking: BASEPRI level, PRIMASK, absolute.
@@ -570,15 +614,27 @@ impl State {
 
 /// The constant last moved into `reg` within the few instructions before `at` (`movs r0, #0xe0`
 /// before `msr basepri_max, r0`), if any.
-fn constant_in(insns: &[Insn], at: usize, reg: &str) -> Option<i64> {
+fn constant_in(insns: &[Insn], at: usize, targets: &BTreeSet<u64>, reg: &str) -> Option<i64> {
+    if targets.contains(&insns.get(at)?.addr) {
+        return None;
+    }
     for i in insns[..at].iter().rev().take(8) {
+        let (b, _) = split_mnemonic(&i.mnemonic);
+        // A call, a load multiple or a pop may write the register without naming it first; a
+        // branch target joins paths on which it may hold something else.
+        if matches!(
+            b.as_str(),
+            "bl" | "blx" | "pop" | "ldm" | "ldmia" | "b" | "cbz" | "cbnz" | "tbb" | "tbh"
+        ) {
+            return None;
+        }
         let ops = i.operands.replace(' ', "");
         let Some(rest) = ops.strip_prefix(reg).and_then(|r| r.strip_prefix(',')) else {
             continue;
         };
         let (base, cond) = split_mnemonic(&i.mnemonic);
         return match base.as_str() {
-            "mov" | "movs" | "movw" if !cond => immediate(rest),
+            "mov" | "movs" | "movw" if !cond && !targets.contains(&i.addr) => immediate(rest),
             _ => None,
         };
     }
@@ -617,10 +673,10 @@ impl Graph<'_> {
         {
             // The release restores what the acquire saved.
             return Ok(match after.section {
-                Some((b, p, abs)) => State {
-                    basepri: b,
+                // Only PRIMASK is restored (defmt's lock); BASEPRI is what it is now.
+                Some((_, p, abs)) => State {
                     primask: p,
-                    absolute: abs,
+                    absolute: after.absolute || abs,
                     section: None,
                     ..after
                 },
@@ -683,6 +739,16 @@ impl Graph<'_> {
         let index: HashMap<u64, usize> = code.iter().enumerate().map(|(k, (_, i))| (i.addr, k)).collect();
         let end = funcs.get(fi + 1).map_or(u64::MAX, |g| g.start);
         let inside = |a: u64| a >= f.start && a < end;
+        // Every address a branch or a jump table of this function reaches (for `constant_in`).
+        let mut targets: BTreeSet<u64> = BTreeSet::new();
+        for &(at, i) in &code {
+            let (b, _) = split_mnemonic(&i.mnemonic);
+            match b.as_str() {
+                "b" | "cbz" | "cbnz" => targets.extend(target(&i.operands).filter(|&t| inside(t))),
+                "tbb" | "tbh" => targets.extend(table_targets(f, at, &index)?),
+                _ => {}
+            }
+        }
         let mut state_in: Vec<Option<State>> = vec![None; code.len()];
         let mut own: BTreeMap<Level, u64> = BTreeMap::new();
         let mut calls: BTreeSet<(u64, Level, Callee)> = BTreeSet::new();
@@ -743,7 +809,7 @@ impl Graph<'_> {
                         after.primask = p;
                         after.absolute |= abs;
                     } else {
-                        match constant_in(&f.insns, code[k].0, &o["primask,".len()..]) {
+                        match constant_in(&f.insns, code[k].0, &targets, &o["primask,".len()..]) {
                             Some(v) if v & 1 == 1 => after.primask = true,
                             _ => {
                                 after.primask = false;
@@ -754,7 +820,7 @@ impl Graph<'_> {
                 }
                 ("msr", o) if o.starts_with("basepri_max,") => {
                     // Only raises; an unknown value raises by an unknown amount: ignored.
-                    if let Some(v) = constant_in(&f.insns, code[k].0, &o["basepri_max,".len()..]) {
+                    if let Some(v) = constant_in(&f.insns, code[k].0, &targets, &o["basepri_max,".len()..]) {
                         after.basepri = after.basepri.max(logical(v));
                     }
                 }
@@ -763,7 +829,8 @@ impl Graph<'_> {
                         after.basepri = b;
                         after.absolute |= abs;
                     } else {
-                        after.basepri = constant_in(&f.insns, code[k].0, &o["basepri,".len()..]).map_or(0, logical);
+                        after.basepri =
+                            constant_in(&f.insns, code[k].0, &targets, &o["basepri,".len()..]).map_or(0, logical);
                         after.absolute = true;
                     }
                 }
@@ -774,7 +841,8 @@ impl Graph<'_> {
                 for r in [0, 1, 2, 3, 12] {
                     after.saved[r] = None;
                 }
-            } else if !READS_ONLY.contains(&base.as_str()) {
+            } else if !READS_ONLY.contains(&base.as_str()) || ops.contains('!') || ops.contains("],#") {
+                // (A store with writeback or post-indexing writes its base register.)
                 for r in registers(&insn.operands) {
                     after.saved[r] = None;
                 }
@@ -843,10 +911,22 @@ impl Graph<'_> {
                         // the matching acquire's caller), at most: its points count at that level.
                         let mut at = after;
                         if self.is_release(g) {
-                            (at.basepri, at.primask, at.absolute) = after.section.unwrap_or((0, false, true));
+                            // The weaker of the masking now and the one it restores.
+                            let (b, p, abs) = after.section.unwrap_or((0, false, true));
+                            at.basepri = at.basepri.min(b);
+                            at.primask &= p;
+                            at.absolute |= abs;
                         }
                         call(Callee::Direct(t), at);
+                        let pre = after;
                         after = self.after_call(Some(g), after)?;
+                        if cond {
+                            // Not taken: the masking before the call.
+                            after = State {
+                                depth: after.depth,
+                                ..after.join(pre)
+                            };
+                        }
                         // A callee that never returns (`halt`, the panic machinery) ends the path.
                         if self.is_panic(g) || self.frame(g)?.exit.is_none() {
                             fall = cond;
@@ -854,7 +934,14 @@ impl Graph<'_> {
                     }
                     None if base == "blx" => {
                         call(Callee::Indirect, after);
+                        let pre = after;
                         after = self.after_indirect(fi, after)?;
+                        if cond {
+                            after = State {
+                                depth: after.depth,
+                                ..after.join(pre)
+                            };
+                        }
                     }
                     None => return Err(format!("{} at {:#x}: bl without a target", f.name, insn.addr)),
                 },
@@ -885,33 +972,21 @@ impl Graph<'_> {
                     }
                 }
                 "tbb" | "tbh" => {
-                    // The table follows the instruction (objdump shows it as data): byte or
-                    // halfword entries, each half the distance from the table's start.
-                    let table = insn.addr + 4;
-                    let bytes = table_bytes(&f.insns[code[k].0 + 1..]);
-                    let entries: Vec<u64> = if base == "tbb" {
-                        bytes.iter().map(|&b| u64::from(b)).collect()
-                    } else {
-                        bytes
-                            .chunks_exact(2)
-                            .map(|c| u64::from(u16::from_le_bytes([c[0], c[1]])))
-                            .collect()
-                    };
-                    if entries.is_empty() {
-                        return Err(format!("{} at {:#x}: a jump table without entries", f.name, insn.addr));
-                    }
-                    for e in entries {
-                        if let Some(&tk) = index.get(&(table + 2 * e)) {
+                    // The table follows the instruction (objdump shows it as data).
+                    for t in table_targets(f, code[k].0, &index)? {
+                        if let Some(&tk) = index.get(&t) {
                             seeds.push((tk, after));
                         }
                     }
-                    fall = false;
+                    fall = cond;
                 }
-                "udf" => fall = false,
+                "udf" | "trap" => fall = cond,
                 _ => {
                     if !ret && ops.starts_with("pc,") && base != "str" {
                         if base == "ldr" || base == "mov" {
                             call(Callee::Indirect, after);
+                            let e = self.after_indirect(fi, after)?;
+                            exit = Some(exit.map_or(e, |x| x.join(e)));
                             fall = cond;
                         } else {
                             return Err(format!(
@@ -1492,6 +1567,26 @@ indirect | main | callback | the only callback
     }
 
     #[test]
+    fn a_conditional_call_to_a_lock_does_not_mask_the_path_that_skips_it() {
+        // HandlerA calls `acquire` (a critical section: returns masked) only if `eq`, then calls
+        // leaf: on the path that skipped the call HandlerB may still preempt leaf.
+        let cfg = format!("{CONFIG}critical-section | acquire | release | t\n");
+        let config = parse_config(&cfg).expect("config");
+        let dis = DIS
+            .replace(
+                " 8000608:      \tmsr\tbasepri_max, r0\n",
+                " 8000608:      \tit\teq\n 800060a:      \tbleq\t0x8000900 <acquire>\n",
+            )
+            .replace(
+                "08000800 <Fault>:",
+                "08000900 <acquire>:\n 8000900:      \tcpsid i\n 8000902:      \tbx\tlr\n\n08000800 <Fault>:",
+            );
+        let b = analyse(&dis, "", VECTOR, 0, &config).expect("analysis");
+        let f = EXCEPTION_FRAME_BYTES;
+        assert_eq!(b.total, 96 + (f + 268) + (f + 276) + (f + 8), "{}", b.report());
+    }
+
+    #[test]
     fn unresolved_or_wrong_configuration_is_an_error_and_unused_lines_are_stale() {
         let base = "prio-bits | 4 | t\npriority | HandlerA | 1 | t\npriority | HandlerB | 2 | t\n";
         let e = analyse(DIS, "", VECTOR, 0, &parse_config(base).expect("config")).expect_err("unresolved");
@@ -1516,6 +1611,13 @@ indirect | main | callback | the only callback
         let bad = DIS.replace("sub\tsp, #0x20", "mov\tsp, r4");
         let e = analyse(&bad, "", VECTOR, 0, &config).expect_err("unknown idiom");
         assert!(e.contains("unrecognised write to sp"), "{e}");
+        // A jump-table entry that is not an instruction.
+        let table = DIS.replace(
+            " 8000802:      \tb\t0x8000802 <Fault+0x2> @ imm = #-0x4\n",
+            " 8000802:      \ttbb\t[pc, r0]\n 8000806: 03 00  \t.short\t0x0003\n 8000808:      \tb\t0x8000808 <Fault+0x8>\n",
+        );
+        let e = analyse(&table, "", VECTOR, 0, &config).expect_err("bad table");
+        assert!(e.contains("jump-table entry"), "{e}");
         let rec = DIS.replace("bl\t0x8000300 <leaf> @ imm = #-0x406", "bl\t0x8000700 <HandlerB>");
         let e = analyse(&rec, "", VECTOR, 0, &config).expect_err("recursion");
         assert!(e.contains("recursion"), "{e}");
@@ -1537,5 +1639,10 @@ indirect | main | callback | the only callback
         assert_eq!(stack_effect("ldm", "sp, {r0, r2, r3}"), Ok((0, false)));
         assert_eq!(stack_effect("ldm", "sp!, {r4, pc}"), Ok((-8, true)));
         assert!(stack_effect("mov", "sp, r7").is_err());
+        // Forms the analysis does not model fail rather than count as nothing.
+        assert!(stack_effect("stmia", "sp!, {r0, r1}").is_err());
+        assert!(stack_effect("ldmdb", "sp!, {r0, r1}").is_err());
+        assert!(stack_effect("ldm", "r0, {r4, pc}").is_err());
+        assert!(stack_effect("msr", "msp, r0").is_err());
     }
 }
