@@ -131,7 +131,7 @@ fn report() -> CoefficientReport {
 
 fn parse_all(parser: &mut Parser, bytes: &[u8]) -> Vec<Frame> {
     let mut out = Vec::new();
-    parser.feed(bytes, |f| out.push(f));
+    parser.feed(bytes, |f| out.push(*f));
     out
 }
 

@@ -50,7 +50,7 @@ fn main() {}
 #[cfg(target_os = "none")]
 #[rtic::app(device = stm32f4::stm32f405, peripherals = true, dispatchers = [FSMC, CAN2_RX1, CAN2_SCE])]
 mod app {
-    use crate::board::{self, SensorSource};
+    use crate::board::{self, Counter, SensorSource};
     use crate::estimate::Estimator;
     use crate::sample::{Sample, Sampler};
     use crate::telemetry::{Link, Part, Stats, REPORT_PERIOD_MS};
@@ -65,8 +65,12 @@ mod app {
 
     /// Sampling period: 100 Hz.
     const SAMPLE_PERIOD_MS: u32 = 10;
-    /// Samples the channel holds: 80 ms of slack for the estimator before samples are dropped.
-    const SAMPLE_QUEUE: usize = 8;
+    /// Samples the channel holds: 40 ms of slack for the estimator before samples are dropped.
+    /// What can hold the estimator back is its own step (≤ 46 500 instructions measured) and the
+    /// telemetry encoding under the estimator lock (`lock_max`, reported; measured under QEMU in
+    /// BENCHMARKS.md): each well under a millisecond at 168 MHz, against the 30 ms a sample waits
+    /// in a queue of four before the fifth is dropped.
+    const SAMPLE_QUEUE: usize = 4;
     /// µs per monotonic tick (1 kHz).
     const US_PER_TICK: u64 = 1_000;
 
@@ -88,10 +92,12 @@ mod app {
         out: Out,
     }
 
-    /// The telemetry UART and its MAVLink writer (shared by the periodic and the final report).
+    /// The telemetry UART and its MAVLink writer (shared by the periodic and the final report),
+    /// and the counter that times how long the encoding holds the estimator lock.
     pub struct Out {
         port: board::Port,
         link: Link,
+        counter: board::CycleCounter,
     }
 
     #[local]
@@ -145,6 +151,7 @@ mod app {
                 out: Out {
                     port: b.telemetry,
                     link: Link::new(cx.local.frames),
+                    counter: b.counter,
                 },
             },
             Local {
@@ -256,22 +263,32 @@ mod app {
         loop {
             next += REPORT_PERIOD_MS.millis();
             Mono::delay_until(next).await;
-            let stats = cx.shared.stats.lock(|s| *s);
-            let t_us = u64::from(Mono::now().duration_since_epoch().as_ticks()) * US_PER_TICK;
-            report(&mut cx.shared.estimator, &mut cx.shared.out, &stats, t_us);
+            report(&mut cx.shared.estimator, &mut cx.shared.out, &mut cx.shared.stats);
         }
     }
 
-    /// One report period: each part encoded with the estimator locked (no I/O under the lock, so
-    /// the estimate task waits only for the encoding), then sent with the lock released.
+    /// One report period, stamped now, of a copy of the statistics: each part encoded with the
+    /// estimator locked (no I/O under the lock, so the estimate task waits only for the encoding),
+    /// then sent with the lock released. How long the lock was held (counter ticks) goes into the
+    /// shared statistics and into the copy, so the counters part (sent last) includes this
+    /// period's other parts.
     fn report(
         estimator: &mut impl rtic::Mutex<T = Estimator>,
         out: &mut impl rtic::Mutex<T = Out>,
-        stats: &Stats,
-        t_us: u64,
+        shared_stats: &mut impl rtic::Mutex<T = Stats>,
     ) {
+        let mut stats = shared_stats.lock(|s| *s);
+        let t_us = u64::from(Mono::now().duration_since_epoch().as_ticks()) * US_PER_TICK;
         for part in Part::ALL {
-            let n = estimator.lock(|e| out.lock(|o| o.link.encode(part, e, stats, t_us)));
+            let (n, held) = estimator.lock(|e| {
+                out.lock(|o| {
+                    let start = o.counter.now();
+                    let n = o.link.encode(part, e, &stats, t_us);
+                    (n, o.counter.now().wrapping_sub(start))
+                })
+            });
+            stats.record_lock(held);
+            shared_stats.lock(|s| s.record_lock(held));
             out.lock(|o| o.link.transmit(n, &mut o.port));
         }
     }
@@ -280,9 +297,7 @@ mod app {
     #[cfg(feature = "qemu")]
     #[task(priority = 1, shared = [stats, estimator, out])]
     async fn final_report(mut cx: final_report::Context) {
-        let stats = cx.shared.stats.lock(|s| *s);
-        let t_us = u64::from(Mono::now().duration_since_epoch().as_ticks()) * US_PER_TICK;
-        report(&mut cx.shared.estimator, &mut cx.shared.out, &stats, t_us);
+        report(&mut cx.shared.estimator, &mut cx.shared.out, &mut cx.shared.stats);
         board::halt(0)
     }
 }

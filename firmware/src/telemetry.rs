@@ -7,14 +7,18 @@
 //! coefficient reports (`DEBUG_FLOAT_ARRAY` "CL" … "Cn": θ, σ, k, λ_F, health, refused), the
 //! health report (`DEBUG_FLOAT_ARRAY` "health", id 100: sample, sensor, stuck-channel and link
 //! counters, layout `aerosid_core::mavlink::telemetry::health_slot`) and a `NAMED_VALUE_FLOAT` set
-//! of counters; every second a `HEARTBEAT`. At 57 600 baud that is 2 × (600 + 164 + 5 × 30) + 21
-//! ≈ 1.85 kB/s of the 5.76 kB/s link (`stack_hw` is the stack high-water mark in bytes).
+//! of counters; every second a `HEARTBEAT`. At 57 600 baud that is 2 × (600 + 164 + 6 × 30) + 21
+//! ≈ 1.91 kB/s of the 5.76 kB/s link (`stack_hw` is the stack high-water mark in bytes, `step_max`
+//! and `lock_max` the longest estimator step and estimator-lock hold in counter ticks).
 
 use crate::board::{ChipHealth, SensorHealth, TelemetryPort};
 use crate::estimate::{Estimator, StepCost, PROBES};
+use aerosid_core::aero::model::idx;
 use aerosid_core::aero::Pipeline;
-use aerosid_core::mavlink::telemetry::{health_slot as slot, reports, HealthReport};
-use aerosid_core::mavlink::{frame::MAV_COMP_ID_ONBOARD_COMPUTER, Telemetry};
+use aerosid_core::mavlink::frame::{CHECKSUM_LEN, HEADER_LEN_V2, MAV_COMP_ID_ONBOARD_COMPUTER};
+use aerosid_core::mavlink::messages::{DebugFloatArray, MavMessage};
+use aerosid_core::mavlink::telemetry::{health_slot as slot, report, HealthReport};
+use aerosid_core::mavlink::Telemetry;
 
 /// Coefficient reports every 500 ms (2 Hz).
 pub const REPORT_PERIOD_MS: u32 = 500;
@@ -36,6 +40,9 @@ pub struct Stats {
     pub last: StepCost,
     /// Most ticks of one whole step since boot.
     pub max_step_ticks: u32,
+    /// Most ticks the telemetry task held the estimator lock to encode one report part since boot
+    /// (the estimate task waits at most this long for it).
+    pub max_lock_ticks: u32,
     /// Failed sensor reads, re-initialisations, stuck channels, the autopilot link.
     pub sensors: SensorHealth,
 }
@@ -56,10 +63,20 @@ impl Stats {
         self.last = cost;
         self.max_step_ticks = self.max_step_ticks.max(cost.ticks[0]);
     }
+
+    /// Counts how long (ticks) a report period held the estimator lock at most.
+    pub fn record_lock(&mut self, ticks: u32) {
+        self.max_lock_ticks = self.max_lock_ticks.max(ticks);
+    }
 }
 
-/// Bytes of the frame buffer: six coefficient reports (600 bytes) at once.
-pub const FRAME_BUFFER: usize = 640;
+/// Bytes of the frame buffer: one part of a report period ([`Part`]) at a time, so the longest
+/// frame any part holds: a full, untruncated `DEBUG_FLOAT_ARRAY` (264 bytes; a coefficient report
+/// is 100, the health report 164, the counters and heartbeat together 201).
+pub const FRAME_BUFFER: usize = HEADER_LEN_V2 + <DebugFloatArray as MavMessage>::SPEC.max_len as usize + CHECKSUM_LEN;
+/// Bytes of the counters part (six `NAMED_VALUE_FLOAT`s of 30 bytes and a 21-byte `HEARTBEAT`).
+const COUNTERS_PART: usize = 6 * 30 + 21;
+const _: () = assert!(COUNTERS_PART <= FRAME_BUFFER);
 
 /// The telemetry writer: the MAVLink encoder and a frame buffer (a static of `init`: returned by
 /// value in `Shared`, it would sit in `init`'s frame, which RTIC keeps under every task's first run).
@@ -123,11 +140,12 @@ pub fn health_report(stats: &Stats, estimator: &Estimator) -> HealthReport {
     r
 }
 
-/// One part of a report period ([`Link::encode`]).
+/// One part of a report period ([`Link::encode`]): one frame buffer's worth, encoded under one
+/// estimator lock.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Part {
-    /// The six coefficient reports (needs the estimator).
-    Coefficients,
+    /// The report of one coefficient, by [`idx`] (needs the estimator).
+    Coefficient(usize),
     /// The health report (needs the estimator).
     Health,
     /// The counters and, every second period, a heartbeat (needs only the statistics).
@@ -135,20 +153,29 @@ pub enum Part {
 }
 
 impl Part {
-    /// The parts of one report period, in the order they are sent.
-    pub const ALL: [Part; 3] = [Part::Coefficients, Part::Health, Part::Counters];
+    /// The parts of one report period, in the order they are sent: `C_L` … `C_n`, health, counters.
+    pub const ALL: [Part; idx::COUNT + 2] = [
+        Part::Coefficient(idx::LIFT),
+        Part::Coefficient(idx::DRAG),
+        Part::Coefficient(idx::SIDE),
+        Part::Coefficient(idx::ROLL),
+        Part::Coefficient(idx::PITCH),
+        Part::Coefficient(idx::YAW),
+        Part::Health,
+        Part::Counters,
+    ];
 }
 
 impl Link {
     /// Encodes one part of the report into the frame buffer and returns its length; no I/O. The
     /// caller holds the estimator lock only for this (its ceiling is the estimate task's
     /// priority), then sends the bytes with [`transmit`](Self::transmit) after releasing it: at
-    /// 57 600 baud the 600 bytes of coefficient reports take 104 ms on the wire, during which a
-    /// lock held would stall the estimate task past what the sample queue holds. Each part in its
-    /// own (not inlined) function, so that the stack holds one part's frame at a time.
+    /// 57 600 baud a 100-byte coefficient report takes 17 ms on the wire, the six 104 ms, during
+    /// which a lock held would stall the estimate task past what the sample queue holds. Each
+    /// part in its own (not inlined) function, so that the stack holds one part's frame at a time.
     pub fn encode(&mut self, part: Part, estimator: &Estimator, stats: &Stats, time_us: u64) -> usize {
         match part {
-            Part::Coefficients => self.encode_coefficients(estimator.pipeline(), time_us),
+            Part::Coefficient(i) => self.encode_coefficient(estimator.pipeline(), i, time_us),
             Part::Health => self.encode_health(estimator, stats, time_us),
             Part::Counters => self.encode_counters(stats, time_us),
         }
@@ -160,10 +187,12 @@ impl Link {
     }
 
     #[inline(never)]
-    fn encode_coefficients(&mut self, pipeline: &Pipeline<f32>, time_us: u64) -> usize {
-        let reports = reports(pipeline);
+    fn encode_coefficient(&mut self, pipeline: &Pipeline<f32>, coefficient: usize, time_us: u64) -> usize {
+        let Some(r) = report(pipeline, coefficient) else {
+            return 0;
+        };
         self.mav
-            .coefficients(&reports, time_us, self.buf.as_mut_slice())
+            .coefficient(&r, time_us, self.buf.as_mut_slice())
             .unwrap_or_else(|e| {
                 defmt::error!("telemetry: encode {}", e);
                 0
@@ -181,16 +210,17 @@ impl Link {
             })
     }
 
-    /// The five counters as `NAMED_VALUE_FLOAT`s and every second period a heartbeat, one after
-    /// the other in the buffer (≈ 30 bytes each).
+    /// The six counters as `NAMED_VALUE_FLOAT`s and every second period a heartbeat, one after
+    /// the other in the buffer ([`COUNTERS_PART`] bytes at most).
     #[inline(never)]
     fn encode_counters(&mut self, stats: &Stats, time_us: u64) -> usize {
         let ms = (time_us / 1000) as u32;
-        let counters: [(&str, f32); 5] = [
+        let counters: [(&str, f32); 6] = [
             ("samples", stats.sampled as f32),
             ("dropped", stats.dropped as f32),
             ("updates", stats.updates as f32),
             ("step_max", stats.max_step_ticks as f32),
+            ("lock_max", stats.max_lock_ticks as f32),
             ("stack_hw", crate::board::stack::high_water_bytes() as f32),
         ];
         let mut n = 0;
@@ -227,7 +257,7 @@ const MAV_STATE_ACTIVE: u8 = 4;
 #[cfg(feature = "qemu")]
 /// Logs the final estimates with their `f32` bit patterns (for exact comparison on the host).
 pub fn log_estimates(pipeline: &Pipeline<f32>) {
-    for r in reports(pipeline) {
+    for r in aerosid_core::mavlink::telemetry::reports(pipeline) {
         let n = usize::from(r.n_params).min(r.theta.len());
         defmt::info!(
             "estimate {=u8}: n {=usize}, k {=u8}, λ {=f32}, θ {}, bits {:08x}",

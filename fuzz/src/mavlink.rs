@@ -162,8 +162,8 @@ pub fn run(data: &[u8]) {
             if f.header.is_signed() {
                 signed += 1;
             }
-            b.accept(&f, now_us);
-            delivered.push(key(&f));
+            b.accept(f, now_us);
+            delivered.push(key(f));
         });
         let (ra, rb) = (check_source(&mut a, now_us), check_source(&mut b, now_us));
         assert_eq!(ra, rb, "receive() and parse + accept() disagree");

@@ -16,6 +16,12 @@ use std::time::Duration;
 const STEP_BUDGET_MEDIAN: u32 = 31_500;
 /// See [`STEP_BUDGET_MEDIAN`] (shared with the fault run).
 const STEP_BUDGET_MAX: u32 = qemu::STEP_BUDGET_MAX;
+/// Instructions the telemetry task holds the estimator lock to encode one report part (one
+/// coefficient report with eq. 17's covariance, the health report or the counters): regression
+/// budget, about 10 % above the measured 14 521 (a dimension-6 coefficient report). With the
+/// longest step (≈ 44 400) that is ≈ 59 000 instructions, ≈ 1 ms at 168 MHz even at 3 cycles per
+/// instruction, against the 30 ms a sample can wait in the firmware's queue of four.
+const LOCK_BUDGET: u32 = 16_000;
 /// Stack high-water mark, regression budget (shared with the fault run; measured figures there).
 const STACK_BUDGET_BYTES: u32 = qemu::STACK_BUDGET_BYTES;
 
@@ -72,6 +78,21 @@ fn qemu_replay_equals_host_f32_and_meets_the_instruction_budget() {
         }
     }
     let (_, median, max) = qemu::stats(&run.counts, 0).expect("counts");
+    // … the telemetry's own counters agree: `step_max` is the longest step in the count file …
+    println!("telemetry counters: {:?}", run.counters);
+    let counter = |name: &str| *run.counters.get(name).unwrap_or_else(|| panic!("no `{name}` counter"));
+    let longest = run.counts.iter().map(|c| c[0]).max().expect("counts");
+    assert_eq!(counter("step_max"), longest as f32, "step_max vs the count file");
+    assert_eq!(counter("samples"), samples.len() as f32, "samples counter");
+    // … and the telemetry encoding holds the estimator lock for a bounded time (the estimate task's
+    // longest wait for it, on top of its own step, against the sample queue's slack).
+    let lock = counter("lock_max");
+    println!("longest estimator-lock hold by telemetry: {lock} instructions");
+    assert!(lock > 0.0, "lock_max not measured");
+    assert!(
+        lock <= LOCK_BUDGET as f32,
+        "lock_max {lock} > {LOCK_BUDGET} instructions"
+    );
     assert!(
         median <= STEP_BUDGET_MEDIAN,
         "median step {median} > {STEP_BUDGET_MEDIAN} instructions"

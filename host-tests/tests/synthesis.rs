@@ -614,3 +614,39 @@ fn needed_channels_follow_the_axes() {
         );
     }
 }
+
+/// GIVEN the on-board `f32` pipeline after 20 s of a simulated flight (every coefficient updated),
+/// THEN the one-at-a-time report the firmware sends (`telemetry::report`) equals the six-at-once
+/// `reports` bit for bit (θ, σ, k, λ_F, flags), and an index past `C_n` has none.
+#[test]
+fn one_report_at_a_time_equals_all_six() {
+    use aerosid_core::mavlink::telemetry::{report, reports};
+    let flight = aerosid_host::flights::main_flight(20.0, 11);
+    let out = aerosid_host::sim::simulate(&flight).expect("simulation");
+    let mut p = aerosid_core::aero::onboard::pipeline::<f32>().expect("on-board pipeline");
+    for s in &out.samples {
+        p.process(&s.cast::<f32>());
+    }
+    let all = reports(&p);
+    for (i, r) in all.iter().enumerate() {
+        let one = report(&p, i).expect("a report for every coefficient");
+        assert!(p.health().coefficients[i].updates > 0, "coefficient {i} never updated");
+        assert_eq!(one.coefficient, r.coefficient);
+        assert_eq!(
+            (one.n_params, one.rank_k, one.health_flags),
+            (r.n_params, r.rank_k, r.health_flags)
+        );
+        assert_eq!(one.lambda_f.to_bits(), r.lambda_f.to_bits());
+        assert_eq!(
+            one.theta.map(f32::to_bits),
+            r.theta.map(f32::to_bits),
+            "coefficient {i}: θ"
+        );
+        assert_eq!(
+            one.sigma.map(f32::to_bits),
+            r.sigma.map(f32::to_bits),
+            "coefficient {i}: σ"
+        );
+    }
+    assert!(report(&p, idx::COUNT).is_none());
+}

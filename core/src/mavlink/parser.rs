@@ -166,8 +166,32 @@ impl Parser {
 
     /// Feeds one byte; returns the frame it completes, if any. A single byte can complete more
     /// than one frame (when a re-scan recovers several): after `Some`, call [`Parser::poll`] until
-    /// it returns `None`, or use [`Parser::feed`], which does.
+    /// it returns `None`, or use [`Parser::feed`], which does and copies no frame.
     pub fn push(&mut self, byte: u8) -> Option<Frame> {
+        self.enqueue(byte);
+        self.poll()
+    }
+
+    /// Processes bytes already queued by a re-scan; returns the next frame they complete.
+    pub fn poll(&mut self) -> Option<Frame> {
+        let mut got = None;
+        // `step` delivers at most one frame per byte: stop at the first.
+        self.drain(&mut |f: &Frame| got = Some(*f), true);
+        got
+    }
+
+    /// Feeds `bytes` and calls `on_frame` for every frame, in order. The frame is lent, not
+    /// returned: it is decoded once, in the parser's own buffer, and never copied (the sampling
+    /// task's stack, BENCHMARKS.md "Static stack bound").
+    pub fn feed(&mut self, bytes: &[u8], mut on_frame: impl FnMut(&Frame)) {
+        for &b in bytes {
+            self.enqueue(b);
+            self.drain(&mut on_frame, false);
+        }
+    }
+
+    /// Appends `byte` to the re-scan queue.
+    fn enqueue(&mut self, byte: u8) {
         if self.q_end >= QUEUE_LEN {
             self.compact(0);
         }
@@ -179,32 +203,20 @@ impl Parser {
             // Unreachable by the bound in the module doc; counted rather than trusted.
             None => self.stats.discarded_bytes = self.stats.discarded_bytes.wrapping_add(1),
         }
-        self.poll()
     }
 
-    /// Processes bytes already queued by a re-scan; returns the next frame they complete.
-    pub fn poll(&mut self) -> Option<Frame> {
+    /// Steps through the queued bytes, lending each completed frame to `on_frame`; with
+    /// `first_only`, returns after the first frame and keeps the rest queued.
+    fn drain(&mut self, on_frame: &mut impl FnMut(&Frame), first_only: bool) {
         while self.q_start < self.q_end {
             let byte = self.queue.get(self.q_start).copied().unwrap_or(0);
             self.q_start += 1;
-            if let Some(frame) = self.step(byte) {
-                return Some(frame);
+            if self.step(byte, on_frame) && first_only {
+                return;
             }
         }
         self.q_start = 0;
         self.q_end = 0;
-        None
-    }
-
-    /// Feeds `bytes` and calls `on_frame` for every frame, in order.
-    pub fn feed(&mut self, bytes: &[u8], mut on_frame: impl FnMut(Frame)) {
-        for &b in bytes {
-            let mut next = self.push(b);
-            while let Some(frame) = next {
-                on_frame(frame);
-                next = self.poll();
-            }
-        }
     }
 
     /// Moves the queued bytes to start at `at`.
@@ -250,7 +262,9 @@ impl Parser {
         self.frame.get(i).copied().unwrap_or(0)
     }
 
-    fn step(&mut self, byte: u8) -> Option<Frame> {
+    /// One byte through the frame state machine; a completed frame is lent to `on_frame` (at most
+    /// one per byte) and `true` returned.
+    fn step(&mut self, byte: u8, on_frame: &mut impl FnMut(&Frame)) -> bool {
         let is_magic = byte == MAGIC_V2 || byte == MAGIC_V1;
         match self.pending {
             Pending::None => {}
@@ -266,7 +280,7 @@ impl Parser {
                 // Re-scan the frame's bytes after its start, then this byte.
                 self.q_start = self.q_start.saturating_sub(1);
                 self.reject();
-                return None;
+                return false;
             }
             Pending::Signature => {
                 // The "signature" may have been the start of the next frame (a truncated signature):
@@ -276,7 +290,7 @@ impl Parser {
                 self.frame_len = 0;
                 self.pending = Pending::None;
                 self.unread(0, len);
-                return None;
+                return false;
             }
         }
         if self.frame_len == 0 {
@@ -286,13 +300,13 @@ impl Parser {
             } else {
                 self.stats.discarded_bytes = self.stats.discarded_bytes.wrapping_add(1);
             }
-            return None;
+            return false;
         }
         match self.frame.get_mut(self.frame_len) {
             Some(slot) => *slot = byte,
             None => {
                 self.reject();
-                return None;
+                return false;
             }
         }
         self.frame_len += 1;
@@ -300,7 +314,7 @@ impl Parser {
         let v2 = self.byte(0) == MAGIC_V2;
         let header_len = if v2 { HEADER_LEN_V2 } else { HEADER_LEN_V1 };
         if self.frame_len < header_len {
-            return None;
+            return false;
         }
         let header = self.header(v2);
         let known = spec(header.message_id);
@@ -309,7 +323,7 @@ impl Parser {
             if header.incompat_flags & !INCOMPAT_SIGNED != 0 {
                 self.stats.bad_incompat_flags = self.stats.bad_incompat_flags.wrapping_add(1);
                 self.reject();
-                return None;
+                return false;
             }
             if let Some(s) = known {
                 let fits = if v2 {
@@ -320,18 +334,18 @@ impl Parser {
                 if !fits {
                     self.stats.bad_length = self.stats.bad_length.wrapping_add(1);
                     self.reject();
-                    return None;
+                    return false;
                 }
             }
         }
         let signature = if header.is_signed() { SIGNATURE_LEN } else { 0 };
         if self.frame_len < header_len + payload_len + CHECKSUM_LEN + signature {
-            return None;
+            return false;
         }
 
         let Some(s) = known else {
             self.pending = Pending::UnknownFrame;
-            return None;
+            return false;
         };
         let body_end = header_len + payload_len;
         let crc = accumulate(
@@ -342,26 +356,44 @@ impl Parser {
         if crc != received {
             self.stats.bad_crc = self.stats.bad_crc.wrapping_add(1);
             self.reject();
-            return None;
+            return false;
         }
-        let mut payload: Payload = [0; MAX_PAYLOAD_LEN];
-        if let (Some(dst), Some(src)) = (payload.get_mut(..payload_len), self.frame.get(header_len..body_end)) {
-            copy(dst, src);
+        // Decoded in place: the payload's bytes stay where they are in `frame`, the tail after
+        // them is zeroed (MAVLink 2 truncates trailing zeros; `header_len + MAX_PAYLOAD_LEN` ≤
+        // `MAX_FRAME_LEN`), and a signature is first set aside. No payload copy on the stack.
+        let mut signature_bytes = [0u8; SIGNATURE_LEN];
+        if signature > 0 {
+            let sig_start = body_end + CHECKSUM_LEN;
+            if let Some(src) = self.frame.get(sig_start..sig_start + SIGNATURE_LEN) {
+                copy(&mut signature_bytes, src);
+            }
         }
+        if let Some(tail) = self.frame.get_mut(body_end..header_len + MAX_PAYLOAD_LEN) {
+            tail.fill(0);
+        }
+        let message = self
+            .frame
+            .get(header_len..header_len + MAX_PAYLOAD_LEN)
+            .and_then(|p| <&Payload>::try_from(p).ok())
+            .and_then(|p| Message::decode(header.message_id, p));
         self.frame_len = 0;
         if signature > 0 {
             // Keep the signature until the next byte shows it was one (module doc).
-            let sig_start = body_end + CHECKSUM_LEN;
-            copy_within(&mut self.frame, sig_start, sig_start + SIGNATURE_LEN, 0);
+            if let Some(dst) = self.frame.get_mut(..SIGNATURE_LEN) {
+                copy(dst, &signature_bytes);
+            }
             self.frame_len = SIGNATURE_LEN;
             self.pending = Pending::Signature;
         }
-        let message = Message::decode(header.message_id, &payload)?;
+        let Some(message) = message else {
+            return false;
+        };
         self.stats.frames = self.stats.frames.wrapping_add(1);
         if header.is_signed() {
             self.stats.signed = self.stats.signed.wrapping_add(1);
         }
-        Some(Frame { header, message })
+        on_frame(&Frame { header, message });
+        true
     }
 
     fn header(&self, v2: bool) -> Header {

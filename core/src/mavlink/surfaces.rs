@@ -270,7 +270,7 @@ impl MavlinkSurfaces {
             rpm,
             attitude,
         } = self;
-        parser.feed(bytes, |frame| keep(config, servo, rpm, attitude, &frame, now_us));
+        parser.feed(bytes, |frame| keep(config, servo, rpm, attitude, frame, now_us));
     }
 
     /// Keeps what `frame` (parsed elsewhere, received at `now_us`) carries, if it is for us.

@@ -367,3 +367,18 @@ pub fn reports(p: &crate::aero::Pipeline<f32>) -> [CoefficientReport; idx::COUNT
         report_one(idx::YAW, p.yaw(), &h[idx::YAW]),
     ]
 }
+
+/// The report of coefficient `coefficient` (an [`idx`]; `None` past `C_n`) of an on-board pipeline,
+/// equal to `reports(p)[coefficient]`: one at a time, for a caller that encodes and sends the
+/// reports one by one (the firmware: a small frame buffer, the estimator locked for one report).
+pub fn report(p: &crate::aero::Pipeline<f32>, coefficient: usize) -> Option<CoefficientReport> {
+    let h = p.health().coefficients.get(coefficient)?;
+    Some(match coefficient {
+        idx::LIFT => report_one(idx::LIFT, p.lift(), h),
+        idx::DRAG => report_one(idx::DRAG, p.drag(), h),
+        idx::SIDE => report_one(idx::SIDE, p.side(), h),
+        idx::ROLL => report_one(idx::ROLL, p.roll(), h),
+        idx::PITCH => report_one(idx::PITCH, p.pitch(), h),
+        _ => report_one(idx::YAW, p.yaw(), h),
+    })
+}

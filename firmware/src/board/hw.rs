@@ -107,8 +107,12 @@ pub const ALPHA_VANE: VaneConfig = VaneConfig {
 /// β vane: as the α vane. Placeholder.
 pub const BETA_VANE: VaneConfig = ALPHA_VANE;
 
-/// Autopilot bytes the ring holds: 44 ms at 115200 baud, four sample periods of slack.
-const RX_RING: usize = 512;
+/// Autopilot bytes the ring holds (255: heapless keeps one slot free): 22 ms at 115200 baud
+/// (11.5 bytes/ms), twice the 10 ms between the `sample` task's drains. Only the USART2 handler and
+/// SysTick run above that task, and the locks it takes are short (`stats`: a copy; defmt's while a
+/// log line is written), so a drain is late by microseconds, not by a period. Bytes lost anyway
+/// are counted (`RX_LOST`, the health report's `LINK_LOST`).
+const RX_RING: usize = 256;
 
 /// Specific gas constant of dry air, J/(kg·K).
 const R_AIR: f32 = ms4525do::R_DRY_AIR_J_KG_K;
@@ -468,7 +472,8 @@ impl SensorSource for FlightSensors {
     }
 }
 
-/// DWT CYCCNT (started in `main`'s init before [`init`]).
+/// DWT CYCCNT (started in `main`'s init before [`init`]); copies read it from any task.
+#[derive(Clone, Copy)]
 pub struct Dwt;
 
 impl Counter for Dwt {
