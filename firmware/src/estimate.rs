@@ -8,7 +8,7 @@
 //! processed, which the pipeline's `dt` check refuses, so the rate differentiator restarts instead
 //! of taking a 20 ms step for 10 ms. A sample not newer than the last one is not processed.
 
-use crate::board::Counter;
+use crate::board::{Counter, CycleCounter};
 use crate::sample::Sample;
 use aerosid_core::aero::model::{channel, idx, ChannelMask};
 use aerosid_core::aero::{onboard, Admission, Pipeline, PipelineStep, SequenceCheck, SequenceHealth, Stage};
@@ -33,6 +33,9 @@ pub struct Estimator {
     sequence: SequenceCheck,
     /// Channels the pipeline found invalid at the last sample.
     invalid_now: ChannelMask,
+    /// The board's counter: times the pipeline's stages, and whoever holds the estimator lock
+    /// ([`Estimator::now`]).
+    counter: CycleCounter,
 }
 
 /// Why the estimator could not be built (a configuration error, found at boot).
@@ -41,7 +44,7 @@ pub struct ConfigError;
 
 impl Estimator {
     /// The on-board pipeline, configured in place in `pipeline`, with the step buffer `step` (both
-    /// `init`-local statics that start as the core's `const` placeholders).
+    /// `init`-local statics that start as the core's `const` placeholders) and the board's counter.
     ///
     /// Why statics and not values: RTIC moves `init`'s returned resources into their statics and
     /// enables the interrupts before `init`'s stack frame is released, so every task's first run
@@ -54,6 +57,7 @@ impl Estimator {
     pub fn new(
         pipeline: &'static mut Pipeline<f32>,
         step: &'static mut PipelineStep<f32>,
+        counter: CycleCounter,
     ) -> Result<Self, ConfigError> {
         onboard::configure(pipeline).map_err(|_| ConfigError)?;
         Ok(Self {
@@ -61,13 +65,20 @@ impl Estimator {
             step,
             sequence: SequenceCheck::NEW,
             invalid_now: 0,
+            counter,
         })
+    }
+
+    /// The board's counter now (cycles on hardware, instructions under QEMU): for timing work
+    /// done under the estimator lock.
+    pub fn now(&self) -> u32 {
+        self.counter.now()
     }
 
     /// Runs one sample through the sequence check (which may re-stamp it: hence `&mut`) and the
     /// pipeline; returns how many coefficients updated and the cost, or `None` for a stale sample
     /// (not processed).
-    pub fn step(&mut self, sample: &mut Sample, counter: &impl Counter) -> Option<(u8, StepCost)> {
+    pub fn step(&mut self, sample: &mut Sample) -> Option<(u8, StepCost)> {
         let sensors = &mut sample.sensors;
         match self.sequence.admit(sample.seq, sample.t_us, sensors) {
             Admission::Stale => {
@@ -80,6 +91,7 @@ impl Estimator {
             Admission::Next => {}
         }
         let mut cost = StepCost::default();
+        let counter = &self.counter;
         let start = counter.now();
         let mut last = start;
         self.pipeline.process_into(sensors, self.step, &mut |stage| {

@@ -50,7 +50,7 @@ fn main() {}
 #[cfg(target_os = "none")]
 #[rtic::app(device = stm32f4::stm32f405, peripherals = true, dispatchers = [FSMC, CAN2_RX1, CAN2_SCE])]
 mod app {
-    use crate::board::{self, Counter, SensorSource};
+    use crate::board::{self, SensorSource};
     use crate::estimate::Estimator;
     use crate::sample::{Sample, Sampler};
     use crate::telemetry::{Link, Part, Stats, REPORT_PERIOD_MS};
@@ -65,11 +65,11 @@ mod app {
 
     /// Sampling period: 100 Hz.
     const SAMPLE_PERIOD_MS: u32 = 10;
-    /// Samples the channel holds: 40 ms of slack for the estimator before samples are dropped.
-    /// What can hold the estimator back is its own step (≤ 46 500 instructions measured) and the
-    /// telemetry encoding under the estimator lock (`lock_max`, reported; measured under QEMU in
-    /// BENCHMARKS.md): each well under a millisecond at 168 MHz, against the 30 ms a sample waits
-    /// in a queue of four before the fifth is dropped.
+    /// Samples the channel holds (all four: rtic-sync's channel keeps no slot free): 40 ms of
+    /// slack for the estimator before samples are dropped. What holds the estimator back is its
+    /// own step (≤ 44 435 instructions on the replay) and one telemetry encoding under the
+    /// estimator lock (`lock_max`, ≤ 14 520): together ≈ 1 ms at 168 MHz even at 3 cycles per
+    /// instruction (BENCHMARKS.md "Static stack bound").
     const SAMPLE_QUEUE: usize = 4;
     /// µs per monotonic tick (1 kHz).
     const US_PER_TICK: u64 = 1_000;
@@ -92,12 +92,10 @@ mod app {
         out: Out,
     }
 
-    /// The telemetry UART and its MAVLink writer (shared by the periodic and the final report),
-    /// and the counter that times how long the encoding holds the estimator lock.
+    /// The telemetry UART and its MAVLink writer (shared by the periodic and the final report).
     pub struct Out {
         port: board::Port,
         link: Link,
-        counter: board::CycleCounter,
     }
 
     #[local]
@@ -106,7 +104,6 @@ mod app {
         rx: Receiver<'static, Msg, SAMPLE_QUEUE>,
         sampler: Sampler,
         sensors: board::Sensors,
-        counter: board::CycleCounter,
         counts: board::CountLog,
         #[cfg(not(feature = "qemu"))]
         autopilot_rx: board::AutopilotRx,
@@ -132,7 +129,7 @@ mod app {
         );
         let b = board::init(cx.device, &clocks);
 
-        let estimator = match Estimator::new(cx.local.pipeline, cx.local.step) {
+        let estimator = match Estimator::new(cx.local.pipeline, cx.local.step, b.counter) {
             Ok(e) => e,
             Err(e) => {
                 // A configuration error is a build defect; stop here, visibly.
@@ -151,7 +148,6 @@ mod app {
                 out: Out {
                     port: b.telemetry,
                     link: Link::new(cx.local.frames),
-                    counter: b.counter,
                 },
             },
             Local {
@@ -159,7 +155,6 @@ mod app {
                 rx,
                 sampler: Sampler::default(),
                 sensors: b.sensors,
-                counter: b.counter,
                 counts: b.counts,
                 #[cfg(not(feature = "qemu"))]
                 autopilot_rx: b.autopilot_rx,
@@ -222,13 +217,12 @@ mod app {
     }
 
     /// Runs the estimator on every sample, timing each stage with the board's counter.
-    #[task(priority = 2, local = [rx, counter, counts], shared = [stats, estimator])]
+    #[task(priority = 2, local = [rx, counts], shared = [stats, estimator])]
     async fn estimate(mut cx: estimate::Context) {
         while let Ok(msg) = cx.local.rx.recv().await {
             match msg {
                 Msg::Sample(mut sample) => {
-                    let counter = &*cx.local.counter;
-                    if let Some((updated, cost)) = cx.shared.estimator.lock(|e| e.step(&mut sample, counter)) {
+                    if let Some((updated, cost)) = cx.shared.estimator.lock(|e| e.step(&mut sample)) {
                         cx.shared.stats.lock(|stats| stats.record_step(updated, cost));
                         cx.local.counts.write(&cost.ticks);
                     }
@@ -271,7 +265,9 @@ mod app {
     /// estimator locked (no I/O under the lock, so the estimate task waits only for the encoding),
     /// then sent with the lock released. How long the lock was held (counter ticks) goes into the
     /// shared statistics and into the copy, so the counters part (sent last) includes this
-    /// period's other parts.
+    /// period's other parts; its own hold (it needs no estimator, but encoded outside the lock its
+    /// frame would sit under the estimate task's: +336 B of stack bound) counts from the next
+    /// period on.
     fn report(
         estimator: &mut impl rtic::Mutex<T = Estimator>,
         out: &mut impl rtic::Mutex<T = Out>,
@@ -282,9 +278,9 @@ mod app {
         for part in Part::ALL {
             let (n, held) = estimator.lock(|e| {
                 out.lock(|o| {
-                    let start = o.counter.now();
+                    let start = e.now();
                     let n = o.link.encode(part, e, &stats, t_us);
-                    (n, o.counter.now().wrapping_sub(start))
+                    (n, e.now().wrapping_sub(start))
                 })
             });
             stats.record_lock(held);

@@ -16,7 +16,7 @@ use crate::estimate::{Estimator, StepCost, PROBES};
 use aerosid_core::aero::model::idx;
 use aerosid_core::aero::Pipeline;
 use aerosid_core::mavlink::frame::{CHECKSUM_LEN, HEADER_LEN_V2, MAV_COMP_ID_ONBOARD_COMPUTER};
-use aerosid_core::mavlink::messages::{DebugFloatArray, MavMessage};
+use aerosid_core::mavlink::messages::{DebugFloatArray, Heartbeat, MavMessage, NamedValueFloat};
 use aerosid_core::mavlink::telemetry::{health_slot as slot, report, HealthReport};
 use aerosid_core::mavlink::Telemetry;
 
@@ -70,12 +70,19 @@ impl Stats {
     }
 }
 
-/// Bytes of the frame buffer: one part of a report period ([`Part`]) at a time, so the longest
-/// frame any part holds: a full, untruncated `DEBUG_FLOAT_ARRAY` (264 bytes; a coefficient report
-/// is 100, the health report 164, the counters and heartbeat together 201).
-pub const FRAME_BUFFER: usize = HEADER_LEN_V2 + <DebugFloatArray as MavMessage>::SPEC.max_len as usize + CHECKSUM_LEN;
-/// Bytes of the counters part (six `NAMED_VALUE_FLOAT`s of 30 bytes and a 21-byte `HEARTBEAT`).
-const COUNTERS_PART: usize = 6 * 30 + 21;
+/// The longest MAVLink 2 frame of a message (unsigned, untruncated).
+const fn frame_len(spec_max_len: u8) -> usize {
+    HEADER_LEN_V2 + spec_max_len as usize + CHECKSUM_LEN
+}
+/// Bytes of the frame buffer: one part of a report period ([`Part`]) at a time,
+/// so the longest any part can be: a full, untruncated `DEBUG_FLOAT_ARRAY` (264 bytes; a
+/// coefficient report is 100, the health report 164, the counters and heartbeat together 201).
+pub const FRAME_BUFFER: usize = frame_len(<DebugFloatArray as MavMessage>::SPEC.max_len);
+/// `NAMED_VALUE_FLOAT` counters per report period ([`Link::encode_counters`]).
+const COUNTERS: usize = 6;
+/// Bytes of the counters and the heartbeat at most (201).
+const COUNTERS_PART: usize = COUNTERS * frame_len(<NamedValueFloat as MavMessage>::SPEC.max_len)
+    + frame_len(<Heartbeat as MavMessage>::SPEC.max_len);
 const _: () = assert!(COUNTERS_PART <= FRAME_BUFFER);
 
 /// The telemetry writer: the MAVLink encoder and a frame buffer (a static of `init`: returned by
@@ -210,12 +217,12 @@ impl Link {
             })
     }
 
-    /// The six counters as `NAMED_VALUE_FLOAT`s and every second period a heartbeat, one after
-    /// the other in the buffer ([`COUNTERS_PART`] bytes at most).
+    /// The [`COUNTERS`] counters as `NAMED_VALUE_FLOAT`s and every second period a heartbeat, one
+    /// after the other in the buffer ([`COUNTERS_PART`] bytes at most, so every one fits).
     #[inline(never)]
     fn encode_counters(&mut self, stats: &Stats, time_us: u64) -> usize {
         let ms = (time_us / 1000) as u32;
-        let counters: [(&str, f32); 6] = [
+        let counters: [(&str, f32); COUNTERS] = [
             ("samples", stats.sampled as f32),
             ("dropped", stats.dropped as f32),
             ("updates", stats.updates as f32),

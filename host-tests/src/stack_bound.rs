@@ -95,6 +95,9 @@ pub struct Resolution {
     pub callees: Vec<String>,
     /// Why these are all it can call.
     pub reason: String,
+    /// `indirect?`: a call only some images make (one board's logger, say), so not reported stale
+    /// where none uses it.
+    pub optional: bool,
 }
 
 /// The configuration file (`firmware/stack-bound.txt`): one item per line, `#` starts a comment.
@@ -103,7 +106,8 @@ pub struct Resolution {
 /// * `priority | HANDLER | P | why`: the RTIC logical priority `P` of a vector-table handler
 ///   (exact function name); handlers not listed are taken to preempt everything, each other too;
 ///   `priority?` for a handler that only some images have (no error when it is absent);
-/// * `indirect | caller | callee, callee | why`: see [`Resolution`];
+/// * `indirect | caller | callee, callee | why`: see [`Resolution`]; `indirect?` for a call that
+///   only some images make (not reported stale where unused);
 /// * `critical-section | ACQUIRE, ACQUIRE | RELEASE | why`: calls to `ACQUIRE` mask interrupts
 ///   and save the masking where a later call to `RELEASE` restores it (exact function names).
 #[derive(Debug, Clone, PartialEq, Eq, Default)]
@@ -160,11 +164,14 @@ pub fn parse_config(text: &str) -> Result<Config, String> {
                 let names = |s: &str| s.split(", ").map(|n| n.trim().to_string()).collect::<Vec<_>>();
                 c.critical_sections.push((names(acquire), names(release)));
             }
-            ["indirect", caller, callees, why] if !caller.is_empty() && !callees.is_empty() && !why.is_empty() => {
+            [kind @ ("indirect" | "indirect?"), caller, callees, why]
+                if !caller.is_empty() && !callees.is_empty() && !why.is_empty() =>
+            {
                 c.indirect.push(Resolution {
                     caller: caller.to_string(),
                     callees: callees.split(", ").map(|s| s.trim().to_string()).collect(),
                     reason: why.to_string(),
+                    optional: *kind == "indirect?",
                 })
             }
             _ => {
@@ -1404,7 +1411,7 @@ pub fn analyse(
         .indirect
         .iter()
         .zip(&g.used)
-        .filter(|(_, u)| !**u)
+        .filter(|(r, u)| !**u && !r.optional)
         .map(|(r, _)| r.clone())
         .collect();
     Ok(StackBound {
@@ -1597,6 +1604,10 @@ indirect | main | callback | the only callback
         let extra = parse_config(&format!("{CONFIG}indirect | nowhere | callback | old")).expect("config");
         let b = analyse(DIS, "", VECTOR, 0, &extra).expect("analysis");
         assert_eq!(b.stale.len(), 1);
+        let optional =
+            parse_config(&format!("{CONFIG}indirect? | nowhere | callback | one board only")).expect("config");
+        let b = analyse(DIS, "", VECTOR, 0, &optional).expect("analysis");
+        assert!(b.stale.is_empty(), "an unused `indirect?` line is not stale");
         let missing = parse_config(&format!("{CONFIG}priority | NoSuchHandler | 3 | t")).expect("config");
         let e = analyse(DIS, "", VECTOR, 0, &missing).expect_err("unknown handler");
         assert!(e.contains("NoSuchHandler"), "{e}");

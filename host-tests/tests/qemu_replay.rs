@@ -10,7 +10,7 @@ use aerosid_host::{flights, qemu, sim};
 use std::time::Duration;
 
 /// Instructions per sample for the whole six-coefficient step (synthesis + six PCA-GTLS updates
-/// with VFF): regression budgets, about 5 % above what was measured (median 29 758, max 46 381 on
+/// with VFF): regression budgets, about 5–9 % above what was measured (median 29 898, max 44 435 on
 /// this 30 s replay; 55 090 / 60 535 before the steady-state secular path). The goal,
 /// 12 000, is NOT met: see BENCHMARKS.md for the profile and the operation count.
 const STEP_BUDGET_MEDIAN: u32 = 31_500;

@@ -181,8 +181,9 @@ impl Parser {
     }
 
     /// Feeds `bytes` and calls `on_frame` for every frame, in order. The frame is lent, not
-    /// returned: it is decoded once, in the parser's own buffer, and never copied (the sampling
-    /// task's stack, BENCHMARKS.md "Static stack bound").
+    /// returned: its payload is decoded where it lies in the parser's own buffer (no payload copy)
+    /// and the frame is built once and not copied on its way to `on_frame` (the sampling task's
+    /// stack, BENCHMARKS.md "Static stack bound"; [`Parser::poll`] copies it out).
     pub fn feed(&mut self, bytes: &[u8], mut on_frame: impl FnMut(&Frame)) {
         for &b in bytes {
             self.enqueue(b);

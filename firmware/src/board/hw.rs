@@ -108,10 +108,14 @@ pub const ALPHA_VANE: VaneConfig = VaneConfig {
 pub const BETA_VANE: VaneConfig = ALPHA_VANE;
 
 /// Autopilot bytes the ring holds (255: heapless keeps one slot free): 22 ms at 115200 baud
-/// (11.5 bytes/ms), twice the 10 ms between the `sample` task's drains. Only the USART2 handler and
-/// SysTick run above that task, and the locks it takes are short (`stats`: a copy; defmt's while a
-/// log line is written), so a drain is late by microseconds, not by a period. Bytes lost anyway
-/// are counted (`RX_LOST`, the health report's `LINK_LOST`).
+/// (11.5 bytes/ms), twice the 10 ms between the `sample` task's drains. The drain comes first in
+/// each read, before any sensor I/O (a failing I2C chip may take its bus timeout, ≈ 2 ms each, and
+/// an IMU re-initialisation ≈ 1.2 ms, which would otherwise stretch the gap between drains to
+/// ≈ 18 ms); only the USART2 handler and SysTick run above the `sample` task, and the `stats` lock
+/// it shares is held for a copy. What can still hold it off for longer is defmt: with a probe
+/// attached, probe-rs switches RTT to blocking mode, and a log line written into a full RTT buffer
+/// waits for the host with interrupts masked (bench runs only). Bytes lost are counted
+/// (`RX_LOST`, the health report's `LINK_LOST`).
 const RX_RING: usize = 256;
 
 /// Specific gas constant of dry air, J/(kg·K).
@@ -402,6 +406,9 @@ impl SensorSource for FlightSensors {
         // Saturating float-to-int cast: a NaN or negative dt adds 0.
         self.now_us = self.now_us.saturating_add((dt_s * 1e6 + 0.5) as u64);
 
+        // The autopilot's bytes first, before any sensor I/O can delay the drain (`RX_RING`).
+        self.receive_autopilot();
+
         // IMU.
         let imu = self.imu.read();
         if let Ok(r) = &imu {
@@ -447,8 +454,7 @@ impl SensorSource for FlightSensors {
             I2C2_RECOVER.store(true, Ordering::Relaxed);
         }
 
-        // The autopilot: surfaces, throttle, RPM, attitude.
-        self.receive_autopilot();
+        // The autopilot: surfaces, throttle, RPM, attitude (from the bytes drained above).
         let now_us = self.now_us;
         let autopilot_ok = match self.autopilot.as_mut() {
             Some(link) => {
@@ -472,8 +478,7 @@ impl SensorSource for FlightSensors {
     }
 }
 
-/// DWT CYCCNT (started in `main`'s init before [`init`]); copies read it from any task.
-#[derive(Clone, Copy)]
+/// DWT CYCCNT (started in `main`'s init before [`init`]).
 pub struct Dwt;
 
 impl Counter for Dwt {

@@ -189,7 +189,7 @@ pub fn init(dp: pac::Peripherals, _clocks: &super::clocks::Clocks) -> Board {
     Board {
         sensors,
         telemetry: Usart { usart },
-        counter: Tim2Counter { _started: () },
+        counter: Tim2Counter { tim2 },
         counts: CountLog { file: counts },
     }
 }
@@ -383,20 +383,14 @@ impl TelemetryPort for Usart {
     }
 }
 
-/// TIM2 as a [`Counter`] (instructions under `-icount shift=0`). A token: made only by [`init`],
-/// which took the TIM2 peripheral (so no other code holds it), started it and keeps it running; copies read the counter from
-/// any task (as [`cortex_m::peripheral::DWT::cycle_count`] does on the flight computer).
-#[derive(Clone, Copy)]
+/// TIM2 as a [`Counter`] (instructions under `-icount shift=0`).
 pub struct Tim2Counter {
-    _started: (),
+    tim2: pac::TIM2,
 }
 
 impl Counter for Tim2Counter {
     fn now(&self) -> u32 {
-        // SAFETY: a read of TIM2_CNT, a read-only use of a register no code writes after `init`
-        // (which took the `TIM2` peripheral out of `Peripherals` to start it); reading it has no
-        // side effect.
-        unsafe { (*pac::TIM2::ptr()).cnt().read().bits() }
+        self.tim2.cnt().read().bits()
     }
 }
 
