@@ -2,8 +2,8 @@
 """Instruction profile of the QEMU firmware replay (issue 4): where the per-sample instructions go.
 
 Usage (from the workspace root):
-    cargo test --release -p aerosid-host --test qemu_replay write_profile_replay -- --ignored
-    cargo test --release -p aerosid-host --test qemu_replay qemu_replay_equals   # builds target/qemu
+    cargo test -p aerosid-host --test integration qemu_replay::write_profile_replay -- --ignored
+    cargo test -p aerosid-host --test integration qemu_replay::qemu_replay_equals   # builds target/qemu
     python3 scripts/qemu-profile.py [--inlined] [--top N]
 
 Runs the QEMU build of the firmware on target/qemu-prof/replay.bin with `-singlestep -d exec,nochain`

@@ -17,7 +17,7 @@
 //! 1e-9 (relative) of the threshold on the reference side — a tie no arithmetic can settle — and the
 //! tests report how many such ties occurred.
 
-mod common;
+use crate::common;
 
 use aerosid_core::{Estimator, Forgetting, Gtls, GtlsSettings, Real};
 use aerosid_host::data::{generate, Excitation, Sample, Spec};

@@ -15,7 +15,7 @@
 //! `1/√(2·399) ≈ 3.5 %`; ±15 % is about four standard errors, so a pass is not luck and a 41 %
 //! over-statement cannot pass.
 
-mod common;
+use crate::common;
 
 use aerosid_core::{Estimator, Forgetting, Gtls, GtlsSettings, Rls, RlsSettings};
 use aerosid_host::data::{generate, Excitation, Spec};

@@ -11,7 +11,7 @@
 //! a floor `λ_F` collapses to ~6e-4, the effective count to 1 and the estimator loses its excitation
 //! (k = 0) for a while, which the floor of 0.9 prevents (k stays 3, N_eff ≥ 11).
 
-mod common;
+use crate::common;
 
 use aerosid_core::{Eq28Reading, Estimator, Forgetting, Gtls, GtlsSettings, VffSettings};
 use aerosid_host::data::{generate, Excitation, Sample, Spec};

@@ -6,7 +6,7 @@
 //! the 8 kinds of [`HiddenKind`], and 20 clean flights, each 90 s at 100 Hz with its own sensor-noise
 //! seed. Required (issue 6 §3): ≥ 95 % named correctly (kind *and* place: the coefficient, or the
 //! sensor channel), and nothing named on ≥ 95 % of the clean flights. The confusion table is
-//! printed (`cargo test --test gaps -- --nocapture`).
+//! printed (`cargo test -p aerosid-host --test integration gaps:: -- --nocapture`).
 
 use aerosid_host::gaps::hidden::{flight, HiddenEffect, HiddenKind};
 use aerosid_host::gaps::{run_gaps, GapSettings};

@@ -2,7 +2,7 @@
 //! the project CSV, PX4 ULog (written here by a small ULog writer from a simulated flight), and
 //! bad files refused with errors naming the file, line and column (or the ULog message).
 
-mod common;
+use crate::common;
 
 use aerosid_core::aero::SensorSample;
 use aerosid_host::io::aircraft::parse_aircraft;

@@ -22,7 +22,7 @@
 //!    2–9 %: curvature within one error draw (`1/V²`) lengthens the lower tail by ≈ `3·1.96 σ_V/(2V)`
 //!    ≈ 7 % at `V = 12` m/s, and eq. 41 takes the longer tail. All six coefficients are printed.
 
-mod common;
+use crate::common;
 
 use aerosid_host::mc::synth::{self, idx, Airframe, Coefficient, Sensors};
 use aerosid_host::mc::{

@@ -8,7 +8,7 @@
 //! re-orthonormalisations it took. (Their cost — one modified Gram–Schmidt, `~NA³` flops, about a
 //! quarter of an update — is measured by the criterion bench `reorthonormalise`, see BENCHMARKS.md.)
 
-mod common;
+use crate::common;
 
 use aerosid_core::{Estimator, Forgetting, Gtls, GtlsSettings};
 use aerosid_host::data::{generate, Excitation, Spec};

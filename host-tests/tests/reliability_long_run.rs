@@ -74,7 +74,7 @@ fn ten_minute_slice_keeps_every_invariant_and_tracks_both_jumps() {
 
 /// The 10-hour run of BENCHMARKS.md (`aerosid long-run --hours 10` prints the same table): not a CI
 /// test (about a minute here); run with `cargo test -p aerosid-host --test
-/// reliability_long_run -- --ignored --nocapture`.
+/// integration reliability_long_run::ten_hours -- --ignored --nocapture`.
 #[test]
 #[ignore = "10 hours of simulated flight: a benchmark, run by hand"]
 fn ten_hours() {
