@@ -11,7 +11,7 @@ readonly THUMB=thumbv7em-none-eabihf
 readonly FW_ELF="${CARGO_TARGET_DIR:-target}/$THUMB/release/aerosid-firmware"
 # The host tool as `cargo test` builds it (the test profile: opt-level 3, with debug assertions and
 # overflow checks). The main job and the firmware checks run this binary: building the release
-# profile as well (fat LTO, one codegen unit, every dependency again) took 4 min 20 s of CI for the
+# profile as well (fat LTO, one codegen unit, every dependency again) took 4 min 22 s of CI for the
 # same code; the README's `cargo run --release …` commands build that profile for users.
 readonly AEROSID="${CARGO_TARGET_DIR:-target}/debug/aerosid"
 
@@ -65,6 +65,10 @@ step "host tests: cargo test --workspace"
 cargo test --workspace
 
 step "main job (README's \`aerosid run\`, the test-profile build): $AEROSID run --out target/main-job"
+if [ ! -x "$AEROSID" ]; then
+    echo "error: $AEROSID missing: \`cargo test --workspace\` builds it for the integration tests" >&2
+    exit 1
+fi
 "$AEROSID" run --out target/main-job
 
 step "firmware release build: cargo fw-build"
