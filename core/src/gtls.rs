@@ -93,12 +93,16 @@ pub struct GtlsSettings<T> {
 }
 
 impl<T: Real> GtlsSettings<T> {
-    /// A placeholder for `const` initialisers (no forgetting, `s/n = 1`, no input limit).
+    /// A placeholder for `const` initialisers, every number 0 (no input accepted, the variable
+    /// forgetting factor with [`VffSettings::ZERO`]: not valid settings, [`Gtls::new`] refuses
+    /// them). Its bytes are all zero, so that a static holding it needs no initial image in flash
+    /// (see [`crate::aero::Pipeline::PLACEHOLDER`]; `Forgetting::Constant` would be stored in the
+    /// niche of [`crate::vff::Eq28Reading`], as 2).
     pub const PLACEHOLDER: Self = Self {
-        snr: T::ONE,
-        max_abs_input: T::ONE,
+        snr: T::ZERO,
+        max_abs_input: T::ZERO,
         reorth_tol: T::ZERO,
-        forgetting: Forgetting::Constant(T::ONE),
+        forgetting: Forgetting::Variable(VffSettings::ZERO),
     };
 }
 
@@ -273,6 +277,24 @@ impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Gtls<T, NT, NE,
             nongeneric: 0,
             secular_not_converged: 0,
         },
+    };
+
+    /// Every number 0 (`W_T = 0`, `V = 0`): not an estimator, only the storage of one. The
+    /// unconfigured pipeline ([`crate::aero::Pipeline::PLACEHOLDER`]) holds six of these and
+    /// refuses every sample before they are reached; [`Self::new`]'s results replace them. All
+    /// zero so that the firmware's pipeline static lies in `.bss` and needs no initial image in
+    /// flash (≈ 5.7 KB), nor does resetting the pipeline (another ≈ 5 KB of `.rodata`).
+    pub(crate) const ZEROED: Self = Self {
+        snr: T::ZERO,
+        max_abs_input: T::ZERO,
+        c: const_zeros(),
+        weights: const_zeros(),
+        v: [const_zeros(); 2],
+        lambda: T::ZERO,
+        // `Variable` with every number 0: the variant whose bytes are all zero (`Constant` is
+        // stored in the niche of `Eq28Reading`, as 2).
+        forgetting: ForgettingState::Variable(Vff::ZEROED),
+        ..Self::PLACEHOLDER
     };
 
     /// Singular values `σ_1 ≥ … ≥ σ_NA` of the (projected) scaled data matrix (eq. 13), computed

@@ -65,6 +65,21 @@ pub struct VffSettings<T> {
 }
 
 impl<T: Real> VffSettings<T> {
+    /// Every number 0 and the first reading: not valid settings (`validate` refuses them), a
+    /// placeholder for `const` initialisers whose bytes are all zero (so is
+    /// `Forgetting::Variable` holding it; `Forgetting::Constant` is stored in `reading`'s niche
+    /// and is not). See [`crate::aero::Pipeline::PLACEHOLDER`].
+    pub const ZERO: Self = Self {
+        gamma1: T::ZERO,
+        gamma2: T::ZERO,
+        gamma0: T::ZERO,
+        varsigma: T::ZERO,
+        lambda_min: T::ZERO,
+        lambda_max: T::ZERO,
+        pi0: T::ZERO,
+        reading: Eq28Reading::Paleologu,
+    };
+
     /// Defaults for `n` parameters: `γ₂ = 1 − 1/(5n)`, `γ₁ = 1 − 1/(200n)`, `γ₀ = 1.5`,
     /// `ς = 1e-9`, `λ ∈ [0.9, 1]`, `π₀ = 1e-2`.
     ///
@@ -190,6 +205,18 @@ impl<T: Real> VffStep<T> {
 }
 
 impl<T: Real, const N: usize> Vff<T, N> {
+    /// Every number 0 ([`VffSettings::ZERO`], `P = 0`): storage only, for
+    /// [`crate::Gtls`]'s all-zero placeholder; never updated.
+    pub(crate) const ZEROED: Self = Self {
+        settings: VffSettings::ZERO,
+        p: crate::linalg::const_zeros(),
+        p_trace_max: T::ZERO,
+        sq2: T::ZERO,
+        snu2: T::ZERO,
+        seps2: T::ZERO,
+        lambda: T::ZERO,
+    };
+
     /// A new VFF with `λ_F(0) = λ_max`.
     pub fn new(settings: VffSettings<T>) -> Result<Self, Error> {
         settings.validate()?;

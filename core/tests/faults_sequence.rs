@@ -139,7 +139,7 @@ fn after_a_drop_the_differentiator_restarts_and_the_forces_go_on<T: Real>() {
         let dt_or_warmup = match r {
             Refusal::Warmup => true,
             Refusal::Channels(m) => m & channel::DT != 0,
-            Refusal::Estimator(_) => false,
+            Refusal::Estimator(_) | Refusal::NotConfigured => false,
         };
         assert!(dt_or_warmup, "sample {k}: C_m refused as {r:?}");
     }

@@ -65,9 +65,22 @@ pub fn hfb320_rows(path: &Path) -> Result<Vec<[f64; 20]>, String> {
     Ok(rows)
 }
 
-/// The default location of the file: `../shared/data/flight/hfb320_1_10.asc` from the workspace.
+/// The environment variable naming the directory of the shared flight-test data, for a checkout
+/// that does not sit beside `shared/` (the tests and `aerosid fem` read the data from there).
+pub const FLIGHT_DATA_ENV: &str = "AEROSID_FLIGHT_DATA";
+
+/// The directory of the shared flight-test data: `$AEROSID_FLIGHT_DATA` when set (and not empty),
+/// else `../shared/data/flight` beside the workspace.
+pub fn flight_data_dir() -> PathBuf {
+    match std::env::var_os(FLIGHT_DATA_ENV) {
+        Some(dir) if !dir.is_empty() => PathBuf::from(dir),
+        _ => Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/flight"),
+    }
+}
+
+/// The default location of the HFB-320 file: `hfb320_1_10.asc` in [`flight_data_dir`].
 pub fn default_hfb320_path() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/flight/hfb320_1_10.asc")
+    flight_data_dir().join("hfb320_1_10.asc")
 }
 
 /// The prediction of [`hfb320_filter`]: the book's (`ruku4` of FVSysID: RK4 with the input

@@ -18,10 +18,7 @@ use std::path::{Path, PathBuf};
 
 fn flight_dir() -> PathBuf {
     // Where `fem_report::default_hfb320_path` (and tests/fem.rs) find the shared flight data.
-    aerosid_host::fem_report::default_hfb320_path()
-        .parent()
-        .map(Path::to_path_buf)
-        .unwrap_or_default()
+    aerosid_host::fem_report::flight_data_dir()
 }
 
 fn maps() -> PathBuf {

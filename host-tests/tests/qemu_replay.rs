@@ -124,6 +124,34 @@ fn qemu_replay_equals_host_f32_and_meets_the_instruction_budget() {
     }
 }
 
+/// GIVEN the firmware image (QEMU board; the flight computer's `init` declares the same static),
+/// THEN the pipeline's static lies in `.bss`: `Pipeline::PLACEHOLDER` is all zero bytes, so it
+/// needs no initial image in flash (≈ 5 KB; a placeholder with a non-zero byte, such as an
+/// identity matrix or an enum variant stored in a niche, puts the whole static in `.data`).
+#[test]
+fn pipeline_static_has_no_flash_image() {
+    let elf = qemu::build_firmware().expect("firmware build");
+    let tool = aerosid_host::panic_audit::objdump();
+    let out = std::process::Command::new(&tool)
+        .arg("-t")
+        .arg(&elf)
+        .output()
+        .unwrap_or_else(|e| panic!("{}: {e}", tool.display()));
+    assert!(out.status.success(), "{} -t failed", tool.display());
+    let table = String::from_utf8_lossy(&out.stdout);
+    let line = table
+        .lines()
+        .find(|l| l.contains("__rtic_internal_local_init_pipeline"))
+        .expect("the pipeline static in the symbol table");
+    println!("{line}");
+    // `20000204 l     O .bss	00001400 <name>`: address, flags, section, size, name.
+    let section = line
+        .split_whitespace()
+        .find(|w| w.starts_with('.'))
+        .expect("a section column");
+    assert_eq!(section, ".bss", "the pipeline static is not zero-initialised: {line}");
+}
+
 /// `stack high water N B` from the decoded defmt log.
 fn stack_high_water(log: &str) -> Option<u32> {
     let at = log.find("stack high water ")? + "stack high water ".len();

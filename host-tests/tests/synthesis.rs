@@ -360,6 +360,65 @@ macro_rules! pipeline_tests {
             use super::*;
             type T = $t;
 
+            /// GIVEN the unconfigured placeholder (the firmware's static before boot) and a pipeline
+            /// whose configuration failed, WHEN samples arrive, THEN every coefficient is refused as
+            /// `NotConfigured` and nothing changes, the health counters included; AND configured
+            /// in place, the placeholder equals `Pipeline::new`'s pipeline and processes the same
+            /// samples to the same results.
+            #[test]
+            fn unconfigured_pipeline_refuses_every_sample_and_configures_in_place() {
+                let mut rng = ChaCha8Rng::seed_from_u64(11);
+                let mut truth = PitchTruth {
+                    cm: CM_TRUTH,
+                    q: 0.0,
+                    t: 0.0,
+                };
+                let conv = |s: &SensorSample<f64>| s.cast::<$t>();
+                let samples: Vec<_> = (0..20)
+                    .map(|_| {
+                        truth.advance(0.01);
+                        conv(&truth.sample(&mut rng, [0.0; 3]))
+                    })
+                    .collect();
+                let models = AeroModels::with_sigma_eps([0.01; 6].map(<T as Real>::lit));
+                let mut bad_settings = PipelineSettings::<T>::default();
+                bad_settings.limits.nominal_dt_s = 0.0;
+                let mut failed = pipeline::<T>([0.01; 6]);
+                assert!(failed
+                    .configure(Airframe::skywalker_2013_mod(), models, bad_settings)
+                    .is_err());
+                assert_eq!(
+                    failed,
+                    Pipeline::PLACEHOLDER,
+                    "a failed configure leaves the placeholder"
+                );
+                let mut p = Pipeline::<T>::PLACEHOLDER;
+                for s in &samples {
+                    for q in [&mut p, &mut failed] {
+                        let step = q.process(s);
+                        assert_eq!(step.status, [Err(Refusal::NotConfigured); idx::COUNT]);
+                        assert_eq!(step.synthesis, None);
+                        assert_eq!(*q, Pipeline::PLACEHOLDER, "an unconfigured pipeline changed");
+                    }
+                }
+                assert_eq!(p.health().samples, 0);
+                p.configure(
+                    Airframe::skywalker_2013_mod(),
+                    models,
+                    PipelineSettings::default(),
+                )
+                .unwrap();
+                let mut fresh = pipeline::<T>([0.01; 6]);
+                assert_eq!(p, fresh);
+                let mut updated = 0;
+                for s in &samples {
+                    let (a, b) = (p.process(s), fresh.process(s));
+                    assert_eq!(a, b);
+                    updated += a.status.iter().filter(|r| r.is_ok()).count();
+                }
+                assert!(updated > 0, "the configured pipeline never updated");
+            }
+
             /// GIVEN a running pipeline, WHEN a sample with NaN α arrives, THEN (two samples later, when
             /// it is the centre of the delay line) `C_L`, `C_D`, `C_m` are refused for the α channel —
             /// the forces once, `C_m` for the five centres whose prefilter window holds the sample —

@@ -255,13 +255,14 @@ pub struct CoefficientModel<T, const NT: usize> {
 }
 
 impl<T: Real, const NT: usize> CoefficientModel<T, NT> {
-    /// A placeholder for `const` initialisers (every regressor the intercept: it does not
-    /// [`validate`](Self::validate)).
+    /// A placeholder for `const` initialisers (every regressor the intercept, `σ_ε` and the
+    /// weights 0: it does not [`validate`](Self::validate)). All its numbers are zero, so that a
+    /// static holding it needs no initial image in flash (see [`super::Pipeline::PLACEHOLDER`]).
     pub const fn placeholder() -> Self {
         Self {
             regressors: [Regressor::One; NT],
-            sigma_eps: T::ONE,
-            weights: [T::ONE; NT],
+            sigma_eps: T::ZERO,
+            weights: [T::ZERO; NT],
         }
     }
 
