@@ -60,8 +60,8 @@
 use crate::estimator::{check_sample, Estimator, Solution, Step};
 use crate::linalg::secular::rank_one_update_into;
 use crate::linalg::{
-    all_finite, cholesky_regularised, cholesky_upper, const_identity, const_zeros, inv_upper, orthonormality_error,
-    reorthonormalise, slice_finite, solve_spd_regularised,
+    all_finite, cholesky_regularised, cholesky_upper, const_zeros, inv_upper, orthonormality_error, reorthonormalise,
+    slice_finite, solve_spd_regularised,
 };
 use crate::vff::{Vff, VffSettings, VffStep};
 use crate::{Error, Real};
@@ -248,16 +248,21 @@ impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Gtls<T, NT, NE,
         })
     }
 
-    /// A placeholder (`W_T = I`, unit weights, no forgetting, no data) for `const` initialisers: the
-    /// firmware's pipeline static starts with these and [`Self::new`]'s results replace them in
-    /// place, so that boot never holds the whole pipeline on the stack.
+    /// Every number 0 (`W_T = 0`, `V = 0`, no data): not an estimator, only the storage of one, for
+    /// `const` initialisers; replace it with [`Self::new`]'s result before use. It refuses every
+    /// sample and stays unchanged (`max_abs_input = 0` admits only the zero row, and that is refused
+    /// too: host test `reliability_numerical::placeholder_refuses_every_sample`). The unconfigured pipeline
+    /// ([`crate::aero::Pipeline::PLACEHOLDER`]) holds six of these and refuses every sample before
+    /// they are reached. All zero so that the firmware's pipeline static lies in `.bss` and needs
+    /// no initial image in flash (≈ 5.7 KB), nor does resetting the pipeline (another ≈ 5 KB of
+    /// `.rodata`).
     pub const PLACEHOLDER: Self = Self {
-        snr: T::ONE,
-        max_abs_input: T::ONE,
+        snr: T::ZERO,
+        max_abs_input: T::ZERO,
         reorth_tol: T::ZERO,
-        c: const_identity(),
-        weights: SVector::from_array_storage(nalgebra::ArrayStorage([[T::ONE; NT]; 1])),
-        v: [const_identity(); 2],
+        c: const_zeros(),
+        weights: const_zeros(),
+        v: [const_zeros(); 2],
         cur: 0,
         s2: const_zeros(),
         g11: const_zeros(),
@@ -268,8 +273,10 @@ impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Gtls<T, NT, NE,
         solution: Solution::NotEnoughData,
         n_eff: T::ZERO,
         n_eff2: T::ZERO,
-        lambda: T::ONE,
-        forgetting: ForgettingState::Constant(T::ONE),
+        lambda: T::ZERO,
+        // `Variable` with every number 0: the variant whose bytes are all zero (`Constant` is
+        // stored in the niche of `Eq28Reading`, as 2).
+        forgetting: ForgettingState::Variable(Vff::ZEROED),
         check_cursor: 0,
         health: GtlsHealth {
             updates: 0,
@@ -277,24 +284,6 @@ impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Gtls<T, NT, NE,
             nongeneric: 0,
             secular_not_converged: 0,
         },
-    };
-
-    /// Every number 0 (`W_T = 0`, `V = 0`): not an estimator, only the storage of one. The
-    /// unconfigured pipeline ([`crate::aero::Pipeline::PLACEHOLDER`]) holds six of these and
-    /// refuses every sample before they are reached; [`Self::new`]'s results replace them. All
-    /// zero so that the firmware's pipeline static lies in `.bss` and needs no initial image in
-    /// flash (≈ 5.7 KB), nor does resetting the pipeline (another ≈ 5 KB of `.rodata`).
-    pub(crate) const ZEROED: Self = Self {
-        snr: T::ZERO,
-        max_abs_input: T::ZERO,
-        c: const_zeros(),
-        weights: const_zeros(),
-        v: [const_zeros(); 2],
-        lambda: T::ZERO,
-        // `Variable` with every number 0: the variant whose bytes are all zero (`Constant` is
-        // stored in the niche of `Eq28Reading`, as 2).
-        forgetting: ForgettingState::Variable(Vff::ZEROED),
-        ..Self::PLACEHOLDER
     };
 
     /// Singular values `σ_1 ≥ … ≥ σ_NA` of the (projected) scaled data matrix (eq. 13), computed

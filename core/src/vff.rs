@@ -206,7 +206,7 @@ impl<T: Real> VffStep<T> {
 
 impl<T: Real, const N: usize> Vff<T, N> {
     /// Every number 0 ([`VffSettings::ZERO`], `P = 0`): storage only, for
-    /// [`crate::Gtls`]'s all-zero placeholder; never updated.
+    /// [`crate::Gtls::PLACEHOLDER`]; never updated.
     pub(crate) const ZEROED: Self = Self {
         settings: VffSettings::ZERO,
         p: crate::linalg::const_zeros(),

@@ -350,6 +350,24 @@ fn lambda_at_its_floor_again_and_again<T: Tol>() {
     assert_eq!(floors, 59, "λ_F did not reach its floor after every switch");
 }
 
+/// GIVEN the all-zero placeholder (`W_T = 0`, `V = 0`, `max_abs_input = 0`: the storage the
+/// unconfigured pipeline holds), WHEN samples reach it anyway (the zero row, the only one within
+/// its input limit, an ordinary row, a NaN), THEN each is refused and the placeholder is unchanged:
+/// it cannot turn into a half-estimator.
+fn placeholder_refuses_every_sample<T: Tol>() {
+    let mut e = Est::<T>::PLACEHOLDER;
+    let rows = [
+        (SVector::<T, 4>::zeros(), T::zero()),
+        (SVector::<T, 4>::from_element(T::lit(0.1)), T::lit(0.5)),
+        (SVector::<T, 4>::from_element(T::lit(f64::NAN)), T::zero()),
+    ];
+    for (x, z) in rows {
+        let r = e.update(&x, z);
+        assert!(r.is_err(), "{x:?}, {z:?}: {r:?}");
+        assert_eq!(e, Est::<T>::PLACEHOLDER, "{x:?}, {z:?}: the placeholder changed");
+    }
+}
+
 macro_rules! both {
     ($($name:ident),*) => {
         mod f32_tests { $(#[test] fn $name() { super::$name::<f32>() })* }
@@ -361,5 +379,6 @@ both!(
     loss_of_excitation_for_hours,
     loss_of_excitation_with_forgetting_lowers_k_honestly,
     exactly_collinear_and_stuck_regressors,
-    lambda_at_its_floor_again_and_again
+    lambda_at_its_floor_again_and_again,
+    placeholder_refuses_every_sample
 );

@@ -13,17 +13,6 @@ pub const fn const_zeros<T: Real, const R: usize, const C: usize>() -> SMatrix<T
     SMatrix::from_array_storage(nalgebra::ArrayStorage([[T::ZERO; R]; C]))
 }
 
-/// The identity matrix, in `const` contexts.
-pub const fn const_identity<T: Real, const N: usize>() -> SMatrix<T, N, N> {
-    let mut a = [[T::ZERO; N]; N];
-    let mut i = 0;
-    while i < N {
-        a[i][i] = T::ONE;
-        i += 1;
-    }
-    SMatrix::from_array_storage(nalgebra::ArrayStorage(a))
-}
-
 /// `true` if every element is finite: branch-free, `Σ x·0` is `±0` for finite elements and NaN as
 /// soon as one is infinite or NaN (nalgebra's generic matrix iterator costs several times more).
 #[inline]
