@@ -567,8 +567,10 @@ impl<T: Real> Pipeline<T> {
         let window_full = self.filled as usize == DELAY_LEN;
         let wmask = self.delay_masks.iter().fold(channel::ALL, |m, k| m & *k);
         // The prefilter's weights in ring order: slot (head + a) % L carries the weight of age a.
-        let weights: [T; DELAY_LEN] =
-            core::array::from_fn(|slot| T::lit(MOMENT_PREFILTER[(slot + DELAY_LEN - head) % DELAY_LEN]));
+        // (Converted to `T` at constant indices first: a run-time index into the `f64` table
+        // would convert in software `f64` on the M4F every sample.)
+        let by_age: [T; DELAY_LEN] = core::array::from_fn(|age| T::lit(MOMENT_PREFILTER[age]));
+        let weights: [T; DELAY_LEN] = core::array::from_fn(|slot| by_age[(slot + DELAY_LEN - head) % DELAY_LEN]);
         let omega_dot = self.differentiator.derivative();
         let syn = if cmask & (channel::AIRSPEED | channel::DENSITY) == (channel::AIRSPEED | channel::DENSITY) {
             synthesise(

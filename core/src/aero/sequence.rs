@@ -85,8 +85,10 @@ impl SequenceCheck {
                 1 => Admission::Next,
                 d if d == 0 || d >= OLDER => Admission::Stale,
                 d => {
-                    let gap_us = t_us.saturating_sub(last_t_us);
-                    sample.dt_s = T::lit(gap_us as f64 * 1e-6);
+                    // In `T` (an `f64` product would be software on the M4F); gaps beyond
+                    // 2³² µs (71 min) saturate, far beyond every `dt_s` the pipeline accepts.
+                    let gap_us = u32::try_from(t_us.saturating_sub(last_t_us)).unwrap_or(u32::MAX);
+                    sample.dt_s = T::lit(f64::from(gap_us)) * T::lit(1e-6);
                     Admission::Gap { missed: d - 1 }
                 }
             },

@@ -92,12 +92,12 @@ pub struct StuckDetector {
 /// runs this in its highest-priority task, whose frame adds to every other task's).
 fn reading<T: Real>(s: &SensorSample<T>, i: usize) -> Option<[u64; 3]> {
     let c = s.channel(1 << i);
-    if c.is_empty() || c.iter().any(|x| x.to_f64().is_nan()) {
+    if c.is_empty() || c.iter().any(|x| x.nan()) {
         return None;
     }
     let mut bits = [0; 3];
     for (b, x) in bits.iter_mut().zip(c) {
-        *b = x.to_f64().to_bits();
+        *b = x.bits_u64();
     }
     Some(bits)
 }
