@@ -31,7 +31,25 @@
 //! is passed through the same kernel, integrated over the samples by the trapezoidal rule:
 //! [`MOMENT_PREFILTER`] `= [0.1, 0.25, 0.3, 0.25, 0.1]` over the window centred on the synthesised
 //! sample (the equation `C = θᵀx` is linear, so filtering both sides keeps it); the same check
-//! then gives `−1.276, −20.25`. The intercept is left exactly 1. White regressor noise shrinks by
+//! then gives `−1.276, −20.25`.
+//!
+//! The trapezoidal rule is a choice of variance over bias, measured 2026-12-02. Its frequency
+//! response `0.3 + 0.5 cos ωh + 0.2 cos 2ωh = 1 − 0.65·(ωh)² + …` smooths the regressors a little
+//! more than the differentiator smooths `ω̇` (`(sin ωh + 2 sin 2ωh)/(5ωh) = 1 − 17/30·(ωh)² + …`),
+//! which leaves a small model mismatch: batch OLS on a noise-free flight is off the linearised truth
+//! by 0.15 % on average over the ten moment derivatives with `|θ| ≥ 0.1` (`C_lr` 0.51 %, `C_lp`
+//! 0.29 %, `C_lδa` 0.19 %, `C_nr` 0.14 %; `host-tests/tests/coverage.rs`,
+//! `noise_free_moment_derivatives_match_the_truth`). Integrating the kernel by the four-point cubic
+//! rule instead, `[15, 76, 58, 76, 15]/240`, matches the differentiator to fourth order and halves
+//! that (0.07 %; `C_nr` 0.001 %, `C_mq` 0.001 %), and the in-class coverage of eq. 17's ±2σ went from
+//! 0.895 to 0.914; `[19, 60, 82, 60, 19]/240` (second order, with the trapezoid's zero at Nyquist)
+//! did about as well on bias (0.07 %, coverage 0.917). But both let more regressor noise through (`Σw²` 0.267 and 0.254
+//! against 0.235, and no zero at Nyquist for the first), and over 24 seeded Fig. 2 flights (VFF,
+//! the `C_m` jump, truth in the model class) the tracking got worse: `C_mα`'s error 5 s after the
+//! jump 12.9 % → 14.6 % and 13.5 %, the time until it stays within 5 % 13.5 → 15.8 and 14.5 s. The
+//! on-board default is the VFF, whose short memory makes variance the larger error, so the
+//! trapezoid stays; a matched kernel with the trapezoid's noise needs a longer window (more delay).
+//! The intercept is left exactly 1. White regressor noise shrinks by
 //! `Σw² = 0.235` in variance, which scales the regressor block of the moments' `W_T`; the noise
 //! becomes correlated over ±4 samples (eq. 17's `σ` then understates the spread of the moment
 //! parameters somewhat; the host coverage test measures by how much). Cost: `5·(n_θ − 1)` multiply-
