@@ -710,20 +710,28 @@ fn bns_iteration<T: Real, const M: usize>(
 }
 
 /// `(ψ, ψ′, φ, φ′)` of the secular function at offset `t` from the origin pole: `ψ` sums the poles
-/// `0..=r` (left of root `r`), `φ` the poles right of it; `dk[j] = δ_j − δ_origin`.
+/// `0..=r` (left of root `r`), `φ` the poles right of it up to the `m` not deflated;
+/// `dk[j] = δ_j − δ_origin`.
+///
+/// One loop of compile-time length `M`, which the compiler unrolls, each term added to `ψ` or `φ`
+/// (or, past `m`, to neither) by the index test, instead of two loops with run-time bounds: the
+/// same terms in the same order, so bit-identical, and on the M4F −2 112 instructions per
+/// six-coefficient step (median 29 723 → 27 611, max 44 228 → 42 860, QEMU replay, 2026-12-02) —
+/// the loop overhead of the run-time bounds was a third of each evaluation. The terms past `m`
+/// are computed and dropped (a division by `δ_j − δ_origin − t` that may be 0 gives ±∞ or NaN,
+/// never a trap, and is not added).
 #[inline(always)]
 fn secular_terms<T: Real, const M: usize>(dk: &[T; M], zc: &[T; M], m: usize, r: usize, t: T) -> (T, T, T, T) {
     let (mut psi, mut dpsi, mut phi, mut dphi) = (T::zero(), T::zero(), T::zero(), T::zero());
-    // `0..=r` written as a half-open range (RangeInclusive iterates with an extra flag check).
-    for j in 0..(r + 1).min(M) {
+    for j in 0..M {
         let term = zc[j] / (dk[j] - t);
-        psi += zc[j] * term;
-        dpsi += term * term;
-    }
-    for j in (r + 1)..m.min(M) {
-        let term = zc[j] / (dk[j] - t);
-        phi += zc[j] * term;
-        dphi += term * term;
+        if j <= r {
+            psi += zc[j] * term;
+            dpsi += term * term;
+        } else if j < m {
+            phi += zc[j] * term;
+            dphi += term * term;
+        }
     }
     (psi, dpsi, phi, dphi)
 }
