@@ -32,8 +32,9 @@ use std::time::{Duration, Instant};
 pub const PROBES: usize = 8;
 
 /// Stack high-water mark of the QEMU firmware (painted stack), the regression budget of every
-/// QEMU run (`tests/qemu_replay.rs`, `tests/qemu_faults.rs`): measured 4 472 B on both runs
-/// (2026-12-02, after the estimate task matched its message by reference; 4 552 B with the
+/// QEMU run (`tests/qemu_replay.rs`, `tests/qemu_faults.rs`): measured 4 328 B on both runs
+/// (2026-12-02, with `linalg::unrolled_upto`; 4 472 B after the estimate task matched its message
+/// by reference, 4 552 B with the
 /// unrolled general secular path before that, 4 496 B and 4 488 B before it, 4 520 B on
 /// both with the first `f64`-free `sin_cos_f32`, 4 504 B and 4 496 B before that), since the MAVLink parser lends its frames instead of returning
 /// them and telemetry encodes one report at a time; 5 028 B before, with the issue-7 fault handling
@@ -41,8 +42,8 @@ pub const PROBES: usize = 8;
 pub const STACK_BUDGET_BYTES: u32 = 4_800;
 
 /// Instructions of the whole six-coefficient step on its worst sample: the regression budget of
-/// the clean replay (`tests/qemu_replay.rs`, measured max 40 768) and the ceiling of the fault run
-/// (`tests/qemu_faults.rs`, measured max 42 430: no fault, and no garbage on the link, may stall the
+/// the clean replay (`tests/qemu_replay.rs`, measured max 40 535) and the ceiling of the fault run
+/// (`tests/qemu_faults.rs`, measured max 42 193: no fault, and no garbage on the link, may stall the
 /// step); 2026-12-02, 44 435 and 46 215 before the unrolled secular, Cholesky and solve loops.
 pub const STEP_BUDGET_MAX: u32 = 45_000;
 

@@ -10,10 +10,10 @@ use aerosid_host::{flights, qemu, sim};
 use std::time::Duration;
 
 /// Instructions per sample for the whole six-coefficient step (synthesis + six PCA-GTLS updates
-/// with VFF): regression budgets, about 5 % above what was measured (median 26 992, max 40 768 on
+/// with VFF): regression budgets, about 5 % above what was measured (median 26 994, max 40 535 on
 /// this 30 s replay, 2026-12-02; 29 898 / 44 435 before the unrolled secular, Cholesky and solve
 /// loops and the `f64`-free `sin_cos_f32`, 55 090 / 60 535 before the steady-state secular path).
-/// The max budget is shared with the fault run (measured there 42 430). The goal, 12 000, is NOT met: see
+/// The max budget is shared with the fault run (measured there 42 193). The goal, 12 000, is NOT met: see
 /// BENCHMARKS.md for the profile and the operation count.
 const STEP_BUDGET_MEDIAN: u32 = 28_500;
 /// See [`STEP_BUDGET_MEDIAN`] (shared with the fault run).

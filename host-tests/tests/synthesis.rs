@@ -282,6 +282,14 @@ struct PitchTruth {
 
 impl PitchTruth {
     const RHO: f64 = 1.225;
+    /// At rest (`q = 0`, `t = 0`) with the skywalker's `C_m` ([`CM_TRUTH`]).
+    fn at_rest() -> Self {
+        Self {
+            cm: CM_TRUTH,
+            q: 0.0,
+            t: 0.0,
+        }
+    }
     const PROP: f64 = 600.0;
     fn alpha(t: f64) -> f64 {
         use std::f64::consts::PI;
@@ -368,11 +376,7 @@ macro_rules! pipeline_tests {
             #[test]
             fn unconfigured_pipeline_refuses_every_sample_and_configures_in_place() {
                 let mut rng = ChaCha8Rng::seed_from_u64(11);
-                let mut truth = PitchTruth {
-                    cm: CM_TRUTH,
-                    q: 0.0,
-                    t: 0.0,
-                };
+                let mut truth = PitchTruth::at_rest();
                 let conv = |s: &SensorSample<f64>| s.cast::<$t>();
                 let samples: Vec<_> = (0..20)
                     .map(|_| {
@@ -427,11 +431,7 @@ macro_rules! pipeline_tests {
             #[test]
             fn nan_alpha_is_refused_only_where_needed() {
                 let mut rng = ChaCha8Rng::seed_from_u64(3);
-                let mut truth = PitchTruth {
-                    cm: CM_TRUTH,
-                    q: 0.0,
-                    t: 0.0,
-                };
+                let mut truth = PitchTruth::at_rest();
                 let mut p = pipeline::<T>([0.01; 6]);
                 let conv = |s: &SensorSample<f64>| s.cast::<$t>();
                 for _ in 0..50 {
@@ -494,11 +494,7 @@ macro_rules! pipeline_tests {
             #[test]
             fn bad_dt_refuses_moments_only() {
                 let mut rng = ChaCha8Rng::seed_from_u64(4);
-                let mut truth = PitchTruth {
-                    cm: CM_TRUTH,
-                    q: 0.0,
-                    t: 0.0,
-                };
+                let mut truth = PitchTruth::at_rest();
                 let mut p = pipeline::<T>([0.01; 6]);
                 let conv = |s: &SensorSample<f64>| s.cast::<$t>();
                 for _ in 0..20 {
@@ -536,11 +532,7 @@ macro_rules! pipeline_tests {
                 let conv = |s: &SensorSample<f64>| s.cast::<$t>();
                 for seed in 0..5u64 {
                     let mut rng = ChaCha8Rng::seed_from_u64(100 + seed);
-                    let mut truth = PitchTruth {
-                        cm: CM_TRUTH,
-                        q: 0.0,
-                        t: 0.0,
-                    };
+                    let mut truth = PitchTruth::at_rest();
                     let mut p = pipeline::<T>([0.05, 0.05, 0.05, 0.01, 0.012, 0.01]);
                     for _ in 0..6000 {
                         truth.advance(0.01);

@@ -13,6 +13,16 @@ pub const fn const_zeros<T: Real, const R: usize, const C: usize>() -> SMatrix<T
     SMatrix::from_array_storage(nalgebra::ArrayStorage([[T::ZERO; R]; C]))
 }
 
+/// The indices `lo..end` as a loop of compile-time length `N` stopped at `end` (`end ≤ N`
+/// assumed; larger is clamped to `N`). Over a run-time range `lo..end` the compiler keeps the loop;
+/// over `lo..N` with the early stop it unrolls it and gives the inner products constant lengths:
+/// measured on the M4F for the secular terms, the minimum-norm Cholesky and solves and the general
+/// secular path (BENCHMARKS.md "Instruction counts", items 12–14).
+#[inline(always)]
+pub(crate) fn unrolled_upto<const N: usize>(lo: usize, end: usize) -> impl Iterator<Item = usize> {
+    (lo..N).take_while(move |&j| j < end)
+}
+
 /// `true` if every element is finite: branch-free, `Σ x·0` is `±0` for finite elements and NaN as
 /// soon as one is infinite or NaN (nalgebra's generic matrix iterator costs several times more).
 #[inline]

@@ -39,6 +39,7 @@
 //!    cut the orthonormality guard's repairs tenfold in `f32` (host test `orthonormality.rs`).
 //! 4. The new values are sorted in decreasing order with their vectors (eq. 13's order).
 
+use super::unrolled_upto;
 use crate::Real;
 use nalgebra::{SMatrix, SVector};
 
@@ -209,18 +210,15 @@ pub fn general_update<T: Real, const M: usize>(
     let m = m.min(M);
     out.deflated = (M - m) as u8;
 
-    // From here on the loops over the `m` poles not deflated are written over the compile-time `M`
-    // and stopped at `m` (`for j in 0..M { if j >= m { break; } … }`): the compiler unrolls those
-    // and not run-time ranges (as `secular_terms`): the worst replay step −1 667 instructions
-    // (42 457 → 40 790; the general path runs on the worst samples), +1.7 KB of flash, 2026-12-02.
+    // From here on the loops over the `m` poles not deflated run over `unrolled_upto::<M>(…, m)`,
+    // which the compiler unrolls, and not over run-time ranges (as `secular_terms`): the worst
+    // replay step −1 667 instructions (42 457 → 40 790; the general path runs on the worst
+    // samples), +1.7 KB of flash, 2026-12-02.
     // 2. Roots. Compact copies of the secular problem (ascending poles ac², weights zc).
     let mut ac = [T::zero(); M];
     let mut zc = [T::zero(); M];
     let mut zr2 = T::zero();
-    for j in 0..M {
-        if j >= m {
-            break;
-        }
+    for j in unrolled_upto::<M>(0, m) {
         let k = below::<M>(idx[j]);
         ac[j] = a[k];
         zc[j] = z[k];
@@ -228,14 +226,8 @@ pub fn general_update<T: Real, const M: usize>(
     }
     // Pole differences pd[K][j] = δ_j − δ_K, each formed from singular values (no cancellation).
     let mut pd = [[T::zero(); M]; M];
-    for kk in 0..M {
-        if kk >= m {
-            break;
-        }
-        for j in (kk + 1)..M {
-            if j >= m {
-                break;
-            }
+    for kk in unrolled_upto::<M>(0, m) {
+        for j in unrolled_upto::<M>(kk + 1, m) {
             let d = (ac[j] - ac[kk]) * (ac[j] + ac[kk]);
             pd[kk][j] = d;
             pd[j][kk] = -d;
@@ -246,10 +238,7 @@ pub fn general_update<T: Real, const M: usize>(
     let mut origin = [0usize; M];
     let mut tau = [T::zero(); M];
     let mut active = [false; M];
-    for r in 0..M {
-        if r >= m {
-            break;
-        }
+    for r in unrolled_upto::<M>(0, m) {
         let last = r + 1 == m;
         let r1 = below::<M>(r + 1); // the upper pole (used only when !last, then r + 1 < m ≤ M)
                                     // Midpoint of the gap (the last root: the upper bound δ_m + ‖z‖²), bracket (lo, hi).
@@ -302,18 +291,12 @@ pub fn general_update<T: Real, const M: usize>(
         active[r] = unconverged;
     }
     let mut diff = [[T::zero(); M]; M];
-    for r in 0..M {
-        if r >= m {
-            break;
-        }
+    for r in unrolled_upto::<M>(0, m) {
         if active[r] {
             out.not_converged = out.not_converged.saturating_add(1);
         }
         let dk = &pd[below::<M>(origin[r])];
-        for j in 0..M {
-            if j >= m {
-                break;
-            }
+        for j in unrolled_upto::<M>(0, m) {
             let mut dj = dk[j] - tau[r];
             if dj == T::zero() {
                 // The root sits on a pole in floating point: keep the sign the interlacing implies.
@@ -325,29 +308,17 @@ pub fn general_update<T: Real, const M: usize>(
 
     // 3. Gu–Eisenstat: ẑ_j² = Π_i (μ_i − δ_j) / Π_{i≠j} (δ_i − δ_j), each factor pair positive.
     let mut rpd = [[T::zero(); M]; M]; // 1/(δ_i − δ_j), i ≠ j
-    for j in 0..M {
-        if j >= m {
-            break;
-        }
-        for i in (j + 1)..M {
-            if i >= m {
-                break;
-            }
+    for j in unrolled_upto::<M>(0, m) {
+        for i in unrolled_upto::<M>(j + 1, m) {
             let r = T::one() / pd[j][i];
             rpd[j][i] = r;
             rpd[i][j] = -r;
         }
     }
     let mut zhat = [T::zero(); M];
-    for j in 0..M {
-        if j >= m {
-            break;
-        }
+    for j in unrolled_upto::<M>(0, m) {
         let mut p = -diff[j][j];
-        for i in 0..M {
-            if i >= m {
-                break;
-            }
+        for i in unrolled_upto::<M>(0, m) {
             if i != j {
                 p *= -diff[i][j] * rpd[j][i];
             }
@@ -371,18 +342,12 @@ pub fn general_update<T: Real, const M: usize>(
     }
     // Columns of V taking part in the secular problem, contiguous for the product V·Q.
     let mut qc = [[T::zero(); M]; M];
-    for j in 0..M {
-        if j >= m {
-            break;
-        }
+    for j in unrolled_upto::<M>(0, m) {
         for row in 0..M {
             qc[j][row] = q[(row, below::<M>(idx[j]))];
         }
     }
-    for r in 0..M {
-        if r >= m {
-            break;
-        }
+    for r in unrolled_upto::<M>(0, m) {
         // u = (D − μ_r I)⁻¹ ẑ, normalised, signed so that its component on the origin pole K is
         // positive. Near convergence of the recursion Q ≈ I (each root is close to its own pole), so
         // the new column is formed as q_K + (û_K − 1)·q_K + Σ_{j≠K} û_j q_j with û_K − 1 computed
@@ -404,10 +369,7 @@ pub fn general_update<T: Real, const M: usize>(
         }
         let uk = zhat[kq];
         u[kq] = uk;
-        for j in (kq + 1)..M {
-            if j >= m {
-                break;
-            }
+        for j in unrolled_upto::<M>(kq + 1, m) {
             u[j] = zhat[j] * (dkq / diff[r][j]);
             off += u[j] * u[j];
         }
@@ -426,17 +388,11 @@ pub fn general_update<T: Real, const M: usize>(
             // û_K − 1 = |u_K|/‖u‖ − 1 = −off/(‖u‖·(|u_K| + ‖u‖)), without cancellation and without a
             // second square root (√(1 + off/u_K²) = ‖u‖/|u_K|).
             let mut coef = [T::zero(); M];
-            for j in 0..M {
-                if j >= m {
-                    break;
-                }
+            for j in unrolled_upto::<M>(0, m) {
                 coef[j] = u[j] * inv;
             }
             coef[kq] = -off / (nrm * (uk.abs() + nrm));
-            for j in 0..M {
-                if j >= m {
-                    break;
-                }
+            for j in unrolled_upto::<M>(0, m) {
                 let uj = coef[j];
                 for row in 0..M {
                     acc[row] += qc[j][row] * uj;
