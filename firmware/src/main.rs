@@ -68,7 +68,7 @@ mod app {
     /// Samples the channel holds (all four: rtic-sync's channel keeps no slot free): 40 ms of
     /// slack for the estimator before samples are dropped. What holds the estimator back is its
     /// own step (≤ 44 435 instructions on the replay) and one telemetry encoding under the
-    /// estimator lock (`lock_max`, ≤ 14 520): together ≈ 1 ms at 168 MHz even at 3 cycles per
+    /// estimator lock (`lock_max`, ≤ 14 548): together ≈ 1 ms at 168 MHz even at 3 cycles per
     /// instruction (BENCHMARKS.md "Static stack bound").
     const SAMPLE_QUEUE: usize = 4;
     /// µs per monotonic tick (1 kHz).
@@ -269,13 +269,17 @@ mod app {
     /// shared statistics and into the copy, so the counters part (sent last) includes this
     /// period's other parts; its own hold (it needs no estimator, but encoded outside the lock its
     /// frame would sit under the estimate task's: +336 B of stack bound) counts from the next
-    /// period on.
+    /// period on. The stack high-water scan, ≈ 175 000 instructions, runs before any lock is taken
+    /// (until 2026-12-02 it ran inside the counters part: `lock_max` 184 981 on the replay's
+    /// second period).
     fn report(
         estimator: &mut impl rtic::Mutex<T = Estimator>,
         out: &mut impl rtic::Mutex<T = Out>,
         shared_stats: &mut impl rtic::Mutex<T = Stats>,
     ) {
         let mut stats = shared_stats.lock(|s| *s);
+        // Outside every lock: the scan is long (`Stats::stack_hw_bytes`).
+        stats.stack_hw_bytes = board::stack::high_water_bytes();
         let t_us = u64::from(Mono::now().duration_since_epoch().as_ticks()) * US_PER_TICK;
         for part in Part::ALL {
             let (n, held) = estimator.lock(|e| {
@@ -291,10 +295,14 @@ mod app {
         }
     }
 
-    /// The end of a replay: one last report, then QEMU exits with status 0.
+    /// The end of a replay: two last report periods, then QEMU exits with status 0. Two, because a
+    /// period's counters part reports the lock holds of the parts before it: the second period's
+    /// `lock_max` covers every part of the first, the counters part included (the replay keeps
+    /// the estimate task busy, so no periodic report runs before the end).
     #[cfg(feature = "qemu")]
     #[task(priority = 1, shared = [stats, estimator, out])]
     async fn final_report(mut cx: final_report::Context) {
+        report(&mut cx.shared.estimator, &mut cx.shared.out, &mut cx.shared.stats);
         report(&mut cx.shared.estimator, &mut cx.shared.out, &mut cx.shared.stats);
         board::halt(0)
     }

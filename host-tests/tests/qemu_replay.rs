@@ -20,7 +20,8 @@ const STEP_BUDGET_MEDIAN: u32 = 28_500;
 const STEP_BUDGET_MAX: u32 = qemu::STEP_BUDGET_MAX;
 /// Instructions the telemetry task holds the estimator lock to encode one report part (one
 /// coefficient report with eq. 17's covariance, the health report or the counters): regression
-/// budget, about 10 % above the measured 14 520 (a dimension-6 coefficient report). With the
+/// budget, about 10 % above the measured 14 548 (a dimension-6 coefficient report; the firmware's
+/// last two report periods make the second's `lock_max` cover every part of the first). With the
 /// longest step (≈ 44 400) that is ≈ 59 000 instructions, ≈ 1 ms at 168 MHz even at 3 cycles per
 /// instruction, against the 30 ms a sample can wait in the firmware's queue of four.
 const LOCK_BUDGET: u32 = 16_000;
