@@ -152,6 +152,37 @@ fn after_a_drop_the_differentiator_restarts_and_the_forces_go_on<T: Real>() {
     assert!(without.iter().filter(|e| e.0 >= 122).all(|e| e.2.is_none()));
 }
 
+fn admit_stamp_agrees_with_admit_without_touching_the_sample<T: Real>() {
+    // GIVEN two checks fed the same numbers — in order, a gap, repeats, an older one, wrapping —
+    let seqs: [u32; 10] = [u32::MAX - 1, u32::MAX, 0, 4, 4, 2, 5, 9, 1 << 31, 10];
+    let mut by_sample = SequenceCheck::NEW;
+    let mut by_stamp = SequenceCheck::NEW;
+    for (i, &seq) in seqs.iter().enumerate() {
+        let t_us = stamp(i as u32 * 3);
+        let mut s = sample::<T>(i as u32);
+        let dt_before = s.dt_s;
+        // WHEN one admits the sample and the other only its number and time stamp
+        let a = by_sample.admit(seq, t_us, &mut s);
+        let (b, dt_s) = by_stamp.admit_stamp::<T>(seq, t_us);
+        // THEN the admissions, the counters and the dt agree: `dt_s` is what `admit` wrote, and
+        // `None` exactly where `admit` left the sample's own
+        assert_eq!(a, b, "seq {seq}");
+        assert_eq!(by_sample, by_stamp, "seq {seq}");
+        match dt_s {
+            Some(dt) => {
+                assert!(matches!(b, Admission::Gap { .. }), "seq {seq}: a dt without a gap");
+                assert_eq!(dt.to_f64().to_bits(), s.dt_s.to_f64().to_bits(), "seq {seq}");
+            }
+            None => assert_eq!(s.dt_s.to_f64().to_bits(), dt_before.to_f64().to_bits(), "seq {seq}"),
+        }
+    }
+    assert!(
+        by_stamp.health().gaps >= 2 && by_stamp.health().stale >= 2,
+        "{:?}",
+        by_stamp.health()
+    );
+}
+
 macro_rules! both {
     ($($name:ident),*) => {
         mod f32_tests { $(#[test] fn $name() { super::$name::<f32>() })* }
@@ -163,5 +194,6 @@ both!(
     in_sequence_samples_are_untouched,
     a_gap_sets_dt_to_the_real_time_since_the_last_admitted_sample,
     a_repeated_or_older_sample_is_stale_and_moves_nothing,
+    admit_stamp_agrees_with_admit_without_touching_the_sample,
     after_a_drop_the_differentiator_restarts_and_the_forces_go_on
 );

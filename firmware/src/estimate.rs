@@ -11,15 +11,24 @@
 use crate::board::{Counter, CycleCounter};
 use crate::sample::Sample;
 use aerosid_core::aero::model::{channel, idx, ChannelMask};
-use aerosid_core::aero::{onboard, Admission, Pipeline, PipelineStep, SequenceCheck, SequenceHealth, Stage};
+use aerosid_core::aero::{
+    onboard, Admission, Pipeline, PipelineStep, SensorSample, SequenceCheck, SequenceHealth, Stage,
+};
 
-/// Timing probes per sample: the whole step, the synthesis stage, then one per coefficient.
-pub const PROBES: usize = 2 + idx::COUNT;
+/// Timing probes per sample: the whole step, the synthesis stage, one per coefficient, then the
+/// whole firmware since the previous sample ([`StepCost::ticks`]).
+pub const PROBES: usize = 3 + idx::COUNT;
+/// Where [`StepCost::ticks`] holds the ticks since the previous sample.
+pub const PERIOD_PROBE: usize = PROBES - 1;
 
 /// Counter ticks of one step (cycles on hardware, instructions under QEMU), per stage.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, defmt::Format)]
 pub struct StepCost {
-    /// `[whole step, synthesis, C_L, C_D, C_Y, C_l, C_m, C_n]`; 0 for stages not reached (warm-up).
+    /// `[whole step, synthesis, C_L, C_D, C_Y, C_l, C_m, C_n, period]`; 0 for stages not reached
+    /// (warm-up). `period` is the counter from the previous processed sample's step start to this
+    /// one's: everything the processor executed for one sample — the step, the channel, the
+    /// sampling task, telemetry and interrupts (under QEMU, where nothing waits for the sampling
+    /// period, no sleep either); 0 for the first sample.
     pub ticks: [u32; PROBES],
 }
 
@@ -36,6 +45,8 @@ pub struct Estimator {
     /// The board's counter: times the pipeline's stages, and whoever holds the estimator lock
     /// ([`Estimator::now`]).
     counter: CycleCounter,
+    /// The counter at the last processed sample's step start (for [`PERIOD_PROBE`]).
+    last_start: Option<u32>,
 }
 
 /// Why the estimator could not be built (a configuration error, found at boot).
@@ -66,6 +77,7 @@ impl Estimator {
             sequence: SequenceCheck::NEW,
             invalid_now: 0,
             counter,
+            last_start: None,
         })
     }
 
@@ -75,12 +87,13 @@ impl Estimator {
         self.counter.now()
     }
 
-    /// Runs one sample through the sequence check (which may re-stamp it: hence `&mut`) and the
-    /// pipeline; returns how many coefficients updated and the cost, or `None` for a stale sample
-    /// (not processed).
-    pub fn step(&mut self, sample: &mut Sample) -> Option<(u8, StepCost)> {
-        let sensors = &mut sample.sensors;
-        match self.sequence.admit(sample.seq, sample.t_us, sensors) {
+    /// Runs one sample through the sequence check and the pipeline; returns how many
+    /// coefficients updated and the cost, or `None` for a stale sample (not processed). The sample
+    /// is read where it lies (the sampling task's queue); only after a gap, whose re-stamped
+    /// `dt_s` it must carry, is it copied.
+    pub fn step(&mut self, sample: &Sample) -> Option<(u8, StepCost)> {
+        let (admission, gap_dt_s) = self.sequence.admit_stamp::<f32>(sample.seq, sample.t_us);
+        match admission {
             Admission::Stale => {
                 defmt::warn!("estimate: sample {=u32} is stale, not processed", sample.seq);
                 return None;
@@ -90,9 +103,21 @@ impl Estimator {
             }
             Admission::Next => {}
         }
+        let restamped;
+        let sensors = match gap_dt_s {
+            Some(dt_s) => {
+                restamped = SensorSample { dt_s, ..sample.sensors };
+                &restamped
+            }
+            None => &sample.sensors,
+        };
         let mut cost = StepCost::default();
         let counter = &self.counter;
         let start = counter.now();
+        if let Some(previous) = self.last_start {
+            cost.ticks[PERIOD_PROBE] = start.wrapping_sub(previous);
+        }
+        self.last_start = Some(start);
         let mut last = start;
         self.pipeline.process_into(sensors, self.step, &mut |stage| {
             let now = counter.now();

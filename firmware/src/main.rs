@@ -1,17 +1,24 @@
 //! aerosid firmware: RTIC 2 wiring for the STM32F405 (Cortex-M4F, 168 MHz).
 //!
-//! A sample flows one way, through a bounded channel:
+//! A sample flows one way, through a bounded queue:
 //!
 //! | task | priority | does |
 //! |---|---|---|
-//! | `sample` | 3 (highest) | every 10 ms (100 Hz): reads the sensors ([`board::SensorSource`]), timestamps, `try_send`s; never blocks |
-//! | `estimate` | 2 | receives each sample and runs the six-coefficient pipeline on it ([`estimate`]), timed stage by stage |
+//! | `sample` | 3 (highest) | every 10 ms (100 Hz): reads the sensors ([`board::SensorSource`]), timestamps, queues; never blocks |
+//! | `estimate` | 2 | runs the six-coefficient pipeline on each queued sample where it lies ([`estimate`]), timed stage by stage |
 //! | `telemetry` | 1 | every 500 ms: MAVLink coefficient reports, counters, heartbeat ([`telemetry`]) |
 //! | `usart2` | 4 (hardware, flight computer only) | each byte from the autopilot into the board's ring ([`board`]) |
 //! | `idle` | — | sleeps in WFI |
 //!
-//! If the estimator falls behind, the channel fills and `sample` drops (and counts) samples instead
-//! of waiting: the sampling period never slips. Under the `qemu` feature the board replays a log
+//! The samples wait in a lock-free single-producer single-consumer queue (`heapless::spsc`) that
+//! the estimate task reads in place; an rtic-sync channel of one-byte tokens, one per queued
+//! sample, wakes it. (Until 2026-12-02 the channel carried the 104-byte samples themselves: rtic-sync
+//! copies a value into its slot, out of it and out of the `recv` future, ≈ 1 900 instructions per
+//! sample of `memcpy` across the two tasks; BENCHMARKS.md.) A token is sent before its sample is
+//! queued, and the sampling task, above the estimate task, does both without yielding, so a
+//! received token always finds its sample: the queue holds at most the channel's tokens plus the
+//! sample being processed. If the estimator falls behind, the channel fills and `sample` drops (and
+//! counts) samples instead of waiting: the sampling period never slips. Under the `qemu` feature the board replays a log
 //! instead of reading sensors ([`board`]): `sample` then waits for room in the channel (a replay
 //! must not drop samples) and does not wait for the period, and the end of the log ends the run
 //! with a final report and QEMU's exit status. This file is wiring only.
@@ -54,6 +61,7 @@ mod app {
     use crate::estimate::Estimator;
     use crate::sample::{Sample, Sampler};
     use crate::telemetry::{Link, Part, Stats, REPORT_PERIOD_MS};
+    use heapless::spsc::{Consumer, Producer, Queue};
     use rtic_monotonics::systick::prelude::*;
     use rtic_sync::{
         channel::{Receiver, Sender},
@@ -65,20 +73,23 @@ mod app {
 
     /// Sampling period: 100 Hz.
     const SAMPLE_PERIOD_MS: u32 = 10;
-    /// Samples the channel holds (all four: rtic-sync's channel keeps no slot free): 40 ms of
-    /// slack for the estimator before samples are dropped. What holds the estimator back is its
+    /// Tokens the channel holds (all four: rtic-sync's channel keeps no slot free), so samples
+    /// queued and not yet taken up: 40 ms of slack for the estimator before samples are dropped. What holds the estimator back is its
     /// own step (≤ 44 435 instructions on the replay) and one telemetry encoding under the
     /// estimator lock (`lock_max`, ≤ 14 548): together ≈ 1 ms at 168 MHz even at 3 cycles per
     /// instruction (BENCHMARKS.md "Static stack bound").
     const SAMPLE_QUEUE: usize = 4;
+    /// Slots of the sample queue: the channel's tokens, the sample being processed, and the one
+    /// slot `heapless::spsc::Queue` keeps free.
+    const SAMPLE_SLOTS: usize = SAMPLE_QUEUE + 2;
     /// µs per monotonic tick (1 kHz).
     const US_PER_TICK: u64 = 1_000;
 
-    /// What the `sample` task sends: a sample, or the end of a replay.
-    #[derive(Clone, Copy, Debug)]
+    /// What the `sample` task sends: a sample was queued, or the replay ended.
+    #[derive(Clone, Copy, Debug, PartialEq, Eq)]
     pub enum Msg {
-        /// The next sample.
-        Sample(Sample),
+        /// The next sample is in the queue.
+        Sample,
         /// The sensor source ended (replay only).
         End,
     }
@@ -102,6 +113,8 @@ mod app {
     struct Local {
         tx: Sender<'static, Msg, SAMPLE_QUEUE>,
         rx: Receiver<'static, Msg, SAMPLE_QUEUE>,
+        queue_in: Producer<'static, Sample>,
+        queue_out: Consumer<'static, Sample>,
         sampler: Sampler,
         sensors: board::Sensors,
         counts: board::CountLog,
@@ -113,6 +126,7 @@ mod app {
         pipeline: aerosid_core::aero::Pipeline<f32> = aerosid_core::aero::Pipeline::PLACEHOLDER,
         step: aerosid_core::aero::PipelineStep<f32> = aerosid_core::aero::PipelineStep::WARMUP,
         frames: [u8; crate::telemetry::FRAME_BUFFER] = [0; crate::telemetry::FRAME_BUFFER],
+        queue: Queue<Sample, SAMPLE_SLOTS> = Queue::new(),
     ])]
     fn init(cx: init::Context) -> (Shared, Local) {
         board::stack::paint();
@@ -138,6 +152,7 @@ mod app {
             }
         };
         let (tx, rx) = make_channel!(Msg, SAMPLE_QUEUE);
+        let (queue_in, queue_out) = cx.local.queue.split();
         if sample::spawn().is_err() || estimate::spawn().is_err() || telemetry::spawn().is_err() {
             defmt::error!("init: a task was already running");
         }
@@ -153,6 +168,8 @@ mod app {
             Local {
                 tx,
                 rx,
+                queue_in,
+                queue_out,
                 sampler: Sampler::default(),
                 sensors: b.sensors,
                 counts: b.counts,
@@ -170,8 +187,8 @@ mod app {
         }
     }
 
-    /// 100 Hz: read, timestamp, push. A full channel drops the sample (counted), never waits.
-    #[task(priority = 3, local = [tx, sampler, sensors], shared = [stats])]
+    /// 100 Hz: read, timestamp, queue. A full channel drops the sample (counted), never waits.
+    #[task(priority = 3, local = [tx, queue_in, sampler, sensors], shared = [stats])]
     async fn sample(mut cx: sample::Context) {
         let nominal_dt_s = SAMPLE_PERIOD_MS as f32 * 1e-3;
         let mut next = Mono::now();
@@ -183,20 +200,23 @@ mod app {
                 return;
             };
             let t_us = cx.local.sensors.time_us(now_us);
-            let msg = Msg::Sample(cx.local.sampler.number(t_us, sensors));
-            let health = cx.local.sensors.health();
+            let seq = cx.local.sampler.next_seq();
             let queued = if cx.local.sensors.drop_injected() {
                 false
             } else {
+                // The token first, then (no yield between: the estimate task cannot run) the
+                // sample; with room for a token there is room for its sample (`SAMPLE_SLOTS`).
                 #[cfg(feature = "qemu")]
-                let queued = cx.local.tx.send(msg).await.is_ok();
+                let token = cx.local.tx.send(Msg::Sample).await.is_ok();
                 #[cfg(not(feature = "qemu"))]
-                let queued = cx.local.tx.try_send(msg).is_ok();
-                queued
+                let token = cx.local.tx.try_send(Msg::Sample).is_ok();
+                // Built in the call (a `Sample` bound first was one more 104-byte copy).
+                token && cx.local.queue_in.enqueue(Sample { seq, t_us, sensors }).is_ok()
             };
             cx.shared.stats.lock(|stats| {
                 stats.record_sample(queued);
-                stats.sensors = health;
+                // Written in place (a local copy first cost one more 80-byte `memcpy` per sample).
+                stats.sensors = cx.local.sensors.health();
             });
             #[cfg(not(feature = "qemu"))]
             {
@@ -217,16 +237,20 @@ mod app {
     }
 
     /// Runs the estimator on every sample, timing each stage with the board's counter.
-    #[task(priority = 2, local = [rx, counts], shared = [stats, estimator])]
+    #[task(priority = 2, local = [rx, queue_out, counts], shared = [stats, estimator])]
     async fn estimate(mut cx: estimate::Context) {
-        while let Ok(mut msg) = cx.local.rx.recv().await {
-            // By reference: binding the sample by value copied its 104 bytes once more (−132
-            // instructions per sample, −80 B of stack; BENCHMARKS.md "Where the instructions go").
-            match &mut msg {
-                Msg::Sample(sample) => {
-                    if let Some((updated, cost)) = cx.shared.estimator.lock(|e| e.step(sample)) {
-                        cx.shared.stats.lock(|stats| stats.record_step(updated, cost));
-                        cx.local.counts.write(&cost.ticks);
+        while let Ok(msg) = cx.local.rx.recv().await {
+            match msg {
+                Msg::Sample => {
+                    // Read in place, removed once processed (a token without its sample — the
+                    // queue refused it, which `SAMPLE_SLOTS` rules out — finds none and is skipped).
+                    let queue = &mut *cx.local.queue_out;
+                    if let Some(sample) = queue.peek() {
+                        if let Some((updated, cost)) = cx.shared.estimator.lock(|e| e.step(sample)) {
+                            cx.shared.stats.lock(|stats| stats.record_step(updated, cost));
+                            cx.local.counts.write(&cost.ticks);
+                        }
+                        let _ = queue.dequeue();
                     }
                 }
                 Msg::End => {

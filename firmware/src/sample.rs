@@ -1,4 +1,4 @@
-//! The sample that flows from the `sample` task to the `estimate` task through the bounded channel.
+//! The sample that flows from the `sample` task to the `estimate` task through the bounded queue.
 
 use aerosid_core::aero::SensorSample;
 
@@ -33,14 +33,11 @@ impl Sampler {
         (t_us as f32 * 1e-6, dt_s)
     }
 
-    /// Wraps the sensors' reading, taken at `t_us`, into the next [`Sample`].
-    pub fn number(&mut self, t_us: u64, sensors: SensorSample<f32>) -> Sample {
-        let s = Sample {
-            seq: self.next_seq,
-            t_us,
-            sensors,
-        };
+    /// The next sample's sequence number (every sample taken gets one, queued or dropped, so the
+    /// estimator sees the gap a drop leaves).
+    pub fn next_seq(&mut self) -> u32 {
+        let seq = self.next_seq;
         self.next_seq = self.next_seq.wrapping_add(1);
-        s
+        seq
     }
 }

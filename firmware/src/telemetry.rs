@@ -283,4 +283,4 @@ pub fn log_estimates(pipeline: &Pipeline<f32>) {
 }
 
 /// Unused probe count guard (keeps `PROBES` and the record layout in one place).
-const _: () = assert!(PROBES == 8);
+const _: () = assert!(PROBES == 9);

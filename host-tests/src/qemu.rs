@@ -27,13 +27,30 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-/// Probes per sample in `icount.bin`: whole step, synthesis, six coefficients (firmware's
-/// `estimate::PROBES`).
-pub const PROBES: usize = 8;
+/// Probes per sample in `icount.bin`: whole step, synthesis, six coefficients, and the whole
+/// firmware since the previous sample ([`PERIOD_PROBE`]; firmware's `estimate::PROBES`).
+pub const PROBES: usize = 9;
+/// The probe holding the instructions from the previous sample's step start to this one's: the
+/// whole firmware per sample (the step, the channel, the sampling task with the replay's reads,
+/// the count file, interrupts); 0 for the first sample.
+pub const PERIOD_PROBE: usize = 8;
+/// The probes' names, in the count file's order.
+pub const PROBE_NAMES: [&str; PROBES] = [
+    "step",
+    "synthesis",
+    "C_L",
+    "C_D",
+    "C_Y",
+    "C_l",
+    "C_m",
+    "C_n",
+    "firmware",
+];
 
 /// Stack high-water mark of the QEMU firmware (painted stack), the regression budget of every
-/// QEMU run (`tests/qemu_replay.rs`, `tests/qemu_faults.rs`): measured 4 328 B on both runs
-/// (2026-12-02, with `linalg::unrolled_upto`; 4 472 B after the estimate task matched its message
+/// QEMU run (`tests/qemu_replay.rs`, `tests/qemu_faults.rs`): measured 4 208 B on the replay and
+/// 4 200 B on the fault run (2026-12-02, with the in-place sample queue; 4 296 B on both before it
+/// and after the stack scan left the estimator lock, 4 328 B with `linalg::unrolled_upto`; 4 472 B after the estimate task matched its message
 /// by reference, 4 552 B with the
 /// unrolled general secular path before that, 4 496 B and 4 488 B before it, 4 520 B on
 /// both with the first `f64`-free `sin_cos_f32`, 4 504 B and 4 496 B before that), since the MAVLink parser lends its frames instead of returning
@@ -42,8 +59,8 @@ pub const PROBES: usize = 8;
 pub const STACK_BUDGET_BYTES: u32 = 4_800;
 
 /// Instructions of the whole six-coefficient step on its worst sample: the regression budget of
-/// the clean replay (`tests/qemu_replay.rs`, measured max 40 535) and the ceiling of the fault run
-/// (`tests/qemu_faults.rs`, measured max 42 193: no fault, and no garbage on the link, may stall the
+/// the clean replay (`tests/qemu_replay.rs`, measured max 40 505) and the ceiling of the fault run
+/// (`tests/qemu_faults.rs`, measured max 42 163: no fault, and no garbage on the link, may stall the
 /// step); 2026-12-02, 44 435 and 46 215 before the unrolled secular, Cholesky and solve loops.
 pub const STEP_BUDGET_MAX: u32 = 45_000;
 

@@ -203,8 +203,7 @@ fn faults_and_garbage_under_qemu_are_survived_reported_and_equal_the_host_model(
     );
     // … without a stall: no sample's step beyond the clean replay's worst-case budget (garbage on
     // the link is parsed in the sampling task, not in the step; a fault makes a step shorter) …
-    let names = ["step", "synthesis", "C_L", "C_D", "C_Y", "C_l", "C_m", "C_n"];
-    for (p, name) in names.iter().enumerate() {
+    for (p, name) in qemu::PROBE_NAMES.iter().enumerate() {
         if let Some((lo, med, hi)) = qemu::stats(&run.counts, p) {
             println!("instructions {name:>9}: min {lo:6} median {med:6} max {hi:6}");
         }

@@ -77,8 +77,21 @@ impl SequenceCheck {
     /// Takes the next sample, numbered `seq` (wrapping) and taken at `t_us` (µs since boot, the
     /// clock its `dt_s` was measured with). After a gap `sample.dt_s` becomes the time since the
     /// last admitted sample, `(t_us − t_last)·10⁻⁶` s (0 if the clock did not advance); a stale
-    /// sample is left as it is and does not move the check on.
+    /// sample is left as it is and does not move the check on. ([`Self::admit_stamp`] without
+    /// the sample.)
     pub fn admit<T: Real>(&mut self, seq: u32, t_us: u64, sample: &mut SensorSample<T>) -> Admission {
+        let (admission, dt_s) = self.admit_stamp(seq, t_us);
+        if let Some(dt_s) = dt_s {
+            sample.dt_s = dt_s;
+        }
+        admission
+    }
+
+    /// [`Self::admit`] for a sample the caller only borrows: the admission, and after a gap the
+    /// `dt_s` the sample must be processed with (`None`: keep its own). The firmware reads its
+    /// samples in place from the sampling task's queue and copies one only after a gap.
+    pub fn admit_stamp<T: Real>(&mut self, seq: u32, t_us: u64) -> (Admission, Option<T>) {
+        let mut dt_s = None;
         let admission = match self.last {
             None => Admission::Next,
             Some((last_seq, last_t_us)) => match seq.wrapping_sub(last_seq) {
@@ -88,7 +101,7 @@ impl SequenceCheck {
                     // In `T` (an `f64` product would be software on the M4F); gaps beyond
                     // 2³² µs (71 min) saturate, far beyond every `dt_s` the pipeline accepts.
                     let gap_us = u32::try_from(t_us.saturating_sub(last_t_us)).unwrap_or(u32::MAX);
-                    sample.dt_s = T::lit(f64::from(gap_us)) * T::lit(1e-6);
+                    dt_s = Some(T::lit(f64::from(gap_us)) * T::lit(1e-6));
                     Admission::Gap { missed: d - 1 }
                 }
             },
@@ -106,7 +119,7 @@ impl SequenceCheck {
             h.admitted = h.admitted.saturating_add(1);
             self.last = Some((seq, t_us));
         }
-        admission
+        (admission, dt_s)
     }
 
     /// The counters.

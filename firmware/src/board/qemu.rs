@@ -24,8 +24,10 @@
 //!   sleep=off` it advances exactly one tick per guest instruction (TOOLCHAIN.md), so the estimator's
 //!   cost is an instruction count, identical from run to run.
 //! * **Per-sample counts**: `icount.bin`, one record per processed sample of
-//!   [`crate::estimate::PROBES`] little-endian `u32` (whole step, synthesis, six coefficients),
-//!   written over semihosting outside the timed region.
+//!   [`crate::estimate::PROBES`] little-endian `u32` (whole step, synthesis, six coefficients,
+//!   the whole firmware since the previous sample), written over semihosting outside the timed
+//!   region of the step (inside the period: the write is part of what this board executes per
+//!   sample).
 
 use super::{autopilot, ChipHealth, Counter, Finish, LinkHealth, SensorHealth, SensorSource, TelemetryPort};
 use aerosid_core::aero::model::channel;
