@@ -796,6 +796,55 @@ fn euler_angles_from_attitude() {
 }
 
 #[test]
+fn fill_writes_the_autopilot_channels_and_nan_for_each_missing_one() {
+    use aerosid_core::aero::SensorSample;
+    // Which of elevator, aileron, rudder, throttle, RPM, φ, θ, ψ hold a number.
+    let present = |s: &SensorSample<f32>| -> Vec<bool> {
+        let (e, p) = (s.euler_rad, s.prop_speed_rad_s);
+        let values = vec![
+            s.elevator_rad,
+            s.aileron_rad,
+            s.rudder_rad,
+            s.throttle,
+            p,
+            e.x,
+            e.y,
+            e.z,
+        ];
+        values.into_iter().map(|v| !v.is_nan()).collect()
+    };
+    // GIVEN a link that has received nothing WHEN a sample is filled THEN every autopilot channel
+    // is NaN (the sensors' own channels untouched) and the fill reports it
+    let mut link = MavlinkSurfaces::new(config()).unwrap();
+    let mut s = SensorSample::<f32> {
+        airspeed_mps: 17.0,
+        elevator_rad: 0.2,
+        ..SensorSample::default()
+    };
+    assert!(!link.fill(0, &mut s));
+    assert_eq!(present(&s), vec![false; 8]);
+    assert_eq!(s.airspeed_mps, 17.0);
+    // … with servo outputs, RPM and attitude fresh, every channel is the calibrated value
+    link.receive(&SERVO_OUTPUT_RAW, 1_000_000);
+    link.receive(&RPM, 1_000_000);
+    link.receive(&ATTITUDE_TRUNCATED, 1_000_000);
+    assert!(link.fill(1_020_000, &mut s));
+    assert!(close(s.elevator_rad, -0.1) && close(s.rudder_rad, 0.03) && close(s.throttle, 0.375));
+    assert!((s.prop_speed_rad_s - 6000.0 * core::f32::consts::TAU / 60.0).abs() < 1e-3);
+    assert_eq!([s.euler_rad.x, s.euler_rad.y, s.euler_rad.z], [0.1, -0.25, 3.0]);
+    // … once the servo outputs are stale but attitude and RPM are not, only the surfaces and the
+    // throttle are NaN
+    assert!(!link.fill(1_150_000, &mut s));
+    assert_eq!(present(&s), [vec![false; 4], vec![true; 4]].concat());
+    // … and a single disabled output (PWM 0) invalidates that surface alone
+    let mut m = servo_outputs();
+    m.servo_raw_us[3] = 0;
+    link.receive(&frame_bytes(&m, 1), 1_150_000);
+    assert!(!link.fill(1_150_000, &mut s));
+    assert_eq!(present(&s), vec![true, true, false, true, true, true, true, true]);
+}
+
+#[test]
 fn surface_config_validation() {
     assert!(config().validate().is_ok());
     let mut c = config();

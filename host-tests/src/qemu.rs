@@ -19,10 +19,7 @@ use aerosid_core::aero::model::{channel, ChannelMask};
 use aerosid_core::aero::{model::idx, onboard, Admission, SensorSample, SequenceCheck, StuckDetector};
 use aerosid_core::mavlink::messages::{Attitude, Rpm, ServoOutputRaw};
 use aerosid_core::mavlink::telemetry::{health_slot, HealthReport};
-use aerosid_core::mavlink::{
-    telemetry::reports, CoefficientReport, Encoder, MavlinkSurfaces, Message, Parser, SurfaceSource,
-};
-use nalgebra::Vector3;
+use aerosid_core::mavlink::{telemetry::reports, CoefficientReport, Encoder, MavlinkSurfaces, Message, Parser};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
@@ -48,8 +45,9 @@ pub const PROBE_NAMES: [&str; PROBES] = [
 ];
 
 /// Stack high-water mark of the QEMU firmware (painted stack), the regression budget of every
-/// QEMU run (`tests/qemu_replay.rs`, `tests/qemu_faults.rs`): measured 4 208 B on the replay and
-/// 4 200 B on the fault run (2026-12-02, with the in-place sample queue; 4 296 B on both before it
+/// QEMU run (`tests/qemu_replay.rs`, `tests/qemu_faults.rs`): measured 4 208 B on both runs
+/// (2026-12-02, with the in-place sample queue; 4 200 B on the fault run before the stuck detector
+/// skipped its unused channels; 4 296 B on both before it
 /// and after the stack scan left the estimator lock, 4 328 B with `linalg::unrolled_upto`; 4 472 B after the estimate task matched its message
 /// by reference, 4 552 B with the
 /// unrolled general secular path before that, 4 496 B and 4 488 B before it, 4 520 B on
@@ -596,24 +594,7 @@ pub fn emulate(sc: &Scenario<'_>) -> Result<Emulation, QemuError> {
             } else {
                 link.receive(chunk, t_us);
             }
-            let nan = f32::NAN;
-            let r = link.surfaces(t_us);
-            s.elevator_rad = r.as_ref().ok().and_then(|r| r.elevator_rad.ok()).unwrap_or(nan);
-            s.aileron_rad = r.as_ref().ok().and_then(|r| r.aileron_rad.ok()).unwrap_or(nan);
-            s.rudder_rad = r.as_ref().ok().and_then(|r| r.rudder_rad.ok()).unwrap_or(nan);
-            s.throttle = r.as_ref().ok().and_then(|r| r.throttle.ok()).unwrap_or(nan);
-            s.prop_speed_rad_s = link.prop_speed_rad_s(t_us).unwrap_or(nan);
-            s.euler_rad = link.euler_rad(t_us).map_or(Vector3::from_element(nan), Vector3::from);
-            let all = [
-                s.elevator_rad,
-                s.aileron_rad,
-                s.rudder_rad,
-                s.throttle,
-                s.prop_speed_rad_s,
-            ]
-            .iter()
-            .chain(s.euler_rad.iter())
-            .all(|v| !v.is_nan());
+            let all = link.fill(t_us, &mut s);
             if !all {
                 autopilot_faults += 1;
             }

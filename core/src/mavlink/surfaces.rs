@@ -11,6 +11,8 @@
 
 use super::messages::{Attitude, Message, ServoOutputRaw};
 use super::parser::{Frame, Parser, ParserStats};
+use crate::aero::SensorSample;
+use nalgebra::Vector3;
 
 /// Why an actuator reading is not available.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -283,6 +285,45 @@ impl MavlinkSurfaces {
             frame,
             now_us,
         );
+    }
+
+    /// Writes what the link holds at `now_us` into the autopilot's channels of `s` — the three
+    /// surfaces, throttle, RPM and the three Euler angles — each missing, stale or out-of-range one
+    /// NaN, so the pipeline refuses exactly the coefficients that need it. `true` when every one
+    /// of them is present. Both firmware boards fill their samples with it, and the host's model of
+    /// the firmware (`aerosid_host::qemu::emulate`) does too.
+    #[inline]
+    pub fn fill(&mut self, now_us: u64, s: &mut SensorSample<f32>) -> bool {
+        let nan = f32::NAN;
+        match self.surfaces(now_us) {
+            Ok(r) => {
+                s.elevator_rad = r.elevator_rad.unwrap_or(nan);
+                s.aileron_rad = r.aileron_rad.unwrap_or(nan);
+                s.rudder_rad = r.rudder_rad.unwrap_or(nan);
+                s.throttle = r.throttle.unwrap_or(nan);
+            }
+            Err(_) => {
+                s.elevator_rad = nan;
+                s.aileron_rad = nan;
+                s.rudder_rad = nan;
+                s.throttle = nan;
+            }
+        }
+        s.prop_speed_rad_s = self.prop_speed_rad_s(now_us).unwrap_or(nan);
+        s.euler_rad = match self.euler_rad(now_us) {
+            Ok(e) => Vector3::from(e),
+            Err(_) => Vector3::from_element(nan),
+        };
+        [
+            s.elevator_rad,
+            s.aileron_rad,
+            s.rudder_rad,
+            s.throttle,
+            s.prop_speed_rad_s,
+        ]
+        .iter()
+        .chain(s.euler_rad.iter())
+        .all(|v| !v.is_nan())
     }
 
     /// The autopilot's attitude at `now_us`: roll φ, pitch θ, yaw ψ (3-2-1 Euler angles of body FRD

@@ -74,7 +74,7 @@ use heapless::spsc::Queue;
 use nalgebra::Vector3;
 use stm32f4::stm32f405 as pac;
 
-use super::{autopilot, Counter, Finish, LinkHealth, SensorHealth, SensorSource, REINIT_AFTER};
+use super::{Counter, Finish, LinkHealth, SensorHealth, SensorSource, REINIT_AFTER};
 use bus::{ChipSelectPa4, CycleDelay, I2cBus, I2cError, Spi1Bus, SpiError};
 pub use uart::AutopilotRx;
 use uart::{AutopilotBytes, TelemetryUart};
@@ -458,7 +458,7 @@ impl SensorSource for FlightSensors {
         let now_us = self.now_us;
         let autopilot_ok = match self.autopilot.as_mut() {
             Some(link) => {
-                let ok = autopilot::fill(link, now_us, &mut s);
+                let ok = link.fill(now_us, &mut s);
                 self.health.link = LinkHealth::from_parser(link.parser_stats(), self.rx_lost_seen);
                 ok
             }

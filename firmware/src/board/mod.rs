@@ -27,8 +27,6 @@ pub use qemu::{halt, init, CountLog, CycleCounter, Port, Sensors};
 #[cfg(feature = "qemu")]
 pub enum AutopilotRx {}
 
-pub mod autopilot;
-
 use aerosid_core::aero::model::ChannelMask;
 use aerosid_core::aero::{SensorSample, StuckDetector};
 use aerosid_core::mavlink::ParserStats;

@@ -16,7 +16,7 @@
 //!   and that many bytes of the autopilot's MAVLink stream (valid frames, and whatever garbage the
 //!   host put in), fed to the same [`MavlinkSurfaces`] as the flight computer's USART2 bytes, with
 //!   the same calibration ([`aerosid_core::aero::onboard::AUTOPILOT_LINK`]); the surfaces,
-//!   throttle, RPM and attitude of the sample then come from the link ([`super::autopilot::fill`]),
+//!   throttle, RPM and attitude of the sample then come from the link ([`MavlinkSurfaces::fill`]),
 //!   not from the record. Without the file they come from the record.
 //! * **Telemetry**: USART1's data register; QEMU's `-serial file:…` (or `stdio`) receives the bytes.
 //!   QEMU's STM32F2xx USART model sends each byte written to DR at once and keeps TXE set.
@@ -29,7 +29,7 @@
 //!   region of the step (inside the period: the write is part of what this board executes per
 //!   sample).
 
-use super::{autopilot, ChipHealth, Counter, Finish, LinkHealth, SensorHealth, SensorSource, TelemetryPort};
+use super::{ChipHealth, Counter, Finish, LinkHealth, SensorHealth, SensorSource, TelemetryPort};
 use aerosid_core::aero::model::channel;
 use aerosid_core::aero::onboard::AUTOPILOT_LINK;
 use aerosid_core::aero::{SensorSample, REPLAY_RECORD_BYTES};
@@ -253,7 +253,7 @@ impl Replay {
             }
             left -= n;
         }
-        let ok = autopilot::fill(link, self.t_us, s);
+        let ok = link.fill(self.t_us, s);
         if !ok {
             self.health.autopilot_faults = self.health.autopilot_faults.saturating_add(1);
         }
