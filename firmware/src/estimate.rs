@@ -26,7 +26,7 @@ pub const PERIOD_PROBE: usize = PROBES - 1;
 pub struct StepCost {
     /// `[whole step, synthesis, C_L, C_D, C_Y, C_l, C_m, C_n, period]`; 0 for stages not reached
     /// (warm-up). `period` is the counter from the previous processed sample's step start to this
-    /// one's: everything the processor executed for one sample — the step, the channel, the
+    /// one's: everything the processor executed for one sample — the step, the sample queue, the
     /// sampling task, telemetry and interrupts (under QEMU, where nothing waits for the sampling
     /// period, no sleep either); 0 for the first sample.
     pub ticks: [u32; PROBES],

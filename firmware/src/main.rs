@@ -75,7 +75,7 @@ mod app {
     const SAMPLE_PERIOD_MS: u32 = 10;
     /// Tokens the channel holds (all four: rtic-sync's channel keeps no slot free), so samples
     /// queued and not yet taken up: 40 ms of slack for the estimator before samples are dropped. What holds the estimator back is its
-    /// own step (≤ 44 435 instructions on the replay) and one telemetry encoding under the
+    /// own step (≤ 38 737 instructions on the replay, 40 373 on the fault run) and one telemetry encoding under the
     /// estimator lock (`lock_max`, ≤ 14 548): together ≈ 1 ms at 168 MHz even at 3 cycles per
     /// instruction (BENCHMARKS.md "Static stack bound").
     const SAMPLE_QUEUE: usize = 4;
@@ -242,8 +242,10 @@ mod app {
         while let Ok(msg) = cx.local.rx.recv().await {
             match msg {
                 Msg::Sample => {
-                    // Read in place, removed once processed (a token without its sample — the
-                    // queue refused it, which `SAMPLE_SLOTS` rules out — finds none and is skipped).
+                    // Read in place, removed once processed. (Were the queue ever to refuse a sample
+                    // whose token went out — `SAMPLE_SLOTS` rules it out — the tokens would run one
+                    // ahead: each sample still processed once and in order, the last token finding
+                    // the queue empty.)
                     let queue = &mut *cx.local.queue_out;
                     if let Some(sample) = queue.peek() {
                         if let Some((updated, cost)) = cx.shared.estimator.lock(|e| e.step(sample)) {

@@ -30,7 +30,8 @@ pub const SYSTEM_ID: u8 = 1;
 pub struct Stats {
     /// Samples taken by the `sample` task.
     pub sampled: u32,
-    /// Samples dropped because the channel to `estimate` was full (the estimator fell behind).
+    /// Samples dropped: the queue to `estimate` was full (the estimator fell behind), or a fault
+    /// injected on the QEMU board dropped them.
     pub dropped: u32,
     /// Samples the estimator processed.
     pub estimated: u32,
@@ -46,13 +47,13 @@ pub struct Stats {
     /// Failed sensor reads, re-initialisations, stuck channels, the autopilot link.
     pub sensors: SensorHealth,
     /// Stack high-water mark, bytes: read by the telemetry task into its copy before it takes any
-    /// lock (the scan of the painted RAM is ≈ 175 000 instructions; under the estimator lock, where
+    /// lock (0 in the shared statistics, which nobody else fills) (the scan of the painted RAM is ≈ 175 000 instructions; under the estimator lock, where
     /// the counters part is encoded, it held the estimate task off for that long every period).
     pub stack_hw_bytes: u32,
 }
 
 impl Stats {
-    /// Counts one sample taken, and whether it made it into the channel.
+    /// Counts one sample taken, and whether it made it into the queue.
     pub fn record_sample(&mut self, queued: bool) {
         self.sampled = self.sampled.saturating_add(1);
         if !queued {
