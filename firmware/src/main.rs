@@ -18,7 +18,8 @@
 //! queued, and the sampling task, above the estimate task, does both without yielding, so a
 //! received token always finds its sample: the queue holds at most the channel's tokens plus the
 //! sample being processed. If the estimator falls behind, the channel fills and `sample` drops (and
-//! counts) samples instead of waiting: the sampling period never slips. Under the `qemu` feature the board replays a log
+//! counts) samples instead of waiting: the sampling period never slips. Under the `qemu` feature
+//! the board replays a log
 //! instead of reading sensors ([`board`]): `sample` then waits for room in the channel (a replay
 //! must not drop samples) and does not wait for the period, and the end of the log ends the run
 //! with a final report and QEMU's exit status. This file is wiring only.
@@ -74,9 +75,10 @@ mod app {
     /// Sampling period: 100 Hz.
     const SAMPLE_PERIOD_MS: u32 = 10;
     /// Tokens the channel holds (all four: rtic-sync's channel keeps no slot free), so samples
-    /// queued and not yet taken up: 40 ms of slack for the estimator before samples are dropped. What holds the estimator back is its
-    /// own step (≤ 38 737 instructions on the replay, 40 373 on the fault run) and one telemetry encoding under the
-    /// estimator lock (`lock_max`, ≤ 14 548): together ≈ 1 ms at 168 MHz even at 3 cycles per
+    /// queued and not yet taken up: 40 ms of slack for the estimator before samples are dropped.
+    /// What holds the estimator back is its own step (≤ 38 737 instructions on the replay, 40 373
+    /// on the fault run) and one telemetry encoding under the estimator lock (`lock_max`,
+    /// ≤ 14 548): together ≈ 1 ms at 168 MHz even at 3 cycles per
     /// instruction (BENCHMARKS.md "Static stack bound").
     const SAMPLE_QUEUE: usize = 4;
     /// Slots of the sample queue: the channel's tokens, the sample being processed, and the one
@@ -303,9 +305,12 @@ mod app {
         out: &mut impl rtic::Mutex<T = Out>,
         shared_stats: &mut impl rtic::Mutex<T = Stats>,
     ) {
-        let mut stats = shared_stats.lock(|s| *s);
-        // Outside every lock: the scan is long (`Stats::stack_hw_bytes`).
-        stats.stack_hw_bytes = board::stack::high_water_bytes();
+        // Before any other lock: the scan is long (`Stats::stack_hw_bytes`).
+        let stack_hw_bytes = board::stack::high_water_bytes();
+        let mut stats = shared_stats.lock(|s| {
+            s.stack_hw_bytes = stack_hw_bytes;
+            *s
+        });
         let t_us = u64::from(Mono::now().duration_since_epoch().as_ticks()) * US_PER_TICK;
         for part in Part::ALL {
             let (n, held) = estimator.lock(|e| {

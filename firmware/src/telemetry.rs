@@ -46,9 +46,9 @@ pub struct Stats {
     pub max_lock_ticks: u32,
     /// Failed sensor reads, re-initialisations, stuck channels, the autopilot link.
     pub sensors: SensorHealth,
-    /// Stack high-water mark, bytes: read by the telemetry task into its copy before it takes any
-    /// lock (0 in the shared statistics, which nobody else fills) (the scan of the painted RAM is ≈ 175 000 instructions; under the estimator lock, where
-    /// the counters part is encoded, it held the estimate task off for that long every period).
+    /// Stack high-water mark, bytes, as the telemetry task last read it — before it takes the
+    /// estimator lock: the scan of the painted RAM is ≈ 175 000 instructions, and inside that lock,
+    /// where the counters part is encoded, it held the estimate task off that long every period.
     pub stack_hw_bytes: u32,
 }
 

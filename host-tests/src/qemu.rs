@@ -28,7 +28,7 @@ use std::time::{Duration, Instant};
 /// firmware since the previous sample ([`PERIOD_PROBE`]; firmware's `estimate::PROBES`).
 pub const PROBES: usize = 9;
 /// The probe holding the instructions from the previous sample's step start to this one's: the
-/// whole firmware per sample (the step, the channel, the sampling task with the replay's reads,
+/// whole firmware per sample (the step, the sample queue, the sampling task with the replay's reads,
 /// the count file, interrupts); 0 for the first sample.
 pub const PERIOD_PROBE: usize = 8;
 /// The probes' names, in the count file's order.
@@ -46,15 +46,9 @@ pub const PROBE_NAMES: [&str; PROBES] = [
 
 /// Stack high-water mark of the QEMU firmware (painted stack), the regression budget of every
 /// QEMU run (`tests/qemu_replay.rs`, `tests/qemu_faults.rs`): measured 3 648 B on both runs
-/// (2026-12-02, since the general secular update writes into the estimator's buffers; 4 208 B on
-/// both with the in-place sample queue; 4 200 B on the fault run before the stuck detector
-/// skipped its unused channels; 4 296 B on both before it
-/// and after the stack scan left the estimator lock, 4 328 B with `linalg::unrolled_upto`; 4 472 B after the estimate task matched its message
-/// by reference, 4 552 B with the
-/// unrolled general secular path before that, 4 496 B and 4 488 B before it, 4 520 B on
-/// both with the first `f64`-free `sin_cos_f32`, 4 504 B and 4 496 B before that), since the MAVLink parser lends its frames instead of returning
-/// them and telemetry encodes one report at a time; 5 028 B before, with the issue-7 fault handling
-/// on the sampling path; 8 740 B before the pipeline was configured in place in its static.
+/// (2026-12-02, since the general secular update writes into the estimator's buffers; 4 208 B
+/// before, 4 328 B at the start of that day, 8 740 B before the pipeline was configured in place in
+/// its static — every step in BENCHMARKS.md "Stack").
 pub const STACK_BUDGET_BYTES: u32 = 3_900;
 
 /// Instructions of the whole six-coefficient step on its worst sample: the regression budget of

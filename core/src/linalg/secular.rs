@@ -92,33 +92,19 @@ pub fn rank_one_update_into<T: Real, const M: usize>(
     if let Some(out) = steady_update(v, s2, lambda, w, v_out, s2_out) {
         return Some(out);
     }
-    let mut out = general_update_into(v, s2, lambda, w, v_out, s2_out)?;
+    let mut out = general_update(v, s2, lambda, w, v_out, s2_out)?;
     out.general = true;
     Some(out)
 }
 
 /// The general update (module doc, steps 0–4): scaling, deflation, roots from either pole, sort.
-/// Same contract as [`rank_one_update`].
-pub fn general_update<T: Real, const M: usize>(
-    v: &SMatrix<T, M, M>,
-    s2: &SVector<T, M>,
-    lambda: T,
-    w: &SVector<T, M>,
-) -> Option<(SMatrix<T, M, M>, SVector<T, M>, Outcome)> {
-    let mut v_out = SMatrix::zeros();
-    let mut s2_out = SVector::zeros();
-    let out = general_update_into(v, s2, lambda, w, &mut v_out, &mut s2_out)?;
-    Some((v_out, s2_out, out))
-}
-
-/// [`general_update`] writing the new `V, s²` into `v_out, s2_out` (as [`rank_one_update_into`];
-/// returned by value they were zero-filled, built, returned and copied once more: measured on the
-/// QEMU replay, the worst step 40 505 → 38 737 instructions and 560 B less stack). On `None` the
-/// outputs hold unspecified values. Same signature as [`steady_update`], which the caller tries
-/// first.
+/// Same contract as [`rank_one_update_into`], and the same signature as [`steady_update`], which
+/// the caller tries first. It writes the new `V, s²` into `v_out, s2_out` (returned by value they
+/// were zero-filled, built, returned and copied once more: measured on the QEMU replay, the worst
+/// step 40 505 → 38 737 instructions and 560 B less stack).
 #[allow(non_snake_case)]
 #[inline(never)]
-pub fn general_update_into<T: Real, const M: usize>(
+pub fn general_update<T: Real, const M: usize>(
     v: &SMatrix<T, M, M>,
     s2: &SVector<T, M>,
     lambda: T,
@@ -487,7 +473,7 @@ const STEADY_ITERATIONS: u16 = 8;
 /// Math note: the stopping test, the bisection bracket and the eigenvector formula (`q_r` plus a
 /// correction, `û_r − 1` without cancellation) are [`general_update`]'s.
 ///
-/// Not inlined (nor is [`general_update_into`]): measured on the QEMU replay, the median step is 500
+/// Not inlined (nor is [`general_update`]): measured on the QEMU replay, the median step is 500
 /// instructions shorter this way than with the two inlined into their caller, and the firmware
 /// 1.6 KB smaller.
 #[allow(clippy::needless_range_loop)]
@@ -955,7 +941,9 @@ mod tests {
         for n in 0..3000 {
             let w = SVector::<f64, 6>::from_fn(|i, _| rng.next() * scale[i]);
             // WHEN both paths update the same state
-            let general = general_update(&v, &s2, 0.995, &w).unwrap();
+            let (mut vg, mut sg) = (SMatrix::zeros(), SVector::zeros());
+            general_update(&v, &s2, 0.995, &w, &mut vg, &mut sg).unwrap();
+            let general = (vg, sg);
             let (mut vf, mut sf) = (SMatrix::zeros(), SVector::zeros());
             let fast = steady_update(&v, &s2, 0.995, &w, &mut vf, &mut sf);
             // THEN where the steady path applies it agrees with the general one to rounding
