@@ -4,14 +4,29 @@
 Usage (from the workspace root):
     cargo test -p aerosid-host --test integration qemu_replay::write_profile_replay -- --ignored
     cargo test -p aerosid-host --test integration qemu_replay::qemu_replay_equals   # builds target/qemu
-    python3 scripts/qemu-profile.py [--inlined] [--top N]
+    python3 scripts/qemu-profile.py [--inlined] [--classes [--minus M]] [--top N]
 
 Runs the QEMU build of the firmware on target/qemu-prof/replay.bin with `-singlestep -d exec,nochain`
 (one log line per executed guest instruction: each translated block is one instruction), counts
 executions per PC and attributes them to functions: by the ELF symbol table (outermost, not-inlined
 function) and, with --inlined, by llvm-symbolizer's innermost inlined frame and source line.
+
+--classes sorts the executed instructions into classes by mnemonic (llvm-objdump): floating-point
+arithmetic, floating-point compares and flag moves, floating-point loads, stores and register moves,
+integer loads and stores, branches, other integer instructions — for the estimators' own code (the
+source files of the six estimators: gtls.rs, linalg/, vff.rs, estimator.rs, scalar.rs, by the
+innermost inlined frame) and for everything, per sample of the profiled replay. The floating-point
+arithmetic of the estimators is the part no compiler or scheduling can remove: the operation count
+of the algorithm as compiled (BENCHMARKS.md, "Where the instructions go"). The replay starts the
+estimators afresh, so its first samples run the start-up path; for the steady state profile two
+lengths and take the difference: each --classes run saves its totals as
+target/qemu-prof/classes-N.json, and --minus M prints (run of N − run of M)/(N − M):
+    AEROSID_PROFILE_SAMPLES=60 cargo test -p aerosid-host --test integration qemu_replay::write_profile_replay -- --ignored
+    AEROSID_PROFILE_SAMPLES=60 python3 scripts/qemu-profile.py --classes
+    AEROSID_PROFILE_SAMPLES=180 cargo test … (as above)
+    AEROSID_PROFILE_SAMPLES=180 python3 scripts/qemu-profile.py --classes --minus 60
 """
-import collections, os, re, subprocess, sys, glob
+import collections, json, os, re, subprocess, sys, glob
 
 root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 elf = os.path.join(root, "target/qemu/thumbv7em-none-eabihf/release/aerosid-firmware")
@@ -84,3 +99,76 @@ if "--inlined" in sys.argv:
     print("by source line:")
     for (fn, loc), n in byline.most_common(top):
         print(f"{n:10d} {100.0*n/total:5.1f}%  {loc[:90]}  {fn[:60]}")
+
+if "--classes" in sys.argv:
+    # Mnemonic of every instruction in the image.
+    dis = subprocess.run([tool("llvm-objdump"), "-d", "--no-show-raw-insn", elf], capture_output=True, text=True).stdout
+    mnem = {}
+    ins = re.compile(r"^\s*([0-9a-f]+):\s+([a-z][a-z0-9.]*)")
+    for line in dis.splitlines():
+        m = ins.match(line)
+        if m:
+            mnem[int(m.group(1), 16)] = m.group(2)
+    def klass(op):
+        base = op.split(".")[0]
+        if base in ("vadd", "vsub", "vmul", "vnmul", "vdiv", "vsqrt", "vmla", "vmls", "vnmla", "vnmls",
+                    "vfma", "vfms", "vfnma", "vfnms", "vneg", "vabs", "vcvt", "vcvtr", "vrint", "vrintm",
+                    "vrintp", "vrintz", "vrintn", "vrinta", "vmaxnm", "vminnm") or base.startswith("vsel"):
+            return "fp arithmetic"
+        if base in ("vcmp", "vcmpe", "vmrs"):
+            return "fp compare, flags"
+        if base in ("vldr", "vstr", "vldmia", "vldmdb", "vstmia", "vstmdb", "vpush", "vpop", "vmov", "vmsr"):
+            return "fp load, store, move"
+        if re.match(r"^(ldr|str|ldm|stm|push|pop|ldrd|strd)", base):
+            return "int load, store"
+        if re.match(r"^(b|bl|blx|bx|cbz|cbnz|tbb|tbh|it[te]{0,3})$", base) or \
+                re.match(r"^b(eq|ne|cs|hs|cc|lo|mi|pl|vs|vc|hi|ls|ge|lt|gt|le|al)$", base):
+            return "branch, IT"
+        return "int other"
+    if "--inlined" not in sys.argv:
+        pcs = sorted(counts)
+        r = subprocess.run(["llvm-symbolizer", "--obj=" + elf, "--inlining", "--functions=short"],
+                           input="\n".join(hex(p) for p in pcs), capture_output=True, text=True).stdout
+        blocks = r.strip().split("\n\n")
+    est_files = re.compile(r"core/src/(gtls\.rs|linalg/|vff\.rs|estimator\.rs|scalar\.rs)")
+    est = collections.Counter(); whole = collections.Counter(); est_fp = collections.Counter()
+    for pc, b in zip(pcs, blocks):
+        op = mnem.get(pc, "?")
+        k = klass(op)
+        whole[k] += counts[pc]
+        lines = b.splitlines()
+        loc = "?"
+        for i in range(0, len(lines) - 1, 2):
+            if "/work/" in lines[i + 1] or "aerosid" in lines[i + 1]:
+                loc = lines[i + 1]
+                break
+        if est_files.search(loc):
+            est[k] += counts[pc]
+            if k == "fp arithmetic":
+                est_fp[op] += counts[pc]
+    unknown = sum(n for pc, n in counts.items() if pc not in mnem)
+    if unknown:
+        print(f"warning: {unknown} executed instructions at addresses llvm-objdump did not list", file=sys.stderr)
+    samples = int(os.environ.get("AEROSID_PROFILE_SAMPLES", "60"))
+    with open(os.path.join(prof, f"classes-{samples}.json"), "w") as f:
+        json.dump({"estimators": est, "everything": whole, "fp": est_fp}, f)
+    label = f"{samples} samples"
+    if "--minus" in sys.argv:
+        base = int(sys.argv[sys.argv.index("--minus") + 1])
+        with open(os.path.join(prof, f"classes-{base}.json")) as f:
+            b = json.load(f)
+        est = collections.Counter({k: v - b["estimators"].get(k, 0) for k, v in est.items()})
+        whole = collections.Counter({k: v - b["everything"].get(k, 0) for k, v in whole.items()})
+        est_fp = collections.Counter({k: v - b["fp"].get(k, 0) for k, v in est_fp.items()})
+        label = f"samples {base + 1}-{samples} of the profile replay: the run of {samples} minus the run of {base}"
+        samples -= base
+    order = ["fp arithmetic", "fp compare, flags", "fp load, store, move", "int load, store", "branch, IT", "int other"]
+    print(f"by instruction class, per sample ({label}):")
+    print(f"{'class':24s} {'estimators':>12s} {'share':>6s} {'everything':>12s} {'share':>6s}")
+    te, tw = sum(est.values()), sum(whole.values())
+    for k in order:
+        print(f"{k:24s} {est[k] / samples:12.0f} {100.0 * est[k] / max(te, 1):5.1f}% {whole[k] / samples:12.0f} {100.0 * whole[k] / max(tw, 1):5.1f}%")
+    print(f"{'total':24s} {te / samples:12.0f} {'':6s} {tw / samples:12.0f}")
+    print("the estimators' floating-point arithmetic by mnemonic, per sample:")
+    for op, n in est_fp.most_common():
+        print(f"{op:16s} {n / samples:8.0f}")

@@ -182,12 +182,23 @@ fn stack_high_water(log: &str) -> Option<u32> {
 }
 
 #[test]
-#[ignore = "profiling helper: writes target/qemu-prof/replay.bin (60 samples)"]
+#[ignore = "profiling helper: writes target/qemu-prof/replay.bin (samples 1000.. of the replay flight)"]
 fn write_profile_replay() {
+    // `AEROSID_PROFILE_SAMPLES` samples from sample 1000 on (default 60; at most 2 000, the rest of
+    // the 30 s flight); `scripts/qemu-profile.py --classes` divides by the same variable.
+    let count = match std::env::var("AEROSID_PROFILE_SAMPLES") {
+        Ok(v) => v.parse::<usize>().expect("AEROSID_PROFILE_SAMPLES: a whole number"),
+        Err(_) => 60,
+    };
     let samples = flight_samples(30.0, 7);
+    assert!(
+        (1..=samples.len() - 1000).contains(&count),
+        "AEROSID_PROFILE_SAMPLES: 1 to {}",
+        samples.len() - 1000
+    );
     let dir = qemu::workspace_root().join("target").join("qemu-prof");
     std::fs::create_dir_all(&dir).unwrap();
-    qemu::write_replay(&dir.join("replay.bin"), &samples[1000..1060]).unwrap();
+    qemu::write_replay(&dir.join("replay.bin"), &samples[1000..1000 + count]).unwrap();
 }
 
 #[test]
