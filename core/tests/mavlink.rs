@@ -684,6 +684,7 @@ fn surface_calibration() {
     assert!(close(r.throttle.unwrap(), 0.375)); // 1400 µs
                                                 // Saturation at the limits, and a disabled output (PWM 0) is an error for that channel only.
     let mut m = servo_outputs();
+    m.time_us += 1_000_000;
     m.servo_raw_us[1] = 2100;
     m.servo_raw_us[2] = 2000;
     m.servo_raw_us[3] = 0;
@@ -729,8 +730,97 @@ fn surface_staleness_and_filters() {
     s.receive(&bad, 2_000_000);
     assert!(matches!(s.surfaces(2_000_000), Err(SurfaceError::Stale { .. })));
     assert_eq!(s.parser_stats().bad_crc, 1);
-    s.receive(&SERVO_OUTPUT_RAW, 2_000_000);
+    // A good frame of ours with a new stamp does (a repeated stamp would not:
+    // `repeated_timestamps_do_not_refresh_the_surfaces`).
+    let mut next = servo_outputs();
+    next.time_us += 1_000_000;
+    s.receive(&frame_bytes(&next, 1), 2_000_000);
     assert!(s.surfaces(2_000_000).is_ok());
+}
+
+#[test]
+fn repeated_or_older_stamps_do_not_refresh_the_surfaces() {
+    let stamped = |time_us: u32, elevator_pwm: u16| {
+        let mut m = servo_outputs();
+        m.time_us = time_us;
+        m.servo_raw_us[1] = elevator_pwm;
+        frame_bytes(&m, 1)
+    };
+    // GIVEN servo outputs stamped 5 000 000 µs by the autopilot, received at 1 s
+    let mut s = MavlinkSurfaces::new(config()).unwrap();
+    s.receive(&SERVO_OUTPUT_RAW, 1_000_000);
+    assert!(s.surfaces(1_050_000).is_ok());
+    // WHEN the same stamp keeps arriving (the autopilot's outputs frozen, its telemetry not), with
+    // other values even, and an older frame is replayed
+    s.receive(&SERVO_OUTPUT_RAW, 1_050_000);
+    s.receive(&stamped(5_000_000, 1900), 1_070_000);
+    s.receive(&stamped(4_700_000, 1800), 1_090_000);
+    // THEN the surfaces keep the first frame's values and age, go stale at its timeout, and the
+    // three frames are counted
+    let r = s.surfaces(1_090_000).unwrap();
+    assert_eq!(r.age_us, 90_000);
+    assert!(close(r.elevator_rad.unwrap(), -0.1), "{r:?}");
+    assert_eq!(s.surfaces(1_100_001), Err(SurfaceError::Stale { age_us: 100_001 }));
+    assert_eq!(s.not_newer_frames(), 3);
+    // … a newer stamp refreshes them
+    s.receive(&stamped(5_010_000, 1700), 1_200_000);
+    assert!(close(s.surfaces(1_200_000).unwrap().elevator_rad.unwrap(), -0.2));
+    // … an older stamp is taken once the kept frame is stale (the autopilot rebooted and its
+    // clock started again), not before
+    s.receive(&stamped(20_000, 1500), 1_300_000);
+    assert_eq!(s.not_newer_frames(), 4);
+    s.receive(&stamped(20_000, 1500), 1_300_001);
+    assert_eq!(s.surfaces(1_300_001).unwrap().age_us, 0);
+    assert_eq!(s.not_newer_frames(), 4);
+    // … the 32-bit µs stamp wraps after 71.6 min: the frame after the wrap is newer
+    s.receive(&stamped(u32::MAX - 4_999, 1500), 1_500_000);
+    s.receive(&stamped(5_000, 1550), 1_510_000);
+    assert!(close(s.surfaces(1_510_000).unwrap().elevator_rad.unwrap(), -0.05));
+    assert_eq!(s.surfaces(1_510_000).unwrap().age_us, 0);
+    // … a frame stamped 0 (not stamped) is always taken, and never counted
+    for k in 0..3u64 {
+        s.receive(&stamped(0, 1500), 1_600_000 + k * 50_000);
+    }
+    assert_eq!(s.surfaces(1_700_000).unwrap().age_us, 0);
+    // … nor are another system's or another port's frames counted
+    s.receive(&stamped(1, 1500), 1_700_000);
+    s.receive(&stamped(1, 1500), 1_710_000);
+    assert_eq!(s.not_newer_frames(), 5);
+    let mut aux = servo_outputs();
+    aux.time_us = 1;
+    aux.port = 1;
+    s.receive(&frame_bytes(&aux, 1), 1_720_000);
+    let mut other = servo_outputs();
+    other.time_us = 1;
+    s.receive(&frame_bytes(&other, 2), 1_730_000);
+    assert_eq!(s.not_newer_frames(), 5);
+
+    // The attitude: ATTITUDE_TRUNCATED is stamped 123 456 ms.
+    s.receive(&ATTITUDE_TRUNCATED, 2_000_000);
+    s.receive(&ATTITUDE_TRUNCATED, 2_150_000);
+    assert!(matches!(s.euler_rad(2_200_001), Err(SurfaceError::Stale { .. })));
+    assert_eq!(s.not_newer_frames(), 6);
+    let newer = Attitude {
+        time_boot_ms: 123_466,
+        euler_rad: [0.0, 0.1, 0.2],
+        ..Attitude::default()
+    };
+    s.receive(&frame_bytes(&newer, 1), 2_200_000);
+    assert_eq!(s.euler_rad(2_200_001), Ok([0.0, 0.1, 0.2]));
+
+    // ESC_STATUS (stamped 123 456 µs) as the RPM source; ArduPilot's RPM has no stamp.
+    let mut c = config();
+    c.rpm = RpmSource::EscStatus { esc: 0 };
+    let mut s = MavlinkSurfaces::new(c).unwrap();
+    s.receive(&ESC_STATUS, 0);
+    s.receive(&ESC_STATUS, 400_000);
+    assert!(matches!(s.prop_speed_rad_s(500_001), Err(SurfaceError::Stale { .. })));
+    assert_eq!(s.not_newer_frames(), 1);
+    let mut s = MavlinkSurfaces::new(config()).unwrap();
+    s.receive(&RPM, 0);
+    s.receive(&RPM, 400_000);
+    assert!(s.prop_speed_rad_s(500_001).is_ok());
+    assert_eq!(s.not_newer_frames(), 0);
 }
 
 #[test]
@@ -836,8 +926,10 @@ fn fill_writes_the_autopilot_channels_and_nan_for_each_missing_one() {
     // throttle are NaN
     assert!(!link.fill(1_150_000, &mut s));
     assert_eq!(present(&s), [vec![false; 4], vec![true; 4]].concat());
-    // … and a single disabled output (PWM 0) invalidates that surface alone
+    // … and a single disabled output (PWM 0) invalidates that surface alone (the autopilot's clock
+    // has moved on with ours)
     let mut m = servo_outputs();
+    m.time_us += 150_000;
     m.servo_raw_us[3] = 0;
     link.receive(&frame_bytes(&m, 1), 1_150_000);
     assert!(!link.fill(1_150_000, &mut s));

@@ -13,7 +13,7 @@
 
 use crate::board::{ChipHealth, SensorHealth, TelemetryPort};
 use crate::estimate::{Estimator, StepCost, PROBES};
-use aerosid_core::aero::model::idx;
+use aerosid_core::aero::model::{channel, idx};
 use aerosid_core::aero::Pipeline;
 use aerosid_core::mavlink::frame::{CHECKSUM_LEN, HEADER_LEN_V2, MAV_COMP_ID_ONBOARD_COMPUTER};
 use aerosid_core::mavlink::messages::{DebugFloatArray, Heartbeat, MavMessage, NamedValueFloat};
@@ -142,8 +142,9 @@ pub fn health_report(stats: &Stats, estimator: &Estimator) -> HealthReport {
     v[slot::LINK_REJECTED] = h.link.rejected;
     v[slot::LINK_DISCARDED] = h.link.discarded;
     v[slot::LINK_LOST] = h.link.lost;
+    v[slot::LINK_NOT_NEWER] = h.link.not_newer;
     v[slot::INVALID_NOW] = u32::from(estimator.invalid_now());
-    for (o, c) in v[slot::INVALID..]
+    for (o, c) in v[slot::INVALID..slot::INVALID + channel::COUNT]
         .iter_mut()
         .zip(estimator.pipeline().health().invalid_channel.iter())
     {

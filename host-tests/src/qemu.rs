@@ -45,8 +45,9 @@ pub const PROBE_NAMES: [&str; PROBES] = [
 ];
 
 /// Stack high-water mark of the QEMU firmware (painted stack), the regression budget of every
-/// QEMU run (`tests/qemu_replay.rs`, `tests/qemu_faults.rs`): measured 3 648 B on both runs
-/// (2026-12-02, since the general secular update writes into the estimator's buffers; 4 208 B
+/// QEMU run (`tests/qemu_replay.rs`, `tests/qemu_faults.rs`): measured 3 640 B on both runs
+/// (2026-12-03; 3 648 B from the day the general secular update began writing into the
+/// estimator's buffers until the autopilot link's newer-stamp check; 4 208 B
 /// before, 4 328 B at the start of that day, 8 740 B before the pipeline was configured in place in
 /// its static — every step in BENCHMARKS.md "Stack").
 pub const STACK_BUDGET_BYTES: u32 = 3_900;
@@ -641,10 +642,11 @@ pub fn emulate(sc: &Scenario<'_>) -> Result<Emulation, QemuError> {
         v[health_slot::LINK_FRAMES] = st.frames;
         v[health_slot::LINK_REJECTED] = st.bad_crc + st.bad_length + st.bad_incompat_flags;
         v[health_slot::LINK_DISCARDED] = st.discarded_bytes;
+        v[health_slot::LINK_NOT_NEWER] = link.not_newer_frames();
     }
     v[health_slot::LINK_LOST] = link_lost;
     v[health_slot::INVALID_NOW] = u32::from(invalid_now);
-    v[health_slot::INVALID..].copy_from_slice(&p.health().invalid_channel);
+    v[health_slot::INVALID..health_slot::INVALID + channel::COUNT].copy_from_slice(&p.health().invalid_channel);
     Ok(Emulation {
         reports: reports(&p),
         health: h,

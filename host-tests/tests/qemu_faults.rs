@@ -66,10 +66,11 @@ fn servo_frame(enc: &mut Encoder, pwm: u16) -> Vec<u8> {
 /// of start bytes, fake headers, a valid frame with a corrupted byte, a truncated frame, a frame
 /// claiming more than its message's length, unknown incompatibility flags, a frame from another
 /// system with absurd values, and an old frame of the autopilot's replayed. Returns the number of
-/// corrupted-checksum frames put in.
-fn add_garbage(chunks: &mut [Vec<u8>], rng: &mut ChaCha8Rng) -> u32 {
+/// corrupted-checksum frames put in and the chunks where an old chunk was replayed.
+fn add_garbage(chunks: &mut [Vec<u8>], rng: &mut ChaCha8Rng) -> (u32, Vec<usize>) {
     let mut other = Encoder::new(7, 1);
     let mut corrupted = 0;
+    let mut replayed = Vec::new();
     for k in (40..chunks.len()).step_by(37) {
         let mut g = Vec::new();
         for _ in 0..rng.random_range(1..6) {
@@ -106,6 +107,7 @@ fn add_garbage(chunks: &mut [Vec<u8>], rng: &mut ChaCha8Rng) -> u32 {
                 _ => {
                     let old = chunks[k.saturating_sub(30)].clone();
                     g.extend(old);
+                    replayed.push(k);
                 }
             }
         }
@@ -118,7 +120,7 @@ fn add_garbage(chunks: &mut [Vec<u8>], rng: &mut ChaCha8Rng) -> u32 {
         g.extend(&chunks[k]);
         chunks[k] = g;
     }
-    corrupted
+    (corrupted, replayed)
 }
 
 #[test]
@@ -128,7 +130,7 @@ fn faults_and_garbage_under_qemu_are_survived_reported_and_equal_the_host_model(
     assert_eq!(samples.len(), SAMPLES);
     let mut chunks = qemu::autopilot_stream(&samples);
     let mut rng = ChaCha8Rng::seed_from_u64(0x7A17);
-    let corrupted = add_garbage(&mut chunks, &mut rng);
+    let (corrupted, replayed) = add_garbage(&mut chunks, &mut rng);
     let faults = schedule();
     let scenario = Scenario {
         samples: &samples,
@@ -194,12 +196,25 @@ fn faults_and_garbage_under_qemu_are_survived_reported_and_equal_the_host_model(
         h[slot::LINK_REJECTED]
     );
     assert!(h[slot::LINK_DISCARDED] > 0);
+    // replays of a chunk 30 samples old (its SERVO_OUTPUT_RAW and ATTITUDE stamped 300 ms before
+    // the kept ones) are not kept while the kept ones are fresh, i.e. outside the lost bytes'
+    // window and its timeouts (lost 1700..1715, the attitude's 200 ms timeout after that): two
+    // frames each at least (a copy of the sample's own frames put in before them adds more)
+    let fresh_replays = replayed.iter().filter(|&&k| !(1700..1740).contains(&k)).count() as u32;
+    assert!(fresh_replays > 0, "the seeded garbage holds no replay");
+    assert!(
+        h[slot::LINK_NOT_NEWER] >= 2 * fresh_replays,
+        "{} not newer < 2 × {fresh_replays} replays",
+        h[slot::LINK_NOT_NEWER]
+    );
     println!(
-        "link: {} frames, {} rejected ({corrupted} corrupted put in), {} bytes discarded, {} lost",
+        "link: {} frames, {} rejected ({corrupted} corrupted put in), {} bytes discarded, {} lost, {} not newer ({} replays put in)",
         h[slot::LINK_FRAMES],
         h[slot::LINK_REJECTED],
         h[slot::LINK_DISCARDED],
-        h[slot::LINK_LOST]
+        h[slot::LINK_LOST],
+        h[slot::LINK_NOT_NEWER],
+        replayed.len()
     );
     // … without a stall: no sample's step beyond the clean replay's worst-case budget (garbage on
     // the link is parsed in the sampling task, not in the step; a fault makes a step shorter) …

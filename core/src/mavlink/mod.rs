@@ -60,7 +60,9 @@
 //! in its doc). [`surfaces::MavlinkSurfaces`] keeps the newest `SERVO_OUTPUT_RAW` (#36, PWM µs per
 //! output, all 16 outputs) and RPM from ArduPilot's `RPM` (#226, `ardupilotmega.xml`; ArduPilot does
 //! not send `ESC_STATUS`) or PX4's `ESC_STATUS` (#291, `common.xml`), and implements
-//! [`surfaces::SurfaceSource`] with per-channel linear calibrations and staleness errors. It also
+//! [`surfaces::SurfaceSource`] with per-channel linear calibrations and staleness errors; a stamped
+//! message whose stamp is not newer than the kept one's (a repeat, a replay) does not refresh it
+//! (`surfaces` module doc, "Freshness"). It also
 //! keeps the newest `ATTITUDE` (#30) for the attitude the co-processor cannot estimate itself
 //! ([`surfaces::MavlinkSurfaces::euler_rad`]). The autopilot must be set to stream
 //! `SERVO_OUTPUT_RAW`, `ATTITUDE` (and `RPM`) on that port at the rate the timeouts assume (e.g.

@@ -8,6 +8,26 @@
 //! rad_per_us`, clamped to its mechanical limits (the surface saturates there whatever the PWM);
 //! a PWM outside the plausible range (`pwm_valid_us`, e.g. 0 = output disabled) is an error for that
 //! channel.
+//!
+//! ## Freshness
+//! A value is fresh while the newest message that carried it arrived less than its timeout ago.
+//! A message stamped by the autopilot (`SERVO_OUTPUT_RAW.time_usec`, `ATTITUDE.time_boot_ms`,
+//! `ESC_STATUS.time_usec`) replaces the kept one only when its stamp is newer — a repeat of the
+//! kept stamp carries nothing new whatever its values (an autopilot whose output task froze while
+//! its telemetry streams on, a router re-sending a buffered frame), and an older stamp is a replay.
+//! Such a frame is counted ([`MavlinkSurfaces::not_newer_frames`]) and does not refresh the
+//! reception time, so a stream of repeats goes stale after the timeout like a silent link — the
+//! stuck-channel detector cannot catch this, since surfaces legitimately hold still in cruise.
+//! Readings chosen and tested (`core/tests/mavlink.rs`,
+//! `repeated_or_older_stamps_do_not_refresh_the_surfaces`):
+//! * *newer* is serial-number arithmetic (RFC 1982): `stamp − kept`, wrapping, read as signed, is
+//!   positive — so the 32-bit µs stamp's wrap every 71.6 min is crossed without a stale gap;
+//! * once the kept message is stale any stamp is taken: an autopilot that rebooted restarts its
+//!   clock, and the kept message has gone stale long before the reboot is over;
+//! * a stamp of 0 (on either side) is *not stamped* and always taken, so that an autopilot that
+//!   does not stamp these messages still works, without this protection.
+//!
+//! ArduPilot's `RPM` carries no stamp: it is taken as it comes.
 
 use super::messages::{Attitude, Message, ServoOutputRaw};
 use super::parser::{Frame, Parser, ParserStats};
@@ -234,10 +254,14 @@ pub struct MavlinkSurfaces {
     parser: Parser,
     /// Newest `SERVO_OUTPUT_RAW` of the configured port and when it arrived, µs.
     servo: Option<(ServoOutputRaw, u64)>,
-    /// Newest RPM of the configured source (rev/min, as reported) and when it arrived, µs.
-    rpm: Option<(f32, u64)>,
+    /// Newest RPM of the configured source (rev/min, as reported), when it arrived, µs, and the
+    /// autopilot's stamp of it, µs (`ESC_STATUS`; 0 for ArduPilot's `RPM`, which has none).
+    rpm: Option<(f32, u64, u64)>,
     /// Newest `ATTITUDE` and when it arrived, µs.
     attitude: Option<(Attitude, u64)>,
+    /// Stamped frames of a configured source not kept because their stamp is not newer than the
+    /// kept frame's (module doc, "Freshness"); wrapping.
+    not_newer: u32,
 }
 
 impl MavlinkSurfaces {
@@ -250,7 +274,16 @@ impl MavlinkSurfaces {
             servo: None,
             rpm: None,
             attitude: None,
+            not_newer: 0,
         })
+    }
+
+    /// Frames not kept because their stamp is not newer than the kept frame's while that one is
+    /// still fresh — repeats and replays (module doc, "Freshness"): `SERVO_OUTPUT_RAW` of the
+    /// configured port, `ATTITUDE`, `ESC_STATUS` of the configured ESC, from the configured system.
+    /// Wrapping.
+    pub fn not_newer_frames(&self) -> u32 {
+        self.not_newer
     }
 
     /// The settings.
@@ -271,20 +304,27 @@ impl MavlinkSurfaces {
             servo,
             rpm,
             attitude,
+            not_newer,
         } = self;
-        parser.feed(bytes, |frame| keep(config, servo, rpm, attitude, frame, now_us));
+        parser.feed(bytes, |frame| {
+            if !keep(config, servo, rpm, attitude, frame, now_us) {
+                *not_newer = not_newer.wrapping_add(1);
+            }
+        });
     }
 
     /// Keeps what `frame` (parsed elsewhere, received at `now_us`) carries, if it is for us.
     pub fn accept(&mut self, frame: &Frame, now_us: u64) {
-        keep(
+        if !keep(
             &self.config,
             &mut self.servo,
             &mut self.rpm,
             &mut self.attitude,
             frame,
             now_us,
-        );
+        ) {
+            self.not_newer = self.not_newer.wrapping_add(1);
+        }
     }
 
     /// Writes what the link holds at `now_us` into the autopilot's channels of `s` — the three
@@ -355,32 +395,87 @@ impl MavlinkSurfaces {
     }
 }
 
-/// Keeps the servo outputs or the RPM `frame` carries, if it is from the configured source.
+/// Keeps the servo outputs, the attitude or the RPM `frame` carries, if it is from the configured
+/// source; `false` when the frame is for us but its stamp is not newer than the kept frame's, which
+/// is still fresh (not kept: module doc, "Freshness").
 fn keep(
     config: &SurfaceConfig,
     servo: &mut Option<(ServoOutputRaw, u64)>,
-    rpm: &mut Option<(f32, u64)>,
+    rpm: &mut Option<(f32, u64, u64)>,
     attitude: &mut Option<(Attitude, u64)>,
     frame: &Frame,
     now_us: u64,
-) {
+) -> bool {
     if config.source_system_id != 0 && frame.header.system_id != config.source_system_id {
-        return;
+        return true;
     }
     match (&frame.message, config.rpm) {
-        (Message::ServoOutputRaw(m), _) if m.port == config.port => *servo = Some((*m, now_us)),
-        (Message::Attitude(m), _) => *attitude = Some((*m, now_us)),
+        (Message::ServoOutputRaw(m), _) if m.port == config.port => {
+            let kept = servo.as_ref().map(|(k, rx)| (k.time_us, *rx));
+            if !takes(m.time_us, kept, now_us, config.servo_timeout_us) {
+                return false;
+            }
+            *servo = Some((*m, now_us));
+        }
+        (Message::Attitude(m), _) => {
+            let kept = attitude.as_ref().map(|(k, rx)| (k.time_boot_ms, *rx));
+            if !takes(m.time_boot_ms, kept, now_us, config.attitude_timeout_us) {
+                return false;
+            }
+            *attitude = Some((*m, now_us));
+        }
         (Message::Rpm(m), RpmSource::ArduPilotRpm { sensor }) => {
             if let Some(&r) = m.rpm.get(usize::from(sensor)) {
-                *rpm = Some((r, now_us));
+                *rpm = Some((r, now_us, 0));
             }
         }
         (Message::EscStatus(m), RpmSource::EscStatus { esc }) => {
             if let Some(&r) = esc.checked_sub(m.index).and_then(|i| m.rpm.get(usize::from(i))) {
-                *rpm = Some((r as f32, now_us));
+                let kept = rpm.as_ref().map(|&(_, rx, stamp)| (stamp, rx));
+                if !takes(m.time_us, kept, now_us, config.rpm_timeout_us) {
+                    return false;
+                }
+                *rpm = Some((r as f32, now_us, m.time_us));
             }
         }
         _ => {}
+    }
+    true
+}
+
+/// An autopilot's message stamp: wrapping serial-number comparison (RFC 1982).
+trait Stamp: Copy {
+    fn unstamped(self) -> bool;
+    /// `self` later than `other`: their wrapping difference, read as signed, is positive.
+    fn newer_than(self, other: Self) -> bool;
+}
+
+impl Stamp for u32 {
+    fn unstamped(self) -> bool {
+        self == 0
+    }
+    fn newer_than(self, other: Self) -> bool {
+        (self.wrapping_sub(other) as i32) > 0
+    }
+}
+
+impl Stamp for u64 {
+    fn unstamped(self) -> bool {
+        self == 0
+    }
+    fn newer_than(self, other: Self) -> bool {
+        (self.wrapping_sub(other) as i64) > 0
+    }
+}
+
+/// Whether a message stamped `stamp`, received at `now_us`, replaces the kept one (`kept`: its
+/// stamp and reception time, µs) whose timeout is `timeout_us` (module doc, "Freshness").
+fn takes<S: Stamp>(stamp: S, kept: Option<(S, u64)>, now_us: u64, timeout_us: u64) -> bool {
+    match kept {
+        None => true,
+        Some((k, rx_us)) => {
+            stamp.unstamped() || k.unstamped() || now_us.saturating_sub(rx_us) > timeout_us || stamp.newer_than(k)
+        }
     }
 }
 
@@ -418,7 +513,7 @@ impl SurfaceSource for MavlinkSurfaces {
         if self.config.rpm == RpmSource::None {
             return Err(SurfaceError::NoRpmSource);
         }
-        let (rpm, rx_us) = self.rpm.ok_or(SurfaceError::NoData)?;
+        let (rpm, rx_us, _) = self.rpm.ok_or(SurfaceError::NoData)?;
         age(rx_us, now_us, self.config.rpm_timeout_us)?;
         if !(rpm >= 0.0) || !rpm.is_finite() {
             return Err(SurfaceError::RpmInvalid);

@@ -160,7 +160,7 @@ impl Telemetry {
         Ok(at)
     }
 
-    /// Writes the health report (164 bytes at most) into `out`; returns its length.
+    /// Writes the health report (168 bytes at most) into `out`; returns its length.
     pub fn health(&mut self, report: &HealthReport, time_us: u64, out: &mut [u8]) -> Result<usize, EncodeError> {
         self.encoder.encode(&report.to_debug_float_array(time_us), out)
     }
@@ -240,13 +240,17 @@ pub mod health_slot {
     /// Samples with each channel invalid, at `INVALID + bit` for the 11 channel bits
     /// ([`crate::aero::Health::invalid_channel`]).
     pub const INVALID: usize = 22;
+    /// Frames on the autopilot link not kept because their stamp was not newer than the kept
+    /// frame's — repeats and replays ([`crate::mavlink::MavlinkSurfaces::not_newer_frames`]).
+    /// After the `INVALID` block so that the slots before it keep their places.
+    pub const LINK_NOT_NEWER: usize = INVALID + crate::aero::model::channel::COUNT;
     /// Number of slots used.
-    pub const COUNT: usize = INVALID + crate::aero::model::channel::COUNT;
+    pub const COUNT: usize = LINK_NOT_NEWER + 1;
 }
 
 /// The co-processor's health report (counters and masks by [`health_slot`]), sent as one
-/// `DEBUG_FLOAT_ARRAY` named [`HEALTH_NAME`] with `array_id` [`HEALTH_ARRAY_ID`]: 20 + 33·4 =
-/// 152 payload bytes, a 164-byte frame.
+/// `DEBUG_FLOAT_ARRAY` named [`HEALTH_NAME`] with `array_id` [`HEALTH_ARRAY_ID`]: 20 + 34·4 =
+/// 156 payload bytes, a 168-byte frame.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct HealthReport {

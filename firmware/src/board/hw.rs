@@ -459,7 +459,7 @@ impl SensorSource for FlightSensors {
         let autopilot_ok = match self.autopilot.as_mut() {
             Some(link) => {
                 let ok = link.fill(now_us, &mut s);
-                self.health.link = LinkHealth::from_parser(link.parser_stats(), self.rx_lost_seen);
+                self.health.link = LinkHealth::from_link(link, self.rx_lost_seen);
                 ok
             }
             None => false,

@@ -29,7 +29,7 @@ pub enum AutopilotRx {}
 
 use aerosid_core::aero::model::ChannelMask;
 use aerosid_core::aero::{SensorSample, StuckDetector};
-use aerosid_core::mavlink::ParserStats;
+use aerosid_core::mavlink::MavlinkSurfaces;
 
 /// Where samples come from.
 pub trait SensorSource {
@@ -104,11 +104,14 @@ pub struct LinkHealth {
     pub discarded: u32,
     /// Received bytes lost (receiver overrun or full ring).
     pub lost: u32,
+    /// Frames not kept because their stamp was not newer than the kept frame's (repeats, replays).
+    pub not_newer: u32,
 }
 
 impl LinkHealth {
-    /// The counters of the parser's `stats` and `lost` bytes.
-    pub fn from_parser(stats: &ParserStats, lost: u32) -> Self {
+    /// The counters of the link's parser and surfaces source, and `lost` bytes.
+    pub fn from_link(link: &MavlinkSurfaces, lost: u32) -> Self {
+        let stats = link.parser_stats();
         Self {
             frames: stats.frames,
             rejected: stats
@@ -117,6 +120,7 @@ impl LinkHealth {
                 .saturating_add(stats.bad_incompat_flags),
             discarded: stats.discarded_bytes,
             lost,
+            not_newer: link.not_newer_frames(),
         }
     }
 }

@@ -258,7 +258,7 @@ impl Replay {
             self.health.autopilot_faults = self.health.autopilot_faults.saturating_add(1);
         }
         let lost = self.health.link.lost;
-        self.health.link = LinkHealth::from_parser(link.parser_stats(), lost);
+        self.health.link = LinkHealth::from_link(link, lost);
     }
 }
 
