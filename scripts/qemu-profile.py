@@ -14,8 +14,8 @@ function) and, with --inlined, by llvm-symbolizer's innermost inlined frame and 
 --classes sorts the executed instructions into classes by mnemonic (llvm-objdump): floating-point
 arithmetic, floating-point compares and flag moves, floating-point loads, stores and register moves,
 integer loads and stores, branches, other integer instructions — for the estimators' own code (the
-source files of the six estimators: gtls.rs, linalg/, vff.rs, estimator.rs, scalar.rs, by the
-innermost inlined frame) and for everything, per sample of the profiled replay. The floating-point
+source files of the six estimators: gtls.rs, linalg/, vff.rs, estimator.rs, scalar.rs but for
+the synthesis's sin_cos_f32, by the innermost inlined frame) and for everything, per sample of the profiled replay. The floating-point
 arithmetic of the estimators is the part no compiler or scheduling can remove: the operation count
 of the algorithm as compiled (BENCHMARKS.md, "Where the instructions go"). The replay starts the
 estimators afresh, so its first samples run the start-up path; for the steady state profile two
@@ -132,18 +132,22 @@ if "--classes" in sys.argv:
         blocks = r.strip().split("\n\n")
     est_files = re.compile(r"core/src/(gtls\.rs|linalg/|vff\.rs|estimator\.rs|scalar\.rs)")
     est = collections.Counter(); whole = collections.Counter(); est_fp = collections.Counter()
+    by_file = collections.Counter()  # (source file, class) of the estimators' instructions
     for pc, b in zip(pcs, blocks):
         op = mnem.get(pc, "?")
         k = klass(op)
         whole[k] += counts[pc]
         lines = b.splitlines()
-        loc = "?"
+        fn, loc = "?", "?"
         for i in range(0, len(lines) - 1, 2):
             if "/work/" in lines[i + 1] or "aerosid" in lines[i + 1]:
-                loc = lines[i + 1]
+                fn, loc = lines[i], lines[i + 1]
                 break
-        if est_files.search(loc):
+        # scalar.rs also holds the synthesis's sin_cos_f32: not the estimators'.
+        if est_files.search(loc) and not fn.startswith("sin_cos"):
             est[k] += counts[pc]
+            src = re.search(r"core/src/([a-z_/]+\.rs)", loc).group(1)
+            by_file[src + "|" + k] += counts[pc]
             if k == "fp arithmetic":
                 est_fp[op] += counts[pc]
     unknown = sum(n for pc, n in counts.items() if pc not in mnem)
@@ -151,7 +155,7 @@ if "--classes" in sys.argv:
         print(f"warning: {unknown} executed instructions at addresses llvm-objdump did not list", file=sys.stderr)
     samples = int(os.environ.get("AEROSID_PROFILE_SAMPLES", "60"))
     with open(os.path.join(prof, f"classes-{samples}.json"), "w") as f:
-        json.dump({"estimators": est, "everything": whole, "fp": est_fp}, f)
+        json.dump({"estimators": est, "everything": whole, "fp": est_fp, "by_file": by_file}, f)
     label = f"{samples} samples"
     if "--minus" in sys.argv:
         base = int(sys.argv[sys.argv.index("--minus") + 1])
@@ -160,6 +164,7 @@ if "--classes" in sys.argv:
         est = collections.Counter({k: v - b["estimators"].get(k, 0) for k, v in est.items()})
         whole = collections.Counter({k: v - b["everything"].get(k, 0) for k, v in whole.items()})
         est_fp = collections.Counter({k: v - b["fp"].get(k, 0) for k, v in est_fp.items()})
+        by_file = collections.Counter({k: v - b.get("by_file", {}).get(k, 0) for k, v in by_file.items()})
         label = f"samples {base + 1}-{samples} of the profile replay: the run of {samples} minus the run of {base}"
         samples -= base
     order = ["fp arithmetic", "fp compare, flags", "fp load, store, move", "int load, store", "branch, IT", "int other"]
@@ -169,6 +174,12 @@ if "--classes" in sys.argv:
     for k in order:
         print(f"{k:24s} {est[k] / samples:12.0f} {100.0 * est[k] / max(te, 1):5.1f}% {whole[k] / samples:12.0f} {100.0 * whole[k] / max(tw, 1):5.1f}%")
     print(f"{'total':24s} {te / samples:12.0f} {'':6s} {tw / samples:12.0f}")
+    print("the estimators' instructions by source file, per sample: floating-point arithmetic, all")
+    files = sorted({k.split("|")[0] for k in by_file}, key=lambda f: -sum(v for k, v in by_file.items() if k.startswith(f + "|")))
+    for f in files:
+        fp = by_file.get(f + "|fp arithmetic", 0)
+        al = sum(v for k, v in by_file.items() if k.startswith(f + "|"))
+        print(f"{f:24s} {fp / samples:8.0f} {al / samples:8.0f}")
     print("the estimators' floating-point arithmetic by mnemonic, per sample:")
     for op, n in est_fp.most_common():
         print(f"{op:16s} {n / samples:8.0f}")
