@@ -14,10 +14,11 @@ function) and, with --inlined, by llvm-symbolizer's innermost inlined frame and 
 --classes sorts the executed instructions into classes by mnemonic (llvm-objdump): floating-point
 arithmetic, floating-point compares and flag moves, floating-point loads, stores and register moves,
 integer loads and stores, branches, other integer instructions — for the estimators' own code (the
-source files of the six estimators: gtls.rs, linalg/, vff.rs, estimator.rs, scalar.rs but for
-the synthesis's sin_cos_f32, by the innermost inlined frame) and for everything, per sample of the profiled replay. The floating-point
-arithmetic of the estimators is the part no compiler or scheduling can remove: the operation count
-of the algorithm as compiled (BENCHMARKS.md, "Where the instructions go"). The replay starts the
+source files of the six estimators: gtls.rs, linalg/, vff.rs, estimator.rs, scalar.rs but for the
+synthesis's sin_cos_f32, by the innermost inlined frame; also split by file) and for everything,
+per sample of the profiled replay. The floating-point arithmetic of the estimators is the part no
+compiler or scheduling can remove: the operation count of the algorithm as compiled (BENCHMARKS.md,
+"The floor, measured"). The replay starts the
 estimators afresh, so its first samples run the start-up path; for the steady state profile two
 lengths and take the difference: each --classes run saves its totals as
 target/qemu-prof/classes-N.json, and --minus M prints (run of N − run of M)/(N − M):

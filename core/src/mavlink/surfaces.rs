@@ -307,24 +307,21 @@ impl MavlinkSurfaces {
             not_newer,
         } = self;
         parser.feed(bytes, |frame| {
-            if !keep(config, servo, rpm, attitude, frame, now_us) {
-                *not_newer = not_newer.wrapping_add(1);
-            }
+            keep(config, servo, rpm, attitude, not_newer, frame, now_us)
         });
     }
 
     /// Keeps what `frame` (parsed elsewhere, received at `now_us`) carries, if it is for us.
     pub fn accept(&mut self, frame: &Frame, now_us: u64) {
-        if !keep(
+        keep(
             &self.config,
             &mut self.servo,
             &mut self.rpm,
             &mut self.attitude,
+            &mut self.not_newer,
             frame,
             now_us,
-        ) {
-            self.not_newer = self.not_newer.wrapping_add(1);
-        }
+        );
     }
 
     /// Writes what the link holds at `now_us` into the autopilot's channels of `s` — the three
@@ -396,73 +393,80 @@ impl MavlinkSurfaces {
 }
 
 /// Keeps the servo outputs, the attitude or the RPM `frame` carries, if it is from the configured
-/// source; `false` when the frame is for us but its stamp is not newer than the kept frame's, which
-/// is still fresh (not kept: module doc, "Freshness").
+/// source; a frame for us whose stamp is not newer than the kept frame's, which is still fresh, is
+/// not kept but counted in `not_newer` (module doc, "Freshness").
 fn keep(
     config: &SurfaceConfig,
     servo: &mut Option<(ServoOutputRaw, u64)>,
     rpm: &mut Option<(f32, u64, u64)>,
     attitude: &mut Option<(Attitude, u64)>,
+    not_newer: &mut u32,
     frame: &Frame,
     now_us: u64,
-) -> bool {
+) {
     if config.source_system_id != 0 && frame.header.system_id != config.source_system_id {
-        return true;
+        return;
     }
-    match (&frame.message, config.rpm) {
+    let taken = match (&frame.message, config.rpm) {
         (Message::ServoOutputRaw(m), _) if m.port == config.port => {
             let kept = servo.as_ref().map(|(k, rx)| (k.time_us, *rx));
-            if !takes(m.time_us, kept, now_us, config.servo_timeout_us) {
-                return false;
+            let take = takes(m.time_us, kept, now_us, config.servo_timeout_us);
+            if take {
+                *servo = Some((*m, now_us));
             }
-            *servo = Some((*m, now_us));
+            take
         }
         (Message::Attitude(m), _) => {
             let kept = attitude.as_ref().map(|(k, rx)| (k.time_boot_ms, *rx));
-            if !takes(m.time_boot_ms, kept, now_us, config.attitude_timeout_us) {
-                return false;
+            let take = takes(m.time_boot_ms, kept, now_us, config.attitude_timeout_us);
+            if take {
+                *attitude = Some((*m, now_us));
             }
-            *attitude = Some((*m, now_us));
+            take
         }
         (Message::Rpm(m), RpmSource::ArduPilotRpm { sensor }) => {
             if let Some(&r) = m.rpm.get(usize::from(sensor)) {
                 *rpm = Some((r, now_us, 0));
             }
+            true
         }
         (Message::EscStatus(m), RpmSource::EscStatus { esc }) => {
-            if let Some(&r) = esc.checked_sub(m.index).and_then(|i| m.rpm.get(usize::from(i))) {
-                let kept = rpm.as_ref().map(|&(_, rx, stamp)| (stamp, rx));
-                if !takes(m.time_us, kept, now_us, config.rpm_timeout_us) {
-                    return false;
+            match esc.checked_sub(m.index).and_then(|i| m.rpm.get(usize::from(i))) {
+                Some(&r) => {
+                    let kept = rpm.as_ref().map(|&(_, rx, stamp)| (stamp, rx));
+                    let take = takes(m.time_us, kept, now_us, config.rpm_timeout_us);
+                    if take {
+                        *rpm = Some((r as f32, now_us, m.time_us));
+                    }
+                    take
                 }
-                *rpm = Some((r as f32, now_us, m.time_us));
+                None => true,
             }
         }
-        _ => {}
+        _ => true,
+    };
+    if !taken {
+        *not_newer = not_newer.wrapping_add(1);
     }
-    true
 }
 
 /// An autopilot's message stamp: wrapping serial-number comparison (RFC 1982).
-trait Stamp: Copy {
-    fn unstamped(self) -> bool;
+trait Stamp: Copy + PartialEq + Default {
+    /// 0: the sender does not stamp this message.
+    fn unstamped(self) -> bool {
+        self == Self::default()
+    }
     /// `self` later than `other`: their wrapping difference, read as signed, is positive.
     fn newer_than(self, other: Self) -> bool;
 }
 
 impl Stamp for u32 {
-    fn unstamped(self) -> bool {
-        self == 0
-    }
     fn newer_than(self, other: Self) -> bool {
         (self.wrapping_sub(other) as i32) > 0
     }
 }
 
 impl Stamp for u64 {
-    fn unstamped(self) -> bool {
-        self == 0
-    }
     fn newer_than(self, other: Self) -> bool {
         (self.wrapping_sub(other) as i64) > 0
     }
