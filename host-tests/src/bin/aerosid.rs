@@ -72,6 +72,11 @@ enum Command {
     Table1 {
         out: std::path::PathBuf,
     },
+    GapsBench {
+        out: std::path::PathBuf,
+        draws: usize,
+        clean: usize,
+    },
     StackBound {
         elf: std::path::PathBuf,
         indirect: std::path::PathBuf,
@@ -91,10 +96,13 @@ enum Command {
         data: Option<(std::path::PathBuf, std::path::PathBuf)>,
         seed: u64,
         seconds: f64,
+        /// `--calm`: a simulated flight in calm air (default: the campaign's light turbulence).
+        calm: bool,
         out: std::path::PathBuf,
-        /// `--air-data measured`: regressors from the corrected air-data sensors instead of the
-        /// reconstructed states (turbulent data).
-        measured_air_data: bool,
+        /// `--air-data auto|measured|reconstructed|fused` (default auto: fused when both exist).
+        air_data: aerosid_host::gaps::airdata::AirDataChoice,
+        /// `--apply-corrections`: remove the named sensor errors before the aerodynamics.
+        apply_corrections: bool,
         /// `--baseline SPEC`: the baseline models (eq. 3 where not given).
         baseline: Option<[Vec<aerosid_host::gaps::model::Term>; 6]>,
         /// `--compatibility off`: skip the flight-path reconstruction (the data are used as they are).
@@ -195,12 +203,22 @@ fn parse() -> Result<Option<Command>, String> {
             let (mut hidden, mut clean, mut seed, mut seconds, mut out) =
                 (None, false, 1u64, 90.0, std::path::PathBuf::from("out/gaps"));
             let (mut data, mut with): (Option<std::path::PathBuf>, Option<std::path::PathBuf>) = (None, None);
-            let mut measured_air_data = false;
+            let mut air_data = aerosid_host::gaps::airdata::AirDataChoice::Auto;
+            let mut apply_corrections = true;
+            let mut calm = false;
             let mut baseline = None;
             let mut compatibility = true;
             while let Some(flag) = it.next() {
                 if flag == "--clean" {
                     clean = true;
+                    continue;
+                }
+                if flag == "--no-corrections" {
+                    apply_corrections = false;
+                    continue;
+                }
+                if flag == "--calm" {
+                    calm = true;
                     continue;
                 }
                 let value = it.next().ok_or_else(|| format!("`{flag}` needs a value"))?;
@@ -237,11 +255,8 @@ fn parse() -> Result<Option<Command>, String> {
                         }
                     }
                     "--air-data" => {
-                        measured_air_data = match value.as_str() {
-                            "measured" => true,
-                            "reconstructed" => false,
-                            _ => return Err(format!("--air-data {value}: `measured` or `reconstructed`")),
-                        }
+                        air_data = aerosid_host::gaps::airdata::AirDataChoice::parse(&value)
+                            .ok_or_else(|| format!("--air-data {value}: one of auto, measured, reconstructed, fused"))?
                     }
                     "--with" => with = Some(value.into()),
                     _ => return Err(format!("unknown flag `{flag}` for `gaps`")),
@@ -260,11 +275,27 @@ fn parse() -> Result<Option<Command>, String> {
                 data,
                 seed,
                 seconds,
+                calm,
                 out,
-                measured_air_data,
+                air_data,
+                apply_corrections,
                 baseline,
                 compatibility,
             }));
+        }
+        Some("gaps-bench") => {
+            // `aerosid gaps-bench [--out DIR] [--draws N] [--clean N]`.
+            let (mut out, mut draws, mut clean) = (std::path::PathBuf::from("out/gaps-bench"), 2usize, 10usize);
+            while let Some(flag) = it.next() {
+                let value = it.next().ok_or_else(|| format!("`{flag}` needs a value"))?;
+                match flag.as_str() {
+                    "--out" => out = value.into(),
+                    "--draws" => draws = value.parse().map_err(|e| format!("--draws {value}: {e}"))?,
+                    "--clean" => clean = value.parse().map_err(|e| format!("--clean {value}: {e}"))?,
+                    _ => return Err(format!("unknown flag `{flag}` for `gaps-bench`")),
+                }
+            }
+            return Ok(Some(Command::GapsBench { out, draws, clean }));
         }
         Some("table1") => {
             return Ok(Some(Command::Table1 {
@@ -500,12 +531,14 @@ fn finish<E: std::fmt::Display>(
 fn run_gaps_command(
     flight: &aerosid_host::io::measured::MeasuredFlight,
     out: &std::path::Path,
-    measured_air_data: bool,
+    air_data: aerosid_host::gaps::airdata::AirDataChoice,
+    apply_corrections: bool,
     baseline: Option<[Vec<aerosid_host::gaps::model::Term>; 6]>,
     compatibility: bool,
 ) -> ExitCode {
     let settings = aerosid_host::gaps::GapSettings {
-        reconstructed_air_data: !measured_air_data,
+        air_data,
+        apply_corrections,
         compatibility,
         baseline,
         ..aerosid_host::gaps::GapSettings::default()
@@ -652,6 +685,29 @@ fn main() -> ExitCode {
                 }
             }
         }
+        Ok(Some(Command::GapsBench { out, draws, clean })) => {
+            let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+            let data = aerosid_host::fem_report::flight_data_dir();
+            let campaign = aerosid_host::gaps::bench::Campaign {
+                draws_per_kind: draws,
+                clean,
+                jsbsim: Some(root.join("data/jsbsim")),
+                real: data.is_dir().then(|| (data, root.join("data/maps"))),
+            };
+            match aerosid_host::gaps::bench::write(&campaign, &out) {
+                Ok(lines) => {
+                    for l in lines {
+                        println!("{l}");
+                    }
+                    println!("wrote {}/manifest.json and its tables", out.display());
+                    ExitCode::SUCCESS
+                }
+                Err(e) => {
+                    eprintln!("aerosid gaps-bench: {e}");
+                    ExitCode::FAILURE
+                }
+            }
+        }
         Ok(Some(Command::Table1 { out })) => finish("table1", "figures", aerosid_host::table1::table1_report(&out)),
         Ok(Some(Command::FemHfb320 { out })) => finish(
             "fem-hfb320",
@@ -671,12 +727,13 @@ fn main() -> ExitCode {
         Ok(Some(Command::Gaps {
             data: Some((data, with)),
             out,
-            measured_air_data,
+            air_data,
+            apply_corrections,
             baseline,
             compatibility,
             ..
         })) => match aerosid_host::io::read_measured(&data, &with) {
-            Ok(flight) => run_gaps_command(&flight, &out, measured_air_data, baseline, compatibility),
+            Ok(flight) => run_gaps_command(&flight, &out, air_data, apply_corrections, baseline, compatibility),
             Err(e) => {
                 eprintln!("aerosid gaps: {e}");
                 ExitCode::FAILURE
@@ -687,8 +744,10 @@ fn main() -> ExitCode {
             data: None,
             seed,
             seconds,
+            calm,
             out,
-            measured_air_data,
+            air_data,
+            apply_corrections,
             baseline,
             compatibility,
         })) => {
@@ -697,14 +756,17 @@ fn main() -> ExitCode {
             use rand::SeedableRng;
             let mut rng = ChaCha8Rng::seed_from_u64(seed);
             let effect = hidden.map(|k| k.draw(&mut rng));
-            let flight = match aerosid_host::gaps::hidden::flight(effect.as_ref(), seconds, seed) {
+            let flight = match aerosid_host::gaps::hidden::flight(effect.as_ref(), seconds, seed, !calm) {
                 Ok(f) => f,
                 Err(e) => {
                     eprintln!("aerosid gaps: {e}");
                     return ExitCode::FAILURE;
                 }
             };
-            run_gaps_command(&flight, &out, measured_air_data, baseline, compatibility)
+            // The campaign's baseline (eq. 3 without the δa a kind hides) unless one is given.
+            let baseline =
+                baseline.or_else(|| Some(aerosid_host::gaps::hidden::HiddenEffect::baseline(effect.as_ref())));
+            run_gaps_command(&flight, &out, air_data, apply_corrections, baseline, compatibility)
         }
         Ok(None) => {
             println!("aerosid — on-line aerodynamic model identification\n");
@@ -713,7 +775,8 @@ fn main() -> ExitCode {
             println!("       aerosid replay LOG.csv [--qemu]");
             println!("       aerosid fem-hfb320 [--out DIR]");
             println!("       aerosid table1 [--out DIR]");
-            println!("       aerosid gaps --data FILE --with MAP_OR_AIRCRAFT [--air-data measured|reconstructed]");
+            println!("       aerosid gaps-bench [--out DIR] [--draws N] [--clean N]   (tables for scripts/bench/)");
+            println!("       aerosid gaps --data FILE --with MAP_OR_AIRCRAFT [--air-data auto|measured|reconstructed|fused] [--no-corrections]");
             println!("                    [--baseline \"CL=1,alpha,dV;Cm=1,alpha,q,de\"] [--compatibility on|off] [--out DIR]");
             println!("       aerosid gaps --simulate KIND | --clean [--seed N] [--seconds S] [--out DIR]");
             println!("       aerosid long-run [--hours H] [--seed N]");

@@ -42,11 +42,38 @@ pub enum HiddenKind {
     SensorBias,
     /// A time delay of the α vane, [0.04, 0.15] s.
     TimeDelay,
+    /// A pitching moment `C_mβ² β²`, `C_mβ²` in ±[1, 3] /rad² (sideslip on a V-tail or a fuselage
+    /// crossflow), not in eq. 3.
+    PitchBeta2,
+    /// Adverse yaw `C_nδa δa`, `C_nδa` in −[0.02, 0.05] /rad; the campaign's `C_n` baseline has no
+    /// δa (see [`HiddenEffect::baseline`]).
+    AdverseYaw,
+    /// The user's `C_l` baseline lacks δa: the roll control derivative is missing from the model.
+    MissingRollControl,
+    /// The elevator moves [0.04, 0.10] s after the logged elevator (servo lag, a log stamped at
+    /// command time): the log leads the surface.
+    ElevatorDelay,
 }
 
 impl HiddenKind {
     /// Every kind.
-    pub const ALL: [HiddenKind; 8] = [
+    pub const ALL: [HiddenKind; 12] = [
+        Self::LiftQuadratic,
+        Self::ElevatorDrag,
+        Self::AlphaDot,
+        Self::ThrustMoment,
+        Self::CrossCoupling,
+        Self::VaneScale,
+        Self::SensorBias,
+        Self::TimeDelay,
+        Self::PitchBeta2,
+        Self::AdverseYaw,
+        Self::MissingRollControl,
+        Self::ElevatorDelay,
+    ];
+
+    /// The kinds of the calm-air campaign (the first eight).
+    pub const CALM: [HiddenKind; 8] = [
         Self::LiftQuadratic,
         Self::ElevatorDrag,
         Self::AlphaDot,
@@ -68,6 +95,10 @@ impl HiddenKind {
             Self::VaneScale => "vane-scale",
             Self::SensorBias => "sensor-bias",
             Self::TimeDelay => "time-delay",
+            Self::PitchBeta2 => "pitch-beta2",
+            Self::AdverseYaw => "adverse-yaw",
+            Self::MissingRollControl => "missing-roll-control",
+            Self::ElevatorDelay => "elevator-delay",
         }
     }
 
@@ -94,6 +125,10 @@ impl HiddenKind {
                 _ => (sign(rng) * u(rng, 0.1, 0.3), Some(FaultChannel::AccelZ)),
             },
             Self::TimeDelay => (u(rng, 0.04, 0.15), Some(FaultChannel::Alpha)),
+            Self::PitchBeta2 => (sign(rng) * u(rng, 1.0, 3.0), None),
+            Self::AdverseYaw => (-u(rng, 0.02, 0.05), None),
+            Self::MissingRollControl => (0.0, None),
+            Self::ElevatorDelay => (u(rng, 0.04, 0.10), None),
         };
         HiddenEffect {
             kind: self,
@@ -117,8 +152,27 @@ pub struct HiddenEffect {
 impl HiddenEffect {
     /// A random kind and size.
     pub fn draw(rng: &mut impl Rng) -> Self {
-        let k = HiddenKind::ALL[rng.random_range(0..HiddenKind::ALL.len())];
+        let k = HiddenKind::CALM[rng.random_range(0..HiddenKind::CALM.len())];
         k.draw(rng)
+    }
+
+    /// A random kind of `kinds` and its size.
+    pub fn draw_from(kinds: &[HiddenKind], rng: &mut impl Rng) -> Self {
+        let k = kinds[rng.random_range(0..kinds.len())];
+        k.draw(rng)
+    }
+
+    /// The baseline the campaign gives the analysis: eq. 3, with no δa in `C_n` (adverse yaw is
+    /// commonly left out of a first model), and none in `C_l` either for
+    /// [`HiddenKind::MissingRollControl`] (a user's model that forgot it).
+    pub fn baseline(effect: Option<&HiddenEffect>) -> [Vec<super::model::Term>; 6] {
+        use super::model::Term;
+        let mut b: [Vec<Term>; 6] = core::array::from_fn(Term::eq3);
+        b[5].retain(|t| *t != Term::Aileron);
+        if effect.is_some_and(|e| e.kind == HiddenKind::MissingRollControl) {
+            b[3].retain(|t| *t != Term::Aileron);
+        }
+        b
     }
 
     /// What the analysis should name: the cause kind and where (`C_L`… or a channel name as the
@@ -139,6 +193,10 @@ impl HiddenEffect {
             HiddenKind::VaneScale => (CauseKind::ScaleFactor, ch(self.channel).into()),
             HiddenKind::SensorBias => (CauseKind::SensorBias, ch(self.channel).into()),
             HiddenKind::TimeDelay => (CauseKind::TimeDelay, ch(self.channel).into()),
+            HiddenKind::PitchBeta2 => (CauseKind::CrossCoupling, "C_m".into()),
+            HiddenKind::AdverseYaw => (CauseKind::ControlTerm, "C_n".into()),
+            HiddenKind::MissingRollControl => (CauseKind::ControlTerm, "C_l".into()),
+            HiddenKind::ElevatorDelay => (CauseKind::ControlDelay, "Elevator".into()),
         }
     }
 
@@ -149,8 +207,16 @@ impl HiddenEffect {
     }
 }
 
-/// The simulator configuration of a gap-analysis flight with `effect` hidden (`None`: clean).
-pub fn config(effect: Option<&HiddenEffect>, duration_s: f64, seed: u64) -> SimConfig {
+/// The campaign's turbulence: Dryden, `σ_u,v,w` 0.3 m/s, `L` 50 m (light turbulence for a small
+/// UAV at 15 m/s: gusts of about 1° in α and β).
+pub const CAMPAIGN_TURBULENCE: Turbulence = Turbulence {
+    lengths_m: [50.0; 3],
+    sigma_mps: [0.3; 3],
+};
+
+/// The simulator configuration of a gap-analysis flight with `effect` hidden (`None`: clean), in
+/// [`CAMPAIGN_TURBULENCE`] or calm air.
+pub fn config(effect: Option<&HiddenEffect>, duration_s: f64, seed: u64, turbulence: bool) -> SimConfig {
     let mut schedule = Schedule::default();
     let mut t = 2.0;
     let mut k = 0;
@@ -192,11 +258,16 @@ pub fn config(effect: Option<&HiddenEffect>, duration_s: f64, seed: u64) -> SimC
                 channel: e.channel.unwrap_or(FaultChannel::Alpha),
                 delay_s: e.size,
             }),
+            HiddenKind::PitchBeta2 => effects.pitch_beta2_per_rad2 = Some(e.size),
+            HiddenKind::AdverseYaw => airframe.aero.yaw.aileron += e.size,
+            // Planted in the analysis's baseline and in the log (see `flight`).
+            HiddenKind::MissingRollControl | HiddenKind::ElevatorDelay => {}
         }
     }
     SimConfig {
         plant: Plant::new(airframe, effects),
         sensors: white_noise_sensors(),
+        turbulence: turbulence.then_some(CAMPAIGN_TURBULENCE),
         schedule,
         duration_s,
         seed,
@@ -207,17 +278,30 @@ pub fn config(effect: Option<&HiddenEffect>, duration_s: f64, seed: u64) -> SimC
 
 /// Simulates the flight and returns it as measured data, with the aircraft file of the nominal
 /// airframe (so a hidden thrust-line offset is unknown to the analysis).
-pub fn flight(effect: Option<&HiddenEffect>, duration_s: f64, seed: u64) -> Result<MeasuredFlight, SimError> {
-    let cfg = config(effect, duration_s, seed);
+pub fn flight(
+    effect: Option<&HiddenEffect>,
+    duration_s: f64,
+    seed: u64,
+    turbulence: bool,
+) -> Result<MeasuredFlight, SimError> {
+    let cfg = config(effect, duration_s, seed, turbulence);
     let out = simulate(&cfg)?;
     let nominal = SimAirframe::skywalker_2013_mod();
     let name = match effect {
         Some(e) => format!("simulated skywalker_2013_mod, hidden {}, seed {seed}", e.describe()),
         None => format!("simulated skywalker_2013_mod, clean, seed {seed}"),
     };
-    Ok(MeasuredFlight::from_samples(
+    let mut f = MeasuredFlight::from_samples(
         &name,
         &out.samples,
         Aircraft::from_airframe("skywalker_2013_mod", &nominal.frame),
-    ))
+    );
+    if let Some(e) = effect.filter(|e| e.kind == HiddenKind::ElevatorDelay) {
+        // The log leads the surface: logged(t) = surface(t + τ), the end held.
+        let h = cfg.output_dt_s;
+        if let Some(de) = f.channels.get_mut(&crate::io::measured::Quantity::Elevator) {
+            *de = super::signal::shift(de, h, e.size);
+        }
+    }
+    Ok(f)
 }

@@ -34,20 +34,25 @@
 //! "before blaming the aerodynamics"), so the **top cause** is the sensor error with the largest
 //! final `t²`, else the aerodynamic term with the largest final `t²` over all coefficients.
 
+pub mod airdata;
+pub mod bench;
 pub mod compat;
 pub mod hidden;
 pub mod model;
 pub mod noise;
 pub mod regress;
 pub mod report;
+pub mod select;
 pub mod signal;
 pub mod simulate;
 
-use crate::io::measured::MeasuredFlight;
+use crate::io::measured::{MeasuredFlight, Quantity};
+use airdata::AirDataChoice;
 use compat::{CompatSettings, Compatibility, SensorParam};
 use model::{CauseKind, Corrections, Signal, Table, Term, TermRefs, COEFFICIENTS};
 use noise::{ColumnErrors, MonteCarlo};
-use regress::{corrected_ls, gtls_fit, metrics, ols, predict, EivModel, Metrics};
+use regress::{gtls_fit, metrics, ols, predict, EivModel, Metrics};
+use std::collections::BTreeMap;
 
 /// Settings of the analysis. `Default` is what the tests and the command use.
 #[derive(Debug, Clone, PartialEq)]
@@ -67,15 +72,20 @@ pub struct GapSettings {
     /// gyro or accelerometer bias was understated: clean flights reached `t²` 16–20 for
     /// `bias(YawRate)`, `bias(AccelY)`; with 5 s at most 15.9 over the 60 campaign flights.)
     pub max_lag_s: f64,
-    /// Most terms added per coefficient. Default 2.
-    pub max_added: usize,
+    /// The blocked cross-validation of the selection ([`select`]).
+    pub cv: select::CvSettings,
     /// Baseline model per coefficient (`None`: eq. 3, [`Term::eq3`]).
     pub baseline: Option<[Vec<Term>; 6]>,
     /// Run the compatibility check. Default true.
     pub compatibility: bool,
-    /// Use the compatibility check's reconstructed airspeed and flow angles in the synthesis and
-    /// regressors ([`model::synthesise`]). Default true; switch off in turbulence.
-    pub reconstructed_air_data: bool,
+    /// The air data of the synthesis and the regressors ([`airdata`]). Default
+    /// [`AirDataChoice::Auto`]: the vanes and the inertial reconstruction fused when both exist.
+    pub air_data: AirDataChoice,
+    /// Remove the sensor errors the compatibility check names (significant, improving the
+    /// held-out reconstruction, identifiable in the air of this flight) from the data before the
+    /// aerodynamics. Default true; the report says so and shows the baselines as logged beside
+    /// them (`as_logged`), so no correction is silent. False: named only.
+    pub apply_corrections: bool,
     /// The errors-in-variables model of the fits ([`noise`]): `Some` (default) — PCA-GTLS with
     /// `W_T` from the Monte Carlo; `None` — every column exact (ordinary least squares).
     pub errors_in_variables: Option<MonteCarlo>,
@@ -85,13 +95,14 @@ impl Default for GapSettings {
     fn default() -> Self {
         Self {
             identification_fraction: 0.6,
-            alpha: 0.001,
+            alpha: 0.01,
             smoothing_half_width_s: 0.1,
             max_lag_s: compat::SEGMENT_S,
-            max_added: 2,
+            cv: select::CvSettings::default(),
             baseline: None,
             compatibility: true,
-            reconstructed_air_data: true,
+            air_data: AirDataChoice::Auto,
+            apply_corrections: true,
             errors_in_variables: Some(MonteCarlo::default()),
         }
     }
@@ -152,19 +163,43 @@ impl core::fmt::Display for GapError {
 
 impl std::error::Error for GapError {}
 
-/// One candidate's score for one coefficient (first round of the selection).
+/// One candidate's score for one coefficient (first round of the selection: the candidate added
+/// to the baseline alone).
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct CandidateScore {
     /// The term.
     pub term: String,
     /// The cause it stands for.
     pub kind: CauseKind,
-    /// Partial `t²`.
+    /// Partial `t²` (block sandwich, [`select`]); 0 when not scored.
     pub t2: f64,
-    /// Identification PSE with the term added.
+    /// Held-out gain: the mean decrease of the blocks' held-out squared error relative to the
+    /// baseline's.
+    pub cv_gain: f64,
+    /// The held-out gain over its standard error across blocks.
+    pub cv_gain_z: f64,
+    /// Not used by the selection (NaN); kept in the schema.
     pub pse: f64,
-    /// Above the threshold and lowering the PSE.
+    /// Both tests passed: `t²` above the threshold and the held-out gain beyond noise.
     pub significant: bool,
+    /// Why the candidate was not scored (`None`: scored).
+    pub reason: Option<String>,
+}
+
+impl CandidateScore {
+    /// A candidate that could not be scored, with the reason.
+    pub fn unscored(t: Term, coef: usize, reason: String) -> Self {
+        Self {
+            term: t.name().into(),
+            kind: t.kind(coef),
+            t2: 0.0,
+            cv_gain: 0.0,
+            cv_gain_z: 0.0,
+            pse: f64::NAN,
+            significant: false,
+            reason: Some(reason),
+        }
+    }
 }
 
 /// One estimated parameter.
@@ -216,6 +251,12 @@ pub struct Added {
     pub value: f64,
     /// Its standard error.
     pub sigma: f64,
+    /// Held-out gain of the extended model over the same model without this term (relative
+    /// decrease of the held-out squared error).
+    pub cv_gain: f64,
+    /// Candidates the data cannot tell apart from this term (in its place they predict the
+    /// held-out blocks not significantly worse).
+    pub alternatives: Vec<String>,
 }
 
 /// The analysis of one coefficient.
@@ -223,6 +264,12 @@ pub struct Added {
 pub struct CoefficientGap {
     /// `C_L` …
     pub name: String,
+    /// What the analysis concludes for this coefficient, in words.
+    pub verdict: String,
+    /// Held-out (blocked cross-validation) R² of the baseline over the whole flight.
+    pub cv_r2_baseline: f64,
+    /// The same for the extended model.
+    pub cv_r2_extended: f64,
     /// Baseline terms requested but not available (channel missing).
     pub dropped_terms: Vec<String>,
     /// The baseline.
@@ -302,8 +349,37 @@ pub struct GapReport {
     pub simulation: simulate::Simulation,
     /// Causes named, top cause first.
     pub named: Vec<NamedCause>,
+    /// Which air data were used and why.
+    pub air_data: String,
+    /// Whether named sensor errors were removed from the data before the aerodynamics.
+    pub corrections_applied: bool,
+    /// The baseline estimates on the data as logged, per coefficient (`term`, value), when the
+    /// aerodynamics were fitted to corrected data: the model before the correction.
+    pub as_logged: Vec<(String, Vec<(String, f64)>)>,
+    /// The overall conclusion, in words.
+    pub verdict: String,
     /// Notes (assumptions, skipped steps).
     pub notes: Vec<String>,
+    /// The regression problem the coefficients were fitted to (for benchmarks that run other
+    /// tools on the same columns).
+    pub regression: Regression,
+}
+
+/// One coefficient of a [`Regression`]: name, synthesised values, baseline terms, candidate terms.
+pub type RegressionCoefficient = (String, Vec<f64>, Vec<Term>, Vec<Term>);
+
+/// The coefficients and every term's column, as the selection saw them.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Regression {
+    /// Time, s.
+    pub t_s: Vec<f64>,
+    /// Samples of the identification segment.
+    pub n_id: usize,
+    /// Per coefficient (`C_L` …): the synthesised coefficient, the baseline's terms and the
+    /// library's terms that have a column.
+    pub coefficients: Vec<RegressionCoefficient>,
+    /// Every term's column.
+    pub columns: BTreeMap<Term, Vec<f64>>,
 }
 
 impl GapReport {
@@ -408,13 +484,18 @@ pub fn run_gaps(flight: &MeasuredFlight, settings: &GapSettings) -> Result<GapRe
     };
     let m = (n_aero + n_compat_est).max(1);
     let z = signal::normal_upper_quantile(settings.alpha / (2.0 * m as f64));
-    let threshold_t2 = z * z;
+    // The compatibility check's statistic is normal (many segments); the coefficients' block
+    // sandwich has G − 1 degrees of freedom (G blocks of `cv.block_s`).
+    let compat_threshold_t2 = z * z;
+    let blocks = (n / ((settings.cv.block_s / h).round() as usize).max(10)).max(2);
+    let threshold_t2 = select::student_t_upper_quantile(settings.alpha / (2.0 * m as f64), blocks as f64 - 1.0).powi(2);
     let mut notes = Vec::new();
     // 1. Compatibility.
     let cs = CompatSettings {
-        threshold_t2,
+        threshold_t2: compat_threshold_t2,
         max_lag,
         max_added: 3,
+        gain_alpha: settings.cv.gain_alpha,
     };
     let compatibility = if settings.compatibility {
         compat::check(flight, h, &cs)
@@ -424,29 +505,19 @@ pub fn run_gaps(flight: &MeasuredFlight, settings: &GapSettings) -> Result<GapRe
             ..Compatibility::default()
         }
     };
-    let mut corr = Corrections::default();
-    for f in &compatibility.found {
-        match f.param {
-            SensorParam::Bias(q) => {
-                corr.bias.insert(q, f.value);
-            }
-            SensorParam::Scale(q) => {
-                corr.scale.insert(q, f.value);
-            }
-            SensorParam::Delay(q) => {
-                corr.delay_s.insert(q, f.value);
-            }
-            SensorParam::VaneX(q) => {
-                corr.vane_dx_m.insert(q, f.value);
-            }
+    let found_corr = corrections_of(&compatibility);
+    let corr = if settings.apply_corrections {
+        if !compatibility.found.is_empty() {
+            notes.push("the sensor errors named are removed from the data before the aerodynamics; the baselines as logged are listed beside (`as_logged`)".into());
         }
-    }
-    // 2–5. Aerodynamics on the corrected data.
-    let air =
-        (settings.reconstructed_air_data && !compatibility.air_data.is_empty()).then_some(&compatibility.air_data);
-    if air.is_some() {
-        notes.push("regressors use the reconstructed airspeed and flow angles (steady air assumed)".into());
-    }
+        found_corr.clone()
+    } else {
+        Corrections::default()
+    };
+    // 2–5. Aerodynamics.
+    let (air_owned, fuse_cutoffs, air_note) = choose_air_data(flight, h, settings.air_data, &compatibility);
+    notes.push(air_note);
+    let air = air_owned.as_ref();
     let table = model::synthesise(flight, h, &corr, sg_half, air);
     notes.extend(table.notes.iter().cloned());
     if table.z.iter().all(|z| z.is_none()) {
@@ -483,6 +554,7 @@ pub fn run_gaps(flight: &MeasuredFlight, settings: &GapSettings) -> Result<GapRe
                 corrections: &corr,
                 sg_half,
                 compat: air.map(|_| &compatibility),
+                fuse_cutoffs: fuse_cutoffs.as_ref(),
                 refs: &refs,
                 n_id,
             };
@@ -496,6 +568,29 @@ pub fn run_gaps(flight: &MeasuredFlight, settings: &GapSettings) -> Result<GapRe
             settings.errors_in_variables.map_or(0, |m| m.replicas)
         ));
     }
+    let mut regression = Regression {
+        t_s: table.t_s.clone(),
+        n_id,
+        ..Regression::default()
+    };
+    for i in 0..6 {
+        let Some(zc) = &table.z[i] else { continue };
+        let mut base = Vec::new();
+        let mut lib = Vec::new();
+        for t in all_terms[i].iter() {
+            if let Some(c) = t.column(&table, &refs) {
+                if baselines[i].contains(t) {
+                    base.push(*t);
+                } else {
+                    lib.push(*t);
+                }
+                regression.columns.entry(*t).or_insert(c);
+            }
+        }
+        regression
+            .coefficients
+            .push((COEFFICIENTS[i].to_string(), zc.clone(), base, lib));
+    }
     let mut coefficients = Vec::new();
     for i in 0..6 {
         let Some(zc) = &table.z[i] else { continue };
@@ -508,6 +603,7 @@ pub fn run_gaps(flight: &MeasuredFlight, settings: &GapSettings) -> Result<GapRe
             n_id,
             threshold_t2,
             max_lag,
+            h,
             settings,
             errors[i].as_ref(),
         ) {
@@ -543,16 +639,7 @@ pub fn run_gaps(flight: &MeasuredFlight, settings: &GapSettings) -> Result<GapRe
         .collect();
     let mut aero: Vec<NamedCause> = coefficients
         .iter()
-        .flat_map(|c| {
-            c.added.iter().map(|a| NamedCause {
-                kind: a.kind,
-                location: c.name.clone(),
-                what: a.term.clone(),
-                t2: a.t2,
-                value: a.value,
-                sigma: a.sigma,
-            })
-        })
+        .flat_map(|c| c.added.iter().map(move |a| named_aero(c, a)))
         .collect();
     // Each list by the partial t² of the cause in the final joint fit (the entry order depends on
     // the path of the selection).
@@ -567,6 +654,18 @@ pub fn run_gaps(flight: &MeasuredFlight, settings: &GapSettings) -> Result<GapRe
     named.sort_by(|a, b| final_t2(b).total_cmp(&final_t2(a)));
     aero.sort_by(|a, b| final_t2(b).total_cmp(&final_t2(a)));
     named.extend(aero);
+    let corrections_applied = settings.apply_corrections && !compatibility.found.is_empty();
+    let as_logged = if corrections_applied {
+        baselines_as_logged(flight, h, sg_half, air, &refs, &baselines, settings)
+    } else {
+        Vec::new()
+    };
+    let verdict = overall_verdict(&named, &coefficients);
+    let air_data = notes
+        .iter()
+        .find(|n| n.starts_with("air data:"))
+        .cloned()
+        .unwrap_or_default();
     let t = &flight.t_s;
     Ok(GapReport {
         source: flight.source.clone(),
@@ -581,18 +680,122 @@ pub fn run_gaps(flight: &MeasuredFlight, settings: &GapSettings) -> Result<GapRe
         simulation,
         named,
         notes,
+        air_data,
+        corrections_applied,
+        as_logged,
+        verdict,
+        regression,
     })
+}
+
+/// A term added to a coefficient, as a named cause. A surface-rate term is a time delay of that
+/// surface: `C_δ·δ(t−τ) ≈ C_δ·δ − C_δτ·δ̇`, so `τ = −θ_δ̇/θ_δ` with `θ_δ` from the same fit.
+fn named_aero(c: &CoefficientGap, a: &Added) -> NamedCause {
+    let surface = match a.term.as_str() {
+        "δė" => Some(("Elevator", "δe")),
+        "δȧ" => Some(("Aileron", "δa")),
+        "δṙ" => Some(("Rudder", "δr")),
+        _ => None,
+    };
+    if let Some((loc, sym)) = surface {
+        let theta_d = c.extended.parameters.iter().find(|p| p.term == sym).map(|p| p.value);
+        let tau = theta_d.map_or(f64::NAN, |d| -a.value / d);
+        return NamedCause {
+            kind: a.kind,
+            location: loc.into(),
+            what: format!(
+                "delay({sym}) {:.3} s (from {} {} = {:+.4}, {sym} = {:+.4})",
+                tau,
+                c.name,
+                a.term,
+                a.value,
+                theta_d.unwrap_or(f64::NAN)
+            ),
+            t2: a.t2,
+            value: tau,
+            sigma: theta_d.map_or(f64::NAN, |d| (a.sigma / d).abs()),
+        };
+    }
+    NamedCause {
+        kind: a.kind,
+        location: c.name.clone(),
+        what: a.term.clone(),
+        t2: a.t2,
+        value: a.value,
+        sigma: a.sigma,
+    }
+}
+
+/// The baselines fitted to the data as logged (least squares over the whole flight), for the
+/// report's before-and-after of the sensor corrections.
+fn baselines_as_logged(
+    flight: &MeasuredFlight,
+    h: f64,
+    sg_half: usize,
+    air: Option<&BTreeMap<Quantity, Vec<f64>>>,
+    refs: &TermRefs,
+    baselines: &[Vec<Term>; 6],
+    settings: &GapSettings,
+) -> Vec<(String, Vec<(String, f64)>)> {
+    let table = model::synthesise(flight, h, &Corrections::default(), sg_half, air);
+    let mut out = Vec::new();
+    for i in 0..6 {
+        let Some(z) = &table.z[i] else { continue };
+        let cols: Vec<(Term, Vec<f64>)> = baselines[i]
+            .iter()
+            .filter_map(|t| t.column(&table, refs).map(|c| (*t, c)))
+            .collect();
+        let refs_c: Vec<&[f64]> = cols.iter().map(|(_, c)| c.as_slice()).collect();
+        let d = select::Design::new(&refs_c, z, h, &settings.cv, None);
+        let idx: Vec<usize> = (0..cols.len()).collect();
+        if let Ok(f) = d.fit(&idx) {
+            out.push((
+                COEFFICIENTS[i].to_string(),
+                cols.iter()
+                    .zip(&f.theta)
+                    .map(|((t, _), v)| (t.name().to_string(), *v))
+                    .collect(),
+            ));
+        }
+    }
+    out
+}
+
+/// The report's conclusion in one sentence.
+fn overall_verdict(named: &[NamedCause], coefficients: &[CoefficientGap]) -> String {
+    let unpredicted: Vec<&str> = coefficients
+        .iter()
+        .filter(|c| c.verdict.starts_with("the model does not predict"))
+        .map(|c| c.name.as_str())
+        .collect();
+    let tail = if unpredicted.is_empty() {
+        String::new()
+    } else {
+        format!(
+            "; {} not predicted by the model, so their causes are not identifiable from this flight",
+            unpredicted.join(", ")
+        )
+    };
+    match named.first() {
+        None if unpredicted.is_empty() => {
+            "nothing missing: the baseline predicts the held-out data within noise".to_string()
+        }
+        None => format!("no cause named{tail}"),
+        Some(top) => format!(
+            "{} cause{} named, top: {:?} in {}: {}{tail}",
+            named.len(),
+            if named.len() == 1 { "" } else { "s" },
+            top.kind,
+            top.location,
+            top.what
+        ),
+    }
 }
 
 /// How many sensor-error candidates the compatibility check will test on this flight.
 fn compat_candidate_count(flight: &MeasuredFlight) -> usize {
     compat::attitude_candidates(flight).len() + compat::velocity_candidates(flight).len()
 }
-
-/// Candidates scored above the threshold by the closed form are confirmed by the estimator, best
-/// first, at most this many per round (the closed form and the estimator agree to rounding, so the
-/// first is normally confirmed).
-const CONFIRM_PER_ROUND: usize = 3;
 
 #[allow(clippy::too_many_arguments)]
 fn analyse_coefficient(
@@ -604,6 +807,7 @@ fn analyse_coefficient(
     n_id: usize,
     threshold_t2: f64,
     max_lag: usize,
+    h_s: f64,
     settings: &GapSettings,
     errors: Option<&ColumnErrors>,
 ) -> Option<CoefficientGap> {
@@ -664,98 +868,29 @@ fn analyse_coefficient(
     };
     let (baseline, base_pred, base_fit) = fit_model(&cols_full, &terms)?;
     let baseline_model: Vec<(Term, f64)> = terms.iter().copied().zip(base_fit.theta.iter().copied()).collect();
-    // Candidate columns.
-    let library: Vec<(Term, Vec<f64>)> = Term::library(i)
-        .into_iter()
-        .filter(|t| !terms.contains(t))
-        .filter_map(|t| t.column(table, refs).map(|c| (t, c)))
-        .collect();
+    // Every candidate of the library, with its column or the reason it has none.
     let mut candidates = Vec::new();
-    let mut added: Vec<(Term, f64)> = Vec::new();
-    // Terms that entered once (they are not offered again, whether or not they were removed).
-    let mut entered_once: Vec<Term> = Vec::new();
-    for round in 0..settings.max_added {
-        let cols: Vec<Vec<f64>> = cols_full.iter().map(id).collect();
-        // Score every candidate by the closed form of the GTLS solution (regress::corrected_ls).
-        let mut scored: Vec<(Term, f64)> = Vec::new();
-        for (t, c) in &library {
-            if terms.contains(t) || (round > 0 && entered_once.contains(t)) {
-                continue;
-            }
-            let mut ext = cols.clone();
-            ext.push(c[..n_id].to_vec());
-            let mut ext_terms = terms.clone();
-            ext_terms.push(*t);
-            let j = ext.len() - 1;
-            let Some((f, _)) = corrected_ls(&ext, z_id, &eiv_of(&ext_terms), n_id, max_lag, Some(j)) else {
-                continue;
-            };
-            let t2 = if f.sigma[j] > 0.0 {
-                (f.theta[j] / f.sigma[j]).powi(2)
-            } else {
-                0.0
-            };
-            let zhat: Vec<f64> = z_id.iter().zip(&f.residual).map(|(a, r)| a - r).collect();
-            let pse = metrics(z_id, &zhat, ext.len()).pse;
-            if round == 0 {
-                candidates.push(CandidateScore {
-                    term: t.name().into(),
-                    kind: t.kind(i),
-                    t2,
-                    pse,
-                    significant: t2 > threshold_t2,
-                });
-            }
-            if t2 > threshold_t2 {
-                scored.push((*t, t2));
-            }
-        }
-        scored.sort_by(|a, b| b.1.total_cmp(&a.1));
-        // The best significant candidate whose estimator fit confirms it enters.
-        let mut entered = None;
-        for (t, _) in scored.iter().take(CONFIRM_PER_ROUND) {
-            let c = library.iter().find(|(x, _)| x == t).map(|x| x.1.clone())?;
-            let mut ext = cols.clone();
-            ext.push(c[..n_id].to_vec());
-            let mut ext_terms = terms.clone();
-            ext_terms.push(*t);
-            let j = ext.len() - 1;
-            let Some(g) = gtls_fit(&ext, z_id, &eiv_of(&ext_terms), n_id, max_lag, Some(j)) else {
-                continue;
-            };
-            let t2 = (g.theta[j] / g.sigma[j]).powi(2);
-            if t2.is_finite() && t2 > threshold_t2 {
-                entered = Some((*t, t2, c));
-                break;
-            }
-        }
-        let Some((t, t2, c)) = entered else { break };
-        terms.push(t);
-        cols_full.push(c);
-        added.push((t, t2));
-        entered_once.push(t);
-        // The removal step of stepwise regression (Klein & Morelli 2006 §5.4.1), as in the
-        // compatibility check: an added term whose partial t² in the joint fit fell below the
-        // threshold leaves (and may not re-enter: it stays in `entered_once`).
-        while added.len() > 1 {
-            let cols: Vec<Vec<f64>> = cols_full.iter().map(id).collect();
-            let Some(g) = gtls_fit(&cols, z_id, &eiv_of(&terms), n_id, max_lag, None) else {
-                break;
-            };
-            let p0 = terms.len() - added.len();
-            let weakest = (0..added.len())
-                .map(|k| (k, (g.theta[p0 + k] / g.sigma[p0 + k]).powi(2)))
-                .min_by(|a, b| a.1.total_cmp(&b.1));
-            match weakest {
-                Some((k, t2)) if t2.is_nan() || t2 <= threshold_t2 => {
-                    added.remove(k);
-                    terms.remove(p0 + k);
-                    cols_full.remove(p0 + k);
-                }
-                _ => break,
-            }
+    let mut library: Vec<(Term, Vec<f64>)> = Vec::new();
+    for t in Term::library(i).into_iter().filter(|t| !terms.contains(t)) {
+        match t.column(table, refs) {
+            Some(c) => library.push((t, c)),
+            None => candidates.push(CandidateScore::unscored(
+                t,
+                i,
+                "a signal it needs is not in the log".into(),
+            )),
         }
     }
+    let sel = stepwise(i, zc, h_s, &terms, &cols_full, &library, errors, threshold_t2, settings);
+    candidates.extend(sel.candidates);
+    let added_terms: Vec<(Term, f64, f64, Vec<Term>)> = sel.added;
+    for (t, _, _, _) in &added_terms {
+        if let Some((_, c)) = library.iter().find(|(x, _)| x == t) {
+            terms.push(*t);
+            cols_full.push(c.clone());
+        }
+    }
+    let added: Vec<(Term, f64)> = added_terms.iter().map(|(t, t2, _, _)| (*t, *t2)).collect();
     candidates.sort_by(|a, b| b.t2.total_cmp(&a.t2));
     let (extended, ext_pred, ext_fit) = fit_model(&cols_full, &terms)?;
     let p0 = terms.len() - added.len();
@@ -768,10 +903,15 @@ fn analyse_coefficient(
             t2: *t2,
             value: ext_fit.theta[p0 + k],
             sigma: ext_fit.sigma[p0 + k],
+            cv_gain: added_terms[k].2,
+            alternatives: added_terms[k].3.iter().map(|a| a.name().to_string()).collect(),
         })
         .collect();
     Some(CoefficientGap {
         name: COEFFICIENTS[i].into(),
+        verdict: sel.verdict,
+        cv_r2_baseline: sel.cv_r2_baseline,
+        cv_r2_extended: sel.cv_r2_extended,
         dropped_terms: dropped,
         baseline,
         candidates,
@@ -787,4 +927,336 @@ fn analyse_coefficient(
         baseline_model,
         extended_model: terms.iter().copied().zip(ext_fit.theta.iter().copied()).collect(),
     })
+}
+
+/// Below this held-out R² the baseline is said not to predict the coefficient, and no cause is
+/// named for it: a term that "improves" a model which explains less than half of the held-out
+/// variation fits whatever the model misses (turbulence, unmodelled inputs, a wrong synthesis),
+/// and naming it would be a confident answer the data do not support.
+pub const MIN_PREDICTIVE_R2: f64 = 0.5;
+
+/// Smallest ratio of a candidate column's variance to its error variance for it to be scored
+/// (eq. 21's excitation condition with a margin: below 4 the column is mostly its own noise).
+const MIN_EXCITATION: f64 = 4.0;
+
+/// The outcome of the stepwise selection of one coefficient.
+struct Selection {
+    candidates: Vec<CandidateScore>,
+    /// Added terms: (term, `t²` in the final joint fit, held-out gain relative to the model
+    /// without it, the candidates the data cannot tell apart from it).
+    added: Vec<(Term, f64, f64, Vec<Term>)>,
+    verdict: String,
+    cv_r2_baseline: f64,
+    cv_r2_extended: f64,
+}
+
+/// Forward selection with the removal step (Klein & Morelli 2006 §5.4.1), each entry decided by
+/// both tests of [`select`]: the partial `t²` with the block sandwich above the Bonferroni
+/// threshold, and a held-out gain beyond noise. No cap on the number of terms.
+#[allow(clippy::too_many_arguments)]
+fn stepwise(
+    i: usize,
+    zc: &[f64],
+    h_s: f64,
+    base_terms: &[Term],
+    base_cols: &[Vec<f64>],
+    library: &[(Term, Vec<f64>)],
+    errors: Option<&ColumnErrors>,
+    threshold_t2: f64,
+    settings: &GapSettings,
+) -> Selection {
+    let nb = base_terms.len();
+    let terms: Vec<Term> = base_terms
+        .iter()
+        .copied()
+        .chain(library.iter().map(|(t, _)| *t))
+        .collect();
+    let cols: Vec<&[f64]> = base_cols
+        .iter()
+        .map(Vec::as_slice)
+        .chain(library.iter().map(|(_, c)| c.as_slice()))
+        .collect();
+    let p = terms.len();
+    // The per-sample error covariance of [X z] from the Monte Carlo (exact columns: zero).
+    let w: Option<Vec<f64>> = errors.map(|e| {
+        let k = e.terms.len() + 1;
+        let idx = |j: usize| {
+            if j < p {
+                e.terms.iter().position(|t| *t == terms[j] && !e.is_exact(t))
+            } else {
+                Some(k - 1)
+            }
+        };
+        let mut w = vec![0.0; (p + 1) * (p + 1)];
+        for r in 0..=p {
+            for c in 0..=p {
+                if let (Some(a), Some(b)) = (idx(r), idx(c)) {
+                    w[r * (p + 1) + c] = e.cov[a * k + b];
+                }
+            }
+        }
+        w
+    });
+    let mut design = select::Design::new(&cols, zc, h_s, &settings.cv, w.as_deref());
+    if let Some(j) = terms.iter().position(|t| *t == Term::One) {
+        design = design.with_ones(j);
+    }
+    let g = design.n_blocks();
+    let gain_crit = select::student_t_upper_quantile(settings.cv.gain_alpha, (g as f64 - 1.0).max(1.0));
+    let mut out = Selection {
+        candidates: Vec::new(),
+        added: Vec::new(),
+        verdict: String::new(),
+        cv_r2_baseline: f64::NAN,
+        cv_r2_extended: f64::NAN,
+    };
+    let mut model: Vec<usize> = (0..nb).collect();
+    let base = match design.fit(&model) {
+        Ok(f) => f,
+        Err(e) => {
+            out.verdict = format!("the baseline cannot be fitted ({e:?}): no candidate scored");
+            out.candidates = library
+                .iter()
+                .map(|(t, _)| CandidateScore::unscored(*t, i, "the baseline cannot be fitted".into()))
+                .collect();
+            return out;
+        }
+    };
+    out.cv_r2_baseline = design.cv_r2(&base);
+    // Excitation: a column whose variation does not clearly exceed its error is not scored.
+    let excitation = |j: usize| -> Option<f64> {
+        let e = errors?;
+        let var_err = e.variance(&terms[j]);
+        if var_err <= 0.0 {
+            return None;
+        }
+        let c = cols[j];
+        let m = c.iter().sum::<f64>() / c.len() as f64;
+        let var = c.iter().map(|x| (x - m).powi(2)).sum::<f64>() / c.len() as f64;
+        Some(var / var_err)
+    };
+    let mut removed: Vec<usize> = Vec::new();
+    let mut current = base.clone();
+    let mut first = true;
+    loop {
+        let mut best: Option<(usize, f64, select::SubsetFit)> = None;
+        for j in nb..p {
+            if model.contains(&j) || removed.contains(&j) {
+                continue;
+            }
+            if let Some(r) = excitation(j).filter(|r| *r < MIN_EXCITATION) {
+                if first {
+                    out.candidates.push(CandidateScore::unscored(
+                        terms[j],
+                        i,
+                        format!("not enough excitation: its variation is {r:.1}× its error variance"),
+                    ));
+                }
+                continue;
+            }
+            let mut trial = model.clone();
+            trial.push(j);
+            let f = match design.fit(&trial) {
+                Ok(f) => f,
+                Err(e) => {
+                    if first {
+                        let why = match e {
+                            select::Unfit::NotPositiveDefinite => {
+                                "collinear with the model or not excited (singular normal equations)"
+                            }
+                            select::Unfit::TooFewData => "too few data blocks",
+                        };
+                        out.candidates.push(CandidateScore::unscored(terms[j], i, why.into()));
+                    }
+                    continue;
+                }
+            };
+            let t2 = f.t2(trial.len() - 1);
+            let (z, rel) = select::gain(&current.cv_sse, &f.cv_sse);
+            let ok = t2 > threshold_t2 && z > gain_crit;
+            if first {
+                out.candidates.push(CandidateScore {
+                    term: terms[j].name().into(),
+                    kind: terms[j].kind(i),
+                    t2,
+                    cv_gain: rel,
+                    cv_gain_z: z,
+                    pse: f64::NAN,
+                    significant: ok,
+                    reason: None,
+                });
+            }
+            // The classical order of forward selection: the largest partial t² among the
+            // candidates that pass both tests.
+            if ok && best.as_ref().is_none_or(|b| t2 > b.1) {
+                best = Some((j, t2, f));
+            }
+        }
+        first = false;
+        let Some((j, _, f)) = best else { break };
+        model.push(j);
+        current = f;
+        // The removal step: an added term that no longer passes both tests in the joint model
+        // leaves (the weakest first) and may not re-enter.
+        loop {
+            let mut weakest: Option<(usize, f64)> = None;
+            for (k, &c) in model.iter().enumerate().skip(nb) {
+                let t2 = current.t2(k);
+                let without: Vec<usize> = model.iter().copied().filter(|&x| x != c).collect();
+                let z = design
+                    .fit(&without)
+                    .map_or(f64::INFINITY, |w| select::gain(&w.cv_sse, &current.cv_sse).0);
+                if (t2 <= threshold_t2 || z <= gain_crit) && weakest.is_none_or(|w| t2 < w.1) {
+                    weakest = Some((c, t2));
+                }
+            }
+            let Some((c, _)) = weakest else { break };
+            model.retain(|&x| x != c);
+            removed.push(c);
+            match design.fit(&model) {
+                Ok(f) => current = f,
+                Err(_) => break,
+            }
+        }
+    }
+    out.cv_r2_extended = design.cv_r2(&current);
+    // A model that does not predict the held-out blocks even when extended names nothing.
+    let predictive = out.cv_r2_extended >= MIN_PREDICTIVE_R2;
+    if !predictive {
+        model.truncate(nb);
+    }
+    // What the data cannot tell apart: a candidate that, in place of an added term, predicts
+    // the held-out blocks not significantly worse and is itself significant.
+    for (k, &a) in model.iter().enumerate().skip(nb) {
+        let mut alternatives = Vec::new();
+        for j in nb..p {
+            if model.contains(&j) {
+                continue;
+            }
+            let swapped: Vec<usize> = model.iter().map(|&x| if x == a { j } else { x }).collect();
+            let Ok(f) = design.fit(&swapped) else { continue };
+            let (z, _) = select::gain(&current.cv_sse, &f.cv_sse);
+            if z > -gain_crit && f.t2(k) > threshold_t2 {
+                alternatives.push(terms[j]);
+            }
+        }
+        let without: Vec<usize> = model.iter().copied().filter(|&x| x != a).collect();
+        let rel = design
+            .fit(&without)
+            .map_or(f64::NAN, |w| select::gain(&w.cv_sse, &current.cv_sse).1);
+        out.added.push((terms[a], current.t2(k), rel, alternatives));
+    }
+    out.verdict = if !predictive {
+        format!(
+            "the model does not predict this coefficient (held-out R² {:.2} baseline, {:.2} extended, < {MIN_PREDICTIVE_R2}): causes not identifiable from this flight",
+            out.cv_r2_baseline, out.cv_r2_extended
+        )
+    } else if out.added.is_empty() {
+        format!(
+            "nothing missing: no candidate predicts held-out data better than the baseline beyond noise (held-out R² {:.3})",
+            out.cv_r2_baseline
+        )
+    } else {
+        format!(
+            "extended: held-out R² {:.3} → {:.3}",
+            out.cv_r2_baseline, out.cv_r2_extended
+        )
+    };
+    out
+}
+
+/// The corrections of the sensor errors the compatibility check named.
+fn corrections_of(c: &Compatibility) -> Corrections {
+    let mut corr = Corrections::default();
+    for f in &c.found {
+        match f.param {
+            SensorParam::Bias(q) => {
+                corr.bias.insert(q, f.value);
+            }
+            SensorParam::Scale(q) => {
+                corr.scale.insert(q, f.value);
+            }
+            SensorParam::Delay(q) => {
+                corr.delay_s.insert(q, f.value);
+            }
+            SensorParam::VaneX(q) => {
+                corr.vane_dx_m.insert(q, f.value);
+            }
+        }
+    }
+    corr
+}
+
+/// The air data the analysis uses (`None`: the sensors as logged), the fusion's crossovers, and
+/// the report's sentence saying which and why.
+#[allow(clippy::type_complexity)]
+fn choose_air_data(
+    flight: &MeasuredFlight,
+    h_s: f64,
+    choice: AirDataChoice,
+    compat: &Compatibility,
+) -> (
+    Option<BTreeMap<Quantity, Vec<f64>>>,
+    Option<BTreeMap<Quantity, f64>>,
+    String,
+) {
+    let vanes = flight.get(Quantity::Alpha).is_some() && flight.get(Quantity::Airspeed).is_some();
+    let rec = !compat.air_data.is_empty();
+    let turbulent = !compat.turbulent.is_empty();
+    let resolved = match choice {
+        AirDataChoice::Auto if vanes && rec && !turbulent => AirDataChoice::Fused,
+        AirDataChoice::Auto if vanes => AirDataChoice::Measured,
+        AirDataChoice::Auto if rec => AirDataChoice::Reconstructed,
+        AirDataChoice::Fused if !rec || !vanes => {
+            if vanes {
+                AirDataChoice::Measured
+            } else {
+                AirDataChoice::Reconstructed
+            }
+        }
+        AirDataChoice::Reconstructed if !rec => AirDataChoice::Measured,
+        c => c,
+    };
+    let asked = if resolved == choice || choice == AirDataChoice::Auto {
+        String::new()
+    } else {
+        format!(" ({} asked for, not available)", choice.name())
+    };
+    match resolved {
+        AirDataChoice::Fused => {
+            let (air, fcs) = airdata::fuse_all(flight, &compat.air_data, h_s, None);
+            let list: Vec<String> = fcs.iter().map(|(q, f)| format!("{q:?} {f} Hz")).collect();
+            (
+                Some(air),
+                Some(fcs),
+                format!(
+                    "air data: fused{asked} — the vanes/pitot below and the inertial reconstruction above a crossover chosen from the data ({}); both are logged",
+                    list.join(", ")
+                ),
+            )
+        }
+        AirDataChoice::Reconstructed if rec => (
+            Some(compat.air_data.clone()),
+            None,
+            format!(
+                "air data: reconstructed{asked} from the accelerometers, gyros and attitude (steady air assumed: gusts are model errors here){}",
+                if vanes { "" } else { "; no α vane or airspeed in the log" }
+            ),
+        ),
+        AirDataChoice::Measured if vanes => (
+            None,
+            None,
+            format!(
+                "air data: measured{asked} (vanes and pitot as logged){}",
+                if !rec {
+                    "; no inertial reconstruction possible"
+                } else if turbulent {
+                    "; turbulence detected, so the reconstruction (which misses the gusts) is not used, nor fused (the gusts it misses would bias the fits)"
+                } else {
+                    ""
+                }
+            ),
+        ),
+        _ => (None, None, "air data: none usable (no vanes and no inertial reconstruction)".into()),
+    }
 }

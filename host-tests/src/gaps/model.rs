@@ -98,11 +98,19 @@ pub enum Signal {
     AlphaDotN,
     /// `β̇ b/(2V)`.
     BetaDotN,
+    /// δė, rad/s (the column of a time delay of the elevator: `δe(t−τ) ≈ δe − τ δė`).
+    ElevatorRate,
+    /// δȧ, rad/s.
+    AileronRate,
+    /// δṙ, rad/s.
+    RudderRate,
+    /// The measured lift coefficient (a regressor of `C_D`: the drag polar's `C_L²`).
+    LiftCoeff,
 }
 
 impl Signal {
     /// Every signal.
-    pub const ALL: [Signal; 13] = [
+    pub const ALL: [Signal; 17] = [
         Signal::Alpha,
         Signal::Beta,
         Signal::PN,
@@ -116,6 +124,10 @@ impl Signal {
         Signal::ThrustCoeff,
         Signal::AlphaDotN,
         Signal::BetaDotN,
+        Signal::ElevatorRate,
+        Signal::AileronRate,
+        Signal::RudderRate,
+        Signal::LiftCoeff,
     ];
 
     /// Position in [`Signal::ALL`].
@@ -125,12 +137,12 @@ impl Signal {
 }
 
 /// The value of every signal at one instant (NaN: not available), indexed by [`Signal::index`].
-pub type Snapshot = [f64; 13];
+pub type Snapshot = [f64; Signal::ALL.len()];
 
 impl Table {
     /// The signals at sample `k` plus `frac` of a step (linear interpolation; NaN where absent).
     pub fn snapshot(&self, k: usize, frac: f64) -> Snapshot {
-        let mut out = [f64::NAN; 13];
+        let mut out = [f64::NAN; Signal::ALL.len()];
         for (sig, v) in &self.signals {
             let a = v[k];
             out[sig.index()] = if frac == 0.0 || k + 1 >= v.len() {
@@ -310,6 +322,13 @@ pub fn synthesise(
     let alpha = sm(alpha_raw);
     let beta = sm(beta_raw);
     let (de, da, dr) = (sm(raw(Elevator)), sm(raw(Aileron)), sm(raw(Rudder)));
+    // Surface rates: differentiated before smoothing, as α̇ (the signal module's doc says why).
+    let rate = |q: Quantity| raw(q).map(|x| sg_smooth(&derivative(&x, h_s), sg_half));
+    let surface_rates = [
+        (Signal::ElevatorRate, rate(Elevator)),
+        (Signal::AileronRate, rate(Aileron)),
+        (Signal::RudderRate, rate(Rudder)),
+    ];
     let (axs, ays, azs) = (sm(raw(AccelX)), sm(raw(AccelY)), sm(raw(AccelZ)));
     // Density and dynamic pressure.
     let rho: Option<Vec<f64>> = match (flight.get(AirDensity), flight.get(Altitude)) {
@@ -514,12 +533,54 @@ pub fn synthesise(
             signals.insert(sig, x);
         }
     }
+    for (sig, x) in surface_rates {
+        if let Some(x) = x {
+            signals.insert(sig, x);
+        }
+    }
+    if let Some(cl) = &z[0] {
+        signals.insert(Signal::LiftCoeff, cl.clone());
+    }
     if let Some(m) = flight.get(Mach) {
         signals.insert(Signal::Mach, sg_smooth(m, sg_half));
     }
     if thrust_known {
         signals.insert(Signal::ThrustCoeff, (0..n).map(|i| thrust_n[i] / qs[i]).collect());
     }
+    // α̇ and β̇ from the kinematics when the accelerations, rates and attitude are measured
+    // (Klein & Morelli 2006 §10.1: the flow-angle rates from `u̇, v̇, ẇ` of the rigid-body
+    // equations, with `u, v, w` from the measured air data): differentiating a vane amplifies its
+    // noise by about `1/h` — on the campaign's flights the differentiated α̇ column was half noise
+    // (variance 2× its error variance), the kinematic one is not.
+    let kinematic_rates = (|| {
+        let (th, ph) = (
+            sg_smooth(flight.get(Pitch)?, sg_half),
+            sg_smooth(flight.get(Roll)?, sg_half),
+        );
+        let (_, _) = (axs.as_ref()?, azs.as_ref()?);
+        let (mut ad, mut bd) = (vec![0.0; n], vec![0.0; n]);
+        for i in 0..n {
+            let (ax, az) = (accel(i, &axs, 0)?, accel(i, &azs, 2)?);
+            let ay = accel(i, &ays, 1).unwrap_or(0.0);
+            let (p, q, r) = (pw[i], qw[i], rw[i]);
+            let vt = vv[i];
+            let (sa, ca) = al[i].sin_cos();
+            let (sb, cb) = be[i].sin_cos();
+            let (u, v, w) = (vt * ca * cb, vt * sb, vt * sa * cb);
+            let g = 9.806_65;
+            let udot = ax - g * th[i].sin() + r * v - q * w;
+            let vdot = ay + g * th[i].cos() * ph[i].sin() + p * w - r * u;
+            let wdot = az + g * th[i].cos() * ph[i].cos() + q * u - p * v;
+            ad[i] = (u * wdot - w * udot) / (u * u + w * w);
+            let vtdot = (u * udot + v * vdot + w * wdot) / vt;
+            bd[i] = (vdot * vt - v * vtdot) / (vt * vt * cb.max(0.1));
+        }
+        Some((ad, bd))
+    })();
+    let (alpha_dot, beta_dot) = match kinematic_rates {
+        Some((ad, bd)) if alpha_dot.is_some() => (Some(ad), beta_dot.map(|_| bd)),
+        _ => (alpha_dot, beta_dot),
+    };
     if let Some(x) = alpha_dot {
         signals.insert(Signal::AlphaDotN, (0..n).map(|i| x[i] * c / (2.0 * vv[i])).collect());
     }
@@ -585,6 +646,8 @@ pub enum CauseKind {
     TimeDelay,
     /// A vane not where the aircraft file says (not at the CG).
     VanePosition,
+    /// A control surface's time delay (its rate enters the coefficient).
+    ControlDelay,
 }
 
 /// A model term: an eq. 3 regressor or a candidate of the library.
@@ -648,6 +711,18 @@ pub enum Term {
     Thrust,
     /// `T/(q̄S) · δe` (propwash on the tail).
     ThrustElevator,
+    /// `w·ln(1 + e^{(α−α_b)/w})`, `w` = 0.02 rad: a smooth hinge at `α_b` (the 85th percentile of
+    /// α), the lift-curve slope changing over a few degrees — the onset of stall as a smooth
+    /// saturation rather than the kink of [`Term::StallBreak`].
+    StallHinge,
+    /// `C_L²` (the measured lift coefficient squared): the drag polar's induced drag.
+    Lift2,
+    /// δė: a time delay `τ` of the elevator, `C_δe·δe(t−τ) ≈ C_δe·δe − C_δe τ·δė`.
+    ElevatorRate,
+    /// δȧ: a time delay of the ailerons.
+    AileronRate,
+    /// δṙ: a time delay of the rudder.
+    RudderRate,
 }
 
 /// Reference values of the terms that need them, from the identification segment.
@@ -675,7 +750,8 @@ impl Term {
     /// The candidate library of a coefficient (before removing terms already in the model).
     pub fn library(coef: usize) -> Vec<Term> {
         use Term::*;
-        if is_longitudinal(coef) {
+        // C_L² is a regressor of the drag only (in C_L it is the output itself).
+        let mut lib = if is_longitudinal(coef) {
             vec![
                 One,
                 Alpha,
@@ -695,6 +771,9 @@ impl Term {
                 Mach,
                 Thrust,
                 ThrustElevator,
+                StallHinge,
+                Lift2,
+                ElevatorRate,
             ]
         } else {
             vec![
@@ -713,8 +792,12 @@ impl Term {
                 Speed,
                 Mach,
                 Thrust,
+                AileronRate,
+                RudderRate,
             ]
-        }
+        };
+        lib.retain(|t| *t != Lift2 || coef == 1);
+        lib
     }
 
     /// Printable name.
@@ -750,6 +833,11 @@ impl Term {
             Mach => "ΔM",
             Thrust => "C_T",
             ThrustElevator => "C_T·δe",
+            StallHinge => "stall(α)",
+            Lift2 => "C_L²",
+            ElevatorRate => "δė",
+            AileronRate => "δȧ",
+            RudderRate => "δṙ",
         }
     }
 
@@ -757,7 +845,8 @@ impl Term {
     pub fn kind(&self, coef: usize) -> CauseKind {
         use Term::*;
         match self {
-            Alpha2 | Alpha3 | StallBreak => CauseKind::NonlinearAlpha,
+            Alpha2 | Alpha3 | StallBreak | StallHinge | Lift2 => CauseKind::NonlinearAlpha,
+            ElevatorRate | AileronRate | RudderRate => CauseKind::ControlDelay,
             AbsElevator | Elevator2 | AlphaElevator | AlphaAileron | Elevator | Aileron | Rudder => {
                 CauseKind::ControlTerm
             }
@@ -812,6 +901,11 @@ impl Term {
             Mach => g(Signal::Mach)? - refs.mach,
             Thrust => g(Signal::ThrustCoeff)?,
             ThrustElevator => g(Signal::ThrustCoeff)? * g(Signal::Elevator)?,
+            StallHinge => stall_hinge(a()?, refs.alpha_break_rad),
+            Lift2 => g(Signal::LiftCoeff)?.powi(2),
+            ElevatorRate => g(Signal::ElevatorRate)?,
+            AileronRate => g(Signal::AileronRate)?,
+            RudderRate => g(Signal::RudderRate)?,
         };
         Some(v)
     }
@@ -849,6 +943,11 @@ impl Term {
             Mach => "dMach",
             Thrust => "CT",
             ThrustElevator => "CT_de",
+            StallHinge => "stall_smooth",
+            Lift2 => "CL2",
+            ElevatorRate => "dedot",
+            AileronRate => "dadot",
+            RudderRate => "drdot",
         }
     }
 
@@ -858,7 +957,7 @@ impl Term {
     }
 
     /// Every term (the union of the libraries and eq. 3).
-    pub const ALL: [Term; 29] = [
+    pub const ALL: [Term; 34] = [
         Term::One,
         Term::Alpha,
         Term::Alpha2,
@@ -888,6 +987,11 @@ impl Term {
         Term::Mach,
         Term::Thrust,
         Term::ThrustElevator,
+        Term::StallHinge,
+        Term::Lift2,
+        Term::ElevatorRate,
+        Term::AileronRate,
+        Term::RudderRate,
     ];
 
     /// The term's column, or `None` when a signal it needs is missing.
@@ -936,6 +1040,23 @@ impl Term {
             }
             Thrust => s(Signal::ThrustCoeff).cloned(),
             ThrustElevator => map2(Signal::ThrustCoeff, Signal::Elevator),
+            StallHinge => {
+                let ab = refs.alpha_break_rad;
+                map1(Signal::Alpha, &|a| stall_hinge(a, ab))
+            }
+            Lift2 => map1(Signal::LiftCoeff, &|c| c * c),
+            ElevatorRate => s(Signal::ElevatorRate).cloned(),
+            AileronRate => s(Signal::AileronRate).cloned(),
+            RudderRate => s(Signal::RudderRate).cloned(),
         }
     }
+}
+
+/// Width of the smooth stall hinge, rad.
+const STALL_WIDTH_RAD: f64 = 0.02;
+
+/// The smooth hinge `w·ln(1 + e^{(α−α_b)/w})` of [`Term::StallHinge`] (overflow-free form).
+fn stall_hinge(alpha: f64, alpha_b: f64) -> f64 {
+    let x = (alpha - alpha_b) / STALL_WIDTH_RAD;
+    STALL_WIDTH_RAD * (x.max(0.0) + (-x.abs()).exp().ln_1p())
 }

@@ -144,6 +144,8 @@ pub struct Synthesis<'a> {
     /// The compatibility check whose reconstructed air data the table used (`None`: measured air
     /// data).
     pub compat: Option<&'a Compatibility>,
+    /// The fusion's crossovers when the air data are fused ([`super::airdata`]).
+    pub fuse_cutoffs: Option<&'a BTreeMap<crate::io::measured::Quantity, f64>>,
     /// Term references.
     pub refs: &'a TermRefs,
     /// Identification samples (the moments are taken over `0..n_id`).
@@ -184,7 +186,10 @@ pub fn column_errors(
             }
         }
         let air = s.compat.map(|c| reconstruct_air_data(&pert, s.h_s, c));
-        let air = air.filter(|a| !a.is_empty());
+        let air = air.filter(|a| !a.is_empty()).map(|a| match s.fuse_cutoffs {
+            Some(fc) => super::airdata::fuse_all(&pert, &a, s.h_s, Some(fc)).0,
+            None => a,
+        });
         let tk = synthesise(&pert, s.h_s, s.corrections, s.sg_half, air.as_ref());
         count += n_id;
         for i in 0..6 {

@@ -1,5 +1,5 @@
 //! The report of the model-gap analysis: a terminal table a person reads, SVG figures, and the JSON
-//! document a script reads (schema `aerosid-gaps/2`, described in `docs/model-gaps.md`).
+//! document a script reads (schema `aerosid-gaps/3`, described in `docs/model-gaps.md`).
 
 use super::{CoefficientGap, GapReport};
 use crate::plot::{Colour, Figure, Line, Panel, PlotError};
@@ -52,20 +52,43 @@ pub fn table(r: &GapReport) -> String {
             c.param.unit()
         );
     }
+    for f in &r.compatibility.rejected {
+        let _ = writeln!(
+            s,
+            "   not named {:<14} {:+.5} ± {:.5} {} (t² {:.1}): {}",
+            f.param.name(),
+            f.value,
+            f.sigma,
+            f.param.unit(),
+            f.t2,
+            f.why
+        );
+    }
     if r.compatibility.found.is_empty() {
         let _ = writeln!(s, "   sensor errors found: none");
     }
     for f in &r.compatibility.found {
         let _ = writeln!(
             s,
-            "   FOUND {:<18} {:+.5} ± {:.5} {} (t² {:.1}, {} part)",
+            "   FOUND {:<18} {:+.5} ± {:.5} {} (t² {:.1}, held-out gain {:.1} σ, {} part)",
             f.param.name(),
             f.value,
             f.sigma,
             f.param.unit(),
             f.t2,
+            f.cv_gain_z,
             f.part
         );
+    }
+    if !r.as_logged.is_empty() {
+        let _ = writeln!(
+            s,
+            "   the aerodynamics below use the data with these errors removed; the baselines as logged:"
+        );
+        for (name, params) in &r.as_logged {
+            let ps: Vec<String> = params.iter().map(|(t, v)| format!("{t} {v:+.4}")).collect();
+            let _ = writeln!(s, "     {name}: {}", ps.join(", "));
+        }
     }
     let _ = writeln!(
         s,
@@ -102,6 +125,22 @@ pub fn table(r: &GapReport) -> String {
             }
         );
     }
+    let _ = writeln!(
+        s,
+        "\n   verdicts (held-out R² by blocked cross-validation over the whole flight):"
+    );
+    for c in &r.coefficients {
+        let _ = writeln!(s, "   {:<5} {}", c.name, c.verdict);
+        for a in c.added.iter().filter(|a| !a.alternatives.is_empty()) {
+            let _ = writeln!(
+                s,
+                "         {} cannot be told apart on this flight from: {}",
+                a.term,
+                a.alternatives.join(", ")
+            );
+        }
+    }
+    let _ = writeln!(s, "   overall: {}", r.verdict);
     let _ = writeln!(
         s,
         "\n   estimates (PCA-GTLS ± coloured-residual σ [eq. 17 σ]; OLS cross-check):"
@@ -179,12 +218,12 @@ pub fn table(r: &GapReport) -> String {
     s
 }
 
-/// The JSON document (schema `aerosid-gaps/2`).
+/// The JSON document (schema `aerosid-gaps/3`).
 pub fn json(r: &GapReport) -> Value {
     let f = |x: f64| if x.is_finite() { json!(x) } else { Value::Null };
     let compat = &r.compatibility;
     json!({
-        "schema": "aerosid-gaps/2",
+        "schema": "aerosid-gaps/3",
         "source": r.source,
         "aircraft": r.aircraft,
         "segments": {
@@ -192,13 +231,19 @@ pub fn json(r: &GapReport) -> Value {
             "validation_s": [f(r.validation_s[0]), f(r.validation_s[1])],
         },
         "criterion": {
-            "statistic": "partial t² (coloured-residual σ), forward selection",
+            "statistic": "partial t² (block sandwich, Student t with G−1 dof) and held-out gain on blocks (blocked cross-validation), forward selection with removal",
             "alpha": r.settings.alpha,
+            "block_s": r.settings.cv.block_s,
+            "folds": r.settings.cv.folds,
+            "gain_alpha": r.settings.cv.gain_alpha,
             "candidates_tested": r.candidates_tested,
             "threshold_t2": f(r.threshold_t2),
             "pse_must_decrease": false,
         },
         "notes": r.notes.iter().chain(&compat.notes).collect::<Vec<_>>(),
+        "air_data": r.air_data,
+        "corrections_applied": r.corrections_applied,
+        "verdict": r.verdict,
         "compatibility": {
             "outputs": compat.rms.iter().map(|o| json!({
                 "channel": format!("{:?}", o.channel), "rms_before": f(o.before), "rms_after": f(o.after),
@@ -213,8 +258,22 @@ pub fn json(r: &GapReport) -> Value {
                 "parameter": c.param.name(), "channel": format!("{:?}", c.param.channel()),
                 "kind": format!("{:?}", super::param_kind(&c.param)), "unit": c.param.unit(),
                 "value": f(c.value), "sigma": f(c.sigma), "t2": f(c.t2), "part": c.part,
+                "cv_gain": f(c.cv_gain), "cv_gain_z": f(c.cv_gain_z),
+            })).collect::<Vec<_>>(),
+            "rejected": compat.rejected.iter().map(|c| json!({
+                "parameter": c.param.name(), "channel": format!("{:?}", c.param.channel()),
+                "kind": format!("{:?}", super::param_kind(&c.param)), "unit": c.param.unit(),
+                "value": f(c.value), "sigma": f(c.sigma), "t2": f(c.t2), "part": c.part,
+                "cv_gain": f(c.cv_gain), "cv_gain_z": f(c.cv_gain_z), "why": c.why,
+            })).collect::<Vec<_>>(),
+            "turbulent": compat.turbulent.iter().map(|(q, sd)| json!({
+                "channel": format!("{q:?}"), "wind_sd": f(*sd),
             })).collect::<Vec<_>>(),
         },
+        "as_logged": r.as_logged.iter().map(|(name, params)| json!({
+            "name": name,
+            "parameters": params.iter().map(|(t, v)| json!({"term": t, "value": f(*v)})).collect::<Vec<_>>(),
+        })).collect::<Vec<_>>(),
         "coefficients": r.coefficients.iter().map(coef_json).collect::<Vec<_>>(),
         "simulation": {
             "piece_s": r.simulation.piece_s,
@@ -235,6 +294,9 @@ fn coef_json(c: &CoefficientGap) -> Value {
     // serde_json writes NaN as null.
     json!({
         "name": c.name,
+        "verdict": c.verdict,
+        "cv_r2_baseline": c.cv_r2_baseline,
+        "cv_r2_extended": c.cv_r2_extended,
         "dropped_terms": c.dropped_terms,
         "baseline": c.baseline,
         "candidates": c.candidates,

@@ -345,6 +345,9 @@ pub struct TruthEffects {
     /// A cross-coupling rolling moment `C_lαβ · α β` (1/rad²): the dihedral effect growing with
     /// angle of attack (issue 6 §3). Off by default.
     pub roll_alpha_beta_per_rad2: Option<f64>,
+    /// A pitching moment `C_mβ² · β²` (1/rad²): sideslip changing the pitching moment (a V-tail,
+    /// fuselage crossflow). Off by default.
+    pub pitch_beta2_per_rad2: Option<f64>,
 }
 
 impl TruthEffects {
@@ -365,6 +368,7 @@ impl TruthEffects {
             lift_alpha2_per_rad2: None,
             pitch_alpha_dot: None,
             roll_alpha_beta_per_rad2: None,
+            pitch_beta2_per_rad2: None,
         }
     }
 }
@@ -400,6 +404,9 @@ impl TruthAero {
         }
         if let Some(k) = e.roll_alpha_beta_per_rad2 {
             c.roll += k * a * x.beta_rad;
+        }
+        if let Some(k) = e.pitch_beta2_per_rad2 {
+            c.pitch += k * x.beta_rad * x.beta_rad;
         }
         if e.drag_abs_alpha {
             c.drag += self.linear.drag.alpha * (a.abs() - a);

@@ -1,0 +1,159 @@
+#!/usr/bin/env python3
+"""Score aerosid gaps against the peers (STLSQ, FROLS) on a benchmark manifest.
+
+    target/venv/bin/python scripts/bench/score.py MANIFEST.json [PEERS.json] [-o score.md]
+
+Reads the manifest (each flight's "planted", optional "table_effects", and the Rust side's
+"aerosid": {"named": [{"kind","location","what"}], "seconds"}) and peers.json (peers.py), and prints
+one markdown table per suite.
+
+Matching (a named item = {kind, location}):
+  * planted effect named: some named item has the planted location and the planted kind (or one of
+    the planted "accept_kinds"). A planted ControlDelay on the channel "Elevator" is also matched by
+    a ControlDelay named in C_L, C_D or C_m (a δė term: how a regression names a surface delay) and
+    by a TimeDelay on "Elevator". Sensor kinds: SensorBias, ScaleFactor, ControlDelay, TimeDelay,
+    VanePosition; the rest are aerodynamic.
+  * clean flight with a cause: a flight with "planted": [] where anything is named.
+  * table effect named (jsbsim): a named item, not matching a planted effect, whose location and
+    kind equal a listed table effect (each listed effect counted once per flight).
+  * spurious: a named item that matches neither a planted effect nor a table effect.
+  * invented sensor error: a named item of a sensor kind that matches no planted effect.
+Flights with "planted": null (unknown truth) count only in "named per flight" and time.
+"""
+import argparse
+import json
+import os
+import statistics
+import sys
+
+SENSOR = {"SensorBias", "ScaleFactor", "ControlDelay", "TimeDelay", "VanePosition"}
+LONG = {"C_L", "C_D", "C_m"}
+
+
+def matches_planted(item, p):
+    kinds = set(p.get("accept_kinds") or []) | {p["kind"]}
+    if item["location"] == p["location"] and item["kind"] in kinds:
+        return True
+    if p["kind"] == "ControlDelay" and p["location"] == "Elevator":
+        if item["kind"] == "ControlDelay" and item["location"] in LONG:
+            return True
+        if item["kind"] == "TimeDelay" and item["location"] == "Elevator":
+            return True
+    return False
+
+
+def matches_table(item, effects):
+    return [i for i, e in enumerate(effects or []) if e.get("kind") == item["kind"] and e["location"] == item["location"]]
+
+
+def dedupe(named):
+    seen, out = set(), []
+    for n in named:
+        k = (n["kind"], n["location"], n.get("term") or n.get("what"))
+        if k not in seen:
+            seen.add(k)
+            out.append(n)
+    return out
+
+
+def score_method(flights, getter):
+    s = dict(aero_hit=0, aero_n=0, sens_hit=0, sens_n=0, clean_named=0, clean_n=0, named=[], secs=[],
+             table_named=0, table_total=0, spurious=[], invented=[], has_table=False)
+    for fl in flights:
+        res = getter(fl)
+        if res is None:
+            continue
+        named = dedupe(res.get("named", []))
+        s["named"].append(len(named))
+        if res.get("seconds") is not None:
+            s["secs"].append(float(res["seconds"]))
+        planted = fl.get("planted")
+        effects = fl.get("table_effects")
+        if effects is not None:
+            s["has_table"] = True
+            hit_effects = set()
+            for n in named:
+                if not any(matches_planted(n, p) for p in (planted or [])):
+                    hit_effects.update(matches_table(n, effects))
+            s["table_named"] += len(hit_effects)
+            s["table_total"] += len(effects)
+        if planted is None:
+            continue
+        for p in planted:
+            hit = any(matches_planted(n, p) for n in named)
+            key = "sens" if p["kind"] in SENSOR else "aero"
+            s[key + "_n"] += 1
+            s[key + "_hit"] += hit
+        if not planted:
+            s["clean_n"] += 1
+            s["clean_named"] += bool(named)
+        spur = [n for n in named if not any(matches_planted(n, p) for p in planted) and not matches_table(n, effects)]
+        s["spurious"].append(len(spur))
+        s["invented"].append(sum(1 for n in named if n["kind"] in SENSOR and not any(matches_planted(n, p) for p in planted)))
+    return s
+
+
+def fmt_frac(a, n):
+    return "%d/%d" % (a, n) if n else "–"
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("manifest")
+    ap.add_argument("peers", nargs="?")
+    ap.add_argument("-o", "--out")
+    a = ap.parse_args()
+    base = os.path.dirname(os.path.abspath(a.manifest))
+    flights = json.load(open(a.manifest))
+    peers_path = a.peers or os.path.join(base, "peers.json")
+    peers = json.load(open(peers_path)) if os.path.exists(peers_path) else {"flights": [], "versions": {}}
+    by_id = {f["id"]: f["peers"] for f in peers["flights"]}
+    methods = [("aerosid gaps", lambda fl: fl.get("aerosid")),
+               ("pysindy STLSQ", lambda fl: by_id.get(fl["id"], {}).get("stlsq")),
+               ("sysidentpy FROLS", lambda fl: by_id.get(fl["id"], {}).get("frols"))]
+    lines = []
+    suites = []
+    for fl in flights:
+        if fl.get("suite") not in suites:
+            suites.append(fl.get("suite"))
+    for suite in suites:
+        fs = [f for f in flights if f.get("suite") == suite]
+        scores = [(name, score_method(fs, g)) for name, g in methods]
+        table = any(s["has_table"] for _, s in scores)
+        lines.append("### suite `%s` (%d flights)\n" % (suite, len(fs)))
+        head = ["method", "planted aero named", "planted sensor named", "clean flights with a cause", "named / flight"]
+        if table:
+            head += ["table effects named", "spurious / flight", "invented sensor errors"]
+        head += ["median s / flight"]
+        lines.append("| " + " | ".join(head) + " |")
+        lines.append("|" + "---|" * len(head))
+        for name, s in scores:
+            if not s["named"]:
+                row = [name] + ["no result"] * (len(head) - 1)
+            else:
+                row = [name, fmt_frac(s["aero_hit"], s["aero_n"]), fmt_frac(s["sens_hit"], s["sens_n"]),
+                       fmt_frac(s["clean_named"], s["clean_n"]), "%.1f" % statistics.mean(s["named"])]
+                if table:
+                    row += [fmt_frac(s["table_named"], s["table_total"]),
+                            "%.1f" % statistics.mean(s["spurious"]) if s["spurious"] else "–",
+                            str(sum(s["invented"]))]
+                row += ["%.3g" % statistics.median(s["secs"]) if s["secs"] else "–"]
+            lines.append("| " + " | ".join(row) + " |")
+        lines.append("")
+    v = dict(peers.get("versions", {}))
+    lines.append("Versions: " + ", ".join("%s %s" % kv for kv in v.items()))
+    st = peers.get("settings")
+    if st:
+        lines.append("Peer settings: STLSQ %s; FROLS info_criteria=%s on the identification rows." % (
+            st["stlsq"]["rule"], st["frols"]["info_criteria"]))
+    out = "\n".join(lines) + "\n"
+    try:
+        print(out)
+    except BrokenPipeError:
+        pass
+    if a.out:
+        open(a.out, "w").write(out)
+
+
+if __name__ == "__main__":
+    main()
