@@ -470,7 +470,10 @@ impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Gtls<T, NT, NE,
         let (lambda_next, vff_step) = match &mut self.forgetting {
             ForgettingState::Constant(l) => (*l, VffStep::default()),
             ForgettingState::Variable(vff) => {
-                let st = vff.update(&x0, nu).ok_or(Error::NumericalFault)?;
+                // The statistics start once θ(t−1) is a TLS solution (eq. 16; `vff` module doc).
+                let st = vff
+                    .update(&x0, nu, self.solution == Solution::Tls)
+                    .ok_or(Error::NumericalFault)?;
                 (st.lambda, st)
             }
         };

@@ -124,12 +124,15 @@ impl<T: Real, const NT: usize> Rls<T, NT> {
             shrunk
         };
         let r = z - x.dot(&self.theta);
+        // θ(t−1) is a least-squares solution once more than NT samples of information made it
+        // (the VFF's statistics start there; `vff` module doc).
+        let solved = self.n_eff > T::lit(NT as f64);
         self.n_eff = lambda * self.n_eff + T::one();
         self.n_eff2 = lambda * lambda * self.n_eff2 + T::one();
         self.sse = lambda * self.sse + r * r;
         let lambda_next = match &mut self.forgetting {
             Lam::Constant(l) => *l,
-            Lam::Variable(v) => v.update(x, nu).ok_or(Error::NumericalFault)?.lambda,
+            Lam::Variable(v) => v.update(x, nu, solved).ok_or(Error::NumericalFault)?.lambda,
         };
         self.lambda = lambda_next;
         Ok(Step {

@@ -45,8 +45,9 @@ pub const PROBE_NAMES: [&str; PROBES] = [
 ];
 
 /// Stack high-water mark of the QEMU firmware (painted stack), the regression budget of every
-/// QEMU run (`tests/qemu_replay.rs`, `tests/qemu_faults.rs`): measured 3 640 B on both runs
-/// (2026-12-03; 3 648 B from the day the general secular update began writing into the
+/// QEMU run (`tests/qemu_replay.rs`, `tests/qemu_faults.rs`): measured 3 784 B on the replay and
+/// 3 776 B on the fault run (3 640 B on both before the VFF's statistics started at the first TLS
+/// solution; 3 648 B from the day the general secular update began writing into the
 /// estimator's buffers until the autopilot link's newer-stamp check; 4 208 B
 /// before, 4 328 B at the start of that day, 8 740 B before the pipeline was configured in place in
 /// its static — every step in BENCHMARKS.md "Stack").
