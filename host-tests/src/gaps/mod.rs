@@ -929,6 +929,20 @@ fn analyse_coefficient(
     })
 }
 
+/// The delay a surface-rate term implies in a fit (`None` for other terms or without the surface
+/// term in the model).
+fn delay_of(t: Term, model: &[usize], terms: &[Term], theta: &[f64]) -> Option<f64> {
+    let surface = match t {
+        Term::ElevatorRate => Term::Elevator,
+        Term::AileronRate => Term::Aileron,
+        Term::RudderRate => Term::Rudder,
+        _ => return None,
+    };
+    let k_rate = model.iter().position(|&c| terms[c] == t)?;
+    let k_surf = model.iter().position(|&c| terms[c] == surface)?;
+    Some(-theta[k_rate] / theta[k_surf])
+}
+
 /// Below this held-out R² the baseline is said not to predict the coefficient, and no cause is
 /// named for it: a term that "improves" a model which explains less than half of the held-out
 /// variation fits whatever the model misses (turbulence, unmodelled inputs, a wrong synthesis),
@@ -1073,7 +1087,12 @@ fn stepwise(
             };
             let t2 = f.t2(trial.len() - 1);
             let (z, rel) = select::gain(&current.cv_sse, &f.cv_sse);
-            let ok = t2 > threshold_t2 && z > gain_crit;
+            // A surface-rate term stands for a delay `τ = −θ_δ̇/θ_δ`; one shorter than a sample
+            // period cannot be resolved by the data, and one of the wrong sign (the surface
+            // leading its own log) is not a delay: such a term is some other rate effect, not
+            // named as a delay.
+            let unresolved = delay_of(terms[j], &trial, &terms, &f.theta).filter(|tau| !(*tau >= h_s));
+            let ok = t2 > threshold_t2 && z > gain_crit && unresolved.is_none();
             if first {
                 out.candidates.push(CandidateScore {
                     term: terms[j].name().into(),
@@ -1083,7 +1102,12 @@ fn stepwise(
                     cv_gain_z: z,
                     pse: f64::NAN,
                     significant: ok,
-                    reason: None,
+                    reason: unresolved.map(|tau| {
+                        format!(
+                            "implies a delay of {:.4} s: shorter than a sample or negative, not a delay",
+                            tau
+                        )
+                    }),
                 });
             }
             // The classical order of forward selection: the largest partial t² among the
