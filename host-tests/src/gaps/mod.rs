@@ -1091,7 +1091,7 @@ fn stepwise(
             // period cannot be resolved by the data, and one of the wrong sign (the surface
             // leading its own log) is not a delay: such a term is some other rate effect, not
             // named as a delay.
-            let unresolved = delay_of(terms[j], &trial, &terms, &f.theta).filter(|tau| !(*tau >= h_s));
+            let unresolved = delay_of(terms[j], &trial, &terms, &f.theta).filter(|tau| tau.is_nan() || *tau < h_s);
             let ok = t2 > threshold_t2 && z > gain_crit && unresolved.is_none();
             if first {
                 out.candidates.push(CandidateScore {
