@@ -1,11 +1,12 @@
 #!/usr/bin/env python3
 """Score aerosid gaps against the peers (STLSQ, FROLS) on a benchmark manifest.
 
-    target/venv/bin/python scripts/bench/score.py MANIFEST.json [PEERS.json] [-o score.md]
+    target/venv/bin/python scripts/bench/score.py MANIFEST.json [PEERS.json ...] [-o score.md]
 
 Reads the manifest (each flight's "planted", optional "table_effects", and the Rust side's
-"aerosid": {"named": [{"kind","location","what"}], "seconds"}) and peers.json (peers.py), and prints
-one markdown table per suite.
+"aerosid": {"named": [{"kind","location","what"}], "seconds"}) and one or more peers files
+(peers.py; default peers.json next to the manifest), and prints one markdown table per suite with
+one row per peer configuration found (every key of a flight's "peers"), labelled with its settings.
 
 Matching (a named item = {kind, location}):
   * planted effect named: some named item has the planted location and the planted kind (or one of
@@ -15,7 +16,9 @@ Matching (a named item = {kind, location}):
     VanePosition; the rest are aerodynamic.
   * clean flight with a cause: a flight with "planted": [] where anything is named.
   * table effect named (jsbsim): a named item, not matching a planted effect, whose location and
-    kind equal a listed table effect (each listed effect counted once per flight).
+    kind equal a listed table effect (each listed effect counted once per flight). A table effect
+    of kind NonlinearBeta is also matched by CrossCoupling (the manifest's kind for |β|, β² in
+    C_L/C_D/C_m; the same equivalence the planted β² effect carries in accept_kinds).
   * spurious: a named item that matches neither a planted effect nor a table effect.
   * invented sensor error: a named item of a sensor kind that matches no planted effect.
 Flights with "planted": null (unknown truth) count only in "named per flight" and time.
@@ -42,8 +45,12 @@ def matches_planted(item, p):
     return False
 
 
+TABLE_EQUIV = {"NonlinearBeta": {"NonlinearBeta", "CrossCoupling"}}
+
+
 def matches_table(item, effects):
-    return [i for i, e in enumerate(effects or []) if e.get("kind") == item["kind"] and e["location"] == item["location"]]
+    return [i for i, e in enumerate(effects or [])
+            if item["kind"] in TABLE_EQUIV.get(e.get("kind"), {e.get("kind")}) and e["location"] == item["location"]]
 
 
 def dedupe(named):
@@ -93,6 +100,29 @@ def score_method(flights, getter):
     return s
 
 
+def peer_label(key, settings):
+    st = settings.get(key) or {}
+    if st.get("label"):
+        return st["label"]
+    # peers.json from before several configurations (schema aerosid-peers/1): keys stlsq, frols
+    if key.startswith("stlsq"):
+        return "pysindy STLSQ"
+    if key.startswith("frols"):
+        return "sysidentpy FROLS" + (" (%s)" % st["info_criteria"].upper() if st.get("info_criteria") else "")
+    return key
+
+
+def describe(key, settings):
+    st = settings.get(key) or {}
+    if key.startswith("stlsq"):
+        return "%s; ridge alpha %s, unbias %s; fitted on the identification rows" % (
+            st.get("rule", "?"), st.get("alpha", "?"), st.get("unbias", "?"))
+    if key.startswith("frols"):
+        return "size by %s (%s minimum), ERR forward selection, LeastSquares, identification rows, no lags" % (
+            st.get("info_criteria", "?"), st.get("order", "global (schema 1)"))
+    return json.dumps(st, ensure_ascii=False)
+
+
 def fmt_frac(a, n):
     return "%d/%d" % (a, n) if n else "–"
 
@@ -100,17 +130,31 @@ def fmt_frac(a, n):
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("manifest")
-    ap.add_argument("peers", nargs="?")
+    ap.add_argument("peers", nargs="*", help="peers files (default: peers.json next to the manifest)")
     ap.add_argument("-o", "--out")
     a = ap.parse_args()
     base = os.path.dirname(os.path.abspath(a.manifest))
     flights = json.load(open(a.manifest))
-    peers_path = a.peers or os.path.join(base, "peers.json")
-    peers = json.load(open(peers_path)) if os.path.exists(peers_path) else {"flights": [], "versions": {}}
-    by_id = {f["id"]: f["peers"] for f in peers["flights"]}
-    methods = [("aerosid gaps", lambda fl: fl.get("aerosid")),
-               ("pysindy STLSQ", lambda fl: by_id.get(fl["id"], {}).get("stlsq")),
-               ("sysidentpy FROLS", lambda fl: by_id.get(fl["id"], {}).get("frols"))]
+    paths = a.peers or [os.path.join(base, "peers.json")]
+    methods = [("aerosid gaps", lambda fl: fl.get("aerosid"))]
+    notes, versions = [], {}
+    for path in paths:
+        if not os.path.exists(path):
+            print("no peers file", path, file=sys.stderr)
+            continue
+        peers = json.load(open(path))
+        versions.update(peers.get("versions", {}))
+        by_id = {f["id"]: f["peers"] for f in peers["flights"]}
+        keys = []
+        for f in peers["flights"]:
+            keys += [k for k in f["peers"] if k not in keys]
+        settings = peers.get("settings", {})
+        for k in keys:
+            label = peer_label(k, settings)
+            if len(paths) > 1 and any(m[0] == label for m in methods):
+                label += " (%s)" % os.path.basename(path)
+            methods.append((label, (lambda by_id, k: lambda fl: by_id.get(fl["id"], {}).get(k))(by_id, k)))
+            notes.append("%s: %s" % (label, describe(k, settings)))
     lines = []
     suites = []
     for fl in flights:
@@ -140,12 +184,11 @@ def main():
                 row += ["%.3g" % statistics.median(s["secs"]) if s["secs"] else "–"]
             lines.append("| " + " | ".join(row) + " |")
         lines.append("")
-    v = dict(peers.get("versions", {}))
-    lines.append("Versions: " + ", ".join("%s %s" % kv for kv in v.items()))
-    st = peers.get("settings")
-    if st:
-        lines.append("Peer settings: STLSQ %s; FROLS info_criteria=%s on the identification rows." % (
-            st["stlsq"]["rule"], st["frols"]["info_criteria"]))
+    lines.append("Versions: " + ", ".join("%s %s" % kv for kv in versions.items()))
+    if notes:
+        lines.append("")
+        lines.append("Peer settings:")
+        lines += ["* " + n for n in notes]
     out = "\n".join(lines) + "\n"
     try:
         print(out)
