@@ -173,13 +173,17 @@ def parse_configs(stlsq, frols, order):
         v = v.strip()
         if not v:
             continue
-        if v.startswith("err="):
-            lab = "sysidentpy FROLS, cumulative ERR >= %s" % v[4:]
+        rule, _, o = v.partition("/")  # "aic/global": this rule with the global minimum
+        o = o or order
+        if rule.startswith("err="):
+            lab = "sysidentpy FROLS, cumulative ERR >= %s" % rule[4:]
+            key = "frols@" + rule
         else:
-            lab = "sysidentpy FROLS, %s (%s minimum)" % (v.upper(), order)
-        key = "frols" if v == "aic" and order == "first" else "frols@%s" % v + ("" if order == "first" or v.startswith("err=") else "/" + order)
-        cfgs.append((key, "frols", v, {"peer": "frols", "info_criteria": v, "order": order, "estimator": "LeastSquares",
-                                       "rows": "identification", "lags": 0, "label": lab}))
+            lab = "sysidentpy FROLS, %s (%s minimum)" % (rule.upper(), o)
+            key = ("frols" if rule == "aic" else "frols@" + rule) + ("" if o == "first" else "/" + o)
+        cfgs.append((key, "frols", (rule, o), {"peer": "frols", "info_criteria": rule, "order": o,
+                                               "estimator": "LeastSquares", "rows": "identification",
+                                               "lags": 0, "label": lab}))
     return cfgs
 
 
@@ -190,7 +194,8 @@ def main():
     ap.add_argument("--stlsq", default="cv",
                     help="comma list of STLSQ thresholds: cv (validation rule, default) and/or numbers, e.g. cv,0.05,0.1,0.2")
     ap.add_argument("--frols", "--frols-ic", dest="frols", default="aic",
-                    help="comma list of FROLS size rules: aic (default), aicc, bic, fpe, lilc, err=TOL (cumulative ERR)")
+                    help="comma list of FROLS size rules: aic (default), aicc, bic, fpe, lilc, err=TOL (cumulative ERR); "
+                         "RULE/global for the criterion's global minimum")
     ap.add_argument("--frols-order", default="first", choices=["first", "global"],
                     help="criterion minimum: first local (sysidentpy's fit, default) or global")
     a = ap.parse_args()
@@ -241,7 +246,7 @@ def main():
                         prep = frols_prepare(X, y, n_id)
                         prep_secs = time.perf_counter() - t0
                         t0 = time.perf_counter()
-                    sel, n = run_frols(prep, terms, arg, a.frols_order)
+                    sel, n = run_frols(prep, terms, arg[0], arg[1])
                     details[key][coef] = {"selected": sel, "n_terms": n}
                     secs[key] += prep_secs
                 secs[key] += time.perf_counter() - t0
