@@ -14,7 +14,8 @@ Matching (a named item = {kind, location}):
     a ControlDelay named in C_L, C_D or C_m (a δė term: how a regression names a surface delay) and
     by a TimeDelay on "Elevator". Sensor kinds: SensorBias, ScaleFactor, ControlDelay, TimeDelay,
     VanePosition; the rest are aerodynamic.
-  * clean flight with a cause: a flight with "planted": [] where anything is named.
+  * clean flight with a cause: a flight with "planted": [] where anything is named; named / clean
+    flight: mean items named on those flights.
   * table effect named (jsbsim): a named item, not matching a planted effect, whose location and
     kind equal a listed table effect (each listed effect counted once per flight). A table effect
     of kind NonlinearBeta is also matched by CrossCoupling (the manifest's kind for |β|, β² in
@@ -65,7 +66,7 @@ def dedupe(named):
 
 def score_method(flights, getter):
     s = dict(aero_hit=0, aero_n=0, sens_hit=0, sens_n=0, clean_named=0, clean_n=0, named=[], secs=[],
-             table_named=0, table_total=0, spurious=[], invented=[], has_table=False)
+             table_named=0, table_total=0, spurious=[], invented=[], has_table=False, clean_items=[])
     for fl in flights:
         res = getter(fl)
         if res is None:
@@ -94,6 +95,7 @@ def score_method(flights, getter):
         if not planted:
             s["clean_n"] += 1
             s["clean_named"] += bool(named)
+            s["clean_items"].append(len(named))
         spur = [n for n in named if not any(matches_planted(n, p) for p in planted) and not matches_table(n, effects)]
         s["spurious"].append(len(spur))
         s["invented"].append(sum(1 for n in named if n["kind"] in SENSOR and not any(matches_planted(n, p) for p in planted)))
@@ -117,6 +119,9 @@ def describe(key, settings):
     if key.startswith("stlsq"):
         return "%s; ridge alpha %s, unbias %s; fitted on the identification rows" % (
             st.get("rule", "?"), st.get("alpha", "?"), st.get("unbias", "?"))
+    if key.startswith("frols") and str(st.get("info_criteria", "")).startswith("err="):
+        return "size: first k with cumulative ERR >= %s (sysidentpy err_tol), ERR forward selection, LeastSquares, " \
+               "identification rows, no lags" % st["info_criteria"][4:]
     if key.startswith("frols"):
         return "size by %s (%s minimum), ERR forward selection, LeastSquares, identification rows, no lags" % (
             st.get("info_criteria", "?"), st.get("order", "global (schema 1)"))
@@ -165,7 +170,7 @@ def main():
         scores = [(name, score_method(fs, g)) for name, g in methods]
         table = any(s["has_table"] for _, s in scores)
         lines.append("### suite `%s` (%d flights)\n" % (suite, len(fs)))
-        head = ["method", "planted aero named", "planted sensor named", "clean flights with a cause", "named / flight"]
+        head = ["method", "planted aero named", "planted sensor named", "clean flights with a cause", "named / clean flight", "named / flight"]
         if table:
             head += ["table effects named", "spurious / flight", "invented sensor errors"]
         head += ["median s / flight"]
@@ -176,7 +181,9 @@ def main():
                 row = [name] + ["no result"] * (len(head) - 1)
             else:
                 row = [name, fmt_frac(s["aero_hit"], s["aero_n"]), fmt_frac(s["sens_hit"], s["sens_n"]),
-                       fmt_frac(s["clean_named"], s["clean_n"]), "%.1f" % statistics.mean(s["named"])]
+                       fmt_frac(s["clean_named"], s["clean_n"]),
+                       "%.1f" % statistics.mean(s["clean_items"]) if s["clean_items"] else "–",
+                       "%.1f" % statistics.mean(s["named"])]
                 if table:
                     row += [fmt_frac(s["table_named"], s["table_total"]),
                             "%.1f" % statistics.mean(s["spurious"]) if s["spurious"] else "–",
