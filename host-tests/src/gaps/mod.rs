@@ -768,18 +768,26 @@ fn overall_verdict(named: &[NamedCause], coefficients: &[CoefficientGap]) -> Str
         .filter(|c| c.verdict.starts_with("the model does not predict"))
         .map(|c| c.name.as_str())
         .collect();
-    let tail = if unpredicted.is_empty() {
-        String::new()
-    } else {
-        format!(
+    let undecided: Vec<&str> = coefficients
+        .iter()
+        .filter(|c| c.verdict.starts_with("not decided"))
+        .map(|c| c.name.as_str())
+        .collect();
+    let mut tail = String::new();
+    if !unpredicted.is_empty() {
+        tail += &format!(
             "; {} not predicted by the model, so their causes are not identifiable from this flight",
             unpredicted.join(", ")
-        )
-    };
+        );
+    }
+    if !undecided.is_empty() {
+        tail += &format!(
+            "; {}: a candidate is significant but this flight cannot confirm it on held-out data (see the verdicts)",
+            undecided.join(", ")
+        );
+    }
     match named.first() {
-        None if unpredicted.is_empty() => {
-            "nothing missing: the baseline predicts the held-out data within noise".to_string()
-        }
+        None if tail.is_empty() => "nothing missing: the baseline predicts the held-out data within noise".to_string(),
         None => format!("no cause named{tail}"),
         Some(top) => format!(
             "{} cause{} named, top: {:?} in {}: {}{tail}",
@@ -927,6 +935,26 @@ fn analyse_coefficient(
         baseline_model,
         extended_model: terms.iter().copied().zip(ext_fit.theta.iter().copied()).collect(),
     })
+}
+
+/// The candidates that are significant and lower the held-out error by at least 5 % on average,
+/// but whose gain rests on too few blocks to be beyond noise (a term excited by one or two
+/// manoeuvres): said, not named.
+fn unconfirmed(candidates: &[CandidateScore], threshold_t2: f64) -> String {
+    let list: Vec<String> = candidates
+        .iter()
+        .filter(|c| !c.significant && c.reason.is_none() && c.t2 > threshold_t2 && c.cv_gain >= 0.05)
+        .map(|c| {
+            format!(
+                "{} (t² {:.0}, held-out error −{:.0} %, gain z {:.1})",
+                c.term,
+                c.t2,
+                100.0 * c.cv_gain,
+                c.cv_gain_z
+            )
+        })
+        .collect();
+    list.join(", ")
 }
 
 /// The delay a surface-rate term implies in a fit (`None` for other terms or without the surface
@@ -1176,10 +1204,18 @@ fn stepwise(
             out.cv_r2_baseline, out.cv_r2_extended
         )
     } else if out.added.is_empty() {
-        format!(
-            "nothing missing: no candidate predicts held-out data better than the baseline beyond noise (held-out R² {:.3})",
-            out.cv_r2_baseline
-        )
+        let open = unconfirmed(&out.candidates, threshold_t2);
+        if open.is_empty() {
+            format!(
+                "nothing missing: no candidate predicts held-out data better than the baseline beyond noise (held-out R² {:.3})",
+                out.cv_r2_baseline
+            )
+        } else {
+            format!(
+                "not decided by this flight (held-out R² {:.3}): {open} — significant, but the held-out gain rests on too few excited blocks; more manoeuvres exciting it would decide",
+                out.cv_r2_baseline
+            )
+        }
     } else {
         format!(
             "extended: held-out R² {:.3} → {:.3}",

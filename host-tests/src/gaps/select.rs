@@ -7,8 +7,9 @@
 //! cross-validation; Roberts et al. 2017 on why blocks must be longer than the residuals'
 //! correlation, Klein & Morelli 2006 §5.4 on stepwise selection). Two models are compared block by
 //! block: the gain `d_b = SSE₀_b − SSE₁_b` of each block is one observation, and the gain is
-//! **beyond noise** when `d̄/(s_d/√G)` exceeds the one-sided Student-t quantile with `G − 1` degrees
-//! of freedom (`G` blocks). Blocks of a few seconds are nearly independent for the residuals of an
+//! **beyond noise** when the sign-flip statistic `Σd_b/√(Σd_b²)` ([`gain`]) exceeds the one-sided
+//! Student-t quantile with `G − 1` degrees of freedom (`G` blocks; a little above the normal
+//! quantile of the statistic's approximation, for few blocks). Blocks of a few seconds are nearly independent for the residuals of an
 //! equation-error fit (sensor noise and turbulence decorrelate within a second or two at the speeds
 //! of a small UAV), so the block gains are a fair sample even when the residuals are coloured.
 //!
@@ -280,19 +281,26 @@ impl Design {
     }
 }
 
-/// The held-out gain of model 1 over model 0, block by block: `(mean gain / its standard error,
-/// mean gain relative to model 0's mean held-out SSE)`.
+/// The held-out gain of model 1 over model 0, block by block: `(z, mean gain relative to model
+/// 0's mean held-out SSE)`, with `z = Σd_b / √(Σd_b²)` the normal approximation of the sign-flip
+/// (randomisation) test of the gains `d_b = SSE₀_b − SSE₁_b`: under "no gain" each block's gain
+/// is as likely negative as positive, whatever its size, so `Σ s_b|d_b|` with random signs has
+/// variance `Σd_b²` (Fisher's randomisation test; Efron 1969 for the normal approximation). Why
+/// not the ordinary paired t: a term's gain concentrates in the few blocks where it is excited
+/// (β² where the rudder moved), and the t's spread about the mean counts that concentration as
+/// noise — on a JSBSim flight a planted `C_mβ²` cut the held-out error by 33 % and its paired t
+/// was 1.9; the sign-flip statistic asks only whether the gains lean positive beyond chance.
 pub fn gain(sse0: &[f64], sse1: &[f64]) -> (f64, f64) {
     let g = sse0.len().min(sse1.len());
     if g < 2 {
         return (0.0, 0.0);
     }
     let d: Vec<f64> = (0..g).map(|b| sse0[b] - sse1[b]).collect();
-    let m = d.iter().sum::<f64>() / g as f64;
-    let v = d.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (g as f64 - 1.0);
-    let z = if v > 0.0 { m / (v / g as f64).sqrt() } else { 0.0 };
+    let sum = d.iter().sum::<f64>();
+    let ss = d.iter().map(|x| x * x).sum::<f64>();
+    let z = if ss > 0.0 { sum / ss.sqrt() } else { 0.0 };
     let base = sse0.iter().sum::<f64>() / g as f64;
-    (z, if base > 0.0 { m / base } else { 0.0 })
+    (z, if base > 0.0 { sum / g as f64 / base } else { 0.0 })
 }
 
 /// Upper `p` quantile of Student's t with `nu` degrees of freedom (`P(T > t) = p`), by bisection
