@@ -270,6 +270,10 @@ pub struct CoefficientGap {
     pub cv_r2_baseline: f64,
     /// The same for the extended model.
     pub cv_r2_extended: f64,
+    /// The cross-validation's block length for this coefficient, s.
+    pub block_s: f64,
+    /// The `t²` threshold at this coefficient's number of blocks.
+    pub threshold_t2: f64,
     /// Baseline terms requested but not available (channel missing).
     pub dropped_terms: Vec<String>,
     /// The baseline.
@@ -601,7 +605,7 @@ pub fn run_gaps(flight: &MeasuredFlight, settings: &GapSettings) -> Result<GapRe
             &refs,
             &baselines[i],
             n_id,
-            threshold_t2,
+            settings.alpha / (2.0 * m as f64),
             max_lag,
             h,
             settings,
@@ -813,7 +817,7 @@ fn analyse_coefficient(
     refs: &TermRefs,
     base: &[Term],
     n_id: usize,
-    threshold_t2: f64,
+    p_test: f64,
     max_lag: usize,
     h_s: f64,
     settings: &GapSettings,
@@ -889,7 +893,7 @@ fn analyse_coefficient(
             )),
         }
     }
-    let sel = stepwise(i, zc, h_s, &terms, &cols_full, &library, errors, threshold_t2, settings);
+    let sel = stepwise(i, zc, h_s, &terms, &cols_full, &library, errors, p_test, settings);
     candidates.extend(sel.candidates);
     let added_terms: Vec<(Term, f64, f64, Vec<Term>)> = sel.added;
     for (t, _, _, _) in &added_terms {
@@ -920,6 +924,8 @@ fn analyse_coefficient(
         verdict: sel.verdict,
         cv_r2_baseline: sel.cv_r2_baseline,
         cv_r2_extended: sel.cv_r2_extended,
+        block_s: sel.block_s,
+        threshold_t2: sel.threshold_t2,
         dropped_terms: dropped,
         baseline,
         candidates,
@@ -958,8 +964,9 @@ fn unconfirmed(candidates: &[CandidateScore], threshold_t2: f64) -> String {
 }
 
 /// The delay a surface-rate term implies in a fit (`None` for other terms or without the surface
-/// term in the model).
-fn delay_of(t: Term, model: &[usize], terms: &[Term], theta: &[f64]) -> Option<f64> {
+/// term in the model; NaN when the surface's own term is within 3σ of zero, whose ratio means
+/// nothing).
+fn delay_of(t: Term, model: &[usize], terms: &[Term], theta: &[f64], sigma: &[f64]) -> Option<f64> {
     let surface = match t {
         Term::ElevatorRate => Term::Elevator,
         Term::AileronRate => Term::Aileron,
@@ -968,6 +975,9 @@ fn delay_of(t: Term, model: &[usize], terms: &[Term], theta: &[f64]) -> Option<f
     };
     let k_rate = model.iter().position(|&c| terms[c] == t)?;
     let k_surf = model.iter().position(|&c| terms[c] == surface)?;
+    if theta[k_surf].abs() < 3.0 * sigma[k_surf] {
+        return Some(f64::NAN);
+    }
     Some(-theta[k_rate] / theta[k_surf])
 }
 
@@ -990,6 +1000,8 @@ struct Selection {
     verdict: String,
     cv_r2_baseline: f64,
     cv_r2_extended: f64,
+    block_s: f64,
+    threshold_t2: f64,
 }
 
 /// Forward selection with the removal step (Klein & Morelli 2006 §5.4.1), each entry decided by
@@ -1004,7 +1016,7 @@ fn stepwise(
     base_cols: &[Vec<f64>],
     library: &[(Term, Vec<f64>)],
     errors: Option<&ColumnErrors>,
-    threshold_t2: f64,
+    p_test: f64,
     settings: &GapSettings,
 ) -> Selection {
     let nb = base_terms.len();
@@ -1039,11 +1051,14 @@ fn stepwise(
         }
         w
     });
-    let mut design = select::Design::new(&cols, zc, h_s, &settings.cv, w.as_deref());
+    let block_s = settings.cv.block_s;
+    let cv = settings.cv;
+    let mut design = select::Design::new(&cols, zc, h_s, &cv, w.as_deref());
     if let Some(j) = terms.iter().position(|t| *t == Term::One) {
         design = design.with_ones(j);
     }
     let g = design.n_blocks();
+    let threshold_t2 = select::student_t_upper_quantile(p_test, (g as f64 - 1.0).max(1.0)).powi(2);
     let gain_crit = select::student_t_upper_quantile(settings.cv.gain_alpha, (g as f64 - 1.0).max(1.0));
     let mut out = Selection {
         candidates: Vec::new(),
@@ -1051,6 +1066,8 @@ fn stepwise(
         verdict: String::new(),
         cv_r2_baseline: f64::NAN,
         cv_r2_extended: f64::NAN,
+        block_s: design.blocks.first().map_or(block_s, |(a, b)| (b - a) as f64 * h_s),
+        threshold_t2,
     };
     let mut model: Vec<usize> = (0..nb).collect();
     let base = match design.fit(&model) {
@@ -1119,7 +1136,8 @@ fn stepwise(
             // period cannot be resolved by the data, and one of the wrong sign (the surface
             // leading its own log) is not a delay: such a term is some other rate effect, not
             // named as a delay.
-            let unresolved = delay_of(terms[j], &trial, &terms, &f.theta).filter(|tau| tau.is_nan() || *tau < h_s);
+            let unresolved =
+                delay_of(terms[j], &trial, &terms, &f.theta, &f.sigma).filter(|tau| tau.is_nan() || *tau < h_s);
             let ok = t2 > threshold_t2 && z > gain_crit && unresolved.is_none();
             if first {
                 out.candidates.push(CandidateScore {

@@ -297,6 +297,8 @@ fn coef_json(c: &CoefficientGap) -> Value {
         "verdict": c.verdict,
         "cv_r2_baseline": c.cv_r2_baseline,
         "cv_r2_extended": c.cv_r2_extended,
+        "block_s": c.block_s,
+        "threshold_t2": c.threshold_t2,
         "dropped_terms": c.dropped_terms,
         "baseline": c.baseline,
         "candidates": c.candidates,
