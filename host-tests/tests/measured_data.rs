@@ -1104,13 +1104,7 @@ fn attas_noseboom_air_data_are_moved_to_the_cg() {
 fn the_analysis_runs_on_every_real_flight() {
     use aerosid_host::gaps::{report, run_gaps, GapSettings};
     // GIVEN the five shared files
-    for (file, map) in [
-        ("hfb320_1_10.asc", "hfb320.map"),
-        ("fAttasElv1_pqrDot.asc", "attas.map"),
-        ("fAttasAil1_pqrDot.asc", "attas.map"),
-        ("fAttasRud1_pqrDot.asc", "attas.map"),
-        ("totter_lon_020213f1_018_fdata.asc", "twin_otter.map"),
-    ] {
+    for (file, map) in aerosid_host::gaps::bench::REAL_FLIGHTS {
         let f = load(file, map);
         // WHEN the analysis runs with its defaults and writes its report
         let r = run_gaps(&f, &GapSettings::default()).unwrap_or_else(|e| panic!("{e}"));

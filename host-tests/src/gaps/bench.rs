@@ -15,6 +15,15 @@ use rayon::prelude::*;
 use serde_json::{json, Value};
 use std::path::{Path, PathBuf};
 
+/// The shared real flight-test files and their column maps (`host-tests/data/maps/`).
+pub const REAL_FLIGHTS: [(&str, &str); 5] = [
+    ("hfb320_1_10.asc", "hfb320.map"),
+    ("fAttasElv1_pqrDot.asc", "attas.map"),
+    ("fAttasAil1_pqrDot.asc", "attas.map"),
+    ("fAttasRud1_pqrDot.asc", "attas.map"),
+    ("totter_lon_020213f1_018_fdata.asc", "twin_otter.map"),
+];
+
 /// What the campaign runs.
 #[derive(Debug, Clone)]
 pub struct Campaign {
@@ -85,13 +94,7 @@ pub fn write(c: &Campaign, dir: &Path) -> Result<Vec<String>, String> {
         }
     }
     if let Some((data, maps)) = &c.real {
-        for (file, map) in [
-            ("hfb320_1_10.asc", "hfb320.map"),
-            ("fAttasElv1_pqrDot.asc", "attas.map"),
-            ("fAttasAil1_pqrDot.asc", "attas.map"),
-            ("fAttasRud1_pqrDot.asc", "attas.map"),
-            ("totter_lon_020213f1_018_fdata.asc", "twin_otter.map"),
-        ] {
+        for (file, map) in REAL_FLIGHTS {
             let (d, m) = (data.join(file), maps.join(map));
             let id = format!("real/{}", file.trim_end_matches(".asc"));
             jobs.push(Box::new(move || Case {

@@ -73,16 +73,7 @@ impl HiddenKind {
     ];
 
     /// The kinds of the calm-air campaign (the first eight).
-    pub const CALM: [HiddenKind; 8] = [
-        Self::LiftQuadratic,
-        Self::ElevatorDrag,
-        Self::AlphaDot,
-        Self::ThrustMoment,
-        Self::CrossCoupling,
-        Self::VaneScale,
-        Self::SensorBias,
-        Self::TimeDelay,
-    ];
+    pub const CALM: &'static [HiddenKind] = Self::ALL.split_at(8).0;
 
     /// Command-line name.
     pub fn name(&self) -> &'static str {
