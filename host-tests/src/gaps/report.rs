@@ -254,18 +254,8 @@ pub fn json(r: &GapReport) -> Value {
                 "value": f(c.value), "sigma": f(c.sigma), "t2": f(c.t2),
                 "significant": c.t2 > r.threshold_t2,
             })).collect::<Vec<_>>(),
-            "found": compat.found.iter().map(|c| json!({
-                "parameter": c.param.name(), "channel": format!("{:?}", c.param.channel()),
-                "kind": format!("{:?}", super::param_kind(&c.param)), "unit": c.param.unit(),
-                "value": f(c.value), "sigma": f(c.sigma), "t2": f(c.t2), "part": c.part,
-                "cv_gain": f(c.cv_gain), "cv_gain_z": f(c.cv_gain_z),
-            })).collect::<Vec<_>>(),
-            "rejected": compat.rejected.iter().map(|c| json!({
-                "parameter": c.param.name(), "channel": format!("{:?}", c.param.channel()),
-                "kind": format!("{:?}", super::param_kind(&c.param)), "unit": c.param.unit(),
-                "value": f(c.value), "sigma": f(c.sigma), "t2": f(c.t2), "part": c.part,
-                "cv_gain": f(c.cv_gain), "cv_gain_z": f(c.cv_gain_z), "why": c.why,
-            })).collect::<Vec<_>>(),
+            "found": compat.found.iter().map(|c| found_json(c, false)).collect::<Vec<_>>(),
+            "rejected": compat.rejected.iter().map(|c| found_json(c, true)).collect::<Vec<_>>(),
             "turbulent": compat.turbulent.iter().map(|(q, sd)| json!({
                 "channel": format!("{q:?}"), "wind_sd": f(*sd),
             })).collect::<Vec<_>>(),
@@ -288,6 +278,21 @@ pub fn json(r: &GapReport) -> Value {
             "kind": c.kind, "location": c.location, "what": c.what, "t2": f(c.t2),
         })),
     })
+}
+
+/// A found (or rejected, with its reason) sensor error.
+fn found_json(c: &super::compat::Found, with_why: bool) -> Value {
+    let f = |x: f64| if x.is_finite() { json!(x) } else { Value::Null };
+    let mut v = json!({
+        "parameter": c.param.name(), "channel": format!("{:?}", c.param.channel()),
+        "kind": format!("{:?}", super::param_kind(&c.param)), "unit": c.param.unit(),
+        "value": f(c.value), "sigma": f(c.sigma), "t2": f(c.t2), "part": c.part,
+        "cv_gain": f(c.cv_gain), "cv_gain_z": f(c.cv_gain_z),
+    });
+    if with_why {
+        v["why"] = json!(c.why);
+    }
+    v
 }
 
 fn coef_json(c: &CoefficientGap) -> Value {

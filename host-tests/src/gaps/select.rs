@@ -153,14 +153,17 @@ impl Design {
 
     /// `(A, c)` of the normal equations of `cols` over the blocks `use_block` selects.
     fn normal(&self, cols: &[usize], use_block: impl Fn(usize) -> bool) -> (DMatrix<f64>, DVector<f64>, f64) {
+        self.normal_over(cols, (0..self.grams.len()).filter(|&b| use_block(b)))
+    }
+
+    /// `(A, c)` of the normal equations of `cols` over the given blocks.
+    fn normal_over(&self, cols: &[usize], blocks: impl Iterator<Item = usize>) -> (DMatrix<f64>, DVector<f64>, f64) {
         let k = cols.len();
         let mut a = DMatrix::zeros(k, k);
         let mut c = DVector::zeros(k);
         let mut n = 0.0;
-        for (b, g) in self.grams.iter().enumerate() {
-            if !use_block(b) {
-                continue;
-            }
+        for b in blocks {
+            let g = &self.grams[b];
             n += self.rows(b);
             for (r, &i) in cols.iter().enumerate() {
                 c[r] += g[(i, self.p)];
@@ -228,7 +231,7 @@ impl Design {
         let k = cols.len();
         let mut meat = DMatrix::zeros(k, k);
         for b in 0..g {
-            let (ab, cb, _) = self.normal(cols, |x| x == b);
+            let (ab, cb, _) = self.normal_over(cols, core::iter::once(b));
             let s = cb - ab * &theta;
             meat += &s * s.transpose();
         }
