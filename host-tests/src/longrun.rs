@@ -218,7 +218,7 @@ impl Invariants {
     /// The bounds the CI slice asserts (`tests/reliability_long_run.rs`, where each is justified):
     /// orthonormality 1e-5, settling within 30 s, calm drift ≤ 0.8 typical magnitudes, `λ_F` in
     /// `[0.8, 1]` (the on-board VFF's floor).
-    pub const ISSUE_7: Self = Self {
+    pub const REQUIRED: Self = Self {
         orthonormality: 1e-5,
         settle_s: 30.0,
         calm_drift: 0.8,

@@ -4,6 +4,7 @@
 //! with a filter on its module: `cargo test -p aerosid-host --test integration qemu_replay::`.
 
 mod against_faer;
+mod cli;
 mod common;
 mod consistency;
 mod corrected_regressor;
