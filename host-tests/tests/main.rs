@@ -9,6 +9,7 @@ mod common;
 mod consistency;
 mod corrected_regressor;
 mod coverage;
+mod default_aircraft;
 mod fem;
 mod fem_qemu;
 mod forgetting;
