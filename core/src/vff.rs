@@ -96,6 +96,10 @@ pub struct VffSettings<T> {
     pub lambda_max: T,
     /// Initial `Π(0) = π₀·I` of eq. 30 (in squared regressor units); `P(0) = I/π₀`.
     pub pi0: T,
+    /// Weight (in samples) the old-noise power `σ_ε²` must have gathered before eq. 32 may switch
+    /// (not in the seed; module doc); `λ_F = λ_max` until then. Our reading of eq. 28 only;
+    /// `0 ≤ value < 1/(1 − γ₁) − 1/(1 − γ₂)`, the weight `σ_ε²` tends to.
+    pub min_noise_weight_samples: T,
     /// The reading of the damaged eq. 28.
     pub reading: Eq28Reading,
 }
@@ -113,6 +117,7 @@ impl<T: Real> VffSettings<T> {
         lambda_min: T::ZERO,
         lambda_max: T::ZERO,
         pi0: T::ZERO,
+        min_noise_weight_samples: T::ZERO,
         reading: Eq28Reading::Paleologu,
     };
 
@@ -137,11 +142,12 @@ impl<T: Real> VffSettings<T> {
         Self {
             gamma1: T::one() - T::one() / (T::lit(200.0) * n),
             gamma2: T::one() - T::one() / (T::lit(5.0) * n),
-            gamma0: T::lit(1.5),
+            gamma0: T::lit(2.0),
             varsigma: T::lit(1e-9),
             lambda_min: T::lit(0.9),
             lambda_max: T::one(),
             pi0: T::lit(1e-2),
+            min_noise_weight_samples: T::lit(100.0),
             reading: Eq28Reading::Paleologu,
         }
     }
@@ -171,6 +177,7 @@ impl<T: Real> VffSettings<T> {
             gamma2: T::one() - T::one() / f,
             gamma0: T::lit(2.0),
             lambda_min: T::lit(0.8),
+            min_noise_weight_samples: T::lit(50.0),
             ..Self::for_dimension(1)
         }
     }
@@ -189,8 +196,11 @@ impl<T: Real> VffSettings<T> {
             && self.lambda_min > z
             && self.lambda_min <= self.lambda_max
             && self.lambda_max <= one
+            && self.gamma2 < self.gamma1
             && self.pi0 > z
-            && self.pi0.finite();
+            && self.pi0.finite()
+            && self.min_noise_weight_samples >= z
+            && self.min_noise_weight_samples < one / (one - self.gamma1) - one / (one - self.gamma2);
         if ok {
             Ok(())
         } else {
@@ -206,14 +216,15 @@ pub struct Vff<T: Real, const N: usize> {
     /// `P = Π⁻¹` (eq. 29–30).
     p: SMatrix<T, N, N>,
     p_trace_max: T,
-    /// `σ_q²`, `σ_ν²`, `σ_ε²` of eq. 28 (bias-corrected means, module doc).
+    /// `σ_q²`, `σ_ν²`, `σ_ε²` of eq. 28 (weighted means, module doc).
     sq2: T,
     snu2: T,
     seps2: T,
-    /// The sums of weights `1 − γ₁ⁿ`, `1 − γ₂ⁿ` of the `n` samples since the statistics started;
-    /// both 0 until they start.
-    norm1: T,
-    norm2: T,
+    /// The sums of weights (in samples) of the means `σ_q²`, `σ_ν²` and of `σ_ε²` since the
+    /// statistics started: `W₂` and `D` in our reading, the sums over `γ₁` and `γ₂` in the literal
+    /// one; both 0 until they start.
+    weight_nu: T,
+    weight_eps: T,
     lambda: T,
 }
 
@@ -259,8 +270,8 @@ impl<T: Real, const N: usize> Vff<T, N> {
         sq2: T::ZERO,
         snu2: T::ZERO,
         seps2: T::ZERO,
-        norm1: T::ZERO,
-        norm2: T::ZERO,
+        weight_nu: T::ZERO,
+        weight_eps: T::ZERO,
         lambda: T::ZERO,
     };
 
@@ -275,15 +286,15 @@ impl<T: Real, const N: usize> Vff<T, N> {
             sq2: T::zero(),
             snu2: T::zero(),
             seps2: T::zero(),
-            norm1: T::zero(),
-            norm2: T::zero(),
+            weight_nu: T::zero(),
+            weight_eps: T::zero(),
             lambda: settings.lambda_max,
         })
     }
 
     /// Whether the statistics of eq. 28 have started (module doc); `λ_F = λ_max` until they have.
     pub fn started(&self) -> bool {
-        self.norm1 > T::zero()
+        self.weight_nu > T::zero()
     }
 
     /// The current `λ_F`, to be applied to the next sample.
@@ -323,24 +334,45 @@ impl<T: Real, const N: usize> Vff<T, N> {
             q += x0[i] * px[i];
         }
         let (mut sq2, mut snu2, mut seps2) = (self.sq2, self.snu2, self.seps2);
-        let (mut norm1, mut norm2) = (self.norm1, self.norm2);
+        let (mut w_nu, mut w_eps) = (self.weight_nu, self.weight_eps);
         let mut lambda_new = s.lambda_max;
-        if solved || self.started() {
-            // Eq. 28 as bias-corrected means (module doc): the gain of a window is (1 − γ)/n_γ,
-            // exactly 1 on the first sample.
-            norm1 = s.gamma1 * norm1 + (one - s.gamma1);
-            norm2 = s.gamma2 * norm2 + (one - s.gamma2);
-            let gain1 = (one - s.gamma1) / norm1;
-            let gain2 = (one - s.gamma2) / norm2;
-            let (g_q, g_nu, g_eps) = match s.reading {
-                Eq28Reading::Paleologu => (gain2, gain2, gain1),
-                Eq28Reading::Literal => (gain1, gain1, gain2),
+        // Our reading restarts the statistics on a sample whose estimate is no solution while
+        // eq. 32 is not yet tested (module doc); the literal one runs on from the first solution.
+        let settling = s.reading == Eq28Reading::Paleologu && w_eps < s.min_noise_weight_samples;
+        if !solved && settling {
+            (sq2, snu2, seps2, w_nu, w_eps) = (T::zero(), T::zero(), T::zero(), T::zero(), T::zero());
+        } else if solved || self.started() {
+            let tested = match s.reading {
+                Eq28Reading::Paleologu => {
+                    // 28a–b: means over the short window, weight W₂(t) = γ₂W₂(t−1) + 1 (gain 1 on
+                    // the first sample). 28c: the old-noise mean, its weight D(t) = γ₁D(t−1) +
+                    // (γ₁ − γ₂)W₂(t−1) taking in σ_ν²(t−1) (module doc).
+                    let inflow = (s.gamma1 - s.gamma2) * w_nu;
+                    let snu2_prev = snu2;
+                    w_nu = s.gamma2 * w_nu + one;
+                    let g = one / w_nu;
+                    sq2 = (one - g) * sq2 + g * (q * q); // 28a
+                    snu2 = (one - g) * snu2 + g * (nu * nu); // 28b
+                    w_eps = s.gamma1 * w_eps + inflow;
+                    if w_eps > T::zero() {
+                        let g_eps = inflow / w_eps;
+                        seps2 = (one - g_eps) * seps2 + g_eps * snu2_prev; // 28c
+                    }
+                    w_eps >= s.min_noise_weight_samples
+                }
+                Eq28Reading::Literal => {
+                    // As printed: 28a–b on γ₁, 28c on γ₂, each a mean over the samples so far.
+                    w_nu = s.gamma1 * w_nu + one;
+                    w_eps = s.gamma2 * w_eps + one;
+                    let (g, g_eps) = (one / w_nu, one / w_eps);
+                    sq2 = (one - g) * sq2 + g * (q * q);
+                    snu2 = (one - g) * snu2 + g * (nu * nu);
+                    seps2 = (one - g_eps) * seps2 + g_eps * (nu * nu);
+                    true
+                }
             };
-            sq2 = (one - g_q) * sq2 + g_q * (q * q); // 28a
-            snu2 = (one - g_nu) * snu2 + g_nu * (nu * nu); // 28b
-            seps2 = (one - g_eps) * seps2 + g_eps * (nu * nu); // 28c
-                                                               // Eq. 32 (σ_ν ≤ γ₀σ_ε, compared squared), else eq. 33.
-            lambda_new = if snu2 <= s.gamma0 * s.gamma0 * seps2 {
+            // Eq. 32 (σ_ν ≤ γ₀σ_ε, compared squared), else eq. 33.
+            lambda_new = if !tested || snu2 <= s.gamma0 * s.gamma0 * seps2 {
                 s.lambda_max
             } else {
                 let (sig_q, sig_nu, sig_eps) = (sq2.root(), snu2.root(), seps2.root());
@@ -363,7 +395,7 @@ impl<T: Real, const N: usize> Vff<T, N> {
         };
         // P stays positive semi-definite with trace ≤ its initial trace, so its entries are
         // bounded: finite P x̂₀, powers, λ and trace make the new P finite.
-        let finite = slice_finite(&px) && slice_finite(&[q, g, sq2, snu2, seps2, norm1, norm2, lambda_new, trace]);
+        let finite = slice_finite(&px) && slice_finite(&[q, g, sq2, snu2, seps2, w_nu, w_eps, lambda_new, trace]);
         if !finite {
             return None;
         }
@@ -380,8 +412,8 @@ impl<T: Real, const N: usize> Vff<T, N> {
         self.sq2 = sq2;
         self.snu2 = snu2;
         self.seps2 = seps2;
-        self.norm1 = norm1;
-        self.norm2 = norm2;
+        self.weight_nu = w_nu;
+        self.weight_eps = w_eps;
         self.lambda = lambda_new;
         Some(VffStep {
             q,
