@@ -5,24 +5,23 @@
 //! (simulated damage), identified by GTLS (intercept exact, three noisy regressors),
 //! WHEN `λ_F` is constant (0.999), variable with our (Paleologu) reading of eq. 28, variable with the
 //! literal reading, and variable without a floor,
-//! THEN the Paleologu reading detects the jump at once and re-converges (θ₁ within 5 % for good) in
-//! 153 samples where constant forgetting needs 2685; the literal reading detects it only after 1175
-//! samples, forgets on the steady model before the jump (12 false alarms) and needs 3951; and
-//! without a floor `λ_F` collapses to ~4e-4, the effective count to 1 and the estimator loses its
-//! excitation (k = 0) for a while, which the floor of 0.9 prevents (k stays 3, N_eff ≥ 10).
+//! THEN our reading detects the jump at once and re-converges (θ₁ within 5 % for good) in 168
+//! samples where constant forgetting needs 2685; the literal reading detects it only after 1479
+//! samples and needs 3973, more than constant forgetting; and without a floor `λ_F` collapses to
+//! ~3e-4, the effective count to 1 and the estimator loses its excitation (k = 0) for a while,
+//! which the floor of 0.9 prevents (k stays 3, N_eff ≥ 10).
 //!
 //! The sweep (`startup_sweep_*`): GIVEN `Gtls<T, 3, 0, 4>` (errors of σ = 0.05 in x and z), one
 //! parameter jumping by −1/3 at sample 300, 1 500, 5 000 or 20 000, 10 seeds each, `f32` and `f64`,
 //! WHEN the VFF runs with `for_dimension(3)` or `for_aero_coefficients(100)`, and beside it an
 //! independent implementation of eq. 24 and 28–33 in this file (`sweep::RefVff`, `f64`, sharing
-//! no code with the core's `Vff`), THEN the core agrees with it at every sample (tolerances at
-//! `F32_TOL`) and the statistics start at the first TLS solution; with `for_dimension(3)` the
-//! estimate is within 5 % of the new value for good after a median 145 / 126 / 107 / 155 samples
-//! (`λ = 0.999`: 1 365 / 2 403 / 2 606 / 2 656), never slower on any seed, with 24 (`f64`) and 26
-//! (`f32`) samples of `λ_F < 1` in 268 000 stationary ones (eq. 32's statistical rate at
-//! `γ₀ = 1.5`); with `for_aero_coefficients(100)`: not detected at 300 (3 513, slower than
-//! `λ = 0.999` on every seed: the limit in the `vff` module doc), 118 / 94 / 312 from 1 500 on,
-//! no false drop.
+//! no code with the core's `Vff`: the powers are direct weighted sums over the kept residual
+//! history), THEN the core agrees with it at every sample (tolerances at `F32_TOL`), the statistics
+//! (re)start at the same TLS solution, and every target holds: the estimate is within 5 % of the
+//! new value for good after a median of 166 / 130 / 210 / 182 samples (`for_dimension(3)`) and
+//! 112 / 120 / 112 / 328 (`for_aero_coefficients(100)`) at the four jump times (`λ = 0.999`:
+//! 1 365 / 2 403 / 2 606 / 2 656; target ≤ 500), never later than `λ = 0.999` on any seed, and
+//! `λ_F < λ_max` on none of the 268 000 stationary samples before the jumps (`f32` and `f64` alike).
 
 use crate::common;
 
@@ -582,6 +581,45 @@ fn check_targets(rows: &[Row]) {
         assert_eq!(r.vff_slower, 0, "jump at {}: VFF slower than λ = 0.999", r.jump);
         assert_eq!(r.false_drops, 0, "jump at {}: false λ drops", r.jump);
     }
+}
+
+/// Settings that break eq. 31 (`γ₂ < γ₁`) or ask for more noise weight than `σ_ε²` can gather
+/// (`1/(1 − γ₁) − 1/(1 − γ₂)`: 585 samples for `for_dimension(3)`) are refused.
+#[test]
+fn vff_settings_against_eq31_or_the_noise_weight_are_refused() {
+    use aerosid_core::{Error, Rls, RlsSettings};
+    let base = VffSettings::<f64>::for_dimension(3);
+    type Edit = (&'static str, fn(&mut VffSettings<f64>));
+    let cases: [Edit; 5] = [
+        ("γ₂ = γ₁", |v| v.gamma2 = v.gamma1),
+        ("γ₂ > γ₁", |v| (v.gamma1, v.gamma2) = (v.gamma2, v.gamma1)),
+        ("negative noise weight", |v| v.min_noise_weight_samples = -1.0),
+        ("noise weight never reached", |v| v.min_noise_weight_samples = 585.5),
+        ("NaN noise weight", |v| v.min_noise_weight_samples = f64::NAN),
+    ];
+    for (what, edit) in cases {
+        let mut vs = base;
+        edit(&mut vs);
+        let settings = GtlsSettings {
+            forgetting: Forgetting::Variable(vs),
+            ..GtlsSettings::default()
+        };
+        let got = Gtls::<f64, 3, 0, 4>::new(&diag_wt(&[0.05; 4]), &sv(&[1.0; 3]), settings).err();
+        assert_eq!(got, Some(Error::InvalidSetting), "{what}");
+        let rls = RlsSettings {
+            forgetting: Forgetting::Variable(vs),
+            ..RlsSettings::default()
+        };
+        assert_eq!(Rls::<f64, 3>::new(rls).err(), Some(Error::InvalidSetting), "{what}");
+    }
+    // Just below the weight it tends to is valid.
+    let mut vs = base;
+    vs.min_noise_weight_samples = 584.0;
+    let settings = GtlsSettings {
+        forgetting: Forgetting::Variable(vs),
+        ..GtlsSettings::default()
+    };
+    assert!(Gtls::<f64, 3, 0, 4>::new(&diag_wt(&[0.05; 4]), &sv(&[1.0; 3]), settings).is_ok());
 }
 
 #[test]
