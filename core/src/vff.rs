@@ -7,52 +7,90 @@
 //! would have the *shorter* memory. In ref. \[19\], which eq. 27 follows, it is the other way round: the
 //! noise-power estimate uses the longer window and the a priori error power (and the power of `q`) the
 //! shorter one, so that after an abrupt change the error power `σ_ν²` rises faster than the noise
-//! power `σ_ε²` and `λ_F` drops. **We read eq. 28 as**
+//! power `σ_ε²` and `λ_F` drops. **We read eq. 28 as** `σ_q²`, `σ_ν²` on the short window `γ₂`
+//! (28a, 28b) and `σ_ε²` on the long window `γ₁` over the residuals *older than the short window*
+//! (28c), each a weighted mean over the samples since the statistics started (below).
+//! [`Eq28Reading::Literal`] keeps the printed assignment (each power a mean of `q²` or `ν²` over
+//! all samples since the start, no minimum weight) for comparison; the host tests show that it
+//! finds a parameter jump late.
+//!
+//! ## 28a–b: means since the start
+//! Eq. 28 gives no initial values. Started at 0 (as in ref. \[19\], where the filter's initial
+//! error is small), the averages are biased low by the factor `1 − γⁿ` after `n` samples. We divide
+//! by the sum of weights instead (the bias correction of an exponential average started at zero):
 //!
 //! ```text
-//! σ_q²(t) = γ₂ σ_q²(t−1) + (1 − γ₂) q²(t)      (28a, short window)
-//! σ_ν²(t) = γ₂ σ_ν²(t−1) + (1 − γ₂) ν²(t)      (28b, short window)
-//! σ_ε²(t) = γ₁ σ_ε²(t−1) + (1 − γ₁) ν²(t)      (28c, long window)
+//! W₂(t)  = γ₂ W₂(t−1) + 1,              W₂ = 0 before the start  (= Σₖ γ₂ᵏ, k = 0 … n−1)
+//! σ²(t)  = σ²(t−1) + (x²(t) − σ²(t−1))/W₂(t)    (x = q: 28a;  x = ν: 28b)
 //! ```
 //!
-//! [`Eq28Reading::Literal`] keeps the printed assignment for comparison; the host tests show that it
-//! does not detect a parameter jump while this reading does.
+//! i.e. `σ_ν²(t) = Σₖ γ₂ᵏ ν²(t−k) / Σₖ γ₂ᵏ`: the weights keep eq. 28's shape, the first sample has
+//! weight 1, and after a few windows the recursion is eq. 28 itself.
 //!
-//! ## When the statistics start, and their bias correction
-//! Eq. 28 gives no initial values. Started at 0 on the first sample (as in ref. \[19\], where the
-//! filter's initial error is small), the averages are biased low by the factor `1 − γⁿ` after `n`
-//! samples, and the residuals of the start-up, while `θ` is still far from its final value, enter
-//! `σ_ε²` with weights that decay only over the long window: measured on `Gtls<f64, 3, 0, 4>` with
-//! `for_dimension(3)`, a jump 300 samples into the data took a median 2 733 samples to track (a
-//! constant `λ = 0.999`: 1 216) and one 1 500 samples in was not tracked within 6 000. **We read
-//! eq. 28 as exponentially weighted *means* over the samples since the statistics started**:
+//! ## 28c: the noise before the short window
+//! With `σ_ε²` the mean of *all* `ν²` since the start (`γ₁ᵏ` weights), the residuals after a jump
+//! enter `σ_ε²` as fast as `σ_ν²` while fewer samples than a long window have passed: `m` samples
+//! after a jump that raises the residual power to `R² ≫ σ²`, `n` samples after the start,
+//! `σ_ν² ≈ (1 − γ₂ᵐ)R²` and `σ_ε² ≈ mR²/(n + m)`, whose ratio exceeds `γ₀²` only if
+//! `n > (γ₀² − 1)/(1 − γ₂)` — 300 samples (3 s) for [`VffSettings::for_aero_coefficients`] at
+//! 100 Hz: a jump 300 samples into the data was not detected (median 3 513 samples to settle,
+//! `λ = 0.999`: 1 365). Our 28c compares the short window with the noise *before* it (a
+//! two-sample test). With the sums over the samples since the start
+//! `S₁ = Σₖ γ₁ᵏ ν²(t−k)`, `S₂ = Σₖ γ₂ᵏ ν²(t−k)`, `W₁ = Σₖ γ₁ᵏ`, `W₂ = Σₖ γ₂ᵏ`:
 //!
 //! ```text
-//! n_γ(t) = γ n_γ(t−1) + (1 − γ),  n_γ = 0 before the start  (= 1 − γⁿ after n samples)
-//! σ²(t)  = σ²(t−1) + ((1 − γ)/n_γ(t))·(x²(t) − σ²(t−1))    (x = q or ν; γ as in 28a–c)
+//! σ_ε²(t) = (S₁ − S₂)/(W₁ − W₂) = Σₖ (γ₁ᵏ − γ₂ᵏ) ν²(t−k) / D(t),   D = W₁ − W₂ = Σₖ (γ₁ᵏ − γ₂ᵏ)
 //! ```
 //!
-//! which is eq. 28 divided by its sum of weights `1 − γⁿ` (the bias correction of an exponential
-//! average started at zero): the weights keep eq. 28's shape `γ^(t−i)`, the first sample has weight
-//! 1, and after a few windows the recursion is eq. 28 itself. The statistics start at the first
-//! sample whose `ν` (eq. 24) is formed with a solution of the estimator — for GTLS a TLS solution
-//! (eq. 16: the eq. 21 threshold admits all `n_θ` directions), for RLS an estimate from more than
-//! `n_θ` samples of information — and run from then on; until then `λ_F = λ_max` (nothing to test a
-//! residual against: before eq. 16 the minimum-norm estimate of eq. 22–23 is the weights' choice in
-//! the unexcited directions, not a model whose residuals can signal a change). `Π` (eq. 29–30) is
-//! the information of the corrected regressors and is accumulated from the first sample.
+//! a mean with non-negative weights `γ₁ᵏ − γ₂ᵏ` that are 0 for the current sample and small for the
+//! last few (`≈ k(γ₁ − γ₂)`), so `m` samples after a jump carry at most
+//! `m − (1 − γ₂ᵐ)/(1 − γ₂) ≈ m²(1 − γ₂)/2` of the weight `D`. It needs no buffer: `S₁ − S₂` and `D`
+//! follow `X(t) = γ₁X(t−1) + (γ₁ − γ₂)Y(t−1)` with `Y = S₂`, `W₂` (the new sample cancels), so
 //!
-//! **What this cannot do.** While fewer samples than a long window have passed since the start,
-//! `σ_ε²` is the mean of those `n` samples with the new ones included. After a jump that raises the
-//! residual power to `R² ≫ σ²`, `m` samples later `σ_ν² ≈ (1 − γ₂ᵐ)R²` and `σ_ε² ≈ mR²/(n + m)`;
-//! their ratio exceeds `γ₀²` only if `(1 − γ₂)(n + m) > γ₀²` (as `1 − γ₂ᵐ ≤ m(1 − γ₂)`) and
-//! `1 + n/m > γ₀²`, which together need `n > (γ₀² − 1)/(1 − γ₂)`: eq. 32 cannot switch for a jump
-//! sooner than that after the start (`for_dimension(3)`: 19 samples;
-//! [`VffSettings::for_aero_coefficients`] at 100 Hz: 300 samples, 3 s) and in practice switches
-//! later, as the start-up's residuals are in `σ_ε²` too. Such jumps are tracked with
-//! `λ_F = λ_max`. Measured (host test `forgetting.rs`, 10 seeds): with `for_aero_coefficients` a
-//! jump 300 samples in settles after a median 3 513 samples (`λ = 0.999`: 1 365), one 700–800 in is
-//! detected on half of the seeds, one from 1 000 in on all; `for_dimension(3)` detects from 300.
+//! ```text
+//! D(t)     = γ₁ D(t−1) + (γ₁ − γ₂) W₂(t−1)
+//! σ_ε²(t)  = σ_ε²(t−1) + ((γ₁ − γ₂) W₂(t−1)/D(t)) · (σ_ν²(t−1) − σ_ε²(t−1))
+//! ```
+//!
+//! — the long-window smoothing of the short window's *previous* power, all terms non-negative (no
+//! cancellation in `f32`); once `W₂` has settled the gain is `1 − γ₁`, i.e. eq. 28c with
+//! `σ_ν²(t−1)` in place of `ν²(t)`. [`VffStep::power_eps`] is this `σ_ε²`.
+//!
+//! ## Eq. 32: the threshold and the minimum weight
+//! On stationary residuals (white, Gaussian) an exponential mean with weights `wₖ` is
+//! `σ²·χ²_d/d`-distributed with `d = (Σw)²/Σw²`: `d₁ = (1 + γ₂)/(1 − γ₂)` for `σ_ν²`, and
+//! `d₂ ≥ D` for `σ_ε²` (its weights are below 1); the two sums share almost no weight, so a false
+//! drop of `λ_F` (eq. 32 failing) has probability `P(F(d₁, d₂) > γ₀²)` per sample
+//! (`= I_{d₂/(d₂+d₁γ₀²)}(d₂/2, d₁/2)`, the regularised incomplete beta function). The target is
+//! below `1/268 000` (the stationary samples of the host test's sweep): with `γ₀ = 1.5` and a
+//! 15-sample window (`d₁ = 29`), `P(χ²₂₉/29 > 2.25) = 1.3·10⁻⁴` — measured 24 and 26 drops in
+//! 268 000 samples. So `γ₀ = 2`, the largest eq. 32 allows, and eq. 32 is tested only once `σ_ε²`
+//! has a weight `D ≥` [`VffSettings::min_noise_weight_samples`]; until then `λ_F = λ_max`:
+//! `for_dimension(3)` (`d₁ = 29`): 100 samples, `P(F(29, 100) > 4) = 1.2·10⁻⁷` (0.03 expected in
+//! 268 000; `D` tends to 585, `d₂` to 1 228, `1·10⁻¹¹`); `for_aero_coefficients(100)` (`d₁ = 199`):
+//! 50 samples, `P(F(199, 50) > 4) = 5.9·10⁻⁸`. The residuals are neither independent (`θ(t−1)`
+//! reuses them) nor exactly Gaussian, so these are a guide; the sweep counts the drops.
+//!
+//! ## When the statistics start
+//! The statistics start at the first sample whose `ν` (eq. 24) is formed with a solution of the
+//! estimator — for GTLS a TLS solution (eq. 16: the eq. 21 threshold admits all `n_θ` directions),
+//! for RLS an estimate from more than `n_θ` samples of information; until then `λ_F = λ_max`
+//! (nothing to test a residual against: before eq. 16 the minimum-norm estimate of eq. 22–23 is the
+//! weights' choice in the unexcited directions, not a model whose residuals can signal a change).
+//! A sample whose estimate is no solution *before* eq. 32 is tested (`D` below its minimum)
+//! restarts them: the first TLS solution, from as few as `n_θ + 1` samples, is often lost again
+//! for a few samples, and the minimum-norm residuals of that gap (in the
+//! host test: tens of times the noise power) would stay in `σ_ε²` for a long window and hide a jump (measured with
+//! `for_aero_coefficients(100)`: a jump at sample 300 settled after 3 467 samples on the median
+//! without the restart, 112 with it). Once tested they run on. `Π` (eq. 29–30) is the information
+//! of the corrected regressors and is accumulated from the first sample.
+//!
+//! Measured (host test `forgetting.rs`, `Gtls<T, 3, 0, 4>`, one parameter jumping by −1/3,
+//! 10 seeds, `f32` and `f64` alike): the estimate is within 5 % of its new value for good after a
+//! median of 166 / 130 / 210 / 182 samples (`for_dimension(3)`) and 112 / 120 / 112 / 328
+//! (`for_aero_coefficients(100)`) for jumps at sample 300 / 1 500 / 5 000 / 20 000
+//! (`λ = 0.999`: 1 365 / 2 403 / 2 606 / 2 656), never later than `λ = 0.999` on any seed, with
+//! no `λ_F < λ_max` in the 268 000 stationary samples before the jumps.
 //!
 //! ## The floor
 //! Eq. 33 has no lower bound: right after a jump `σ_ν ≫ σ_ε` and `λ_F ≈ σ_q σ_ε/σ_ν` can fall to
@@ -96,6 +134,10 @@ pub struct VffSettings<T> {
     pub lambda_max: T,
     /// Initial `Π(0) = π₀·I` of eq. 30 (in squared regressor units); `P(0) = I/π₀`.
     pub pi0: T,
+    /// Weight (in samples) the old-noise power `σ_ε²` must have gathered before eq. 32 may switch
+    /// (not in the seed; module doc); `λ_F = λ_max` until then. Our reading of eq. 28 only;
+    /// `0 ≤ value < 1/(1 − γ₁) − 1/(1 − γ₂)`, the weight `σ_ε²` tends to.
+    pub min_noise_weight_samples: T,
     /// The reading of the damaged eq. 28.
     pub reading: Eq28Reading,
 }
@@ -113,35 +155,38 @@ impl<T: Real> VffSettings<T> {
         lambda_min: T::ZERO,
         lambda_max: T::ZERO,
         pi0: T::ZERO,
+        min_noise_weight_samples: T::ZERO,
         reading: Eq28Reading::Paleologu,
     };
 
-    /// Defaults for `n` parameters: `γ₂ = 1 − 1/(5n)`, `γ₁ = 1 − 1/(200n)`, `γ₀ = 1.5`,
-    /// `ς = 1e-9`, `λ ∈ [0.9, 1]`, `π₀ = 1e-2`.
+    /// Defaults for `n` parameters: `γ₂ = 1 − 1/(5·max(n, 3))`, `γ₁ = 1 − 1/(200n)`, `γ₀ = 2`,
+    /// eq. 32 tested from a noise weight of 100 samples, `ς = 1e-9`, `λ ∈ [0.9, 1]`, `π₀ = 1e-2`.
     ///
     /// Ref. \[19\] uses windows of `K·L` samples with `K_α = 2`, `K_β ≥ 5K_α` for echo cancellers with
     /// `L` in the hundreds; for the 3–7 parameters of an aerodynamic coefficient those windows are far
     /// too short for the noise estimate, which then catches up with the error power before the
     /// estimator has forgotten the old model. The host test `forgetting.rs` (jump of one slope by
-    /// −1/3 after 5000 samples) measured: windows `(2n, 10n)` with floor 0.9 re-converge in 2789
-    /// samples (slower than a constant `λ = 0.999`, 2685); `(5n, 10n)` never detect; `(5n, 200n)`
-    /// re-converge in 155 samples with no false alarm before the jump and all directions kept excited.
-    /// (Those were measured with the statistics run from sample 0; with the start and bias
-    /// correction of the module doc the same test takes 153 samples, and the sweep over the jump
-    /// time in `forgetting.rs`, `n = 3`, a median of 107–155 samples for jumps 300 to 20 000 samples
-    /// in, against 1 365–2 656 for `λ = 0.999`. On stationary data eq. 32 with `γ₀ = 1.5` on a
-    /// 15-sample window drops `λ_F` on ≈ 1 sample in 10⁴, its statistical rate.)
-    /// At 100 Hz and `n = 5` these are 0.25 s and 10 s windows.
+    /// −1/3 after 5000 samples, `n = 4`) measured, with the noise power a mean over all samples and
+    /// `γ₀ = 1.5`: windows `(2n, 10n)` with floor 0.9 re-converge in 2789 samples (slower than a
+    /// constant `λ = 0.999`, 2685); `(5n, 10n)` never detect; `(5n, 200n)` re-converge in 155. With
+    /// the noise before the short window, `γ₀ = 2` and the minimum weight (module doc), the same
+    /// test re-converges in 168 samples, no false alarm, all directions kept excited; the sweep
+    /// (`n = 3`) in the module doc. The short window is at least 15 samples so that `σ_ν²` has
+    /// `d₁ ≥ 29` degrees of freedom: with `5n` samples, `n = 1` (`d₁ = 9`) would drop `λ_F` with
+    /// probability `P(F(9, 100) > 4) = 2·10⁻⁴` per sample, `n = 2` (`d₁ = 19`) `3·10⁻⁶`.
+    /// At 100 Hz and `n = 5` the windows are 0.25 s and 10 s.
     pub fn for_dimension(n: usize) -> Self {
+        let short = T::lit(5.0 * n.max(3) as f64);
         let n = T::lit(n.max(1) as f64);
         Self {
             gamma1: T::one() - T::one() / (T::lit(200.0) * n),
-            gamma2: T::one() - T::one() / (T::lit(5.0) * n),
-            gamma0: T::lit(1.5),
+            gamma2: T::one() - T::one() / short,
+            gamma0: T::lit(2.0),
             varsigma: T::lit(1e-9),
             lambda_min: T::lit(0.9),
             lambda_max: T::one(),
             pi0: T::lit(1e-2),
+            min_noise_weight_samples: T::lit(100.0),
             reading: Eq28Reading::Paleologu,
         }
     }
@@ -153,13 +198,15 @@ impl<T: Real> VffSettings<T> {
     /// [`Self::for_dimension`] was tuned on white residuals. The synthetic moment coefficients'
     /// residuals are not white: the differentiator's noise is correlated over ±4 samples (lag
     /// correlations 0.4, −0.1, −0.4, −0.4), which halves the degrees of freedom of a power estimate,
-    /// and the residual grows during manoeuvres (synthesis errors at surface transients), so a
-    /// 20-sample window with `γ₀ = 1.5` raises false alarms; each holds `λ_F` at the floor and
-    /// erases the memory. Measured on the Fig. 2 flight of the host test `paper.rs` (C_m,
-    /// `n_θ = 4`): `for_dimension(4)` fired on 30 samples of a 300 s unexcited cruise and lost the
-    /// excitation; these settings fired on none, detected the jump of the `C_m` parameters after
-    /// 1.6 s and forgot the old model to `Πλ ≈ 2·10⁻⁷` within 5 s (floor 0.9: `3·10⁻⁵`, and the
-    /// estimate settled 3.5 s later).
+    /// and the residual grows during manoeuvres (synthesis errors at surface transients); with the
+    /// noise power a mean over all samples and `γ₀ = 1.5`, `for_dimension(4)` fired on 30 samples of
+    /// the 300 s unexcited cruise of the Fig. 2 flight (host test `paper.rs`, C_m, `n_θ = 4`) and
+    /// lost the excitation. The 1 s window gives `σ_ν²` `d₁ = 199` (≈ 100 with the correlation) and
+    /// eq. 32 is tested from a noise weight of 50 samples (module doc: `P(F(199, 50) > 4) = 6·10⁻⁸`
+    /// per sample). Measured on that flight: `λ_F < 1` on no sample of any coefficient before the
+    /// jump or in the cruise; the jump of the `C_m` parameters detected after 1.7 s, the old model
+    /// forgotten to `Πλ ≈ 3·10⁻⁶` within 5 s (floor 0.9: `3·10⁻⁴`, and `C_mα` within 5 % for good
+    /// 0.7 s later, 11.1 s against 10.4 s after the jump).
     pub fn for_aero_coefficients(sample_rate_hz: T) -> Self {
         let f = if sample_rate_hz > T::zero() && sample_rate_hz.finite() {
             sample_rate_hz
@@ -171,6 +218,7 @@ impl<T: Real> VffSettings<T> {
             gamma2: T::one() - T::one() / f,
             gamma0: T::lit(2.0),
             lambda_min: T::lit(0.8),
+            min_noise_weight_samples: T::lit(50.0),
             ..Self::for_dimension(1)
         }
     }
@@ -189,8 +237,11 @@ impl<T: Real> VffSettings<T> {
             && self.lambda_min > z
             && self.lambda_min <= self.lambda_max
             && self.lambda_max <= one
+            && self.gamma2 < self.gamma1
             && self.pi0 > z
-            && self.pi0.finite();
+            && self.pi0.finite()
+            && self.min_noise_weight_samples >= z
+            && self.min_noise_weight_samples < one / (one - self.gamma1) - one / (one - self.gamma2);
         if ok {
             Ok(())
         } else {
@@ -206,14 +257,15 @@ pub struct Vff<T: Real, const N: usize> {
     /// `P = Π⁻¹` (eq. 29–30).
     p: SMatrix<T, N, N>,
     p_trace_max: T,
-    /// `σ_q²`, `σ_ν²`, `σ_ε²` of eq. 28 (bias-corrected means, module doc).
+    /// `σ_q²`, `σ_ν²`, `σ_ε²` of eq. 28 (weighted means, module doc).
     sq2: T,
     snu2: T,
     seps2: T,
-    /// The sums of weights `1 − γ₁ⁿ`, `1 − γ₂ⁿ` of the `n` samples since the statistics started;
-    /// both 0 until they start.
-    norm1: T,
-    norm2: T,
+    /// The sums of weights (in samples) of the means `σ_q²`, `σ_ν²` and of `σ_ε²` since the
+    /// statistics started: `W₂` and `D` in our reading, the sums over `γ₁` and `γ₂` in the literal
+    /// one; both 0 until they start.
+    weight_nu: T,
+    weight_eps: T,
     lambda: T,
 }
 
@@ -224,11 +276,13 @@ pub struct Vff<T: Real, const N: usize> {
 pub struct VffStep<T> {
     /// `q(t)` of eq. 29.
     pub q: T,
-    /// `σ_q²` of eq. 28a after the step (0 until the statistics start, as the other powers).
+    /// `σ_q²` of eq. 28a after the step (0 until the statistics start and after a restart, as the
+    /// other powers).
     pub power_q: T,
     /// `σ_ν²` of eq. 28b (a priori residual power).
     pub power_nu: T,
-    /// `σ_ε²` of eq. 28c (noise power).
+    /// `σ_ε²` of eq. 28c: in our reading the noise power before the short window (module doc; 0
+    /// on the first sample of the statistics, which has none before it).
     pub power_eps: T,
     /// `λ_F(t)` (eq. 32–33, clamped to `[λ_min, λ_max]`).
     pub lambda: T,
@@ -259,8 +313,8 @@ impl<T: Real, const N: usize> Vff<T, N> {
         sq2: T::ZERO,
         snu2: T::ZERO,
         seps2: T::ZERO,
-        norm1: T::ZERO,
-        norm2: T::ZERO,
+        weight_nu: T::ZERO,
+        weight_eps: T::ZERO,
         lambda: T::ZERO,
     };
 
@@ -275,15 +329,15 @@ impl<T: Real, const N: usize> Vff<T, N> {
             sq2: T::zero(),
             snu2: T::zero(),
             seps2: T::zero(),
-            norm1: T::zero(),
-            norm2: T::zero(),
+            weight_nu: T::zero(),
+            weight_eps: T::zero(),
             lambda: settings.lambda_max,
         })
     }
 
     /// Whether the statistics of eq. 28 have started (module doc); `λ_F = λ_max` until they have.
     pub fn started(&self) -> bool {
-        self.norm1 > T::zero()
+        self.weight_nu > T::zero()
     }
 
     /// The current `λ_F`, to be applied to the next sample.
@@ -301,7 +355,8 @@ impl<T: Real, const N: usize> Vff<T, N> {
     ///
     /// `solved`: whether the estimate `θ(t−1)` that `ν` was formed with is a solution to test the
     /// model against (a TLS solution for GTLS). The statistics of eq. 28 start at the first such
-    /// sample and run from then on; before it, only `Π` is updated and `λ_F = λ_max` (module doc).
+    /// sample; in our reading a sample without one restarts them until eq. 32 is tested, then they
+    /// run on. Until they start only `Π` is updated and `λ_F = λ_max` (module doc).
     ///
     /// Inputs must be finite (the estimator checks them); a non-finite intermediate leaves the state
     /// unchanged and returns `None`.
@@ -323,24 +378,45 @@ impl<T: Real, const N: usize> Vff<T, N> {
             q += x0[i] * px[i];
         }
         let (mut sq2, mut snu2, mut seps2) = (self.sq2, self.snu2, self.seps2);
-        let (mut norm1, mut norm2) = (self.norm1, self.norm2);
+        let (mut w_nu, mut w_eps) = (self.weight_nu, self.weight_eps);
         let mut lambda_new = s.lambda_max;
-        if solved || self.started() {
-            // Eq. 28 as bias-corrected means (module doc): the gain of a window is (1 − γ)/n_γ,
-            // exactly 1 on the first sample.
-            norm1 = s.gamma1 * norm1 + (one - s.gamma1);
-            norm2 = s.gamma2 * norm2 + (one - s.gamma2);
-            let gain1 = (one - s.gamma1) / norm1;
-            let gain2 = (one - s.gamma2) / norm2;
-            let (g_q, g_nu, g_eps) = match s.reading {
-                Eq28Reading::Paleologu => (gain2, gain2, gain1),
-                Eq28Reading::Literal => (gain1, gain1, gain2),
+        // Our reading restarts the statistics on a sample whose estimate is no solution while
+        // eq. 32 is not yet tested (module doc); the literal one runs on from the first solution.
+        let settling = s.reading == Eq28Reading::Paleologu && w_eps < s.min_noise_weight_samples;
+        if !solved && settling {
+            (sq2, snu2, seps2, w_nu, w_eps) = (T::zero(), T::zero(), T::zero(), T::zero(), T::zero());
+        } else if solved || self.started() {
+            let tested = match s.reading {
+                Eq28Reading::Paleologu => {
+                    // 28a–b: means over the short window, weight W₂(t) = γ₂W₂(t−1) + 1 (gain 1 on
+                    // the first sample). 28c: the old-noise mean, its weight D(t) = γ₁D(t−1) +
+                    // (γ₁ − γ₂)W₂(t−1) taking in σ_ν²(t−1) (module doc).
+                    let inflow = (s.gamma1 - s.gamma2) * w_nu;
+                    let snu2_prev = snu2;
+                    w_nu = s.gamma2 * w_nu + one;
+                    let g = one / w_nu;
+                    sq2 = (one - g) * sq2 + g * (q * q); // 28a
+                    snu2 = (one - g) * snu2 + g * (nu * nu); // 28b
+                    w_eps = s.gamma1 * w_eps + inflow;
+                    if w_eps > T::zero() {
+                        let g_eps = inflow / w_eps;
+                        seps2 = (one - g_eps) * seps2 + g_eps * snu2_prev; // 28c
+                    }
+                    w_eps >= s.min_noise_weight_samples
+                }
+                Eq28Reading::Literal => {
+                    // As printed: 28a–b on γ₁, 28c on γ₂, each a mean over the samples so far.
+                    w_nu = s.gamma1 * w_nu + one;
+                    w_eps = s.gamma2 * w_eps + one;
+                    let (g, g_eps) = (one / w_nu, one / w_eps);
+                    sq2 = (one - g) * sq2 + g * (q * q);
+                    snu2 = (one - g) * snu2 + g * (nu * nu);
+                    seps2 = (one - g_eps) * seps2 + g_eps * (nu * nu);
+                    true
+                }
             };
-            sq2 = (one - g_q) * sq2 + g_q * (q * q); // 28a
-            snu2 = (one - g_nu) * snu2 + g_nu * (nu * nu); // 28b
-            seps2 = (one - g_eps) * seps2 + g_eps * (nu * nu); // 28c
-                                                               // Eq. 32 (σ_ν ≤ γ₀σ_ε, compared squared), else eq. 33.
-            lambda_new = if snu2 <= s.gamma0 * s.gamma0 * seps2 {
+            // Eq. 32 (σ_ν ≤ γ₀σ_ε, compared squared), else eq. 33.
+            lambda_new = if !tested || snu2 <= s.gamma0 * s.gamma0 * seps2 {
                 s.lambda_max
             } else {
                 let (sig_q, sig_nu, sig_eps) = (sq2.root(), snu2.root(), seps2.root());
@@ -363,7 +439,7 @@ impl<T: Real, const N: usize> Vff<T, N> {
         };
         // P stays positive semi-definite with trace ≤ its initial trace, so its entries are
         // bounded: finite P x̂₀, powers, λ and trace make the new P finite.
-        let finite = slice_finite(&px) && slice_finite(&[q, g, sq2, snu2, seps2, norm1, norm2, lambda_new, trace]);
+        let finite = slice_finite(&px) && slice_finite(&[q, g, sq2, snu2, seps2, w_nu, w_eps, lambda_new, trace]);
         if !finite {
             return None;
         }
@@ -380,8 +456,8 @@ impl<T: Real, const N: usize> Vff<T, N> {
         self.sq2 = sq2;
         self.snu2 = snu2;
         self.seps2 = seps2;
-        self.norm1 = norm1;
-        self.norm2 = norm2;
+        self.weight_nu = w_nu;
+        self.weight_eps = w_eps;
         self.lambda = lambda_new;
         Some(VffStep {
             q,
