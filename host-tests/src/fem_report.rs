@@ -1,4 +1,4 @@
-//! The filter error method on the real HFB-320 flight (issue 5 §3): the identified model beside the
+//! The filter error method on the real HFB-320 flight: the identified model beside the
 //! published filter-error values, the parameter time histories with ±σ, and the measured outputs
 //! beside the identified model's simulation with the residuals. `aerosid fem-hfb320 [--out DIR]`.
 
