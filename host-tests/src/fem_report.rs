@@ -66,7 +66,7 @@ pub fn hfb320_rows(path: &Path) -> Result<Vec<[f64; 20]>, String> {
 }
 
 /// The environment variable naming another directory of the flight-test data than the vendored
-/// copy (the tests, `aerosid fem-hfb320` and `aerosid gaps` read the data from there).
+/// copy (the tests, `aerosid fem-hfb320` and `aerosid gaps-bench` read the data from there).
 pub const FLIGHT_DATA_ENV: &str = "AEROSID_FLIGHT_DATA";
 
 /// The vendored flight-test data (HFB-320, ATTAS, Twin Otter; provenance and licence in its
