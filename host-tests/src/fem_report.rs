@@ -1,4 +1,4 @@
-//! The filter error method on the real HFB-320 flight (issue 5 §3): the identified model beside the
+//! The filter error method on the real HFB-320 flight: the identified model beside the
 //! published filter-error values, the parameter time histories with ±σ, and the measured outputs
 //! beside the identified model's simulation with the residuals. `aerosid fem-hfb320 [--out DIR]`.
 
@@ -66,7 +66,7 @@ pub fn hfb320_rows(path: &Path) -> Result<Vec<[f64; 20]>, String> {
 }
 
 /// The environment variable naming another directory of the flight-test data than the vendored
-/// copy (the tests, `aerosid fem-hfb320` and `aerosid gaps` read the data from there).
+/// copy (the tests, `aerosid fem-hfb320` and `aerosid gaps-bench` read the data from there).
 pub const FLIGHT_DATA_ENV: &str = "AEROSID_FLIGHT_DATA";
 
 /// The vendored flight-test data (HFB-320, ATTAS, Twin Otter; provenance and licence in its

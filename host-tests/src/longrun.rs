@@ -1,4 +1,4 @@
-//! Long runs (issue 7 §2): hours of simulated flight streamed through the on-board `f32` path,
+//! Long runs: hours of simulated flight streamed through the on-board `f32` path,
 //! watching for anything that drifts, saturates or loses its numerical health.
 //!
 //! ## The flight ([`LongRunConfig`])
@@ -201,10 +201,10 @@ pub struct LongRunReport {
     pub final_theta: [(Vec<f64>, Vec<f64>); idx::COUNT],
 }
 
-/// The invariants of issue 7 §2 a long run must keep ([`LongRunReport::violations`]).
+/// The invariants a long run must keep ([`LongRunReport::violations`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Invariants {
-    /// Bound on every estimator's `‖VᵀV − I‖_F` at every sample (issue 7: 1e-5).
+    /// Bound on every estimator's `‖VᵀV − I‖_F` at every sample (1e-5).
     pub orthonormality: f64,
     /// Largest settling time after a jump, s.
     pub settle_s: f64,
