@@ -136,7 +136,8 @@ pub struct VffSettings<T> {
     pub pi0: T,
     /// Weight (in samples) the old-noise power `σ_ε²` must have gathered before eq. 32 may switch
     /// (not in the seed; module doc); `λ_F = λ_max` until then. Our reading of eq. 28 only;
-    /// `0 ≤ value < 1/(1 − γ₁) − 1/(1 − γ₂)`, the weight `σ_ε²` tends to.
+    /// `0 < value < 1/(1 − γ₁) − 1/(1 − γ₂)`, the weight `σ_ε²` tends to (positive: the first
+    /// sample has no noise before it).
     pub min_noise_weight_samples: T,
     /// The reading of the damaged eq. 28.
     pub reading: Eq28Reading,
@@ -240,7 +241,7 @@ impl<T: Real> VffSettings<T> {
             && self.gamma2 < self.gamma1
             && self.pi0 > z
             && self.pi0.finite()
-            && self.min_noise_weight_samples >= z
+            && self.min_noise_weight_samples > z
             && self.min_noise_weight_samples < one / (one - self.gamma1) - one / (one - self.gamma2);
         if ok {
             Ok(())

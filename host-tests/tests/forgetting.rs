@@ -583,17 +583,18 @@ fn check_targets(rows: &[Row]) {
     }
 }
 
-/// Settings that break eq. 31 (`γ₂ < γ₁`) or ask for more noise weight than `σ_ε²` can gather
+/// Settings that break eq. 31 (`γ₂ < γ₁`), ask for no noise weight or for more than `σ_ε²` can gather
 /// (`1/(1 − γ₁) − 1/(1 − γ₂)`: 585 samples for `for_dimension(3)`) are refused.
 #[test]
 fn vff_settings_against_eq31_or_the_noise_weight_are_refused() {
     use aerosid_core::{Error, Rls, RlsSettings};
     let base = VffSettings::<f64>::for_dimension(3);
     type Edit = (&'static str, fn(&mut VffSettings<f64>));
-    let cases: [Edit; 5] = [
+    let cases: [Edit; 6] = [
         ("γ₂ = γ₁", |v| v.gamma2 = v.gamma1),
         ("γ₂ > γ₁", |v| (v.gamma1, v.gamma2) = (v.gamma2, v.gamma1)),
         ("negative noise weight", |v| v.min_noise_weight_samples = -1.0),
+        ("no noise weight", |v| v.min_noise_weight_samples = 0.0),
         ("noise weight never reached", |v| v.min_noise_weight_samples = 585.5),
         ("NaN noise weight", |v| v.min_noise_weight_samples = f64::NAN),
     ];
