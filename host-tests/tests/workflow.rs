@@ -236,3 +236,65 @@ fn bad_model_and_data_files_are_refused_with_the_place_and_the_fix() {
     let e = read_segments(&model, &model.default_data().expect("data"), &[(100.0, 120.0)]).expect_err("refused");
     assert!(e.contains("no samples") && e.contains("0 to 60.000 s"), "{e}");
 }
+
+#[test]
+fn cli_fem_then_predict_on_the_twin_otter() {
+    // GIVEN the `aerosid` binary, WHEN `fem` identifies on 0–3.5 s and `predict` applies the saved
+    // model to 3.5–8 s
+    let out = scratch("cli");
+    let exe = env!("CARGO_BIN_EXE_aerosid");
+    let model = models().join("twin_otter_lon.toml");
+    let fem = std::process::Command::new(exe)
+        .args(["fem", "--model"])
+        .arg(&model)
+        .args(["--segment", "0:3.5", "--validate-segment", "3.5:8", "--out"])
+        .arg(&out)
+        .output()
+        .expect("run aerosid fem");
+    let text = String::from_utf8_lossy(&fem.stdout);
+    println!("{text}{}", String::from_utf8_lossy(&fem.stderr));
+    assert!(fem.status.success());
+    let saved = out.join("identification.json");
+    let predict = std::process::Command::new(exe)
+        .args(["predict", "--saved"])
+        .arg(&saved)
+        .args(["--segment", "3.5:8", "--out"])
+        .arg(&out)
+        .output()
+        .expect("run aerosid predict");
+    println!("{}", String::from_utf8_lossy(&predict.stdout));
+    // THEN both succeed and write their JSON and figures, and the prediction's table is the
+    // validation table of `fem`
+    assert!(predict.status.success(), "{}", String::from_utf8_lossy(&predict.stderr));
+    for f in [
+        "identification.json",
+        "identification_fit.svg",
+        "validation_fit.svg",
+        "prediction.json",
+        "prediction.svg",
+    ] {
+        assert!(out.join(f).exists(), "{f}");
+    }
+    let rows = |t: &str, after: &str| -> Vec<String> {
+        t.lines()
+            .skip_while(|l| !l.starts_with(after))
+            .skip(2)
+            .take(2)
+            .map(String::from)
+            .collect()
+    };
+    let p = String::from_utf8_lossy(&predict.stdout).to_string();
+    assert_eq!(
+        rows(&text, "simulation on the validation data:"),
+        rows(&p, "simulation:")
+    );
+    // AND a malformed flag is refused with the fix, exit code 2
+    let bad = std::process::Command::new(exe)
+        .args(["fem", "--model"])
+        .arg(&model)
+        .args(["--fix", "Mq"])
+        .output()
+        .expect("run");
+    assert_eq!(bad.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("NAME=VALUE"));
+}

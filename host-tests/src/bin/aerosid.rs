@@ -22,6 +22,13 @@
 //! coefficients it names ([`aerosid_host::gaps::model::parse_baseline`]); `--compatibility off`
 //! skips the flight-path reconstruction.
 //!
+//! `aerosid fem --model FILE.toml [--data FILE]… [--segment FROM:TO]… [--fix NAME=VALUE]…
+//! [--validate FILE]… [--validate-segment FROM:TO]… [--out DIR]`: the filter error / output error
+//! method on a user model file ([`aerosid_host::usermodel`], e.g. `host-tests/models/hfb320.toml`),
+//! pooled over the files and segments, validated on others; writes `identification.json` and SVG
+//! fits. `aerosid predict --saved identification.json [--data FILE]… [--segment FROM:TO]…
+//! [--out DIR]` applies a saved model to other data ([`aerosid_host::workflow`]).
+//!
 //! `aerosid panic-audit ELF ALLOW`: every panic path left in a firmware image, checked against the
 //! allow-list `ALLOW` ([`aerosid_host::panic_audit`]; CI runs it on the release firmware with
 //! `firmware/panic-allow.txt`).
@@ -69,6 +76,8 @@ enum Command {
     FemHfb320 {
         out: std::path::PathBuf,
     },
+    Fem(aerosid_host::workflow::FemArgs),
+    Predict(aerosid_host::workflow::PredictArgs),
     Table1 {
         out: std::path::PathBuf,
     },
@@ -307,6 +316,8 @@ fn parse() -> Result<Option<Command>, String> {
                 out: out_dir(&mut it, "fem-hfb320")?,
             }))
         }
+        Some("fem") => return aerosid_host::workflow::parse_fem_args(it).map(|a| Some(Command::Fem(a))),
+        Some("predict") => return aerosid_host::workflow::parse_predict_args(it).map(|a| Some(Command::Predict(a))),
         Some("replay") => {
             let mut log = None;
             let mut qemu = false;
@@ -714,6 +725,16 @@ fn main() -> ExitCode {
             "figures",
             aerosid_host::fem_report::hfb320_report(&aerosid_host::fem_report::default_hfb320_path(), &out),
         ),
+        Ok(Some(Command::Fem(args))) => finish(
+            "fem",
+            "written",
+            aerosid_host::workflow::run_fem(&args).map(|r| (r.text, r.files)),
+        ),
+        Ok(Some(Command::Predict(a))) => finish(
+            "predict",
+            "written",
+            aerosid_host::workflow::run_predict(&a.saved, &a.data, &a.segments, &a.out).map(|(_, t, f)| (t, f)),
+        ),
         Ok(Some(Command::Replay { log, qemu })) => match aerosid_host::replay::replay(&log, qemu) {
             Ok(report) => {
                 print!("{report}");
@@ -774,6 +795,11 @@ fn main() -> ExitCode {
             println!("       aerosid simulate --out LOG.csv [--seed N] [--seconds S]");
             println!("       aerosid replay LOG.csv [--qemu]");
             println!("       aerosid fem-hfb320 [--out DIR]");
+            println!(
+                "       aerosid fem --model FILE.toml [--data FILE]... [--segment FROM:TO]... [--fix NAME=VALUE]..."
+            );
+            println!("                   [--validate FILE]... [--validate-segment FROM:TO]... [--out DIR]");
+            println!("       aerosid predict --saved identification.json [--data FILE]... [--segment FROM:TO]... [--out DIR]");
             println!("       aerosid table1 [--out DIR]");
             println!("       aerosid gaps-bench [--out DIR] [--draws N] [--clean N]   (tables for scripts/bench/)");
             println!("       aerosid gaps --data FILE --with MAP_OR_AIRCRAFT [--air-data auto|measured|reconstructed|fused] [--no-corrections]");
@@ -793,6 +819,12 @@ fn main() -> ExitCode {
             println!("  fem-hfb320  the filter error method (seed 001) on the real HFB-320 flight: estimates ± σ");
             println!("         beside the published values, the prediction variants (Euler/RK4, held/interpolated");
             println!("         input, recursive/batch), measured vs model outputs and residuals (SVG)");
+            println!("  fem    the filter error or output error method on a model file (host-tests/models/*.toml:");
+            println!(
+                "         states, inputs, outputs, parameters, equations), files and segments pooled (FROM:TO in s"
+            );
+            println!("         from the file's first sample); writes identification.json, fit figures (SVG)");
+            println!("  predict  apply a saved identification to other data: simulated outputs, RMS, R², Theil's U");
             println!("  gaps   the model-gap analysis (docs/model-gaps.md) of a measured flight, or of a simulated");
             println!("         flight with one hidden effect (KIND: lift-quadratic, elevator-drag, alpha-dot,");
             println!("         thrust-moment, cross-coupling, vane-scale, sensor-bias, time-delay; size drawn from");

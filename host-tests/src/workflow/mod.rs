@@ -861,3 +861,70 @@ pub fn run_predict(
     fit_table(&mut txt, "simulation:", &pred.fit);
     Ok((pred, txt, vec![jp, sp]))
 }
+
+/// What the `predict` command takes.
+#[derive(Debug, Clone, Default)]
+pub struct PredictArgs {
+    /// The saved identification (`identification.json`).
+    pub saved: PathBuf,
+    /// Data files (default: the model's `[data] file`).
+    pub data: Vec<PathBuf>,
+    /// Segments of each data file (default: all of it).
+    pub segments: Vec<Range>,
+    /// Output folder.
+    pub out: PathBuf,
+}
+
+/// The flags of `aerosid fem` (after the command word): `--model FILE.toml` (required),
+/// `--data FILE`, `--segment FROM:TO`, `--validate FILE`, `--validate-segment FROM:TO`,
+/// `--fix NAME=VALUE` (each may repeat), `--out DIR` (default `out/fem`).
+pub fn parse_fem_args(args: impl IntoIterator<Item = String>) -> Result<FemArgs, String> {
+    let mut a = FemArgs {
+        out: PathBuf::from("out/fem"),
+        ..FemArgs::default()
+    };
+    let mut model = None;
+    let mut it = args.into_iter();
+    while let Some(flag) = it.next() {
+        let value = it
+            .next()
+            .ok_or_else(|| format!("`{flag}` needs a value (aerosid --help)"))?;
+        match flag.as_str() {
+            "--model" => model = Some(PathBuf::from(value)),
+            "--data" => a.data.push(value.into()),
+            "--segment" => a.segments.push(parse_range(&value)?),
+            "--validate" => a.validate.push(value.into()),
+            "--validate-segment" => a.validate_segments.push(parse_range(&value)?),
+            "--fix" => a.fix.push(parse_fix(&value)?),
+            "--out" => a.out = value.into(),
+            _ => return Err(format!("unknown flag `{flag}` for `fem` (aerosid --help)")),
+        }
+    }
+    a.model = model.ok_or("`fem` needs --model FILE.toml (e.g. host-tests/models/hfb320.toml)")?;
+    Ok(a)
+}
+
+/// The flags of `aerosid predict`: `--saved identification.json` (required), `--data FILE`,
+/// `--segment FROM:TO` (each may repeat), `--out DIR` (default `out/predict`).
+pub fn parse_predict_args(args: impl IntoIterator<Item = String>) -> Result<PredictArgs, String> {
+    let mut a = PredictArgs {
+        out: PathBuf::from("out/predict"),
+        ..PredictArgs::default()
+    };
+    let mut saved = None;
+    let mut it = args.into_iter();
+    while let Some(flag) = it.next() {
+        let value = it
+            .next()
+            .ok_or_else(|| format!("`{flag}` needs a value (aerosid --help)"))?;
+        match flag.as_str() {
+            "--saved" => saved = Some(PathBuf::from(value)),
+            "--data" => a.data.push(value.into()),
+            "--segment" => a.segments.push(parse_range(&value)?),
+            "--out" => a.out = value.into(),
+            _ => return Err(format!("unknown flag `{flag}` for `predict` (aerosid --help)")),
+        }
+    }
+    a.saved = saved.ok_or("`predict` needs --saved FILE.json (the identification.json `aerosid fem` wrote)")?;
+    Ok(a)
+}
