@@ -170,6 +170,30 @@ fn pooling_a_record_with_itself_keeps_the_estimate_and_halves_the_variance() {
     // different points within their 0.01σ tolerance, hence not exact) and each variance is half
     // (the noise relaxation gives both the same R; within 2 %, the difference of the stopping
     // points)
+    // AND as a validation file it is two validation segments, each scored like the one segment
+    let out = scratch("pooling");
+    let single = run_fem(&FemArgs {
+        model: models().join("twin_otter_lon.toml"),
+        segments: vec![(0.0, 3.5)],
+        validate_segments: vec![(3.5, 8.0)],
+        out: out.join("single"),
+        ..FemArgs::default()
+    })
+    .expect("fem");
+    let both = run_fem(&FemArgs {
+        model: models().join("twin_otter_lon.toml"),
+        segments: vec![(0.0, 3.5)],
+        validate: vec![file.clone()],
+        validate_segments: vec![(3.5, 8.0), (103.5, 108.0)],
+        out: out.join("both"),
+        ..FemArgs::default()
+    })
+    .expect("fem");
+    assert_eq!(both.saved.validation_data.len(), 2);
+    for (a, b) in both.saved.validation.iter().zip(&single.saved.validation) {
+        assert_eq!(a.samples, 2 * b.samples);
+        assert!((a.r2 - b.r2).abs() < 1e-9, "{}: {} vs {}", a.name, a.r2, b.r2);
+    }
     for k in 0..model.free().len() {
         let (s1, s2) = (once.covariance[(k, k)].sqrt(), twice.covariance[(k, k)].sqrt());
         let dp = (twice.p[k] - once.p[k]).abs() / s1;

@@ -700,6 +700,13 @@ pub fn run_fem(args: &FemArgs) -> Result<FemRun, String> {
             .map_err(|e: PlotError| format!("{}: {e:?}", fig.display()))?;
         files.push(fig);
     }
+    if !id.history.is_empty() {
+        let fig = args.out.join("parameters.svg");
+        history_figure(&model, &id.history)
+            .write_svg(&fig)
+            .map_err(|e: PlotError| format!("{}: {e:?}", fig.display()))?;
+        files.push(fig);
+    }
     let text = report_text(&saved);
     Ok(FemRun { saved, text, files })
 }
@@ -756,7 +763,6 @@ fn fit_table(out: &mut String, title: &str, fits: &[OutputFit]) {
 
 /// Measured vs simulated and the residual, per output, all segments one after the other.
 fn fit_figure(model: &UserModel, title: &str, segs: &[Segment], sims: &[Vec<YVec>]) -> Figure {
-    let t: Vec<f64> = segs.iter().flat_map(|s| s.t_s.iter().copied()).collect();
     let mut fig = Figure::new("t from the start of the file (s)").title(title);
     for (i, o) in model.file.outputs.iter().enumerate() {
         let label = if o.unit.is_empty() {
@@ -778,7 +784,6 @@ fn fit_figure(model: &UserModel, title: &str, segs: &[Segment], sims: &[Vec<YVec
             p.push(f64::NAN);
         }
         let r: Vec<f64> = m.iter().zip(&p).map(|(a, b)| a - b).collect();
-        let _ = &t;
         fig = fig
             .panel(
                 Panel::new(label.clone(), label.clone())
@@ -791,6 +796,35 @@ fn fit_figure(model: &UserModel, title: &str, segs: &[Segment], sims: &[Vec<YVec
                 &r,
                 Colour::VERMILLION,
             )));
+    }
+    fig
+}
+
+/// The recursive filter's free parameters ±σ against time (segments one after the other).
+fn history_figure(model: &UserModel, history: &[(usize, f64, PVec, PVec)]) -> Figure {
+    let mut fig = Figure::new("t from the start of the file (s)").title(format!(
+        "{}: parameter estimates ±σ (recursive filter)",
+        model.file.name
+    ));
+    for (k, &i) in model.free().iter().enumerate() {
+        // NaN where a new segment starts splits the lines there.
+        let (mut t, mut est, mut sig) = (Vec::new(), Vec::new(), Vec::new());
+        for (j, (seg, time, p, s)) in history.iter().enumerate() {
+            if j > 0 && history[j - 1].0 != *seg {
+                t.push(f64::NAN);
+                est.push(f64::NAN);
+                sig.push(f64::NAN);
+            }
+            t.push(*time);
+            est.push(p[k]);
+            sig.push(s[k]);
+        }
+        let name = &model.file.parameters[i].name;
+        fig = fig.panel(
+            Panel::new(name.clone(), name.clone())
+                .band(crate::plot::Band::around("±σ", &t, &est, &sig, 1.0, Colour::BLUE))
+                .line(Line::new("estimate", &t, &est, Colour::BLUE)),
+        );
     }
     fig
 }
