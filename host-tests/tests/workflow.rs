@@ -3,7 +3,7 @@
 //! (`aerosid fem`, `aerosid predict`), and the refusal of bad files.
 
 use aerosid_core::fem::Sensitivity;
-use aerosid_host::fem_report::{hfb320_filter, hfb320_rows, step_data};
+use aerosid_host::fem_report::{hfb320_filter, hfb320_rows, step_data, PUBLISHED, START};
 use aerosid_host::usermodel::UserModel;
 use aerosid_host::workflow::{
     fit_metrics, identify, read_segments, run_fem, run_predict, simulate, FemArgs, SavedModel,
@@ -35,6 +35,10 @@ fn hfb320_model_file_reproduces_the_compiled_model() {
     assert_eq!(data, models().join("../data/flight/hfb320_1_10.asc"));
     let segs = read_segments(&model, &data, &[]).expect("data");
     assert_eq!(segs.len(), 1);
+    // (its starting and reference values are the book's, as the compiled report has them)
+    for (i, p) in model.file.parameters.iter().enumerate() {
+        assert_eq!((p.start, p.reference), (START[i], Some(PUBLISHED[i])), "{}", p.name);
+    }
     // WHEN the generic filter error method runs on it (one recursive pass, as `fem-hfb320`)
     let id = identify(&model, &segs).expect("identify");
     // and the compiled `Hfb320` model runs in the same filter
@@ -248,6 +252,17 @@ fn bad_model_and_data_files_are_refused_with_the_place_and_the_fix() {
         .replace("process_noise = 0.358553", "proces_noise = 0.358553");
     let e = UserModel::parse(&text, Path::new("m.toml")).expect_err("refused");
     assert!(e.0.contains("proces_noise"), "{}", e.0);
+    // The noise relaxation belongs to the output error method only.
+    let text = model.text.replace(
+        "prior_sigma_floor = 0.05",
+        "prior_sigma_floor = 0.05\nestimate_noise = true",
+    );
+    let e = UserModel::parse(&text, Path::new("m.toml")).expect_err("refused");
+    assert!(
+        e.0.contains("estimation.estimate_noise") && e.0.contains("output-error"),
+        "{}",
+        e.0
+    );
     // Fixing a parameter the model does not have lists those it has.
     let mut m = hfb320_model();
     let e = m.fix("Cmdelta", 1.0).expect_err("refused");

@@ -49,6 +49,7 @@
 //! start = 5.67516e-3
 //! fixed = false          # a fixed parameter keeps its start value and is not estimated
 //! prior_sigma = 0.01     # default: Bauer–Andrisani max(0.25|start|, estimation.prior_sigma_floor)
+//! reference = 0.122688   # optional published value; the report gives |estimate − reference|/σ
 //!
 //! [estimation]
 //! method = "filter-error"      # or "output-error" (no process noise, no state correction)
@@ -173,6 +174,9 @@ pub struct ParamSpec {
     /// σ of the prior; default Bauer–Andrisani.
     #[serde(default)]
     pub prior_sigma: Option<f64>,
+    /// A published value to compare with (reported as `|estimate − reference|/σ`).
+    #[serde(default)]
+    pub reference: Option<f64>,
 }
 
 /// The `[data]` table.
@@ -534,6 +538,13 @@ impl UserModel {
             if !ok {
                 return err(&f, field, "not one of the accepted values");
             }
+        }
+        if est.estimate_noise && !(est.method == Method::OutputError && est.iteration == Iteration::GaussNewton) {
+            return err(
+                &f,
+                "estimation.estimate_noise",
+                "only with method = \"output-error\" and iteration = \"gauss-newton\" (the filter error method takes R as given)",
+            );
         }
         if file.data.time_column == 0 || file.data.time_column > file.data.columns {
             return err(

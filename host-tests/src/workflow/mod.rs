@@ -488,6 +488,9 @@ pub struct SavedParameter {
     pub fixed: bool,
     /// Starting value.
     pub start: f64,
+    /// The model file's published value, if it gives one.
+    #[serde(default)]
+    pub reference: Option<f64>,
 }
 
 /// What `aerosid fem` writes (`identification.json`) and `aerosid predict` reads.
@@ -671,6 +674,7 @@ pub fn run_fem(args: &FemArgs) -> Result<FemRun, String> {
                 sigma: sigma[i],
                 fixed: p.fixed,
                 start: p.start,
+                reference: p.reference,
             })
             .collect(),
         noise_variance: id.noise_variance.clone(),
@@ -728,12 +732,21 @@ pub fn report_text(s: &SavedModel) -> String {
     }
     let _ = writeln!(
         out,
-        "{:>12} {:>14} {:>12} {:>14}",
-        "parameter", "estimate", "σ", "start"
+        "{:>12} {:>14} {:>12} {:>14} {:>14} {:>7}",
+        "parameter", "estimate", "σ", "start", "reference", "|Δ|/σ"
     );
     for p in &s.parameters {
         let sig = p.sigma.map_or("fixed".to_string(), |v| format!("{v:.5}"));
-        let _ = writeln!(out, "{:>12} {:>+14.6} {:>12} {:>+14.6}", p.name, p.value, sig, p.start);
+        let (r, z) = match (p.reference, p.sigma) {
+            (Some(r), Some(sg)) => (format!("{r:+.6}"), format!("{:.2}", (p.value - r).abs() / sg)),
+            (Some(r), None) => (format!("{r:+.6}"), String::new()),
+            _ => (String::new(), String::new()),
+        };
+        let _ = writeln!(
+            out,
+            "{:>12} {:>+14.6} {:>12} {:>+14.6} {r:>14} {z:>7}",
+            p.name, p.value, sig, p.start
+        );
     }
     fit_table(&mut out, "simulation on the identification data:", &s.fit);
     if !s.validation.is_empty() {
