@@ -28,3 +28,5 @@ pub mod report;
 pub mod sim;
 pub mod stack_bound;
 pub mod table1;
+pub mod usermodel;
+pub mod workflow;

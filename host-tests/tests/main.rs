@@ -32,3 +32,4 @@ mod sim;
 mod sizes;
 mod synthesis;
 mod table1;
+mod workflow;

@@ -41,6 +41,8 @@ enum Command {
     Replay(ReplayArgs),
     #[command(name = "fem-hfb320")]
     FemHfb320(FemHfb320Args),
+    Fem(FemArgs),
+    Predict(PredictArgs),
     Table1(Table1Args),
     Gaps(GapsArgs),
     GapsBench(GapsBenchArgs),
@@ -63,6 +65,8 @@ impl Command {
             Self::Simulate(a) => a.execute(),
             Self::Replay(a) => a.execute(),
             Self::FemHfb320(a) => a.execute(),
+            Self::Fem(a) => a.execute(),
+            Self::Predict(a) => a.execute(),
             Self::Table1(a) => a.execute(),
             Self::Gaps(a) => a.execute(),
             Self::GapsBench(a) => a.execute(),
@@ -275,6 +279,84 @@ impl Execute for FemHfb320Args {
             "fem-hfb320",
             "figures",
             aerosid_host::fem_report::hfb320_report(&data, &self.out),
+        )
+    }
+}
+
+/// The filter error or output error method on a model file (states, inputs, outputs, parameters,
+/// equations; docs/workflow.md, e.g. host-tests/models/hfb320.toml), the files and segments pooled
+/// (each its own initial state), parameters fixed as asked, validated on other data; writes
+/// identification.json (the saved model) and measured-vs-model figures (SVG).
+#[derive(Args)]
+struct FemArgs {
+    /// The model file (TOML); paths inside it resolve against its folder.
+    #[arg(long, value_name = "FILE.toml")]
+    model: PathBuf,
+    /// A data file (repeatable; default the model file's `[data] file`).
+    #[arg(long, value_name = "FILE")]
+    data: Vec<PathBuf>,
+    /// A segment of each data file, seconds from its first sample (repeatable; default all).
+    #[arg(long, value_name = "FROM:TO", value_parser = aerosid_host::workflow::parse_range, allow_hyphen_values = true)]
+    segment: Vec<(f64, f64)>,
+    /// A validation file (repeatable).
+    #[arg(long, value_name = "FILE")]
+    validate: Vec<PathBuf>,
+    /// A validation segment, of the validation files or else of the data files (repeatable).
+    #[arg(long, value_name = "FROM:TO", value_parser = aerosid_host::workflow::parse_range, allow_hyphen_values = true)]
+    validate_segment: Vec<(f64, f64)>,
+    /// Hold a parameter at a value instead of estimating it (repeatable).
+    #[arg(long, value_name = "NAME=VALUE", value_parser = aerosid_host::workflow::parse_fix, allow_hyphen_values = true)]
+    fix: Vec<(String, f64)>,
+    /// Folder the JSON and figures are written to (created if missing).
+    #[arg(long, value_name = "DIR", default_value = "out/fem")]
+    out: PathBuf,
+}
+
+impl Execute for FemArgs {
+    fn execute(self) -> ExitCode {
+        let args = aerosid_host::workflow::FemArgs {
+            model: self.model,
+            data: self.data,
+            segments: self.segment,
+            validate: self.validate,
+            validate_segments: self.validate_segment,
+            fix: self.fix,
+            out: self.out,
+        };
+        finish(
+            "fem",
+            "written",
+            aerosid_host::workflow::run_fem(&args).map(|r| (r.text, r.files)),
+        )
+    }
+}
+
+/// Apply a saved identification (the identification.json of `fem`) to other data: the outputs
+/// simulated from the first measured state with the measured inputs, RMS, R² and Theil's U per
+/// output, prediction.json and a measured-vs-predicted figure (SVG).
+#[derive(Args)]
+struct PredictArgs {
+    /// The saved identification.
+    #[arg(long, value_name = "FILE.json")]
+    saved: PathBuf,
+    /// A data file (repeatable; default the model file's `[data] file`).
+    #[arg(long, value_name = "FILE")]
+    data: Vec<PathBuf>,
+    /// A segment of each data file, seconds from its first sample (repeatable; default all).
+    #[arg(long, value_name = "FROM:TO", value_parser = aerosid_host::workflow::parse_range, allow_hyphen_values = true)]
+    segment: Vec<(f64, f64)>,
+    /// Folder the JSON and figure are written to (created if missing).
+    #[arg(long, value_name = "DIR", default_value = "out/predict")]
+    out: PathBuf,
+}
+
+impl Execute for PredictArgs {
+    fn execute(self) -> ExitCode {
+        finish(
+            "predict",
+            "written",
+            aerosid_host::workflow::run_predict(&self.saved, &self.data, &self.segment, &self.out)
+                .map(|(_, t, f)| (t, f)),
         )
     }
 }

@@ -1,0 +1,910 @@
+//! The researcher's workflow around a user model ([`crate::usermodel`]): identify on one or more
+//! files or segments pooled (each segment its own initial state), with parameters fixed, check on a
+//! validation segment or file, save the model as JSON, and apply a saved model to another flight
+//! (`aerosid fem` and `aerosid predict`).
+//!
+//! * **Pooling.** Segments are processed one after the other; the state filter restarts on each
+//!   from that segment's first measurement, the parameter filter carries its estimate and
+//!   covariance across. For a Gauss–Newton pass (a linear Kalman filter in `p`, see
+//!   [`aerosid_core::fem::FilterError::new_pass`]) the chained update equals the normal equations
+//!   summed over all segments; for the recursive filter it is the filter run on the records in
+//!   turn.
+//! * **Output error.** The same filter with no process noise and a state covariance so small
+//!   (`10⁻¹²` of the initial variances) that the state gain vanishes: the state is the model's
+//!   simulation and `R_p = R`; optionally `R` is replaced after each Gauss–Newton pass by the
+//!   residual covariance (Jategaonkar 2015, §4.4's relaxation strategy for the output error method).
+//! * **Prediction** is an open-loop simulation of the outputs from the segment's first measured
+//!   state with the measured inputs, scored per output by the RMS residual, `R² = 1 − SS_res/SS_tot`
+//!   and Theil's inequality coefficient `U = √mean(e²)/(√mean(y²) + √mean(ŷ²))` (0 perfect, 1
+//!   useless; Jategaonkar 2015, §10 model validation).
+//!
+//! Data files are whitespace-separated numbers, laid out as the model file's `[data]` and column
+//! entries say. A file whose time column jumps (more than 1.5 sample periods, or backwards) holds
+//! several manoeuvres: it is split into segments there, not refused. A column the model reads that
+//! is zero on every line is refused (a zero-padded column is a missing channel, not data).
+
+use crate::plot::{Colour, Figure, Line, Panel, PlotError};
+use crate::usermodel::{
+    Initial, Iteration, Method, ModelError, PVec, UVec, UserModel, XVec, YVec, MAX_P, MAX_X, MAX_Y,
+};
+use aerosid_core::fem::{integrate, FemSettings, FilterError, Model};
+use nalgebra::SMatrix;
+use serde::{Deserialize, Serialize};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+/// A time range, seconds from the first sample of its file: `FROM:TO` on the command line.
+pub type Range = (f64, f64);
+
+/// One contiguous piece of a record, in the model's (scaled) units.
+#[derive(Debug, Clone)]
+pub struct Segment {
+    /// Where it came from: `file [from, to] s`.
+    pub label: String,
+    /// The file.
+    pub file: String,
+    /// Time from the start of the file, s.
+    pub t_s: Vec<f64>,
+    /// Inputs per sample.
+    pub u: Vec<UVec>,
+    /// Measured outputs per sample.
+    pub y: Vec<YVec>,
+}
+
+/// Parses `FROM:TO` (seconds, `FROM < TO`).
+pub fn parse_range(s: &str) -> Result<Range, String> {
+    let fix = "write it as FROM:TO in seconds from the file's first sample, e.g. 0:5";
+    let (a, b) = s.split_once(':').ok_or_else(|| format!("segment `{s}`: {fix}"))?;
+    let a: f64 = a
+        .trim()
+        .parse()
+        .map_err(|_| format!("segment `{s}`: `{a}` is not a number; {fix}"))?;
+    let b: f64 = b
+        .trim()
+        .parse()
+        .map_err(|_| format!("segment `{s}`: `{b}` is not a number; {fix}"))?;
+    if !(a.is_finite() && b.is_finite() && a < b) {
+        return Err(format!("segment `{s}`: FROM must be below TO; {fix}"));
+    }
+    Ok((a, b))
+}
+
+/// Parses `NAME=VALUE` of `--fix`.
+pub fn parse_fix(s: &str) -> Result<(String, f64), String> {
+    let (n, v) = s
+        .split_once('=')
+        .ok_or_else(|| format!("--fix `{s}`: write it as NAME=VALUE, e.g. --fix Cmq=-34.7"))?;
+    let v: f64 = v
+        .trim()
+        .parse()
+        .map_err(|_| format!("--fix `{s}`: `{v}` is not a number"))?;
+    Ok((n.trim().to_string(), v))
+}
+
+/// Reads a data file laid out as the model says, splits it at time jumps, and cuts the `ranges`
+/// (all of each piece if none). Refuses lines with another number of columns, non-numbers,
+/// non-finite values in a column the model reads, columns the model reads that are zero on every
+/// line, and segments of fewer than two samples.
+pub fn read_segments(model: &UserModel, path: &Path, ranges: &[Range]) -> Result<Vec<Segment>, String> {
+    let f = path.display().to_string();
+    let text = std::fs::read_to_string(path).map_err(|e| format!("{f}: {e}"))?;
+    let spec = &model.file.data;
+    let mut rows: Vec<(usize, Vec<f64>)> = Vec::new();
+    for (i, line) in text.lines().enumerate() {
+        if line.trim().is_empty() {
+            continue;
+        }
+        let mut row = Vec::with_capacity(spec.columns);
+        for (c, tok) in line.split_whitespace().enumerate() {
+            row.push(
+                tok.parse::<f64>()
+                    .map_err(|e| format!("{f}:{}: column {}: `{tok}`: {e}", i + 1, c + 1))?,
+            );
+        }
+        if row.len() != spec.columns {
+            return Err(format!(
+                "{f}:{}: {} columns, the model file {} says data.columns = {} (set it to this file's layout or give the right file)",
+                i + 1,
+                row.len(),
+                model.path.display(),
+                spec.columns
+            ));
+        }
+        rows.push((i + 1, row));
+    }
+    if rows.len() < 2 {
+        return Err(format!("{f}: {} samples; at least two are needed", rows.len()));
+    }
+    let (_, nu, ny) = model.dims();
+    let mut used: Vec<(String, usize)> = vec![("time".into(), spec.time_column)];
+    used.extend(
+        model
+            .file
+            .inputs
+            .iter()
+            .map(|i| (format!("input {}", i.name), i.column)),
+    );
+    used.extend(
+        model
+            .file
+            .outputs
+            .iter()
+            .map(|o| (format!("output {}", o.name), o.column)),
+    );
+    for (what, col) in &used {
+        if let Some((line, _)) = rows.iter().find(|(_, r)| !r[col - 1].is_finite()) {
+            return Err(format!("{f}:{line}: column {col} ({what}) is not finite"));
+        }
+        if rows.iter().all(|(_, r)| r[col - 1] == 0.0) {
+            return Err(format!(
+                "{f}: column {col} ({what}) is zero on every line: a missing (zero-padded) channel; map {what} to the column that holds it in {}",
+                model.path.display()
+            ));
+        }
+    }
+    let tc = spec.time_column - 1;
+    let t0 = rows[0].1[tc];
+    let diffs: Vec<f64> = rows.windows(2).map(|w| w[1].1[tc] - w[0].1[tc]).collect();
+    let mut sorted: Vec<f64> = diffs.iter().copied().filter(|d| *d > 0.0).collect();
+    sorted.sort_by(f64::total_cmp);
+    let dt = *sorted
+        .get(sorted.len() / 2)
+        .ok_or_else(|| format!("{f}: the time column {} never increases", spec.time_column))?;
+    // Contiguous pieces: a step above 1.5 dt or not forward starts a new one.
+    let mut pieces: Vec<std::ops::Range<usize>> = Vec::new();
+    let mut start = 0;
+    for (k, d) in diffs.iter().enumerate() {
+        if !(*d > 0.0 && *d < 1.5 * dt) {
+            pieces.push(start..k + 1);
+            start = k + 1;
+        }
+    }
+    pieces.push(start..rows.len());
+    let whole = [(f64::NEG_INFINITY, f64::INFINITY)];
+    let ranges = if ranges.is_empty() { &whole[..] } else { ranges };
+    let mut out = Vec::new();
+    for &(from, to) in ranges {
+        let mut found = false;
+        for piece in &pieces {
+            let idx: Vec<usize> = piece
+                .clone()
+                .filter(|&k| {
+                    let t = rows[k].1[tc] - t0;
+                    t >= from - 1e-9 * dt && t <= to + 1e-9 * dt
+                })
+                .collect();
+            if idx.is_empty() {
+                continue;
+            }
+            found = true;
+            if idx.len() < 2 {
+                return Err(format!(
+                    "{f}: segment {from}:{to} s holds {} sample of a piece; give a longer segment",
+                    idx.len()
+                ));
+            }
+            let t_s: Vec<f64> = idx.iter().map(|&k| rows[k].1[tc] - t0).collect();
+            let u = idx
+                .iter()
+                .map(|&k| {
+                    let mut v = UVec::zeros();
+                    for (j, i) in model.file.inputs.iter().enumerate().take(nu) {
+                        v[j] = rows[k].1[i.column - 1] * i.scale;
+                    }
+                    v
+                })
+                .collect();
+            let y = idx
+                .iter()
+                .map(|&k| {
+                    let mut v = YVec::zeros();
+                    for (j, o) in model.file.outputs.iter().enumerate().take(ny) {
+                        v[j] = rows[k].1[o.column - 1] * o.scale;
+                    }
+                    v
+                })
+                .collect();
+            out.push(Segment {
+                label: format!("{f} [{:.3}, {:.3}] s", t_s[0], t_s[t_s.len() - 1]),
+                file: f.clone(),
+                t_s,
+                u,
+                y,
+            });
+        }
+        if !found {
+            let last = rows[rows.len() - 1].1[tc] - t0;
+            return Err(format!(
+                "{f}: segment {from}:{to} s has no samples; the file spans 0 to {last:.3} s from its first sample"
+            ));
+        }
+    }
+    Ok(out)
+}
+
+/// The sample period of the segments (median step), checked to be the same in all (0.1 %).
+pub fn sample_period(segments: &[Segment]) -> Result<f64, String> {
+    let mut dts = Vec::new();
+    for s in segments {
+        let mut d: Vec<f64> = s.t_s.windows(2).map(|w| w[1] - w[0]).collect();
+        d.sort_by(f64::total_cmp);
+        dts.push((d[d.len() / 2], &s.label));
+    }
+    let (dt, _) = *dts.first().ok_or("no data segments")?;
+    if let Some((d, l)) = dts.iter().find(|(d, _)| (d / dt - 1.0).abs() > 1e-3) {
+        return Err(format!(
+            "{l}: sample period {d} s differs from {dt} s of the first segment; pool records of one rate"
+        ));
+    }
+    Ok(dt)
+}
+
+/// The filter's settings: `Q = diag(F²)` (zero for output error), `R = diag(noise_variance)`
+/// (or `r` given), the data's Δt and the file's prediction.
+pub fn settings(model: &UserModel, dt_s: f64, r: Option<&[f64]>) -> FemSettings<f64, MAX_X, MAX_Y> {
+    let (nx, _, ny) = model.dims();
+    let (integrator, input_hold, sensitivity) = model.prediction();
+    let mut q_x = SMatrix::<f64, MAX_X, MAX_X>::zeros();
+    if model.file.estimation.method == Method::FilterError {
+        for i in 0..nx {
+            let f = model.file.states[i].process_noise;
+            q_x[(i, i)] = f * f;
+        }
+    }
+    let mut r_x = SMatrix::<f64, MAX_Y, MAX_Y>::identity();
+    for i in 0..ny {
+        r_x[(i, i)] = r.map_or(model.file.outputs[i].noise_variance, |r| r[i]);
+    }
+    FemSettings {
+        q_x,
+        r_x,
+        dt_s,
+        integrator,
+        input_hold,
+        sensitivity,
+    }
+}
+
+/// The initial state of a segment and its covariance (output error: `10⁻¹²` of it).
+pub fn initial_state(model: &UserModel, seg: &Segment) -> (XVec, SMatrix<f64, MAX_X, MAX_X>) {
+    let mut x = XVec::zeros();
+    let mut p = SMatrix::<f64, MAX_X, MAX_X>::identity();
+    let scale = match model.file.estimation.method {
+        Method::FilterError => 1.0,
+        Method::OutputError => 1e-12,
+    };
+    for (i, s) in model.file.states.iter().enumerate() {
+        let (value, var) = match &s.initial {
+            Initial::Value(v) => (*v, s.initial_variance.unwrap_or(1.0)),
+            Initial::Output(name) => {
+                // Checked at load: the output exists.
+                let j = model.file.outputs.iter().position(|o| &o.name == name).unwrap_or(0);
+                (
+                    seg.y[0][j],
+                    s.initial_variance.unwrap_or(model.file.outputs[j].noise_variance),
+                )
+            }
+        };
+        x[i] = value;
+        p[(i, i)] = var * scale;
+    }
+    (x, p)
+}
+
+/// The result of [`identify`].
+#[derive(Debug, Clone)]
+pub struct Identified {
+    /// Free parameters (padded).
+    pub p: PVec,
+    /// Their covariance.
+    pub covariance: SMatrix<f64, MAX_P, MAX_P>,
+    /// Passes made (1 for the recursive filter).
+    pub iterations: usize,
+    /// Gauss–Newton converged (always true for the recursive filter).
+    pub converged: bool,
+    /// The measurement-noise variances used last.
+    pub noise_variance: Vec<f64>,
+    /// Parameter history of the recursive filter: `(segment, t, p, σ)` per step.
+    pub history: Vec<(usize, f64, PVec, PVec)>,
+}
+
+fn sigma_of(c: &SMatrix<f64, MAX_P, MAX_P>) -> PVec {
+    PVec::from_fn(|i, _| c[(i, i)].max(0.0).sqrt())
+}
+
+/// One Gauss–Newton pass over all segments at `p_lin`; the estimate, its covariance and the mean
+/// squared prediction error per output.
+fn pooled_pass(
+    model: &UserModel,
+    segments: &[Segment],
+    st: &FemSettings<f64, MAX_X, MAX_Y>,
+    p_lin: &PVec,
+    prior: (PVec, SMatrix<f64, MAX_P, MAX_P>),
+) -> Result<(PVec, SMatrix<f64, MAX_P, MAX_P>, YVec), String> {
+    let (mut mean, mut cov) = prior;
+    let mut dz2 = YVec::zeros();
+    let mut n = 0usize;
+    for seg in segments {
+        let (x0, p_x0) = initial_state(model, seg);
+        let mut fem = FilterError::new_pass(model, *st, x0, p_x0, *p_lin, mean, cov)
+            .map_err(|e| format!("{}: the filter refused its start ({e:?})", seg.label))?;
+        for k in 0..seg.t_s.len() - 1 {
+            let step = fem
+                .step(&seg.u[k], &seg.u[k + 1], &seg.y[k + 1])
+                .map_err(|e| format!("{} at t = {:.3} s: step refused ({e:?})", seg.label, seg.t_s[k + 1]))?;
+            dz2 += step.prediction_error.component_mul(&step.prediction_error);
+            n += 1;
+        }
+        mean = *fem.parameters();
+        cov = *fem.parameter_covariance();
+    }
+    Ok((mean, cov, dz2 / n.max(1) as f64))
+}
+
+/// The filter error (or output error) method on the segments, pooled, as the model file's
+/// `[estimation]` says.
+pub fn identify(model: &UserModel, segments: &[Segment]) -> Result<Identified, String> {
+    let dt = sample_period(segments)?;
+    let est = &model.file.estimation;
+    let (_, _, ny) = model.dims();
+    let p0 = model.free_vector();
+    let c0 = model.prior_covariance();
+    let mut r: Vec<f64> = model.file.outputs.iter().map(|o| o.noise_variance).collect();
+    match est.iteration {
+        Iteration::Recursive => {
+            let st = settings(model, dt, None);
+            let (mut p, mut c) = (p0, c0);
+            let mut history = Vec::new();
+            for (si, seg) in segments.iter().enumerate() {
+                let (x0, p_x0) = initial_state(model, seg);
+                let mut fem = FilterError::new(model, st, x0, p_x0, p, c)
+                    .map_err(|e| format!("{}: the filter refused its start ({e:?})", seg.label))?;
+                history.push((si, seg.t_s[0], p, sigma_of(&c)));
+                for k in 0..seg.t_s.len() - 1 {
+                    fem.step(&seg.u[k], &seg.u[k + 1], &seg.y[k + 1])
+                        .map_err(|e| format!("{} at t = {:.3} s: step refused ({e:?})", seg.label, seg.t_s[k + 1]))?;
+                    history.push((si, seg.t_s[k + 1], *fem.parameters(), fem.parameter_sigma()));
+                }
+                p = *fem.parameters();
+                c = *fem.parameter_covariance();
+            }
+            Ok(Identified {
+                p,
+                covariance: c,
+                iterations: 1,
+                converged: true,
+                noise_variance: r,
+                history,
+            })
+        }
+        Iteration::GaussNewton => {
+            let mut p = p0;
+            let mut out = None;
+            for it in 0..est.max_iterations.max(1) {
+                let st = settings(model, dt, Some(&r));
+                let (next, cov, dz2) = pooled_pass(model, segments, &st, &p, (p0, c0))?;
+                let moved = (0..model.free().len())
+                    .map(|j| (next[j] - p[j]).abs() / cov[(j, j)].max(f64::MIN_POSITIVE).sqrt())
+                    .fold(0.0, f64::max);
+                p = next;
+                let converged = moved < est.tolerance_sigma;
+                out = Some(Identified {
+                    p,
+                    covariance: cov,
+                    iterations: it + 1,
+                    converged,
+                    noise_variance: r.clone(),
+                    history: Vec::new(),
+                });
+                if converged {
+                    break;
+                }
+                if est.estimate_noise && est.method == Method::OutputError {
+                    r = (0..ny).map(|i| dz2[i].max(f64::MIN_POSITIVE)).collect();
+                }
+            }
+            out.ok_or_else(|| "no Gauss-Newton pass ran".into())
+        }
+    }
+}
+
+/// Fit of one output.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct OutputFit {
+    /// Output name.
+    pub name: String,
+    /// Its unit.
+    pub unit: String,
+    /// Samples scored.
+    pub samples: usize,
+    /// RMS of measured − predicted.
+    pub rms: f64,
+    /// `1 − SS_res/SS_tot`.
+    pub r2: f64,
+    /// Theil's inequality coefficient.
+    pub theil_u: f64,
+}
+
+/// The open-loop simulation of a segment's outputs with the model's current parameters.
+pub fn simulate(model: &UserModel, seg: &Segment, dt_s: f64) -> Vec<YVec> {
+    let (integrator, hold, _) = model.prediction();
+    let p = model.free_vector();
+    let (mut x, _) = initial_state(model, seg);
+    let mut ys = Vec::with_capacity(seg.t_s.len());
+    for k in 0..seg.t_s.len() {
+        ys.push(Model::h(&model, &x, &seg.u[k], &p));
+        if k + 1 < seg.t_s.len() {
+            x = integrate::<f64, &UserModel, MAX_X, { crate::usermodel::MAX_U }, MAX_Y, MAX_P>(
+                &model,
+                integrator,
+                hold,
+                dt_s,
+                &x,
+                &seg.u[k],
+                &seg.u[k + 1],
+                &p,
+            );
+        }
+    }
+    ys
+}
+
+/// RMS, R², Theil's U per output over the segments (pooled) from measured and simulated outputs.
+pub fn fit_metrics(model: &UserModel, segments: &[Segment], sims: &[Vec<YVec>]) -> Vec<OutputFit> {
+    let (_, _, ny) = model.dims();
+    (0..ny)
+        .map(|i| {
+            let meas: Vec<f64> = segments.iter().flat_map(|s| s.y.iter().map(move |y| y[i])).collect();
+            let pred: Vec<f64> = sims.iter().flat_map(|s| s.iter().map(move |y| y[i])).collect();
+            let n = meas.len() as f64;
+            let mean = meas.iter().sum::<f64>() / n;
+            let ss_tot: f64 = meas.iter().map(|m| (m - mean).powi(2)).sum();
+            let ss_res: f64 = meas.iter().zip(&pred).map(|(m, p)| (m - p).powi(2)).sum();
+            let rms = (ss_res / n).sqrt();
+            let rms_m = (meas.iter().map(|m| m * m).sum::<f64>() / n).sqrt();
+            let rms_p = (pred.iter().map(|p| p * p).sum::<f64>() / n).sqrt();
+            OutputFit {
+                name: model.file.outputs[i].name.clone(),
+                unit: model.file.outputs[i].unit.clone(),
+                samples: meas.len(),
+                rms,
+                r2: 1.0 - ss_res / ss_tot,
+                theil_u: rms / (rms_m + rms_p),
+            }
+        })
+        .collect()
+}
+
+/// One parameter of a saved identification.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SavedParameter {
+    /// Name.
+    pub name: String,
+    /// Value.
+    pub value: f64,
+    /// σ (null for a fixed parameter).
+    pub sigma: Option<f64>,
+    /// Held, not estimated.
+    pub fixed: bool,
+    /// Starting value.
+    pub start: f64,
+    /// The model file's published value, if it gives one.
+    #[serde(default)]
+    pub reference: Option<f64>,
+}
+
+/// What `aerosid fem` writes (`identification.json`) and `aerosid predict` reads.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SavedModel {
+    /// The model file as given.
+    pub model_file: String,
+    /// The model's name.
+    pub model_name: String,
+    /// The model file's text (the saved model does not depend on the file staying as it was).
+    pub model_toml: String,
+    /// `filter-error` or `output-error`.
+    pub method: String,
+    /// `recursive` or `gauss-newton`.
+    pub iteration: String,
+    /// Passes made.
+    pub iterations: usize,
+    /// Converged.
+    pub converged: bool,
+    /// The segments identified on.
+    pub data: Vec<String>,
+    /// The sample period, s.
+    pub dt_s: f64,
+    /// Every parameter.
+    pub parameters: Vec<SavedParameter>,
+    /// Measurement-noise variances used (estimated, with `estimate_noise`).
+    pub noise_variance: Vec<f64>,
+    /// Simulation fit on the identification segments.
+    pub fit: Vec<OutputFit>,
+    /// Validation segments, if any.
+    pub validation_data: Vec<String>,
+    /// Simulation fit on them.
+    pub validation: Vec<OutputFit>,
+}
+
+impl SavedModel {
+    /// The saved model ready to simulate: the stored text parsed (relative paths against the
+    /// original model file's folder) and every parameter set to its saved value.
+    pub fn model(&self) -> Result<UserModel, String> {
+        let mut m = UserModel::parse(&self.model_toml, Path::new(&self.model_file)).map_err(|e| e.0)?;
+        for sp in &self.parameters {
+            if sp.fixed && !m.file.parameters.iter().any(|p| p.name == sp.name && p.fixed) {
+                m.fix(&sp.name, sp.value).map_err(|e| e.0)?;
+            }
+        }
+        if m.file.parameters.len() != self.parameters.len() {
+            return Err(format!(
+                "saved model: {} parameters, its model text has {}",
+                self.parameters.len(),
+                m.file.parameters.len()
+            ));
+        }
+        let values: Vec<f64> = m
+            .file
+            .parameters
+            .iter()
+            .map(|p| {
+                self.parameters
+                    .iter()
+                    .find(|s| s.name == p.name)
+                    .map(|s| s.value)
+                    .ok_or_else(|| format!("saved model: parameter {} has no saved value", p.name))
+            })
+            .collect::<Result<_, _>>()?;
+        m.set_values(&values);
+        Ok(m)
+    }
+}
+
+/// What the `fem` command takes.
+#[derive(Debug, Clone, Default)]
+pub struct FemArgs {
+    /// The model file.
+    pub model: PathBuf,
+    /// Data files (default: the model's `[data] file`).
+    pub data: Vec<PathBuf>,
+    /// Segments of each data file (default: all of it).
+    pub segments: Vec<Range>,
+    /// Validation files.
+    pub validate: Vec<PathBuf>,
+    /// Validation segments (of the validation files, or of the data files if none).
+    pub validate_segments: Vec<Range>,
+    /// Parameters to fix.
+    pub fix: Vec<(String, f64)>,
+    /// Output folder.
+    pub out: PathBuf,
+}
+
+fn load_segments(model: &UserModel, files: &[PathBuf], ranges: &[Range]) -> Result<Vec<Segment>, String> {
+    let mut segs = Vec::new();
+    for f in files {
+        segs.extend(read_segments(model, f, ranges)?);
+    }
+    Ok(segs)
+}
+
+/// The result of [`run_fem`].
+#[derive(Debug, Clone)]
+pub struct FemRun {
+    /// The saved model (also written to `identification.json`).
+    pub saved: SavedModel,
+    /// A text report.
+    pub text: String,
+    /// Files written.
+    pub files: Vec<PathBuf>,
+}
+
+/// `aerosid fem`: identify, validate, save, plot.
+pub fn run_fem(args: &FemArgs) -> Result<FemRun, String> {
+    let mut model = UserModel::read(&args.model).map_err(|e: ModelError| e.0)?;
+    for (n, v) in &args.fix {
+        model.fix(n, *v).map_err(|e| e.0)?;
+    }
+    let data = if args.data.is_empty() {
+        vec![model.default_data().ok_or_else(|| {
+            format!(
+                "{}: no data: give --data FILE or set [data] file in the model file",
+                args.model.display()
+            )
+        })?]
+    } else {
+        args.data.clone()
+    };
+    let segs = load_segments(&model, &data, &args.segments)?;
+    let dt = sample_period(&segs)?;
+    let id = identify(&model, &segs)?;
+    // The model with the estimates.
+    let mut values = model.values().to_vec();
+    let sig = sigma_of(&id.covariance);
+    let mut sigma = vec![None; values.len()];
+    for (k, &i) in model.free().iter().enumerate() {
+        values[i] = id.p[k];
+        sigma[i] = Some(sig[k]);
+    }
+    model.set_values(&values);
+    let sims: Vec<_> = segs.iter().map(|s| simulate(&model, s, dt)).collect();
+    let fit = fit_metrics(&model, &segs, &sims);
+    let val_files = if args.validate.is_empty() && !args.validate_segments.is_empty() {
+        data.clone()
+    } else {
+        args.validate.clone()
+    };
+    let vsegs = if val_files.is_empty() {
+        Vec::new()
+    } else {
+        load_segments(&model, &val_files, &args.validate_segments)?
+    };
+    let vsims: Vec<_> = vsegs.iter().map(|s| simulate(&model, s, dt)).collect();
+    let validation = if vsegs.is_empty() {
+        Vec::new()
+    } else {
+        fit_metrics(&model, &vsegs, &vsims)
+    };
+    let est = &model.file.estimation;
+    let saved = SavedModel {
+        model_file: args.model.display().to_string(),
+        model_name: model.file.name.clone(),
+        model_toml: model.text.clone(),
+        method: match est.method {
+            Method::FilterError => "filter-error",
+            Method::OutputError => "output-error",
+        }
+        .into(),
+        iteration: match est.iteration {
+            Iteration::Recursive => "recursive",
+            Iteration::GaussNewton => "gauss-newton",
+        }
+        .into(),
+        iterations: id.iterations,
+        converged: id.converged,
+        data: segs.iter().map(|s| s.label.clone()).collect(),
+        dt_s: dt,
+        parameters: model
+            .file
+            .parameters
+            .iter()
+            .enumerate()
+            .map(|(i, p)| SavedParameter {
+                name: p.name.clone(),
+                value: values[i],
+                sigma: sigma[i],
+                fixed: p.fixed,
+                start: p.start,
+                reference: p.reference,
+            })
+            .collect(),
+        noise_variance: id.noise_variance.clone(),
+        fit,
+        validation_data: vsegs.iter().map(|s| s.label.clone()).collect(),
+        validation,
+    };
+    std::fs::create_dir_all(&args.out).map_err(|e| format!("{}: {e}", args.out.display()))?;
+    let json_path = args.out.join("identification.json");
+    let json = serde_json::to_string_pretty(&saved).map_err(|e| e.to_string())?;
+    std::fs::write(&json_path, json).map_err(|e| format!("{}: {e}", json_path.display()))?;
+    let mut files = vec![json_path];
+    let fig = args.out.join("identification_fit.svg");
+    fit_figure(
+        &model,
+        &format!("{}: identification data", model.file.name),
+        &segs,
+        &sims,
+    )
+    .write_svg(&fig)
+    .map_err(|e: PlotError| format!("{}: {e:?}", fig.display()))?;
+    files.push(fig);
+    if !vsegs.is_empty() {
+        let fig = args.out.join("validation_fit.svg");
+        fit_figure(&model, &format!("{}: validation data", model.file.name), &vsegs, &vsims)
+            .write_svg(&fig)
+            .map_err(|e: PlotError| format!("{}: {e:?}", fig.display()))?;
+        files.push(fig);
+    }
+    if !id.history.is_empty() {
+        let fig = args.out.join("parameters.svg");
+        history_figure(&model, &id.history)
+            .write_svg(&fig)
+            .map_err(|e: PlotError| format!("{}: {e:?}", fig.display()))?;
+        files.push(fig);
+    }
+    let text = report_text(&saved);
+    Ok(FemRun { saved, text, files })
+}
+
+/// The saved model as a text report.
+pub fn report_text(s: &SavedModel) -> String {
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "{} ({}, {}; {} pass(es), {})",
+        s.model_name,
+        s.method,
+        s.iteration,
+        s.iterations,
+        if s.converged { "converged" } else { "NOT converged" }
+    );
+    for d in &s.data {
+        let _ = writeln!(out, "  data: {d}");
+    }
+    let _ = writeln!(
+        out,
+        "{:>12} {:>14} {:>12} {:>14} {:>14} {:>7}",
+        "parameter", "estimate", "σ", "start", "reference", "|Δ|/σ"
+    );
+    for p in &s.parameters {
+        let sig = p.sigma.map_or("fixed".to_string(), |v| format!("{v:.5}"));
+        let (r, z) = match (p.reference, p.sigma) {
+            (Some(r), Some(sg)) => (format!("{r:+.6}"), format!("{:.2}", (p.value - r).abs() / sg)),
+            (Some(r), None) => (format!("{r:+.6}"), String::new()),
+            _ => (String::new(), String::new()),
+        };
+        let _ = writeln!(
+            out,
+            "{:>12} {:>+14.6} {:>12} {:>+14.6} {r:>14} {z:>7}",
+            p.name, p.value, sig, p.start
+        );
+    }
+    fit_table(&mut out, "simulation on the identification data:", &s.fit);
+    if !s.validation.is_empty() {
+        for d in &s.validation_data {
+            let _ = writeln!(out, "  validation: {d}");
+        }
+        fit_table(&mut out, "simulation on the validation data:", &s.validation);
+    }
+    out
+}
+
+fn fit_table(out: &mut String, title: &str, fits: &[OutputFit]) {
+    let _ = writeln!(out, "{title}");
+    let _ = writeln!(
+        out,
+        "{:>10} {:>8} {:>12} {:>8} {:>8}",
+        "output", "samples", "RMS", "R²", "Theil U"
+    );
+    for f in fits {
+        let _ = writeln!(
+            out,
+            "{:>10} {:>8} {:>12.4e} {:>8.4} {:>8.4}",
+            f.name, f.samples, f.rms, f.r2, f.theil_u
+        );
+    }
+}
+
+/// Measured vs simulated and the residual, per output, all segments one after the other.
+fn fit_figure(model: &UserModel, title: &str, segs: &[Segment], sims: &[Vec<YVec>]) -> Figure {
+    let mut fig = Figure::new("t from the start of the file (s)").title(title);
+    for (i, o) in model.file.outputs.iter().enumerate() {
+        let label = if o.unit.is_empty() {
+            o.name.clone()
+        } else {
+            format!("{} ({})", o.name, o.unit)
+        };
+        // NaN between segments splits the lines there.
+        let mut tt = Vec::new();
+        let (mut m, mut p) = (Vec::new(), Vec::new());
+        for (s, y) in segs.iter().zip(sims) {
+            for k in 0..s.t_s.len() {
+                tt.push(s.t_s[k]);
+                m.push(s.y[k][i]);
+                p.push(y[k][i]);
+            }
+            tt.push(f64::NAN);
+            m.push(f64::NAN);
+            p.push(f64::NAN);
+        }
+        let r: Vec<f64> = m.iter().zip(&p).map(|(a, b)| a - b).collect();
+        fig = fig
+            .panel(
+                Panel::new(label.clone(), label.clone())
+                    .line(Line::new("measured", &tt, &m, Colour::BLACK))
+                    .line(Line::new("model", &tt, &p, Colour::BLUE)),
+            )
+            .panel(Panel::new(format!("{} residual", o.name), "residual").line(Line::new(
+                "measured − model",
+                &tt,
+                &r,
+                Colour::VERMILLION,
+            )));
+    }
+    fig
+}
+
+/// The recursive filter's free parameters ±σ against time (segments one after the other).
+fn history_figure(model: &UserModel, history: &[(usize, f64, PVec, PVec)]) -> Figure {
+    let mut fig = Figure::new("t from the start of the file (s)").title(format!(
+        "{}: parameter estimates ±σ (recursive filter)",
+        model.file.name
+    ));
+    for (k, &i) in model.free().iter().enumerate() {
+        // NaN where a new segment starts splits the lines there.
+        let (mut t, mut est, mut sig) = (Vec::new(), Vec::new(), Vec::new());
+        for (j, (seg, time, p, s)) in history.iter().enumerate() {
+            if j > 0 && history[j - 1].0 != *seg {
+                t.push(f64::NAN);
+                est.push(f64::NAN);
+                sig.push(f64::NAN);
+            }
+            t.push(*time);
+            est.push(p[k]);
+            sig.push(s[k]);
+        }
+        let name = &model.file.parameters[i].name;
+        fig = fig.panel(
+            Panel::new(name.clone(), name.clone())
+                .band(crate::plot::Band::around("±σ", &t, &est, &sig, 1.0, Colour::BLUE))
+                .line(Line::new("estimate", &t, &est, Colour::BLUE)),
+        );
+    }
+    fig
+}
+
+/// What `aerosid predict` returns.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Prediction {
+    /// The saved identification applied.
+    pub saved_model: String,
+    /// The segments predicted.
+    pub data: Vec<String>,
+    /// Fit per output.
+    pub fit: Vec<OutputFit>,
+}
+
+/// `aerosid predict`: apply a saved model (`identification.json`) to other data; writes
+/// `prediction.json` and `prediction.svg` into `out`.
+pub fn run_predict(
+    saved_path: &Path,
+    data: &[PathBuf],
+    ranges: &[Range],
+    out: &Path,
+) -> Result<(Prediction, String, Vec<PathBuf>), String> {
+    let text = std::fs::read_to_string(saved_path).map_err(|e| format!("{}: {e}", saved_path.display()))?;
+    let saved: SavedModel = serde_json::from_str(&text).map_err(|e| {
+        format!(
+            "{}: {e} (give the identification.json that `aerosid fem` wrote)",
+            saved_path.display()
+        )
+    })?;
+    let model = saved.model()?;
+    let files = if data.is_empty() {
+        vec![model
+            .default_data()
+            .ok_or_else(|| format!("{}: no data: give --data FILE", saved_path.display()))?]
+    } else {
+        data.to_vec()
+    };
+    let segs = load_segments(&model, &files, ranges)?;
+    let dt = sample_period(&segs)?;
+    if (dt / saved.dt_s - 1.0).abs() > 1e-3 {
+        return Err(format!(
+            "{}: sample period {dt} s, the model was identified at {} s; resample the data to it",
+            files[0].display(),
+            saved.dt_s
+        ));
+    }
+    let sims: Vec<_> = segs.iter().map(|s| simulate(&model, s, dt)).collect();
+    let fit = fit_metrics(&model, &segs, &sims);
+    let pred = Prediction {
+        saved_model: saved_path.display().to_string(),
+        data: segs.iter().map(|s| s.label.clone()).collect(),
+        fit,
+    };
+    std::fs::create_dir_all(out).map_err(|e| format!("{}: {e}", out.display()))?;
+    let jp = out.join("prediction.json");
+    std::fs::write(&jp, serde_json::to_string_pretty(&pred).map_err(|e| e.to_string())?)
+        .map_err(|e| format!("{}: {e}", jp.display()))?;
+    let sp = out.join("prediction.svg");
+    fit_figure(&model, &format!("{}: prediction", model.file.name), &segs, &sims)
+        .write_svg(&sp)
+        .map_err(|e| format!("{}: {e:?}", sp.display()))?;
+    let mut txt = String::new();
+    let _ = writeln!(txt, "{} applied to:", saved.model_name);
+    for d in &pred.data {
+        let _ = writeln!(txt, "  {d}");
+    }
+    fit_table(&mut txt, "simulation:", &pred.fit);
+    Ok((pred, txt, vec![jp, sp]))
+}
