@@ -5,6 +5,11 @@
 //! with the truth and this analysis's answer. `scripts/bench/peers.py` runs pysindy and
 //! sysidentpy on the tables, `scripts/bench/score.py` scores all three (contract:
 //! `scripts/bench/README.md`).
+//!
+//! **Time**: each flight's analysis ([`run_gaps`], from the flight in memory to the report) is
+//! timed on its own thread (the flights run in parallel, one thread each, so a flight's time is
+//! single-threaded); `timing.json` gives the median per suite and the number of threads, whose
+//! sharing of the cores the times include.
 
 use super::hidden::{flight, HiddenEffect, HiddenKind};
 use super::{run_gaps, GapReport, GapSettings, COEFFICIENTS};
@@ -131,9 +136,54 @@ pub fn write(c: &Campaign, dir: &Path) -> Result<Vec<String>, String> {
         }
     }
     let m = dir.join("manifest.json");
+    let timing = timing_summary(&manifest);
     let text = serde_json::to_string_pretty(&Value::Array(manifest)).map_err(|e| e.to_string())?;
     std::fs::write(&m, text).map_err(|e| format!("{}: {e}", m.display()))?;
+    let t = dir.join("timing.json");
+    let text = serde_json::to_string_pretty(&timing).map_err(|e| e.to_string())?;
+    std::fs::write(&t, text).map_err(|e| format!("{}: {e}", t.display()))?;
+    if let Some(suites) = timing["suites"].as_object() {
+        for (suite, v) in suites {
+            lines.push(format!(
+                "{suite}: median {:.3} s per flight over {} flights ({} threads)",
+                v["median_s"].as_f64().unwrap_or(f64::NAN),
+                v["flights"],
+                timing["threads"]
+            ));
+        }
+    }
     Ok(lines)
+}
+
+/// The median, smallest and largest analysis time per suite of the manifest's entries.
+pub fn timing_summary(manifest: &[Value]) -> Value {
+    let mut by_suite: std::collections::BTreeMap<String, Vec<f64>> = Default::default();
+    for e in manifest {
+        if let (Some(suite), Some(s)) = (e["suite"].as_str(), e["aerosid"]["seconds"].as_f64()) {
+            by_suite.entry(suite.to_string()).or_default().push(s);
+        }
+    }
+    let suites: serde_json::Map<String, Value> = by_suite
+        .into_iter()
+        .map(|(suite, mut t)| {
+            t.sort_by(f64::total_cmp);
+            let k = t.len();
+            let median = if k % 2 == 1 {
+                t[k / 2]
+            } else {
+                0.5 * (t[k / 2 - 1] + t[k / 2])
+            };
+            (
+                suite,
+                json!({"flights": k, "median_s": median, "min_s": t[0], "max_s": t[k - 1]}),
+            )
+        })
+        .collect();
+    json!({
+        "what": "seconds of run_gaps per flight (flight in memory to report), one thread per flight",
+        "threads": rayon::current_num_threads(),
+        "suites": suites,
+    })
 }
 
 fn sim_case(e: Option<HiddenEffect>, seed: u64) -> Case {

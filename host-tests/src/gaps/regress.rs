@@ -260,6 +260,33 @@ pub fn ols(cols: &[Vec<f64>], z: &[f64], block_len: usize, max_lag: usize) -> Op
     ols_sigma(cols, z, block_len, max_lag, None)
 }
 
+/// [`ols`]'s estimates alone (no residual, no σ): for the Gauss–Newton steps, which need nothing
+/// else. `None` as [`ols`].
+pub fn ols_theta(cols: &[Vec<f64>], z: &[f64]) -> Option<Vec<f64>> {
+    let n = z.len();
+    let p = cols.len();
+    if p == 0 || n <= p || cols.iter().any(|c| c.len() != n) {
+        return None;
+    }
+    let scale: Vec<f64> = cols
+        .iter()
+        .map(|c| (c.iter().map(|v| v * v).sum::<f64>() / n as f64).sqrt())
+        .collect();
+    if scale.iter().any(|s| !(s.is_finite() && *s > 0.0)) {
+        return None;
+    }
+    let qr = DMatrix::from_fn(n, p, |i, j| cols[j][i] / scale[j]).qr();
+    let r = qr.r();
+    let dmax = (0..p).map(|i| r[(i, i)].abs()).fold(0.0, f64::max);
+    if (0..p).any(|i| r[(i, i)].abs() < 1e-9 * dmax.max(1e-300)) {
+        return None;
+    }
+    let mut qtz = DVector::from_column_slice(z);
+    qr.q_tr_mul(&mut qtz);
+    let ts = r.solve_upper_triangular(&qtz.rows(0, p).into_owned())?;
+    Some((0..p).map(|j| ts[j] / scale[j]).collect())
+}
+
 /// [`ols`], with the coloured-residual σ computed only for parameter `only` when given (the
 /// others are then NaN): the partial test needs only the candidate's.
 pub fn ols_sigma(cols: &[Vec<f64>], z: &[f64], block_len: usize, max_lag: usize, only: Option<usize>) -> Option<Fit> {
