@@ -403,6 +403,9 @@ fn on_the_jsbsim_flights_table_effects_are_found_and_no_sensor_error_is_invented
         .map(|f| f["aerosid"]["seconds"].as_f64().expect("seconds recorded"))
         .collect();
     assert!(secs.iter().all(|s| s.is_finite() && *s > 0.0), "{secs:?}");
+    assert!(flights.iter().all(|f| f["aerosid"]["cpu_seconds"]
+        .as_f64()
+        .is_some_and(|c| c.is_finite() && c >= 0.0)));
     secs.sort_by(f64::total_cmp);
     assert_eq!(timing["suites"]["jsbsim"]["flights"], 13);
     assert_eq!(
