@@ -393,6 +393,26 @@ fn on_the_jsbsim_flights_table_effects_are_found_and_no_sensor_error_is_invented
     let flights = manifest.as_array().expect("a list of flights");
     // THEN every flight was analysed and its regression table written
     assert_eq!(flights.len(), 13, "{lines:?}");
+    // AND its time recorded, with the suite's median in timing.json (the median of the flights'
+    // own times, whatever they are: no wall-clock bound is asserted)
+    let timing: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("timing.json")).expect("timing written"))
+            .expect("timing is JSON");
+    let mut secs: Vec<f64> = flights
+        .iter()
+        .map(|f| f["aerosid"]["seconds"].as_f64().expect("seconds recorded"))
+        .collect();
+    assert!(secs.iter().all(|s| s.is_finite() && *s > 0.0), "{secs:?}");
+    assert!(flights.iter().all(|f| f["aerosid"]["cpu_seconds"]
+        .as_f64()
+        .is_some_and(|c| c.is_finite() && c >= 0.0)));
+    secs.sort_by(f64::total_cmp);
+    assert_eq!(timing["suites"]["jsbsim"]["flights"], 13);
+    assert_eq!(
+        timing["suites"]["jsbsim"]["median_s"].as_f64(),
+        Some(secs[6]),
+        "{timing}"
+    );
     for f in flights {
         let table = out.join(f["table"].as_str().expect("table path"));
         let header = std::fs::read_to_string(&table).expect("table written");

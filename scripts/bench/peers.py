@@ -217,6 +217,7 @@ def main():
         details = {k: {} for k, *_ in cfgs}
         named = {k: [] for k, *_ in cfgs}
         secs = {k: 0.0 for k, *_ in cfgs}
+        cpu = {k: 0.0 for k, *_ in cfgs}
         for coef, spec in fl["coefficients"].items():
             zname = "z:" + coef
             if zname not in col:
@@ -235,26 +236,29 @@ def main():
             # STLSQ: the constant column is replaced by centring; columns constant on the
             # identification rows are left out.
             nc = [i for i, t in enumerate(terms) if np.ptp(X[:n_id, i]) > 0]
-            prep, prep_secs = None, 0.0
+            prep, prep_secs, prep_cpu = None, 0.0, 0.0
             for key, peer, arg, _ in cfgs:
-                t0 = time.perf_counter()
+                t0, c0 = time.perf_counter(), time.process_time()
                 if peer == "stlsq":
                     sel, th = run_stlsq(X[:, nc], y, n_id, [terms[i] for i in nc], arg)
                     details[key][coef] = {"selected": sel, "threshold": th}
                 else:
                     if prep is None:  # one information_criterion pass shared by the FROLS rules
                         prep = frols_prepare(X, y, n_id)
-                        prep_secs = time.perf_counter() - t0
-                        t0 = time.perf_counter()
+                        prep_secs, prep_cpu = time.perf_counter() - t0, time.process_time() - c0
+                        t0, c0 = time.perf_counter(), time.process_time()
                     sel, n = run_frols(prep, terms, arg[0], arg[1])
                     details[key][coef] = {"selected": sel, "n_terms": n}
                     secs[key] += prep_secs
+                    cpu[key] += prep_cpu
                 secs[key] += time.perf_counter() - t0
+                cpu[key] += time.process_time() - c0
                 # named = candidates only (a baseline term is never named, even if also listed as a candidate)
                 named[key] += [{"location": coef, "term": t, "kind": cands[t]} for t in sel
                                if t in cands and t not in base_terms]
         for key, *_ in cfgs:
-            rec["peers"][key] = {"named": named[key], "seconds": round(secs[key], 4), "fits": details[key]}
+            rec["peers"][key] = {"named": named[key], "seconds": round(secs[key], 4),
+                                 "cpu_seconds": round(cpu[key], 4), "fits": details[key]}
         out["flights"].append(rec)
         print("%-34s " % fl["id"] + "  ".join("%s %d" % (k, len(named[k])) for k, *_ in cfgs), flush=True)
     path = a.out or os.path.join(base, "peers.json")

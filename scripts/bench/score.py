@@ -66,7 +66,7 @@ def dedupe(named):
 
 def score_method(flights, getter):
     s = dict(aero_hit=0, aero_n=0, sens_hit=0, sens_n=0, clean_named=0, clean_n=0, named=[], secs=[],
-             table_named=0, table_total=0, spurious=[], invented=[], has_table=False, clean_items=[])
+             table_named=0, table_total=0, spurious=[], invented=[], has_table=False, clean_items=[], cpu=[])
     for fl in flights:
         res = getter(fl)
         if res is None:
@@ -75,6 +75,8 @@ def score_method(flights, getter):
         s["named"].append(len(named))
         if res.get("seconds") is not None:
             s["secs"].append(float(res["seconds"]))
+        if res.get("cpu_seconds") is not None:
+            s["cpu"].append(float(res["cpu_seconds"]))
         planted = fl.get("planted")
         effects = fl.get("table_effects")
         if effects is not None:
@@ -173,7 +175,7 @@ def main():
         head = ["method", "planted aero named", "planted sensor named", "clean flights with a cause", "named / clean flight", "named / flight"]
         if table:
             head += ["table effects named", "spurious / flight", "invented sensor errors"]
-        head += ["median s / flight"]
+        head += ["median s / flight", "median CPU s / flight"]
         lines.append("| " + " | ".join(head) + " |")
         lines.append("|" + "---|" * len(head))
         for name, s in scores:
@@ -188,7 +190,8 @@ def main():
                     row += [fmt_frac(s["table_named"], s["table_total"]),
                             "%.1f" % statistics.mean(s["spurious"]) if s["spurious"] else "–",
                             str(sum(s["invented"]))]
-                row += ["%.3g" % statistics.median(s["secs"]) if s["secs"] else "–"]
+                row += ["%.3g" % statistics.median(s["secs"]) if s["secs"] else "–",
+                        "%.3g" % statistics.median(s["cpu"]) if s["cpu"] else "–"]
             lines.append("| " + " | ".join(row) + " |")
         lines.append("")
     lines.append("Versions: " + ", ".join("%s %s" % kv for kv in versions.items()))

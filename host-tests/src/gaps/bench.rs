@@ -5,6 +5,12 @@
 //! with the truth and this analysis's answer. `scripts/bench/peers.py` runs pysindy and
 //! sysidentpy on the tables, `scripts/bench/score.py` scores all three (contract:
 //! `scripts/bench/README.md`).
+//!
+//! **Time**: each flight's analysis ([`run_gaps`], from the flight in memory to the report) is
+//! timed on its own thread (the flights run in parallel, one thread each, so a flight's time is
+//! single-threaded): `seconds` wall-clock, `cpu_seconds` the thread's CPU time (what a shared,
+//! loaded machine does not inflate by time-slicing). `timing.json` gives the medians per suite
+//! and the number of threads.
 
 use super::hidden::{flight, HiddenEffect, HiddenKind};
 use super::{run_gaps, GapReport, GapSettings, COEFFICIENTS};
@@ -44,7 +50,14 @@ struct Case {
     suite: &'static str,
     planted: Value,
     table_effects: Value,
-    result: Result<(GapReport, f64), String>,
+    result: Result<(GapReport, Seconds), String>,
+}
+
+/// Wall-clock and thread CPU seconds of one analysis.
+#[derive(Debug, Clone, Copy)]
+struct Seconds {
+    wall: f64,
+    cpu: f64,
 }
 
 /// Writes `dir/manifest.json` and `dir/tables/*.csv`; returns one line per flight.
@@ -112,15 +125,16 @@ pub fn write(c: &Campaign, dir: &Path) -> Result<Vec<String>, String> {
     for case in &cases {
         match &case.result {
             Err(e) => lines.push(format!("{:<40} ERROR {e}", case.id)),
-            Ok((r, secs)) => {
+            Ok((r, t)) => {
                 let name = format!("{}.csv", case.id.replace('/', "_"));
                 let path = tables.join(&name);
                 std::fs::write(&path, table_csv(r)).map_err(|e| format!("{}: {e}", path.display()))?;
-                manifest.push(entry(case, r, *secs, &format!("tables/{name}")));
+                manifest.push(entry(case, r, *t, &format!("tables/{name}")));
                 lines.push(format!(
-                    "{:<40} {:>6.2} s  {}",
+                    "{:<40} {:>6.2} s ({:.2} s CPU)  {}",
                     case.id,
-                    secs,
+                    t.wall,
+                    t.cpu,
                     r.named
                         .iter()
                         .map(|n| format!("{:?} in {}: {}", n.kind, n.location, n.what))
@@ -131,9 +145,63 @@ pub fn write(c: &Campaign, dir: &Path) -> Result<Vec<String>, String> {
         }
     }
     let m = dir.join("manifest.json");
+    let timing = timing_summary(&manifest);
     let text = serde_json::to_string_pretty(&Value::Array(manifest)).map_err(|e| e.to_string())?;
     std::fs::write(&m, text).map_err(|e| format!("{}: {e}", m.display()))?;
+    let t = dir.join("timing.json");
+    let text = serde_json::to_string_pretty(&timing).map_err(|e| e.to_string())?;
+    std::fs::write(&t, text).map_err(|e| format!("{}: {e}", t.display()))?;
+    if let Some(suites) = timing["suites"].as_object() {
+        for (suite, v) in suites {
+            lines.push(format!(
+                "{suite}: median {:.3} s ({:.3} s CPU) per flight over {} flights ({} threads)",
+                v["median_s"].as_f64().unwrap_or(f64::NAN),
+                v["median_cpu_s"].as_f64().unwrap_or(f64::NAN),
+                v["flights"],
+                timing["threads"]
+            ));
+        }
+    }
     Ok(lines)
+}
+
+/// The median, smallest and largest analysis time per suite of the manifest's entries.
+pub fn timing_summary(manifest: &[Value]) -> Value {
+    let mut by_suite: std::collections::BTreeMap<String, (Vec<f64>, Vec<f64>)> = Default::default();
+    for e in manifest {
+        let a = &e["aerosid"];
+        if let (Some(suite), Some(s), Some(c)) = (e["suite"].as_str(), a["seconds"].as_f64(), a["cpu_seconds"].as_f64())
+        {
+            let v = by_suite.entry(suite.to_string()).or_default();
+            v.0.push(s);
+            v.1.push(c);
+        }
+    }
+    let median = |t: &mut Vec<f64>| {
+        t.sort_by(f64::total_cmp);
+        let k = t.len();
+        if k % 2 == 1 {
+            t[k / 2]
+        } else {
+            0.5 * (t[k / 2 - 1] + t[k / 2])
+        }
+    };
+    let suites: serde_json::Map<String, Value> = by_suite
+        .into_iter()
+        .map(|(suite, (mut wall, mut cpu))| {
+            let k = wall.len();
+            let (mw, mc) = (median(&mut wall), median(&mut cpu));
+            (
+                suite,
+                json!({"flights": k, "median_s": mw, "min_s": wall[0], "max_s": wall[k - 1], "median_cpu_s": mc}),
+            )
+        })
+        .collect();
+    json!({
+        "what": "seconds of run_gaps per flight (flight in memory to report), one thread per flight: wall-clock (`_s`) and the thread's CPU time (`_cpu_s`)",
+        "threads": rayon::current_num_threads(),
+        "suites": suites,
+    })
 }
 
 fn sim_case(e: Option<HiddenEffect>, seed: u64) -> Case {
@@ -166,18 +234,26 @@ fn sim_case(e: Option<HiddenEffect>, seed: u64) -> Case {
     }
 }
 
-fn analyse(data: &Path, companion: &Path, s: &GapSettings) -> Result<(GapReport, f64), String> {
+fn analyse(data: &Path, companion: &Path, s: &GapSettings) -> Result<(GapReport, Seconds), String> {
     let f = read_measured(data, companion).map_err(|e| e.to_string())?;
     timed(&f, s)
 }
 
-fn timed(f: &crate::io::measured::MeasuredFlight, s: &GapSettings) -> Result<(GapReport, f64), String> {
+fn timed(f: &crate::io::measured::MeasuredFlight, s: &GapSettings) -> Result<(GapReport, Seconds), String> {
     let t0 = std::time::Instant::now();
+    let c0 = cpu_time::ThreadTime::now();
     let r = run_gaps(f, s).map_err(|e| e.to_string())?;
-    Ok((r, t0.elapsed().as_secs_f64()))
+    let cpu = c0.elapsed().as_secs_f64();
+    Ok((
+        r,
+        Seconds {
+            wall: t0.elapsed().as_secs_f64(),
+            cpu,
+        },
+    ))
 }
 
-fn entry(case: &Case, r: &GapReport, secs: f64, table: &str) -> Value {
+fn entry(case: &Case, r: &GapReport, t: Seconds, table: &str) -> Value {
     let reg = &r.regression;
     let coefficients: serde_json::Map<String, Value> = reg
         .coefficients
@@ -208,7 +284,8 @@ fn entry(case: &Case, r: &GapReport, secs: f64, table: &str) -> Value {
             "named": r.named.iter().map(|n| json!({
                 "kind": format!("{:?}", n.kind), "location": n.location, "what": n.what,
             })).collect::<Vec<_>>(),
-            "seconds": secs,
+            "seconds": t.wall,
+            "cpu_seconds": t.cpu,
             "verdict": r.verdict,
             "air_data": r.air_data,
         },

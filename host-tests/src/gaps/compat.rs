@@ -37,7 +37,7 @@
 //! its kind ([`SensorParam::plausible`]) is not entered. Integration is RK4 with inputs
 //! interpolated linearly between samples.
 
-use super::regress::{ols, partial_test};
+use super::regress::{ols, ols_theta, partial_test_against, Basis};
 use super::signal::{mean, shift};
 use crate::io::measured::{MeasuredFlight, Quantity};
 use nalgebra::Vector3;
@@ -233,10 +233,33 @@ struct Problem<'a> {
     sim: SegmentSim<'a>,
     measured: Vec<Vec<f64>>,
     outputs: Vec<Quantity>,
+    /// Analytic initial-state sensitivities, when the problem has them (else central
+    /// differences of `sim`).
+    x0_sens: Option<SegmentSens<'a>>,
+    /// `sim` split into states and outputs, when the problem has them: the sensitivity of a
+    /// candidate that moves one output only is then differenced on that output alone.
+    split: Option<Split<'a>>,
 }
+
+/// A simulation in two parts: `states(g, x0, start, end)`, and `outputs(g, states, start, only)`
+/// (only output `only` when given, the others empty).
+struct Split<'a> {
+    states: VelocityStates<'a>,
+    outputs: OutputMap<'a>,
+    /// Per candidate: the one output it moves without moving the states (a bias, scale, delay
+    /// or position of that output's sensor), or `None`.
+    channel: Vec<Option<usize>>,
+}
+
+/// `(candidate values, states, start, only)` → one series per output (empty if not `only`).
+type OutputMap<'a> = std::rc::Rc<dyn Fn(&[f64], &[[f64; 3]], usize, Option<usize>) -> Vec<Vec<f64>> + 'a>;
 
 /// `(candidate values, x0, start, end)` → one series per output over `[start, end)`.
 type SegmentSim<'a> = Box<dyn Fn(&[f64], &[f64], usize, usize) -> Vec<Vec<f64>> + 'a>;
+
+/// `(candidate values, x0, segment)` → per output and sample, the output's derivative with
+/// respect to each initial state (unweighted).
+type SegmentSens<'a> = Box<dyn Fn(&[f64], &[f64], usize) -> Vec<Vec<[f64; 3]>> + 'a>;
 
 /// Segment length, s.
 pub const SEGMENT_S: f64 = 5.0;
@@ -269,6 +292,18 @@ impl Problem<'_> {
     fn x0_cols(&self, st: &State, s: usize) -> Vec<Vec<f64>> {
         let (a, b) = self.segments[s];
         let mut cols = Vec::new();
+        if let Some(sens) = &self.x0_sens {
+            let d = sens(&st.g, &st.x0[s], s);
+            for j in (0..self.nx).filter(|&j| self.x_mask[j]) {
+                let mut c = Vec::with_capacity(d.len() * (b - a));
+                for (o, dj) in d.iter().enumerate() {
+                    let sw = st.weights[o].sqrt();
+                    c.extend(dj.iter().map(|x| x[j] * sw));
+                }
+                cols.push(c);
+            }
+            return cols;
+        }
         for j in 0..self.nx {
             if !self.x_mask[j] {
                 continue;
@@ -292,13 +327,13 @@ impl Problem<'_> {
         for _ in 0..4 {
             let r = self.seg_res(&st.g, &st.x0[s], s, &st.weights);
             let cols = self.x0_cols(st, s);
-            let Some(f) = ols(&cols, &r, r.len(), 0) else { return };
+            let Some(theta) = ols_theta(&cols, &r) else { return };
             let mut k = 0;
             let mut change = 0.0f64;
             for j in 0..self.nx {
                 if self.x_mask[j] {
-                    st.x0[s][j] += f.theta[k];
-                    change = change.max((f.theta[k] / self.x_steps[j]).abs());
+                    st.x0[s][j] += theta[k];
+                    change = change.max((theta[k] / self.x_steps[j]).abs());
                     k += 1;
                 }
             }
@@ -332,12 +367,26 @@ impl Problem<'_> {
         let (mut up, mut dn) = (st.g.clone(), st.g.clone());
         up[c] += h;
         dn[c] -= h;
+        // A candidate that moves one output only: the states (which it does not enter) are
+        // integrated once and only that output is differenced; the others' differences are
+        // exactly zero. The same arithmetic as differencing the whole simulation.
+        let channel = self.split.as_ref().and_then(|sp| sp.channel[c].map(|o| (sp, o)));
         (0..self.segments.len())
             .map(|s| {
                 let (a, b) = self.segments[s];
-                let (yu, yd) = ((self.sim)(&up, &st.x0[s], a, b), (self.sim)(&dn, &st.x0[s], a, b));
-                let mut col = Vec::new();
+                let (yu, yd) = match channel {
+                    Some((sp, o)) => {
+                        let xs = (sp.states)(&st.g, &st.x0[s], a, b);
+                        ((sp.outputs)(&up, &xs, a, Some(o)), (sp.outputs)(&dn, &xs, a, Some(o)))
+                    }
+                    None => ((self.sim)(&up, &st.x0[s], a, b), (self.sim)(&dn, &st.x0[s], a, b)),
+                };
+                let mut col = Vec::with_capacity(yu.len() * (b - a));
                 for (o, (u, d)) in yu.iter().zip(&yd).enumerate() {
+                    if u.is_empty() {
+                        col.extend(core::iter::repeat_n(0.0, b - a));
+                        continue;
+                    }
                     let sw = st.weights[o].sqrt();
                     col.extend(u.iter().zip(d).map(|(x, y)| (x - y) / (2.0 * h) * sw));
                 }
@@ -346,13 +395,25 @@ impl Problem<'_> {
             .collect()
     }
 
+    /// Each segment's basis of its initial-state columns (`None`: dependent columns, nothing is
+    /// projected out of that segment), factorised once for every series projected.
+    fn bases(&self, st: &State) -> Vec<Option<Basis>> {
+        (0..self.segments.len())
+            .map(|s| {
+                let c = self.x0_cols(st, s);
+                let n = c.first().map_or(0, |x| x.len());
+                Basis::new(&c, n)
+            })
+            .collect()
+    }
+
     /// Projects per-segment rows out of that segment's initial-state columns (Frisch–Waugh–Lovell):
     /// the global parameters are then estimated free of the nuisance initial states.
-    fn project(&self, x0c: &[Vec<Vec<f64>>], v: &[Vec<f64>]) -> Vec<f64> {
+    fn project(&self, bases: &[Option<Basis>], v: &[Vec<f64>]) -> Vec<f64> {
         let mut out = Vec::new();
         for (s, vs) in v.iter().enumerate() {
-            match ols(&x0c[s], vs, vs.len(), 0) {
-                Some(f) => out.extend(f.residual),
+            match &bases[s] {
+                Some(b) => out.extend(b.residual(vs)),
                 None => out.extend(vs.iter().copied()),
             }
         }
@@ -391,12 +452,14 @@ impl Problem<'_> {
             if act.is_empty() {
                 continue;
             }
-            let x0c: Vec<Vec<Vec<f64>>> = (0..self.segments.len()).map(|s| self.x0_cols(st, s)).collect();
+            let x0c = self.bases(st);
             let (rs, _) = self.residual(st);
             let r = self.project(&x0c, &rs);
             let cols: Vec<Vec<f64>> = act.iter().map(|&c| self.project(&x0c, &self.g_col(st, c))).collect();
-            let Some(f) = ols(&cols, &r, r.len(), 0) else { return };
-            let c0 = self.cost(st);
+            let Some(step) = ols_theta(&cols, &r) else { return };
+            // The cost of the current state: the residuals just computed (`cost` would simulate
+            // them again).
+            let c0: f64 = rs.iter().flatten().map(|x| x * x).sum();
             let mut lambda = 1.0;
             let mut done = true;
             for _ in 0..5 {
@@ -407,7 +470,7 @@ impl Problem<'_> {
                     weights: st.weights.clone(),
                 };
                 for (k, &c) in act.iter().enumerate() {
-                    trial.g[c] += lambda * f.theta[k];
+                    trial.g[c] += lambda * step[k];
                 }
                 for s in 0..self.segments.len() {
                     self.fit_x0(&mut trial, s);
@@ -428,7 +491,7 @@ impl Problem<'_> {
 
     /// Scores of the inactive candidates and σ of the active ones.
     fn scores(&self, st: &State, max_lag: usize) -> (Vec<ParamScore>, Vec<(usize, f64)>) {
-        let x0c: Vec<Vec<Vec<f64>>> = (0..self.segments.len()).map(|s| self.x0_cols(st, s)).collect();
+        let x0c = self.bases(st);
         let (rs, _) = self.residual(st);
         let r = self.project(&x0c, &rs);
         let act: Vec<usize> = (0..st.g.len()).filter(|&c| st.active[c]).collect();
@@ -444,31 +507,23 @@ impl Problem<'_> {
                 .map(|f| act.iter().zip(f.sigma).map(|(&j, s)| (j, s)).collect())
                 .unwrap_or_default()
         };
+        // The active columns are factorised once; each candidate is then tested against them.
+        let Some(basis) = Basis::new(&cols, n) else {
+            return (Vec::new(), sig);
+        };
+        let r_res = basis.residual(&r);
         let mut out = Vec::new();
         for (c, &param) in self.candidates.iter().enumerate() {
             if st.active[c] {
                 continue;
             }
             let col = self.project(&x0c, &self.g_col(st, c));
-            let res = if cols.is_empty() {
-                ols(&[col], &r, block, max_lag).map(|f| {
-                    let t2 = if f.sigma[0] > 0.0 {
-                        (f.theta[0] / f.sigma[0]).powi(2)
-                    } else {
-                        0.0
-                    };
-                    (f, t2)
-                })
-            } else {
-                partial_test(&cols, &col, &r, block, max_lag)
-            };
-            if let Some((f, t2)) = res {
-                let k = f.theta.len() - 1;
+            if let Some(t) = partial_test_against(&basis, &col, &r_res, block, max_lag) {
                 out.push(ParamScore {
                     param,
-                    value: st.g[c] + f.theta[k],
-                    sigma: f.sigma[k],
-                    t2,
+                    value: st.g[c] + t.theta,
+                    sigma: t.sigma,
+                    t2: t.t2,
                 });
             }
         }
@@ -487,11 +542,9 @@ impl Problem<'_> {
         if act.is_empty() || nseg < 4 {
             return act.iter().map(|&c| (c, 0.0, 0.0)).collect();
         }
-        let x0c: Vec<Vec<Vec<f64>>> = (0..nseg).map(|s| self.x0_cols(st, s)).collect();
+        let x0c = self.bases(st);
         let (rs, _) = self.residual(st);
-        let proj = |s: usize, v: &[f64]| -> Vec<f64> {
-            ols(&x0c[s], v, v.len(), 0).map_or_else(|| v.to_vec(), |f| f.residual)
-        };
+        let proj = |s: usize, v: &[f64]| -> Vec<f64> { x0c[s].as_ref().map_or_else(|| v.to_vec(), |b| b.residual(v)) };
         let r: Vec<Vec<f64>> = (0..nseg).map(|s| proj(s, &rs[s])).collect();
         let cols: Vec<Vec<Vec<f64>>> = act
             .iter()
@@ -529,10 +582,7 @@ impl Problem<'_> {
                         .map(|&k| train.iter().flat_map(|&s| cols[k][s].iter().copied()).collect())
                         .collect();
                     let y: Vec<f64> = train.iter().flat_map(|&s| rt[s].iter().copied()).collect();
-                    match ols(&xs, &y, y.len(), 0) {
-                        Some(fit) => fit.theta,
-                        None => vec![0.0; keep.len()],
-                    }
+                    ols_theta(&xs, &y).unwrap_or_else(|| vec![0.0; keep.len()])
                 };
                 for s in (0..nseg).filter(|s| s % folds == f) {
                     out[s] = rt[s]
@@ -904,15 +954,91 @@ fn velocity_problem(flight: &MeasuredFlight, h_s: f64, gyro_bias: [f64; 3]) -> O
             })
         })
     };
-    let outs_b = outputs.clone();
-    let states_s = states.clone();
-    let sim_b = move |g: &[f64], x0: &[f64], a: usize, b: usize| -> Vec<Vec<f64>> {
+    let segs = segments(n, h_s);
+    // The state transition matrix Φ(t) = ∂x(t)/∂x₀ of every segment. The velocity equations are
+    // linear in the state (`ẋ = A(t)x + b(t)`, `A = −[ω×]` with the measured rates), and RK4 of an
+    // affine system is affine in the initial state with the linear part RK4 of `Φ̇ = AΦ`, so this Φ
+    // is exactly what central differences of the integrated states return (to rounding), at the
+    // cost of one integration per segment for the whole check instead of six per Gauss–Newton
+    // step: A depends only on the (bias-corrected) rates, not on any candidate.
+    let phis: Vec<Vec<[f64; 9]>> = segs
+        .iter()
+        .map(|&(a, b)| {
+            let [pc, qc, rc] = &*rates;
+            let eye = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0];
+            integrate(eye, a, b, h_s, |m, k, fr| {
+                let w = Vector3::new(lerp(pc, k, fr), lerp(qc, k, fr), lerp(rc, k, fr));
+                let mut d = [0.0; 9];
+                for c in 0..3 {
+                    let v = Vector3::new(m[c], if lat_v { m[3 + c] } else { 0.0 }, m[6 + c]);
+                    let dv = -w.cross(&v);
+                    d[c] = dv.x;
+                    d[3 + c] = if lat_v { dv.y } else { 0.0 };
+                    d[6 + c] = dv.z;
+                }
+                d
+            })
+        })
+        .collect();
+    let outs_s = outputs.clone();
+    let (states_d, rates_d, segs_d, par_d) = (states.clone(), rates.clone(), segs.clone(), par.clone());
+    // The outputs' derivatives: each output is `(1+k)·y(t−τ) + b` of a function `y(l)` of the
+    // local velocity `l = v + ω × r` at the sensor, so `∂y/∂x₀ = (1+k)·shift(∇y(l)ᵀ Φ)`.
+    let sens_b = move |g: &[f64], x0: &[f64], seg: usize| -> Vec<Vec<[f64; 3]>> {
         use SensorParam as S;
-        let [pc, qc, rc] = &*rates;
-        let xs = states_s(g, x0, a, b);
-        outs_b
+        let [pc, qc, rc] = &*rates_d;
+        let (a, b) = segs_d[seg];
+        let xs = states_d(g, x0, a, b);
+        let phi = &phis[seg];
+        outs_s
             .iter()
             .map(|o| {
+                let r = match o {
+                    Airspeed => r_pitot,
+                    Alpha => rv_a + Vector3::new(par_d(g, S::VaneX(Alpha)), 0.0, 0.0),
+                    _ => rv_b + Vector3::new(par_d(g, S::VaneX(Beta)), 0.0, 0.0),
+                };
+                let grads: Vec<[f64; 3]> = xs
+                    .iter()
+                    .enumerate()
+                    .map(|(i, x)| {
+                        let k = a + i;
+                        let w = Vector3::new(pc[k], qc[k], rc[k]);
+                        let l = Vector3::new(x[0], x[1], x[2]) + w.cross(&r);
+                        let dy = match o {
+                            Airspeed => l / l.norm(),
+                            Alpha => Vector3::new(-l.z, 0.0, l.x) / (l.x * l.x + l.z * l.z),
+                            _ => {
+                                let nl = l.norm().max(1e-6);
+                                let sb = l.y / nl;
+                                let c = (1.0 - sb * sb).max(1e-12).sqrt();
+                                (Vector3::new(0.0, 1.0 / nl, 0.0) - l * (l.y / (nl * nl * nl))) / c
+                            }
+                        };
+                        let f = &phi[i];
+                        core::array::from_fn(|c| dy.x * f[c] + dy.y * f[3 + c] + dy.z * f[6 + c])
+                    })
+                    .collect();
+                let (tau, k) = (par_d(g, S::Delay(*o)), par_d(g, S::Scale(*o)));
+                let comp: [Vec<f64>; 3] =
+                    core::array::from_fn(|c| shift(&grads.iter().map(|d| d[c]).collect::<Vec<_>>(), h_s, -tau));
+                (0..grads.len())
+                    .map(|i| [(1.0 + k) * comp[0][i], (1.0 + k) * comp[1][i], (1.0 + k) * comp[2][i]])
+                    .collect()
+            })
+            .collect()
+    };
+    let outs_b = outputs.clone();
+    let out_map: OutputMap<'_> = std::rc::Rc::new(move |g: &[f64], xs: &[[f64; 3]], a: usize, only: Option<usize>| {
+        use SensorParam as S;
+        let [pc, qc, rc] = &*rates;
+        outs_b
+            .iter()
+            .enumerate()
+            .map(|(oi, o)| {
+                if only.is_some_and(|x| x != oi) {
+                    return Vec::new();
+                }
                 let base: Vec<f64> = xs
                     .iter()
                     .enumerate()
@@ -940,8 +1066,19 @@ fn velocity_problem(flight: &MeasuredFlight, h_s: f64, gyro_bias: [f64; 3]) -> O
                 delayed.iter().map(|y| (1.0 + k) * y + bb).collect()
             })
             .collect()
+    });
+    let (states_s, out_s) = (states.clone(), out_map.clone());
+    let sim_b = move |g: &[f64], x0: &[f64], a: usize, b: usize| -> Vec<Vec<f64>> {
+        let xs = states_s(g, x0, a, b);
+        out_s(g, &xs, a, None)
     };
-    let segs = segments(n, h_s);
+    let channel: Vec<Option<usize>> = cands
+        .iter()
+        .map(|c| match c {
+            SensorParam::Bias(AccelX | AccelY | AccelZ) => None,
+            c => outputs.iter().position(|o| *o == c.channel()),
+        })
+        .collect();
     let x0: Vec<Vec<f64>> = segs
         .iter()
         .map(|&(a, b)| {
@@ -961,6 +1098,12 @@ fn velocity_problem(flight: &MeasuredFlight, h_s: f64, gyro_bias: [f64; 3]) -> O
             sim: Box::new(sim_b),
             measured,
             outputs,
+            x0_sens: Some(Box::new(sens_b)),
+            split: Some(Split {
+                states: states.clone(),
+                outputs: out_map,
+                channel,
+            }),
         },
         states,
         x0,
@@ -1163,6 +1306,8 @@ pub fn check(flight: &MeasuredFlight, h_s: f64, s: &CompatSettings) -> Compatibi
         sim: Box::new(sim_a),
         measured,
         outputs: outputs.clone(),
+        x0_sens: None,
+        split: None,
     };
     let (tested, found, rms, g_a, _, _) = run(&prob_a, x0, s, "attitude");
     let gyro_bias = [
@@ -1252,4 +1397,73 @@ fn turbulence_screen(out: &mut Compatibility, h_s: f64) {
         f.why = "not identifiable in turbulence: the gust response makes the kinematic residual proportional to the flow angle".into();
         f
     }));
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Largest difference of two sets of columns relative to the largest entry.
+    fn rel_diff(a: &[Vec<f64>], b: &[Vec<f64>]) -> f64 {
+        let scale = a.iter().flatten().fold(0.0f64, |m, x| m.max(x.abs()));
+        let d = a
+            .iter()
+            .flatten()
+            .zip(b.iter().flatten())
+            .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
+        assert_eq!(
+            a.iter().map(Vec::len).sum::<usize>(),
+            b.iter().map(Vec::len).sum::<usize>()
+        );
+        d / scale
+    }
+
+    #[test]
+    fn the_analytic_sensitivities_equal_the_central_differences() {
+        // GIVEN a turbulent simulated flight (seeded) with a vane delay and scale and an
+        // accelerometer bias set in the candidate values, so that every term of the analytic
+        // derivative (Φ, the output gradients, the shift, the scale) is exercised
+        let flight = super::super::hidden::flight(None, 30.0, 9, true).expect("simulated flight");
+        let h = flight.t_s[1] - flight.t_s[0];
+        let mut vp = velocity_problem(&flight, h, [0.0; 3]).expect("velocity problem");
+        let mut g = vec![0.0; vp.problem.candidates.len()];
+        for (c, v) in [
+            (SensorParam::Delay(Quantity::Alpha), 0.05),
+            (SensorParam::Scale(Quantity::Alpha), 0.1),
+            (SensorParam::VaneX(Quantity::Alpha), 0.3),
+            (SensorParam::Bias(Quantity::AccelZ), 0.2),
+        ] {
+            let i = vp.problem.candidates.iter().position(|x| *x == c).expect("candidate");
+            g[i] = v;
+        }
+        let st = State {
+            g,
+            active: vec![false; vp.problem.candidates.len()],
+            x0: vp.x0.clone(),
+            weights: (0..vp.problem.measured.len())
+                .map(|o| if o == 0 { 1.0 } else { 400.0 })
+                .collect(),
+        };
+        for s in [0, 3] {
+            // WHEN the initial-state columns are taken from Φ and by central differences
+            let analytic = vp.problem.x0_cols(&st, s);
+            let sens = vp.problem.x0_sens.take();
+            let numeric = vp.problem.x0_cols(&st, s);
+            vp.problem.x0_sens = sens;
+            // THEN they agree within the differences' truncation error (step 1e-3 m/s against
+            // 20 m/s: (h/V)² ≈ 3e-9, rounding ε·V/h ≈ 2e-12), bounded here at 1e-6
+            let d = rel_diff(&analytic, &numeric);
+            assert!(d < 1e-6, "segment {s}: relative difference {d:e}");
+        }
+        // AND the sensitivity of every candidate is the same differenced on its output alone as
+        // on the whole simulation (the same arithmetic: 1e-12 leaves room for nothing but rounding)
+        for c in 0..vp.problem.candidates.len() {
+            let split = vp.problem.g_col(&st, c);
+            let sp = vp.problem.split.take();
+            let whole = vp.problem.g_col(&st, c);
+            vp.problem.split = sp;
+            let d = rel_diff(&split, &whole);
+            assert!(d <= 1e-12, "{:?}: relative difference {d:e}", vp.problem.candidates[c]);
+        }
+    }
 }

@@ -70,36 +70,163 @@ pub fn predict(cols: &[Vec<f64>], theta: &[f64]) -> Vec<f64> {
 
 /// The sum over blocks of `Σ_{|k|≤L} R_vv(k) Σᵢ wᵢ w_{i+k}` (lags never cross a block boundary;
 /// `R_vv` estimated per block with divisor `N_block`), each block's sum floored at its lag-0 term.
+/// One weight series; [`ResidualLags`] shares the residual's part between many.
 pub fn coloured_variance(w: &[f64], v: &[f64], block_len: usize, max_lag: usize) -> f64 {
-    let n = w.len();
-    let bl = block_len.max(1);
-    let mut total = 0.0;
-    let mut start = 0;
-    while start < n {
-        let end = (start + bl).min(n);
-        let (wb, vb) = (&w[start..end], &v[start..end]);
-        let nb = wb.len();
-        let lmax = max_lag.min(nb.saturating_sub(1));
-        let mut block = 0.0;
-        let mut white = 0.0;
-        for k in 0..=lmax {
-            let (r, ww) = lagged_products(vb, wb, k);
-            let r = r / nb as f64;
-            if k == 0 {
-                white = r * ww;
-                block += white;
-            } else {
-                block += 2.0 * r * ww;
-            }
+    ResidualLags::new(v, block_len, max_lag).variance(w)
+}
+
+/// Below this many lags a block's lag sums are computed directly (`O(N·L)`), above by FFT
+/// (`O(N log N)`): at 32 lags the direct sums cost about as much as two transforms of the block.
+const DIRECT_MAX_LAG: usize = 32;
+
+/// The residual's share of [`coloured_variance`], computed once for every weight series of a fit
+/// (the sandwich needs one per parameter, all against the same residual).
+///
+/// **Method** (why not the direct lag sums): with the 5 s lags of the analysis (500 samples at
+/// 100 Hz) the direct sums cost `N·L` products per series and were the largest single cost of the
+/// analysis. The autocorrelation of a block zero-padded to `M ≥ N_b + L` is the inverse FFT of its
+/// power spectrum (Wiener–Khinchin, no circular wrap for lags up to `L`), `O(M log M)`. When every
+/// lag of the block is summed (`L = N_b − 1`, the compatibility check's blocks) no inverse is
+/// needed: by Parseval `Σ_{|k|<N_b} r_v(k) r_w(k) = (1/M) Σ_f |V_f|² |W_f|²`. The results equal the
+/// direct sums to rounding (`tests::the_fft_lag_sums_equal_the_direct_ones`).
+pub struct ResidualLags {
+    blocks: Vec<BlockLags>,
+}
+
+struct BlockLags {
+    start: usize,
+    end: usize,
+    lmax: usize,
+    /// FFT length (0: direct sums).
+    m: usize,
+    /// `R_vv(k)`, `k = 0..=lmax` (divisor `N_block`).
+    r_v: Vec<f64>,
+    /// `|V_f|²` of the zero-padded block, when every lag is summed.
+    power: Option<Vec<f64>>,
+}
+
+thread_local! {
+    /// FFT plans are reused across calls (planning costs more than a transform).
+    static PLANNER: std::cell::RefCell<realfft::RealFftPlanner<f64>> =
+        std::cell::RefCell::new(realfft::RealFftPlanner::new());
+}
+
+/// `|X_f|²` of `x` zero-padded to `m` (`m/2 + 1` bins).
+fn power_spectrum(x: &[f64], m: usize) -> Vec<f64> {
+    PLANNER.with(|p| {
+        let fft = p.borrow_mut().plan_fft_forward(m);
+        let mut input = vec![0.0; m];
+        input[..x.len()].copy_from_slice(x);
+        let mut spec = fft.make_output_vec();
+        // The lengths are the plan's own: the transform cannot fail.
+        if fft.process(&mut input, &mut spec).is_err() {
+            return vec![f64::NAN; m / 2 + 1];
         }
-        // Floor: never below the white-residual variance. The autocorrelation of *fitted*
-        // residuals is biased low at long lags (the fit absorbs their slow part: for the intercept
-        // the sum over all lags of a zero-mean residual's autocorrelation is zero), so a truncated
-        // sum below its lag-0 term is an estimation artefact, not a real negative correlation.
-        total += block.max(white);
-        start = end;
+        spec.iter().map(|c| c.norm_sqr()).collect()
+    })
+}
+
+/// `Σᵢ xᵢ xᵢ₊ₖ`, `k = 0..=lmax`, from the power spectrum of `x` zero-padded to `m ≥ len + lmax`.
+fn autocorrelation(power: &[f64], m: usize, lmax: usize) -> Vec<f64> {
+    PLANNER.with(|p| {
+        let ifft = p.borrow_mut().plan_fft_inverse(m);
+        let mut spec: Vec<realfft::num_complex::Complex<f64>> = power
+            .iter()
+            .map(|&x| realfft::num_complex::Complex::new(x, 0.0))
+            .collect();
+        let mut out = ifft.make_output_vec();
+        if ifft.process(&mut spec, &mut out).is_err() {
+            return vec![f64::NAN; lmax + 1];
+        }
+        out[..=lmax].iter().map(|x| x / m as f64).collect()
+    })
+}
+
+/// `Σ_f c_f a_f b_f` over the full spectrum of a real series of even length `m` from its `m/2 + 1`
+/// bins (the others mirror them), divided by `m`: Parseval's `Σ_k` over every circular lag.
+fn parseval(a: &[f64], b: &[f64], m: usize) -> f64 {
+    let last = a.len() - 1;
+    let inner: f64 = a[1..last].iter().zip(&b[1..last]).map(|(x, y)| x * y).sum();
+    (a[0] * b[0] + a[last] * b[last] + 2.0 * inner) / m as f64
+}
+
+impl ResidualLags {
+    /// The residual `v`'s lag sums per block of `block_len`, up to `max_lag`.
+    pub fn new(v: &[f64], block_len: usize, max_lag: usize) -> Self {
+        let n = v.len();
+        let bl = block_len.max(1);
+        let mut blocks = Vec::new();
+        let mut start = 0;
+        while start < n {
+            let end = (start + bl).min(n);
+            let vb = &v[start..end];
+            let nb = vb.len();
+            let lmax = max_lag.min(nb.saturating_sub(1));
+            let b = if lmax < DIRECT_MAX_LAG {
+                let r_v = (0..=lmax).map(|k| lagged_products(vb, vb, k).0 / nb as f64).collect();
+                BlockLags {
+                    start,
+                    end,
+                    lmax,
+                    m: 0,
+                    r_v,
+                    power: None,
+                }
+            } else {
+                // Even, and long enough that lags up to `lmax` do not wrap.
+                let m = (nb + lmax).next_power_of_two().max(2);
+                let pv = power_spectrum(vb, m);
+                let r_v = autocorrelation(&pv, m, lmax).iter().map(|x| x / nb as f64).collect();
+                BlockLags {
+                    start,
+                    end,
+                    lmax,
+                    m,
+                    r_v,
+                    power: (lmax + 1 == nb).then_some(pv),
+                }
+            };
+            blocks.push(b);
+            start = end;
+        }
+        Self { blocks }
     }
-    total.max(0.0)
+
+    /// [`coloured_variance`] of the weight series `w` (the residual's length).
+    pub fn variance(&self, w: &[f64]) -> f64 {
+        let mut total = 0.0;
+        for b in &self.blocks {
+            let Some(wb) = w.get(b.start..b.end) else {
+                return f64::NAN;
+            };
+            let nb = (b.end - b.start) as f64;
+            let ww0 = lagged_products(wb, wb, 0).0;
+            let white = b.r_v[0] * ww0;
+            let block = if b.m == 0 {
+                white
+                    + (1..=b.lmax)
+                        .map(|k| 2.0 * b.r_v[k] * lagged_products(wb, wb, k).0)
+                        .sum::<f64>()
+            } else {
+                let pw = power_spectrum(wb, b.m);
+                match &b.power {
+                    // Every lag: Parseval, no inverse transform.
+                    Some(pv) => parseval(pv, &pw, b.m) / nb,
+                    None => {
+                        let r_w = autocorrelation(&pw, b.m, b.lmax);
+                        white + (1..=b.lmax).map(|k| 2.0 * b.r_v[k] * r_w[k]).sum::<f64>()
+                    }
+                }
+            };
+            // Floor: never below the white-residual variance. The autocorrelation of *fitted*
+            // residuals is biased low at long lags (the fit absorbs their slow part: for the
+            // intercept the sum over all lags of a zero-mean residual's autocorrelation is zero),
+            // so a truncated sum below its lag-0 term is an estimation artefact, not a real
+            // negative correlation.
+            total += block.max(white);
+        }
+        total.max(0.0)
+    }
 }
 
 /// `(Σᵢ vᵢ vᵢ₊ₖ, Σᵢ wᵢ wᵢ₊ₖ)` in one pass with four partial sums (the hot loop of the analysis:
@@ -131,6 +258,33 @@ fn lagged_products(v: &[f64], w: &[f64], k: usize) -> (f64, f64) {
 /// own norm.
 pub fn ols(cols: &[Vec<f64>], z: &[f64], block_len: usize, max_lag: usize) -> Option<Fit> {
     ols_sigma(cols, z, block_len, max_lag, None)
+}
+
+/// [`ols`]'s estimates alone (no residual, no σ): for the Gauss–Newton steps, which need nothing
+/// else. `None` as [`ols`].
+pub fn ols_theta(cols: &[Vec<f64>], z: &[f64]) -> Option<Vec<f64>> {
+    let n = z.len();
+    let p = cols.len();
+    if p == 0 || n <= p || cols.iter().any(|c| c.len() != n) {
+        return None;
+    }
+    let scale: Vec<f64> = cols
+        .iter()
+        .map(|c| (c.iter().map(|v| v * v).sum::<f64>() / n as f64).sqrt())
+        .collect();
+    if scale.iter().any(|s| !(s.is_finite() && *s > 0.0)) {
+        return None;
+    }
+    let qr = DMatrix::from_fn(n, p, |i, j| cols[j][i] / scale[j]).qr();
+    let r = qr.r();
+    let dmax = (0..p).map(|i| r[(i, i)].abs()).fold(0.0, f64::max);
+    if (0..p).any(|i| r[(i, i)].abs() < 1e-9 * dmax.max(1e-300)) {
+        return None;
+    }
+    let mut qtz = DVector::from_column_slice(z);
+    qr.q_tr_mul(&mut qtz);
+    let ts = r.solve_upper_triangular(&qtz.rows(0, p).into_owned())?;
+    Some((0..p).map(|j| ts[j] / scale[j]).collect())
 }
 
 /// [`ols`], with the coloured-residual σ computed only for parameter `only` when given (the
@@ -165,6 +319,7 @@ pub fn ols_sigma(cols: &[Vec<f64>], z: &[f64], block_len: usize, max_lag: usize,
     let w = qr.q() * rinv.transpose();
     let mut theta = vec![0.0; p];
     let mut sigma = vec![0.0; p];
+    let lags = ResidualLags::new(&residual, block_len, max_lag);
     for j in 0..p {
         theta[j] = ts[j] / scale[j];
         if only.is_some_and(|k| k != j) {
@@ -172,9 +327,109 @@ pub fn ols_sigma(cols: &[Vec<f64>], z: &[f64], block_len: usize, max_lag: usize,
             continue;
         }
         let wj: Vec<f64> = w.column(j).iter().copied().collect();
-        sigma[j] = coloured_variance(&wj, &residual, block_len, max_lag).sqrt() / scale[j];
+        sigma[j] = lags.variance(&wj).sqrt() / scale[j];
     }
     Some(Fit { theta, sigma, residual })
+}
+
+/// An orthonormal basis of a set of columns (thin QR of the column-scaled matrix, as [`ols`]),
+/// kept to project many series out of the same columns: `v − QQᵀv` is [`ols`]'s residual of `v`
+/// without a factorisation per series.
+pub struct Basis {
+    q: DMatrix<f64>,
+    /// Largest `|R_ii|` of the scaled columns (the scale of [`ols`]'s dependence test).
+    rdiag_max: f64,
+}
+
+impl Basis {
+    /// The basis of `cols` (each of length `n`; none: the empty basis). `None` where [`ols`]
+    /// refuses the columns: a column of zero or non-finite RMS, or a column whose part orthogonal
+    /// to the others is below `1e-9` of the largest.
+    pub fn new(cols: &[Vec<f64>], n: usize) -> Option<Self> {
+        let p = cols.len();
+        if p == 0 {
+            return Some(Self {
+                q: DMatrix::zeros(n, 0),
+                rdiag_max: 0.0,
+            });
+        }
+        if n <= p || cols.iter().any(|c| c.len() != n) {
+            return None;
+        }
+        let scale: Vec<f64> = cols
+            .iter()
+            .map(|c| (c.iter().map(|v| v * v).sum::<f64>() / n as f64).sqrt())
+            .collect();
+        if scale.iter().any(|s| !(s.is_finite() && *s > 0.0)) {
+            return None;
+        }
+        let qr = DMatrix::from_fn(n, p, |i, j| cols[j][i] / scale[j]).qr();
+        let r = qr.r();
+        let rdiag_max = (0..p).map(|i| r[(i, i)].abs()).fold(0.0, f64::max);
+        if (0..p).any(|i| r[(i, i)].abs() < 1e-9 * rdiag_max.max(1e-300)) {
+            return None;
+        }
+        Some(Self { q: qr.q(), rdiag_max })
+    }
+
+    /// `v` less its projection on the columns.
+    pub fn residual(&self, v: &[f64]) -> Vec<f64> {
+        let mut out = v.to_vec();
+        for q in self.q.column_iter() {
+            let c: f64 = q.iter().zip(v).map(|(a, b)| a * b).sum();
+            for (o, a) in out.iter_mut().zip(q.iter()) {
+                *o -= c * a;
+            }
+        }
+        out
+    }
+}
+
+/// A candidate's partial test (the last parameter of the extended fit).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Partial {
+    /// Its estimate in the extended fit.
+    pub theta: f64,
+    /// Its coloured-residual standard error.
+    pub sigma: f64,
+    /// `(θ/σ)²` (0 when σ is 0).
+    pub t2: f64,
+}
+
+/// [`partial_test`] of a candidate against the columns of `basis`, given `z_res`, the residual of
+/// `z` on those columns ([`Basis::residual`]). By Frisch–Waugh–Lovell the candidate's estimate,
+/// weight series and the extended fit's residual follow from its part `c̃` orthogonal to the
+/// columns: `θ = c̃ᵀz/c̃ᵀc̃`, `w = c̃/c̃ᵀc̃`, `r = z_res − θc̃` — `O(N·p)` per candidate instead of a
+/// QR of the extended matrix, equal to it to rounding. `None` as [`partial_test`].
+pub fn partial_test_against(
+    basis: &Basis,
+    candidate: &[f64],
+    z_res: &[f64],
+    block_len: usize,
+    max_lag: usize,
+) -> Option<Partial> {
+    let n = z_res.len();
+    if candidate.len() != n || n <= basis.q.ncols() + 1 {
+        return None;
+    }
+    let scale = (candidate.iter().map(|v| v * v).sum::<f64>() / n as f64).sqrt();
+    if !(scale.is_finite() && scale > 0.0) {
+        return None;
+    }
+    let cs: Vec<f64> = candidate.iter().map(|v| v / scale).collect();
+    let ct = basis.residual(&cs);
+    let cc: f64 = ct.iter().map(|v| v * v).sum();
+    let rpp = cc.sqrt();
+    if rpp < 1e-9 * basis.rdiag_max.max(rpp).max(1e-300) {
+        return None;
+    }
+    let ts = ct.iter().zip(z_res).map(|(a, b)| a * b).sum::<f64>() / cc;
+    let residual: Vec<f64> = z_res.iter().zip(&ct).map(|(r, c)| r - ts * c).collect();
+    let w: Vec<f64> = ct.iter().map(|c| c / cc).collect();
+    let theta = ts / scale;
+    let sigma = coloured_variance(&w, &residual, block_len, max_lag).sqrt() / scale;
+    let t2 = if sigma > 0.0 { (theta / sigma).powi(2) } else { 0.0 };
+    Some(Partial { theta, sigma, t2 })
 }
 
 /// The partial test of one candidate column added to `cols`: the extended fit and its `t²` for the
@@ -323,6 +578,7 @@ pub fn sandwich_sigma(
     let Some(hinv) = h.try_inverse() else {
         return sigma;
     };
+    let lags = ResidualLags::new(residual, block_len, max_lag);
     for (j, sj) in sigma.iter_mut().enumerate() {
         if only.is_some_and(|k| k != j) {
             continue;
@@ -335,7 +591,7 @@ pub fn sandwich_sigma(
                     .sum::<f64>()
             })
             .collect();
-        *sj = coloured_variance(&w, residual, block_len, max_lag).sqrt();
+        *sj = lags.variance(&w).sqrt();
     }
     sigma
 }
@@ -621,6 +877,58 @@ mod tests {
             fit.sigma[1],
             s_white
         );
+    }
+
+    /// The definition of [`coloured_variance`] term by term: the reference for the FFT sums.
+    fn direct_coloured_variance(w: &[f64], v: &[f64], block_len: usize, max_lag: usize) -> f64 {
+        let mut total = 0.0;
+        for (wb, vb) in w.chunks(block_len).zip(v.chunks(block_len)) {
+            let nb = wb.len();
+            let mut white = 0.0;
+            let mut block = 0.0;
+            for k in 0..=max_lag.min(nb - 1) {
+                let r: f64 = (0..nb - k).map(|i| vb[i] * vb[i + k]).sum::<f64>() / nb as f64;
+                let ww: f64 = (0..nb - k).map(|i| wb[i] * wb[i + k]).sum();
+                if k == 0 {
+                    white = r * ww;
+                    block += white;
+                } else {
+                    block += 2.0 * r * ww;
+                }
+            }
+            total += block.max(white);
+        }
+        total.max(0.0)
+    }
+
+    #[test]
+    fn the_fft_lag_sums_equal_the_direct_ones() {
+        // GIVEN coloured residuals and weights (seeded), and the block/lag layouts of the analysis:
+        // every lag of 500-sample blocks (the compatibility check), 500 lags of one long block
+        // (the sandwich), a ragged last block, and short lags (the direct path)
+        let mut rng = ChaCha8Rng::seed_from_u64(17);
+        let nd = Normal::new(0.0, 1.0).unwrap();
+        let mut ar = 0.0;
+        let v: Vec<f64> = (0..5_230)
+            .map(|_| {
+                ar = 0.97 * ar + nd.sample(&mut rng);
+                ar
+            })
+            .collect();
+        let w: Vec<f64> = (0..5_230)
+            .map(|i| (i as f64 * 0.01).sin() + 0.2 * nd.sample(&mut rng))
+            .collect();
+        for (block, lag) in [(500, 500), (5_230, 500), (1_000, 700), (700, 40), (500, 31), (500, 0)] {
+            // WHEN both are computed
+            let fast = coloured_variance(&w, &v, block, lag);
+            let slow = direct_coloured_variance(&w, &v, block, lag);
+            // THEN they agree to rounding (1e-10 relative: sums of ~10⁶ products of O(1) terms
+            // in double precision, either way)
+            assert!(
+                (fast / slow - 1.0).abs() < 1e-10,
+                "block {block}, lag {lag}: {fast} vs {slow}"
+            );
+        }
     }
 
     /// `z = 1 + 2 x + e_z` with `x` measured with error `e_x` (`σ_x`, `σ_z` white, seeded).
