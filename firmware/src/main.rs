@@ -91,10 +91,10 @@ mod app {
     const SAMPLE_PERIOD_MS: u32 = 10;
     /// Tokens the channel holds (all four: rtic-sync's channel keeps no slot free), so samples
     /// queued and not yet taken up: 40 ms of slack for the estimator before samples are dropped.
-    /// What holds the estimator back is its own step (≤ 38 737 instructions on the replay, 40 373
+    /// What holds the estimator back is its own step (≤ 42 877 instructions on the replay, 44 838
     /// on the fault run) and one telemetry encoding under the estimator lock (`lock_max`,
-    /// ≤ 14 548): together ≈ 1 ms at 168 MHz even at 3 cycles per
-    /// instruction (BENCHMARKS.md "Static stack bound").
+    /// ≤ 15 456): together ≈ 1.1 ms at 168 MHz even at 3 cycles per
+    /// instruction (docs/performance.md).
     const SAMPLE_QUEUE: usize = 4;
     /// Slots of the sample queue: the channel's tokens, the sample being processed, and the one
     /// slot `heapless::spsc::Queue` keeps free.
