@@ -127,7 +127,7 @@ fn main() -> ! {
         let un = SVector::<f32, NU>::from_column_slice(&s[NU..2 * NU]);
         let y = SVector::<f32, NY>::from_column_slice(&s[2 * NU..]);
         let start = tim2.cnt().read().bits();
-        let _ = core::hint::black_box(fem.step(&u, &un, &y));
+        let _ = core::hint::black_box(aerosid_fw_step::fem_step(&mut fem, &u, &un, &y));
         let ticks = tim2.cnt().read().bits().wrapping_sub(start);
         if output.write_all(&ticks.to_le_bytes()).is_err() {
             exit(2)

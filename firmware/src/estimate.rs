@@ -114,7 +114,7 @@ impl Estimator {
         }
         self.last_start = Some(start);
         let mut last = start;
-        self.pipeline.process_into(sensors, self.step, &mut |stage| {
+        aerosid_fw_step::process_into(self.pipeline, sensors, self.step, &mut |stage| {
             let now = counter.now();
             let slot = match stage {
                 Stage::Synthesis => 1,

@@ -45,9 +45,24 @@ mod telemetry;
 use defmt_rtt as _;
 #[cfg(all(target_os = "none", feature = "qemu"))]
 use defmt_semihosting as _;
-#[cfg(all(target_os = "none", not(feature = "qemu")))]
-use panic_probe as _;
 // Under QEMU the `semihosting` crate's panic handler prints the message and exits with status 101.
+
+/// The flight computer's panic handler (none is expected: `aerosid panic-audit` lists every panic
+/// path left in the image, firmware/panic-allow.txt): logs where over defmt, then stops at a
+/// permanent `udf` with the interrupts off, as panic-probe does (a debugger or probe-rs sees the
+/// fault). panic-probe's `print-defmt` printed the message through `core::fmt`, 2 KB of flash for
+/// its formatting machinery (the 128 KiB STM32F4 parts are the flash goal); the source location
+/// needs none of it and says where to look.
+#[cfg(all(target_os = "none", not(feature = "qemu")))]
+#[panic_handler]
+fn panic(info: &core::panic::PanicInfo) -> ! {
+    cortex_m::interrupt::disable();
+    match info.location() {
+        Some(at) => defmt::error!("panicked at {=str}:{=u32}", at.file(), at.line()),
+        None => defmt::error!("panicked"),
+    }
+    cortex_m::asm::udf()
+}
 
 /// Host stub: the firmware only exists for `thumbv7em-none-eabihf`.
 #[cfg(not(target_os = "none"))]
@@ -76,10 +91,10 @@ mod app {
     const SAMPLE_PERIOD_MS: u32 = 10;
     /// Tokens the channel holds (all four: rtic-sync's channel keeps no slot free), so samples
     /// queued and not yet taken up: 40 ms of slack for the estimator before samples are dropped.
-    /// What holds the estimator back is its own step (≤ 38 737 instructions on the replay, 40 373
+    /// What holds the estimator back is its own step (≤ 42 877 instructions on the replay, 44 838
     /// on the fault run) and one telemetry encoding under the estimator lock (`lock_max`,
-    /// ≤ 14 548): together ≈ 1 ms at 168 MHz even at 3 cycles per
-    /// instruction (docs/benchmarks.md "Static stack bound").
+    /// ≤ 15 456): together ≈ 1.1 ms at 168 MHz even at 3 cycles per
+    /// instruction (docs/performance.md).
     const SAMPLE_QUEUE: usize = 4;
     /// Slots of the sample queue: the channel's tokens, the sample being processed, and the one
     /// slot `heapless::spsc::Queue` keeps free.

@@ -28,15 +28,19 @@ use aerosid_core::harness::{fault_chip, fault_kind};
 pub use aerosid_core::harness::{FAULT_RECORD_BYTES, MAX_FAULTS, PERIOD_PROBE, PROBES, PROBE_NAMES};
 
 /// Stack high-water mark of the QEMU firmware (painted stack), the regression budget of every
-/// QEMU run (`tests/qemu_replay.rs`, `tests/qemu_faults.rs`): measured 3 784 B on the replay and
-/// 3 776 B on the fault run (docs/benchmarks.md "Stack").
-pub const STACK_BUDGET_BYTES: u32 = 3_900;
+/// QEMU run (`tests/qemu_replay.rs`, `tests/qemu_faults.rs`): measured 4 216 B on the replay and
+/// 4 112 B on the fault run with the firmware built for size around its opt-level 3 estimator step
+/// (root `Cargo.toml`; the size-optimised telemetry and boot code keep larger frames: 3 784 B and
+/// 3 776 B with the whole firmware at opt-level 3). Every step in docs/benchmarks.md "Stack".
+pub const STACK_BUDGET_BYTES: u32 = 4_450;
 
 /// Instructions of the whole six-coefficient step on its worst sample: the regression budget of
-/// the clean replay (`tests/qemu_replay.rs`, measured max 38 737) and the ceiling of the fault run
-/// (`tests/qemu_faults.rs`, measured max 40 373: no fault, and no garbage on the link, may stall the
-/// step).
-pub const STEP_BUDGET_MAX: u32 = 42_500;
+/// the clean replay (`tests/qemu_replay.rs`, measured max 42 877) and the ceiling of the fault run
+/// (`tests/qemu_faults.rs`, measured max 44 838: no fault, and no garbage on the link, may stall the
+/// step). The worst samples run the general secular update, whose square roots, secular
+/// evaluations and eigenvector corrections are calls, not inlined copies, for the flash goal
+/// (`linalg::secular`; 38 737 and 40 373 with them inlined, docs/benchmarks.md "Firmware size").
+pub const STEP_BUDGET_MAX: u32 = 47_000;
 
 /// Whether `defmt-print` (which decodes the firmware's defmt log, and with it the stack figure) is
 /// on the `PATH`.

@@ -28,7 +28,7 @@ const STEP_BUDGET_MAX: u32 = qemu::STEP_BUDGET_MAX;
 /// retries put several sampling-task runs into one period.
 const FIRMWARE_BUDGET_MEDIAN: u32 = 31_200;
 /// See [`FIRMWARE_BUDGET_MEDIAN`].
-const FIRMWARE_BUDGET_MAX: u32 = 43_600;
+const FIRMWARE_BUDGET_MAX: u32 = 49_200;
 /// Instructions the telemetry task holds the estimator lock to encode one report part (one
 /// coefficient report with eq. 17's covariance, the health report or the counters): regression
 /// budget, about 10 % above the measured 14 548 (the counters part; the longest coefficient report,

@@ -53,31 +53,36 @@ pub fn cholesky_upper<T: Real, const N: usize>(a: &SMatrix<T, N, N>) -> Option<S
     if !scale.finite() || scale <= T::zero() {
         return None;
     }
+    // The column arrays (`ac[j][i]` is `A(i, j)`): indexed as arrays, the loops' bounds prove every
+    // index in range at any opt-level; nalgebra's `(i, j)` index is a call with its own bounds
+    // check once it is not inlined (the firmware builds this code for size: panic audit).
+    let ac = &a.data.0;
     let sym_tol = T::lit(64.0) * T::EPS * scale;
     for i in 0..N {
         for j in (i + 1)..N {
-            if (a[(i, j)] - a[(j, i)]).abs() > sym_tol {
+            if (ac[j][i] - ac[i][j]).abs() > sym_tol {
                 return None;
             }
         }
     }
     let mut c = SMatrix::<T, N, N>::zeros();
+    let cc = &mut c.data.0;
     for j in 0..N {
-        let mut d = a[(j, j)];
+        let mut d = ac[j][j];
         for k in 0..j {
-            d -= c[(k, j)] * c[(k, j)];
+            d -= cc[j][k] * cc[j][k];
         }
         if !(d > T::zero()) || !d.finite() {
             return None;
         }
         let cjj = d.root();
-        c[(j, j)] = cjj;
+        cc[j][j] = cjj;
         for i in (j + 1)..N {
-            let mut s = a[(j, i)];
+            let mut s = ac[i][j];
             for k in 0..j {
-                s -= c[(k, j)] * c[(k, i)];
+                s -= cc[j][k] * cc[i][k];
             }
-            c[(j, i)] = s / cjj;
+            cc[i][j] = s / cjj;
         }
     }
     Some(c)
@@ -86,19 +91,22 @@ pub fn cholesky_upper<T: Real, const N: usize>(a: &SMatrix<T, N, N>) -> Option<S
 /// Inverse of an upper-triangular matrix with non-zero diagonal (`None` otherwise).
 pub fn inv_upper<T: Real, const N: usize>(c: &SMatrix<T, N, N>) -> Option<SMatrix<T, N, N>> {
     let mut x = SMatrix::<T, N, N>::zeros();
+    // Column arrays (`cc[k][i]` is `C(i, k)`), for the reason given in [`cholesky_upper`].
+    let cc = &c.data.0;
+    let xc = &mut x.data.0;
     for j in 0..N {
         // Solve C x_j = e_j by back substitution; x_j is zero below row j.
-        for ii in 0..=j {
+        for ii in 0..j + 1 {
             let i = j - ii;
             let mut s = if i == j { T::one() } else { T::zero() };
-            for k in (i + 1)..=j {
-                s -= c[(i, k)] * x[(k, j)];
+            for k in (i + 1)..j + 1 {
+                s -= cc[k][i] * xc[j][k];
             }
-            let d = c[(i, i)];
+            let d = cc[i][i];
             if d == T::zero() || !d.finite() {
                 return None;
             }
-            x[(i, j)] = s / d;
+            xc[j][i] = s / d;
         }
     }
     Some(x)

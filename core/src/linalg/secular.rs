@@ -118,11 +118,12 @@ pub fn general_update<T: Real, const M: usize>(
     let mut q = SMatrix::<T, M, M>::zeros(); // columns of V in working order (rotated by deflation)
     for k in 0..M {
         let src = M - 1 - k;
-        a[k] = (lambda * s2[src]).maxr(T::zero()).root();
+        a[k] = root_call((lambda * s2[src]).maxr(T::zero()));
+        // Whole columns (`data.0[j]` is column `j`): one block copy, not `M` element moves.
+        q.data.0[k] = v.data.0[src];
         let mut zk = T::zero();
         for r in 0..M {
-            q[(r, k)] = v[(r, src)];
-            zk += v[(r, src)] * w[r];
+            zk += q.data.0[k][r] * w[r];
         }
         z[k] = zk;
     }
@@ -156,7 +157,7 @@ pub fn general_update<T: Real, const M: usize>(
     for zk in z.iter() {
         zn2 += *zk * *zk;
     }
-    let zn = zn2.root();
+    let zn = root_call(zn2);
     let mut out = Outcome::default();
 
     // 1. Deflation.
@@ -166,7 +167,7 @@ pub fn general_update<T: Real, const M: usize>(
             // The couplings z_k·z_j are negligible; the diagonal term z_k² is kept (exact for the
             // decoupled component), so small increments of a large pole are never lost.
             defl[k] = true;
-            a[k] = (a[k] * a[k] + z[k] * z[k]).root();
+            a[k] = root_call(a[k] * a[k] + z[k] * z[k]);
             z[k] = T::zero();
         }
     }
@@ -181,7 +182,7 @@ pub fn general_update<T: Real, const M: usize>(
             // unless the pair is rotated).
             let r2 = z[p] * z[p] + z[k] * z[k];
             if r2 > T::zero() && (t * z[k] * z[p]).abs() <= local_tol(a[k]) * r2 {
-                let r = r2.root();
+                let r = root_call(r2);
                 let c = z[k] / r;
                 let sn = z[p] / r;
                 // Rotate columns p, k so that z_p becomes 0 and z_k becomes r.
@@ -193,8 +194,8 @@ pub fn general_update<T: Real, const M: usize>(
                 }
                 let dp = a[p] * a[p];
                 let dk = a[k] * a[k];
-                a[p] = (dp * c * c + dk * sn * sn).root();
-                a[k] = (dp * sn * sn + dk * c * c).root();
+                a[p] = root_call(dp * c * c + dk * sn * sn);
+                a[k] = root_call(dp * sn * sn + dk * c * c);
                 z[p] = T::zero();
                 z[k] = r;
                 defl[p] = true;
@@ -250,7 +251,7 @@ pub fn general_update<T: Real, const M: usize>(
         let mut t = if !last { pd[r][r1] * T::lit(0.5) } else { zr2 };
         let mut lo = T::zero();
         let mut hi = t;
-        let mut ev = secular_terms(&pd[r], &zc, m, r, t);
+        let mut ev = secular_terms_call(&pd[r], &zc, m, r, t);
         out.iterations = out.iterations.saturating_add(1);
         // Origin at the nearer pole, then `dlaed4`'s initial guess: the two poles nearest the root
         // kept exactly, the others lumped into a constant fitted at the evaluated point. Near a pole
@@ -279,7 +280,7 @@ pub fn general_update<T: Real, const M: usize>(
         if let Some(t0) = quadratic_root_in(c, qb, qc, lo, hi) {
             if t0 != t {
                 t = t0;
-                ev = secular_terms(dk, &zc, m, r, t); // an evaluation at the guess
+                ev = secular_terms_call(dk, &zc, m, r, t); // an evaluation at the guess
                 out.iterations = out.iterations.saturating_add(1);
             }
         }
@@ -289,7 +290,7 @@ pub fn general_update<T: Real, const M: usize>(
                 unconverged = false;
                 break;
             }
-            ev = secular_terms(dk, &zc, m, r, t);
+            ev = secular_terms_call(dk, &zc, m, r, t);
             out.iterations = out.iterations.saturating_add(1);
         }
         tau[r] = t;
@@ -328,7 +329,7 @@ pub fn general_update<T: Real, const M: usize>(
                 p *= -diff[i][j] * rpd[j][i];
             }
         }
-        let mag = p.maxr(T::zero()).root();
+        let mag = root_call(p.maxr(T::zero()));
         zhat[j] = if z[below::<M>(idx[j])] < T::zero() { -mag } else { mag };
     }
     // New values and vectors, then sort decreasingly.
@@ -339,18 +340,14 @@ pub fn general_update<T: Real, const M: usize>(
         if defl[k] {
             let at = below::<M>(slot); // slots: one per deflated k, then one per root: < M
             sig[at] = a[k] * a[k];
-            for row in 0..M {
-                cols[(row, at)] = q[(row, k)];
-            }
+            cols.data.0[at] = q.data.0[k];
             slot += 1;
         }
     }
     // Columns of V taking part in the secular problem, contiguous for the product V·Q.
     let mut qc = [[T::zero(); M]; M];
     for j in unrolled_upto::<M>(0, m) {
-        for row in 0..M {
-            qc[j][row] = q[(row, below::<M>(idx[j]))];
-        }
+        qc[j] = q.data.0[below::<M>(idx[j])];
     }
     for r in unrolled_upto::<M>(0, m) {
         // u = (D − μ_r I)⁻¹ ẑ, normalised, signed so that its component on the origin pole K is
@@ -364,46 +361,7 @@ pub fn general_update<T: Real, const M: usize>(
         // root sits on the pole in floating point, or `u_K` underflows, the eigenvector is the
         // pole's own vector to working precision and the column is kept.
         let kq = below::<M>(origin[r]);
-        let dkq = diff[r][kq];
-        let mut u = [T::zero(); M];
-        let mut off = T::zero();
-        // j < K, then j > K (the same order as one loop skipping K, without a branch per entry).
-        for j in 0..kq {
-            u[j] = zhat[j] * (dkq / diff[r][j]);
-            off += u[j] * u[j];
-        }
-        let uk = zhat[kq];
-        u[kq] = uk;
-        for j in unrolled_upto::<M>(kq + 1, m) {
-            u[j] = zhat[j] * (dkq / diff[r][j]);
-            off += u[j] * u[j];
-        }
-        let nrm = (uk * uk + off).root();
-        if !nrm.finite() {
-            return None;
-        }
-        // The correction û − e_K to the column q_K (zero when the root sits on its pole).
-        let mut acc = [T::zero(); M];
-        if tau[r] != T::zero() && uk != T::zero() && nrm > T::zero() {
-            let inv = if uk < T::zero() {
-                -T::one() / nrm
-            } else {
-                T::one() / nrm
-            };
-            // û_K − 1 = |u_K|/‖u‖ − 1 = −off/(‖u‖·(|u_K| + ‖u‖)), without cancellation and without a
-            // second square root (√(1 + off/u_K²) = ‖u‖/|u_K|).
-            let mut coef = [T::zero(); M];
-            for j in unrolled_upto::<M>(0, m) {
-                coef[j] = u[j] * inv;
-            }
-            coef[kq] = -off / (nrm * (uk.abs() + nrm));
-            for j in unrolled_upto::<M>(0, m) {
-                let uj = coef[j];
-                for row in 0..M {
-                    acc[row] += qc[j][row] * uj;
-                }
-            }
-        }
+        let acc = general_correction(&diff[r], &zhat, &qc, kq, tau[r], m)?;
         let slot_r = below::<M>(slot);
         for row in 0..M {
             cols[(row, slot_r)] = qc[kq][row] + acc[row];
@@ -429,14 +387,91 @@ pub fn general_update<T: Real, const M: usize>(
         let src = below::<M>(src);
         // σ² scaled back by 2^2e in two exact steps (2^2e alone may not be representable).
         s2_out[dst] = sig[src] * up * up;
-        for row in 0..M {
-            v_out[(row, dst)] = cols[(row, src)];
-        }
+        v_out.data.0[dst] = cols.data.0[src];
     }
     if !super::all_finite(s2_out) || !super::all_finite(v_out) {
         return None;
     }
     Some(out)
+}
+
+/// The correction `û − e_K` to column `q_K` (`K = kq`, the origin pole of root `r`) of
+/// [`general_update`]'s new eigenvector `r` (module doc, step 3; the comment at the call), from row
+/// `r` of the root–pole differences `diff_r`, Gu–Eisenstat's `ẑ`, the columns `qc` and the root's
+/// offset `tau_r`; `None` if its norm is not finite. A function of its own, not inlined, so that
+/// the loop over the roots is not unrolled `M` times around its `M × M` product (BENCHMARKS.md
+/// "Firmware size"; one call per root on the rare samples this path runs, the same arithmetic in
+/// the same order).
+#[inline(never)]
+fn general_correction<T: Real, const M: usize>(
+    diff_r: &[T; M],
+    zhat: &[T; M],
+    qc: &[[T; M]; M],
+    kq: usize,
+    tau_r: T,
+    m: usize,
+) -> Option<[T; M]> {
+    let kq = below::<M>(kq);
+    let dkq = diff_r[kq];
+    let mut u = [T::zero(); M];
+    let mut off = T::zero();
+    // j < K, then j > K (the same order as one loop skipping K, without a branch per entry).
+    for j in 0..kq {
+        u[j] = zhat[j] * (dkq / diff_r[j]);
+        off += u[j] * u[j];
+    }
+    let uk = zhat[kq];
+    u[kq] = uk;
+    for j in unrolled_upto::<M>(kq + 1, m) {
+        u[j] = zhat[j] * (dkq / diff_r[j]);
+        off += u[j] * u[j];
+    }
+    let nrm = root_call(uk * uk + off);
+    if !nrm.finite() {
+        return None;
+    }
+    // The correction û − e_K to the column q_K (zero when the root sits on its pole).
+    let mut acc = [T::zero(); M];
+    if tau_r != T::zero() && uk != T::zero() && nrm > T::zero() {
+        let inv = if uk < T::zero() {
+            -T::one() / nrm
+        } else {
+            T::one() / nrm
+        };
+        // û_K − 1 = |u_K|/‖u‖ − 1 = −off/(‖u‖·(|u_K| + ‖u‖)), without cancellation and without a
+        // second square root (√(1 + off/u_K²) = ‖u‖/|u_K|).
+        let mut coef = [T::zero(); M];
+        for j in unrolled_upto::<M>(0, m) {
+            coef[j] = u[j] * inv;
+        }
+        coef[kq] = -off / (nrm * (uk.abs() + nrm));
+        for j in unrolled_upto::<M>(0, m) {
+            let uj = coef[j];
+            for row in 0..M {
+                acc[row] += qc[j][row] * uj;
+            }
+        }
+    }
+    Some(acc)
+}
+
+/// [`secular_terms`] as a call, for [`general_update`]: there its three evaluations per root, in
+/// a loop over the roots unrolled `M` times, were `3M` inlined copies of an `M`-term loop; called,
+/// an evaluation costs a few instructions more on the rare samples this path runs (BENCHMARKS.md
+/// "Firmware size"). Same function, same results.
+#[inline(never)]
+fn secular_terms_call<T: Real, const M: usize>(dk: &[T; M], zc: &[T; M], m: usize, r: usize, t: T) -> (T, T, T, T) {
+    secular_terms(dk, zc, m, r, t)
+}
+
+/// `x.root()` as a call, for [`general_update`]: inlined, each of its square roots (up to `3M + 4`
+/// per update; the software square root of `Real::root` for `f32`) was ≈ 70 instructions of code,
+/// a quarter of the function's flash; called, it costs more instructions on the rare samples this
+/// path runs (BENCHMARKS.md "Firmware size"). Same function, same results. ([`steady_update`]
+/// keeps its roots inlined: called, they cost ≈ 2 000 instructions per replay sample.)
+#[inline(never)]
+fn root_call<T: Real>(x: T) -> T {
+    x.root()
 }
 
 /// Largest `λ·s²` and `‖z‖²` [`steady_update`] accepts: `2⁶⁰`, so that products of two pole
@@ -805,7 +840,7 @@ fn quadratic_root_in<T: Real>(qa: T, qb: T, qc: T, lo: T, hi: T) -> Option<T> {
         let e = qc / qb;
         return if inside(e) { Some(e) } else { None };
     }
-    let disc = (qb * qb - T::lit(4.0) * qa * qc).maxr(T::zero()).root();
+    let disc = root_call((qb * qb - T::lit(4.0) * qa * qc).maxr(T::zero()));
     let qq = if qb >= T::zero() {
         (qb + disc) * T::lit(0.5)
     } else {
