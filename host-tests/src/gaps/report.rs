@@ -196,6 +196,9 @@ pub fn table(r: &GapReport) -> String {
     }
     let _ = writeln!(s, "\n6. verdict");
     match r.top_cause() {
+        None if !r.data_quality.supports_verdict => {
+            let _ = writeln!(s, "   {}", r.verdict);
+        }
         None => {
             let _ = writeln!(s, "   nothing missing: no candidate passes the threshold");
         }

@@ -10,8 +10,9 @@
 //! * **What can be identified from what is logged** — per coefficient, whether it can be formed at
 //!   all and what is missing: no airspeed → no coefficient (q̄ = ½ρV² normalises every one); no
 //!   aircraft file → nothing scaled; no surface deflection → no control derivative of it; no
-//!   thrust → C_D holds thrust too (not separable); no α/β vane → α, β reconstructed from the
-//!   inertial data under a steady-wind assumption.
+//!   thrust → C_D holds thrust too (not separable); no α/β vane → no α, β (the analysis's inertial
+//!   reconstruction, which assumes steady air per segment, is anchored to a measured α), so no
+//!   C_L, C_D and no α or β derivative.
 //! * **Whether a verdict is supported** — if not, the reasons, and the gap analysis names nothing
 //!   ([`crate::gaps::run_gaps`] clears its causes and says "no verdict").
 //!
@@ -191,10 +192,8 @@ pub fn assess(flight: &MeasuredFlight) -> DataQuality {
     // Air data.
     let air_data = if live(Alpha) {
         "measured: α (and β where logged) from vanes, airspeed from the pitot".to_string()
-    } else if live(Airspeed) {
-        "no α/β vane: α and β are reconstructed from the accelerometers, gyros and attitude (the compatibility check's flight-path reconstruction, `--air-data reconstructed`); the air is assumed steady: each 5-s segment starts from a velocity fitted to the measured airspeed, so a slowly varying wind is absorbed segment by segment and gusts inside a segment are model error".to_string()
     } else {
-        "none: no airspeed, so neither measured nor reconstructed air data".to_string()
+        "no α/β vane: none. The analysis's inertial reconstruction (`--air-data reconstructed`) integrates the accelerometers and gyros with steady air assumed per 5-s segment, but anchors each segment to a measured α (`gaps::compat::velocity_problem`), so without a vane there is no α or β: C_L and C_D (wind axes) and every α or β term are not identified".to_string()
     };
     // What can be identified.
     let inertia = flight.aircraft.inertia_kgm2;
@@ -225,7 +224,10 @@ pub fn assess(flight: &MeasuredFlight) -> DataQuality {
                 }
             }
             if matches!(coef, "C_L" | "C_D") && !live(Alpha) {
-                notes.push("α reconstructed (no vane): the wind axes follow the steady-wind assumption".into());
+                ok = false;
+                notes.push(
+                    "no α: the wind axes are unknown (no vane, and the inertial reconstruction needs one)".into(),
+                );
             }
         } else {
             let need: &[Quantity] = match coef {
@@ -265,8 +267,11 @@ pub fn assess(flight: &MeasuredFlight) -> DataQuality {
                 ));
             }
         }
+        if !live(Alpha) && matches!(coef, "C_m") {
+            notes.push("no α: no α derivative (C_mα), the moment is fitted to rates and controls only".into());
+        }
         if matches!(coef, "C_Y" | "C_l" | "C_n") && !live(Beta) {
-            notes.push("β reconstructed (no vane)".into());
+            notes.push("no β: no β derivative (no vane)".into());
         }
         coefficients.push(Identifiability {
             coefficient: coef.to_string(),
