@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Builds and runs the libFuzzer targets of fuzz/ (issue 7 §1) on stable Rust, without cargo-fuzz.
+# Builds and runs the libFuzzer targets of fuzz/ on stable Rust, without cargo-fuzz.
 #
 #   bash scripts/fuzz.sh build            build every target (instrumented, release, debug assertions)
 #   bash scripts/fuzz.sh ci [SECONDS]     build the core targets (gtls pipeline drivers mavlink), run

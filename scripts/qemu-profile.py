@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Instruction profile of the QEMU firmware replay (issue 4): where the per-sample instructions go.
+"""Instruction profile of the QEMU firmware replay: where the per-sample instructions go.
 
 Usage (from the workspace root):
     cargo test -p aerosid-host --test integration qemu_replay::write_profile_replay -- --ignored

@@ -74,11 +74,11 @@ fi
 step "firmware release build: cargo fw-build"
 cargo fw-build
 
-step "panic audit of the release firmware (issue 7 §5): aerosid panic-audit $FW_ELF firmware/panic-allow.txt"
+step "panic audit of the release firmware: aerosid panic-audit $FW_ELF firmware/panic-allow.txt"
 "$AEROSID" panic-audit "$FW_ELF" firmware/panic-allow.txt
 
-step "static stack bound and RAM of the release firmware (issue 4 §5): aerosid stack-bound $FW_ELF firmware/stack-bound.txt --ram-budget 16384"
-# The issue's goal itself, 16 384 B (measured 15 440 B: 9 344 static + 6 096 stack; BENCHMARKS.md
+step "static stack bound and RAM of the release firmware: aerosid stack-bound $FW_ELF firmware/stack-bound.txt --ram-budget 16384"
+# The RAM goal itself, 16 384 B (measured 15 440 B: 9 344 static + 6 096 stack; BENCHMARKS.md
 # "Firmware size"): a change that breaks the goal fails here.
 "$AEROSID" stack-bound "$FW_ELF" firmware/stack-bound.txt --ram-budget 16384
 
@@ -106,7 +106,7 @@ else
     echo "no llvm-size (cargo-binutils or rustup's llvm-tools): size not printed"
 fi
 
-step "fuzzing (issue 7, README \"Reliability\"): the core libFuzzer targets of fuzz/ for ${FUZZ_SECONDS:-6} s each from their seeds"
+step "fuzzing (docs/reliability.md): the core libFuzzer targets of fuzz/ for ${FUZZ_SECONDS:-6} s each from their seeds"
 # Its own workspace and target directory (fuzz/target-ours); stable Rust, no cargo-fuzz needed
 # (scripts/fuzz.sh says how the build matches `cargo fuzz build -s none -a`, and why the reader
 # targets run as a host test here). A crash fails CI and leaves the input in fuzz/artifacts/.

@@ -31,6 +31,10 @@
 //! * [`vff`] — the variable forgetting factor (eq. 24–33) and our reading of the damaged eq. 28.
 //! * [`rls`] — the recursive least-squares baseline.
 //! * [`estimator`] — the common [`Estimator`] trait and step report.
+//! * [`harness`] — the constants the firmware and the host's QEMU harness share.
+//!
+//! The estimator of one eq. 3 coefficient is [`GtlsWithIntercept`] (`Gtls<T, N, 1, N>`), named
+//! per model as [`GtlsLongitudinal`], [`GtlsDrag`] and [`GtlsLateral`].
 //!
 //! ## References
 //! * Seed 000: Vaiopoulos, Zogopoulos-Papaliakos, Kyriakopoulos, *On-line Aerodynamic Model
@@ -54,6 +58,7 @@ pub mod error;
 pub mod estimator;
 pub mod fem;
 pub mod gtls;
+pub mod harness;
 pub mod linalg;
 pub mod mavlink;
 pub mod rls;
@@ -66,6 +71,17 @@ pub use gtls::{Forgetting, Gtls, GtlsHealth, GtlsSettings};
 pub use rls::{Rls, RlsSettings};
 pub use scalar::Real;
 pub use vff::{Eq28Reading, Vff, VffSettings};
+
+/// Recursive PCA-GTLS over `N` parameters whose first regressor, the intercept `1`, is exact and
+/// the others noisy — the form of every coefficient model of seed 000 eq. 3 (`NE = 1`, so the TLS
+/// block has `NA = N − 1 + 1 = N` columns).
+pub type GtlsWithIntercept<T, const N: usize> = Gtls<T, N, 1, N>;
+/// Eq. 3a and 3e (`C_L`, `C_m`): regressors `[1, α, q_n, δe]`.
+pub type GtlsLongitudinal<T> = GtlsWithIntercept<T, 4>;
+/// Eq. 3b (`C_D`): regressors `[1, α, α², q_n, δe]`.
+pub type GtlsDrag<T> = GtlsWithIntercept<T, 5>;
+/// Eq. 3c, 3d and 3f (`C_Y`, `C_l`, `C_n`): regressors `[1, β, p_n, r_n, δa, δr]`.
+pub type GtlsLateral<T> = GtlsWithIntercept<T, 6>;
 
 /// Crate version, for telemetry and the firmware banner.
 pub const VERSION: &str = env!("CARGO_PKG_VERSION");

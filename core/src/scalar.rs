@@ -217,9 +217,9 @@ const fn sqrt_newton(x: f32) -> f32 {
 /// 1.25 ε over every `f32`). NaN and
 /// ±∞ give NaN.
 ///
-/// Until 2026-12-02 the values beyond π/4 came from libm's `sincosf`, whose kernels and argument
-/// reduction run in `f64`: ≈ 1 300 instructions a call on the M4F and 9 KB of firmware flash with
-/// the soft-float routines it pulled in.
+/// Not libm's `sincosf` beyond π/4: its kernels and argument reduction run in `f64`, ≈ 1 300
+/// instructions a call on the M4F and 9 KB of firmware flash with the soft-float routines it pulls
+/// in.
 pub fn sin_cos_f32(x: f32) -> (f32, f32) {
     if x.abs() <= core::f32::consts::FRAC_PI_4 {
         return sin_cos_poly(x);
@@ -486,7 +486,7 @@ mod tests {
 
     /// Every `f32` above π/4 (2.1·10⁹ values; ≈ 2½ min in the test profile): the worst error and the
     /// closest approach of a binary32 number to a multiple of π/2, quoted in [`reduce_frac_pi_2`]
-    /// (measured 2026-12-02: 1.25 ε relative at 5.61·10⁵; smallest `|r|` 1.61·10⁻⁹ at 7.73·10²⁸).
+    /// (measured: 1.25 ε relative at 5.61·10⁵; smallest `|r|` 1.61·10⁻⁹ at 7.73·10²⁸).
     /// `cargo test -p aerosid-core --lib -- --ignored exhaustive --nocapture`
     #[test]
     #[ignore = "exhaustive, minutes in release"]

@@ -1,4 +1,4 @@
-//! Bus and sensor faults through the drivers (issue 7 §3), with scripted embedded-hal-mock
+//! Bus and sensor faults through the drivers, with scripted embedded-hal-mock
 //! transactions: I2C NACK (address and data) and arbitration loss, SPI errors, bursts of faults
 //! followed by recovery, a sensor stuck at a constant, a chip that restarts.
 //!

@@ -1,4 +1,4 @@
-//! Missed samples (`aero::sequence`, issue 7 §3): the sample after a gap carries the real time since
+//! Missed samples (`aero::sequence`): the sample after a gap carries the real time since
 //! the last one the pipeline saw, so the differentiator restarts instead of taking a wrong step. In
 //! `f32` and `f64`.
 

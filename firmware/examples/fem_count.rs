@@ -1,4 +1,4 @@
-//! The filter error method on the MCU (issue 5 §4): the HFB-320 filter (4 states, 7 outputs,
+//! The filter error method on the MCU: the HFB-320 filter (4 states, 7 outputs,
 //! 11 parameters, `f32`) run over a record under QEMU, each step's instruction count read from
 //! TIM2. Not part of the flight firmware: a separate example of the `qemu` board, driven by
 //! `host-tests/tests/fem_qemu.rs`.

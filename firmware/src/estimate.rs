@@ -14,12 +14,7 @@ use aerosid_core::aero::model::{channel, idx, ChannelMask};
 use aerosid_core::aero::{
     onboard, Admission, Pipeline, PipelineStep, SensorSample, SequenceCheck, SequenceHealth, Stage,
 };
-
-/// Timing probes per sample: the whole step, the synthesis stage, one per coefficient, then the
-/// whole firmware since the previous sample ([`StepCost::ticks`]).
-pub const PROBES: usize = 3 + idx::COUNT;
-/// Where [`StepCost::ticks`] holds the ticks since the previous sample.
-pub const PERIOD_PROBE: usize = PROBES - 1;
+pub use aerosid_core::harness::{PERIOD_PROBE, PROBES};
 
 /// Counter ticks of one step (cycles on hardware, instructions under QEMU), per stage.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, defmt::Format)]

@@ -12,9 +12,9 @@
 //!
 //! The samples wait in a lock-free single-producer single-consumer queue (`heapless::spsc`) that
 //! the estimate task reads in place; an rtic-sync channel of one-byte tokens, one per queued
-//! sample, wakes it. (Until 2026-12-02 the channel carried the 104-byte samples themselves: rtic-sync
-//! copies a value into its slot, out of it and out of the `recv` future, ≈ 1 900 instructions per
-//! sample of `memcpy` across the two tasks; BENCHMARKS.md.) A token is sent before its sample is
+//! sample, wakes it. (A channel carrying the 104-byte samples themselves costs ≈ 1 900
+//! instructions per sample of `memcpy` across the two tasks: rtic-sync copies a value into its
+//! slot, out of it and out of the `recv` future; docs/benchmarks.md.) A token is sent before its sample is
 //! queued, and the sampling task, above the estimate task, does both without yielding, so a
 //! received token always finds its sample: the queue holds at most the channel's tokens plus the
 //! sample being processed. If the estimator falls behind, the channel fills and `sample` drops (and
@@ -28,7 +28,7 @@
 //! `cargo build --workspace` works on x86_64; build the firmware with `cargo fw-build`.
 #![cfg_attr(target_os = "none", no_std)]
 #![cfg_attr(target_os = "none", no_main)]
-// No panic path of ours (README "Reliability"; the release image is audited by `aerosid
+// No panic path of ours (docs/reliability.md; the release image is audited by `aerosid
 // panic-audit`): the core's denials, and no slice indexing that could fail.
 #![deny(clippy::unwrap_used, clippy::expect_used, clippy::panic, clippy::indexing_slicing)]
 
@@ -79,7 +79,7 @@ mod app {
     /// What holds the estimator back is its own step (≤ 38 737 instructions on the replay, 40 373
     /// on the fault run) and one telemetry encoding under the estimator lock (`lock_max`,
     /// ≤ 14 548): together ≈ 1 ms at 168 MHz even at 3 cycles per
-    /// instruction (BENCHMARKS.md "Static stack bound").
+    /// instruction (docs/benchmarks.md "Static stack bound").
     const SAMPLE_QUEUE: usize = 4;
     /// Slots of the sample queue: the channel's tokens, the sample being processed, and the one
     /// slot `heapless::spsc::Queue` keeps free.
@@ -298,8 +298,7 @@ mod app {
     /// period's other parts; its own hold (it needs no estimator, but encoded outside the lock its
     /// frame would sit under the estimate task's: +336 B of stack bound) counts from the next
     /// period on. The stack high-water scan, ≈ 175 000 instructions, runs before any lock is taken
-    /// (until 2026-12-02 it ran inside the counters part: `lock_max` 184 981 on the replay's
-    /// second period).
+    /// (inside the counters part it made `lock_max` 184 981 on the replay's second period).
     fn report(
         estimator: &mut impl rtic::Mutex<T = Estimator>,
         out: &mut impl rtic::Mutex<T = Out>,

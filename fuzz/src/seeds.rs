@@ -11,8 +11,7 @@
 //! * `read_log`, `read_project_csv`: 0.3 s of a simulated flight in the project's CSV layout (all
 //!   columns; a subset).
 //! * `read_aircraft`: the shipped aircraft files; `read_colmap_ascii`: each shipped map with the
-//!   first lines of its flight-test file from `shared/data/flight` (when that folder is beside the
-//!   repository); `read_ulog`: a ULog of 0.3 s of a simulated flight (a small writer below, from the
+//!   first lines of its vendored flight-test file (`host-tests/data/flight`); `read_ulog`: a ULog of 0.3 s of a simulated flight (a small writer below, from the
 //!   ULog format PX4 documents).
 
 use aerosid_core::mavlink::messages::{Attitude, EscStatus, Heartbeat, Rpm, ServoOutputRaw};
@@ -62,28 +61,25 @@ pub fn all() -> Vec<(&'static str, String, Vec<u8>)> {
     for (n, t) in aircraft {
         out.push(("read_aircraft", format!("{n}.aircraft"), t.as_bytes().to_vec()));
     }
-    let shared = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/flight");
     let maps = [
         (
             "attas",
             include_str!("../../host-tests/data/maps/attas.map"),
-            "fAttasElv1_pqrDot.asc",
+            include_str!("../../host-tests/data/flight/fAttasElv1_pqrDot.asc"),
         ),
         (
             "hfb320",
             include_str!("../../host-tests/data/maps/hfb320.map"),
-            "hfb320_1_10.asc",
+            include_str!("../../host-tests/data/flight/hfb320_1_10.asc"),
         ),
         (
             "twin_otter",
             include_str!("../../host-tests/data/maps/twin_otter.map"),
-            "totter_lon_020213f1_018_fdata.asc",
+            include_str!("../../host-tests/data/flight/totter_lon_020213f1_018_fdata.asc"),
         ),
     ];
     for (n, map, data) in maps {
-        let lines: String = std::fs::read_to_string(shared.join(data))
-            .map(|t| t.lines().take(12).map(|l| format!("{l}\n")).collect())
-            .unwrap_or_default();
+        let lines: String = data.lines().take(12).map(|l| format!("{l}\n")).collect();
         let text = format!("{map}{}{lines}", crate::readers::MAP_DATA_SEPARATOR);
         out.push(("read_colmap_ascii", format!("{n}.txt"), text.into_bytes()));
     }

@@ -1,5 +1,5 @@
-//! Simulated flights through the on-board identification, as the firmware would run it (issue 3
-//! §4; seed 000 Section VI-A, Fig. 1–2).
+//! Simulated flights through the on-board identification, as the firmware would run it (seed
+//! 000 Section VI-A, Fig. 1–2).
 //!
 //! [`run`] simulates a flight ([`sim::simulate`]), converts every `f64` [`SensorSample`] to `f32`
 //! and feeds it to the on-board [`Pipeline<f32>`] (synthesis, six PCA-GTLS estimators). Alongside,

@@ -1,4 +1,4 @@
-//! The batch filter error method on a stored record (issue 5 §2–3): Gauss–Newton iterations, each
+//! The batch filter error method on a stored record: Gauss–Newton iterations, each
 //! one pass of the core's filter linearised at a fixed point ([`FilterError::new_pass`]), and the
 //! Cramér–Rao bound of a record from one such pass at the true parameters.
 //!

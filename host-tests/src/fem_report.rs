@@ -1,4 +1,4 @@
-//! The filter error method on the real HFB-320 flight (issue 5 §3): the identified model beside the
+//! The filter error method on the real HFB-320 flight: the identified model beside the
 //! published filter-error values, the parameter time histories with ±σ, and the measured outputs
 //! beside the identified model's simulation with the residuals. `aerosid fem-hfb320 [--out DIR]`.
 
@@ -36,7 +36,7 @@ pub const OUTPUTS: [&str; 7] = [
     "a_z (m/s²)",
 ];
 
-/// The HFB-320 flight file (`shared/data/flight/hfb320_1_10.asc`): rows of 20 numbers.
+/// The HFB-320 flight file (`host-tests/data/flight/hfb320_1_10.asc`): rows of 20 numbers.
 pub fn hfb320_rows(path: &Path) -> Result<Vec<[f64; 20]>, String> {
     let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
     let mut rows = Vec::new();
@@ -65,16 +65,20 @@ pub fn hfb320_rows(path: &Path) -> Result<Vec<[f64; 20]>, String> {
     Ok(rows)
 }
 
-/// The environment variable naming the directory of the shared flight-test data, for a checkout
-/// that does not sit beside `shared/` (the tests and `aerosid fem` read the data from there).
+/// The environment variable naming another directory of the flight-test data than the vendored
+/// copy (the tests, `aerosid fem-hfb320` and `aerosid gaps` read the data from there).
 pub const FLIGHT_DATA_ENV: &str = "AEROSID_FLIGHT_DATA";
 
-/// The directory of the shared flight-test data: `$AEROSID_FLIGHT_DATA` when set (and not empty),
-/// else `../shared/data/flight` beside the workspace.
+/// The vendored flight-test data (HFB-320, ATTAS, Twin Otter; provenance and licence in its
+/// `README.md`), inside this crate so that a bare clone runs every test.
+pub const VENDORED_FLIGHT_DATA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/data/flight");
+
+/// The directory of the flight-test data: `$AEROSID_FLIGHT_DATA` when set (and not empty), else
+/// the vendored copy [`VENDORED_FLIGHT_DATA`].
 pub fn flight_data_dir() -> PathBuf {
     match std::env::var_os(FLIGHT_DATA_ENV) {
         Some(dir) if !dir.is_empty() => PathBuf::from(dir),
-        _ => Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/flight"),
+        _ => PathBuf::from(VENDORED_FLIGHT_DATA),
     }
 }
 

@@ -37,7 +37,7 @@ pub fn fig1_config(cruise_s: f64, duration_s: f64, seed: u64) -> SimConfig {
         t += 8.0;
     }
     // The V-shaped elevator drag `k|δe|` is outside eq. 3b (no linear δe term can represent it);
-    // it is a model gap for issue 6, not a test of the estimator under noise, so it is off here.
+    // it is a model gap for the model-gap analysis, not a test of the estimator under noise, so it is off here.
     // Induced drag stays: its `α²` part is what gives the truth a `C_Dα²` (the skywalker's own
     // `C_Dα²` is 0).
     let eff = TruthEffects {

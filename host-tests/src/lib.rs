@@ -10,6 +10,7 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod data;
+pub mod demo;
 pub mod experiment;
 pub mod fem_batch;
 pub mod fem_report;

@@ -1,4 +1,4 @@
-//! Long runs (issue 7 §2): hours of simulated flight streamed through the on-board `f32` path,
+//! Long runs: hours of simulated flight streamed through the on-board `f32` path,
 //! watching for anything that drifts, saturates or loses its numerical health.
 //!
 //! ## The flight ([`LongRunConfig`])
@@ -201,10 +201,10 @@ pub struct LongRunReport {
     pub final_theta: [(Vec<f64>, Vec<f64>); idx::COUNT],
 }
 
-/// The invariants of issue 7 §2 a long run must keep ([`LongRunReport::violations`]).
+/// The invariants a long run must keep ([`LongRunReport::violations`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Invariants {
-    /// Bound on every estimator's `‖VᵀV − I‖_F` at every sample (issue 7: 1e-5).
+    /// Bound on every estimator's `‖VᵀV − I‖_F` at every sample (1e-5).
     pub orthonormality: f64,
     /// Largest settling time after a jump, s.
     pub settle_s: f64,
@@ -218,7 +218,7 @@ impl Invariants {
     /// The bounds the CI slice asserts (`tests/reliability_long_run.rs`, where each is justified):
     /// orthonormality 1e-5, settling within 30 s, calm drift ≤ 0.8 typical magnitudes, `λ_F` in
     /// `[0.8, 1]` (the on-board VFF's floor).
-    pub const ISSUE_7: Self = Self {
+    pub const REQUIRED: Self = Self {
         orthonormality: 1e-5,
         settle_s: 30.0,
         calm_drift: 0.8,

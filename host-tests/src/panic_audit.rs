@@ -1,4 +1,4 @@
-//! Panic paths in a linked firmware image (issue 7 §5): every call site of Rust's panic machinery
+//! Panic paths in a linked firmware image: every call site of Rust's panic machinery
 //! that survived the release build, checked against a committed list of justified exceptions.
 //!
 //! ## Why a link-time audit and not the "undefined panic handler" trick

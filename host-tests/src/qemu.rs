@@ -24,40 +24,18 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-/// Probes per sample in `icount.bin`: whole step, synthesis, six coefficients, and the whole
-/// firmware since the previous sample ([`PERIOD_PROBE`]; firmware's `estimate::PROBES`).
-pub const PROBES: usize = 9;
-/// The probe holding the instructions from the previous sample's step start to this one's: the
-/// whole firmware per sample (the step, the sample queue, the sampling task with the replay's reads,
-/// the count file, interrupts); 0 for the first sample.
-pub const PERIOD_PROBE: usize = 8;
-/// The probes' names, in the count file's order.
-pub const PROBE_NAMES: [&str; PROBES] = [
-    "step",
-    "synthesis",
-    "C_L",
-    "C_D",
-    "C_Y",
-    "C_l",
-    "C_m",
-    "C_n",
-    "firmware",
-];
+use aerosid_core::harness::{fault_chip, fault_kind};
+pub use aerosid_core::harness::{FAULT_RECORD_BYTES, MAX_FAULTS, PERIOD_PROBE, PROBES, PROBE_NAMES};
 
 /// Stack high-water mark of the QEMU firmware (painted stack), the regression budget of every
 /// QEMU run (`tests/qemu_replay.rs`, `tests/qemu_faults.rs`): measured 3 784 B on the replay and
-/// 3 776 B on the fault run (3 640 B on both before the VFF's statistics started at the first TLS
-/// solution; 3 648 B from the day the general secular update began writing into the
-/// estimator's buffers until the autopilot link's newer-stamp check; 4 208 B
-/// before, 4 328 B at the start of that day, 8 740 B before the pipeline was configured in place in
-/// its static — every step in BENCHMARKS.md "Stack").
+/// 3 776 B on the fault run (docs/benchmarks.md "Stack").
 pub const STACK_BUDGET_BYTES: u32 = 3_900;
 
 /// Instructions of the whole six-coefficient step on its worst sample: the regression budget of
 /// the clean replay (`tests/qemu_replay.rs`, measured max 38 737) and the ceiling of the fault run
 /// (`tests/qemu_faults.rs`, measured max 40 373: no fault, and no garbage on the link, may stall the
-/// step); 2026-12-02, 40 505 and 42 163 before the general secular update wrote into the
-/// estimator's buffers, 44 435 and 46 215 before the unrolled secular, Cholesky and solve loops.
+/// step).
 pub const STEP_BUDGET_MAX: u32 = 42_500;
 
 /// Whether `defmt-print` (which decodes the firmware's defmt log, and with it the stack figure) is
@@ -354,15 +332,15 @@ impl<'a> Scenario<'a> {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Chip {
     /// ICM-42688-P: accelerometer and gyro.
-    Imu = 0,
+    Imu = fault_chip::IMU as isize,
     /// MS4525DO: airspeed and density.
-    Airspeed = 1,
+    Airspeed = fault_chip::AIRSPEED as isize,
     /// AS5600 α vane.
-    AlphaVane = 2,
+    AlphaVane = fault_chip::ALPHA as isize,
     /// AS5600 β vane.
-    BetaVane = 3,
+    BetaVane = fault_chip::BETA as isize,
     /// The autopilot link: the record's bytes are lost.
-    Autopilot = 4,
+    Autopilot = fault_chip::AUTOPILOT as isize,
 }
 
 /// A fault the QEMU board injects (firmware `board::qemu`, `faults.bin`).
@@ -396,17 +374,17 @@ impl FaultEvent {
         k >= self.first && k - self.first < self.count
     }
 
-    /// The firmware's 16-byte record (`board::qemu::FAULT_RECORD_BYTES`).
-    pub fn to_record(&self) -> [u8; 16] {
+    /// The firmware's fault record ([`FAULT_RECORD_BYTES`]).
+    pub fn to_record(&self) -> [u8; FAULT_RECORD_BYTES] {
         let bit = |m: ChannelMask| m.trailing_zeros() as u8;
         let (kind, target, param) = match self.fault {
-            Fault::Bus(c) => (1u8, c as u8, [0; 4]),
-            Fault::Stuck(m) => (2, bit(m), [0; 4]),
-            Fault::Value(m, v) => (3, bit(m), v.to_le_bytes()),
-            Fault::Drop => (4, 0, [0; 4]),
-            Fault::Late(us) => (5, 0, us.to_le_bytes()),
+            Fault::Bus(c) => (fault_kind::BUS, c as u8, [0; 4]),
+            Fault::Stuck(m) => (fault_kind::STUCK, bit(m), [0; 4]),
+            Fault::Value(m, v) => (fault_kind::VALUE, bit(m), v.to_le_bytes()),
+            Fault::Drop => (fault_kind::DROP, 0, [0; 4]),
+            Fault::Late(us) => (fault_kind::LATE, 0, us.to_le_bytes()),
         };
-        let mut r = [0u8; 16];
+        let mut r = [0u8; FAULT_RECORD_BYTES];
         r[0..4].copy_from_slice(&self.first.to_le_bytes());
         r[4..8].copy_from_slice(&self.count.to_le_bytes());
         r[8] = kind;
@@ -415,9 +393,6 @@ impl FaultEvent {
         r
     }
 }
-
-/// Most fault records the firmware reads (`board::qemu::MAX_FAULTS`).
-pub const MAX_FAULTS: usize = 32;
 
 /// Writes `faults.bin`.
 pub fn write_faults(path: &Path, faults: &[FaultEvent]) -> Result<(), QemuError> {
@@ -499,8 +474,9 @@ pub struct Emulation {
     pub pipeline_health: aerosid_core::aero::Health,
 }
 
-/// Failed reads in a row after which the firmware re-initialises a chip (`board::REINIT_AFTER`).
-pub const REINIT_AFTER: u32 = 50;
+/// Failed reads in a row after which the firmware re-initialises a chip
+/// ([`aerosid_core::harness::REINIT_AFTER`]), as the model's counter type.
+pub const REINIT_AFTER: u32 = aerosid_core::harness::REINIT_AFTER as u32;
 
 /// The firmware's handling of a chip's read outcomes (`board::ChipHealth`), re-implemented.
 #[derive(Debug, Clone, Copy, Default)]

@@ -1,4 +1,4 @@
-//! What the main job prints and draws (issue 3 §4–5): the identified model beside the truth, and
+//! What the main job prints and draws: the identified model beside the truth, and
 //! the figures of an experiment ([`crate::experiment`]) as SVG.
 //!
 //! * [`model_table`] — per coefficient and parameter: the truth (the linearisation of the truth

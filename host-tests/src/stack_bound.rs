@@ -1,4 +1,4 @@
-//! A static bound on the stack of a linked firmware image (issue 4 §5, "≤ 16 KB RAM including
+//! A static bound on the stack of a linked firmware image ("≤ 16 KB RAM including
 //! stacks"), read from its machine code, for the build that cannot be run here: the flight
 //! computer's. The QEMU board's stack is *measured* by painting (`firmware/src/board/stack.rs`);
 //! the same analysis applied to the QEMU image must bound that measurement from above, which the

@@ -1,7 +1,7 @@
 //! Seed 001's example (Section 4, Table 1) on a simulator of its own model: the A-4D longitudinal
 //! model ([`Longitudinal::a4d`]) with Table 1's true parameters, Dryden turbulence as process noise,
 //! white measurement noise, an elevator multistep, and the filter error method started from Table 1's
-//! ±15 % initial values with Bauer & Andrisani's prior (issue 5 §2).
+//! ±15 % initial values with Bauer & Andrisani's prior.
 //!
 //! The truth integrates the model with RK4 at [`INTERNAL_DT_S`] with the aerodynamics evaluated at the
 //! air-relative state: `V_a = V − u_g`, `α_a = α + w_g/V` (Dryden gusts, MIL-F-8785C above
@@ -834,7 +834,7 @@ pub const DESIGN_UNITS_S: [f64; 10] = [0.2, 0.3, 0.4, 0.6, 0.8, 1.0, 1.5, 2.0, 3
 
 /// The input design: the Cramér–Rao bound of 1° 3-2-1-1 inputs of each unit in [`DESIGN_UNITS_S`]
 /// over [`DESIGNED_SECONDS`] (all the same length, so that only the shape differs). The designed
-/// input is the unit that minimises `σ_CRB(Cmα̇)·σ_CRB(Cmq)` (the issue's target pair).
+/// input is the unit that minimises `σ_CRB(Cmα̇)·σ_CRB(Cmq)` (the target pair).
 pub fn design_scan() -> Vec<Bound> {
     DESIGN_UNITS_S
         .par_iter()
@@ -1024,7 +1024,7 @@ fn history_figure(input: Input, seconds: f64, out_dir: &std::path::Path) -> Resu
     Ok(path)
 }
 
-/// Seed 000's equation-error PCA-GTLS on the same flight, for issue 5 §2's comparison: the lift and
+/// Seed 000's equation-error PCA-GTLS on the same flight, for the comparison of seed 001's Table 1: the lift and
 /// pitching-moment coefficients are formed from the measurements sample by sample and regressed on
 /// noisy regressors, with no model of the dynamics and no state filter.
 ///

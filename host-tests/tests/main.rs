@@ -4,10 +4,12 @@
 //! with a filter on its module: `cargo test -p aerosid-host --test integration qemu_replay::`.
 
 mod against_faer;
+mod cli;
 mod common;
 mod consistency;
 mod corrected_regressor;
 mod coverage;
+mod default_aircraft;
 mod fem;
 mod fem_qemu;
 mod forgetting;

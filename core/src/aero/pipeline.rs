@@ -33,7 +33,7 @@
 //! sample (the equation `C = θᵀx` is linear, so filtering both sides keeps it); the same check
 //! then gives `−1.276, −20.25`.
 //!
-//! The trapezoidal rule is a choice of variance over bias, measured 2026-12-02. Its frequency
+//! The trapezoidal rule is a choice of variance over bias (measured below). Its frequency
 //! response `0.3 + 0.5 cos ωh + 0.2 cos 2ωh = 1 − 0.65·(ωh)² + …` smooths the regressors a little
 //! more than the differentiator smooths `ω̇` (`(sin ωh + 2 sin 2ωh)/(5ωh) = 1 − 17/30·(ωh)² + …`),
 //! which leaves a small model mismatch: batch OLS on a noise-free flight is off the linearised truth

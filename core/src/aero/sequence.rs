@@ -1,4 +1,4 @@
-//! Missed samples (issue 7 §3): the time stamp of the sample after a gap.
+//! Missed samples: the time stamp of the sample after a gap.
 //!
 //! The flight computer numbers its samples as it takes them (one per sampling period) and stamps
 //! each with `dt_s`, the time since the sample taken before it. When the estimator falls behind

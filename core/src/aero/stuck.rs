@@ -1,4 +1,4 @@
-//! Stuck-sensor detection (issue 7 §3): a sensor that keeps returning the same reading — a frozen
+//! Stuck-sensor detection: a sensor that keeps returning the same reading — a frozen
 //! digital output, a jammed vane, a bus bridge replaying its last buffer — passes every range check,
 //! so the pipeline alone would identify on a constant. [`StuckDetector`] watches each channel of the
 //! [`SensorSample`]s and marks one *stuck* once its reading has repeated bit for bit for
@@ -126,7 +126,7 @@ impl StuckDetector {
 
     /// Takes the next sample's readings; returns the channels that are stuck at this sample.
     /// Channels whose window is off are not read at all (6 of the 11 by default; comparing them
-    /// cost 603 instructions per sample on the M4F, measured on the QEMU replay, 2026-12-02).
+    /// cost 603 instructions per sample on the M4F, measured on the QEMU replay).
     pub fn check<T: Real>(&mut self, s: &SensorSample<T>) -> ChannelMask {
         let mut stuck = 0;
         for i in 0..channel::COUNT {

@@ -218,7 +218,7 @@ pub fn general_update<T: Real, const M: usize>(
     // From here on the loops over the `m` poles not deflated run over `unrolled_upto::<M>(…, m)`,
     // which the compiler unrolls, and not over run-time ranges (as `secular_terms`): the worst
     // replay step −1 667 instructions (42 457 → 40 790; the general path runs on the worst
-    // samples), +1.7 KB of flash, 2026-12-02.
+    // samples), +1.7 KB of flash.
     // 2. Roots. Compact copies of the secular problem (ascending poles ac², weights zc).
     let mut ac = [T::zero(); M];
     let mut zc = [T::zero(); M];
@@ -724,7 +724,7 @@ fn bns_iteration<T: Real, const M: usize>(
 /// One loop of compile-time length `M`, which the compiler unrolls, each term added to `ψ` or `φ`
 /// (or, past `m`, to neither) by the index test, instead of two loops with run-time bounds: the
 /// same terms in the same order, so bit-identical, and on the M4F −2 112 instructions per
-/// six-coefficient step (median 29 723 → 27 611, max 44 228 → 42 860, QEMU replay, 2026-12-02) —
+/// six-coefficient step (median 29 723 → 27 611, max 44 228 → 42 860, QEMU replay) —
 /// the loop overhead of the run-time bounds was a third of each evaluation. The terms past `m`
 /// are computed and dropped (a division by `δ_j − δ_origin − t` that may be 0 gives ±∞ or NaN,
 /// never a trap, and is not added).
@@ -747,7 +747,7 @@ fn secular_terms<T: Real, const M: usize>(dk: &[T; M], zc: &[T; M], m: usize, r:
 /// `i` clamped into `0..M`. Every index this module keeps in an array (`idx`, `origin`) is below
 /// `M` by construction, so this is the identity on every value it is given; it only lets the
 /// compiler see the bound and drop the bounds check, and with it a panic path from the release
-/// firmware (issue 7 §5, `firmware/panic-allow.txt`). One compare and a conditional move, the cost
+/// firmware (`firmware/panic-allow.txt`). One compare and a conditional move, the cost
 /// of the check it replaces.
 #[inline(always)]
 fn below<const M: usize>(i: usize) -> usize {

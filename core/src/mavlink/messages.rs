@@ -47,7 +47,7 @@ pub trait Decode: MavMessage + Sized {
 
 // The byte copies below zip the two slices instead of `copy_from_slice`: the lengths agree by
 // construction, but the compiler cannot always see it and would keep the length check's panic
-// path in the firmware (README "Reliability": no reachable panic).
+// path in the firmware (docs/reliability.md: no reachable panic).
 
 fn put(payload: &mut [u8], at: usize, bytes: &[u8]) {
     if let Some(dst) = payload.get_mut(at..at + bytes.len()) {

@@ -183,7 +183,7 @@ impl Parser {
     /// Feeds `bytes` and calls `on_frame` for every frame, in order. The frame is lent, not
     /// returned: its payload is decoded where it lies in the parser's own buffer (no payload copy)
     /// and the frame is built once and not copied on its way to `on_frame` (the sampling task's
-    /// stack, BENCHMARKS.md "Static stack bound"; [`Parser::poll`] copies it out).
+    /// stack, docs/benchmarks.md "Static stack bound"; [`Parser::poll`] copies it out).
     pub fn feed(&mut self, bytes: &[u8], mut on_frame: impl FnMut(&Frame)) {
         for &b in bytes {
             self.enqueue(b);
@@ -427,7 +427,7 @@ impl Parser {
 
 /// `dst.copy_from_slice(src)` for slices the caller made the same length, without the length
 /// check's panic path (the compiler cannot always see that the lengths agree; the release firmware
-/// is shown to have no reachable panic, README "Reliability").
+/// is shown to have no reachable panic, docs/reliability.md).
 fn copy(dst: &mut [u8], src: &[u8]) {
     for (d, s) in dst.iter_mut().zip(src) {
         *d = *s;

@@ -58,8 +58,7 @@ pub trait SensorSource {
     }
 }
 
-/// Failed reads in a row after which a chip is re-initialised (0.5 s at 100 Hz).
-pub const REINIT_AFTER: u16 = 50;
+pub use aerosid_core::harness::REINIT_AFTER;
 
 /// The read outcomes of one chip.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, defmt::Format)]

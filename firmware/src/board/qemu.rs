@@ -6,7 +6,7 @@
 //!   written by the host from a CSV log (`aerosid replay-bin`). The end of the file ends the run.
 //!   Each finished sample goes through the same stuck-sensor check as on the flight computer
 //!   ([`super::Finish`]).
-//! * **Fault injection** (issue 7 §3, optional): `faults.bin`, up to [`MAX_FAULTS`] records of
+//! * **Fault injection** (optional): `faults.bin`, up to [`MAX_FAULTS`] records of
 //!   [`FAULT_RECORD_BYTES`] ([`Fault`]), each acting on a range of replay records: a chip's reads
 //!   fail (its channels NaN; counted, and after [`super::REINIT_AFTER`] failures in a row a
 //!   re-initialisation is counted, as [`super::ChipHealth`] does on the flight computer), a channel
@@ -45,40 +45,7 @@ pub type Port = Usart;
 /// The step counter of this board.
 pub type CycleCounter = Tim2Counter;
 
-/// Most fault records read from `faults.bin`.
-pub const MAX_FAULTS: usize = 32;
-/// Bytes of one fault record: first record index `u32`, number of records `u32`, kind `u8`,
-/// target `u8`, two reserved bytes, parameter (`f32` value or `u32` µs), all little-endian.
-pub const FAULT_RECORD_BYTES: usize = 16;
-
-/// Fault kinds (byte 8 of a record).
-pub mod kind {
-    /// The reads of chip `target` fail ([`super::chip`]).
-    pub const BUS: u8 = 1;
-    /// Channel `target` (a bit position of `channel`) keeps its value of the first record.
-    pub const STUCK: u8 = 2;
-    /// Channel `target` reads the parameter (an `f32`).
-    pub const VALUE: u8 = 3;
-    /// The sample is dropped as if the estimator's queue were full.
-    pub const DROP: u8 = 4;
-    /// The first record's sample is taken the parameter (µs, `u32`) late: its `t_s`, `dt_s` and
-    /// time stamp later by that much, the next sample's `dt_s` shorter by it.
-    pub const LATE: u8 = 5;
-}
-
-/// Chips (the target of a [`kind::BUS`] fault).
-pub mod chip {
-    /// ICM-42688-P: accelerometer and gyro.
-    pub const IMU: u8 = 0;
-    /// MS4525DO: airspeed and (from its temperature) density.
-    pub const AIRSPEED: u8 = 1;
-    /// AS5600 α vane.
-    pub const ALPHA: u8 = 2;
-    /// AS5600 β vane.
-    pub const BETA: u8 = 3;
-    /// The autopilot link: the record's bytes of `autopilot.bin` are lost.
-    pub const AUTOPILOT: u8 = 4;
-}
+pub use aerosid_core::harness::{fault_chip as chip, fault_kind as kind, FAULT_RECORD_BYTES, MAX_FAULTS};
 
 /// One fault record of `faults.bin` (module doc).
 #[derive(Clone, Copy, Debug, Default)]

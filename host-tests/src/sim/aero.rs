@@ -336,14 +336,14 @@ pub struct TruthEffects {
     /// Propeller reaction torque `−Q` about body x (a propeller turning clockwise seen from behind).
     pub prop_torque: bool,
     /// A quadratic lift term `C_Lα² α²` (1/rad²) added to the linear lift before the drag effects
-    /// (issue 6 §3: a lift-curve nonlinearity eq. 3a lacks). Off by default.
+    /// (a lift-curve nonlinearity eq. 3a lacks). Off by default.
     pub lift_alpha2_per_rad2: Option<f64>,
-    /// A downwash-lag pitching moment `C_mα̇ · α̇ c̄/(2V)` (issue 6 §3). `α̇` is the rate of the
+    /// A downwash-lag pitching moment `C_mα̇ · α̇ c̄/(2V)`. `α̇` is the rate of the
     /// air-relative angle of attack (steady air; the gust is held over an output period), formed in
     /// [`super::dynamics::Plant::evaluate`] from the body acceleration. Off by default.
     pub pitch_alpha_dot: Option<f64>,
     /// A cross-coupling rolling moment `C_lαβ · α β` (1/rad²): the dihedral effect growing with
-    /// angle of attack (issue 6 §3). Off by default.
+    /// angle of attack. Off by default.
     pub roll_alpha_beta_per_rad2: Option<f64>,
     /// A pitching moment `C_mβ² · β²` (1/rad²): sideslip changing the pitching moment (a V-tail,
     /// fuselage crossflow). Off by default.

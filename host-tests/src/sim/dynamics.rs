@@ -226,7 +226,7 @@ impl Plant {
         let specific = (aero_force_n + thrust_force_n) / mass;
         let g_body = R.inverse_transform_vector(&Vector3::new(0.0, 0.0, self.gravity_mps2));
         let velocity_dot = specific + g_body - w.cross(&x.velocity_body_mps);
-        // Downwash lag (issue 6 §3): `α̇ = (u_r ẇ − w_r u̇)/(u_r² + w_r²)` with the air-relative
+        // Downwash lag: `α̇ = (u_r ẇ − w_r u̇)/(u_r² + w_r²)` with the air-relative
         // velocity's rate equal to the body acceleration (wind steady, gust held over the step). The
         // forces do not depend on `α̇`, so there is no algebraic loop.
         let (mut coefficients, mut aero_moment_nm) = (coefficients, aero_moment_nm);

@@ -1,4 +1,4 @@
-//! The truth simulator the on-board identification is tested against (issue 3 §1; seed 000
+//! The truth simulator the on-board identification is tested against (seed 000
 //! Section VI-A uses `last_letter` the same way).
 //!
 //! * [`dynamics`] — nonlinear 6-DoF rigid body (FRD body, NED earth, quaternion attitude, full

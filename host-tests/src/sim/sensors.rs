@@ -243,7 +243,7 @@ impl FaultChannel {
     }
 }
 
-/// A systematic sensor error beyond the per-run biases of [`SensorNoise`] (issue 6 §3: the
+/// A systematic sensor error beyond the per-run biases of [`SensorNoise`] (the
 /// measurement causes the model-gap analysis must find). Applied to the ideal sample before noise:
 /// first the delay, then the scale factor, then the bias.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -1,0 +1,140 @@
+//! The `aerosid` command line as a user meets it: every command answers `--help`, `--version`
+//! works, out-of-range and missing values are refused with a message naming the argument (exit
+//! code 2, nothing run), and the completion scripts name every command. Runs the binary cargo built
+//! for these tests.
+
+use std::process::{Command, Output};
+
+fn aerosid(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_aerosid"))
+        .args(args)
+        .output()
+        .unwrap_or_else(|e| panic!("running aerosid {args:?}: {e}"))
+}
+
+fn stdout(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// The command names listed under `Commands:` in the top-level help.
+fn commands() -> Vec<String> {
+    let help = stdout(&aerosid(&["--help"]));
+    help.lines()
+        .skip_while(|l| !l.starts_with("Commands:"))
+        .skip(1)
+        .take_while(|l| !l.trim().is_empty())
+        .filter_map(|l| l.split_whitespace().next().map(str::to_owned))
+        .filter(|c| c != "help")
+        .collect()
+}
+
+#[test]
+fn every_command_answers_help() {
+    let cmds = commands();
+    // The commands the README, CI and the scripts call; more may be added.
+    for expected in [
+        "run",
+        "simulate",
+        "replay",
+        "fem-hfb320",
+        "table1",
+        "gaps",
+        "gaps-bench",
+        "long-run",
+        "panic-audit",
+        "stack-bound",
+        "demo",
+        "completions",
+    ] {
+        assert!(cmds.iter().any(|c| c == expected), "`{expected}` missing from {cmds:?}");
+    }
+    for c in &cmds {
+        let o = aerosid(&[c, "--help"]);
+        assert!(o.status.success(), "aerosid {c} --help: {}", stderr(&o));
+        assert!(
+            stdout(&o).contains(&format!("Usage: aerosid {c}")),
+            "aerosid {c} --help:\n{}",
+            stdout(&o)
+        );
+    }
+}
+
+#[test]
+fn no_command_prints_the_help_and_succeeds() {
+    let o = aerosid(&[]);
+    assert!(o.status.success());
+    assert!(stdout(&o).contains("Commands:"), "{}", stdout(&o));
+}
+
+#[test]
+fn version_is_the_crate_version() {
+    let version = env!("CARGO_PKG_VERSION");
+    let o = aerosid(&["--version"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(stdout(&o).trim(), format!("aerosid {version}"));
+    // A command's own `--version` names the command (clap's form).
+    let o = aerosid(&["gaps", "--version"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(stdout(&o).trim(), format!("aerosid-gaps {version}"));
+}
+
+#[test]
+fn stack_bound_usage_and_description_name_the_same_arguments() {
+    let help = stdout(&aerosid(&["stack-bound", "--help"]));
+    assert!(
+        help.contains("Usage: aerosid stack-bound [OPTIONS] <ELF> <CONFIG>"),
+        "{help}"
+    );
+    assert!(!help.contains("INDIRECT"), "{help}");
+}
+
+/// A refused invocation: exit code 2 (a usage error), the message names `needle`, nothing runs.
+fn refused(args: &[&str], needle: &str) {
+    let o = aerosid(args);
+    assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stdout(&o));
+    assert!(
+        stderr(&o).contains(needle),
+        "{args:?}: `{needle}` not in:\n{}",
+        stderr(&o)
+    );
+    assert!(stdout(&o).is_empty(), "{args:?} ran: {}", stdout(&o));
+}
+
+#[test]
+fn values_out_of_range_or_missing_are_refused_with_the_argument_named() {
+    refused(&["run", "--seconds", "10"], "--seconds");
+    refused(&["run", "--seconds", "10"], "30–3600");
+    refused(&["run", "--seconds", "NaN"], "--seconds");
+    refused(&["run", "--seconds", "ten"], "not a number");
+    refused(&["simulate", "--seconds", "60"], "--out");
+    refused(&["gaps", "--seconds", "5", "--clean"], "20–3600");
+    refused(&["long-run", "--hours", "0"], "--hours");
+    refused(&["gaps"], "--data");
+    refused(&["gaps", "--data", "f.asc"], "--with");
+    refused(&["gaps", "--clean", "--simulate", "alpha-dot"], "cannot be used with");
+    refused(&["gaps", "--simulate", "no-such-kind"], "lift-quadratic");
+    refused(&["gaps", "--clean", "--air-data", "vanes"], "reconstructed");
+    refused(&["gaps", "--clean", "--compatibility", "maybe"], "off");
+    refused(&["gaps", "--clean", "--baseline", "CQ=1"], "--baseline");
+    refused(&["stack-bound", "fw.elf"], "<CONFIG>");
+    refused(&["replay"], "<LOG.csv>");
+    refused(&["no-such-command"], "no-such-command");
+}
+
+#[test]
+fn completion_scripts_name_every_command() {
+    let cmds = commands();
+    for shell in ["bash", "zsh", "fish"] {
+        let o = aerosid(&["completions", shell]);
+        assert!(o.status.success(), "{shell}: {}", stderr(&o));
+        let script = stdout(&o);
+        for c in &cmds {
+            assert!(script.contains(c.as_str()), "{shell} completion lacks `{c}`");
+        }
+    }
+    refused(&["completions", "tcsh"], "bash");
+}
