@@ -312,3 +312,45 @@ fn twin_otter_mat_agrees_with_its_text_export() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn the_command_reads_each_real_log_without_an_aircraft_file() {
+    let exe = env!("CARGO_BIN_EXE_aerosid");
+    let dir = scratch("cli");
+    // log_52 flies: the analysis runs and says why there is no verdict.
+    let o = std::process::Command::new(exe)
+        .args(["gaps", "--data"])
+        .arg(logs().join(LOG_52))
+        .arg("--out")
+        .arg(dir.join("log52"))
+        .output()
+        .expect("run aerosid");
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(
+        out.contains("NO VERDICT") && out.contains("6. verdict\n   no verdict:"),
+        "{out}"
+    );
+    // A bench log: the analysis cannot run; the data quality is still printed and written.
+    let o = std::process::Command::new(exe)
+        .args(["gaps", "--data"])
+        .arg(logs().join("pymavlink_test.BIN"))
+        .arg("--out")
+        .arg(dir.join("bin"))
+        .output()
+        .expect("run aerosid");
+    assert_eq!(o.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("NO VERDICT"));
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("bin/data_quality.json")).expect("json"))
+            .expect("parse");
+    assert_eq!(json["data_quality"]["supports_verdict"], serde_json::json!(false));
+    // --list names the topics.
+    let o = std::process::Command::new(exe)
+        .args(["gaps", "--list", "--data"])
+        .arg(logs().join(LOG_52))
+        .output()
+        .expect("run aerosid");
+    assert!(String::from_utf8_lossy(&o.stdout).contains("vehicle_land_detected (instance 0)"));
+    let _ = std::fs::remove_dir_all(&dir);
+}
