@@ -103,12 +103,15 @@ fn seeds(target: &str) -> Vec<(String, Vec<u8>)> {
 }
 
 fn fuzz(target: &str, run: fn(&[u8]), seed: u64) {
-    let files = seeds(target);
+    fuzz_files(target, seeds(target), run, seed, MUTATIONS);
+}
+
+fn fuzz_files(target: &str, files: Vec<(String, Vec<u8>)>, run: fn(&[u8]), seed: u64, mutations: usize) {
     let others: Vec<Vec<u8>> = files.iter().map(|(_, d)| d.clone()).collect();
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let mut inputs = 0usize;
     for (name, data) in &files {
-        for m in 0..=MUTATIONS {
+        for m in 0..=mutations {
             let input = if m == 0 {
                 data.clone()
             } else {
@@ -156,4 +159,60 @@ fn read_colmap_ascii() {
 #[test]
 fn read_ulog() {
     fuzz("read_ulog", readers::read_ulog::run, 5);
+}
+
+/// A real log of `host-tests/data/logs/` (or the `.mat` of `data/flight/`), its first `bytes`
+/// bytes: the definitions and the first messages, so each mutation parses quickly.
+fn real_seed(path: &str, bytes: usize) -> (String, Vec<u8>) {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("data").join(path);
+    let d = std::fs::read(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
+    (path.to_string(), d[..bytes.min(d.len())].to_vec())
+}
+
+/// The invariants of a flight a reader accepted: it validates, and its time base is uniform.
+fn check_read(what: &str, f: &aerosid_host::io::measured::MeasuredFlight) {
+    assert!(f.validate().is_ok(), "{what}: accepted an invalid flight");
+    let h = f.t_s[1] - f.t_s[0];
+    assert!(
+        f.t_s.windows(2).all(|w| ((w[1] - w[0]) - h).abs() <= 1e-9 * h.max(1.0)),
+        "{what}: time base not uniform"
+    );
+}
+
+fn run_dataflash(data: &[u8]) {
+    let opts = aerosid_host::io::ReadOptions::default();
+    if let Ok(f) =
+        aerosid_host::io::dataflash::parse_dataflash(data, "fuzz.bin", aerosid_host::io::placeholder_aircraft(), &opts)
+    {
+        check_read("read_dataflash", &f);
+    }
+}
+
+fn run_mat(data: &[u8]) {
+    static MAP: std::sync::OnceLock<aerosid_host::io::colmap::ColumnMap> = std::sync::OnceLock::new();
+    let map = MAP.get_or_init(|| {
+        let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/maps/twin_otter.map");
+        aerosid_host::io::colmap::read_map(&p).unwrap_or_else(|e| panic!("{e}"))
+    });
+    if let Ok(f) = aerosid_host::io::mat::parse_mat(data, "fuzz.mat", map) {
+        check_read("read_mat", &f);
+    }
+}
+
+#[test]
+fn read_dataflash() {
+    // The two ArduPlane fixtures: 3.8 (no FMTU) and 4.2 (FMTU/UNIT/MULT).
+    let files = vec![
+        real_seed("logs/pymavlink_test.BIN", 65_536),
+        real_seed("logs/pyflightcoach_center_0003.bin", 24_576),
+    ];
+    fuzz_files("read_dataflash", files, run_dataflash, 6, 3_000);
+}
+
+#[test]
+fn read_mat() {
+    // The Twin Otter's `.mat` (compressed level-5 variables); each parse inflates it, so fewer
+    // mutations.
+    let files = vec![real_seed("flight/totter_lon_020213f1_018.mat", usize::MAX)];
+    fuzz_files("read_mat", files, run_mat, 7, 300);
 }

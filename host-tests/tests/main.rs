@@ -24,6 +24,7 @@ mod plot;
 mod properties;
 mod qemu_faults;
 mod qemu_replay;
+mod real_logs;
 mod reliability_faults;
 mod reliability_link;
 mod reliability_long_run;

@@ -44,7 +44,7 @@ enum Command {
     Fem(FemArgs),
     Predict(PredictArgs),
     Table1(Table1Args),
-    Gaps(GapsArgs),
+    Gaps(Box<GapsArgs>),
     GapsBench(GapsBenchArgs),
     LongRun(LongRunArgs),
     PanicAudit(PanicAuditArgs),
@@ -400,18 +400,43 @@ fn air_data_parser() -> impl TypedValueParser<Value = AirDataChoice> {
         .try_map(|s| AirDataChoice::parse(&s).ok_or_else(|| format!("unknown air-data choice `{s}`")))
 }
 
-/// The model-gap analysis (docs/model-gaps.md) of a measured flight (--data FILE --with FILE), or of
-/// a simulated flight with one hidden effect (--simulate KIND; its size drawn from the seed) or none
-/// (--clean): table on the terminal, report.json, report.txt and SVG figures in DIR.
+/// The model-gap analysis (docs/model-gaps.md) of a measured flight (--data FILE [--with FILE]), or
+/// of a simulated flight with one hidden effect (--simulate KIND; its size drawn from the seed) or
+/// none (--clean): data-quality assessment and table on the terminal, report.json, report.txt and
+/// SVG figures in DIR. A PX4 `.ulg` or ArduPilot `.bin` log reads without --with (a placeholder
+/// aircraft, so no verdict), its in-air window found unless --from/--to or --whole-log say
+/// otherwise (docs/measured-data.md).
 #[derive(Args)]
 #[command(group(ArgGroup::new("flight").required(true).args(["data", "simulate", "clean"])))]
 struct GapsArgs {
-    /// A measured flight (read by `aerosid_host::io::read_measured`); needs --with.
-    #[arg(long, value_name = "FILE", requires = "with")]
+    /// A measured flight (read by `aerosid_host::io::read_measured_with`): .csv, .asc/.txt/.dat or
+    /// .mat with --with; a PX4 .ulg or ArduPilot .bin log with or without it.
+    #[arg(long, value_name = "FILE")]
     data: Option<PathBuf>,
-    /// The column map or aircraft file of the --data flight.
+    /// The column map or aircraft file of the --data flight (optional for .ulg and .bin).
     #[arg(long = "with", value_name = "MAP_OR_AIRCRAFT", requires = "data")]
     with: Option<PathBuf>,
+    /// Start of the window read from a .ulg/.bin log, s of its boot time (the scale the report
+    /// prints). Default: the longest stretch in the air.
+    #[arg(long, value_name = "S", requires = "data", value_parser = finite_seconds, allow_negative_numbers = true)]
+    from: Option<f64>,
+    /// End of the window read from a .ulg/.bin log, s of its boot time.
+    #[arg(long, value_name = "S", requires = "data", value_parser = finite_seconds, allow_negative_numbers = true)]
+    to: Option<f64>,
+    /// Read the whole .ulg/.bin log (no automatic in-air window).
+    #[arg(long, requires = "data")]
+    whole_log: bool,
+    /// The instance of a multi-instance topic (ULog) or message (DataFlash), TOPIC=N; repeatable.
+    /// Default: instance 0 of every topic.
+    #[arg(long, value_name = "TOPIC=N", requires = "data")]
+    instance: Vec<String>,
+    /// Output rate of a .ulg/.bin log, Hz (default: the rate topic's median rate).
+    #[arg(long, value_name = "HZ", requires = "data", value_parser = positive_rate)]
+    rate: Option<f64>,
+    /// Print the topics (ULog) or messages (DataFlash) of the --data log with their instances,
+    /// rates and fields, and stop.
+    #[arg(long, requires = "data")]
+    list: bool,
     /// A simulated flight with this hidden effect.
     #[arg(long, value_name = "KIND", value_parser = hidden_kind_parser())]
     simulate: Option<HiddenKind>,
@@ -447,8 +472,84 @@ struct GapsArgs {
     compatibility: OnOff,
 }
 
+/// A finite number of seconds (`--from`, `--to`).
+fn finite_seconds(s: &str) -> Result<f64, String> {
+    s.parse::<f64>()
+        .ok()
+        .filter(|v| v.is_finite())
+        .ok_or_else(|| format!("`{s}` is not a finite time in seconds"))
+}
+
+/// A rate in Hz, 0 < rate ≤ 10 000 (`--rate`).
+fn positive_rate(s: &str) -> Result<f64, String> {
+    s.parse::<f64>()
+        .ok()
+        .filter(|r| r.is_finite() && *r > 0.0 && *r <= 10_000.0)
+        .ok_or_else(|| format!("`{s}` is not a rate in Hz in (0, 10000]"))
+}
+
+impl GapsArgs {
+    /// The read options of the flags, or the usage error.
+    fn read_options(&self) -> Result<aerosid_host::io::ReadOptions, String> {
+        let mut o = aerosid_host::io::ReadOptions {
+            from_s: self.from,
+            to_s: self.to,
+            whole_log: self.whole_log,
+            rate_hz: self.rate,
+            ..Default::default()
+        };
+        for spec in &self.instance {
+            o.add_instance(spec)?;
+        }
+        if let (Some(a), Some(b)) = (o.from_s, o.to_s) {
+            if a >= b {
+                return Err(format!("--from {a} must be before --to {b}"));
+            }
+        }
+        Ok(o)
+    }
+}
+
+/// A usage error found after parsing: the message and exit code 2, as clap's own.
+fn usage(cmd: &str, e: impl std::fmt::Display) -> ExitCode {
+    eprintln!("aerosid {cmd}: {e}");
+    ExitCode::from(2)
+}
+
 impl Execute for GapsArgs {
     fn execute(self) -> ExitCode {
+        if let Some(data) = &self.data {
+            let ext = data.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+            let log = matches!(ext.as_deref(), Some("ulg") | Some("bin"));
+            if self.with.is_none() && !log {
+                return usage(
+                    "gaps",
+                    format!(
+                        "--data {} needs --with MAP_OR_AIRCRAFT (only .ulg and .bin logs read without one)",
+                        data.display()
+                    ),
+                );
+            }
+            if self.list {
+                let listing = match ext.as_deref() {
+                    Some("ulg") => aerosid_host::io::ulog::list_topics(data),
+                    Some("bin") => aerosid_host::io::dataflash::list_messages(data),
+                    _ => {
+                        return usage(
+                            "gaps",
+                            "--list lists the topics of a .ulg or the messages of a .bin log",
+                        )
+                    }
+                };
+                return match listing {
+                    Ok(text) => {
+                        print!("{text}");
+                        ExitCode::SUCCESS
+                    }
+                    Err(e) => fail("gaps", e),
+                };
+            }
+        }
         let settings = aerosid_host::gaps::GapSettings {
             air_data: self.air_data,
             apply_corrections: !self.no_corrections,
@@ -456,8 +557,14 @@ impl Execute for GapsArgs {
             baseline: self.baseline.clone(),
             ..aerosid_host::gaps::GapSettings::default()
         };
+        let opts = match self.read_options() {
+            Ok(o) => o,
+            Err(e) => return usage("gaps", e),
+        };
         let flight = match (&self.data, &self.with) {
-            (Some(data), Some(with)) => aerosid_host::io::read_measured(data, with).map_err(|e| e.to_string()),
+            (Some(data), with) => {
+                aerosid_host::io::read_measured_with(data, with.as_deref(), &opts).map_err(|e| e.to_string())
+            }
             _ => {
                 // A simulated flight with the hidden effect's size drawn from the seed.
                 use rand::SeedableRng;
@@ -492,7 +599,26 @@ fn gaps(
 ) -> ExitCode {
     let report = match aerosid_host::gaps::run_gaps(flight, &settings) {
         Ok(r) => r,
-        Err(e) => return fail("gaps", e),
+        Err(e) => {
+            // What the data can and cannot support is said even when the analysis cannot run
+            // (too few samples, no coefficient): the table here, data_quality.json in `out`.
+            let q = aerosid_host::io::quality::assess(flight);
+            print!("{}", aerosid_host::io::quality::table(&q));
+            let json = serde_json::json!({
+                "schema": "aerosid-data-quality/1",
+                "source": flight.source,
+                "analysis": e.to_string(),
+                "data_quality": q,
+            });
+            let file = out.join("data_quality.json");
+            let written = std::fs::create_dir_all(out)
+                .and_then(|_| std::fs::write(&file, serde_json::to_string_pretty(&json).unwrap_or_default()));
+            match written {
+                Ok(()) => println!("data quality written to {}", file.display()),
+                Err(w) => eprintln!("aerosid gaps: {}: {w}", file.display()),
+            }
+            return fail("gaps", format!("the analysis did not run: {e}"));
+        }
     };
     // The table first: it is printed even if the files cannot be written.
     print!("{}", aerosid_host::gaps::report::table(&report));

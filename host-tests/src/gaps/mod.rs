@@ -367,6 +367,9 @@ pub struct GapReport {
     /// The regression problem the coefficients were fitted to (for benchmarks that run other
     /// tools on the same columns).
     pub regression: Regression,
+    /// What the data can support ([`crate::io::quality`]); when it cannot support a verdict,
+    /// `named` is empty and `verdict` says why.
+    pub data_quality: crate::io::quality::DataQuality,
 }
 
 /// One coefficient of a [`Regression`]: name, synthesised values, baseline terms, candidate terms.
@@ -664,7 +667,14 @@ pub fn run_gaps(flight: &MeasuredFlight, settings: &GapSettings) -> Result<GapRe
     } else {
         Vec::new()
     };
-    let verdict = overall_verdict(&named, &coefficients);
+    let mut data_quality = crate::io::quality::assess(flight);
+    crate::io::quality::after_analysis(&mut data_quality, &coefficients, &regression);
+    let verdict = if data_quality.supports_verdict {
+        overall_verdict(&named, &coefficients)
+    } else {
+        named.clear();
+        format!("no verdict: {}", data_quality.why_not.join("; "))
+    };
     let air_data = notes
         .iter()
         .find(|n| n.starts_with("air data:"))
@@ -689,6 +699,7 @@ pub fn run_gaps(flight: &MeasuredFlight, settings: &GapSettings) -> Result<GapRe
         as_logged,
         verdict,
         regression,
+        data_quality,
     })
 }
 

@@ -27,6 +27,7 @@ pub fn table(r: &GapReport) -> String {
     for n in r.notes.iter().chain(&r.compatibility.notes) {
         let _ = writeln!(s, "note: {n}");
     }
+    s.push_str(&crate::io::quality::table(&r.data_quality));
     let _ = writeln!(s, "\n1. data compatibility (flight-path reconstruction)");
     let _ = writeln!(s, "   {:<10} {:>12} {:>12}", "output", "RMS before", "RMS after");
     for o in &r.compatibility.rms {
@@ -195,6 +196,9 @@ pub fn table(r: &GapReport) -> String {
     }
     let _ = writeln!(s, "\n6. verdict");
     match r.top_cause() {
+        None if !r.data_quality.supports_verdict => {
+            let _ = writeln!(s, "   {}", r.verdict);
+        }
         None => {
             let _ = writeln!(s, "   nothing missing: no candidate passes the threshold");
         }
@@ -244,6 +248,7 @@ pub fn json(r: &GapReport) -> Value {
         "air_data": r.air_data,
         "corrections_applied": r.corrections_applied,
         "verdict": r.verdict,
+        "data_quality": r.data_quality,
         "compatibility": {
             "outputs": compat.rms.iter().map(|o| json!({
                 "channel": format!("{:?}", o.channel), "rms_before": f(o.before), "rms_after": f(o.after),

@@ -7,6 +7,8 @@
 //! * `columns = N` (ascii) — the number of numbers on every line; a line with another count is
 //!   refused;
 //! * `time = EXPR UNIT` (ascii) — the time, e.g. `time = $1 s`;
+//! * `variable = NAME` (ascii, optional) — for a MATLAB `.mat` file read through this map, the
+//!   matrix whose columns `$N` are ([`super::mat`]); a text file ignores it;
 //! * `time_base = TOPIC` (ulog, optional) — the topic whose timestamps are the output time base;
 //! * `channel.QUANTITY = EXPR UNIT` — one measured channel; `QUANTITY` is a
 //!   [`Quantity::name`] (`alpha`, `pitch_rate`, …), `UNIT` the unit of `EXPR` (converted to SI,
@@ -197,6 +199,9 @@ pub struct ColumnMap {
     pub channels: Vec<(Quantity, Expr)>,
     /// The aircraft.
     pub aircraft: Aircraft,
+    /// The matrix of a MATLAB `.mat` file whose columns `$N` name (`variable = fdata`; optional,
+    /// see [`super::mat`]).
+    pub variable: Option<String>,
 }
 
 impl ColumnMap {
@@ -210,6 +215,7 @@ impl ColumnMap {
             time_base: None,
             channels: Vec::new(),
             aircraft,
+            variable: None,
         }
     }
 }
@@ -426,11 +432,23 @@ pub fn parse_map(text: &str, file: &str, dir: &Path) -> Result<ColumnMap, ReadEr
     };
     let mut time = None;
     let mut time_base = None;
+    let mut variable = None;
     let mut channels: Vec<(Quantity, Expr)> = Vec::new();
     let mut biases: Vec<(Quantity, f64, usize, usize)> = Vec::new();
     for kv in &kvs {
         match kv.key {
             "format" | "columns" | "aircraft" | "description" => {}
+            "variable" => {
+                if format == Format::Ulog {
+                    return Err(ReadError::new(
+                        file,
+                        kv.line,
+                        kv.key_col,
+                        "`variable` applies to `format = ascii` (a `.mat` matrix) only",
+                    ));
+                }
+                variable = Some(kv.value.to_string());
+            }
             "time" => {
                 if format == Format::Ulog {
                     return Err(ReadError::new(
@@ -545,6 +563,7 @@ pub fn parse_map(text: &str, file: &str, dir: &Path) -> Result<ColumnMap, ReadEr
         time_base,
         channels,
         aircraft,
+        variable,
     })
 }
 
@@ -669,6 +688,7 @@ pub fn parse_ascii(text: &str, file: &str, map: &ColumnMap) -> Result<MeasuredFl
         t_s,
         channels,
         aircraft: map.aircraft.clone(),
+        log: Default::default(),
     };
     flight.validate().map_err(|inv| {
         let line = inv.sample.and_then(|i| lines.get(i)).map_or(0, |(l, _)| *l);

@@ -158,6 +158,36 @@ pub struct MeasuredFlight {
     pub channels: BTreeMap<Quantity, Vec<f64>>,
     /// The aircraft.
     pub aircraft: Aircraft,
+    /// What the reader knows about the log beyond the channels (rates, window, parameters,
+    /// warnings); empty for sources that need none.
+    pub log: LogMeta,
+}
+
+/// What a reader learned about a log that the channels alone do not say: the rate each channel
+/// was logged at before resampling, the window read, whether the vehicle was in the air, the
+/// logged parameters, and warnings (dropped samples, gaps, all-zero columns). The data-quality
+/// assessment ([`super::quality`]) reads it.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct LogMeta {
+    /// The file format (`PX4 ULog`, `ArduPilot DataFlash`, `MATLAB .mat`, …); empty for the
+    /// project's own sources.
+    pub format: String,
+    /// Per channel, the mean rate of its own samples in the window, Hz, before any resampling
+    /// (absent: logged on the time base itself).
+    pub logged_rate_hz: BTreeMap<Quantity, f64>,
+    /// How the channels were brought onto the time base (`None`: not resampled).
+    pub resampling: Option<String>,
+    /// The time window read and why (`None`: the whole file).
+    pub window: Option<String>,
+    /// Whether the log says the vehicle was in the air over the window (`None`: it does not say).
+    pub airborne: Option<bool>,
+    /// The aircraft's constants are placeholders (no aircraft file given): coefficients cannot be
+    /// scaled.
+    pub aircraft_unknown: bool,
+    /// Logged parameters (name → value).
+    pub parameters: BTreeMap<String, f64>,
+    /// Warnings from reading (each a sentence naming the topic or message).
+    pub warnings: Vec<String>,
 }
 
 impl MeasuredFlight {
@@ -205,6 +235,7 @@ impl MeasuredFlight {
             t_s: col(&|s| s.t_s),
             channels,
             aircraft,
+            log: LogMeta::default(),
         }
     }
 }
@@ -372,7 +403,9 @@ fn bounds(q: Quantity) -> Option<Bounds> {
         ),
         RollRate | PitchRate | YawRate => b(-20.0, 20.0, 5.0, "deg/s given as rad/s?"),
         RollAccel | PitchAccel | YawAccel => b(-200.0, 200.0, 50.0, "deg/s² given as rad/s²?"),
-        Airspeed => b(-1.0, 350.0, 350.0, "ft/s or km/h given as m/s?"),
+        // A pitot at rest reads a few m/s either side of zero (the differential-pressure offset), so
+        // a negative airspeed on the ground is not a unit error; −20 m/s is.
+        Airspeed => b(-20.0, 350.0, 350.0, "ft/s or km/h given as m/s?"),
         AirDensity => b(0.1, 1.6, 1.6, "slug/ft³ given as kg/m³?"),
         DynamicPressure => b(-500.0, 1.0e5, 1.0e5, "hPa or kPa given as Pa?"),
         Throttle => b(-0.05, 1.05, 1.05, "percent given as a fraction 0…1?"),

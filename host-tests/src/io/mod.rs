@@ -8,7 +8,13 @@
 //! * [`colmap`] — column-map files that say how to read a whitespace-separated ASCII flight-test
 //!   file (the shared HFB-320, ATTAS and Twin Otter data) or a PX4 ULog.
 //! * [`project_csv`] — the project's CSV log, all or a subset of its columns → [`MeasuredFlight`].
-//! * [`ulog`] — PX4 ULog (`.ulg`) through the `px4-ulog` crate, topics mapped and resampled.
+//! * [`ulog`] — PX4 ULog (`.ulg`) through the `px4-ulog` crate, topics mapped and resampled
+//!   onto a uniform time base, the in-air window found.
+//! * [`dataflash`] — ArduPilot DataFlash (`.bin`), the same way.
+//! * [`mat`] — MATLAB `.mat` (level 5) through the `matfile` crate, a matrix read through a
+//!   column map as an ASCII file is.
+//! * [`quality`] — what a flight can and cannot support: rates, duration, gaps, saturation,
+//!   constant columns, excitation, which coefficients are identifiable from what is logged.
 //!
 //! [`read_measured`] is the single entry point; every reader validates its result with
 //! [`MeasuredFlight::validate`], and every error is a [`ReadError`] naming the file and, where it
@@ -17,12 +23,16 @@
 
 pub mod aircraft;
 pub mod colmap;
+pub mod dataflash;
 pub mod log;
+pub mod mat;
 pub mod measured;
 pub mod project_csv;
+pub mod quality;
 pub mod ulog;
 
-use measured::MeasuredFlight;
+use measured::{Aircraft, MeasuredFlight, ThrustSource};
+use std::collections::BTreeMap;
 use std::fmt;
 use std::path::Path;
 
@@ -138,17 +148,100 @@ pub(crate) fn read_text(path: &Path) -> Result<String, ReadError> {
     std::fs::read_to_string(path).map_err(|e| ReadError::new(&path.display().to_string(), 0, 0, e.to_string()))
 }
 
+/// How to read an autopilot log (PX4 ULog, ArduPilot DataFlash): the time window, the topic
+/// instances, the output rate. `Default`: the in-air window, instance 0 of every topic, the rate
+/// of the rate topic.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct ReadOptions {
+    /// Start of the window, s, on the log's time base (boot time, as the report prints it).
+    pub from_s: Option<f64>,
+    /// End of the window, s.
+    pub to_s: Option<f64>,
+    /// Read the whole log: no automatic in-air window.
+    pub whole_log: bool,
+    /// The instance to read per topic (ULog multi-instance topics; DataFlash `I`/`C` instance
+    /// fields); a topic not named is read at instance 0.
+    pub instances: BTreeMap<String, u8>,
+    /// Output rate, Hz (default: the rate topic's median rate).
+    pub rate_hz: Option<f64>,
+}
+
+impl ReadOptions {
+    /// Parses `TOPIC=N` (an `--instance` argument) into [`ReadOptions::instances`].
+    pub fn add_instance(&mut self, spec: &str) -> Result<(), String> {
+        let (topic, n) = spec
+            .split_once('=')
+            .ok_or_else(|| format!("--instance `{spec}`: expected TOPIC=N, e.g. airspeed=1"))?;
+        let n: u8 = n
+            .trim()
+            .parse()
+            .map_err(|_| format!("--instance `{spec}`: `{n}` is not an instance number 0…255"))?;
+        self.instances.insert(topic.trim().to_string(), n);
+        Ok(())
+    }
+}
+
+/// The aircraft used when a log comes without an aircraft file: unit mass, inertia and geometry,
+/// so that the channels can be read and their quality judged; no coefficient is scaled by it, and
+/// [`measured::LogMeta::aircraft_unknown`] says so.
+pub fn placeholder_aircraft() -> Aircraft {
+    Aircraft {
+        name: "unknown (no aircraft file: unit mass, inertia and geometry)".into(),
+        mass_kg: 1.0,
+        inertia_kgm2: nalgebra::Matrix3::identity(),
+        wing_area_m2: 1.0,
+        span_m: 1.0,
+        chord_m: 1.0,
+        accel_position_m: nalgebra::Vector3::zeros(),
+        alpha_vane_position_m: nalgebra::Vector3::zeros(),
+        beta_vane_position_m: nalgebra::Vector3::zeros(),
+        airspeed_position_m: nalgebra::Vector3::zeros(),
+        moment_reference_m: nalgebra::Vector3::zeros(),
+        thrust: ThrustSource::Unknown,
+    }
+}
+
+/// Reads measured flight data with the default [`ReadOptions`] (see [`read_measured_with`]).
+pub fn read_measured(data: &Path, companion: &Path) -> Result<MeasuredFlight, ReadError> {
+    read_measured_with(data, Some(companion), &ReadOptions::default())
+}
+
 /// Reads measured flight data, dispatching on the data file's extension:
 /// * `.csv` — the project's CSV log ([`project_csv`]); `companion` is an aircraft file;
 /// * `.asc` / `.txt` / `.dat` — a whitespace-separated ASCII file; `companion` is its column map
 ///   ([`colmap`], `format = ascii`), which names the aircraft file;
+/// * `.mat` — a MATLAB level-5 file ([`mat`]); `companion` is a column map as for ASCII;
 /// * `.ulg` — a PX4 ULog ([`ulog`]); `companion` is an aircraft file (the standard topics only) or a
-///   ULog column map (`format = ulog`: the standard topics plus the surfaces and throttle it maps).
+///   ULog column map (`format = ulog`: the standard topics plus the surfaces and throttle it maps);
+/// * `.bin` — an ArduPilot DataFlash log ([`dataflash`]); `companion` an aircraft file.
 ///
-/// The companion's kind is told by its extension: `.aircraft` or `.map`.
-pub fn read_measured(data: &Path, companion: &Path) -> Result<MeasuredFlight, ReadError> {
+/// The companion's kind is told by its extension: `.aircraft` or `.map`. An autopilot log (`.ulg`,
+/// `.bin`) may come without one: its channels are read with a placeholder aircraft
+/// ([`placeholder_aircraft`]), which the quality assessment reports.
+pub fn read_measured_with(
+    data: &Path,
+    companion: Option<&Path>,
+    opts: &ReadOptions,
+) -> Result<MeasuredFlight, ReadError> {
     let name = data.display().to_string();
     let ext = |p: &Path| p.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+    let data_ext = ext(data);
+    let Some(companion) = companion else {
+        let mut f = match data_ext.as_deref() {
+            Some("ulg") => ulog::read_ulog_with(data, &colmap::ColumnMap::ulog_default(placeholder_aircraft()), opts)?,
+            Some("bin") => dataflash::read_dataflash(data, placeholder_aircraft(), opts)?,
+            _ => {
+                return Err(ReadError::new(
+                    &name,
+                    0,
+                    0,
+                    "this data file needs a companion file (`--with`): a column map (`.map`) or an aircraft file (`.aircraft`); only `.ulg` and `.bin` logs can be read without one",
+                ))
+            }
+        };
+        f.log.aircraft_unknown = true;
+        return Ok(f);
+    };
     let companion_is_map = match ext(companion).as_deref() {
         Some("map") => true,
         Some("aircraft") => false,
@@ -161,7 +254,7 @@ pub fn read_measured(data: &Path, companion: &Path) -> Result<MeasuredFlight, Re
             ))
         }
     };
-    match ext(data).as_deref() {
+    match data_ext.as_deref() {
         Some("csv") => {
             if companion_is_map {
                 return Err(ReadError::new(
@@ -186,20 +279,44 @@ pub fn read_measured(data: &Path, companion: &Path) -> Result<MeasuredFlight, Re
             let map = colmap::read_map(companion)?;
             colmap::read_ascii(data, &map)
         }
+        Some("mat") => {
+            if !companion_is_map {
+                return Err(ReadError::new(
+                    &companion.display().to_string(),
+                    0,
+                    0,
+                    "a `.mat` file needs a column map (`.map`, `format = ascii`) saying which column of which matrix is which",
+                ));
+            }
+            let map = colmap::read_map(companion)?;
+            mat::read_mat(data, &map)
+        }
         Some("ulg") => {
             if companion_is_map {
                 let map = colmap::read_map(companion)?;
-                ulog::read_ulog(data, &map)
+                ulog::read_ulog_with(data, &map, opts)
             } else {
                 let aircraft = aircraft::read_aircraft(companion)?;
-                ulog::read_ulog(data, &colmap::ColumnMap::ulog_default(aircraft))
+                ulog::read_ulog_with(data, &colmap::ColumnMap::ulog_default(aircraft), opts)
             }
+        }
+        Some("bin") => {
+            if companion_is_map {
+                return Err(ReadError::new(
+                    &companion.display().to_string(),
+                    0,
+                    0,
+                    "an ArduPilot DataFlash log is read with an aircraft file (`.aircraft`); its messages are built in",
+                ));
+            }
+            let aircraft = aircraft::read_aircraft(companion)?;
+            dataflash::read_dataflash(data, aircraft, opts)
         }
         _ => Err(ReadError::new(
             &name,
             0,
             0,
-            "unknown data file type (expected .csv, .asc/.txt/.dat or .ulg)",
+            "unknown data file type (expected .csv, .asc/.txt/.dat, .mat, .ulg or .bin)",
         )),
     }
 }

@@ -197,5 +197,6 @@ fn read_subset(text: &str, file: &str, names: &[&str], aircraft: Aircraft) -> Re
         t_s,
         channels,
         aircraft,
+        log: Default::default(),
     })
 }

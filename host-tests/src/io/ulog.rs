@@ -7,39 +7,60 @@
 //! size and classifies a cut file, but indexes the payload of a Parameter or AddLogged message
 //! before checking its length; so this module first walks the message framing itself
 //! ([`scan`], every length checked) and refuses a truncated or malformed file with the message
-//! index and byte offset before the crate sees it. Only the primary data section is read (the
-//! appended crash-recovery sections a FlagBits message may point to are ignored).
+//! index and byte offset before the crate sees it. The same walk reads the logged parameters
+//! (`P` messages: `float NAME` or `int32_t NAME`, the first value of each), which the crate's
+//! data callback does not deliver. Only the primary data section is read (the appended
+//! crash-recovery sections a FlagBits message may point to are ignored).
 //!
-//! **Topics** (instance 0 of each; time from `timestamp_sample` where the topic has it, else
-//! `timestamp`, µs → s):
+//! **Topics** (instance 0 of each unless [`ReadOptions::instances`] chooses another):
 //!
 //! | quantity | topic.field | |
 //! |---|---|---|
-//! | roll, pitch, yaw | `vehicle_attitude.q[0..3]` (Hamilton, body FRD → NED), Euler 3-2-1 | required |
-//! | roll/pitch/yaw rate | `vehicle_angular_velocity.xyz[0..2]`, else `sensor_combined.gyro_rad[0..2]` | required |
+//! | roll, pitch, yaw | `vehicle_attitude.q[0..3]` (Hamilton, body FRD → NED), Euler 3-2-1 | if present |
+//! | roll/pitch/yaw rate | `vehicle_angular_velocity.xyz[0..2]`, else `sensor_combined.gyro_rad[0..2]` | if present |
 //! | roll/pitch/yaw accel | `vehicle_angular_velocity.xyz_derivative[0..2]` | if present |
-//! | accel x/y/z (specific force) | `vehicle_acceleration.xyz[0..2]`, else `sensor_combined.accelerometer_m_s2[0..2]` | required |
-//! | airspeed (true) | `airspeed_validated.true_airspeed_m_s`, else `airspeed.true_airspeed_m_s` | required |
+//! | accel x/y/z (specific force) | `vehicle_acceleration.xyz[0..2]`, else `sensor_combined.accelerometer_m_s2[0..2]` | if present |
+//! | airspeed (true) | `airspeed_validated.true_airspeed_m_s` or `airspeed.true_airspeed_m_s`, whichever has more messages | if present |
 //! | air density, altitude | `vehicle_air_data.rho`, `vehicle_air_data.baro_alt_meter` | if present |
 //! | alpha, beta | `airflow_aoa.aoa_rad`, `airflow_slip.slip_rad` | if present |
-//! | throttle | `actuator_motors.control[0]` | if present |
+//! | throttle | `actuator_motors.control[0]`, else `actuator_controls_0.control[3]` | if present |
 //!
+//! A channel the log lacks is simply absent; the data-quality assessment
+//! ([`super::quality`]) says what can then not be identified (no airspeed: no coefficient).
 //! Surfaces need the airframe's servo mapping (which output, how many radians per unit), so they
 //! come from a ULog column map (`format = ulog`, [`super::colmap`]), e.g.
 //! `channel.elevator = 0.35*actuator_servos.control[1] rad`; a map channel replaces the built-in
-//! one of the same quantity.
+//! one of the same quantity. A map naming a topic or field the log lacks is refused with the list
+//! of the log's topics (with their instances) or of the topic's fields.
 //!
-//! **Resampling.** The output time base is the timestamps of one topic: `time_base` of the map, or
-//! by default the rate topic (`vehicle_angular_velocity`, else `sensor_combined`), cut to the
-//! interval every used topic covers (no extrapolation). Every other field is interpolated
-//! linearly in time onto it; the attitude quaternion component-wise between its two
-//! neighbouring samples (the second one's sign flipped if they point apart), then normalised (nlerp), then turned into Euler angles. Every used field
-//! must be finite (a NaN is refused with its message, not interpolated over) and every used
-//! topic's time strictly increasing.
+//! **Time.** Each topic's time is `timestamp_sample` (when the sensor sampled) where the topic
+//! has it, else `timestamp` (when it was published), µs since boot → s. A message whose time
+//! does not increase over the one kept before it (PX4 republishes a sample with the same
+//! `timestamp_sample`) is dropped and counted in the warnings; the first of each time is kept.
+//!
+//! **Window.** [`ReadOptions::from_s`] / [`ReadOptions::to_s`] (boot time, s, the scale of the
+//! output time base) cut the log. Without them the reader keeps the longest stretch the vehicle
+//! was in the air: from `vehicle_land_detected.landed` (held between its messages, as PX4
+//! publishes it on change), else where the true airspeed exceeds 0.8 × `FW_AIRSPD_STALL` (else
+//! `FW_AIRSPD_MIN`; a logged parameter; 8 m/s when neither is logged). A log that never leaves
+//! the ground is read whole and marked so ([`LogMeta::airborne`]); [`ReadOptions::whole_log`]
+//! turns the gate off.
+//!
+//! **Resampling.** The output time base is uniform: it starts at the latest first sample of the
+//! used topics inside the window and steps by the median interval of the base topic (`time_base`
+//! of the map, else the rate topic) in the window, rounded to a microsecond, or by
+//! 1/[`ReadOptions::rate_hz`]; it ends at the earliest last sample (no extrapolation). Every
+//! field is interpolated linearly in time onto it (no anti-alias filter: a topic logged faster
+//! than the base is sampled, one logged slower is joined by straight lines, and the report gives
+//! each channel's own rate); the attitude quaternion component-wise between its two neighbouring
+//! samples (the second one's sign flipped if they point apart), then normalised (nlerp), then
+//! turned into Euler angles. An interval longer than 5 × a topic's median interval is a gap
+//! (dropped messages), interpolated across and listed in the warnings. Every used field must be
+//! finite inside the window (a NaN is refused with its message, not interpolated over).
 
 use super::colmap::{ColumnMap, Expr, Format, Source};
-use super::measured::{MeasuredFlight, Quantity};
-use super::ReadError;
+use super::measured::{LogMeta, MeasuredFlight, Quantity};
+use super::{ReadError, ReadOptions};
 use px4_ulog::stream_parser::model::FlattenedFieldType;
 use px4_ulog::stream_parser::{DataMessage, LogParser};
 use std::collections::{BTreeMap, BTreeSet, HashMap};
@@ -47,6 +68,9 @@ use std::path::Path;
 
 /// The ULog file magic (`ULog` 0x01 0x12 0x35), followed by a version byte and a u64 timestamp.
 pub const MAGIC: [u8; 7] = [b'U', b'L', b'o', b'g', 0x01, 0x12, 0x35];
+
+/// An interval longer than this many median intervals of its topic is a gap (dropped messages).
+pub const GAP_FACTOR: f64 = 5.0;
 
 /// One data message's place in the file.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -57,10 +81,18 @@ struct Place {
     offset: usize,
 }
 
-/// Walks the message framing of `bytes` (every length checked): the data messages' places and the
-/// end of the primary section. Refuses a short or bad header, a message cut by the end of the
-/// file, and Parameter/AddLogged messages too short for their own headers.
-fn scan(bytes: &[u8], file: &str) -> Result<(Vec<Place>, usize), ReadError> {
+/// What [`scan`] finds: data messages' places, the end of the primary section, parameters.
+struct Scan {
+    places: Vec<Place>,
+    end: usize,
+    parameters: BTreeMap<String, f64>,
+}
+
+/// Walks the message framing of `bytes` (every length checked): the data messages' places, the
+/// end of the primary section and the logged parameters (first value of each). Refuses a short
+/// or bad header, a message cut by the end of the file, and Parameter/AddLogged messages too
+/// short for their own headers.
+fn scan(bytes: &[u8], file: &str) -> Result<Scan, ReadError> {
     let e = |m: String| ReadError::new(file, 0, 0, m);
     if bytes.len() < 16 {
         return Err(e(format!(
@@ -75,6 +107,7 @@ fn scan(bytes: &[u8], file: &str) -> Result<(Vec<Place>, usize), ReadError> {
     let mut pos = 16;
     let mut index = 0usize;
     let mut data = Vec::new();
+    let mut parameters = BTreeMap::new();
     while pos < end {
         let Some(head) = bytes.get(pos..pos + 3) else {
             return Err(e(format!(
@@ -114,7 +147,15 @@ fn scan(bytes: &[u8], file: &str) -> Result<(Vec<Place>, usize), ReadError> {
             b'P' | b'Q' => {
                 let k = if kind == b'P' { 0 } else { 1 };
                 match payload.get(k) {
-                    Some(&len) if k + 1 + len as usize <= size => {}
+                    Some(&len) if k + 1 + len as usize <= size => {
+                        if kind == b'P' {
+                            let key = &payload[1..1 + len as usize];
+                            let value = &payload[1 + len as usize..];
+                            if let Some((name, v)) = parameter(key, value) {
+                                parameters.entry(name).or_insert(v);
+                            }
+                        }
+                    }
                     _ => return Err(bad("parameter key longer than the message")),
                 }
             }
@@ -129,22 +170,51 @@ fn scan(bytes: &[u8], file: &str) -> Result<(Vec<Place>, usize), ReadError> {
             "malformed ULog: a message runs past the start of the appended data at byte {end}"
         )));
     }
-    Ok((data, end))
+    Ok(Scan {
+        places: data,
+        end,
+        parameters,
+    })
 }
 
-/// The values of one topic (instance 0), every numeric field.
+/// A parameter message's name and value (`float NAME` → f32, `int32_t NAME` → i32); `None` for
+/// another type or a value too short.
+fn parameter(key: &[u8], value: &[u8]) -> Option<(String, f64)> {
+    let key = std::str::from_utf8(key).ok()?;
+    let (ty, name) = key.split_once(' ')?;
+    let v4: [u8; 4] = value.get(..4)?.try_into().ok()?;
+    let v = match ty {
+        "float" => f32::from_le_bytes(v4) as f64,
+        "int32_t" => i32::from_le_bytes(v4) as f64,
+        _ => return None,
+    };
+    Some((name.to_string(), v))
+}
+
+/// The values of one topic (the chosen instance), every numeric field.
 #[derive(Debug, Default)]
 struct Topic {
     /// Field names, flattened (`q[0]`).
     names: Vec<String>,
-    /// Index of the time field in `names`.
-    time_field: usize,
     /// Per field, its samples.
     values: Vec<Vec<f64>>,
-    /// Time, µs.
+    /// Time, µs (`timestamp_sample` if the topic has it, else `timestamp`).
     time_us: Vec<u64>,
+    /// Which field the time is.
+    time_field: &'static str,
     /// Each sample's message.
     places: Vec<Place>,
+}
+
+/// One topic instance of the log as the listing shows it.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct TopicInfo {
+    /// Flattened field names.
+    pub fields: Vec<String>,
+    /// Messages.
+    pub count: usize,
+    /// First and last `timestamp`, µs.
+    pub span_us: (u64, u64),
 }
 
 fn decode(t: &FlattenedFieldType, b: &[u8]) -> Option<f64> {
@@ -169,7 +239,7 @@ fn decode_u64(b: &[u8]) -> Option<u64> {
 }
 
 /// The topics the built-in mapping reads.
-const BUILTIN_TOPICS: [&str; 11] = [
+const BUILTIN_TOPICS: [&str; 14] = [
     "vehicle_attitude",
     "vehicle_angular_velocity",
     "sensor_combined",
@@ -181,21 +251,35 @@ const BUILTIN_TOPICS: [&str; 11] = [
     "airflow_slip",
     "actuator_motors",
     "actuator_servos",
+    "actuator_controls_0",
+    "vehicle_land_detected",
+    "actuator_outputs",
 ];
 
-/// How to decode one wanted message id: topic, time-field offset, every field's type and offset.
-type Decoder = (String, usize, Vec<(FlattenedFieldType, usize)>);
+/// How to decode one wanted message id: topic, time-field offset and name, every field's type
+/// and offset.
+type Decoder = (String, usize, &'static str, Vec<(FlattenedFieldType, usize)>);
 
-/// Reads the instance-0 data of `wanted` topics.
+/// Per message id: its catalog key (topic, instance), its `timestamp` offset, and its decoder when
+/// the topic is wanted.
+type IdEntry = ((String, u8), Option<usize>, Option<Decoder>);
+
+/// What [`collect`] returns: the wanted topics' data and the listing of every topic instance.
+type Collected = (BTreeMap<String, Topic>, BTreeMap<(String, u8), TopicInfo>);
+
+/// Reads the data of the `wanted` topics (the instance `instances` names, else 0), and lists
+/// every topic instance of the log.
 fn collect(
     bytes: &[u8],
     file: &str,
     places: &[Place],
     wanted: &BTreeSet<String>,
-) -> Result<BTreeMap<String, Topic>, ReadError> {
+    instances: &BTreeMap<String, u8>,
+) -> Result<Collected, ReadError> {
     let mut topics: BTreeMap<String, Topic> = BTreeMap::new();
-    // msg_id → topic name (None: not wanted or not instance 0), with the time field's offset.
-    let mut ids: HashMap<u16, Option<Decoder>> = HashMap::new();
+    let mut catalog: BTreeMap<(String, u8), TopicInfo> = BTreeMap::new();
+    // msg_id → (catalog key, `timestamp` offset), and the decoder when the topic is wanted.
+    let mut ids: HashMap<u16, IdEntry> = HashMap::new();
     let mut k = 0usize;
     let mut failure: Option<ReadError> = None;
     {
@@ -205,33 +289,54 @@ fn collect(
             if failure.is_some() {
                 return;
             }
-            let entry = ids.entry(m.msg_id).or_insert_with(|| {
-                let name = m.flattened_format.message_name();
-                if m.multi_id.value() != 0 || !wanted.contains(name) {
-                    return None;
-                }
+            let (key, ts_offset, decoder) = ids.entry(m.msg_id).or_insert_with(|| {
+                let name = m.flattened_format.message_name().to_string();
+                let instance = m.multi_id.value();
                 let fields: Vec<_> = m.flattened_format.fields.iter().collect();
-                let time = fields
-                    .iter()
-                    .position(|f| {
-                        f.flattened_field_name == "timestamp_sample" && f.field_type == FlattenedFieldType::UInt64
+                let offset_of = |n: &str| {
+                    fields
+                        .iter()
+                        .find(|f| f.flattened_field_name == n && f.field_type == FlattenedFieldType::UInt64)
+                        .map(|f| f.offset as usize)
+                };
+                let ts = offset_of("timestamp");
+                let info = catalog.entry((name.clone(), instance)).or_default();
+                info.fields = fields.iter().map(|f| f.flattened_field_name.clone()).collect();
+                let chosen = instances.get(&name).copied().unwrap_or(0);
+                let decoder = if wanted.contains(&name) && instance == chosen {
+                    let (time_offset, time_field) = match offset_of("timestamp_sample") {
+                        Some(o) => (Some(o), "timestamp_sample"),
+                        None => (ts, "timestamp"),
+                    };
+                    time_offset.map(|o| {
+                        let topic = topics.entry(name.clone()).or_default();
+                        topic.names = fields.iter().map(|f| f.flattened_field_name.clone()).collect();
+                        topic.values = vec![Vec::new(); fields.len()];
+                        topic.time_field = time_field;
+                        let layout = fields
+                            .iter()
+                            .map(|f| (f.field_type.clone(), f.offset as usize))
+                            .collect();
+                        (name.clone(), o, time_field, layout)
                     })
-                    .or_else(|| {
-                        fields.iter().position(|f| {
-                            f.flattened_field_name == "timestamp" && f.field_type == FlattenedFieldType::UInt64
-                        })
-                    })?;
-                let topic = topics.entry(name.to_string()).or_default();
-                topic.names = fields.iter().map(|f| f.flattened_field_name.clone()).collect();
-                topic.values = vec![Vec::new(); fields.len()];
-                topic.time_field = time;
-                let layout = fields
-                    .iter()
-                    .map(|f| (f.field_type.clone(), f.offset as usize))
-                    .collect();
-                Some((name.to_string(), fields[time].offset as usize, layout))
+                } else {
+                    None
+                };
+                ((name, instance), ts, decoder)
             });
-            let Some((name, time_offset, layout)) = entry else {
+            if let Some(info) = catalog.get_mut(key) {
+                let t = ts_offset
+                    .and_then(|o| m.data.get(o..))
+                    .and_then(decode_u64)
+                    .unwrap_or(0);
+                if info.count == 0 {
+                    info.span_us = (t, t);
+                }
+                info.count += 1;
+                info.span_us.0 = info.span_us.0.min(t);
+                info.span_us.1 = info.span_us.1.max(t);
+            }
+            let Some((name, time_offset, time_field, layout)) = decoder else {
                 return;
             };
             let Some(topic) = topics.get_mut(name.as_str()) else {
@@ -243,7 +348,7 @@ fn collect(
                     0,
                     0,
                     format!(
-                        "ULog message #{} at byte {}: `{name}` too short for its timestamp",
+                        "ULog message #{} at byte {}: `{name}` too short for its `{time_field}`",
                         place.index, place.offset
                     ),
                 ));
@@ -268,7 +373,53 @@ fn collect(
     if let Some(f) = failure {
         return Err(f);
     }
-    Ok(topics)
+    Ok((topics, catalog))
+}
+
+/// The topic instances of a ULog, one line each: `name` (instance, messages, rate, time span,
+/// fields). What `aerosid gaps --data FILE.ulg --list` prints.
+pub fn list_topics(path: &Path) -> Result<String, ReadError> {
+    let file = path.display().to_string();
+    let bytes = std::fs::read(path).map_err(|e| ReadError::new(&file, 0, 0, e.to_string()))?;
+    let s = scan(&bytes, &file)?;
+    let (_, catalog) = collect(&bytes[..s.end], &file, &s.places, &BTreeSet::new(), &BTreeMap::new())?;
+    let mut out = String::new();
+    for ((name, inst), info) in &catalog {
+        let span = (info.span_us.1 - info.span_us.0) as f64 * 1e-6;
+        let rate = if span > 0.0 {
+            (info.count - 1) as f64 / span
+        } else {
+            0.0
+        };
+        out += &format!(
+            "{name} (instance {inst}): {} messages, {rate:.1} Hz, t = {:.3}…{:.3} s; fields: {}\n",
+            info.count,
+            info.span_us.0 as f64 * 1e-6,
+            info.span_us.1 as f64 * 1e-6,
+            info.fields.join(", ")
+        );
+    }
+    out += &format!("{} logged parameters\n", s.parameters.len());
+    Ok(out)
+}
+
+/// The topic list of an error message: every topic with its instances.
+fn topic_names(catalog: &BTreeMap<(String, u8), TopicInfo>) -> String {
+    let mut by_name: BTreeMap<&str, Vec<String>> = BTreeMap::new();
+    for ((name, inst), info) in catalog {
+        by_name
+            .entry(name.as_str())
+            .or_default()
+            .push(format!("{inst}: {} msgs", info.count));
+    }
+    if by_name.is_empty() {
+        return "(no data messages)".into();
+    }
+    by_name
+        .iter()
+        .map(|(n, v)| format!("{n} [{}]", v.join(", ")))
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 /// Linear interpolation of `(t, x)` (t strictly increasing) at `tq` (inside `[t₀, t_end]`),
@@ -303,21 +454,105 @@ struct Resolved<'a> {
     field: usize,
 }
 
+/// The median of `x` (0 when empty).
+pub(crate) fn median(x: &[f64]) -> f64 {
+    let mut v: Vec<f64> = x.iter().copied().filter(|v| v.is_finite()).collect();
+    if v.is_empty() {
+        return 0.0;
+    }
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+/// The longest interval over which `state(t)` holds, with `state` held from each sample to the
+/// next (the last one to `end`): `(start, end)`, or `None` if it never holds.
+pub(crate) fn longest_run(t: &[f64], holds: &[bool], end: f64) -> Option<(f64, f64)> {
+    let mut best: Option<(f64, f64)> = None;
+    let mut start: Option<f64> = None;
+    for i in 0..t.len() {
+        match (holds[i], start) {
+            (true, None) => start = Some(t[i]),
+            (false, Some(s)) => {
+                if best.is_none_or(|(a, b)| t[i] - s > b - a) {
+                    best = Some((s, t[i]));
+                }
+                start = None;
+            }
+            _ => {}
+        }
+    }
+    if let Some(s) = start {
+        if best.is_none_or(|(a, b)| end - s > b - a) {
+            best = Some((s, end));
+        }
+    }
+    best
+}
+
+/// `x > threshold` per sample, a non-finite sample keeping the state before it (false at the
+/// start).
+pub(crate) fn hold_over_nan(x: &[f64], threshold: f64) -> Vec<bool> {
+    let mut state = false;
+    x.iter()
+        .map(|v| {
+            if v.is_finite() {
+                state = *v > threshold;
+            }
+            state
+        })
+        .collect()
+}
+
+/// The gaps of a sample-time series inside `[lo, hi]`: intervals longer than [`GAP_FACTOR`] ×
+/// the median interval, as (count, longest, where it starts).
+pub(crate) fn gaps(t: &[f64], lo: f64, hi: f64) -> Option<(usize, f64, f64)> {
+    let inside: Vec<f64> = t.iter().copied().filter(|&x| x >= lo && x <= hi).collect();
+    let d: Vec<f64> = inside.windows(2).map(|w| w[1] - w[0]).collect();
+    let med = median(&d);
+    let mut out: Option<(usize, f64, f64)> = None;
+    for (i, &di) in d.iter().enumerate() {
+        if med > 0.0 && di > GAP_FACTOR * med {
+            let e = out.get_or_insert((0, 0.0, 0.0));
+            e.0 += 1;
+            if di > e.1 {
+                e.1 = di;
+                e.2 = inside[i];
+            }
+        }
+    }
+    out
+}
+
 /// Reads a ULog through `map` (`format = ulog`; [`ColumnMap::ulog_default`] for the built-in
-/// topics only).
+/// topics only) with the default [`ReadOptions`] (the in-air window, instance 0 of every topic).
 pub fn read_ulog(path: &Path, map: &ColumnMap) -> Result<MeasuredFlight, ReadError> {
+    read_ulog_with(path, map, &ReadOptions::default())
+}
+
+/// [`read_ulog`] with options.
+pub fn read_ulog_with(path: &Path, map: &ColumnMap, opts: &ReadOptions) -> Result<MeasuredFlight, ReadError> {
     let file = path.display().to_string();
     let bytes = std::fs::read(path).map_err(|e| ReadError::new(&file, 0, 0, e.to_string()))?;
-    parse_ulog(&bytes, &file, map)
+    parse_ulog_with(&bytes, &file, map, opts)
 }
 
 /// [`read_ulog`] on bytes already read (`file` names them in errors).
 pub fn parse_ulog(bytes: &[u8], file: &str, map: &ColumnMap) -> Result<MeasuredFlight, ReadError> {
+    parse_ulog_with(bytes, file, map, &ReadOptions::default())
+}
+
+/// [`parse_ulog`] with options.
+pub fn parse_ulog_with(
+    bytes: &[u8],
+    file: &str,
+    map: &ColumnMap,
+    opts: &ReadOptions,
+) -> Result<MeasuredFlight, ReadError> {
     if map.format != Format::Ulog {
         return Err(ReadError::new(&map.file, 0, 0, "not a ULog map (`format = ulog`)"));
     }
     let err = |m: String| ReadError::new(file, 0, 0, m);
-    let (places, end) = scan(bytes, file)?;
+    let s = scan(bytes, file)?;
     let mut wanted: BTreeSet<String> = BUILTIN_TOPICS.iter().map(|s| s.to_string()).collect();
     for (_, e) in &map.channels {
         for t in &e.terms {
@@ -329,19 +564,45 @@ pub fn parse_ulog(bytes: &[u8], file: &str, map: &ColumnMap) -> Result<MeasuredF
     if let Some(b) = &map.time_base {
         wanted.insert(b.clone());
     }
-    let topics = collect(&bytes[..end], file, &places, &wanted)?;
-    let has = |t: &str| topics.get(t).is_some_and(|x| !x.time_us.is_empty());
+    let (mut topics, catalog) = collect(&bytes[..s.end], file, &s.places, &wanted, &opts.instances)?;
+    for (name, inst) in &opts.instances {
+        if !catalog.contains_key(&(name.clone(), *inst)) {
+            return Err(err(format!(
+                "instance {inst} of `{name}` asked for, but the log has no such topic instance; topics in the log [instance: messages]: {}",
+                topic_names(&catalog)
+            )));
+        }
+    }
+    let mut warnings = Vec::new();
+    // Time: strictly increasing; a repeated (or earlier) time is dropped, the first kept.
+    for (name, tp) in topics.iter_mut() {
+        let n = tp.time_us.len();
+        let mut keep = Vec::with_capacity(n);
+        let mut last: Option<u64> = None;
+        for (i, &t) in tp.time_us.iter().enumerate() {
+            if last.is_none_or(|l| t > l) {
+                keep.push(i);
+                last = Some(t);
+            }
+        }
+        if keep.len() < n {
+            warnings.push(format!(
+                "`{name}`: {} of {n} messages have a `{}` not later than the message before (a repeated sample); dropped, the first of each time kept",
+                n - keep.len(),
+                tp.time_field
+            ));
+            tp.time_us = keep.iter().map(|&i| tp.time_us[i]).collect();
+            tp.places = keep.iter().map(|&i| tp.places[i]).collect();
+            for v in tp.values.iter_mut() {
+                *v = keep.iter().map(|&i| v[i]).collect();
+            }
+        }
+    }
+    let topics = topics;
     let field = |topic: &'static str, name: &str| -> Option<Resolved<'static>> {
-        let t = topics.get(topic)?;
+        let t = topics.get(topic).filter(|t| !t.time_us.is_empty())?;
         let i = t.names.iter().position(|n| n == name)?;
         Some(Resolved { topic, field: i })
-    };
-    // Built-in channel sources: (quantity, candidate (topic, field) list, required).
-    let missing = |what: &str, options: &str| {
-        err(format!(
-            "required ULog topic missing: {what} (needs {options}); topics in the log: {}",
-            topics.keys().cloned().collect::<Vec<_>>().join(", ")
-        ))
     };
     let mut builtin: Vec<(Quantity, Resolved)> = Vec::new();
     let pick3 = |cands: &[(&'static str, &str)]| -> Option<[Resolved<'static>; 3]> {
@@ -359,19 +620,12 @@ pub fn parse_ulog(bytes: &[u8], file: &str, map: &ColumnMap) -> Result<MeasuredF
     let map_has = |q: Quantity| map.channels.iter().any(|(c, _)| *c == q);
     let rates = pick3(&[("vehicle_angular_velocity", "xyz"), ("sensor_combined", "gyro_rad")]);
     let rates_topic = rates.as_ref().map(|r| r[0].topic);
-    match rates {
-        Some([a, b, c]) => builtin.extend([
+    if let Some([a, b, c]) = rates {
+        builtin.extend([
             (Quantity::RollRate, a),
             (Quantity::PitchRate, b),
             (Quantity::YawRate, c),
-        ]),
-        None if map_has(Quantity::PitchRate) => {}
-        None => {
-            return Err(missing(
-                "angular rates",
-                "vehicle_angular_velocity.xyz[3] or sensor_combined.gyro_rad[3]",
-            ))
-        }
+        ]);
     }
     if let Some([a, b, c]) = pick3(&[("vehicle_angular_velocity", "xyz_derivative")]) {
         builtin.extend([
@@ -380,45 +634,50 @@ pub fn parse_ulog(bytes: &[u8], file: &str, map: &ColumnMap) -> Result<MeasuredF
             (Quantity::YawAccel, c),
         ]);
     }
-    match pick3(&[
+    if let Some([a, b, c]) = pick3(&[
         ("vehicle_acceleration", "xyz"),
         ("sensor_combined", "accelerometer_m_s2"),
     ]) {
-        Some([a, b, c]) => builtin.extend([(Quantity::AccelX, a), (Quantity::AccelY, b), (Quantity::AccelZ, c)]),
-        None if map_has(Quantity::AccelZ) => {}
-        None => {
-            return Err(missing(
-                "accelerations",
-                "vehicle_acceleration.xyz[3] or sensor_combined.accelerometer_m_s2[3]",
-            ))
-        }
+        builtin.extend([(Quantity::AccelX, a), (Quantity::AccelY, b), (Quantity::AccelZ, c)]);
     }
-    match field("airspeed_validated", "true_airspeed_m_s").or_else(|| field("airspeed", "true_airspeed_m_s")) {
-        Some(r) => builtin.push((Quantity::Airspeed, r)),
-        None if map_has(Quantity::Airspeed) => {}
-        None => {
-            return Err(missing(
-                "true airspeed",
-                "airspeed_validated.true_airspeed_m_s or airspeed.true_airspeed_m_s",
-            ))
+    // Of the two airspeed topics, the one with more messages (PX4 logs `airspeed_validated` at
+    // 1 Hz by default but the raw `airspeed` sometimes faster); ties go to the validated one.
+    let count = |t: &str| topics.get(t).map_or(0, |x| x.time_us.len());
+    let airspeed = match (
+        field("airspeed_validated", "true_airspeed_m_s"),
+        field("airspeed", "true_airspeed_m_s"),
+    ) {
+        (Some(v), Some(raw)) if count("airspeed") > count("airspeed_validated") => {
+            warnings.push(format!(
+                "true airspeed from `airspeed` ({} messages) rather than `airspeed_validated` ({}): the raw sensor topic is logged faster",
+                count("airspeed"),
+                count("airspeed_validated")
+            ));
+            let _ = v;
+            Some(raw)
         }
+        (Some(v), _) => Some(v),
+        (None, raw) => raw,
+    };
+    if let Some(r) = airspeed {
+        builtin.push((Quantity::Airspeed, r));
     }
     for (q, topic, name) in [
         (Quantity::AirDensity, "vehicle_air_data", "rho"),
         (Quantity::Altitude, "vehicle_air_data", "baro_alt_meter"),
         (Quantity::Alpha, "airflow_aoa", "aoa_rad"),
         (Quantity::Beta, "airflow_slip", "slip_rad"),
-        (Quantity::Throttle, "actuator_motors", "control[0]"),
     ] {
         if let Some(r) = field(topic, name) {
             builtin.push((q, r));
         }
     }
-    let attitude = ["q[0]", "q[1]", "q[2]", "q[3]"].map(|n| field("vehicle_attitude", n));
-    let attitude = match attitude {
+    if let Some(r) = field("actuator_motors", "control[0]").or_else(|| field("actuator_controls_0", "control[3]")) {
+        builtin.push((Quantity::Throttle, r));
+    }
+    let attitude = match ["q[0]", "q[1]", "q[2]", "q[3]"].map(|n| field("vehicle_attitude", n)) {
         [Some(a), Some(b), Some(c), Some(d)] => Some([a, b, c, d]),
-        _ if map_has(Quantity::Pitch) => None,
-        _ => return Err(missing("attitude", "vehicle_attitude.q[4]")),
+        _ => None,
     };
     // Map channels: resolve `topic.field`.
     let mut mapped: Vec<(Quantity, &Expr, Vec<Resolved>)> = Vec::new();
@@ -433,10 +692,29 @@ pub fn parse_ulog(bytes: &[u8], file: &str, map: &ColumnMap) -> Result<MeasuredF
                     "a ULog map names `topic.field` sources",
                 ));
             };
-            let Some(tp) = topics.get(topic.as_str()).filter(|t| !t.time_us.is_empty()) else {
+            let chosen = opts.instances.get(topic).copied().unwrap_or(0);
+            let Some((key, tp)) = topics
+                .get_key_value(topic.as_str())
+                .filter(|(_, t)| !t.time_us.is_empty())
+            else {
+                let others: Vec<String> = catalog
+                    .keys()
+                    .filter(|(n, _)| n == topic)
+                    .map(|(_, i)| i.to_string())
+                    .collect();
+                let why = if others.is_empty() {
+                    format!("the log has no topic `{topic}`")
+                } else {
+                    format!(
+                        "the log has instance(s) {} of `{topic}` but not {chosen} (choose one with --instance {topic}=N)",
+                        others.join(", ")
+                    )
+                };
                 return Err(err(format!(
-                    "required ULog topic missing: `{topic}` (instance 0), read by `channel.{q}` ({}:{})",
-                    map.file, e.line
+                    "ULog topic `{topic}` (instance {chosen}) read by `channel.{q}` ({}:{}) is missing: {why}; topics in the log [instance: messages]: {}",
+                    map.file,
+                    e.line,
+                    topic_names(&catalog)
                 )));
             };
             let Some(i) = tp.names.iter().position(|n| n == name) else {
@@ -447,9 +725,6 @@ pub fn parse_ulog(bytes: &[u8], file: &str, map: &ColumnMap) -> Result<MeasuredF
                     tp.names.join(", ")
                 )));
             };
-            let (key, _) = topics
-                .get_key_value(topic.as_str())
-                .ok_or_else(|| err(format!("topic `{topic}`")))?;
             rs.push(Resolved {
                 topic: key.as_str(),
                 field: i,
@@ -464,18 +739,14 @@ pub fn parse_ulog(bytes: &[u8], file: &str, map: &ColumnMap) -> Result<MeasuredF
     } else {
         attitude
     };
-    // Time base.
-    let base_topic: &str = match &map.time_base {
-        Some(b) if has(b) => b.as_str(),
-        Some(b) => return Err(err(format!("time_base topic `{b}` is not in the log (instance 0)"))),
-        None => match rates_topic {
-            Some(t) => t,
-            None => return Err(err("no time base: set `time_base = TOPIC` in the map".into())),
-        },
-    };
-    // Topics used, their times in s, strictly increasing, every used field finite.
+    if builtin.is_empty() && attitude.is_none() && mapped.is_empty() {
+        return Err(err(format!(
+            "no channel this reader knows is in the log (it reads vehicle_attitude, vehicle_angular_velocity or sensor_combined, vehicle_acceleration, airspeed_validated or airspeed, vehicle_air_data, airflow_aoa/airflow_slip, actuator_motors; a `format = ulog` map names others); topics in the log [instance: messages]: {}",
+            topic_names(&catalog)
+        )));
+    }
+    // Topics used and their fields.
     let mut used: BTreeMap<&str, BTreeSet<usize>> = BTreeMap::new();
-    used.entry(base_topic).or_default();
     for (_, r) in &builtin {
         used.entry(r.topic).or_default().insert(r.field);
     }
@@ -489,29 +760,159 @@ pub fn parse_ulog(bytes: &[u8], file: &str, map: &ColumnMap) -> Result<MeasuredF
             used.entry(r.topic).or_default().insert(r.field);
         }
     }
-    let mut times: BTreeMap<&str, Vec<f64>> = BTreeMap::new();
-    for (name, fields) in &used {
-        let Some(tp) = topics.get(*name) else {
-            return Err(err(format!("topic `{name}` is not in the log")));
-        };
-        for i in 1..tp.time_us.len() {
-            if tp.time_us[i] <= tp.time_us[i - 1] {
-                let p = tp.places[i];
+    // Time base topic.
+    let base_topic: &str = match &map.time_base {
+        Some(b) => match topics.get_key_value(b.as_str()).filter(|(_, t)| !t.time_us.is_empty()) {
+            Some((k, _)) => k.as_str(),
+            None => {
                 return Err(err(format!(
-                    "ULog message #{} at byte {}: `{name}` time {} µs does not increase (previous {} µs)",
-                    p.index,
-                    p.offset,
-                    tp.time_us[i],
-                    tp.time_us[i - 1]
-                )));
+                    "time_base topic `{b}` is not in the log; topics in the log [instance: messages]: {}",
+                    topic_names(&catalog)
+                )))
+            }
+        },
+        None => match rates_topic.filter(|t| used.contains_key(t)) {
+            Some(t) => t,
+            None => used
+                .keys()
+                .copied()
+                .max_by_key(|t| topics[*t].time_us.len())
+                .unwrap_or_default(),
+        },
+    };
+    used.entry(base_topic).or_default();
+    let times: BTreeMap<&str, Vec<f64>> = used
+        .keys()
+        .map(|name| (*name, topics[*name].time_us.iter().map(|&t| t as f64).collect()))
+        .collect();
+    let first_us = times
+        .values()
+        .filter_map(|t| t.first())
+        .copied()
+        .fold(f64::INFINITY, f64::min);
+    let last_us = times
+        .values()
+        .filter_map(|t| t.last())
+        .copied()
+        .fold(f64::NEG_INFINITY, f64::max);
+    // Window, µs.
+    let mut airborne = None;
+    let (w0, w1, window) = if opts.from_s.is_some() || opts.to_s.is_some() {
+        let a = opts.from_s.map_or(f64::NEG_INFINITY, |v| v * 1e6);
+        let b = opts.to_s.map_or(f64::INFINITY, |v| v * 1e6);
+        if a >= b || a > last_us || b < first_us {
+            return Err(err(format!(
+                "the window --from {} --to {} s does not overlap the log's data, {:.3}…{:.3} s (boot time, as the report prints it)",
+                opts.from_s.map_or("start".into(), |v| v.to_string()),
+                opts.to_s.map_or("end".into(), |v| v.to_string()),
+                first_us * 1e-6,
+                last_us * 1e-6
+            )));
+        }
+        (
+            a,
+            b,
+            Some(format!(
+                "--from/--to: {:.3}…{:.3} s",
+                a.max(first_us) * 1e-6,
+                b.min(last_us) * 1e-6
+            )),
+        )
+    } else if opts.whole_log {
+        (f64::NEG_INFINITY, f64::INFINITY, None)
+    } else {
+        let land = field("vehicle_land_detected", "landed");
+        let airspeed = builtin.iter().find(|(q, _)| *q == Quantity::Airspeed).map(|(_, r)| r);
+        let (run, how) = if let Some(r) = &land {
+            let tp = &topics[r.topic];
+            let t: Vec<f64> = tp.time_us.iter().map(|&t| t as f64).collect();
+            let holds: Vec<bool> = tp.values[r.field].iter().map(|v| *v == 0.0).collect();
+            (
+                longest_run(&t, &holds, last_us),
+                "`vehicle_land_detected.landed` false".to_string(),
+            )
+        } else if let Some(r) = airspeed {
+            let (thr, from) = match (s.parameters.get("FW_AIRSPD_STALL"), s.parameters.get("FW_AIRSPD_MIN")) {
+                (Some(v), _) if *v > 0.0 => (0.8 * v, "0.8 × FW_AIRSPD_STALL"),
+                (_, Some(v)) if *v > 0.0 => (0.8 * v, "0.8 × FW_AIRSPD_MIN"),
+                _ => (8.0, "8 m/s, no FW_AIRSPD_STALL or FW_AIRSPD_MIN logged"),
+            };
+            let tp = &topics[r.topic];
+            let t: Vec<f64> = tp.time_us.iter().map(|&t| t as f64).collect();
+            // A missing (NaN) airspeed keeps the state before it: the gate does not cut around it, so
+            // the read refuses it inside the window rather than hiding it.
+            let holds = hold_over_nan(&tp.values[r.field], thr);
+            (
+                longest_run(&t, &holds, last_us),
+                format!("true airspeed above {thr:.1} m/s ({from})"),
+            )
+        } else {
+            (None, String::new())
+        };
+        match run {
+            Some((a, b)) => {
+                airborne = Some(true);
+                (
+                    a,
+                    b,
+                    Some(format!(
+                        "in the air {:.3}…{:.3} s: the longest stretch with {how}",
+                        a * 1e-6,
+                        b * 1e-6
+                    )),
+                )
+            }
+            None if how.is_empty() => (
+                f64::NEG_INFINITY,
+                f64::INFINITY,
+                Some("no land detector and no airspeed: the whole log is read, in the air or not".into()),
+            ),
+            None => {
+                airborne = Some(false);
+                (
+                    f64::NEG_INFINITY,
+                    f64::INFINITY,
+                    Some(format!(
+                        "never in the air by {how}: the whole log is read, on the ground"
+                    )),
+                )
             }
         }
+    };
+    let lo = times.values().map(|t| t[0]).fold(w0, f64::max).ceil();
+    let hi = times.values().map(|t| t[t.len() - 1]).fold(w1, f64::min).floor();
+    // The step: the base topic's median interval in the window, or the rate asked for.
+    let base_t: Vec<f64> = times[base_topic]
+        .iter()
+        .copied()
+        .filter(|t| *t >= lo && *t <= hi)
+        .collect();
+    let h_us = match opts.rate_hz {
+        Some(r) => (1e6 / r).round().max(1.0),
+        None => median(&base_t.windows(2).map(|w| w[1] - w[0]).collect::<Vec<_>>()).round(),
+    };
+    // (NaN-safe: a NaN bound or step fails the positive test.)
+    let usable = hi > lo && base_t.len() >= 2 && h_us >= 1.0;
+    if !usable {
+        return Err(err(format!(
+            "the used topics ({}) overlap in the window over fewer than 2 samples of `{base_topic}`",
+            used.keys().copied().collect::<Vec<_>>().join(", ")
+        )));
+    }
+    let n_out = ((hi - lo) / h_us).floor() as usize + 1;
+    let base_us: Vec<f64> = (0..n_out).map(|k| lo + k as f64 * h_us).collect();
+    // Every used field finite over the samples the interpolation touches.
+    for (name, fields) in &used {
+        let tp = &topics[*name];
+        let t = &times[*name];
+        let i0 = t.partition_point(|&x| x < lo).saturating_sub(1);
+        let i1 = (t.partition_point(|&x| x <= hi) + 1).min(t.len());
         for &f in fields {
-            if let Some(i) = tp.values[f].iter().position(|v| !v.is_finite()) {
+            if let Some(i) = tp.values[f][i0..i1].iter().position(|v| !v.is_finite()).map(|i| i + i0) {
                 let run = tp.values[f][i..].iter().take_while(|v| !v.is_finite()).count();
                 let p = tp.places[i];
                 return Err(err(format!(
-                    "ULog message #{} at byte {}: `{name}.{}` is {} (a run of {run} message{}); missing samples are refused, not interpolated",
+                    "ULog message #{} at byte {}: `{name}.{}` is {} (a run of {run} message{}) inside the window read; missing samples are refused, not interpolated (cut them off with --from/--to)",
                     p.index,
                     p.offset,
                     tp.names[f],
@@ -520,29 +921,31 @@ pub fn parse_ulog(bytes: &[u8], file: &str, map: &ColumnMap) -> Result<MeasuredF
                 )));
             }
         }
-        times.insert(*name, tp.time_us.iter().map(|&t| t as f64 * 1e-6).collect());
+        if let Some((count, longest, at)) = gaps(t, lo, hi) {
+            warnings.push(format!(
+                "`{name}`: {count} gap{} longer than {GAP_FACTOR} × its median interval in the window, the longest {:.3} s from t = {:.3} s (dropped messages; interpolated across)",
+                if count == 1 { "" } else { "s" },
+                longest * 1e-6,
+                at * 1e-6
+            ));
+        }
     }
-    let lo = times.values().map(|t| t[0]).fold(f64::NEG_INFINITY, f64::max);
-    let hi = times.values().map(|t| t[t.len() - 1]).fold(f64::INFINITY, f64::min);
-    let base: Vec<f64> = times[base_topic]
-        .iter()
-        .copied()
-        .filter(|t| *t >= lo && *t <= hi)
-        .collect();
-    if base.len() < 2 {
-        return Err(err(format!(
-            "the used topics ({}) overlap in time over fewer than 2 samples of `{base_topic}`",
-            used.keys().copied().collect::<Vec<_>>().join(", ")
-        )));
-    }
+    let rate_of = |topic: &str| {
+        let t = &times[topic];
+        // Samples per second of the window (a topic with one sample in a 1-s window: 1 Hz).
+        let k = t.iter().filter(|x| **x >= lo && **x <= hi).count();
+        k as f64 / ((hi - lo + h_us) * 1e-6)
+    };
     let resample = |r: &Resolved| -> Vec<f64> {
         let (t, x) = (&times[r.topic], &topics[r.topic].values[r.field]);
         let mut j = 0;
-        base.iter().map(|&tq| interp(t, x, tq, &mut j)).collect()
+        base_us.iter().map(|&tq| interp(t, x, tq, &mut j)).collect()
     };
     let mut channels: BTreeMap<Quantity, Vec<f64>> = BTreeMap::new();
+    let mut logged_rate_hz = BTreeMap::new();
     for (q, r) in &builtin {
         channels.insert(*q, resample(r));
+        logged_rate_hz.insert(*q, rate_of(r.topic));
     }
     if let Some(a) = &attitude {
         let topic = a[0].topic;
@@ -550,7 +953,7 @@ pub fn parse_ulog(bytes: &[u8], file: &str, map: &ColumnMap) -> Result<MeasuredF
         let comps: Vec<&Vec<f64>> = a.iter().map(|r| &topics[topic].values[r.field]).collect();
         let mut euler = [Vec::new(), Vec::new(), Vec::new()];
         let mut j = 0;
-        for (k, &tq) in base.iter().enumerate() {
+        for (k, &tq) in base_us.iter().enumerate() {
             while j + 1 < t.len() && t[j + 1] < tq {
                 j += 1;
             }
@@ -581,19 +984,58 @@ pub fn parse_ulog(bytes: &[u8], file: &str, map: &ColumnMap) -> Result<MeasuredF
             }
         }
         let [r, p, y] = euler;
-        channels.insert(Quantity::Roll, r);
-        channels.insert(Quantity::Pitch, p);
-        channels.insert(Quantity::Yaw, y);
+        for (q, v) in [(Quantity::Roll, r), (Quantity::Pitch, p), (Quantity::Yaw, y)] {
+            channels.insert(q, v);
+            logged_rate_hz.insert(q, rate_of(topic));
+        }
     }
     for (q, e, rs) in &mapped {
         let cols: Vec<Vec<f64>> = rs.iter().map(resample).collect();
-        channels.insert(*q, (0..base.len()).map(|k| e.eval(cols.iter().map(|c| c[k]))).collect());
+        channels.insert(
+            *q,
+            (0..base_us.len()).map(|k| e.eval(cols.iter().map(|c| c[k]))).collect(),
+        );
+        if let Some(r) = rs.first() {
+            logged_rate_hz.insert(*q, rate_of(r.topic));
+        }
     }
+    let surfaces = [Quantity::Elevator, Quantity::Aileron, Quantity::Rudder];
+    if !surfaces.iter().any(|q| channels.contains_key(q)) {
+        let present: Vec<&str> = ["actuator_servos", "actuator_controls_0", "actuator_outputs"]
+            .into_iter()
+            .filter(|t| topics.get(*t).is_some_and(|x| !x.time_us.is_empty()))
+            .collect();
+        if !present.is_empty() {
+            warnings.push(format!(
+                "no surface deflection mapped: the log has {} (normalised commands or PWM), but their throw in radians is the airframe's; map them in a `format = ulog` map, e.g. `channel.elevator = K*actuator_controls_0.control[1] rad`",
+                present.iter().map(|t| format!("`{t}`")).collect::<Vec<_>>().join(", ")
+            ));
+        }
+    }
+    let base_rate = 1e6 / h_us;
     let flight = MeasuredFlight {
         source: file.to_string(),
-        t_s: base,
+        t_s: base_us.iter().map(|t| t * 1e-6).collect(),
         channels,
         aircraft: map.aircraft.clone(),
+        log: LogMeta {
+            format: "PX4 ULog".into(),
+            logged_rate_hz,
+            resampling: Some(format!(
+                "uniform {base_rate:.2} Hz ({h_us} µs step: {}), every field linearly interpolated in time (the attitude quaternion normalised after interpolation), no anti-alias filter; {} samples",
+                if opts.rate_hz.is_some() {
+                    "the rate asked for".to_string()
+                } else {
+                    format!("the median interval of `{base_topic}`")
+                },
+                base_us.len()
+            )),
+            window,
+            airborne,
+            aircraft_unknown: false,
+            parameters: s.parameters,
+            warnings,
+        },
     };
     flight.validate().map_err(|inv| {
         let src = inv.quantity.map_or(String::new(), |q| {

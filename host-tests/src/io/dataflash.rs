@@ -1,0 +1,712 @@
+//! ArduPilot DataFlash (`.bin`) → [`MeasuredFlight`].
+//!
+//! **Parser: written here.** The crates that exist do not fit: the `mavlink` crate parses the
+//! telemetry protocol, not DataFlash logs; `ardupilot-binlog` 0.2 (one author) skips corrupt bytes
+//! silently, reports no byte offset, and subtracts 3 from a format's declared length without a
+//! check (a crafted `FMT` with a length below 3 overflows). The format is small: every message is
+//! `0xA3 0x95 TYPE` and a payload whose layout an earlier `FMT` message (type 128, 89 bytes:
+//! type, length, 4-char name, 16-char format, 64-char comma-separated labels) declares. This
+//! reader walks the file once, every length checked; a byte that does not start a message is
+//! skipped up to the next `0xA3 0x95` (a log cut by a power loss or with a corrupt block is the
+//! normal case for DataFlash), and the skipped bytes are counted in the warnings with the offset of
+//! the first. Nothing panics.
+//!
+//! Field types (format characters, as ArduPilot's `LogStructure.h` defines them): `b B h H i I f
+//! d q Q` the integers and floats of their C types; `c C e E` 16/32-bit integers × 0.01; `L`
+//! latitude/longitude, 1e-7 degrees; `M` flight mode (u8); `n N Z` 4/16/64-char strings; `a`
+//! 32 × i16.
+//!
+//! **Units.** ArduPilot 4.x logs say them (`FMTU` gives each field a unit id, `UNIT` names the
+//! ids); where they do, the reader converts from the logged unit (`deg` → rad, …) and refuses a
+//! unit it cannot convert; older logs are read with the units of `LogStructure.h` (degrees for
+//! `ATT` and `AOA`, rad/s and m/s² for `IMU`, m/s for `ARSP`).
+//!
+//! **Messages** (instance 0 unless [`ReadOptions::instances`] names another: 4.x messages carry an
+//! instance field `I`, older ones number the message, `IMU2`):
+//!
+//! | quantity | message.field |
+//! |---|---|
+//! | roll/pitch/yaw rate, accel x/y/z | `IMU.GyrX…Z`, `IMU.AccX…Z` |
+//! | roll, pitch, yaw | `ATT.Roll`, `ATT.Pitch`, `ATT.Yaw` |
+//! | airspeed | `ARSP.Airspeed` (ArduPilot's equivalent airspeed, used as true airspeed: see the warning) |
+//! | alpha, beta | `AOA.AOA`, `AOA.SSA` (dropped, with a warning, when every sample is zero: no vane) |
+//! | altitude | `BARO.Alt` |
+//! | throttle | the `RCOU` output whose `SERVOn_FUNCTION` is 70, scaled by `SERVOn_MIN`/`MAX` |
+//!
+//! Surface outputs (`SERVOn_FUNCTION` 4 aileron, 19 elevator, 21 rudder) are PWM; their throw in
+//! radians is the airframe's and is not logged, so they are named in a warning, not read.
+//! `PARM` messages are read into [`LogMeta::parameters`]. The window and the resampling are those
+//! of the ULog reader ([`super::ulog`]): the in-air window is where the airspeed (else the GPS
+//! ground speed) exceeds 0.8 × `ARSPD_FBW_MIN` (8 m/s when not logged); Euler angles are
+//! interpolated with the yaw unwrapped, then wrapped to (−π, π].
+
+use super::measured::{Aircraft, LogMeta, MeasuredFlight, Quantity};
+use super::ulog::{gaps, hold_over_nan, longest_run, median, GAP_FACTOR};
+use super::{ReadError, ReadOptions};
+use std::collections::BTreeMap;
+use std::f64::consts::PI;
+use std::path::Path;
+
+/// The two bytes that start every DataFlash message.
+pub const HEAD: [u8; 2] = [0xA3, 0x95];
+/// The message type of `FMT`.
+const FMT_TYPE: u8 = 128;
+/// The total length of an `FMT` message.
+const FMT_LEN: usize = 89;
+
+/// A message layout declared by `FMT`.
+#[derive(Debug, Clone)]
+struct Layout {
+    name: String,
+    /// Total length, header included.
+    len: usize,
+    format: Vec<u8>,
+    labels: Vec<String>,
+}
+
+/// One decoded field.
+#[derive(Debug, Clone, PartialEq)]
+enum Value {
+    Num(f64),
+    Text(String),
+}
+
+fn field_size(c: u8) -> Option<usize> {
+    Some(match c {
+        b'b' | b'B' | b'M' => 1,
+        b'h' | b'H' | b'c' | b'C' => 2,
+        b'i' | b'I' | b'f' | b'e' | b'E' | b'L' | b'n' => 4,
+        b'd' | b'q' | b'Q' => 8,
+        b'N' => 16,
+        b'Z' | b'a' => 64,
+        _ => return None,
+    })
+}
+
+fn decode(c: u8, b: &[u8]) -> Value {
+    let n = |k: usize| -> [u8; 8] {
+        let mut a = [0u8; 8];
+        a[..k].copy_from_slice(&b[..k]);
+        a
+    };
+    let text = |b: &[u8]| {
+        let end = b.iter().position(|&x| x == 0).unwrap_or(b.len());
+        Value::Text(String::from_utf8_lossy(&b[..end]).trim().to_string())
+    };
+    let i16v = || i16::from_le_bytes([b[0], b[1]]) as f64;
+    let u16v = || u16::from_le_bytes([b[0], b[1]]) as f64;
+    let i32v = || i32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64;
+    let u32v = || u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64;
+    Value::Num(match c {
+        b'b' => b[0] as i8 as f64,
+        b'B' | b'M' => b[0] as f64,
+        b'h' => i16v(),
+        b'H' => u16v(),
+        b'c' => i16v() * 0.01,
+        b'C' => u16v() * 0.01,
+        b'i' => i32v(),
+        b'I' => u32v(),
+        b'e' => i32v() * 0.01,
+        b'E' => u32v() * 0.01,
+        b'L' => i32v() * 1e-7,
+        b'f' => f32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64,
+        b'd' => f64::from_le_bytes(n(8)),
+        b'q' => i64::from_le_bytes(n(8)) as f64,
+        b'Q' => u64::from_le_bytes(n(8)) as f64,
+        b'n' | b'N' | b'Z' => return text(b),
+        _ => f64::NAN,
+    })
+}
+
+/// The numeric series of one message type (all its fields), per instance.
+#[derive(Debug, Default)]
+struct Series {
+    labels: Vec<String>,
+    time_us: Vec<f64>,
+    values: Vec<Vec<f64>>,
+    /// Byte offset of each message.
+    offsets: Vec<usize>,
+}
+
+/// Everything one pass over the file collects.
+#[derive(Debug, Default)]
+struct Log {
+    /// (message name, instance) → series.
+    series: BTreeMap<(String, u8), Series>,
+    parameters: BTreeMap<String, f64>,
+    /// Message name → label → unit name (from FMTU + UNIT).
+    units: BTreeMap<String, BTreeMap<String, String>>,
+    skipped_bytes: usize,
+    first_skip: Option<usize>,
+    warnings: Vec<String>,
+    messages: usize,
+}
+
+/// Parses the whole file.
+fn parse(bytes: &[u8], file: &str) -> Result<Log, ReadError> {
+    let mut layouts: BTreeMap<u8, Layout> = BTreeMap::new();
+    let mut log = Log::default();
+    let mut unit_names: BTreeMap<char, String> = BTreeMap::new();
+    // FMTU: message type → unit ids (one char per field).
+    let mut fmtu: BTreeMap<u8, String> = BTreeMap::new();
+    let mut pos = 0usize;
+    if bytes.len() < 3 || bytes[..2] != HEAD {
+        return Err(ReadError::new(
+            file,
+            0,
+            0,
+            "not an ArduPilot DataFlash log: the file does not start with the message header 0xA3 0x95",
+        ));
+    }
+    while pos + 3 <= bytes.len() {
+        if bytes[pos..pos + 2] != HEAD {
+            log.first_skip.get_or_insert(pos);
+            log.skipped_bytes += 1;
+            pos += 1;
+            continue;
+        }
+        let ty = bytes[pos + 2];
+        let (len, layout) = if ty == FMT_TYPE {
+            (FMT_LEN, None)
+        } else {
+            match layouts.get(&ty) {
+                Some(l) => (l.len, Some(l)),
+                None => {
+                    log.first_skip.get_or_insert(pos);
+                    log.skipped_bytes += 1;
+                    pos += 1;
+                    continue;
+                }
+            }
+        };
+        let Some(payload) = bytes.get(pos + 3..pos + len) else {
+            // A message cut by the end of the file: the log ends here.
+            log.skipped_bytes += bytes.len() - pos;
+            log.first_skip.get_or_insert(pos);
+            break;
+        };
+        log.messages += 1;
+        if ty == FMT_TYPE {
+            let t = payload[0];
+            let l = payload[1] as usize;
+            let name = match decode(b'n', &payload[2..6]) {
+                Value::Text(s) => s,
+                Value::Num(_) => String::new(),
+            };
+            let format: Vec<u8> = payload[6..22].iter().copied().take_while(|&c| c != 0).collect();
+            let labels: Vec<String> = match decode(b'Z', &payload[22..86]) {
+                Value::Text(s) => s.split(',').map(|x| x.trim().to_string()).collect(),
+                Value::Num(_) => Vec::new(),
+            };
+            let size: Option<usize> = format.iter().map(|&c| field_size(c)).sum();
+            let mut labels = labels;
+            labels.resize_with(format.len(), String::new);
+            match size {
+                _ if t == FMT_TYPE => {}
+                Some(sz) if sz + 3 == l => {
+                    layouts.insert(
+                        t,
+                        Layout {
+                            name,
+                            len: l,
+                            format,
+                            labels,
+                        },
+                    );
+                }
+                _ => log.warnings.push(format!(
+                    "the FMT message at byte {pos} declares `{name}` (type {t}) with format `{}` and length {l}, which do not agree (or an unknown field type): its messages are skipped",
+                    String::from_utf8_lossy(&format)
+                )),
+            }
+            pos += len;
+            continue;
+        }
+        let Some(layout) = layout else { break };
+        let mut vals = Vec::with_capacity(layout.format.len());
+        let mut off = 0;
+        for &c in &layout.format {
+            let sz = field_size(c).unwrap_or(0);
+            vals.push(decode(c, &payload[off..off + sz]));
+            off += sz;
+        }
+        let get = |label: &str| layout.labels.iter().position(|l| l == label).map(|i| &vals[i]);
+        match layout.name.as_str() {
+            "PARM" => {
+                if let (Some(Value::Text(n)), Some(Value::Num(v))) = (get("Name"), get("Value")) {
+                    log.parameters.entry(n.clone()).or_insert(*v);
+                }
+            }
+            "UNIT" => {
+                if let (Some(Value::Num(id)), Some(Value::Text(l))) = (get("Id"), get("Label")) {
+                    unit_names.insert(*id as u8 as char, l.clone());
+                }
+            }
+            "FMTU" => {
+                if let (Some(Value::Num(t)), Some(Value::Text(u))) = (get("FmtType"), get("UnitIds")) {
+                    fmtu.insert(*t as u8, u.clone());
+                }
+            }
+            _ => {}
+        }
+        // Time: TimeUS (µs), else TimeMS (ms).
+        let time = match (get("TimeUS"), get("TimeMS")) {
+            (Some(Value::Num(t)), _) => Some(*t),
+            (None, Some(Value::Num(t))) => Some(t * 1000.0),
+            _ => None,
+        };
+        if let Some(t) = time {
+            let instance = match get("I").or_else(|| get("C")) {
+                Some(Value::Num(i)) => *i as u8,
+                _ => 0,
+            };
+            let s = log.series.entry((layout.name.clone(), instance)).or_default();
+            if s.labels.is_empty() {
+                s.labels = layout.labels.clone();
+                s.values = vec![Vec::new(); layout.labels.len()];
+            }
+            if s.values.len() == vals.len() {
+                s.time_us.push(t);
+                s.offsets.push(pos);
+                for (j, v) in vals.iter().enumerate() {
+                    s.values[j].push(match v {
+                        Value::Num(x) => *x,
+                        Value::Text(_) => f64::NAN,
+                    });
+                }
+            }
+        }
+        pos += len;
+    }
+    if pos < bytes.len() && pos + 3 > bytes.len() {
+        log.skipped_bytes += bytes.len() - pos;
+    }
+    for (ty, ids) in &fmtu {
+        if let Some(l) = layouts.get(ty) {
+            let m = log.units.entry(l.name.clone()).or_default();
+            for (label, id) in l.labels.iter().zip(ids.chars()) {
+                if let Some(u) = unit_names.get(&id) {
+                    m.insert(label.clone(), u.clone());
+                }
+            }
+        }
+    }
+    Ok(log)
+}
+
+/// The factor from a logged unit name (ArduPilot's `UNIT` labels) to SI, for a field whose SI
+/// unit is `si`.
+fn unit_factor(logged: &str, si: &str) -> Option<f64> {
+    match (logged, si) {
+        ("deg" | "degheading", "rad") => Some(PI / 180.0),
+        ("cdeg", "rad") => Some(PI / 18000.0),
+        ("rad", "rad") | ("rad/s", "rad/s") | ("m/s", "m/s") | ("m/s/s", "m/s2") | ("m", "m") => Some(1.0),
+        ("deg/s", "rad/s") => Some(PI / 180.0),
+        ("cm", "m") => Some(0.01),
+        _ => None,
+    }
+}
+
+/// Reads a DataFlash log with `aircraft`.
+pub fn read_dataflash(path: &Path, aircraft: Aircraft, opts: &ReadOptions) -> Result<MeasuredFlight, ReadError> {
+    let file = path.display().to_string();
+    let bytes = std::fs::read(path).map_err(|e| ReadError::new(&file, 0, 0, e.to_string()))?;
+    parse_dataflash(&bytes, &file, aircraft, opts)
+}
+
+/// The messages and instances of a DataFlash log, one line each (what `--list` prints).
+pub fn list_messages(path: &Path) -> Result<String, ReadError> {
+    let file = path.display().to_string();
+    let bytes = std::fs::read(path).map_err(|e| ReadError::new(&file, 0, 0, e.to_string()))?;
+    let log = parse(&bytes, &file)?;
+    let mut out = String::new();
+    for ((name, inst), s) in &log.series {
+        let span = (s.time_us.last().unwrap_or(&0.0) - s.time_us.first().unwrap_or(&0.0)) * 1e-6;
+        let rate = if span > 0.0 {
+            (s.time_us.len() - 1) as f64 / span
+        } else {
+            0.0
+        };
+        out += &format!(
+            "{name} (instance {inst}): {} messages, {rate:.1} Hz; fields: {}\n",
+            s.time_us.len(),
+            s.labels.join(", ")
+        );
+    }
+    out += &format!("{} logged parameters\n", log.parameters.len());
+    Ok(out)
+}
+
+/// A channel to read: quantity, message, label, SI unit, the factor when the log names no unit.
+type Want = (Quantity, &'static str, &'static str, &'static str, f64);
+
+const WANTS: [Want; 13] = [
+    (Quantity::RollRate, "IMU", "GyrX", "rad/s", 1.0),
+    (Quantity::PitchRate, "IMU", "GyrY", "rad/s", 1.0),
+    (Quantity::YawRate, "IMU", "GyrZ", "rad/s", 1.0),
+    (Quantity::AccelX, "IMU", "AccX", "m/s2", 1.0),
+    (Quantity::AccelY, "IMU", "AccY", "m/s2", 1.0),
+    (Quantity::AccelZ, "IMU", "AccZ", "m/s2", 1.0),
+    (Quantity::Roll, "ATT", "Roll", "rad", PI / 180.0),
+    (Quantity::Pitch, "ATT", "Pitch", "rad", PI / 180.0),
+    (Quantity::Yaw, "ATT", "Yaw", "rad", PI / 180.0),
+    (Quantity::Airspeed, "ARSP", "Airspeed", "m/s", 1.0),
+    (Quantity::Alpha, "AOA", "AOA", "rad", PI / 180.0),
+    (Quantity::Beta, "AOA", "SSA", "rad", PI / 180.0),
+    (Quantity::Altitude, "BARO", "Alt", "m", 1.0),
+];
+
+/// [`read_dataflash`] on bytes already read.
+pub fn parse_dataflash(
+    bytes: &[u8],
+    file: &str,
+    aircraft: Aircraft,
+    opts: &ReadOptions,
+) -> Result<MeasuredFlight, ReadError> {
+    let err = |m: String| ReadError::new(file, 0, 0, m);
+    let log = parse(bytes, file)?;
+    let mut warnings = log.warnings.clone();
+    if log.skipped_bytes > 0 {
+        warnings.push(format!(
+            "{} byte{} that start no known message skipped (the first at byte {}): a corrupt block or a cut end",
+            log.skipped_bytes,
+            if log.skipped_bytes == 1 { "" } else { "s" },
+            log.first_skip.unwrap_or(0)
+        ));
+    }
+    let names = || {
+        let mut v: Vec<String> = log
+            .series
+            .iter()
+            .map(|((n, i), s)| format!("{n}[{i}: {}]", s.time_us.len()))
+            .collect();
+        v.dedup();
+        v.join(", ")
+    };
+    // A message instance: 4.x `I` field, else the numbered message (`IMU2` is instance 1).
+    let series = |msg: &str| -> Option<(String, &Series)> {
+        let inst = opts.instances.get(msg).copied().unwrap_or(0);
+        if let Some(s) = log.series.get(&(msg.to_string(), inst)) {
+            return Some((format!("{msg}[{inst}]"), s));
+        }
+        if inst > 0 {
+            let numbered = format!("{msg}{}", inst + 1);
+            return log.series.get(&(numbered.clone(), 0)).map(|s| (numbered, s));
+        }
+        None
+    };
+    for (msg, inst) in &opts.instances {
+        if series(msg).is_none() {
+            return Err(err(format!(
+                "instance {inst} of `{msg}` asked for, but the log has no such message instance; messages [instance: count]: {}",
+                names()
+            )));
+        }
+    }
+    // (quantity, source name, times µs, values SI)
+    let mut raw: Vec<(Quantity, String, Vec<f64>, Vec<f64>)> = Vec::new();
+    for (q, msg, label, si, default) in WANTS {
+        let Some((src, s)) = series(msg) else { continue };
+        let Some(j) = s.labels.iter().position(|l| l == label) else {
+            continue;
+        };
+        let factor = match log.units.get(msg).and_then(|m| m.get(label)) {
+            Some(u) => unit_factor(u, si).ok_or_else(|| {
+                err(format!(
+                    "`{msg}.{label}` is logged in `{u}` (FMTU/UNIT), which this reader cannot convert to {si}"
+                ))
+            })?,
+            None => default,
+        };
+        raw.push((
+            q,
+            format!("{src}.{label}"),
+            s.time_us.clone(),
+            s.values[j].iter().map(|v| v * factor).collect(),
+        ));
+    }
+    if raw.iter().any(|(q, ..)| *q == Quantity::Airspeed) {
+        warnings.push("`ARSP.Airspeed` is ArduPilot's equivalent airspeed; it is used as the true airspeed (no EAS2TAS correction: about 1 % low per 200 m of density altitude)".into());
+    }
+    // Zero padding: an α/β vane channel that is zero throughout is no vane.
+    raw.retain(|(q, src, _, v)| {
+        let zero = matches!(q, Quantity::Alpha | Quantity::Beta) && v.iter().all(|x| *x == 0.0);
+        if zero {
+            warnings.push(format!(
+                "`{src}` is zero in every message: no vane fitted (zero padding); not read"
+            ));
+        }
+        !zero
+    });
+    // Throttle and surfaces from the servo functions.
+    let functions: BTreeMap<usize, i64> = (1..=16)
+        .filter_map(|n| {
+            log.parameters
+                .get(&format!("SERVO{n}_FUNCTION"))
+                .map(|f| (n, *f as i64))
+        })
+        .collect();
+    if let Some((src, s)) = series("RCOU") {
+        for (&n, &f) in &functions {
+            let Some(j) = s.labels.iter().position(|l| *l == format!("C{n}")) else {
+                continue;
+            };
+            let p = |k: &str, d: f64| log.parameters.get(&format!("SERVO{n}_{k}")).copied().unwrap_or(d);
+            match f {
+                70 => {
+                    let (lo, hi) = (p("MIN", 1100.0), p("MAX", 1900.0));
+                    if hi > lo {
+                        raw.push((
+                            Quantity::Throttle,
+                            format!("{src}.C{n} (SERVO{n}_FUNCTION 70, throttle)"),
+                            s.time_us.clone(),
+                            s.values[j].iter().map(|v| ((v - lo) / (hi - lo)).clamp(0.0, 1.0)).collect(),
+                        ));
+                    }
+                }
+                4 | 19 | 21 => warnings.push(format!(
+                    "`{src}.C{n}` drives the {} (SERVO{n}_FUNCTION {f}) as PWM; its throw in radians is the airframe's and not logged, so it is not read: no {} derivative",
+                    match f {
+                        4 => "aileron",
+                        19 => "elevator",
+                        _ => "rudder",
+                    },
+                    match f {
+                        4 => "aileron",
+                        19 => "elevator",
+                        _ => "rudder",
+                    }
+                )),
+                _ => {}
+            }
+        }
+    }
+    if raw.is_empty() {
+        return Err(err(format!(
+            "no channel this reader knows is in the log (it reads IMU, ATT, ARSP, AOA, BARO, RCOU); messages [instance: count]: {}",
+            names()
+        )));
+    }
+    // Times strictly increasing per series (drop repeats), finite values checked in the window.
+    for (_, src, t, v) in raw.iter_mut() {
+        let mut keep = Vec::with_capacity(t.len());
+        let mut last = f64::NEG_INFINITY;
+        for (i, &ti) in t.iter().enumerate() {
+            if ti > last {
+                keep.push(i);
+                last = ti;
+            }
+        }
+        if keep.len() < t.len() {
+            warnings.push(format!(
+                "`{src}`: {} of {} messages with a time not later than the message before; dropped",
+                t.len() - keep.len(),
+                t.len()
+            ));
+            *t = keep.iter().map(|&i| t[i]).collect();
+            *v = keep.iter().map(|&i| v[i]).collect();
+        }
+    }
+    raw.retain(|(_, _, t, _)| t.len() >= 2);
+    let first_us = raw.iter().map(|r| r.2[0]).fold(f64::INFINITY, f64::min);
+    let last_us = raw.iter().map(|r| r.2[r.2.len() - 1]).fold(f64::NEG_INFINITY, f64::max);
+    // Window.
+    let mut airborne = None;
+    let (w0, w1, window) = if opts.from_s.is_some() || opts.to_s.is_some() {
+        let a = opts.from_s.map_or(f64::NEG_INFINITY, |v| v * 1e6);
+        let b = opts.to_s.map_or(f64::INFINITY, |v| v * 1e6);
+        if a >= b || a > last_us || b < first_us {
+            return Err(err(format!(
+                "the window --from/--to does not overlap the log's data, {:.3}…{:.3} s (boot time)",
+                first_us * 1e-6,
+                last_us * 1e-6
+            )));
+        }
+        (
+            a,
+            b,
+            Some(format!(
+                "--from/--to: {:.3}…{:.3} s",
+                a.max(first_us) * 1e-6,
+                b.min(last_us) * 1e-6
+            )),
+        )
+    } else if opts.whole_log {
+        (f64::NEG_INFINITY, f64::INFINITY, None)
+    } else {
+        let (thr, from) = match log.parameters.get("ARSPD_FBW_MIN") {
+            Some(v) if *v > 0.0 => (0.8 * v, "0.8 × ARSPD_FBW_MIN"),
+            _ => (8.0, "8 m/s, no ARSPD_FBW_MIN logged"),
+        };
+        let speed: Option<(String, Vec<f64>, Vec<f64>)> = raw
+            .iter()
+            .find(|r| r.0 == Quantity::Airspeed)
+            .map(|r| ("airspeed".to_string(), r.2.clone(), r.3.clone()))
+            .or_else(|| {
+                let (src, s) = series("GPS")?;
+                let j = s.labels.iter().position(|l| l == "Spd")?;
+                Some((
+                    format!("GPS ground speed `{src}.Spd`"),
+                    s.time_us.clone(),
+                    s.values[j].clone(),
+                ))
+            });
+        match speed {
+            Some((what, t, v)) => {
+                // A missing (NaN) airspeed keeps the state before it: the gate does not cut around it, so
+                // the read refuses it inside the window rather than hiding it.
+                let holds = hold_over_nan(&v, thr);
+                match longest_run(&t, &holds, last_us) {
+                    Some((a, b)) => {
+                        airborne = Some(true);
+                        (
+                            a,
+                            b,
+                            Some(format!(
+                                "in the air {:.3}…{:.3} s: the longest stretch with {what} above {thr:.1} m/s ({from})",
+                                a * 1e-6,
+                                b * 1e-6
+                            )),
+                        )
+                    }
+                    None => {
+                        airborne = Some(false);
+                        (
+                            f64::NEG_INFINITY,
+                            f64::INFINITY,
+                            Some(format!(
+                                "never in the air: {what} never above {thr:.1} m/s ({from}); the whole log is read, on the ground"
+                            )),
+                        )
+                    }
+                }
+            }
+            None => (
+                f64::NEG_INFINITY,
+                f64::INFINITY,
+                Some("no airspeed or GPS speed: the whole log is read, in the air or not".into()),
+            ),
+        }
+    };
+    let lo = raw.iter().map(|r| r.2[0]).fold(w0, f64::max).ceil();
+    let hi = raw.iter().map(|r| r.2[r.2.len() - 1]).fold(w1, f64::min).floor();
+    // Base: the fastest series in the window (the IMU when logged).
+    let count_in = |t: &[f64]| t.iter().filter(|x| **x >= lo && **x <= hi).count();
+    let Some(base) = raw.iter().max_by_key(|r| count_in(&r.2)) else {
+        return Err(err("no channel with two samples".into()));
+    };
+    let base_t: Vec<f64> = base.2.iter().copied().filter(|x| *x >= lo && *x <= hi).collect();
+    let h_us = match opts.rate_hz {
+        Some(r) => (1e6 / r).round().max(1.0),
+        None => median(&base_t.windows(2).map(|w| w[1] - w[0]).collect::<Vec<_>>()).round(),
+    };
+    // (NaN-safe: a NaN bound or step fails the positive test.)
+    let usable = hi > lo && base_t.len() >= 2 && h_us >= 1.0;
+    if !usable {
+        return Err(err(format!(
+            "the channels read ({}) overlap in the window over fewer than 2 samples",
+            raw.iter().map(|r| r.1.clone()).collect::<Vec<_>>().join(", ")
+        )));
+    }
+    let base_src = base.1.clone();
+    let n_out = ((hi - lo) / h_us).floor() as usize + 1;
+    let grid: Vec<f64> = (0..n_out).map(|k| lo + k as f64 * h_us).collect();
+    let mut channels = BTreeMap::new();
+    let mut logged_rate_hz = BTreeMap::new();
+    for (q, src, t, v) in &raw {
+        let i0 = t.partition_point(|&x| x < lo).saturating_sub(1);
+        let i1 = (t.partition_point(|&x| x <= hi) + 1).min(t.len());
+        if let Some(i) = v[i0..i1].iter().position(|x| !x.is_finite()) {
+            return Err(err(format!(
+                "`{src}` is {} at t = {:.6} s inside the window read; missing samples are refused, not interpolated",
+                v[i0 + i],
+                t[i0 + i] * 1e-6
+            )));
+        }
+        if let Some((count, longest, at)) = gaps(t, lo, hi) {
+            warnings.push(format!(
+                "`{src}`: {count} gap{} longer than {GAP_FACTOR} × its median interval, the longest {:.3} s from t = {:.3} s (interpolated across)",
+                if count == 1 { "" } else { "s" },
+                longest * 1e-6,
+                at * 1e-6
+            ));
+        }
+        // Yaw unwrapped before interpolation, wrapped after.
+        let v: Vec<f64> = if *q == Quantity::Yaw {
+            let mut out = Vec::with_capacity(v.len());
+            let mut offset = 0.0;
+            for (i, &x) in v.iter().enumerate() {
+                if i > 0 {
+                    let d = x - v[i - 1];
+                    if d > PI {
+                        offset -= 2.0 * PI;
+                    } else if d < -PI {
+                        offset += 2.0 * PI;
+                    }
+                }
+                out.push(x + offset);
+            }
+            out
+        } else {
+            v.clone()
+        };
+        let mut j = 0usize;
+        let mut out = Vec::with_capacity(grid.len());
+        for &tq in &grid {
+            while j + 1 < t.len() && t[j + 1] < tq {
+                j += 1;
+            }
+            let x = if j + 1 >= t.len() || tq <= t[j] {
+                v[j.min(t.len() - 1)]
+            } else {
+                v[j] + (tq - t[j]) / (t[j + 1] - t[j]) * (v[j + 1] - v[j])
+            };
+            out.push(if *q == Quantity::Yaw {
+                (x + PI).rem_euclid(2.0 * PI) - PI
+            } else {
+                x
+            });
+        }
+        channels.insert(*q, out);
+        logged_rate_hz.insert(*q, count_in(t) as f64 / ((hi - lo + h_us) * 1e-6));
+    }
+    let flight = MeasuredFlight {
+        source: file.to_string(),
+        t_s: grid.iter().map(|t| t * 1e-6).collect(),
+        channels,
+        aircraft,
+        log: LogMeta {
+            format: "ArduPilot DataFlash".into(),
+            logged_rate_hz,
+            resampling: Some(format!(
+                "uniform {:.2} Hz ({h_us} µs step: {}), linear interpolation in time (yaw unwrapped), no anti-alias filter; {n_out} samples",
+                1e6 / h_us,
+                if opts.rate_hz.is_some() {
+                    "the rate asked for".to_string()
+                } else {
+                    format!("the median interval of `{base_src}`")
+                }
+            )),
+            window,
+            airborne,
+            aircraft_unknown: false,
+            parameters: log.parameters.clone(),
+            warnings,
+        },
+    };
+    flight.validate().map_err(|inv| {
+        let src = inv
+            .quantity
+            .and_then(|q| raw.iter().find(|r| r.0 == q))
+            .map_or(String::new(), |r| format!(" (from `{}`)", r.1));
+        let at = inv.sample.map_or(String::new(), |k| {
+            format!(" at output sample {k} (t = {:.6} s)", flight.t_s[k])
+        });
+        err(format!(
+            "{}{src}{at}: {}",
+            inv.quantity.map_or("time".to_string(), |q| q.name().to_string()),
+            inv.message
+        ))
+    })?;
+    Ok(flight)
+}

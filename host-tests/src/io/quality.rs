@@ -1,0 +1,415 @@
+//! What a measured flight can support: a data-quality assessment made before the model-gap
+//! analysis (from the channels and what the reader learned, [`LogMeta`]) and completed after it
+//! (from the regressors and the held-out fit).
+//!
+//! It answers three questions, in the report's text and JSON (`data_quality`):
+//! * **Warnings** — each a sentence: the rate each channel was logged at, the duration, gaps
+//!   (dropped messages), repeated timestamps, channels that are constant or zero padding,
+//!   saturated controls, nearly collinear regressors (condition number), parameters the data do
+//!   not determine (standard error larger than half the estimate).
+//! * **What can be identified from what is logged** — per coefficient, whether it can be formed at
+//!   all and what is missing: no airspeed → no coefficient (q̄ = ½ρV² normalises every one); no
+//!   aircraft file → nothing scaled; no surface deflection → no control derivative of it; no
+//!   thrust → C_D holds thrust too (not separable); no α/β vane → no α, β (the analysis's inertial
+//!   reconstruction, which assumes steady air per segment, is anchored to a measured α), so no
+//!   C_L, C_D and no α or β derivative.
+//! * **Whether a verdict is supported** — if not, the reasons, and the gap analysis names nothing
+//!   ([`crate::gaps::run_gaps`] clears its causes and says "no verdict").
+//!
+//! ## The thresholds, and why
+//! * **Time-base rate ≥ 20 Hz.** The analysis smooths and differentiates over ±0.1 s
+//!   ([`crate::gaps::GapSettings::smoothing_half_width_s`]); below 20 Hz that window holds fewer
+//!   than 2 samples a side.
+//! * **Motion channels logged at ≥ 5 Hz** (rates, accelerations, attitude, α, β, surfaces). The
+//!   short-period and roll modes of small UAVs lie near 1–2.5 Hz; a channel sampled below twice
+//!   that (Nyquist) cannot follow them, and its interpolation is a straight line through them.
+//!   Below 25 Hz a warning (10 samples per period of a 2.5 Hz mode).
+//! * **Airspeed logged at ≥ 2 Hz.** It scales every coefficient (q̄ ∝ V²); at 1 Hz a climb or a
+//!   dive changes it by several m/s between samples.
+//! * **Duration ≥ 2 × folds × block** (20 s with the defaults, [`crate::gaps::select::CvSettings`]):
+//!   the held-out test needs at least two blocks per fold.
+//! * **In the air.** A log whose land detector (or airspeed) says the vehicle never flew supports
+//!   nothing aerodynamic.
+//! * **The baseline predicts something.** If no coefficient's baseline has a held-out R² above
+//!   zero, the model explains nothing on new data, and a "missing term" cannot be told from noise.
+//! * Warnings only: condition number of the baseline's regressors (columns scaled to unit length)
+//!   above 100, a baseline parameter with |value| < 2σ, a control at its limit for more than 5 %
+//!   of the samples.
+
+use super::measured::{LogMeta, MeasuredFlight, Quantity, ThrustSource};
+use crate::gaps::select::CvSettings;
+use crate::gaps::{CoefficientGap, Regression};
+use nalgebra::DMatrix;
+use serde::Serialize;
+
+/// Below this time-base rate, Hz, no verdict.
+pub const MIN_RATE_HZ: f64 = 20.0;
+/// Below this logged rate of a motion channel, Hz, no verdict.
+pub const MIN_MOTION_RATE_HZ: f64 = 5.0;
+/// Below this logged rate of a motion channel, Hz, a warning.
+pub const WARN_MOTION_RATE_HZ: f64 = 25.0;
+/// Below this logged airspeed rate, Hz, no verdict.
+pub const MIN_AIRSPEED_RATE_HZ: f64 = 2.0;
+/// Above this condition number of the baseline's scaled regressors, a warning.
+pub const WARN_CONDITION: f64 = 100.0;
+/// Share of samples at a control's limit above which it is called saturated.
+pub const SATURATED_SHARE: f64 = 0.05;
+
+/// Whether one coefficient can be identified from what is logged.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Identifiability {
+    /// `C_L` …
+    pub coefficient: String,
+    /// Whether it can be formed and fitted at all.
+    pub identifiable: bool,
+    /// What is missing or assumed (each a sentence).
+    pub notes: Vec<String>,
+}
+
+/// The assessment.
+#[derive(Debug, Clone, PartialEq, Serialize, Default)]
+pub struct DataQuality {
+    /// The file format, as the reader names it.
+    pub format: String,
+    /// Samples on the time base.
+    pub samples: usize,
+    /// Duration, s.
+    pub duration_s: f64,
+    /// Time-base rate, Hz.
+    pub rate_hz: f64,
+    /// The window read and why.
+    pub window: Option<String>,
+    /// How the channels were resampled.
+    pub resampling: Option<String>,
+    /// Where α and β come from.
+    pub air_data: String,
+    /// Warnings.
+    pub warnings: Vec<String>,
+    /// Per coefficient, what can be identified.
+    pub coefficients: Vec<Identifiability>,
+    /// Whether the data can support a verdict of the gap analysis.
+    pub supports_verdict: bool,
+    /// Why not (empty when it can).
+    pub why_not: Vec<String>,
+}
+
+fn name(q: Quantity) -> &'static str {
+    q.name()
+}
+
+/// The assessment of a flight before the analysis.
+pub fn assess(flight: &MeasuredFlight) -> DataQuality {
+    use Quantity::*;
+    let meta: &LogMeta = &flight.log;
+    let n = flight.len();
+    let duration_s = if n >= 2 { flight.t_s[n - 1] - flight.t_s[0] } else { 0.0 };
+    let rate_hz = if duration_s > 0.0 {
+        (n - 1) as f64 / duration_s
+    } else {
+        0.0
+    };
+    let mut warnings: Vec<String> = meta.warnings.clone();
+    let mut why_not: Vec<String> = Vec::new();
+    let has = |q: Quantity| flight.get(q).is_some();
+    // Rates.
+    if rate_hz < MIN_RATE_HZ {
+        why_not.push(format!(
+            "the time base is {rate_hz:.1} Hz; the analysis smooths and differentiates over ±0.1 s and needs at least {MIN_RATE_HZ} Hz"
+        ));
+    }
+    for (&q, &r) in &meta.logged_rate_hz {
+        let motion = !matches!(q, Airspeed | AirDensity | Altitude | Throttle | DynamicPressure | Mach);
+        if r < rate_hz * 0.99 {
+            if q == Airspeed && r < MIN_AIRSPEED_RATE_HZ {
+                why_not.push(format!(
+                    "the airspeed is logged at {r:.2} Hz: it scales every coefficient (q̄ ∝ V²) and at below {MIN_AIRSPEED_RATE_HZ} Hz the changes between its samples are not in the data"
+                ));
+            } else if motion && r < MIN_MOTION_RATE_HZ {
+                why_not.push(format!(
+                    "`{}` is logged at {r:.2} Hz, below {MIN_MOTION_RATE_HZ} Hz: it cannot follow the short-period and roll modes (1–2.5 Hz)",
+                    name(q)
+                ));
+            }
+            if r < WARN_MOTION_RATE_HZ {
+                warnings.push(format!(
+                    "`{}` logged at {r:.1} Hz, interpolated linearly onto {rate_hz:.1} Hz: motion faster than {:.1} Hz is not in it",
+                    name(q),
+                    r / 2.0
+                ));
+            }
+        }
+    }
+    let cv = CvSettings::default();
+    let min_duration = 2.0 * cv.folds as f64 * cv.block_s;
+    if duration_s < min_duration {
+        why_not.push(format!(
+            "{duration_s:.1} s of data: the held-out test needs at least two {}-s blocks per fold ({min_duration:.0} s)",
+            cv.block_s
+        ));
+    }
+    if meta.airborne == Some(false) {
+        why_not.push("the log says the vehicle never left the ground".into());
+    }
+    if meta.aircraft_unknown {
+        why_not.push("no aircraft file: mass, inertia and geometry are unknown, so no coefficient can be scaled (give one with --with FILE.aircraft)".into());
+    }
+    // Constant channels, zero padding, saturation.
+    let mut constant = Vec::new();
+    for (&q, x) in &flight.channels {
+        let (lo, hi) = x
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(*v), b.max(*v)));
+        if n >= 2 && hi - lo == 0.0 {
+            constant.push(q);
+            warnings.push(if lo == 0.0 {
+                format!(
+                    "`{}` is zero at every sample (zero padding: not logged, or no sensor); it carries no information",
+                    name(q)
+                )
+            } else {
+                format!(
+                    "`{}` is constant ({lo}) at every sample; it carries no information",
+                    name(q)
+                )
+            });
+            continue;
+        }
+        if matches!(q, Elevator | Aileron | Rudder | Flap | Throttle) && hi > lo {
+            let tol = 0.005 * (hi - lo);
+            for (edge, what) in [(hi, "maximum"), (lo, "minimum")] {
+                let k = x.iter().filter(|v| (**v - edge).abs() <= tol).count();
+                if k as f64 > SATURATED_SHARE * n as f64 {
+                    warnings.push(format!(
+                        "`{}` sits at its {what} {edge:.4} for {:.0} % of the samples (saturated there: its effect is not separable from a constant)",
+                        name(q),
+                        100.0 * k as f64 / n as f64
+                    ));
+                }
+            }
+        }
+    }
+    let live = |q: Quantity| has(q) && !constant.contains(&q);
+    // Air data.
+    let air_data = if live(Alpha) {
+        "measured: α (and β where logged) from vanes, airspeed from the pitot".to_string()
+    } else {
+        "no α/β vane: none. The analysis's inertial reconstruction (`--air-data reconstructed`) integrates the accelerometers and gyros with steady air assumed per 5-s segment, but anchors each segment to a measured α (`gaps::compat::velocity_problem`), so without a vane there is no α or β: C_L and C_D (wind axes) and every α or β term are not identified".to_string()
+    };
+    // What can be identified.
+    let inertia = flight.aircraft.inertia_kgm2;
+    let lateral_inertia = inertia[(0, 0)].is_finite() && inertia[(2, 2)].is_finite() && inertia[(0, 2)].is_finite();
+    let thrust_known = has(Thrust) || (matches!(flight.aircraft.thrust, ThrustSource::Propeller(_)) && live(PropSpeed));
+    let mut coefficients = Vec::new();
+    for coef in crate::gaps::model::COEFFICIENTS {
+        let mut notes = Vec::new();
+        let mut ok = true;
+        if !live(Airspeed) {
+            ok = false;
+            notes.push("no airspeed logged: q̄ = ½ρV² is unknown, so no coefficient".into());
+        }
+        if meta.aircraft_unknown {
+            ok = false;
+            notes.push("no aircraft file: cannot be scaled".into());
+        }
+        let force = matches!(coef, "C_L" | "C_D" | "C_Y");
+        if force {
+            let need: &[Quantity] = match coef {
+                "C_Y" => &[AccelY],
+                _ => &[AccelX, AccelZ],
+            };
+            for q in need {
+                if !live(*q) {
+                    ok = false;
+                    notes.push(format!("no `{}`: the force is not measured", name(*q)));
+                }
+            }
+            if matches!(coef, "C_L" | "C_D") && !live(Alpha) {
+                ok = false;
+                notes.push(
+                    "no α: the wind axes are unknown (no vane, and the inertial reconstruction needs one)".into(),
+                );
+            }
+        } else {
+            let need: &[Quantity] = match coef {
+                "C_m" => &[PitchRate],
+                _ => &[RollRate, PitchRate, YawRate],
+            };
+            for q in need {
+                if !live(*q) {
+                    ok = false;
+                    notes.push(format!("no `{}`: the moment is not measured", name(*q)));
+                }
+            }
+            if coef != "C_m" && !lateral_inertia {
+                ok = false;
+                notes.push(
+                    "Jx, Jz or Jxz unknown in the aircraft file: the rolling and yawing moments cannot be formed"
+                        .into(),
+                );
+            }
+        }
+        if coef == "C_D" && !thrust_known {
+            notes.push(
+                "no thrust logged or modelled: C_D here holds thrust as well (drag and thrust not separable)".into(),
+            );
+        }
+        let surfaces: &[(Quantity, &str)] = match coef {
+            "C_L" | "C_m" => &[(Elevator, "elevator")],
+            "C_Y" => &[(Rudder, "rudder")],
+            "C_l" | "C_n" => &[(Aileron, "aileron"), (Rudder, "rudder")],
+            _ => &[],
+        };
+        for (q, s) in surfaces {
+            if !live(*q) {
+                notes.push(format!(
+                    "no {s} deflection {}: no {s} derivative",
+                    if has(*q) { "variation" } else { "logged" }
+                ));
+            }
+        }
+        if !live(Alpha) && matches!(coef, "C_m") {
+            notes.push("no α: no α derivative (C_mα), the moment is fitted to rates and controls only".into());
+        }
+        if matches!(coef, "C_Y" | "C_l" | "C_n") && !live(Beta) {
+            notes.push("no β: no β derivative (no vane)".into());
+        }
+        coefficients.push(Identifiability {
+            coefficient: coef.to_string(),
+            identifiable: ok,
+            notes,
+        });
+    }
+    if coefficients.iter().all(|c| !c.identifiable) {
+        why_not.push("no coefficient can be identified from what is logged (see `coefficients`)".into());
+    }
+    DataQuality {
+        format: meta.format.clone(),
+        samples: n,
+        duration_s,
+        rate_hz,
+        window: meta.window.clone(),
+        resampling: meta.resampling.clone(),
+        air_data,
+        warnings,
+        coefficients,
+        supports_verdict: why_not.is_empty(),
+        why_not,
+    }
+}
+
+/// The condition number of `cols` (each scaled to unit length) over their first `n` samples
+/// (ratio of the largest to the smallest singular value); infinite when a column is zero.
+pub fn condition_number(cols: &[&[f64]], n: usize) -> f64 {
+    if cols.is_empty() || n == 0 {
+        return f64::NAN;
+    }
+    let mut m = DMatrix::<f64>::zeros(n, cols.len());
+    for (j, c) in cols.iter().enumerate() {
+        let norm = c[..n].iter().map(|v| v * v).sum::<f64>().sqrt();
+        if norm == 0.0 || !norm.is_finite() {
+            return f64::INFINITY;
+        }
+        for i in 0..n {
+            m[(i, j)] = c[i] / norm;
+        }
+    }
+    let sv = m.singular_values();
+    let (mx, mn) = sv
+        .iter()
+        .fold((0.0f64, f64::INFINITY), |(a, b), v| (a.max(*v), b.min(*v)));
+    if mn > 0.0 {
+        mx / mn
+    } else {
+        f64::INFINITY
+    }
+}
+
+/// Completes the assessment from the analysis: the regressors' condition numbers, parameters the
+/// data do not determine, and whether the baseline predicts anything on held-out data.
+pub fn after_analysis(q: &mut DataQuality, coefficients: &[CoefficientGap], regression: &Regression) {
+    for (name, _, base, _) in &regression.coefficients {
+        let cols: Vec<&[f64]> = base
+            .iter()
+            .filter_map(|t| regression.columns.get(t).map(|c| c.as_slice()))
+            .collect();
+        let k = condition_number(&cols, regression.n_id);
+        if k > WARN_CONDITION {
+            q.warnings.push(format!(
+                "{name}: the baseline's regressors (scaled to unit length) have condition number {k:.0} on the identification segment: nearly collinear, so the estimates trade off against each other (poor excitation)"
+            ));
+        }
+    }
+    for c in coefficients {
+        let weak: Vec<String> = c
+            .baseline
+            .parameters
+            .iter()
+            // NaN σ or value counts as undetermined.
+            .filter(|p| p.value.abs() < 2.0 * p.sigma || p.value.is_nan() || p.sigma.is_nan())
+            .map(|p| p.term.clone())
+            .collect();
+        if !weak.is_empty() {
+            q.warnings.push(format!(
+                "{}: {} not determined by this flight (|estimate| < 2σ)",
+                c.name,
+                weak.join(", ")
+            ));
+        }
+    }
+    let best = coefficients
+        .iter()
+        .map(|c| c.baseline.validation.r2)
+        .filter(|r| r.is_finite())
+        .fold(f64::NEG_INFINITY, f64::max);
+    let predicts = best > 0.0;
+    if !coefficients.is_empty() && !predicts {
+        q.why_not.push(format!(
+            "the baseline predicts no coefficient on held-out data (best held-out R² {best:.2}): a missing term cannot be told from noise"
+        ));
+    }
+    q.supports_verdict = q.why_not.is_empty();
+}
+
+/// The assessment as text, one item a line.
+pub fn table(q: &DataQuality) -> String {
+    let mut s = String::new();
+    s += &format!(
+        "data quality — {}{} samples, {:.2} s, {:.1} Hz\n",
+        if q.format.is_empty() {
+            String::new()
+        } else {
+            format!("{}: ", q.format)
+        },
+        q.samples,
+        q.duration_s,
+        q.rate_hz
+    );
+    if let Some(w) = &q.window {
+        s += &format!("   window: {w}\n");
+    }
+    if let Some(r) = &q.resampling {
+        s += &format!("   resampled: {r}\n");
+    }
+    s += &format!("   air data: {}\n", q.air_data);
+    for w in &q.warnings {
+        s += &format!("   warning: {w}\n");
+    }
+    s += "   identifiable from what is logged:\n";
+    for c in &q.coefficients {
+        s += &format!(
+            "     {:<4} {:<3} {}\n",
+            c.coefficient,
+            if c.identifiable { "yes" } else { "no" },
+            c.notes.join("; ")
+        );
+    }
+    if q.supports_verdict {
+        s += "   the data can support a verdict\n";
+    } else {
+        s += "   NO VERDICT: these data cannot support one:\n";
+        for w in &q.why_not {
+            s += &format!("     - {w}\n");
+        }
+    }
+    s
+}
