@@ -268,6 +268,16 @@ pub fn ols_theta(cols: &[Vec<f64>], z: &[f64]) -> Option<Vec<f64>> {
     if p == 0 || n <= p || cols.iter().any(|c| c.len() != n) {
         return None;
     }
+    let ScaledQr { qr, r, scale, .. } = ScaledQr::new(cols, n)?;
+    let mut qtz = DVector::from_column_slice(z);
+    qr.q_tr_mul(&mut qtz);
+    let ts = r.solve_upper_triangular(&qtz.rows(0, p).into_owned())?;
+    Some((0..p).map(|j| ts[j] / scale[j]).collect())
+}
+
+/// The column scales (RMS) of `cols`, each of length `n`; `None` if one is zero or not finite.
+/// Every fit scales its columns by them for conditioning.
+fn column_scales(cols: &[Vec<f64>], n: usize) -> Option<Vec<f64>> {
     let scale: Vec<f64> = cols
         .iter()
         .map(|c| (c.iter().map(|v| v * v).sum::<f64>() / n as f64).sqrt())
@@ -275,16 +285,39 @@ pub fn ols_theta(cols: &[Vec<f64>], z: &[f64]) -> Option<Vec<f64>> {
     if scale.iter().any(|s| !(s.is_finite() && *s > 0.0)) {
         return None;
     }
-    let qr = DMatrix::from_fn(n, p, |i, j| cols[j][i] / scale[j]).qr();
-    let r = qr.r();
-    let dmax = (0..p).map(|i| r[(i, i)].abs()).fold(0.0, f64::max);
-    if (0..p).any(|i| r[(i, i)].abs() < 1e-9 * dmax.max(1e-300)) {
-        return None;
+    Some(scale)
+}
+
+/// The thin QR of the column-scaled matrix `X` (column `j` of `cols` over its RMS), refused
+/// (`None`) when a column's part orthogonal to the others is below `1e-9` of the largest `|R_ii|`:
+/// the dependence test shared by [`ols`], [`ols_theta`] and [`Basis`].
+struct ScaledQr {
+    x: DMatrix<f64>,
+    qr: nalgebra::linalg::QR<f64, nalgebra::Dyn, nalgebra::Dyn>,
+    r: DMatrix<f64>,
+    scale: Vec<f64>,
+    rdiag_max: f64,
+}
+
+impl ScaledQr {
+    fn new(cols: &[Vec<f64>], n: usize) -> Option<Self> {
+        let p = cols.len();
+        let scale = column_scales(cols, n)?;
+        let x = DMatrix::from_fn(n, p, |i, j| cols[j][i] / scale[j]);
+        let qr = x.clone().qr();
+        let r = qr.r();
+        let rdiag_max = (0..p).map(|i| r[(i, i)].abs()).fold(0.0, f64::max);
+        if (0..p).any(|i| r[(i, i)].abs() < 1e-9 * rdiag_max.max(1e-300)) {
+            return None;
+        }
+        Some(Self {
+            x,
+            qr,
+            r,
+            scale,
+            rdiag_max,
+        })
     }
-    let mut qtz = DVector::from_column_slice(z);
-    qr.q_tr_mul(&mut qtz);
-    let ts = r.solve_upper_triangular(&qtz.rows(0, p).into_owned())?;
-    Some((0..p).map(|j| ts[j] / scale[j]).collect())
 }
 
 /// [`ols`], with the coloured-residual σ computed only for parameter `only` when given (the
@@ -295,20 +328,7 @@ pub fn ols_sigma(cols: &[Vec<f64>], z: &[f64], block_len: usize, max_lag: usize,
     if p == 0 || n <= p || cols.iter().any(|c| c.len() != n) {
         return None;
     }
-    let scale: Vec<f64> = cols
-        .iter()
-        .map(|c| (c.iter().map(|v| v * v).sum::<f64>() / n as f64).sqrt())
-        .collect();
-    if scale.iter().any(|s| !(s.is_finite() && *s > 0.0)) {
-        return None;
-    }
-    let x = DMatrix::from_fn(n, p, |i, j| cols[j][i] / scale[j]);
-    let qr = x.clone().qr();
-    let r = qr.r();
-    let dmax = (0..p).map(|i| r[(i, i)].abs()).fold(0.0, f64::max);
-    if (0..p).any(|i| r[(i, i)].abs() < 1e-9 * dmax.max(1e-300)) {
-        return None;
-    }
+    let ScaledQr { x, qr, r, scale, .. } = ScaledQr::new(cols, n)?;
     let qtz = qr.q().transpose() * DVector::from_column_slice(z);
     let ts = r.solve_upper_triangular(&qtz)?;
     let residual: Vec<f64> = (0..n)
@@ -356,19 +376,7 @@ impl Basis {
         if n <= p || cols.iter().any(|c| c.len() != n) {
             return None;
         }
-        let scale: Vec<f64> = cols
-            .iter()
-            .map(|c| (c.iter().map(|v| v * v).sum::<f64>() / n as f64).sqrt())
-            .collect();
-        if scale.iter().any(|s| !(s.is_finite() && *s > 0.0)) {
-            return None;
-        }
-        let qr = DMatrix::from_fn(n, p, |i, j| cols[j][i] / scale[j]).qr();
-        let r = qr.r();
-        let rdiag_max = (0..p).map(|i| r[(i, i)].abs()).fold(0.0, f64::max);
-        if (0..p).any(|i| r[(i, i)].abs() < 1e-9 * rdiag_max.max(1e-300)) {
-            return None;
-        }
+        let ScaledQr { qr, rdiag_max, .. } = ScaledQr::new(cols, n)?;
         Some(Self { q: qr.q(), rdiag_max })
     }
 
@@ -680,13 +688,7 @@ pub fn corrected_ls(
         return Some((f, s2));
     }
     // Column scaling for conditioning.
-    let scale: Vec<f64> = cols
-        .iter()
-        .map(|c| (c.iter().map(|v| v * v).sum::<f64>() / n as f64).sqrt())
-        .collect();
-    if scale.iter().any(|s| !(s.is_finite() && *s > 0.0)) {
-        return None;
-    }
+    let scale = column_scales(cols, n)?;
     let nf = n as f64;
     let mut a = DMatrix::<f64>::zeros(p, p);
     let mut b = DVector::<f64>::zeros(p);
