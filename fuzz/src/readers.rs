@@ -1,4 +1,4 @@
-//! Fuzz targets of the log readers (`aerosid_host::io`), through their public API only.
+//! Fuzz targets of the log readers (`aerosid::io`), through their public API only.
 //!
 //! | target | input | invariants of an `Ok` |
 //! |---|---|---|
@@ -10,8 +10,8 @@
 //!
 //! Any panic (index out of range, slicing inside a UTF-8 character, overflow) is a failure.
 
-use aerosid_host::io::measured::{Aircraft, MeasuredFlight};
-use aerosid_host::io::{aircraft, colmap, log, project_csv, ulog};
+use aerosid::io::measured::{Aircraft, MeasuredFlight};
+use aerosid::io::{aircraft, colmap, log, project_csv, ulog};
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
@@ -108,15 +108,15 @@ pub fn map_dir() -> &'static Path {
         let files = [
             (
                 "attas.aircraft",
-                include_str!("../../host-tests/data/aircraft/attas.aircraft"),
+                include_str!("../../tool/data/aircraft/attas.aircraft"),
             ),
             (
                 "hfb320.aircraft",
-                include_str!("../../host-tests/data/aircraft/hfb320.aircraft"),
+                include_str!("../../tool/data/aircraft/hfb320.aircraft"),
             ),
             (
                 "twin_otter.aircraft",
-                include_str!("../../host-tests/data/aircraft/twin_otter.aircraft"),
+                include_str!("../../tool/data/aircraft/twin_otter.aircraft"),
             ),
         ];
         let aircraft = root.join("aircraft");

@@ -164,13 +164,13 @@ fn read_ulog() {
 /// A real log of `host-tests/data/logs/` (or the `.mat` of `data/flight/`), its first `bytes`
 /// bytes: the definitions and the first messages, so each mutation parses quickly.
 fn real_seed(path: &str, bytes: usize) -> (String, Vec<u8>) {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("data").join(path);
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tool/data").join(path);
     let d = std::fs::read(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
     (path.to_string(), d[..bytes.min(d.len())].to_vec())
 }
 
 /// The invariants of a flight a reader accepted: it validates, and its time base is uniform.
-fn check_read(what: &str, f: &aerosid_host::io::measured::MeasuredFlight) {
+fn check_read(what: &str, f: &aerosid::io::measured::MeasuredFlight) {
     assert!(f.validate().is_ok(), "{what}: accepted an invalid flight");
     let h = f.t_s[1] - f.t_s[0];
     assert!(
@@ -180,21 +180,20 @@ fn check_read(what: &str, f: &aerosid_host::io::measured::MeasuredFlight) {
 }
 
 fn run_dataflash(data: &[u8]) {
-    let opts = aerosid_host::io::ReadOptions::default();
-    if let Ok(f) =
-        aerosid_host::io::dataflash::parse_dataflash(data, "fuzz.bin", aerosid_host::io::placeholder_aircraft(), &opts)
+    let opts = aerosid::io::ReadOptions::default();
+    if let Ok(f) = aerosid::io::dataflash::parse_dataflash(data, "fuzz.bin", aerosid::io::placeholder_aircraft(), &opts)
     {
         check_read("read_dataflash", &f);
     }
 }
 
 fn run_mat(data: &[u8]) {
-    static MAP: std::sync::OnceLock<aerosid_host::io::colmap::ColumnMap> = std::sync::OnceLock::new();
+    static MAP: std::sync::OnceLock<aerosid::io::colmap::ColumnMap> = std::sync::OnceLock::new();
     let map = MAP.get_or_init(|| {
-        let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/maps/twin_otter.map");
-        aerosid_host::io::colmap::read_map(&p).unwrap_or_else(|e| panic!("{e}"))
+        let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tool/data/maps/twin_otter.map");
+        aerosid::io::colmap::read_map(&p).unwrap_or_else(|e| panic!("{e}"))
     });
-    if let Ok(f) = aerosid_host::io::mat::parse_mat(data, "fuzz.mat", map) {
+    if let Ok(f) = aerosid::io::mat::parse_mat(data, "fuzz.mat", map) {
         check_read("read_mat", &f);
     }
 }

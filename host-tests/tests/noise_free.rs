@@ -72,9 +72,9 @@ fn exact_data_after_a_constant_stretch_is_never_refused_f32() {
 /// configuration that exposed the defect), THEN no estimator refuses a sample.
 #[test]
 fn noise_free_flight_is_never_refused_by_the_estimators() {
+    use aerosid::experiment::{self, ExperimentConfig};
     use aerosid_core::VffSettings;
-    use aerosid_host::experiment::{self, ExperimentConfig};
-    use aerosid_host::sim::*;
+    use aerosid_sim::*;
     let mut schedule = Schedule::default();
     let mut t = 2.0;
     while t + 5.0 <= 30.0 {

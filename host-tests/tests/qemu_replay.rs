@@ -6,7 +6,8 @@
 //! log is decoded when `defmt-print` is installed (`.ci/run` installs all three).
 
 use aerosid_core::aero::SensorSample;
-use aerosid_host::{flights, qemu, sim};
+use aerosid_qemu as qemu;
+use aerosid_sim::{self as sim, flights};
 use std::time::Duration;
 
 /// Instructions per sample for the whole six-coefficient step (synthesis + six PCA-GTLS updates
@@ -132,7 +133,8 @@ fn qemu_replay_equals_host_f32_and_meets_the_instruction_budget() {
             // … and the static bound of the same image (`aerosid stack-bound`, the analysis CI
             // applies to the flight computer, which cannot be run here) is not below it.
             let config = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../firmware/stack-bound.txt");
-            let bound = aerosid_host::stack_bound::analyse_elf(&elf, &config).expect("stack bound of the QEMU image");
+            let bound =
+                aerosid_elf_check::stack_bound::analyse_elf(&elf, &config).expect("stack bound of the QEMU image");
             println!("{}", bound.report());
             assert!(
                 u64::from(bytes) <= bound.total,
@@ -154,7 +156,7 @@ fn qemu_replay_equals_host_f32_and_meets_the_instruction_budget() {
 #[test]
 fn pipeline_static_has_no_flash_image() {
     let elf = qemu::build_firmware().expect("firmware build");
-    let tool = aerosid_host::panic_audit::objdump();
+    let tool = aerosid_elf_check::panic_audit::objdump();
     let out = std::process::Command::new(&tool)
         .arg("-t")
         .arg(&elf)
@@ -207,9 +209,9 @@ fn replay_of_a_csv_log_matches_the_samples_it_was_written_from() {
     let dir = qemu::workspace_root().join("target").join("replay-csv");
     std::fs::create_dir_all(&dir).expect("dir");
     let path = dir.join("flight.csv");
-    let n = aerosid_host::replay::simulate_to_csv(&path, 10.0, 3).expect("simulate");
+    let n = aerosid::replay::simulate_to_csv(&path, 10.0, 3).expect("simulate");
     // WHEN it is replayed on the host
-    let report = aerosid_host::replay::replay(&path, false).expect("replay");
+    let report = aerosid::replay::replay(&path, false).expect("replay");
     // THEN every sample went through the pipeline and every coefficient is reported
     assert!(
         report.contains(&format!("{n} samples through the on-board f32 pipeline")),
@@ -219,6 +221,6 @@ fn replay_of_a_csv_log_matches_the_samples_it_was_written_from() {
         assert!(report.contains(name), "{name} missing:\n{report}");
     }
     // … and a missing file is an error that names it
-    let err = aerosid_host::replay::replay(&dir.join("missing.csv"), false).expect_err("missing file");
+    let err = aerosid::replay::replay(&dir.join("missing.csv"), false).expect_err("missing file");
     assert!(err.contains("missing.csv"), "{err}");
 }

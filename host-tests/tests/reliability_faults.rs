@@ -20,8 +20,8 @@ use aerosid_core::aero::model::{channel, idx, typical};
 use aerosid_core::aero::{onboard, Pipeline, Refusal, SensorSample, StuckDetector, StuckSettings};
 use aerosid_core::estimator::Estimator;
 use aerosid_core::mavlink::telemetry::{health_bit, reports};
-use aerosid_host::flights::main_flight;
-use aerosid_host::sim;
+use aerosid_sim as sim;
+use aerosid_sim::flights::main_flight;
 
 /// Flight length, s.
 const SECONDS: f64 = 90.0;

@@ -1,5 +1,5 @@
 //! The CI slice of the long run (issue 7 §2): 10 minutes of simulated flight — 60 000 samples —
-//! with the long run's time line compressed (`aerosid_host::longrun`: excitation/cruise cycles of
+//! with the long run's time line compressed (`aerosid::longrun`: excitation/cruise cycles of
 //! 100 s, calm cruise 60–120 s, the `C_m` jump at 200 s and the `C_l` jump at 400 s), through the
 //! on-board `f32` pipeline. The 10-hour run is `aerosid long-run --hours 10` (BENCHMARKS.md); this
 //! test asserts the same invariants on the slice:
@@ -10,7 +10,7 @@
 //! * no drift in the calm cruise: no parameter of a fully excited coefficient moves by more than
 //!   [`CALM_DRIFT`] of its typical magnitude.
 
-use aerosid_host::longrun::{format_report, run, Invariants, LongRunConfig};
+use aerosid::longrun::{format_report, run, Invariants, LongRunConfig};
 
 /// Largest settling time after a jump, s. The slice's excitation phase after each jump is 50 s
 /// (its first manoeuvre 4 s after the jump); the VFF detects a jump within ~2 s and re-converges

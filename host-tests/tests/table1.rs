@@ -17,12 +17,12 @@
 // Index loops over the nine parameters walk several arrays together.
 #![allow(clippy::needless_range_loop)]
 
-use aerosid_core::fem::models::Longitudinal;
-use aerosid_host::table1::{
+use aerosid::table1::{
     bound, comparison_table, design_scan, predicted_null_direction, prior, requirement_bounds, requirement_table,
     summary_table, Bound, Conditions, Input, Method, Summary, DESIGNED_SECONDS, DESIGNED_STEP_S, NAMES, PAPER_SECONDS,
     RUNS, SIGMA_FOR_5_PERCENT_MEDIAN,
 };
+use aerosid_core::fem::models::Longitudinal;
 use std::sync::OnceLock;
 
 /// Table 1's true values.
@@ -54,7 +54,7 @@ struct Results {
 fn results() -> &'static Results {
     static R: OnceLock<Results> = OnceLock::new();
     R.get_or_init(|| {
-        let run = |input: Input, seconds: f64| Method::ALL.map(|m| aerosid_host::table1::campaign(input, seconds, m));
+        let run = |input: Input, seconds: f64| Method::ALL.map(|m| aerosid::table1::campaign(input, seconds, m));
         let campaigns = [run(Input::PAPER, PAPER_SECONDS), run(Input::DESIGNED, DESIGNED_SECONDS)];
         let mut bounds = vec![bound(Input::PAPER, PAPER_SECONDS, Conditions::SIMULATED).expect("bound")];
         bounds.extend(design_scan());
@@ -76,7 +76,7 @@ fn results() -> &'static Results {
                 comparison_table(&format!("{}, {seconds} s", input.label()), &rows)
             );
         }
-        print!("{}", aerosid_host::table1::bound_table(&r.bounds));
+        print!("{}", aerosid::table1::bound_table(&r.bounds));
         print!("{}", requirement_table(&r.requirements));
         r
     })

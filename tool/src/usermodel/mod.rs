@@ -487,7 +487,7 @@ impl UserModel {
     pub fn read(path: &Path) -> Result<Self, ModelError> {
         let text = std::fs::read_to_string(path).map_err(|e| {
             ModelError(format!(
-                "{}: {e} (give the path of a model file, e.g. host-tests/models/hfb320.toml)",
+                "{}: {e} (give the path of a model file, e.g. tool/models/hfb320.toml)",
                 path.display()
             ))
         })?;

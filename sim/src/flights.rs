@@ -2,7 +2,7 @@
 //! main job, shared by the host tests (`tests/paper.rs`, `tests/coverage.rs`) and the `aerosid`
 //! command.
 
-use crate::sim::*;
+use crate::*;
 
 /// The default sensor noise without biases: seed 000 Section VI-A corrupts its virtual sensors
 /// with white noise only, and Section V's assumption A takes systematic errors as known and

@@ -1,15 +1,15 @@
 //! Replaying a flight log (the project's CSV layout) through the on-board pipeline: on the host in
 //! `f32` exactly as the firmware computes (its sensor layer's stuck-sensor check, then the
 //! pipeline: [`qemu::emulate`]), and optionally through the firmware itself under QEMU
-//! ([`crate::qemu`]), with the two compared bit for bit. `aerosid simulate` writes such a log from
+//! ([`aerosid_qemu`]), with the two compared bit for bit. `aerosid simulate` writes such a log from
 //! the simulator; `aerosid replay LOG.csv [--qemu]` runs this.
 
 use crate::io::log::{read_log_file, write_log_file};
-use crate::qemu;
 use crate::report::parameter_name;
 use aerosid_core::aero::model::idx;
 use aerosid_core::aero::SensorSample;
 use aerosid_core::mavlink::CoefficientReport;
+use aerosid_qemu as qemu;
 use std::fmt::Write as _;
 use std::path::Path;
 use std::time::Duration;

@@ -2,12 +2,10 @@
 //! fixed parameters, pooled segments, validation, saved models applied to other data
 //! (`aerosid fem`, `aerosid predict`), and the refusal of bad files.
 
+use aerosid::fem_report::{hfb320_filter, hfb320_rows, step_data, PUBLISHED, START};
+use aerosid::usermodel::UserModel;
+use aerosid::workflow::{fit_metrics, identify, read_segments, run_fem, run_predict, simulate, FemArgs, SavedModel};
 use aerosid_core::fem::Sensitivity;
-use aerosid_host::fem_report::{hfb320_filter, hfb320_rows, step_data, PUBLISHED, START};
-use aerosid_host::usermodel::UserModel;
-use aerosid_host::workflow::{
-    fit_metrics, identify, read_segments, run_fem, run_predict, simulate, FemArgs, SavedModel,
-};
 use std::path::{Path, PathBuf};
 
 fn models() -> PathBuf {
@@ -354,14 +352,14 @@ fn hfb320_model_file_gauss_newton_matches_the_compiled_batch() {
     let rows = hfb320_rows(&data).expect("rows");
     let fem = hfb320_filter::<f64>(&rows, Sensitivity::Propagated).expect("filter");
     let steps: Vec<_> = rows.windows(2).map(|w| step_data::<f64>(&w[0], &w[1])).collect();
-    let start = aerosid_host::fem_batch::StateStart {
+    let start = aerosid::fem_batch::StateStart {
         model: *fem.model(),
         settings: *fem.settings(),
         x0: *fem.state(),
         p_x0: *fem.state_covariance(),
     };
     let (p0, c0) = (*fem.parameters(), *fem.parameter_covariance());
-    let fit = aerosid_host::fem_batch::gauss_newton(&start, &p0, &p0, &c0, &steps, 20, 0.01).expect("batch");
+    let fit = aerosid::fem_batch::gauss_newton(&start, &p0, &p0, &c0, &steps, 20, 0.01).expect("batch");
     // THEN both converge after the same number of passes to the same estimate: within 10⁻⁶ σ
     // (the rounding budget of the recursive comparison above, not compounded by the passes:
     // each pass starts from the previous estimate, which agrees to that order; measured 6·10⁻⁹ σ

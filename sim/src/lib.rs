@@ -22,6 +22,7 @@ pub mod airframe;
 pub mod airframe_file;
 pub mod atmosphere;
 pub mod dynamics;
+pub mod flights;
 pub mod manoeuvre;
 pub mod propulsion;
 pub mod sensors;

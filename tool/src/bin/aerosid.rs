@@ -1,15 +1,15 @@
 //! `aerosid` — the project's command-line tool: argument parsing (clap) and dispatch only; every
-//! command's work is a function of the `aerosid_host` library.
+//! command's work is a function of the `aerosid` library.
 //!
 //! Adding a command: a variant of [`Command`] holding a struct of its arguments (its doc comment is
 //! the command's `--help`), an [`Execute`] implementation that calls the library, and its arm in
 //! [`Command::execute`]. Ranges of numeric arguments are stated once, in a constant that both the
 //! value check ([`in_range`]) and the help text ([`range_help`]) read.
 
-use aerosid_host::gaps::airdata::AirDataChoice;
-use aerosid_host::gaps::hidden::{HiddenEffect, HiddenKind};
-use aerosid_host::gaps::model::Term;
-use aerosid_host::report::MainJob;
+use aerosid::gaps::airdata::AirDataChoice;
+use aerosid::gaps::hidden::{HiddenEffect, HiddenKind};
+use aerosid::gaps::model::Term;
+use aerosid::report::MainJob;
 use clap::builder::{PossibleValuesParser, TypedValueParser};
 use clap::{ArgGroup, Args, CommandFactory, Parser, Subcommand, ValueEnum};
 use std::path::{Path, PathBuf};
@@ -158,7 +158,7 @@ impl Execute for RunArgs {
         };
         let start = std::time::Instant::now();
         let mut log = String::new();
-        let result = aerosid_host::report::main_job(&job, &mut log);
+        let result = aerosid::report::main_job(&job, &mut log);
         print!("{log}");
         match result {
             Ok(paths) => {
@@ -192,7 +192,7 @@ struct SimulateArgs {
 
 impl Execute for SimulateArgs {
     fn execute(self) -> ExitCode {
-        match aerosid_host::replay::simulate_to_csv(&self.out, self.seconds, self.seed) {
+        match aerosid::replay::simulate_to_csv(&self.out, self.seconds, self.seed) {
             Ok(n) => {
                 println!(
                     "{}: {n} samples ({} s at 100 Hz, seed {})",
@@ -222,7 +222,7 @@ struct ReplayArgs {
 
 impl Execute for ReplayArgs {
     fn execute(self) -> ExitCode {
-        match aerosid_host::replay::replay(&self.log, self.qemu) {
+        match aerosid::replay::replay(&self.log, self.qemu) {
             Ok(report) => {
                 print!("{report}");
                 ExitCode::SUCCESS
@@ -241,14 +241,14 @@ struct DemoArgs {
     #[arg(long, value_name = "N", default_value_t = 1)]
     seed: u64,
     #[arg(long, value_name = "S", default_value_t = 120.0,
-          value_parser = in_range(aerosid_host::demo::SECONDS_RANGE),
-          help = range_help("Duration of the generated data, s", aerosid_host::demo::SECONDS_RANGE))]
+          value_parser = in_range(aerosid::demo::SECONDS_RANGE),
+          help = range_help("Duration of the generated data, s", aerosid::demo::SECONDS_RANGE))]
     seconds: f64,
 }
 
 impl Execute for DemoArgs {
     fn execute(self) -> ExitCode {
-        match aerosid_host::demo::demo(self.seed, self.seconds) {
+        match aerosid::demo::demo(self.seed, self.seconds) {
             Ok(text) => {
                 print!("{text}");
                 ExitCode::SUCCESS
@@ -274,11 +274,11 @@ struct FemHfb320Args {
 
 impl Execute for FemHfb320Args {
     fn execute(self) -> ExitCode {
-        let data = aerosid_host::fem_report::default_hfb320_path();
+        let data = aerosid::fem_report::default_hfb320_path();
         finish(
             "fem-hfb320",
             "figures",
-            aerosid_host::fem_report::hfb320_report(&data, &self.out),
+            aerosid::fem_report::hfb320_report(&data, &self.out),
         )
     }
 }
@@ -296,16 +296,16 @@ struct FemArgs {
     #[arg(long, value_name = "FILE")]
     data: Vec<PathBuf>,
     /// A segment of each data file, seconds from its first sample (repeatable; default all).
-    #[arg(long, value_name = "FROM:TO", value_parser = aerosid_host::workflow::parse_range, allow_hyphen_values = true)]
+    #[arg(long, value_name = "FROM:TO", value_parser = aerosid::workflow::parse_range, allow_hyphen_values = true)]
     segment: Vec<(f64, f64)>,
     /// A validation file (repeatable).
     #[arg(long, value_name = "FILE")]
     validate: Vec<PathBuf>,
     /// A validation segment, of the validation files or else of the data files (repeatable).
-    #[arg(long, value_name = "FROM:TO", value_parser = aerosid_host::workflow::parse_range, allow_hyphen_values = true)]
+    #[arg(long, value_name = "FROM:TO", value_parser = aerosid::workflow::parse_range, allow_hyphen_values = true)]
     validate_segment: Vec<(f64, f64)>,
     /// Hold a parameter at a value instead of estimating it (repeatable).
-    #[arg(long, value_name = "NAME=VALUE", value_parser = aerosid_host::workflow::parse_fix, allow_hyphen_values = true)]
+    #[arg(long, value_name = "NAME=VALUE", value_parser = aerosid::workflow::parse_fix, allow_hyphen_values = true)]
     fix: Vec<(String, f64)>,
     /// Folder the JSON and figures are written to (created if missing).
     #[arg(long, value_name = "DIR", default_value = "out/fem")]
@@ -314,7 +314,7 @@ struct FemArgs {
 
 impl Execute for FemArgs {
     fn execute(self) -> ExitCode {
-        let args = aerosid_host::workflow::FemArgs {
+        let args = aerosid::workflow::FemArgs {
             model: self.model,
             data: self.data,
             segments: self.segment,
@@ -326,7 +326,7 @@ impl Execute for FemArgs {
         finish(
             "fem",
             "written",
-            aerosid_host::workflow::run_fem(&args).map(|r| (r.text, r.files)),
+            aerosid::workflow::run_fem(&args).map(|r| (r.text, r.files)),
         )
     }
 }
@@ -343,7 +343,7 @@ struct PredictArgs {
     #[arg(long, value_name = "FILE")]
     data: Vec<PathBuf>,
     /// A segment of each data file, seconds from its first sample (repeatable; default all).
-    #[arg(long, value_name = "FROM:TO", value_parser = aerosid_host::workflow::parse_range, allow_hyphen_values = true)]
+    #[arg(long, value_name = "FROM:TO", value_parser = aerosid::workflow::parse_range, allow_hyphen_values = true)]
     segment: Vec<(f64, f64)>,
     /// Folder the JSON and figure are written to (created if missing).
     #[arg(long, value_name = "DIR", default_value = "out/predict")]
@@ -355,8 +355,7 @@ impl Execute for PredictArgs {
         finish(
             "predict",
             "written",
-            aerosid_host::workflow::run_predict(&self.saved, &self.data, &self.segment, &self.out)
-                .map(|(_, t, f)| (t, f)),
+            aerosid::workflow::run_predict(&self.saved, &self.data, &self.segment, &self.out).map(|(_, t, f)| (t, f)),
         )
     }
 }
@@ -373,7 +372,7 @@ struct Table1Args {
 
 impl Execute for Table1Args {
     fn execute(self) -> ExitCode {
-        finish("table1", "figures", aerosid_host::table1::table1_report(&self.out))
+        finish("table1", "figures", aerosid::table1::table1_report(&self.out))
     }
 }
 
@@ -409,7 +408,7 @@ fn air_data_parser() -> impl TypedValueParser<Value = AirDataChoice> {
 #[derive(Args)]
 #[command(group(ArgGroup::new("flight").required(true).args(["data", "simulate", "clean"])))]
 struct GapsArgs {
-    /// A measured flight (read by `aerosid_host::io::read_measured_with`): .csv, .asc/.txt/.dat or
+    /// A measured flight (read by `aerosid::io::read_measured_with`): .csv, .asc/.txt/.dat or
     /// .mat with --with; a PX4 .ulg or ArduPilot .bin log with or without it.
     #[arg(long, value_name = "FILE")]
     data: Option<PathBuf>,
@@ -465,7 +464,7 @@ struct GapsArgs {
     no_corrections: bool,
     /// Baseline models replacing eq. 3 for the coefficients named, e.g.
     /// "CL=1,alpha,dV;Cm=1,alpha,dV,q,de".
-    #[arg(long, value_name = "SPEC", value_parser = aerosid_host::gaps::model::parse_baseline)]
+    #[arg(long, value_name = "SPEC", value_parser = aerosid::gaps::model::parse_baseline)]
     baseline: Option<[Vec<Term>; 6]>,
     /// `off` skips the flight-path reconstruction (the data are used as they are).
     #[arg(long, value_enum, default_value_t = OnOff::On)]
@@ -490,8 +489,8 @@ fn positive_rate(s: &str) -> Result<f64, String> {
 
 impl GapsArgs {
     /// The read options of the flags, or the usage error.
-    fn read_options(&self) -> Result<aerosid_host::io::ReadOptions, String> {
-        let mut o = aerosid_host::io::ReadOptions {
+    fn read_options(&self) -> Result<aerosid::io::ReadOptions, String> {
+        let mut o = aerosid::io::ReadOptions {
             from_s: self.from,
             to_s: self.to,
             whole_log: self.whole_log,
@@ -532,8 +531,8 @@ impl Execute for GapsArgs {
             }
             if self.list {
                 let listing = match ext.as_deref() {
-                    Some("ulg") => aerosid_host::io::ulog::list_topics(data),
-                    Some("bin") => aerosid_host::io::dataflash::list_messages(data),
+                    Some("ulg") => aerosid::io::ulog::list_topics(data),
+                    Some("bin") => aerosid::io::dataflash::list_messages(data),
                     _ => {
                         return usage(
                             "gaps",
@@ -550,12 +549,12 @@ impl Execute for GapsArgs {
                 };
             }
         }
-        let settings = aerosid_host::gaps::GapSettings {
+        let settings = aerosid::gaps::GapSettings {
             air_data: self.air_data,
             apply_corrections: !self.no_corrections,
             compatibility: matches!(self.compatibility, OnOff::On),
             baseline: self.baseline.clone(),
-            ..aerosid_host::gaps::GapSettings::default()
+            ..aerosid::gaps::GapSettings::default()
         };
         let opts = match self.read_options() {
             Ok(o) => o,
@@ -563,14 +562,14 @@ impl Execute for GapsArgs {
         };
         let flight = match (&self.data, &self.with) {
             (Some(data), with) => {
-                aerosid_host::io::read_measured_with(data, with.as_deref(), &opts).map_err(|e| e.to_string())
+                aerosid::io::read_measured_with(data, with.as_deref(), &opts).map_err(|e| e.to_string())
             }
             _ => {
                 // A simulated flight with the hidden effect's size drawn from the seed.
                 use rand::SeedableRng;
                 let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(self.seed);
                 let effect = self.simulate.map(|k| k.draw(&mut rng));
-                let flight = aerosid_host::gaps::hidden::flight(effect.as_ref(), self.seconds, self.seed, !self.calm);
+                let flight = aerosid::gaps::hidden::flight(effect.as_ref(), self.seconds, self.seed, !self.calm);
                 // The campaign's baseline (eq. 3 without the δa a kind hides) unless one is given.
                 return match flight {
                     Ok(f) => {
@@ -578,7 +577,7 @@ impl Execute for GapsArgs {
                             .baseline
                             .clone()
                             .or_else(|| Some(HiddenEffect::baseline(effect.as_ref())));
-                        gaps(&f, &self.out, aerosid_host::gaps::GapSettings { baseline, ..settings })
+                        gaps(&f, &self.out, aerosid::gaps::GapSettings { baseline, ..settings })
                     }
                     Err(e) => fail("gaps", e),
                 };
@@ -592,18 +591,14 @@ impl Execute for GapsArgs {
 }
 
 /// Analyses `flight`, prints the table, writes report.json, report.txt and the figures to `out`.
-fn gaps(
-    flight: &aerosid_host::io::measured::MeasuredFlight,
-    out: &Path,
-    settings: aerosid_host::gaps::GapSettings,
-) -> ExitCode {
-    let report = match aerosid_host::gaps::run_gaps(flight, &settings) {
+fn gaps(flight: &aerosid::io::measured::MeasuredFlight, out: &Path, settings: aerosid::gaps::GapSettings) -> ExitCode {
+    let report = match aerosid::gaps::run_gaps(flight, &settings) {
         Ok(r) => r,
         Err(e) => {
             // What the data can and cannot support is said even when the analysis cannot run
             // (too few samples, no coefficient): the table here, data_quality.json in `out`.
-            let q = aerosid_host::io::quality::assess(flight);
-            print!("{}", aerosid_host::io::quality::table(&q));
+            let q = aerosid::io::quality::assess(flight);
+            print!("{}", aerosid::io::quality::table(&q));
             let json = serde_json::json!({
                 "schema": "aerosid-data-quality/1",
                 "source": flight.source,
@@ -621,11 +616,11 @@ fn gaps(
         }
     };
     // The table first: it is printed even if the files cannot be written.
-    print!("{}", aerosid_host::gaps::report::table(&report));
+    print!("{}", aerosid::gaps::report::table(&report));
     finish(
         "gaps",
         "files",
-        aerosid_host::gaps::report::write(&report, out).map(|f| (String::new(), f)),
+        aerosid::gaps::report::write(&report, out).map(|f| (String::new(), f)),
     )
 }
 
@@ -648,14 +643,14 @@ struct GapsBenchArgs {
 impl Execute for GapsBenchArgs {
     fn execute(self) -> ExitCode {
         let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-        let data = aerosid_host::fem_report::flight_data_dir();
-        let campaign = aerosid_host::gaps::bench::Campaign {
+        let data = aerosid::fem_report::flight_data_dir();
+        let campaign = aerosid::gaps::bench::Campaign {
             draws_per_kind: self.draws,
             clean: self.clean,
             jsbsim: Some(root.join("data/jsbsim")),
             real: data.is_dir().then(|| (data, root.join("data/maps"))),
         };
-        match aerosid_host::gaps::bench::write(&campaign, &self.out) {
+        match aerosid::gaps::bench::write(&campaign, &self.out) {
             Ok(lines) => {
                 for l in lines {
                     println!("{l}");
@@ -686,7 +681,7 @@ struct LongRunArgs {
 
 impl Execute for LongRunArgs {
     fn execute(self) -> ExitCode {
-        use aerosid_host::longrun;
+        use aerosid::longrun;
         let cfg = longrun::LongRunConfig::hours(self.hours, self.seed);
         let start = std::time::Instant::now();
         let result = longrun::run(&cfg, |t| {
@@ -731,7 +726,7 @@ struct PanicAuditArgs {
 
 impl Execute for PanicAuditArgs {
     fn execute(self) -> ExitCode {
-        match aerosid_host::panic_audit::audit_elf(&self.elf, &self.allow) {
+        match aerosid_elf_check::panic_audit::audit_elf(&self.elf, &self.allow) {
             Ok(a) => {
                 print!("{}", a.report());
                 if a.uncovered().is_empty() {
@@ -769,7 +764,7 @@ struct StackBoundArgs {
 
 impl Execute for StackBoundArgs {
     fn execute(self) -> ExitCode {
-        let b = match aerosid_host::stack_bound::analyse_elf(&self.elf, &self.config) {
+        let b = match aerosid_elf_check::stack_bound::analyse_elf(&self.elf, &self.config) {
             Ok(b) => b,
             Err(e) => return fail("stack-bound", e),
         };

@@ -5,10 +5,10 @@
 //! 1 Hz) and ground or bench parser fixtures. The Twin Otter `.mat` is
 //! `host-tests/data/flight/totter_lon_020213f1_018.mat` with its text export `_fdata.asc`.
 
-use aerosid_host::gaps::{run_gaps, GapSettings};
-use aerosid_host::io::measured::{MeasuredFlight, Quantity};
-use aerosid_host::io::quality::{assess, table};
-use aerosid_host::io::{read_measured, read_measured_with, ReadOptions};
+use aerosid::gaps::{run_gaps, GapSettings};
+use aerosid::io::measured::{MeasuredFlight, Quantity};
+use aerosid::io::quality::{assess, table};
+use aerosid::io::{read_measured, read_measured_with, ReadOptions};
 use std::path::{Path, PathBuf};
 
 fn data() -> PathBuf {
@@ -132,14 +132,14 @@ fn log_52_the_flight_is_found_and_refused_for_its_real_limits() {
     match run_gaps(&f, &GapSettings::default()) {
         Err(e) => panic!("log_52 with an aircraft file should run: {e}"),
         Ok(r) => {
-            println!("{}", aerosid_host::gaps::report::table(&r));
+            println!("{}", aerosid::gaps::report::table(&r));
             assert!(r.named.is_empty());
             assert!(
                 r.verdict.starts_with("no verdict") && r.verdict.contains("airspeed"),
                 "{}",
                 r.verdict
             );
-            let json = aerosid_host::gaps::report::json(&r);
+            let json = aerosid::gaps::report::json(&r);
             assert_eq!(json["data_quality"]["supports_verdict"], serde_json::json!(false));
         }
     }
