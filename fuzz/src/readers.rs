@@ -5,7 +5,7 @@
 //! | `read_log` | a file in the project's CSV flight-log layout ([`log::read_log`]) | every field of every sample finite, `t_s` strictly increasing |
 //! | `read_project_csv` | a project CSV, all or some columns ([`project_csv::parse_project_csv`]) with the `skywalker_2013_mod` aircraft | [`MeasuredFlight::validate`] passes (finite channels of the time base's length, increasing time) |
 //! | `read_aircraft` | an aircraft file ([`aircraft::parse_aircraft`]) | the required constants finite and positive, the optional ones finite or NaN (`unknown`), never ±∞, inertia definite where known |
-//! | `read_colmap_ascii` | a column map, a line `%%`, then a whitespace ASCII file ([`colmap::parse_map`] with the aircraft files of `host-tests/data` beside it, then [`colmap::parse_ascii`]) | the flight validates and its aircraft is as above |
+//! | `read_colmap_ascii` | a column map, a line `%%`, then a whitespace ASCII file ([`colmap::parse_map`] with the aircraft files of `tool/data` beside it, then [`colmap::parse_ascii`]) | the flight validates and its aircraft is as above |
 //! | `read_ulog` | a PX4 ULog ([`ulog::parse_ulog`]) with the default topic map | the flight validates |
 //!
 //! Any panic (index out of range, slicing inside a UTF-8 character, overflow) is a failure.

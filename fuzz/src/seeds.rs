@@ -11,7 +11,7 @@
 //! * `read_log`, `read_project_csv`: 0.3 s of a simulated flight in the project's CSV layout (all
 //!   columns; a subset).
 //! * `read_aircraft`: the shipped aircraft files; `read_colmap_ascii`: each shipped map with the
-//!   first lines of its vendored flight-test file (`host-tests/data/flight`); `read_ulog`: a ULog of 0.3 s of a simulated flight (a small writer below, from the
+//!   first lines of its vendored flight-test file (`tool/data/flight`); `read_ulog`: a ULog of 0.3 s of a simulated flight (a small writer below, from the
 //!   ULog format PX4 documents).
 
 use aerosid_core::mavlink::messages::{Attitude, EscStatus, Heartbeat, Rpm, ServoOutputRaw};

@@ -4,7 +4,7 @@
 //! solved for it, `mc::synth`) of the default `skywalker_2013_mod` problem. One criterion
 //! iteration is one whole `mc::run`: draws, eq. 35's errors and the two order statistics of eq. 40.
 //!
-//! Run: `cargo bench -p aerosid-host --bench mc -- --warm-up-time 1 --measurement-time 10`
+//! Run: `cargo bench -p aerosid-host-tests --bench mc -- --warm-up-time 1 --measurement-time 10`
 //! (criterion takes at least 10 iterations, so each coefficient runs ≥ 10·10⁶ draws).
 
 use aerosid::mc::synth::{self, Airframe, Coefficient, Sensors};

@@ -1,5 +1,5 @@
-//! Coverage of the eq. 17 `±2σ` bands over seeded flights (issue 3 §4: "with the coverage of the
-//! ±2σ bands checked over ≥ 50 seeded flights (should be near 95 %; say what it is)").
+//! Coverage of the eq. 17 `±2σ` bands over seeded flights (the
+//! requirement: checked over ≥ 50 seeded flights, near 95 % expected, the figure reported).
 //!
 //! GIVEN 50 flights of the main job's manoeuvres ([`flights::main_flight`], 120 s, seeds 1…50, light
 //! turbulence) with white sensor noise of the default size and no biases (eq. 17 describes random
@@ -13,7 +13,7 @@
 //! does not model, so a few per cent of under-coverage is expected and allowed). With the hidden
 //! effects on we only print it: the truth linearisation is then not the model's best fit.
 //!
-//! Measured 2026-12-02: **0.895** (`C_L` 0.840, `C_Y` 0.927, `C_l` 0.843, `C_m` 0.915, `C_n` 0.937;
+//! Measured: **0.895** (`C_L` 0.840, `C_Y` 0.927, `C_l` 0.843, `C_m` 0.915, `C_n` 0.937;
 //! `C_D` is never fully excited by these manoeuvres), below the bound, so the test is ignored. The
 //! under-coverage is bias, not a mis-scaled `σ`: per parameter, the spread of `(θ − θ_true)/σ` about
 //! its mean is 0.6–1.3 while its mean reaches ±1.6 (`C_lp` −1.55, `C_lδa` +1.59, `C_L0` +1.24). Two

@@ -1,4 +1,4 @@
-//! The aircraft file of the default airframe (`host-tests/data/aircraft/skywalker_2013_mod.aircraft`)
+//! The aircraft file of the default airframe (`tool/data/aircraft/skywalker_2013_mod.aircraft`)
 //! is the simulator's airframe exactly, so a simulated log analysed with it (`aerosid gaps --data
 //! LOG.csv --with …`) runs with the constants it was simulated with.
 

@@ -1,5 +1,5 @@
 //! The filter error method (seed 001) in the core: Jacobians, refusal of bad input, and the real
-//! HFB-320 flight data against the published filter-error estimates (issue 5).
+//! HFB-320 flight data against the published filter-error estimates.
 
 use aerosid::fem_report::{default_hfb320_path, hfb320_filter, step_data, PUBLISHED};
 use aerosid_core::fem::models::{hfb320_idx, Hfb320, Longitudinal};

@@ -1,4 +1,4 @@
-//! The filter error method on the MCU (issue 5 §4): the HFB-320 filter in `f32` over the real
+//! The filter error method on the MCU: the HFB-320 filter in `f32` over the real
 //! record under QEMU (`firmware/examples/fem_count.rs`), each step's instruction count from TIM2
 //! (`-icount shift=0,align=off,sleep=off`: one tick per guest instruction, TOOLCHAIN.md), and the
 //! final estimate against the host's `f32` run bit for bit.

@@ -1,7 +1,7 @@
-//! The log-reader fuzz targets in CI (issue 7 §1): the very invariant checks of `fuzz/src/readers.rs`
+//! The log-reader fuzz targets in CI: the very invariant checks of `fuzz/src/readers.rs`
 //! (included below, not copied) over each target's committed seed corpus and seeded mutations of
 //! it. CI runs the core fuzz targets under libFuzzer (`scripts/fuzz.sh ci`) but not these: their
-//! instrumented build pulls in all of aerosid-host's dependencies (minutes; `scripts/fuzz.sh`
+//! instrumented build pulls in all of the `aerosid` tool's dependencies (minutes; `scripts/fuzz.sh`
 //! says how many). This test has no coverage guidance; the libFuzzer long runs behind the README's
 //! figures do (`bash scripts/fuzz.sh long SECONDS read_log …`). Any panic — a reader's or a failed
 //! invariant's — fails the test and prints the input's seed, file and mutation number.
@@ -161,7 +161,7 @@ fn read_ulog() {
     fuzz("read_ulog", readers::read_ulog::run, 5);
 }
 
-/// A real log of `host-tests/data/logs/` (or the `.mat` of `data/flight/`), its first `bytes`
+/// A real log of `tool/data/logs/` (or the `.mat` of `data/flight/`), its first `bytes`
 /// bytes: the definitions and the first messages, so each mutation parses quickly.
 fn real_seed(path: &str, bytes: usize) -> (String, Vec<u8>) {
     let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tool/data").join(path);

@@ -6,7 +6,7 @@
 //! ChaCha8 from the 8 kinds of [`HiddenKind::CALM`], and 20 clean flights, each 90 s at 100 Hz with
 //! its own sensor-noise seed. Required: ≥ 95 % named correctly (kind *and* place: the coefficient,
 //! or the sensor channel), and nothing named on ≥ 95 % of the clean flights. The confusion table is
-//! printed (`cargo test -p aerosid-host --test integration gaps:: -- --nocapture`).
+//! printed (`cargo test -p aerosid-host-tests --test integration gaps:: -- --nocapture`).
 //!
 //! In turbulence (the simulator's Dryden gusts, σ 0.3 m/s, L 50 m: [`aerosid::gaps::hidden::CAMPAIGN_TURBULENCE`])
 //! one flight per kind of [`HiddenKind::ALL`] and ten clean flights: what is identifiable must be
@@ -20,7 +20,7 @@ use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 use std::collections::BTreeMap;
 
-/// Number of flights with a hidden effect, and of clean flights (issue 6 §3: ≥ 40 and ≥ 20).
+/// Number of flights with a hidden effect, and of clean flights (required: ≥ 40 and ≥ 20).
 const HIDDEN: usize = 40;
 const CLEAN: usize = 20;
 /// Flight length, s.
@@ -131,7 +131,7 @@ fn the_analysis_names_the_hidden_effect_and_nothing_on_clean_flights() {
         clean.len(),
         100.0 * quiet as f64 / clean.len() as f64
     );
-    // AND at least 95 % of each (issue 6 §3)
+    // AND at least 95 % of each (the required rates)
     assert!(
         20 * named_right >= 19 * hidden.len(),
         "{named_right}/{} named correctly",
@@ -370,7 +370,7 @@ fn on_the_jsbsim_flights_table_effects_are_found_and_no_sensor_error_is_invented
     use aerosid::gaps::bench::{write, Campaign};
     use aerosid::gaps::model::CauseKind;
     // GIVEN the vendored JSBSim c172x flights (an independent simulator, light turbulence; truth in
-    // host-tests/data/jsbsim/truth.json)
+    // tool/data/jsbsim/truth.json)
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../tool/data/jsbsim");
     let out = std::env::temp_dir().join(format!("aerosid-gaps-jsbsim-{}", std::process::id()));
     // WHEN the benchmark campaign runs on them alone

@@ -1,7 +1,7 @@
 //! The host integration tests, one module per file of this directory, built as one test binary
 //! (`autotests = false` and the `[[test]]` table in Cargo.toml): each file as its own binary linked
 //! the library and instantiated the generic core again, which cost CI minutes. Run one file's tests
-//! with a filter on its module: `cargo test -p aerosid-host --test integration qemu_replay::`.
+//! with a filter on its module: `cargo test -p aerosid-host-tests --test integration qemu_replay::`.
 
 mod against_faer;
 mod common;

@@ -1,4 +1,4 @@
-//! Issue 6 §1: reading measured data — the shared flight-test files through their column maps,
+//! Reading measured data — the shared flight-test files through their column maps,
 //! the project CSV, PX4 ULog (written here by a small ULog writer from a simulated flight), and
 //! bad files refused with errors naming the file, line and column (or the ULog message).
 
@@ -1128,7 +1128,7 @@ fn bad_ulogs_are_refused_naming_the_message() {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Issue 6 §4: the model-gap analysis on the real flights
+// The model-gap analysis on the real flights
 
 #[test]
 fn attas_noseboom_air_data_are_moved_to_the_cg() {

@@ -1,5 +1,5 @@
 //! Noise-free data: a legitimate, degenerate input (a simulator with perfect sensors, a replay of
-//! a smoothed log). Regression test for a defect found on 2026-11-25: after a stretch of identical
+//! a smoothed log). Regression test for a defect: after a stretch of identical
 //! rows (a trimmed aircraft before its first manoeuvre) the scaled data matrix has exactly-zero
 //! singular values; the next exactly-consistent row put a secular root on its pole within
 //! rounding, the eigenvector `ẑ_j/(δ_j − μ)` overflowed, and the rank-one update returned "not

@@ -1,4 +1,4 @@
-//! The seed's simulation results (seed 000 Section VI-A, issue 3 §4): Fig. 1 (GTLS vs sequential
+//! The seed's simulation results (seed 000 Section VI-A): Fig. 1 (GTLS vs sequential
 //! OLS/RLS on the `C_D` parameters) and Fig. 2 (constant vs variable `λ_F` across a jump of the
 //! `C_m` parameters), on the truth simulator through the on-board `f32` pipeline
 //! ([`aerosid::experiment`]). Seeded; the numbers are printed (`--nocapture`).

@@ -1,4 +1,4 @@
-//! Sensor, bus, timing and link faults injected into the firmware under QEMU (issue 7 §3 and §6):
+//! Sensor, bus, timing and link faults injected into the firmware under QEMU:
 //! a simulated flight replayed with its autopilot stream on the (emulated) link, garbage on that
 //! link, and a schedule of faults the QEMU board applies where the flight computer's sensor layer
 //! would meet them (`firmware/src/board/qemu.rs`). The firmware must survive all of it, report

@@ -1,4 +1,4 @@
-//! The firmware under QEMU (issue 4): a simulated flight log replayed through the same sampling →
+//! The firmware under QEMU: a simulated flight log replayed through the same sampling →
 //! synthesis → estimator → telemetry path as on the flight computer; the estimates it sends equal
 //! the host's `f32` run bit for bit, and its per-sample instruction count stays within budget.
 //!
@@ -12,21 +12,15 @@ use std::time::Duration;
 
 /// Instructions per sample for the whole six-coefficient step (synthesis + six PCA-GTLS updates
 /// with VFF): regression budgets, about 5 % above what was measured (median 26 909, max 38 737 on
-/// this 30 s replay, 2026-12-02; 26 965 / 40 505 before the general secular update wrote into the
-/// estimator's buffers, 26 994 / 40 535 before the in-place sample queue; 29 898 / 44 435 before the unrolled secular, Cholesky and solve
-/// loops and the `f64`-free `sin_cos_f32`, 55 090 / 60 535 before the steady-state secular path).
-/// The max budget is shared with the fault run (measured there 40 373). The issue's goal, 12 000, is NOT met: see
-/// BENCHMARKS.md for the profile and the operation count.
+/// this 30 s replay). The max budget is shared with the fault run (measured there 40 373). The
+/// goal, 12 000, is NOT met: see docs/benchmarks.md for the profile and the operation count.
 const STEP_BUDGET_MEDIAN: u32 = 28_500;
 /// See [`STEP_BUDGET_MEDIAN`] (shared with the fault run).
 const STEP_BUDGET_MAX: u32 = qemu::STEP_BUDGET_MAX;
 /// Instructions the whole firmware executes per sample (`qemu::PERIOD_PROBE`: the step, the
 /// sample queue, the sampling task with the replay's reads, the count file, interrupts), median
-/// and maximum: regression budgets ≈ 5 % above the measured 29 702 / 41 530 (29 761 / 43 302 before the general
-/// secular update wrote into the estimator's buffers, 30 364 / 43 905 when
-/// the stuck detector compared every channel, 31 747 / 45 292 when the channel still carried the
-/// samples). Not asserted on the fault run, whose drops and bus
-/// retries put several sampling-task runs into one period.
+/// and maximum: regression budgets ≈ 5 % above the measured 29 702 / 41 530. Not asserted on the
+/// fault run, whose drops and bus retries put several sampling-task runs into one period.
 const FIRMWARE_BUDGET_MEDIAN: u32 = 31_200;
 /// See [`FIRMWARE_BUDGET_MEDIAN`].
 const FIRMWARE_BUDGET_MAX: u32 = 49_200;

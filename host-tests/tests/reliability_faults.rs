@@ -1,4 +1,4 @@
-//! Sensor and bus faults at the pipeline (issue 7 §3): what the firmware's sampling task hands the
+//! Sensor and bus faults at the pipeline: what the firmware's sampling task hands the
 //! estimator when a sensor read fails (`firmware/src/board/hw.rs`: a failed read makes its channels
 //! NaN, never a stale value), when a sensor returns out-of-range values, sticks at a constant, a
 //! sample is missed, or the sampling task runs late.

@@ -1,4 +1,4 @@
-//! Scenario tests of the truth simulator (issue 3 §1) and the CSV log layout. Seeded and fast.
+//! Scenario tests of the truth simulator and the CSV log layout. Seeded and fast.
 
 use aerosid::io::log::{read_log, write_log, write_log_with_truth, LogError, COLUMNS};
 use aerosid_core::aero::SensorSample;

@@ -1,11 +1,11 @@
-//! Seed 001, Table 1 (issue 5 §2): 50 seeded flights of the A-4D longitudinal model in Dryden
+//! Seed 001, Table 1: 50 seeded flights of the A-4D longitudinal model in Dryden
 //! turbulence, with the paper's input and with a designed one, through the paper's filter error
 //! method, ours on board (one recursive pass, Dryden gust states, an accelerometer), ours offline
 //! (batch Gauss–Newton) and seed 000's equation-error PCA-GTLS; and the Cramér–Rao bound of the
 //! records. The campaigns are computed once and shared by the tests (`results()`); every figure
 //! asserted below is the measured one, printed with `--nocapture` (and by `aerosid table1`).
 //!
-//! What the issue asks and what the measurements say:
+//! What is required and what the measurements say:
 //! * ≥ 90 % of the runs with all nine within 2σ, σ honest: the batch method's σ is honest (rms z
 //!   0.88–1.24 on every data-determined parameter), and honest σ on nine parameters puts all nine
 //!   within 2σ in 76–77 % of the runs (measured 40/50 and 41/50). The 90 % figure and honest σ
@@ -273,7 +273,7 @@ fn batch_sigma_is_honest() {
         }
         // … and all nine are within 2σ as often as honest σ predicts: 40/50 and 41/50 against
         // 76 % and 77 % (within three binomial σ of 6 points). Honest σ on nine parameters cannot
-        // give the issue's 90 %: the expectation itself is below 85 %.
+        // give the required 90 %: the expectation itself is below 85 %.
         let observed = s.all_within_2sigma as f64 / s.runs as f64;
         let e = s.expected_all_within_2sigma;
         let sd = (e * (1.0 - e) / s.runs as f64).sqrt();

@@ -1,5 +1,11 @@
-//! The truth simulator the on-board identification is tested against (seed 000
-//! Section VI-A uses `last_letter` the same way).
+//! # aerosid-sim
+//!
+//! The 6-DoF flight simulator and the flights it generates: the truth the on-board identification
+//! is tested against (seed 000 Section VI-A uses `last_letter` the same way).
+//!
+//! It depends on the core only (the sensor sample it writes, the propeller model it shares): the
+//! `aerosid` tool (log writer, model-gap analysis, main job) and the tests depend on it, never the
+//! reverse, so the simulator builds and tests without the tool's readers, plots and CLI.
 //!
 //! * [`dynamics`] — nonlinear 6-DoF rigid body (FRD body, NED earth, quaternion attitude, full
 //!   inertia with `Jxz`), RK4 at an internal step (default 2 ms); commands held per output period.
@@ -256,7 +262,7 @@ pub fn simulate(cfg: &SimConfig) -> Result<SimOutput, SimError> {
 }
 
 /// A flight one output period at a time, for flights too long to keep in memory (the long run of
-/// `crate::longrun`: 3.6 million samples). [`simulate`] is this, collected; `duration_s` is not
+/// `aerosid::longrun`: 3.6 million samples). [`simulate`] is this, collected; `duration_s` is not
 /// used here (the caller decides when to stop).
 ///
 /// The configuration may be changed between steps through [`Simulator::config_mut`]: the schedule

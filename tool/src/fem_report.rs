@@ -36,7 +36,7 @@ pub const OUTPUTS: [&str; 7] = [
     "a_z (m/s²)",
 ];
 
-/// The HFB-320 flight file (`host-tests/data/flight/hfb320_1_10.asc`): rows of 20 numbers.
+/// The HFB-320 flight file (`tool/data/flight/hfb320_1_10.asc`): rows of 20 numbers.
 pub fn hfb320_rows(path: &Path) -> Result<Vec<[f64; 20]>, String> {
     let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
     let mut rows = Vec::new();

@@ -1,9 +1,9 @@
 //! Real autopilot logs (PX4 ULog, ArduPilot DataFlash) and a MATLAB `.mat` file through the
 //! readers and the data-quality assessment: each log parses, gets a report, and gets no verdict it
-//! cannot support. The logs are `host-tests/data/logs/` (provenance and licences in its
+//! cannot support. The logs are `tool/data/logs/` (provenance and licences in its
 //! README.md): one short fixed-wing flight (log_52: an RC F-16 jet, ~8 s in the air, airspeed at
 //! 1 Hz) and ground or bench parser fixtures. The Twin Otter `.mat` is
-//! `host-tests/data/flight/totter_lon_020213f1_018.mat` with its text export `_fdata.asc`.
+//! `tool/data/flight/totter_lon_020213f1_018.mat` with its text export `_fdata.asc`.
 
 use aerosid::gaps::{run_gaps, GapSettings};
 use aerosid::io::measured::{MeasuredFlight, Quantity};
@@ -27,7 +27,7 @@ fn scratch(test: &str) -> PathBuf {
     d
 }
 
-/// The logs of `host-tests/data/logs/`.
+/// The logs of `tool/data/logs/`.
 const LOGS: [&str; 5] = [
     "log_52_2021-5-22-12-42-56.ulg",
     "pyulog_sample_log_small.ulg",

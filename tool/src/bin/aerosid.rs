@@ -284,7 +284,7 @@ impl Execute for FemHfb320Args {
 }
 
 /// The filter error or output error method on a model file (states, inputs, outputs, parameters,
-/// equations; docs/workflow.md, e.g. host-tests/models/hfb320.toml), the files and segments pooled
+/// equations; docs/workflow.md, e.g. tool/models/hfb320.toml), the files and segments pooled
 /// (each its own initial state), parameters fixed as asked, validated on other data; writes
 /// identification.json (the saved model) and measured-vs-model figures (SVG).
 #[derive(Args)]

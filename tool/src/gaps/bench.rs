@@ -21,7 +21,7 @@ use rayon::prelude::*;
 use serde_json::{json, Value};
 use std::path::{Path, PathBuf};
 
-/// The shared real flight-test files and their column maps (`host-tests/data/maps/`).
+/// The shared real flight-test files and their column maps (`tool/data/maps/`).
 pub const REAL_FLIGHTS: [(&str, &str); 5] = [
     ("hfb320_1_10.asc", "hfb320.map"),
     ("fAttasElv1_pqrDot.asc", "attas.map"),
@@ -37,7 +37,7 @@ pub struct Campaign {
     pub draws_per_kind: usize,
     /// Simulated clean flights.
     pub clean: usize,
-    /// The vendored JSBSim flights (`host-tests/data/jsbsim`), if wanted.
+    /// The vendored JSBSim flights (`tool/data/jsbsim`), if wanted.
     pub jsbsim: Option<PathBuf>,
     /// The folder of the real flight-test data (`shared/data/flight`) and the maps'
     /// folder, if wanted.

@@ -1,4 +1,4 @@
-//! Data compatibility (issue 6 §2.1): flight-path reconstruction from the inertial measurements, and
+//! Data compatibility: flight-path reconstruction from the inertial measurements, and
 //! the sensor errors that make the air data and attitude disagree with it.
 //!
 //! ## Method

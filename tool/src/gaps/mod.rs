@@ -1,6 +1,6 @@
-//! The model-gap analysis (issue 6 §2): what does the identified model get wrong, and why?
+//! The model-gap analysis: what does the identified model get wrong, and why?
 //!
-//! [`run_gaps`] takes a [`MeasuredFlight`] and, in the order of the issue:
+//! [`run_gaps`] takes a [`MeasuredFlight`] and, in this order:
 //! 1. **Data compatibility** ([`compat`]): flight-path reconstruction by output error on the
 //!    kinematic equations, with sensor biases, scale factors, time delays and vane positions chosen
 //!    by stepwise regression. Errors found are removed from the data before any aerodynamics.
@@ -30,8 +30,8 @@
 //! the Bonferroni correction keeps the chance of naming anything on a clean flight below `α`
 //! however many candidates there are — if σ is right, which is what the errors-in-variables model
 //! and the coloured σ are for. Morelli's PSE is reported, not required to fall (see
-//! `docs/model-gaps.md`). Measurement causes take precedence over aerodynamic ones (issue 6 §2.1:
-//! "before blaming the aerodynamics"), so the **top cause** is the sensor error with the largest
+//! `docs/model-gaps.md`). Measurement causes take precedence over aerodynamic ones (the
+//! sensors are cleared before the aerodynamics is blamed), so the **top cause** is the sensor error with the largest
 //! final `t²`, else the aerodynamic term with the largest final `t²` over all coefficients.
 
 pub mod airdata;

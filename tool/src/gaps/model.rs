@@ -1,5 +1,5 @@
 //! Coefficient synthesis from a [`MeasuredFlight`] (seed 000 eq. 1–2) and the model terms: the
-//! regressors of eq. 3 and the library of candidate causes of issue 6 §2.4.
+//! regressors of eq. 3 and the library of candidate causes.
 //!
 //! ## Synthesis (the same equations as [`aerosid_core::aero::synthesise`], on named channels)
 //! * Sensor errors found by the compatibility check are removed first (bias, scale, delay), the
@@ -617,7 +617,7 @@ pub fn synthesise(
     }
 }
 
-/// What kind of cause a term or sensor error stands for (issue 6 §2.4 and §3).
+/// What kind of cause a term or sensor error stands for.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, serde::Serialize)]
 pub enum CauseKind {
     /// α², α³, a stall break: a lift/drag/moment curve that is not linear in α.

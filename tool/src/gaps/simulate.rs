@@ -1,4 +1,4 @@
-//! What the simulation gets wrong (issue 6 §2.3): the fitted models simulate the motion on the
+//! What the simulation gets wrong: the fitted models simulate the motion on the
 //! held-out segment, and the simulated states are compared with the measured ones — the validation
 //! of seed 000 §VI.B (Fig. 4–5), which reconstructs α and β of a *different* flight segment with
 //! the identified `C_L` and `C_Y` models.

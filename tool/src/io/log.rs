@@ -1,4 +1,4 @@
-//! The CSV flight-log layout (issue 3 §1): a header of named columns, one row per
+//! The CSV flight-log layout: a header of named columns, one row per
 //! [`SensorSample`], SI units and radians. Column names are the field names of `SensorSample`
 //! (core/src/aero/mod.rs), vectors as `<name>_x`, `_y`, `_z` — see [`COLUMNS`].
 //!

@@ -1,4 +1,4 @@
-//! Measured flight data as the model-gap analysis (issue 6) reads it: a time base and a set of named
+//! Measured flight data as the model-gap analysis reads it: a time base and a set of named
 //! channels, each in SI units and radians, body frame FRD, plus the aircraft's constants.
 //!
 //! Every reader (the project's CSV log, the column-map files for the shared flight-test data, PX4
