@@ -1,7 +1,13 @@
-//! The firmware under QEMU: build the `qemu` board, replay a flight log through it, and read back
-//! what it sent (MAVLink on USART1), what it logged (defmt over semihosting) and what each sample
-//! cost (TIM2 instruction counts). Used by `tests/qemu_replay.rs`, `tests/qemu_faults.rs` and
-//! `aerosid qemu`.
+//! # aerosid-qemu
+//!
+//! The firmware under QEMU and the host's model of it: build the `qemu` board, replay a flight log
+//! through it, and read back what it sent (MAVLink on USART1), what it logged (defmt over
+//! semihosting) and what each sample cost (TIM2 instruction counts).
+//!
+//! Its own crate, depending on the core only, because two jobs need it: the `aerosid` tool
+//! (`aerosid replay LOG.csv --qemu`) and the host tests (`host-tests/tests/qemu_replay.rs`,
+//! `qemu_faults.rs`, `fem_qemu.rs`); the tests depend on the tool, so the harness cannot live in
+//! either without a cycle.
 //!
 //! The run: `qemu-system-arm -machine netduinoplus2 -icount shift=0,align=off,sleep=off` (one TIM2
 //! tick per guest instruction; TOOLCHAIN.md) in a scratch folder holding `replay.bin` and,
@@ -31,7 +37,8 @@ pub use aerosid_core::harness::{FAULT_RECORD_BYTES, MAX_FAULTS, PERIOD_PROBE, PR
 /// QEMU run (`tests/qemu_replay.rs`, `tests/qemu_faults.rs`): measured 4 216 B on the replay and
 /// 4 112 B on the fault run with the firmware built for size around its opt-level 3 estimator step
 /// (root `Cargo.toml`; the size-optimised telemetry and boot code keep larger frames: 3 784 B and
-/// 3 776 B with the whole firmware at opt-level 3). Every step in docs/benchmarks.md "Stack".
+/// 3 776 B with the whole firmware at opt-level 3). How it is measured: docs/benchmarks.md, "Firmware
+/// size and RAM".
 pub const STACK_BUDGET_BYTES: u32 = 4_450;
 
 /// Instructions of the whole six-coefficient step on its worst sample: the regression budget of
@@ -39,7 +46,7 @@ pub const STACK_BUDGET_BYTES: u32 = 4_450;
 /// (`tests/qemu_faults.rs`, measured max 44 838: no fault, and no garbage on the link, may stall the
 /// step). The worst samples run the general secular update, whose square roots, secular
 /// evaluations and eigenvector corrections are calls, not inlined copies, for the flash goal
-/// (`linalg::secular`; 38 737 and 40 373 with them inlined, docs/benchmarks.md "Firmware size").
+/// (`linalg::secular`; 38 737 and 40 373 with them inlined, docs/performance.md).
 pub const STEP_BUDGET_MAX: u32 = 47_000;
 
 /// Whether `defmt-print` (which decodes the firmware's defmt log, and with it the stack figure) is
