@@ -14,10 +14,10 @@
 //!   first lines of its vendored flight-test file (`tool/data/flight`); `read_ulog`: a ULog of 0.3 s of a simulated flight (a small writer below, from the
 //!   ULog format PX4 documents).
 
-use aerosid_core::mavlink::messages::{Attitude, EscStatus, Heartbeat, Rpm, ServoOutputRaw};
-use aerosid_core::mavlink::Encoder;
 use aerosid::io::log;
 use aerosid::sim::{self, SimConfig};
+use aerosid_core::mavlink::messages::{Attitude, EscStatus, Heartbeat, Rpm, ServoOutputRaw};
+use aerosid_core::mavlink::Encoder;
 
 /// `(target, file name, bytes)` of every seed.
 pub fn all() -> Vec<(&'static str, String, Vec<u8>)> {
