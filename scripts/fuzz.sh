@@ -8,9 +8,10 @@
 #                                         run each (or the named) target SECONDS; prints executions,
 #                                         coverage and corpus size per target (the README's figures)
 #
-# CI fuzzes the core targets only: the five log-reader targets (read_*) link aerosid-host and with
-# it faer, plotters, rayon, serde…, which took 5 min 20 s to build instrumented (3 min 20 s CPU,
-# measured on a loaded 2-core machine) against 1 min 20 s for the core targets: beyond CI's budget.
+# CI fuzzes the core targets only: the five log-reader targets (read_*) link the aerosid tool and with
+# it plotters, rayon, serde…, which took 5 min 20 s to build instrumented (3 min 20 s CPU,
+# measured on a loaded 2-core machine while they also linked faer) against 1 min 20 s for the
+# core targets: beyond CI's budget.
 # In CI the reader targets' invariants run instead over their seed corpus and seeded mutations of
 # it as a host test (host-tests/tests/fuzz_readers.rs, no coverage guidance); `long` fuzzes them.
 #
@@ -24,11 +25,11 @@
 #
 # FUZZ_INSTRUMENT selects what is instrumented:
 #   all  — every crate, as cargo-fuzz does (fuzz/target/); used for the README's long runs;
-#   ours — (default) only aerosid-core, aerosid-host, px4-ulog and the fuzz crate get the flags above
+#   ours — (default) only aerosid-core, aerosid, aerosid-sim, px4-ulog and the fuzz crate get the flags above
 #          (through scripts/fuzz-rustc.sh as RUSTC_WRAPPER, in fuzz/target-ours/); the other
 #          dependencies are plain release builds. Generic code (nalgebra's matrices) is instantiated,
 #          hence instrumented, in our crates either way; what is lost is coverage guidance inside
-#          faer, rayon, plotters, serde (which the targets barely call) — and the build is minutes
+#          rayon, plotters, serde (which the targets barely call) — and the build is minutes
 #          shorter (CI).
 #
 # Corpora: libFuzzer reads fuzz/seeds/TARGET (committed) and writes what it finds to

@@ -2,8 +2,8 @@
 """Instruction profile of the QEMU firmware replay: where the per-sample instructions go.
 
 Usage (from the workspace root):
-    cargo test -p aerosid-host --test integration qemu_replay::write_profile_replay -- --ignored
-    cargo test -p aerosid-host --test integration qemu_replay::qemu_replay_equals   # builds target/qemu
+    cargo test -p aerosid-host-tests --test integration qemu_replay::write_profile_replay -- --ignored
+    cargo test -p aerosid-host-tests --test integration qemu_replay::qemu_replay_equals   # builds target/qemu
     python3 scripts/qemu-profile.py [--inlined] [--classes [--minus M]] [--top N]
 
 Runs the QEMU build of the firmware on target/qemu-prof/replay.bin with `-singlestep -d exec,nochain`
@@ -17,12 +17,12 @@ integer loads and stores, branches, other integer instructions — for the estim
 source files of the six estimators: gtls.rs, linalg/, vff.rs, estimator.rs, scalar.rs but for the
 synthesis's sin_cos_f32, by the innermost inlined frame; also split by file) and for everything,
 per sample of the profiled replay. The floating-point arithmetic of the estimators is the part no
-compiler or scheduling can remove: the operation count of the algorithm as compiled (BENCHMARKS.md,
-"The floor, measured"). The replay starts the
+compiler or scheduling can remove: the operation count of the algorithm as compiled
+(docs/benchmarks.md, "The floor, measured"). The replay starts the
 estimators afresh, so its first samples run the start-up path; for the steady state profile two
 lengths and take the difference: each --classes run saves its totals as
 target/qemu-prof/classes-N.json, and --minus M prints (run of N − run of M)/(N − M):
-    AEROSID_PROFILE_SAMPLES=60 cargo test -p aerosid-host --test integration qemu_replay::write_profile_replay -- --ignored
+    AEROSID_PROFILE_SAMPLES=60 cargo test -p aerosid-host-tests --test integration qemu_replay::write_profile_replay -- --ignored
     AEROSID_PROFILE_SAMPLES=60 python3 scripts/qemu-profile.py --classes
     AEROSID_PROFILE_SAMPLES=180 cargo test … (as above)
     AEROSID_PROFILE_SAMPLES=180 python3 scripts/qemu-profile.py --classes --minus 60
@@ -42,6 +42,17 @@ def tool(name):
         if os.path.exists(p):
             return p
     return name
+
+def ours(loc):
+    """Whether a source location (llvm-symbolizer's `file:line:column`) is this workspace's code,
+    wherever the checkout lives: under the root this script runs from or, for an image built in
+    another checkout, a path through `core/src`, `firmware/src` or `firmware/step` that is not a
+    dependency's (cargo's registry and git checkouts, the standard library's `/rustc/...`)."""
+    if loc.startswith(root + os.sep):
+        return True
+    if "/.cargo/" in loc or loc.startswith("/rustc/"):
+        return False
+    return re.search(r"(^|/)(core/src|firmware/src|firmware/step)/", loc) is not None
 
 log = os.path.join(prof, "exec.log")
 subprocess.run(["qemu-system-arm", "-machine", "netduinoplus2", "-nographic", "-monitor", "none",
@@ -89,7 +100,7 @@ if "--inlined" in sys.argv:
         loc = lines[1] if len(lines) > 1 else "?"
         # Attribute to the innermost frame in our own code (not core::ops / nalgebra glue).
         for i in range(0, len(lines) - 1, 2):
-            if "/work/" in lines[i + 1] or "aerosid" in lines[i + 1]:
+            if ours(lines[i + 1]):
                 fn, loc = lines[i], lines[i + 1]
                 break
         byinl[fn] += counts[pc]
@@ -141,7 +152,7 @@ if "--classes" in sys.argv:
         lines = b.splitlines()
         fn, loc = "?", "?"
         for i in range(0, len(lines) - 1, 2):
-            if "/work/" in lines[i + 1] or "aerosid" in lines[i + 1]:
+            if ours(lines[i + 1]):
                 fn, loc = lines[i], lines[i + 1]
                 break
         # scalar.rs also holds the synthesis's sin_cos_f32: not the estimators'.

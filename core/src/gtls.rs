@@ -738,7 +738,7 @@ fn solve_gram<T: Real, const N: usize>(m: &[[T; N]; N], b: &[T; N], k: usize, n:
         }
     }
     // L Lᵀ y = b, by loops of compile-time length stopped at `k` (`unrolled_upto`;
-    // measured 2026-12-02, with the Cholesky: replay median −597 instructions and −1.3 KB of flash,
+    // measured with the Cholesky: replay median −597 instructions and −1.3 KB of flash,
     // while the same change to the Gram product and to `minimum_norm`'s rows cost 3.5 KB for ±30).
     let mut y = [T::zero(); N];
     for i in unrolled_upto::<N>(0, k) {

@@ -1,5 +1,5 @@
 //! The contract between the firmware and the host tools that run it under QEMU and model it
-//! (`aerosid_host::qemu`): every constant both sides need, written once here, so the firmware and
+//! (`aerosid_qemu`): every constant both sides need, written once here, so the firmware and
 //! the harness that checks it cannot drift apart.
 
 use crate::aero::model::idx;

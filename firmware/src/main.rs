@@ -14,7 +14,7 @@
 //! the estimate task reads in place; an rtic-sync channel of one-byte tokens, one per queued
 //! sample, wakes it. (A channel carrying the 104-byte samples themselves costs ≈ 1 900
 //! instructions per sample of `memcpy` across the two tasks: rtic-sync copies a value into its
-//! slot, out of it and out of the `recv` future; docs/benchmarks.md.) A token is sent before its sample is
+//! slot, out of it and out of the `recv` future.) A token is sent before its sample is
 //! queued, and the sampling task, above the estimate task, does both without yielding, so a
 //! received token always finds its sample: the queue holds at most the channel's tokens plus the
 //! sample being processed. If the estimator falls behind, the channel fills and `sample` drops (and

@@ -1,17 +1,17 @@
-//! Fuzz targets of the log readers (`aerosid_host::io`), through their public API only.
+//! Fuzz targets of the log readers (`aerosid::io`), through their public API only.
 //!
 //! | target | input | invariants of an `Ok` |
 //! |---|---|---|
 //! | `read_log` | a file in the project's CSV flight-log layout ([`log::read_log`]) | every field of every sample finite, `t_s` strictly increasing |
 //! | `read_project_csv` | a project CSV, all or some columns ([`project_csv::parse_project_csv`]) with the `skywalker_2013_mod` aircraft | [`MeasuredFlight::validate`] passes (finite channels of the time base's length, increasing time) |
 //! | `read_aircraft` | an aircraft file ([`aircraft::parse_aircraft`]) | the required constants finite and positive, the optional ones finite or NaN (`unknown`), never ±∞, inertia definite where known |
-//! | `read_colmap_ascii` | a column map, a line `%%`, then a whitespace ASCII file ([`colmap::parse_map`] with the aircraft files of `host-tests/data` beside it, then [`colmap::parse_ascii`]) | the flight validates and its aircraft is as above |
+//! | `read_colmap_ascii` | a column map, a line `%%`, then a whitespace ASCII file ([`colmap::parse_map`] with the aircraft files of `tool/data` beside it, then [`colmap::parse_ascii`]) | the flight validates and its aircraft is as above |
 //! | `read_ulog` | a PX4 ULog ([`ulog::parse_ulog`]) with the default topic map | the flight validates |
 //!
 //! Any panic (index out of range, slicing inside a UTF-8 character, overflow) is a failure.
 
-use aerosid_host::io::measured::{Aircraft, MeasuredFlight};
-use aerosid_host::io::{aircraft, colmap, log, project_csv, ulog};
+use aerosid::io::measured::{Aircraft, MeasuredFlight};
+use aerosid::io::{aircraft, colmap, log, project_csv, ulog};
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
@@ -108,15 +108,15 @@ pub fn map_dir() -> &'static Path {
         let files = [
             (
                 "attas.aircraft",
-                include_str!("../../host-tests/data/aircraft/attas.aircraft"),
+                include_str!("../../tool/data/aircraft/attas.aircraft"),
             ),
             (
                 "hfb320.aircraft",
-                include_str!("../../host-tests/data/aircraft/hfb320.aircraft"),
+                include_str!("../../tool/data/aircraft/hfb320.aircraft"),
             ),
             (
                 "twin_otter.aircraft",
-                include_str!("../../host-tests/data/aircraft/twin_otter.aircraft"),
+                include_str!("../../tool/data/aircraft/twin_otter.aircraft"),
             ),
         ];
         let aircraft = root.join("aircraft");

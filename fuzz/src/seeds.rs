@@ -11,13 +11,13 @@
 //! * `read_log`, `read_project_csv`: 0.3 s of a simulated flight in the project's CSV layout (all
 //!   columns; a subset).
 //! * `read_aircraft`: the shipped aircraft files; `read_colmap_ascii`: each shipped map with the
-//!   first lines of its vendored flight-test file (`host-tests/data/flight`); `read_ulog`: a ULog of 0.3 s of a simulated flight (a small writer below, from the
+//!   first lines of its vendored flight-test file (`tool/data/flight`); `read_ulog`: a ULog of 0.3 s of a simulated flight (a small writer below, from the
 //!   ULog format PX4 documents).
 
+use aerosid::io::log;
+use aerosid::sim::{self, SimConfig};
 use aerosid_core::mavlink::messages::{Attitude, EscStatus, Heartbeat, Rpm, ServoOutputRaw};
 use aerosid_core::mavlink::Encoder;
-use aerosid_host::io::log;
-use aerosid_host::sim::{self, SimConfig};
 
 /// `(target, file name, bytes)` of every seed.
 pub fn all() -> Vec<(&'static str, String, Vec<u8>)> {
@@ -51,11 +51,11 @@ pub fn all() -> Vec<(&'static str, String, Vec<u8>)> {
         out.push(("read_project_csv", "subset.csv".into(), subset_csv(&csv)));
     }
     let aircraft = [
-        ("attas", include_str!("../../host-tests/data/aircraft/attas.aircraft")),
-        ("hfb320", include_str!("../../host-tests/data/aircraft/hfb320.aircraft")),
+        ("attas", include_str!("../../tool/data/aircraft/attas.aircraft")),
+        ("hfb320", include_str!("../../tool/data/aircraft/hfb320.aircraft")),
         (
             "twin_otter",
-            include_str!("../../host-tests/data/aircraft/twin_otter.aircraft"),
+            include_str!("../../tool/data/aircraft/twin_otter.aircraft"),
         ),
     ];
     for (n, t) in aircraft {
@@ -64,18 +64,18 @@ pub fn all() -> Vec<(&'static str, String, Vec<u8>)> {
     let maps = [
         (
             "attas",
-            include_str!("../../host-tests/data/maps/attas.map"),
-            include_str!("../../host-tests/data/flight/fAttasElv1_pqrDot.asc"),
+            include_str!("../../tool/data/maps/attas.map"),
+            include_str!("../../tool/data/flight/fAttasElv1_pqrDot.asc"),
         ),
         (
             "hfb320",
-            include_str!("../../host-tests/data/maps/hfb320.map"),
-            include_str!("../../host-tests/data/flight/hfb320_1_10.asc"),
+            include_str!("../../tool/data/maps/hfb320.map"),
+            include_str!("../../tool/data/flight/hfb320_1_10.asc"),
         ),
         (
             "twin_otter",
-            include_str!("../../host-tests/data/maps/twin_otter.map"),
-            include_str!("../../host-tests/data/flight/totter_lon_020213f1_018_fdata.asc"),
+            include_str!("../../tool/data/maps/twin_otter.map"),
+            include_str!("../../tool/data/flight/totter_lon_020213f1_018_fdata.asc"),
         ),
     ];
     for (n, map, data) in maps {
@@ -91,7 +91,7 @@ fn flight(seconds: f64) -> Vec<aerosid_core::aero::SensorSample<f64>> {
     let cfg = SimConfig {
         duration_s: seconds,
         seed: 7,
-        ..aerosid_host::flights::main_flight(seconds, 7)
+        ..aerosid::flights::main_flight(seconds, 7)
     };
     sim::simulate(&cfg).map(|o| o.samples).unwrap_or_default()
 }

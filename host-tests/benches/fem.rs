@@ -6,13 +6,13 @@
 //! recursive pass, and one Gauss–Newton pass of the batch method); `f32` and `f64`. Each criterion
 //! iteration runs the whole record and reports the time per step.
 //!
-//! Run: `cargo bench -p aerosid-host --bench fem -- --warm-up-time 1 --measurement-time 3`.
+//! Run: `cargo bench -p aerosid-host-tests --bench fem -- --warm-up-time 1 --measurement-time 3`.
 
+use aerosid::fem_report::{default_hfb320_path, hfb320_filter_with, hfb320_rows, step_data};
+use aerosid::table1::{self, Input};
 use aerosid_core::fem::models::{Longitudinal, LongitudinalDryden};
 use aerosid_core::fem::{bauer_andrisani, FemSettings, FilterError, InputHold, Integrator, Model, Sensitivity};
 use aerosid_core::Real;
-use aerosid_host::fem_report::{default_hfb320_path, hfb320_filter_with, hfb320_rows, step_data};
-use aerosid_host::table1::{self, Input};
 use criterion::{criterion_group, criterion_main, Criterion};
 use nalgebra::{SMatrix, SVector};
 use std::hint::black_box;

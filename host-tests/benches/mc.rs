@@ -1,14 +1,14 @@
-//! Wall time of the host Monte Carlo of seed 000, Section V (eq. 34–41; `aerosid_host::mc`): 10⁶
+//! Wall time of the host Monte Carlo of seed 000, Section V (eq. 34–41; `aerosid::mc`): 10⁶
 //! draws per coefficient — the paper's `M > 10⁶` and `McSettings::default()` — on a rayon pool of
 //! two threads (the CI machine's cores), for each of the six synthesised coefficients (eq. 1–2
 //! solved for it, `mc::synth`) of the default `skywalker_2013_mod` problem. One criterion
 //! iteration is one whole `mc::run`: draws, eq. 35's errors and the two order statistics of eq. 40.
 //!
-//! Run: `cargo bench -p aerosid-host --bench mc -- --warm-up-time 1 --measurement-time 10`
+//! Run: `cargo bench -p aerosid-host-tests --bench mc -- --warm-up-time 1 --measurement-time 10`
 //! (criterion takes at least 10 iterations, so each coefficient runs ≥ 10·10⁶ draws).
 
-use aerosid_host::mc::synth::{self, Airframe, Coefficient, Sensors};
-use aerosid_host::mc::{self, McSettings};
+use aerosid::mc::synth::{self, Airframe, Coefficient, Sensors};
+use aerosid::mc::{self, McSettings};
 use criterion::{criterion_group, criterion_main, Criterion};
 use std::hint::black_box;
 

@@ -1,5 +1,5 @@
 //! Time per estimator update: the recursive PCA-GTLS (seed 000, Algorithm 1, step 4 by the secular
-//! equation) against (i) the dense reference the issue asks for — accumulate the information matrix
+//! equation) against (i) the dense reference — accumulate the information matrix
 //! `λ·G + d* d*ᵀ` of the scaled row (eq. 10–12) and take a faer self-adjoint eigendecomposition per
 //! sample, `θ` from the eigenvector of the smallest eigenvalue (eq. 16) — and (ii) the RLS baseline.
 //!
@@ -11,7 +11,7 @@
 //! iterations and deflations per update (`Step::secular`) are printed once, together with a check
 //! that the recursive `θ` agrees with the faer reference.
 //!
-//! Run: `cargo bench -p aerosid-host --bench update -- --warm-up-time 1 --measurement-time 3`.
+//! Run: `cargo bench -p aerosid-host-tests --bench update -- --warm-up-time 1 --measurement-time 3`.
 //!
 //! Data (seed `SEED`, `dt = 10 ms`, forgetting `λ = LAMBDA` for every estimator): each noisy
 //! regressor is a three-tone multisine with its own frequencies and random phases (so the
@@ -169,7 +169,7 @@ fn rls<T: Real, const NT: usize>() -> Rls<T, NT> {
 /// How the faer reference computes its eigendecomposition.
 #[derive(Clone, Copy, PartialEq, Eq)]
 enum FaerApi {
-    /// `Mat::self_adjoint_eigen(Side::Lower)`: the convenience API the issue names (allocates the
+    /// `Mat::self_adjoint_eigen(Side::Lower)`: faer's convenience API (allocates the
     /// result and its workspace on every call).
     Convenience,
     /// `linalg::evd::self_adjoint_evd` into preallocated `U`, `S` and workspace (no allocation).

@@ -1,7 +1,11 @@
-//! # aerosid-host
+//! # aerosid-host-tests
 //!
-//! The host (std) side of aerosid: the `f64` desktop references (faer) the no_std core is checked
-//! against, seeded data generators for tests and benchmarks, and the `aerosid` command-line tool.
+//! The cross-crate tests and benchmarks of aerosid, with the `f64` desktop references (faer) the
+//! no_std core is checked against and seeded data generators.
+//!
+//! It depends on every other host crate (dev-dependencies: the tool, the simulator, the QEMU harness,
+//! the ELF checks) and nothing depends on it, so its tests may combine them freely. The tests that
+//! run the `aerosid` binary live in `tool/tests/` (only the binary's own package is given its path).
 //!
 //! * [`reference`] — batch and compressed PCA-GTLS references built on faer's SVD/QR.
 //! * [`data`] — seeded synthetic regression data (well/badly excited, collinear, noisy regressors).
@@ -10,23 +14,4 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod data;
-pub mod demo;
-pub mod experiment;
-pub mod fem_batch;
-pub mod fem_report;
-pub mod flights;
-pub mod gaps;
-pub mod io;
-pub mod longrun;
-pub mod mc;
-pub mod panic_audit;
-pub mod plot;
-pub mod qemu;
 pub mod reference;
-pub mod replay;
-pub mod report;
-pub mod sim;
-pub mod stack_bound;
-pub mod table1;
-pub mod usermodel;
-pub mod workflow;

@@ -20,8 +20,8 @@
 use crate::common;
 
 use aerosid_core::{Estimator, Forgetting, Gtls, GtlsSettings, Real};
-use aerosid_host::data::{generate, Excitation, Sample, Spec};
-use aerosid_host::reference::{batch, Compressed, Problem, RefSolution};
+use aerosid_host_tests::data::{generate, Excitation, Sample, Spec};
+use aerosid_host_tests::reference::{batch, Compressed, Problem, RefSolution};
 use common::*;
 
 struct Report {

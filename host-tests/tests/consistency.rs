@@ -18,7 +18,7 @@
 use crate::common;
 
 use aerosid_core::{Estimator, Forgetting, Gtls, GtlsSettings, Rls, RlsSettings};
-use aerosid_host::data::{generate, Excitation, Spec};
+use aerosid_host_tests::data::{generate, Excitation, Spec};
 use common::*;
 
 #[test]

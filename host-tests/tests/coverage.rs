@@ -1,5 +1,5 @@
-//! Coverage of the eq. 17 `±2σ` bands over seeded flights (issue 3 §4: "with the coverage of the
-//! ±2σ bands checked over ≥ 50 seeded flights (should be near 95 %; say what it is)").
+//! Coverage of the eq. 17 `±2σ` bands over seeded flights (the
+//! requirement: checked over ≥ 50 seeded flights, near 95 % expected, the figure reported).
 //!
 //! GIVEN 50 flights of the main job's manoeuvres ([`flights::main_flight`], 120 s, seeds 1…50, light
 //! turbulence) with white sensor noise of the default size and no biases (eq. 17 describes random
@@ -13,7 +13,7 @@
 //! does not model, so a few per cent of under-coverage is expected and allowed). With the hidden
 //! effects on we only print it: the truth linearisation is then not the model's best fit.
 //!
-//! Measured 2026-12-02: **0.895** (`C_L` 0.840, `C_Y` 0.927, `C_l` 0.843, `C_m` 0.915, `C_n` 0.937;
+//! Measured: **0.895** (`C_L` 0.840, `C_Y` 0.927, `C_l` 0.843, `C_m` 0.915, `C_n` 0.937;
 //! `C_D` is never fully excited by these manoeuvres), below the bound, so the test is ignored. The
 //! under-coverage is bias, not a mis-scaled `σ`: per parameter, the spread of `(θ − θ_true)/σ` about
 //! its mean is 0.6–1.3 while its mean reaches ±1.6 (`C_lp` −1.55, `C_lδa` +1.59, `C_L0` +1.24). Two
@@ -25,15 +25,15 @@
 //! remove half of it, lift this coverage to 0.914 and were not kept, because they cost VFF tracking
 //! more; (2) a noise-induced TLS bias of `C_L` (its `z` shrinks with the noise, `C_Lα` +1.2 → +0.5):
 //! the Monte Carlo `σ_ε` (eq. 41, over the whole envelope of the default problem of
-//! [`aerosid_host::mc::synth`]) is below the spread of this flight's synthetic `C_L`, and GTLS is
+//! [`aerosid::mc::synth`]) is below the spread of this flight's synthetic `C_L`, and GTLS is
 //! consistent only with the right noise ratio — `σ_ε(C_L)` × 1.25 moves `C_Lα`'s mean error from
 //! +0.042 to −0.037, so ×≈1.12 would null it. Left open: a `σ_ε` at the flight's own condition.
 
+use aerosid::experiment::{self, ExperimentConfig, COEFFICIENT_NAMES};
 use aerosid_core::aero::model::idx;
 use aerosid_core::{Forgetting, VffSettings};
-use aerosid_host::experiment::{self, ExperimentConfig, COEFFICIENT_NAMES};
-use aerosid_host::flights;
-use aerosid_host::sim::TruthEffects;
+use aerosid_sim::flights;
+use aerosid_sim::TruthEffects;
 use rayon::prelude::*;
 
 fn coverage(effects: TruthEffects, label: &str) -> f64 {
@@ -114,7 +114,7 @@ fn coverage_with_the_hidden_effects_on_is_reported() {
 /// turbulence).
 #[test]
 fn noise_free_moment_derivatives_match_the_truth() {
-    use aerosid_host::sim::SensorNoise;
+    use aerosid_sim::SensorNoise;
     let sigma = experiment::mc_sigma_eps(&experiment::onboard_mc_sensors(0.01), 1 << 14, 7).expect("Monte Carlo");
     let mut sim = flights::main_flight(240.0, 3);
     sim.sensors = SensorNoise::none();

@@ -1,14 +1,14 @@
-//! The aircraft file of the default airframe (`host-tests/data/aircraft/skywalker_2013_mod.aircraft`)
+//! The aircraft file of the default airframe (`tool/data/aircraft/skywalker_2013_mod.aircraft`)
 //! is the simulator's airframe exactly, so a simulated log analysed with it (`aerosid gaps --data
 //! LOG.csv --with …`) runs with the constants it was simulated with.
 
-use aerosid_host::io::aircraft::read_aircraft;
-use aerosid_host::io::measured::Aircraft;
-use aerosid_host::sim::SimAirframe;
+use aerosid::io::aircraft::read_aircraft;
+use aerosid::io::measured::Aircraft;
+use aerosid_sim::SimAirframe;
 use std::path::{Path, PathBuf};
 
 fn shipped() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("data/aircraft/skywalker_2013_mod.aircraft")
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../tool/data/aircraft/skywalker_2013_mod.aircraft")
 }
 
 /// What the simulator flies: the airframe of `SimAirframe::skywalker_2013_mod` with the sensors at
@@ -31,9 +31,9 @@ fn a_simulated_log_reads_with_the_default_airframe_file() {
     let dir = std::env::temp_dir().join(format!("aerosid-default-aircraft-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap_or_else(|e| panic!("{}: {e}", dir.display()));
     let log = dir.join("flight.csv");
-    let n = aerosid_host::replay::simulate_to_csv(&log, 5.0, 3).unwrap_or_else(|e| panic!("{e}"));
+    let n = aerosid::replay::simulate_to_csv(&log, 5.0, 3).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(n, 500, "5 s at 100 Hz");
-    let flight = aerosid_host::io::read_measured(&log, &shipped()).unwrap_or_else(|e| panic!("{e}"));
+    let flight = aerosid::io::read_measured(&log, &shipped()).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(flight.aircraft, simulated());
     assert_eq!(flight.len(), n);
     let _ = std::fs::remove_dir_all(&dir);

@@ -1,13 +1,13 @@
 //! The filter error method (seed 001) in the core: Jacobians, refusal of bad input, and the real
-//! HFB-320 flight data against the published filter-error estimates (issue 5).
+//! HFB-320 flight data against the published filter-error estimates.
 
+use aerosid::fem_report::{default_hfb320_path, hfb320_filter, step_data, PUBLISHED};
 use aerosid_core::fem::models::{hfb320_idx, Hfb320, Longitudinal};
 use aerosid_core::fem::{central_difference, FilterError, Model, Sensitivity};
-use aerosid_host::fem_report::{default_hfb320_path, hfb320_filter, step_data, PUBLISHED};
 use nalgebra::{SMatrix, SVector};
 
 fn hfb320_rows() -> Vec<[f64; 20]> {
-    aerosid_host::fem_report::hfb320_rows(&default_hfb320_path()).expect("HFB-320 data")
+    aerosid::fem_report::hfb320_rows(&default_hfb320_path()).expect("HFB-320 data")
 }
 
 #[test]
@@ -80,8 +80,8 @@ fn hfb320_flight_data_against_the_published_filter_error_estimates() {
 #[test]
 fn hfb320_cmq_gap_is_the_prediction_at_10_hz() {
     // GIVEN the same record and noise, WHEN the method runs with each prediction scheme
-    // (aerosid_host::fem_report::VARIANTS), one recursive pass or batch Gauss–Newton
-    let results = aerosid_host::fem_report::variants(&hfb320_rows()).expect("variants");
+    // (aerosid::fem_report::VARIANTS), one recursive pass or batch Gauss–Newton
+    let results = aerosid::fem_report::variants(&hfb320_rows()).expect("variants");
     let z = |k: usize, i: usize| (results[k].1[i] - PUBLISHED[i]).abs() / results[k].2[i];
     let cmq = 9;
     // THEN the paper's Euler prediction with the input held (eq. 3) is what put Cmq 4.3σ off
@@ -108,7 +108,7 @@ fn hfb320_book_noise_overpredicts_the_one_step_errors() {
     // GIVEN the book's F and R in our filter (RK4, interpolated input, propagated sensitivity)
     // WHEN the mean squared one-step prediction error of each output is set against the mean of
     // its predicted variance C P⁻ Cᵀ + R
-    let ratio = aerosid_host::fem_report::innovation_ratio(&hfb320_rows()).expect("ratio");
+    let ratio = aerosid::fem_report::innovation_ratio(&hfb320_rows()).expect("ratio");
     println!("Δz² / predicted: {ratio:?}");
     // THEN every output's errors are smaller than predicted — V 0.52, α 0.66, θ 0.75, q 0.54,
     // q̇ 0.87, a_x 0.87, a_z 0.77 (measured): the filter weights V, α, q by up to 1.9× less than
@@ -189,7 +189,7 @@ fn hfb320_in_f32_agrees_with_f64_within_a_quarter_of_sigma() {
 fn hfb320_report_fits_the_outputs_as_well_as_the_published_model() {
     // GIVEN, WHEN: the `aerosid fem-hfb320` report into a scratch folder
     let out = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/fem-hfb320");
-    let (text, figures) = aerosid_host::fem_report::hfb320_report(&default_hfb320_path(), &out).expect("report");
+    let (text, figures) = aerosid::fem_report::hfb320_report(&default_hfb320_path(), &out).expect("report");
     println!("{text}");
     // THEN both figures exist, and the identified model's open-loop simulation explains every output
     // within 0.01 of R² of the published model's (measured: V 0.523 vs 0.504, α 0.917 vs 0.920,
@@ -260,7 +260,7 @@ fn a_pass_is_the_gauss_newton_step_of_the_linearised_problem() {
     // prior mean (the published values; the prior at the book's starting values)
     let rows = hfb320_rows();
     let data: Vec<_> = rows.windows(2).map(|w| step_data::<f64>(&w[0], &w[1])).collect();
-    let fem = aerosid_host::fem_report::hfb320_filter_with::<f64>(
+    let fem = aerosid::fem_report::hfb320_filter_with::<f64>(
         &rows,
         Sensitivity::Propagated,
         aerosid_core::fem::Integrator::Euler,

@@ -1,14 +1,14 @@
-//! The filter error method on the MCU (issue 5 §4): the HFB-320 filter in `f32` over the real
+//! The filter error method on the MCU: the HFB-320 filter in `f32` over the real
 //! record under QEMU (`firmware/examples/fem_count.rs`), each step's instruction count from TIM2
 //! (`-icount shift=0,align=off,sleep=off`: one tick per guest instruction, TOOLCHAIN.md), and the
 //! final estimate against the host's `f32` run bit for bit.
 //!
 //! Needs `qemu-system-arm` and the thumb target (`.ci/run` installs both).
 
+use aerosid::fem_report::{default_hfb320_path, hfb320_filter_with, hfb320_rows, step_data};
 use aerosid_core::fem::models::Hfb320;
 use aerosid_core::fem::{FilterError, InputHold, Integrator, Sensitivity};
-use aerosid_host::fem_report::{default_hfb320_path, hfb320_filter_with, hfb320_rows, step_data};
-use aerosid_host::qemu::workspace_root;
+use aerosid_qemu::workspace_root;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
@@ -23,7 +23,7 @@ const PIPELINE_MEDIAN: u32 = 32_000;
 type Hfb = FilterError<f32, Hfb320<f32>, 4, 2, 7, 11>;
 
 fn build_example() -> PathBuf {
-    aerosid_host::qemu::build_firmware_example("fem_count").expect("example build")
+    aerosid_qemu::build_firmware_example("fem_count").expect("example build")
 }
 
 fn code_integrator(i: Integrator) -> f32 {

@@ -26,7 +26,7 @@
 use crate::common;
 
 use aerosid_core::{Eq28Reading, Estimator, Forgetting, Gtls, GtlsSettings, VffSettings};
-use aerosid_host::data::{generate, Excitation, Sample, Spec};
+use aerosid_host_tests::data::{generate, Excitation, Sample, Spec};
 use common::*;
 
 const JUMP: usize = 5000;

@@ -1,7 +1,7 @@
-//! The log-reader fuzz targets in CI (issue 7 §1): the very invariant checks of `fuzz/src/readers.rs`
+//! The log-reader fuzz targets in CI: the very invariant checks of `fuzz/src/readers.rs`
 //! (included below, not copied) over each target's committed seed corpus and seeded mutations of
 //! it. CI runs the core fuzz targets under libFuzzer (`scripts/fuzz.sh ci`) but not these: their
-//! instrumented build pulls in all of aerosid-host's dependencies (minutes; `scripts/fuzz.sh`
+//! instrumented build pulls in all of the `aerosid` tool's dependencies (minutes; `scripts/fuzz.sh`
 //! says how many). This test has no coverage guidance; the libFuzzer long runs behind the README's
 //! figures do (`bash scripts/fuzz.sh long SECONDS read_log …`). Any panic — a reader's or a failed
 //! invariant's — fails the test and prints the input's seed, file and mutation number.
@@ -161,16 +161,16 @@ fn read_ulog() {
     fuzz("read_ulog", readers::read_ulog::run, 5);
 }
 
-/// A real log of `host-tests/data/logs/` (or the `.mat` of `data/flight/`), its first `bytes`
+/// A real log of `tool/data/logs/` (or the `.mat` of `data/flight/`), its first `bytes`
 /// bytes: the definitions and the first messages, so each mutation parses quickly.
 fn real_seed(path: &str, bytes: usize) -> (String, Vec<u8>) {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("data").join(path);
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tool/data").join(path);
     let d = std::fs::read(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
     (path.to_string(), d[..bytes.min(d.len())].to_vec())
 }
 
 /// The invariants of a flight a reader accepted: it validates, and its time base is uniform.
-fn check_read(what: &str, f: &aerosid_host::io::measured::MeasuredFlight) {
+fn check_read(what: &str, f: &aerosid::io::measured::MeasuredFlight) {
     assert!(f.validate().is_ok(), "{what}: accepted an invalid flight");
     let h = f.t_s[1] - f.t_s[0];
     assert!(
@@ -180,21 +180,20 @@ fn check_read(what: &str, f: &aerosid_host::io::measured::MeasuredFlight) {
 }
 
 fn run_dataflash(data: &[u8]) {
-    let opts = aerosid_host::io::ReadOptions::default();
-    if let Ok(f) =
-        aerosid_host::io::dataflash::parse_dataflash(data, "fuzz.bin", aerosid_host::io::placeholder_aircraft(), &opts)
+    let opts = aerosid::io::ReadOptions::default();
+    if let Ok(f) = aerosid::io::dataflash::parse_dataflash(data, "fuzz.bin", aerosid::io::placeholder_aircraft(), &opts)
     {
         check_read("read_dataflash", &f);
     }
 }
 
 fn run_mat(data: &[u8]) {
-    static MAP: std::sync::OnceLock<aerosid_host::io::colmap::ColumnMap> = std::sync::OnceLock::new();
+    static MAP: std::sync::OnceLock<aerosid::io::colmap::ColumnMap> = std::sync::OnceLock::new();
     let map = MAP.get_or_init(|| {
-        let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/maps/twin_otter.map");
-        aerosid_host::io::colmap::read_map(&p).unwrap_or_else(|e| panic!("{e}"))
+        let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tool/data/maps/twin_otter.map");
+        aerosid::io::colmap::read_map(&p).unwrap_or_else(|e| panic!("{e}"))
     });
-    if let Ok(f) = aerosid_host::io::mat::parse_mat(data, "fuzz.mat", map) {
+    if let Ok(f) = aerosid::io::mat::parse_mat(data, "fuzz.mat", map) {
         check_read("read_mat", &f);
     }
 }

@@ -1,26 +1,26 @@
 //! Flights with one hidden effect, drawn at random; the model-gap analysis
-//! ([`aerosid_host::gaps::run_gaps`]) is told nothing of the draw and must name the hidden effect as
+//! ([`aerosid::gaps::run_gaps`]) is told nothing of the draw and must name the hidden effect as
 //! its top cause, and name nothing on clean flights.
 //!
 //! The calm-air campaign: 40 flights whose hidden effect (kind and size) is drawn by a seeded
 //! ChaCha8 from the 8 kinds of [`HiddenKind::CALM`], and 20 clean flights, each 90 s at 100 Hz with
 //! its own sensor-noise seed. Required: ≥ 95 % named correctly (kind *and* place: the coefficient,
 //! or the sensor channel), and nothing named on ≥ 95 % of the clean flights. The confusion table is
-//! printed (`cargo test -p aerosid-host --test integration gaps:: -- --nocapture`).
+//! printed (`cargo test -p aerosid-host-tests --test integration gaps:: -- --nocapture`).
 //!
-//! In turbulence (the simulator's Dryden gusts, σ 0.3 m/s, L 50 m: [`aerosid_host::gaps::hidden::CAMPAIGN_TURBULENCE`])
+//! In turbulence (the simulator's Dryden gusts, σ 0.3 m/s, L 50 m: [`aerosid::gaps::hidden::CAMPAIGN_TURBULENCE`])
 //! one flight per kind of [`HiddenKind::ALL`] and ten clean flights: what is identifiable must be
 //! named in its place, what is not must not be named wrongly, and at most one clean flight in ten
 //! may name anything. The benchmark against the peers (`scripts/bench/`) runs larger draws.
 
-use aerosid_host::gaps::hidden::{flight, HiddenEffect, HiddenKind};
-use aerosid_host::gaps::{run_gaps, GapSettings};
+use aerosid::gaps::hidden::{flight, HiddenEffect, HiddenKind};
+use aerosid::gaps::{run_gaps, GapSettings};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 use std::collections::BTreeMap;
 
-/// Number of flights with a hidden effect, and of clean flights (issue 6 §3: ≥ 40 and ≥ 20).
+/// Number of flights with a hidden effect, and of clean flights (required: ≥ 40 and ≥ 20).
 const HIDDEN: usize = 40;
 const CLEAN: usize = 20;
 /// Flight length, s.
@@ -37,7 +37,7 @@ fn case(effect: Option<HiddenEffect>, seed: u64) -> Outcome {
     case_in(effect, seed, false).0
 }
 
-fn case_in(effect: Option<HiddenEffect>, seed: u64, turbulence: bool) -> (Outcome, aerosid_host::gaps::GapReport) {
+fn case_in(effect: Option<HiddenEffect>, seed: u64, turbulence: bool) -> (Outcome, aerosid::gaps::GapReport) {
     let f = flight(effect.as_ref(), DURATION_S, seed, turbulence).expect("the campaign's flights trim");
     let settings = GapSettings {
         baseline: Some(HiddenEffect::baseline(effect.as_ref())),
@@ -131,7 +131,7 @@ fn the_analysis_names_the_hidden_effect_and_nothing_on_clean_flights() {
         clean.len(),
         100.0 * quiet as f64 / clean.len() as f64
     );
-    // AND at least 95 % of each (issue 6 §3)
+    // AND at least 95 % of each (the required rates)
     assert!(
         20 * named_right >= 19 * hidden.len(),
         "{named_right}/{} named correctly",
@@ -183,7 +183,7 @@ fn in_turbulence_each_identifiable_kind_is_named_and_clean_flights_stay_quiet() 
         .chain((0..10).map(|i| (None, 950 + i as u64)))
         .collect();
     // WHEN the analysis runs on each, told nothing
-    let out: Vec<(Outcome, aerosid_host::gaps::GapReport)> =
+    let out: Vec<(Outcome, aerosid::gaps::GapReport)> =
         draws.par_iter().map(|(e, seed)| case_in(*e, *seed, true)).collect();
     for (o, _) in &out {
         println!("{}", o.detail);
@@ -219,10 +219,10 @@ fn in_turbulence_each_identifiable_kind_is_named_and_clean_flights_stay_quiet() 
 fn simulated(
     effect: Option<&HiddenEffect>,
     seed: u64,
-) -> (aerosid_host::io::measured::MeasuredFlight, aerosid_host::sim::SimOutput) {
-    use aerosid_host::io::measured::{Aircraft, MeasuredFlight};
-    use aerosid_host::sim::{simulate, SimAirframe};
-    let out = simulate(&aerosid_host::gaps::hidden::config(effect, DURATION_S, seed, false)).expect("trims");
+) -> (aerosid::io::measured::MeasuredFlight, aerosid_sim::SimOutput) {
+    use aerosid::io::measured::{Aircraft, MeasuredFlight};
+    use aerosid_sim::{simulate, SimAirframe};
+    let out = simulate(&aerosid::gaps::hidden::config(effect, DURATION_S, seed, false)).expect("trims");
     let nominal = SimAirframe::skywalker_2013_mod();
     let f = MeasuredFlight::from_samples(
         "simulated",
@@ -234,10 +234,10 @@ fn simulated(
 
 #[test]
 fn the_monte_carlo_error_model_matches_the_reconstructions_actual_error() {
-    use aerosid_host::gaps::compat::{check, CompatSettings};
-    use aerosid_host::gaps::model::{synthesise, Corrections, Signal, Term, TermRefs};
-    use aerosid_host::gaps::noise::{column_errors, MonteCarlo, Synthesis};
-    use aerosid_host::gaps::signal::sg_smooth;
+    use aerosid::gaps::compat::{check, CompatSettings};
+    use aerosid::gaps::model::{synthesise, Corrections, Signal, Term, TermRefs};
+    use aerosid::gaps::noise::{column_errors, MonteCarlo, Synthesis};
+    use aerosid::gaps::signal::sg_smooth;
     // GIVEN three clean flights (seeds outside the campaign's) and their truth
     for seed in [7001u64, 7002, 7003] {
         let (f, out) = simulated(None, seed);
@@ -299,7 +299,7 @@ fn the_monte_carlo_error_model_matches_the_reconstructions_actual_error() {
 
 #[test]
 fn every_term_evaluates_on_a_snapshot_as_its_column() {
-    use aerosid_host::gaps::model::{synthesise, Corrections, Term, TermRefs};
+    use aerosid::gaps::model::{synthesise, Corrections, Term, TermRefs};
     // GIVEN a simulated flight's table
     let (f, _) = simulated(None, 7004);
     let t = synthesise(&f, 0.01, &Corrections::default(), 10, None);
@@ -367,11 +367,11 @@ fn the_simulation_of_the_held_out_segment_shows_the_gap_and_the_gain() {
 
 #[test]
 fn on_the_jsbsim_flights_table_effects_are_found_and_no_sensor_error_is_invented() {
-    use aerosid_host::gaps::bench::{write, Campaign};
-    use aerosid_host::gaps::model::CauseKind;
+    use aerosid::gaps::bench::{write, Campaign};
+    use aerosid::gaps::model::CauseKind;
     // GIVEN the vendored JSBSim c172x flights (an independent simulator, light turbulence; truth in
-    // host-tests/data/jsbsim/truth.json)
-    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("data/jsbsim");
+    // tool/data/jsbsim/truth.json)
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../tool/data/jsbsim");
     let out = std::env::temp_dir().join(format!("aerosid-gaps-jsbsim-{}", std::process::id()));
     // WHEN the benchmark campaign runs on them alone
     let lines = write(

@@ -1,14 +1,14 @@
-//! Issue 6 §1: reading measured data — the shared flight-test files through their column maps,
+//! Reading measured data — the shared flight-test files through their column maps,
 //! the project CSV, PX4 ULog (written here by a small ULog writer from a simulated flight), and
 //! bad files refused with errors naming the file, line and column (or the ULog message).
 
 use crate::common;
 
+use aerosid::io::aircraft::parse_aircraft;
+use aerosid::io::measured::{Aircraft, MeasuredFlight, Quantity, ThrustSource};
+use aerosid::io::{read_measured, ReadError};
 use aerosid_core::aero::SensorSample;
-use aerosid_host::io::aircraft::parse_aircraft;
-use aerosid_host::io::measured::{Aircraft, MeasuredFlight, Quantity, ThrustSource};
-use aerosid_host::io::{read_measured, ReadError};
-use aerosid_host::sim::airframe::SimAirframe;
+use aerosid_sim::airframe::SimAirframe;
 use common::pearson;
 use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
@@ -18,15 +18,15 @@ use std::path::{Path, PathBuf};
 
 fn flight_dir() -> PathBuf {
     // Where `fem_report::default_hfb320_path` (and tests/fem.rs) find the shared flight data.
-    aerosid_host::fem_report::flight_data_dir()
+    aerosid::fem_report::flight_data_dir()
 }
 
 fn maps() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("data/maps")
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../tool/data/maps")
 }
 
 fn aircraft_dir() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("data/aircraft")
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../tool/data/aircraft")
 }
 
 /// A fresh scratch folder per test.
@@ -590,7 +590,7 @@ fn aircraft_text(name: &str, a: &SimAirframe) -> String {
 }
 
 fn simulated(seconds: f64, seed: u64) -> Vec<SensorSample<f64>> {
-    let out = aerosid_host::sim::simulate(&aerosid_host::flights::main_flight(seconds, seed)).expect("simulation");
+    let out = aerosid_sim::simulate(&aerosid_sim::flights::main_flight(seconds, seed)).expect("simulation");
     out.samples
 }
 
@@ -603,7 +603,7 @@ fn project_csv_reads_all_or_some_channels() {
     let aircraft = Aircraft::from_airframe("skywalker", &frame.frame);
     let samples = simulated(6.0, 11);
     let log = dir.join("flight.csv");
-    aerosid_host::io::log::write_log_file(&log, &samples).expect("log");
+    aerosid::io::log::write_log_file(&log, &samples).expect("log");
     // GIVEN the full log THEN exactly `from_samples` (round trip exact), aircraft file included.
     let f = read_measured(&log, &ac_path).unwrap_or_else(|e| panic!("{e}"));
     let want = MeasuredFlight::from_samples(&log.display().to_string(), &samples, aircraft);
@@ -1021,7 +1021,7 @@ fn ulog_with_jittered_and_repeated_timestamps_reads_onto_a_uniform_base() {
         f.log.warnings
     );
     // The analysis accepts the time base (it refused jittered bases before resampling).
-    let r = aerosid_host::gaps::run_gaps(&f, &aerosid_host::gaps::GapSettings::default());
+    let r = aerosid::gaps::run_gaps(&f, &aerosid::gaps::GapSettings::default());
     assert!(r.is_ok(), "{:?}", r.err());
     let _ = std::fs::remove_dir_all(&dir);
 }
@@ -1088,7 +1088,7 @@ fn bad_ulogs_are_refused_naming_the_message() {
     std::fs::write(&no_air, write_ulog(&samples, &o)).expect("write");
     let f = read_measured(&no_air, &map).unwrap_or_else(|e| panic!("{e}"));
     assert!(f.get(Quantity::Airspeed).is_none() && f.get(Quantity::PitchRate).is_some());
-    let q = aerosid_host::io::quality::assess(&f);
+    let q = aerosid::io::quality::assess(&f);
     assert!(!q.supports_verdict, "{q:?}");
     assert!(q
         .coefficients
@@ -1128,11 +1128,11 @@ fn bad_ulogs_are_refused_naming_the_message() {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Issue 6 §4: the model-gap analysis on the real flights
+// The model-gap analysis on the real flights
 
 #[test]
 fn attas_noseboom_air_data_are_moved_to_the_cg() {
-    use aerosid_host::gaps::model::{synthesise, Corrections, Signal};
+    use aerosid::gaps::model::{synthesise, Corrections, Signal};
     // GIVEN the ATTAS elevator segment (α, β, V at the noseboom, 13.08 m ahead of the CG)
     let f = load("fAttasElv1_pqrDot.asc", "attas.map");
     // WHEN the synthesis moves them to the CG (no smoothing, measured air data)
@@ -1160,9 +1160,9 @@ fn attas_noseboom_air_data_are_moved_to_the_cg() {
 
 #[test]
 fn the_analysis_runs_on_every_real_flight() {
-    use aerosid_host::gaps::{report, run_gaps, GapSettings};
+    use aerosid::gaps::{report, run_gaps, GapSettings};
     // GIVEN the five shared files
-    for (file, map) in aerosid_host::gaps::bench::REAL_FLIGHTS {
+    for (file, map) in aerosid::gaps::bench::REAL_FLIGHTS {
         let f = load(file, map);
         // WHEN the analysis runs with its defaults and writes its report
         let r = run_gaps(&f, &GapSettings::default()).unwrap_or_else(|e| panic!("{e}"));
@@ -1212,7 +1212,7 @@ fn the_analysis_runs_on_every_real_flight() {
 
 #[test]
 fn twin_otter_pitching_moment_matches_the_published_values_and_needs_no_alpha_elevator_term() {
-    use aerosid_host::gaps::{run_gaps, GapSettings};
+    use aerosid::gaps::{run_gaps, GapSettings};
     // GIVEN the Twin Otter record and the analysis's defaults (eq. 3e: 1, α, q̂, δe — SIDPAC's
     // regressors)
     let f = load("totter_lon_020213f1_018_fdata.asc", "twin_otter.map");

@@ -24,10 +24,8 @@
 
 use crate::common;
 
-use aerosid_host::mc::synth::{self, idx, Airframe, Coefficient, Sensors};
-use aerosid_host::mc::{
-    self, coverage_bounds, phi, psd_cholesky, ErrorKind, Input, McError, McSettings, Problem, Sampler,
-};
+use aerosid::mc::synth::{self, idx, Airframe, Coefficient, Sensors};
+use aerosid::mc::{self, coverage_bounds, phi, psd_cholesky, ErrorKind, Input, McError, McSettings, Problem, Sampler};
 use common::pearson;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;

@@ -1,5 +1,5 @@
 //! Noise-free data: a legitimate, degenerate input (a simulator with perfect sensors, a replay of
-//! a smoothed log). Regression test for a defect found on 2026-11-25: after a stretch of identical
+//! a smoothed log). Regression test for a defect: after a stretch of identical
 //! rows (a trimmed aircraft before its first manoeuvre) the scaled data matrix has exactly-zero
 //! singular values; the next exactly-consistent row put a secular root on its pole within
 //! rounding, the eigenvector `ẑ_j/(δ_j − μ)` overflowed, and the rank-one update returned "not
@@ -72,9 +72,9 @@ fn exact_data_after_a_constant_stretch_is_never_refused_f32() {
 /// configuration that exposed the defect), THEN no estimator refuses a sample.
 #[test]
 fn noise_free_flight_is_never_refused_by_the_estimators() {
+    use aerosid::experiment::{self, ExperimentConfig};
     use aerosid_core::VffSettings;
-    use aerosid_host::experiment::{self, ExperimentConfig};
-    use aerosid_host::sim::*;
+    use aerosid_sim::*;
     let mut schedule = Schedule::default();
     let mut t = 2.0;
     while t + 5.0 <= 30.0 {

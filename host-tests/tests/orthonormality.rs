@@ -11,7 +11,7 @@
 use crate::common;
 
 use aerosid_core::{Estimator, Forgetting, Gtls, GtlsSettings};
-use aerosid_host::data::{generate, Excitation, Spec};
+use aerosid_host_tests::data::{generate, Excitation, Spec};
 use common::*;
 
 fn run(lambda: f64, seed: u64) -> (f32, u32) {

@@ -1,13 +1,13 @@
-//! The seed's simulation results (seed 000 Section VI-A, issue 3 §4): Fig. 1 (GTLS vs sequential
+//! The seed's simulation results (seed 000 Section VI-A): Fig. 1 (GTLS vs sequential
 //! OLS/RLS on the `C_D` parameters) and Fig. 2 (constant vs variable `λ_F` across a jump of the
 //! `C_m` parameters), on the truth simulator through the on-board `f32` pipeline
-//! ([`aerosid_host::experiment`]). Seeded; the numbers are printed (`--nocapture`).
+//! ([`aerosid::experiment`]). Seeded; the numbers are printed (`--nocapture`).
 
+use aerosid::experiment::{self, CoefficientTrace, Experiment, ExperimentConfig};
 use aerosid_core::aero::model::idx;
 use aerosid_core::{Forgetting, VffSettings};
-use aerosid_host::experiment::{self, CoefficientTrace, Experiment, ExperimentConfig};
-use aerosid_host::flights::*;
-use aerosid_host::sim::*;
+use aerosid_sim::flights::*;
+use aerosid_sim::*;
 
 /// `σ_ε` from the host Monte Carlo (`mc::synth` defaults with the on-board differentiator's
 /// angular-acceleration error, [`experiment::onboard_mc_sensors`]), 2¹⁶ draws: a few per cent.

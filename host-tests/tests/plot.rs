@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use aerosid_host::plot::{Band, Colour, Figure, HLine, Line, Panel, PlotError};
+use aerosid::plot::{Band, Colour, Figure, HLine, Line, Panel, PlotError};
 
 /// A fresh directory under the system temp dir, unique per process and call.
 fn temp_dir(tag: &str) -> PathBuf {

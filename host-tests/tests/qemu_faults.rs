@@ -1,4 +1,4 @@
-//! Sensor, bus, timing and link faults injected into the firmware under QEMU (issue 7 §3 and §6):
+//! Sensor, bus, timing and link faults injected into the firmware under QEMU:
 //! a simulated flight replayed with its autopilot stream on the (emulated) link, garbage on that
 //! link, and a schedule of faults the QEMU board applies where the flight computer's sensor layer
 //! would meet them (`firmware/src/board/qemu.rs`). The firmware must survive all of it, report
@@ -13,8 +13,8 @@ use aerosid_core::mavlink::frame::frame_crc;
 use aerosid_core::mavlink::messages::ServoOutputRaw;
 use aerosid_core::mavlink::telemetry::{health_bit, health_slot as slot};
 use aerosid_core::mavlink::Encoder;
-use aerosid_host::qemu::{self, Chip, Fault, FaultEvent, Scenario, REINIT_AFTER};
-use aerosid_host::{flights, sim};
+use aerosid_qemu::{self as qemu, Chip, Fault, FaultEvent, Scenario, REINIT_AFTER};
+use aerosid_sim::{self as sim, flights};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::time::Duration;

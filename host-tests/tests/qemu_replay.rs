@@ -1,4 +1,4 @@
-//! The firmware under QEMU (issue 4): a simulated flight log replayed through the same sampling →
+//! The firmware under QEMU: a simulated flight log replayed through the same sampling →
 //! synthesis → estimator → telemetry path as on the flight computer; the estimates it sends equal
 //! the host's `f32` run bit for bit, and its per-sample instruction count stays within budget.
 //!
@@ -6,26 +6,21 @@
 //! log is decoded when `defmt-print` is installed (`.ci/run` installs all three).
 
 use aerosid_core::aero::SensorSample;
-use aerosid_host::{flights, qemu, sim};
+use aerosid_qemu as qemu;
+use aerosid_sim::{self as sim, flights};
 use std::time::Duration;
 
 /// Instructions per sample for the whole six-coefficient step (synthesis + six PCA-GTLS updates
 /// with VFF): regression budgets, about 5 % above what was measured (median 26 909, max 38 737 on
-/// this 30 s replay, 2026-12-02; 26 965 / 40 505 before the general secular update wrote into the
-/// estimator's buffers, 26 994 / 40 535 before the in-place sample queue; 29 898 / 44 435 before the unrolled secular, Cholesky and solve
-/// loops and the `f64`-free `sin_cos_f32`, 55 090 / 60 535 before the steady-state secular path).
-/// The max budget is shared with the fault run (measured there 40 373). The issue's goal, 12 000, is NOT met: see
-/// BENCHMARKS.md for the profile and the operation count.
+/// this 30 s replay). The max budget is shared with the fault run (measured there 40 373). The
+/// goal, 12 000, is NOT met: see docs/benchmarks.md for the profile and the operation count.
 const STEP_BUDGET_MEDIAN: u32 = 28_500;
 /// See [`STEP_BUDGET_MEDIAN`] (shared with the fault run).
 const STEP_BUDGET_MAX: u32 = qemu::STEP_BUDGET_MAX;
 /// Instructions the whole firmware executes per sample (`qemu::PERIOD_PROBE`: the step, the
 /// sample queue, the sampling task with the replay's reads, the count file, interrupts), median
-/// and maximum: regression budgets ≈ 5 % above the measured 29 702 / 41 530 (29 761 / 43 302 before the general
-/// secular update wrote into the estimator's buffers, 30 364 / 43 905 when
-/// the stuck detector compared every channel, 31 747 / 45 292 when the channel still carried the
-/// samples). Not asserted on the fault run, whose drops and bus
-/// retries put several sampling-task runs into one period.
+/// and maximum: regression budgets ≈ 5 % above the measured 29 702 / 41 530. Not asserted on the
+/// fault run, whose drops and bus retries put several sampling-task runs into one period.
 const FIRMWARE_BUDGET_MEDIAN: u32 = 31_200;
 /// See [`FIRMWARE_BUDGET_MEDIAN`].
 const FIRMWARE_BUDGET_MAX: u32 = 49_200;
@@ -132,7 +127,8 @@ fn qemu_replay_equals_host_f32_and_meets_the_instruction_budget() {
             // … and the static bound of the same image (`aerosid stack-bound`, the analysis CI
             // applies to the flight computer, which cannot be run here) is not below it.
             let config = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../firmware/stack-bound.txt");
-            let bound = aerosid_host::stack_bound::analyse_elf(&elf, &config).expect("stack bound of the QEMU image");
+            let bound =
+                aerosid_elf_check::stack_bound::analyse_elf(&elf, &config).expect("stack bound of the QEMU image");
             println!("{}", bound.report());
             assert!(
                 u64::from(bytes) <= bound.total,
@@ -154,7 +150,7 @@ fn qemu_replay_equals_host_f32_and_meets_the_instruction_budget() {
 #[test]
 fn pipeline_static_has_no_flash_image() {
     let elf = qemu::build_firmware().expect("firmware build");
-    let tool = aerosid_host::panic_audit::objdump();
+    let tool = aerosid_elf_check::panic_audit::objdump();
     let out = std::process::Command::new(&tool)
         .arg("-t")
         .arg(&elf)
@@ -207,9 +203,9 @@ fn replay_of_a_csv_log_matches_the_samples_it_was_written_from() {
     let dir = qemu::workspace_root().join("target").join("replay-csv");
     std::fs::create_dir_all(&dir).expect("dir");
     let path = dir.join("flight.csv");
-    let n = aerosid_host::replay::simulate_to_csv(&path, 10.0, 3).expect("simulate");
+    let n = aerosid::replay::simulate_to_csv(&path, 10.0, 3).expect("simulate");
     // WHEN it is replayed on the host
-    let report = aerosid_host::replay::replay(&path, false).expect("replay");
+    let report = aerosid::replay::replay(&path, false).expect("replay");
     // THEN every sample went through the pipeline and every coefficient is reported
     assert!(
         report.contains(&format!("{n} samples through the on-board f32 pipeline")),
@@ -219,6 +215,6 @@ fn replay_of_a_csv_log_matches_the_samples_it_was_written_from() {
         assert!(report.contains(name), "{name} missing:\n{report}");
     }
     // … and a missing file is an error that names it
-    let err = aerosid_host::replay::replay(&dir.join("missing.csv"), false).expect_err("missing file");
+    let err = aerosid::replay::replay(&dir.join("missing.csv"), false).expect_err("missing file");
     assert!(err.contains("missing.csv"), "{err}");
 }

@@ -1,4 +1,4 @@
-//! Sensor and bus faults at the pipeline (issue 7 §3): what the firmware's sampling task hands the
+//! Sensor and bus faults at the pipeline: what the firmware's sampling task hands the
 //! estimator when a sensor read fails (`firmware/src/board/hw.rs`: a failed read makes its channels
 //! NaN, never a stale value), when a sensor returns out-of-range values, sticks at a constant, a
 //! sample is missed, or the sampling task runs late.
@@ -20,8 +20,8 @@ use aerosid_core::aero::model::{channel, idx, typical};
 use aerosid_core::aero::{onboard, Pipeline, Refusal, SensorSample, StuckDetector, StuckSettings};
 use aerosid_core::estimator::Estimator;
 use aerosid_core::mavlink::telemetry::{health_bit, reports};
-use aerosid_host::flights::main_flight;
-use aerosid_host::sim;
+use aerosid_sim as sim;
+use aerosid_sim::flights::main_flight;
 
 /// Flight length, s.
 const SECONDS: f64 = 90.0;

@@ -1,4 +1,4 @@
-//! The autopilot link as an input (issue 7 §5): malformed, truncated, oversized, replayed frames
+//! The autopilot link as an input: malformed, truncated, oversized, replayed frames
 //! and garbage on USART2, through the parser (`mavlink::parser`) and the surfaces source
 //! (`mavlink::surfaces`) the firmware's sampling task drains the UART into.
 //!

@@ -1,16 +1,16 @@
-//! The CI slice of the long run (issue 7 §2): 10 minutes of simulated flight — 60 000 samples —
-//! with the long run's time line compressed (`aerosid_host::longrun`: excitation/cruise cycles of
+//! The CI slice of the long run: 10 minutes of simulated flight — 60 000 samples —
+//! with the long run's time line compressed (`aerosid::longrun`: excitation/cruise cycles of
 //! 100 s, calm cruise 60–120 s, the `C_m` jump at 200 s and the `C_l` jump at 400 s), through the
 //! on-board `f32` pipeline. The 10-hour run is `aerosid long-run --hours 10` (BENCHMARKS.md); this
 //! test asserts the same invariants on the slice:
-//! * every estimator's `‖VᵀV − I‖_F` below 1e-5 at every sample (the bound of issue 7);
+//! * every estimator's `‖VᵀV − I‖_F` below 1e-5 at every sample (the reliability bound);
 //! * nothing ever non-finite, no sample refused by an estimator, `λ_F` within `[0.8, 1]`;
 //! * both jumps tracked: every changed parameter within a quarter of its jump of the new truth
 //!   within [`SETTLE_S`] and for good until the end of that excitation phase;
 //! * no drift in the calm cruise: no parameter of a fully excited coefficient moves by more than
 //!   [`CALM_DRIFT`] of its typical magnitude.
 
-use aerosid_host::longrun::{format_report, run, Invariants, LongRunConfig};
+use aerosid::longrun::{format_report, run, Invariants, LongRunConfig};
 
 /// Largest settling time after a jump, s. The slice's excitation phase after each jump is 50 s
 /// (its first manoeuvre 4 s after the jump); the VFF detects a jump within ~2 s and re-converges
@@ -73,7 +73,7 @@ fn ten_minute_slice_keeps_every_invariant_and_tracks_both_jumps() {
 }
 
 /// The 10-hour run of BENCHMARKS.md (`aerosid long-run --hours 10` prints the same table): not a CI
-/// test (about a minute here); run with `cargo test -p aerosid-host --test
+/// test (about a minute here); run with `cargo test -p aerosid-host-tests --test
 /// integration reliability_long_run::ten_hours -- --ignored --nocapture`.
 #[test]
 #[ignore = "10 hours of simulated flight: a benchmark, run by hand"]

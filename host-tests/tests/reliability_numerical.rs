@@ -1,5 +1,5 @@
 #![allow(clippy::needless_range_loop)]
-//! Numerical faults (issue 7 §4), in `f32` and `f64`: hours without excitation (with the on-board
+//! Numerical faults, in `f32` and `f64`: hours without excitation (with the on-board
 //! VFF, and with a constant forgetting that makes the excitation fade so that `k` falls to 0),
 //! exactly collinear regressors, a regressor stuck at zero, `λ_F` driven to its floor after each
 //! of 59 parameter switches (asserted).

@@ -1,10 +1,10 @@
-//! Scenario tests of the truth simulator (issue 3 §1) and the CSV log layout. Seeded and fast.
+//! Scenario tests of the truth simulator and the CSV log layout. Seeded and fast.
 
+use aerosid::io::log::{read_log, write_log, write_log_with_truth, LogError, COLUMNS};
 use aerosid_core::aero::SensorSample;
-use aerosid_host::io::log::{read_log, write_log, write_log_with_truth, LogError, COLUMNS};
-use aerosid_host::sim::aero::{coefficients_from, AeroInput};
-use aerosid_host::sim::dynamics::G_MPS2;
-use aerosid_host::sim::*;
+use aerosid_sim::aero::{coefficients_from, AeroInput};
+use aerosid_sim::dynamics::G_MPS2;
+use aerosid_sim::*;
 use nalgebra::{UnitQuaternion, Vector3};
 
 /// A sensor channel read from a sample.
@@ -535,7 +535,7 @@ fn csv_bad_files_give_the_documented_errors() {
         Err(LogError::DuplicateColumn { .. })
     ));
     // AND a file that does not exist gives an Io error naming it
-    let e = aerosid_host::io::log::read_log_file(std::path::Path::new("/nonexistent/x.csv")).expect_err("io");
+    let e = aerosid::io::log::read_log_file(std::path::Path::new("/nonexistent/x.csv")).expect_err("io");
     assert!(e.to_string().starts_with("/nonexistent/x.csv: "), "{e}");
 }
 
@@ -568,7 +568,7 @@ fn dryden_autocorrelation_has_the_dryden_shape() {
 #[test]
 fn airframe_file_round_trips_and_reports_errors_with_line_and_column() {
     // GIVEN the Rascal written as a key = value file
-    let text = aerosid_host::sim::airframe_file::airframe_to_text(&SimAirframe::rascal_110());
+    let text = aerosid_sim::airframe_file::airframe_to_text(&SimAirframe::rascal_110());
     // WHEN it is parsed back (over the skywalker base) THEN it is the Rascal exactly, and it trims
     assert_eq!(parse_airframe(&text, "r.txt"), Ok(SimAirframe::rascal_110()));
     let small = "base = rascal_110   # the 6.6 kg airframe\n\nname = heavy rascal\nmass_kg = 7.5\npitch.alpha = -0.9\n";
@@ -642,7 +642,7 @@ fn steady_wind_trim_is_air_relative_and_thrust_is_reconstructible_from_rpm_and_a
     for t in &out.truth {
         let s = &t.ideal;
         let vx = s.airspeed_mps * s.beta_rad.cos() * (s.alpha_rad + pr.pitch_rad).cos();
-        let p = aerosid_host::sim::propulsion::propeller(pr, s.prop_speed_rad_s, vx, s.air_density_kgpm3);
+        let p = aerosid_sim::propulsion::propeller(pr, s.prop_speed_rad_s, vx, s.air_density_kgpm3);
         assert!((p.thrust_n - t.eval.prop.thrust_n).abs() < 1e-10 * t.eval.prop.thrust_n.abs().max(1.0));
     }
 }

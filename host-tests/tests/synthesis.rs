@@ -672,8 +672,8 @@ fn needed_channels_follow_the_axes() {
 #[test]
 fn one_report_at_a_time_equals_all_six() {
     use aerosid_core::mavlink::telemetry::{report, reports};
-    let flight = aerosid_host::flights::main_flight(20.0, 11);
-    let out = aerosid_host::sim::simulate(&flight).expect("simulation");
+    let flight = aerosid_sim::flights::main_flight(20.0, 11);
+    let out = aerosid_sim::simulate(&flight).expect("simulation");
     let mut p = aerosid_core::aero::onboard::pipeline::<f32>().expect("on-board pipeline");
     for s in &out.samples {
         p.process(&s.cast::<f32>());

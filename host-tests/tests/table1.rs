@@ -1,11 +1,11 @@
-//! Seed 001, Table 1 (issue 5 §2): 50 seeded flights of the A-4D longitudinal model in Dryden
+//! Seed 001, Table 1: 50 seeded flights of the A-4D longitudinal model in Dryden
 //! turbulence, with the paper's input and with a designed one, through the paper's filter error
 //! method, ours on board (one recursive pass, Dryden gust states, an accelerometer), ours offline
 //! (batch Gauss–Newton) and seed 000's equation-error PCA-GTLS; and the Cramér–Rao bound of the
 //! records. The campaigns are computed once and shared by the tests (`results()`); every figure
 //! asserted below is the measured one, printed with `--nocapture` (and by `aerosid table1`).
 //!
-//! What the issue asks and what the measurements say:
+//! What is required and what the measurements say:
 //! * ≥ 90 % of the runs with all nine within 2σ, σ honest: the batch method's σ is honest (rms z
 //!   0.88–1.24 on every data-determined parameter), and honest σ on nine parameters puts all nine
 //!   within 2σ in 76–77 % of the runs (measured 40/50 and 41/50). The 90 % figure and honest σ
@@ -17,12 +17,12 @@
 // Index loops over the nine parameters walk several arrays together.
 #![allow(clippy::needless_range_loop)]
 
-use aerosid_core::fem::models::Longitudinal;
-use aerosid_host::table1::{
+use aerosid::table1::{
     bound, comparison_table, design_scan, predicted_null_direction, prior, requirement_bounds, requirement_table,
     summary_table, Bound, Conditions, Input, Method, Summary, DESIGNED_SECONDS, DESIGNED_STEP_S, NAMES, PAPER_SECONDS,
     RUNS, SIGMA_FOR_5_PERCENT_MEDIAN,
 };
+use aerosid_core::fem::models::Longitudinal;
 use std::sync::OnceLock;
 
 /// Table 1's true values.
@@ -54,7 +54,7 @@ struct Results {
 fn results() -> &'static Results {
     static R: OnceLock<Results> = OnceLock::new();
     R.get_or_init(|| {
-        let run = |input: Input, seconds: f64| Method::ALL.map(|m| aerosid_host::table1::campaign(input, seconds, m));
+        let run = |input: Input, seconds: f64| Method::ALL.map(|m| aerosid::table1::campaign(input, seconds, m));
         let campaigns = [run(Input::PAPER, PAPER_SECONDS), run(Input::DESIGNED, DESIGNED_SECONDS)];
         let mut bounds = vec![bound(Input::PAPER, PAPER_SECONDS, Conditions::SIMULATED).expect("bound")];
         bounds.extend(design_scan());
@@ -76,7 +76,7 @@ fn results() -> &'static Results {
                 comparison_table(&format!("{}, {seconds} s", input.label()), &rows)
             );
         }
-        print!("{}", aerosid_host::table1::bound_table(&r.bounds));
+        print!("{}", aerosid::table1::bound_table(&r.bounds));
         print!("{}", requirement_table(&r.requirements));
         r
     })
@@ -273,7 +273,7 @@ fn batch_sigma_is_honest() {
         }
         // … and all nine are within 2σ as often as honest σ predicts: 40/50 and 41/50 against
         // 76 % and 77 % (within three binomial σ of 6 points). Honest σ on nine parameters cannot
-        // give the issue's 90 %: the expectation itself is below 85 %.
+        // give the required 90 %: the expectation itself is below 85 %.
         let observed = s.all_within_2sigma as f64 / s.runs as f64;
         let e = s.expected_all_within_2sigma;
         let sd = (e * (1.0 - e) / s.runs as f64).sqrt();

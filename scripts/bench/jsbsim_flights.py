@@ -3,13 +3,13 @@
 
 Regenerate (from the repository root, ~1 min of one core):
     target/venv/bin/python scripts/bench/jsbsim_flights.py
-Options: --out DIR (default host-tests/data/jsbsim), --build DIR (default target/jsbsim-build),
+Options: --out DIR (default tool/data/jsbsim), --build DIR (default target/jsbsim-build),
          --only NAME[,NAME] (regenerate some flights; truth.json is rewritten from all specs),
          --check (also print the C_Lα sanity check of JSBSim's own logged coefficients).
 
 The package is never edited: c172x is copied into --build and the copy's XML is changed per flight
 (a <function> added to an aerodynamic axis, or the thruster moved). Sensor errors are applied to the
-logged channels afterwards. See host-tests/data/jsbsim/README.md.
+logged channels afterwards. See tool/data/jsbsim/README.md.
 """
 import argparse
 import json
@@ -415,7 +415,7 @@ TABLE_EFFECTS = [
 
 def main():
     ap = argparse.ArgumentParser()
-    ap.add_argument("--out", default="host-tests/data/jsbsim")
+    ap.add_argument("--out", default="tool/data/jsbsim")
     ap.add_argument("--build", default="target/jsbsim-build")
     ap.add_argument("--only", default="")
     ap.add_argument("--rotational-gusts", action="store_true")

@@ -20,7 +20,7 @@ import numpy as np
 from scipy.signal import savgol_filter
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-DATA = os.path.join(HERE, "..", "..", "host-tests", "data", "jsbsim")
+DATA = os.path.join(HERE, "..", "..", "tool", "data", "jsbsim")
 FT, SLUG, SLUGFT2 = 0.3048, 14.593902937206364, 1.3558179483314004
 
 BASE = {"C_L": ["1", "α", "q̂", "δe"], "C_m": ["1", "α", "q̂", "δe"], "C_D": ["1", "α", "α²", "q̂", "δe"],

@@ -32,7 +32,7 @@
 //! **Gauss–Newton passes** ([`FilterError::new_pass`]): the same two filters with the model held at
 //! a fixed `p_lin` for a whole pass over a stored record, so that the parameter filter is a linear
 //! Kalman filter and the pass is one Gauss–Newton step of the batch filter error method (host-side;
-//! `aerosid_host::fem_batch` iterates it).
+//! `aerosid::fem_batch` iterates it).
 //!
 //! *Math note*: eq. 6 linearises the prediction in `p` about `p̄` and neglects the correlation
 //! between the state error and `Δp` (the paper's `E{ê_x v_xᵀ} = 0`); the parameter covariance is

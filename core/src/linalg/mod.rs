@@ -16,8 +16,8 @@ pub const fn const_zeros<T: Real, const R: usize, const C: usize>() -> SMatrix<T
 /// The indices `lo..end` as a loop of compile-time length `N` stopped at `end` (`end ≤ N`
 /// assumed; larger is clamped to `N`). Over a run-time range `lo..end` the compiler keeps the loop;
 /// over `lo..N` with the early stop it unrolls it and gives the inner products constant lengths:
-/// measured on the M4F for the secular terms, the minimum-norm Cholesky and solves and the general
-/// secular path (docs/benchmarks.md "Instruction counts", items 12–14).
+/// measured on the M4F (instructions under QEMU) for the secular terms, the minimum-norm Cholesky
+/// and solves and the general secular path.
 #[inline(always)]
 pub(crate) fn unrolled_upto<const N: usize>(lo: usize, end: usize) -> impl Iterator<Item = usize> {
     (lo..N).take_while(move |&j| j < end)

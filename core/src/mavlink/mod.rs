@@ -2,19 +2,15 @@
 //! are written into and parsed from byte slices.
 //!
 //! ## Why hand-encoded, not the `mavlink` crate
-//! `mavlink` 0.21 (`default-features = false`, features `embedded` + `dialect-common`) builds for
-//! `thumbv7em-none-eabihf` without alloc, but (measured in a scratch crate, rustc 1.95, `opt-level =
-//! "s"`, fat LTO): its build script generates 1.6 MB of Rust for `common.xml` (≈30 s clean build);
-//! one heartbeat encode plus one `MavMessage::parse` with a run-time id added **74 KB of flash** to
-//! a 1.2 KB cortex-m-rt binary (the parse dispatch keeps every message's deserialiser), above the
-//! whole 64 KB budget; `mavlink-core` has `assert!`/slice-index panics on its paths; extension
-//! fields (e.g. `SERVO_OUTPUT_RAW.servo9_raw`) need the extra `mav2-message-extensions` feature; it
-//! reads through `embedded-io` rather than a byte-at-a-time state machine; and it needs rustc 1.88.
-//! We need seven messages, so they are written here from the official definitions ([`messages`]),
-//! ≈7.7 KB of flash for heartbeat, six reports, parser and [`surfaces::MavlinkSurfaces`] (measured the
-//! same way),
-//! with `CRC_EXTRA` values and payload layouts checked against pymavlink (golden frames in
-//! `core/tests/mavlink.rs`).
+//! Measured in a scratch `thumbv7em-none-eabihf` binary with the firmware's size profile
+//! (docs/firmware.md, "MAVLink"): `mavlink` 0.21 (`default-features = false`, `embedded`) adds
+//! 20 KB of flash over this codec to encode the firmware's three telemetry messages and 144 KB with
+//! the autopilot's messages parsed (its dialect-wide `ser`/`parse` matches are linked whole),
+//! against 248 B left in the flight image; and its extension fields (`DEBUG_FLOAT_ARRAY.data`,
+//! `SERVO_OUTPUT_RAW.servo9_raw`…) need `mav2-message-extensions`, which does not build without
+//! `std`. We need seven messages, so they are written here from the official definitions
+//! ([`messages`]), with `CRC_EXTRA` values and payload layouts checked against pymavlink (golden
+//! frames in `core/tests/mavlink.rs`).
 //!
 //! ## Telemetry out (co-processor → autopilot / ground station)
 //! * `HEARTBEAT` (#0) at 1 Hz: `type` = `MAV_TYPE_ONBOARD_CONTROLLER` (18), `autopilot` =

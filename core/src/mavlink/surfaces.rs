@@ -328,7 +328,7 @@ impl MavlinkSurfaces {
     /// surfaces, throttle, RPM and the three Euler angles — each missing, stale or out-of-range one
     /// NaN, so the pipeline refuses exactly the coefficients that need it. `true` when every one
     /// of them is present. Both firmware boards fill their samples with it, and the host's model of
-    /// the firmware (`aerosid_host::qemu::emulate`) does too.
+    /// the firmware (`aerosid_qemu::emulate`) does too.
     #[inline]
     pub fn fill(&mut self, now_us: u64, s: &mut SensorSample<f32>) -> bool {
         let nan = f32::NAN;

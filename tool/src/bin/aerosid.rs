@@ -1,0 +1,808 @@
+//! `aerosid` — the project's command-line tool: argument parsing (clap) and dispatch only; every
+//! command's work is a function of the `aerosid` library.
+//!
+//! Adding a command: a variant of [`Command`] holding a struct of its arguments (its doc comment is
+//! the command's `--help`), an [`Execute`] implementation that calls the library, and its arm in
+//! [`Command::execute`]. Ranges of numeric arguments are stated once, in a constant that both the
+//! value check ([`in_range`]) and the help text ([`range_help`]) read.
+
+use aerosid::gaps::airdata::AirDataChoice;
+use aerosid::gaps::hidden::{HiddenEffect, HiddenKind};
+use aerosid::gaps::model::Term;
+use aerosid::report::MainJob;
+use clap::builder::{PossibleValuesParser, TypedValueParser};
+use clap::{ArgGroup, Args, CommandFactory, Parser, Subcommand, ValueEnum};
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+/// `run --seconds`: the main job keeps every sample's traces for its figures (~3 KB per sample,
+/// about 1 GB per hour), hence the hour's cap; below 30 s the manoeuvres do not all fit.
+const RUN_SECONDS: (f64, f64) = (30.0, 3600.0);
+/// `simulate --seconds`: the log is written as it is simulated, so up to ten hours.
+const SIMULATE_SECONDS: (f64, f64) = (1.0, 36_000.0);
+/// `gaps --seconds` of a simulated flight: at least one manoeuvre cycle, at most an hour.
+const GAPS_SECONDS: (f64, f64) = (20.0, 3600.0);
+/// `long-run --hours`.
+const LONG_RUN_HOURS: (f64, f64) = (0.05, 100.0);
+
+/// On-line aerodynamic model identification for small fixed-wing UAVs: the host tool (simulation,
+/// replay of logs through the on-board estimators, model-gap analysis, firmware checks).
+#[derive(Parser)]
+#[command(name = "aerosid", version, propagate_version = true)]
+struct Cli {
+    #[command(subcommand)]
+    command: Option<Command>,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    Run(RunArgs),
+    Simulate(SimulateArgs),
+    Replay(ReplayArgs),
+    #[command(name = "fem-hfb320")]
+    FemHfb320(FemHfb320Args),
+    Fem(FemArgs),
+    Predict(PredictArgs),
+    Table1(Table1Args),
+    Gaps(Box<GapsArgs>),
+    GapsBench(GapsBenchArgs),
+    LongRun(LongRunArgs),
+    PanicAudit(PanicAuditArgs),
+    StackBound(StackBoundArgs),
+    Demo(DemoArgs),
+    Completions(CompletionsArgs),
+}
+
+/// A command's work, run after its arguments were parsed and checked.
+trait Execute {
+    fn execute(self) -> ExitCode;
+}
+
+impl Command {
+    fn execute(self) -> ExitCode {
+        match self {
+            Self::Run(a) => a.execute(),
+            Self::Simulate(a) => a.execute(),
+            Self::Replay(a) => a.execute(),
+            Self::FemHfb320(a) => a.execute(),
+            Self::Fem(a) => a.execute(),
+            Self::Predict(a) => a.execute(),
+            Self::Table1(a) => a.execute(),
+            Self::Gaps(a) => a.execute(),
+            Self::GapsBench(a) => a.execute(),
+            Self::LongRun(a) => a.execute(),
+            Self::PanicAudit(a) => a.execute(),
+            Self::StackBound(a) => a.execute(),
+            Self::Demo(a) => a.execute(),
+            Self::Completions(a) => a.execute(),
+        }
+    }
+}
+
+fn main() -> ExitCode {
+    match Cli::parse().command {
+        Some(command) => command.execute(),
+        None => match Cli::command().print_long_help() {
+            Ok(()) => ExitCode::SUCCESS,
+            Err(e) => fail("aerosid", e),
+        },
+    }
+}
+
+/// Prints `aerosid CMD: error` and returns failure.
+fn fail(cmd: &str, e: impl std::fmt::Display) -> ExitCode {
+    eprintln!("aerosid {cmd}: {e}");
+    ExitCode::FAILURE
+}
+
+/// Prints a command's report and the files it wrote (under `heading`), or its error.
+fn finish<E: std::fmt::Display>(cmd: &str, heading: &str, result: Result<(String, Vec<PathBuf>), E>) -> ExitCode {
+    match result {
+        Ok((text, files)) => {
+            print!("{text}");
+            println!("\n{heading}:");
+            for f in files {
+                println!("  {}", f.display());
+            }
+            ExitCode::SUCCESS
+        }
+        Err(e) => fail(cmd, e),
+    }
+}
+
+/// A value parser for a number in `[range.0, range.1]` (NaN refused).
+fn in_range(range: (f64, f64)) -> impl Fn(&str) -> Result<f64, String> + Clone + Send + Sync + 'static {
+    move |s: &str| {
+        let v: f64 = s.trim().parse().map_err(|e| format!("`{s}` is not a number: {e}"))?;
+        if (range.0..=range.1).contains(&v) {
+            Ok(v)
+        } else {
+            Err(format!("{v} is outside the range {}–{}", range.0, range.1))
+        }
+    }
+}
+
+/// `what` with the accepted range appended, for an argument's help.
+fn range_help(what: &str, range: (f64, f64)) -> String {
+    format!("{what} [range: {}–{}]", range.0, range.1)
+}
+
+// ---------------------------------------------------------------------------------------------------
+// run, simulate, replay, demo
+
+/// The main job: simulate a flight of the default airframe (`skywalker_2013_mod`, every hidden
+/// effect, light turbulence, realistic sensors), run the six on-board `f32` estimators over its log
+/// exactly as the firmware would, print the identified model beside the truth and the RLS baseline,
+/// and write the figures (the six coefficients, Fig. 1, Fig. 2) as SVG to DIR.
+#[derive(Args)]
+struct RunArgs {
+    /// Folder the figures are written to (created if missing).
+    #[arg(long, value_name = "DIR", default_value_os_t = MainJob::default().out_dir)]
+    out: PathBuf,
+    /// Seed of the flight (turbulence and sensor noise).
+    #[arg(long, value_name = "N", default_value_t = MainJob::default().seed)]
+    seed: u64,
+    #[arg(long, value_name = "S", default_value_t = MainJob::default().seconds,
+          value_parser = in_range(RUN_SECONDS),
+          help = range_help("Duration of the flight, s", RUN_SECONDS))]
+    seconds: f64,
+}
+
+impl Execute for RunArgs {
+    fn execute(self) -> ExitCode {
+        let job = MainJob {
+            out_dir: self.out,
+            seed: self.seed,
+            seconds: self.seconds,
+            ..MainJob::default()
+        };
+        let start = std::time::Instant::now();
+        let mut log = String::new();
+        let result = aerosid::report::main_job(&job, &mut log);
+        print!("{log}");
+        match result {
+            Ok(paths) => {
+                println!("\nfigures:");
+                for p in paths {
+                    println!("  {}", p.display());
+                }
+                println!("done in {:.1} s", start.elapsed().as_secs_f64());
+                ExitCode::SUCCESS
+            }
+            Err(e) => fail("run", e),
+        }
+    }
+}
+
+/// Write the main job's flight (every hidden effect, light turbulence, sensors with biases) as a
+/// CSV log in the project's layout (docs/measured-data.md).
+#[derive(Args)]
+struct SimulateArgs {
+    /// The CSV log to write.
+    #[arg(long, value_name = "LOG.csv")]
+    out: PathBuf,
+    /// Seed of the flight (turbulence and sensor noise).
+    #[arg(long, value_name = "N", default_value_t = MainJob::default().seed)]
+    seed: u64,
+    #[arg(long, value_name = "S", default_value_t = MainJob::default().seconds,
+          value_parser = in_range(SIMULATE_SECONDS),
+          help = range_help("Duration of the flight, s", SIMULATE_SECONDS))]
+    seconds: f64,
+}
+
+impl Execute for SimulateArgs {
+    fn execute(self) -> ExitCode {
+        match aerosid::replay::simulate_to_csv(&self.out, self.seconds, self.seed) {
+            Ok(n) => {
+                println!(
+                    "{}: {n} samples ({} s at 100 Hz, seed {})",
+                    self.out.display(),
+                    self.seconds,
+                    self.seed
+                );
+                ExitCode::SUCCESS
+            }
+            Err(e) => fail("simulate", e),
+        }
+    }
+}
+
+/// Identify the six coefficients from a CSV log with the on-board `f32` pipeline; with --qemu also
+/// run the firmware under QEMU on the same log and check its telemetry against the host bit for bit.
+#[derive(Args)]
+struct ReplayArgs {
+    /// The log, in the project's CSV layout (e.g. written by `aerosid simulate`).
+    #[arg(value_name = "LOG.csv")]
+    log: PathBuf,
+    /// Also run the firmware under QEMU (needs qemu-system-arm and the firmware built with the
+    /// `qemu` feature).
+    #[arg(long)]
+    qemu: bool,
+}
+
+impl Execute for ReplayArgs {
+    fn execute(self) -> ExitCode {
+        match aerosid::replay::replay(&self.log, self.qemu) {
+            Ok(report) => {
+                print!("{report}");
+                ExitCode::SUCCESS
+            }
+            Err(e) => fail("replay", e),
+        }
+    }
+}
+
+/// Identify C_m from generated noisy 100 Hz data with the on-board `f32` PCA-GTLS (20 s of calm
+/// cruise, then elevator doublets and sweeps), printing the estimates ± σ beside the truth and the
+/// RLS baseline.
+#[derive(Args)]
+struct DemoArgs {
+    /// Seed of the generated data.
+    #[arg(long, value_name = "N", default_value_t = 1)]
+    seed: u64,
+    #[arg(long, value_name = "S", default_value_t = 120.0,
+          value_parser = in_range(aerosid::demo::SECONDS_RANGE),
+          help = range_help("Duration of the generated data, s", aerosid::demo::SECONDS_RANGE))]
+    seconds: f64,
+}
+
+impl Execute for DemoArgs {
+    fn execute(self) -> ExitCode {
+        match aerosid::demo::demo(self.seed, self.seconds) {
+            Ok(text) => {
+                print!("{text}");
+                ExitCode::SUCCESS
+            }
+            Err(e) => fail("demo", e),
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Reports on the papers' data
+
+/// The filter error method (seed 001) on the real HFB-320 flight: estimates ± σ beside the
+/// published values, the prediction variants (Euler/RK4, held/interpolated input, recursive/batch),
+/// measured vs model outputs and residuals (SVG). Reads `hfb320_1_10.asc` from the vendored
+/// flight-test data, or from the folder `AEROSID_FLIGHT_DATA` names.
+#[derive(Args)]
+struct FemHfb320Args {
+    /// Folder the figures are written to (created if missing).
+    #[arg(long, value_name = "DIR", default_value = "out")]
+    out: PathBuf,
+}
+
+impl Execute for FemHfb320Args {
+    fn execute(self) -> ExitCode {
+        let data = aerosid::fem_report::default_hfb320_path();
+        finish(
+            "fem-hfb320",
+            "figures",
+            aerosid::fem_report::hfb320_report(&data, &self.out),
+        )
+    }
+}
+
+/// The filter error or output error method on a model file (states, inputs, outputs, parameters,
+/// equations; docs/workflow.md, e.g. tool/models/hfb320.toml), the files and segments pooled
+/// (each its own initial state), parameters fixed as asked, validated on other data; writes
+/// identification.json (the saved model) and measured-vs-model figures (SVG).
+#[derive(Args)]
+struct FemArgs {
+    /// The model file (TOML); paths inside it resolve against its folder.
+    #[arg(long, value_name = "FILE.toml")]
+    model: PathBuf,
+    /// A data file (repeatable; default the model file's `[data] file`).
+    #[arg(long, value_name = "FILE")]
+    data: Vec<PathBuf>,
+    /// A segment of each data file, seconds from its first sample (repeatable; default all).
+    #[arg(long, value_name = "FROM:TO", value_parser = aerosid::workflow::parse_range, allow_hyphen_values = true)]
+    segment: Vec<(f64, f64)>,
+    /// A validation file (repeatable).
+    #[arg(long, value_name = "FILE")]
+    validate: Vec<PathBuf>,
+    /// A validation segment, of the validation files or else of the data files (repeatable).
+    #[arg(long, value_name = "FROM:TO", value_parser = aerosid::workflow::parse_range, allow_hyphen_values = true)]
+    validate_segment: Vec<(f64, f64)>,
+    /// Hold a parameter at a value instead of estimating it (repeatable).
+    #[arg(long, value_name = "NAME=VALUE", value_parser = aerosid::workflow::parse_fix, allow_hyphen_values = true)]
+    fix: Vec<(String, f64)>,
+    /// Folder the JSON and figures are written to (created if missing).
+    #[arg(long, value_name = "DIR", default_value = "out/fem")]
+    out: PathBuf,
+}
+
+impl Execute for FemArgs {
+    fn execute(self) -> ExitCode {
+        let args = aerosid::workflow::FemArgs {
+            model: self.model,
+            data: self.data,
+            segments: self.segment,
+            validate: self.validate,
+            validate_segments: self.validate_segment,
+            fix: self.fix,
+            out: self.out,
+        };
+        finish(
+            "fem",
+            "written",
+            aerosid::workflow::run_fem(&args).map(|r| (r.text, r.files)),
+        )
+    }
+}
+
+/// Apply a saved identification (the identification.json of `fem`) to other data: the outputs
+/// simulated from the first measured state with the measured inputs, RMS, R² and Theil's U per
+/// output, prediction.json and a measured-vs-predicted figure (SVG).
+#[derive(Args)]
+struct PredictArgs {
+    /// The saved identification.
+    #[arg(long, value_name = "FILE.json")]
+    saved: PathBuf,
+    /// A data file (repeatable; default the model file's `[data] file`).
+    #[arg(long, value_name = "FILE")]
+    data: Vec<PathBuf>,
+    /// A segment of each data file, seconds from its first sample (repeatable; default all).
+    #[arg(long, value_name = "FROM:TO", value_parser = aerosid::workflow::parse_range, allow_hyphen_values = true)]
+    segment: Vec<(f64, f64)>,
+    /// Folder the JSON and figure are written to (created if missing).
+    #[arg(long, value_name = "DIR", default_value = "out/predict")]
+    out: PathBuf,
+}
+
+impl Execute for PredictArgs {
+    fn execute(self) -> ExitCode {
+        finish(
+            "predict",
+            "written",
+            aerosid::workflow::run_predict(&self.saved, &self.data, &self.segment, &self.out).map(|(_, t, f)| (t, f)),
+        )
+    }
+}
+
+/// Seed 001's Table 1: the Cramér–Rao bound and input design, then 50 simulated A-4D flights with
+/// the paper's and the designed input through the paper's method, ours (recursive and batch) and
+/// equation-error PCA-GTLS, beside Table 1; the parameter histories ± σ of one flight per input (SVG).
+#[derive(Args)]
+struct Table1Args {
+    /// Folder the figures are written to (created if missing).
+    #[arg(long, value_name = "DIR", default_value = "out")]
+    out: PathBuf,
+}
+
+impl Execute for Table1Args {
+    fn execute(self) -> ExitCode {
+        finish("table1", "figures", aerosid::table1::table1_report(&self.out))
+    }
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Model-gap analysis
+
+/// `--compatibility`: whether the flight-path reconstruction runs.
+#[derive(Clone, Copy, ValueEnum)]
+enum OnOff {
+    On,
+    Off,
+}
+
+/// The names `--air-data` accepts ([`AirDataChoice::parse`]).
+const AIR_DATA_NAMES: [&str; 4] = ["auto", "measured", "reconstructed", "fused"];
+
+fn hidden_kind_parser() -> impl TypedValueParser<Value = HiddenKind> {
+    PossibleValuesParser::new(HiddenKind::ALL.map(|k| k.name()))
+        .try_map(|s| HiddenKind::parse(&s).ok_or_else(|| format!("unknown kind `{s}`")))
+}
+
+fn air_data_parser() -> impl TypedValueParser<Value = AirDataChoice> {
+    PossibleValuesParser::new(AIR_DATA_NAMES)
+        .try_map(|s| AirDataChoice::parse(&s).ok_or_else(|| format!("unknown air-data choice `{s}`")))
+}
+
+/// The model-gap analysis (docs/model-gaps.md) of a measured flight (--data FILE [--with FILE]), or
+/// of a simulated flight with one hidden effect (--simulate KIND; its size drawn from the seed) or
+/// none (--clean): data-quality assessment and table on the terminal, report.json, report.txt and
+/// SVG figures in DIR. A PX4 `.ulg` or ArduPilot `.bin` log reads without --with (a placeholder
+/// aircraft, so no verdict), its in-air window found unless --from/--to or --whole-log say
+/// otherwise (docs/measured-data.md).
+#[derive(Args)]
+#[command(group(ArgGroup::new("flight").required(true).args(["data", "simulate", "clean"])))]
+struct GapsArgs {
+    /// A measured flight (read by `aerosid::io::read_measured_with`): .csv, .asc/.txt/.dat or
+    /// .mat with --with; a PX4 .ulg or ArduPilot .bin log with or without it.
+    #[arg(long, value_name = "FILE")]
+    data: Option<PathBuf>,
+    /// The column map or aircraft file of the --data flight (optional for .ulg and .bin).
+    #[arg(long = "with", value_name = "MAP_OR_AIRCRAFT", requires = "data")]
+    with: Option<PathBuf>,
+    /// Start of the window read from a .ulg/.bin log, s of its boot time (the scale the report
+    /// prints). Default: the longest stretch in the air.
+    #[arg(long, value_name = "S", requires = "data", value_parser = finite_seconds, allow_negative_numbers = true)]
+    from: Option<f64>,
+    /// End of the window read from a .ulg/.bin log, s of its boot time.
+    #[arg(long, value_name = "S", requires = "data", value_parser = finite_seconds, allow_negative_numbers = true)]
+    to: Option<f64>,
+    /// Read the whole .ulg/.bin log (no automatic in-air window).
+    #[arg(long, requires = "data")]
+    whole_log: bool,
+    /// The instance of a multi-instance topic (ULog) or message (DataFlash), TOPIC=N; repeatable.
+    /// Default: instance 0 of every topic.
+    #[arg(long, value_name = "TOPIC=N", requires = "data")]
+    instance: Vec<String>,
+    /// Output rate of a .ulg/.bin log, Hz (default: the rate topic's median rate).
+    #[arg(long, value_name = "HZ", requires = "data", value_parser = positive_rate)]
+    rate: Option<f64>,
+    /// Print the topics (ULog) or messages (DataFlash) of the --data log with their instances,
+    /// rates and fields, and stop.
+    #[arg(long, requires = "data")]
+    list: bool,
+    /// A simulated flight with this hidden effect.
+    #[arg(long, value_name = "KIND", value_parser = hidden_kind_parser())]
+    simulate: Option<HiddenKind>,
+    /// A simulated flight with no hidden effect.
+    #[arg(long)]
+    clean: bool,
+    /// The simulated flight in calm air (default: the campaign's light turbulence).
+    #[arg(long)]
+    calm: bool,
+    /// Seed of the simulated flight and of the hidden effect's size.
+    #[arg(long, value_name = "N", default_value_t = 1)]
+    seed: u64,
+    #[arg(long, value_name = "S", default_value_t = 90.0, value_parser = in_range(GAPS_SECONDS),
+          help = range_help("Duration of the simulated flight, s", GAPS_SECONDS))]
+    seconds: f64,
+    /// Folder of report.json, report.txt and the figures (created if missing).
+    #[arg(long, value_name = "DIR", default_value = "out/gaps")]
+    out: PathBuf,
+    /// The air data of the regressors: the sensors (measured), the flight-path reconstruction
+    /// (reconstructed; assumes steady air, so take measured for turbulent data), their fusion, or
+    /// auto (fused when both exist).
+    #[arg(long, value_name = "CHOICE", default_value = "auto", value_parser = air_data_parser())]
+    air_data: AirDataChoice,
+    /// Keep the named sensor errors instead of removing them before the aerodynamics.
+    #[arg(long)]
+    no_corrections: bool,
+    /// Baseline models replacing eq. 3 for the coefficients named, e.g.
+    /// "CL=1,alpha,dV;Cm=1,alpha,dV,q,de".
+    #[arg(long, value_name = "SPEC", value_parser = aerosid::gaps::model::parse_baseline)]
+    baseline: Option<[Vec<Term>; 6]>,
+    /// `off` skips the flight-path reconstruction (the data are used as they are).
+    #[arg(long, value_enum, default_value_t = OnOff::On)]
+    compatibility: OnOff,
+}
+
+/// A finite number of seconds (`--from`, `--to`).
+fn finite_seconds(s: &str) -> Result<f64, String> {
+    s.parse::<f64>()
+        .ok()
+        .filter(|v| v.is_finite())
+        .ok_or_else(|| format!("`{s}` is not a finite time in seconds"))
+}
+
+/// A rate in Hz, 0 < rate ≤ 10 000 (`--rate`).
+fn positive_rate(s: &str) -> Result<f64, String> {
+    s.parse::<f64>()
+        .ok()
+        .filter(|r| r.is_finite() && *r > 0.0 && *r <= 10_000.0)
+        .ok_or_else(|| format!("`{s}` is not a rate in Hz in (0, 10000]"))
+}
+
+impl GapsArgs {
+    /// The read options of the flags, or the usage error.
+    fn read_options(&self) -> Result<aerosid::io::ReadOptions, String> {
+        let mut o = aerosid::io::ReadOptions {
+            from_s: self.from,
+            to_s: self.to,
+            whole_log: self.whole_log,
+            rate_hz: self.rate,
+            ..Default::default()
+        };
+        for spec in &self.instance {
+            o.add_instance(spec)?;
+        }
+        if let (Some(a), Some(b)) = (o.from_s, o.to_s) {
+            if a >= b {
+                return Err(format!("--from {a} must be before --to {b}"));
+            }
+        }
+        Ok(o)
+    }
+}
+
+/// A usage error found after parsing: the message and exit code 2, as clap's own.
+fn usage(cmd: &str, e: impl std::fmt::Display) -> ExitCode {
+    eprintln!("aerosid {cmd}: {e}");
+    ExitCode::from(2)
+}
+
+impl Execute for GapsArgs {
+    fn execute(self) -> ExitCode {
+        if let Some(data) = &self.data {
+            let ext = data.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+            let log = matches!(ext.as_deref(), Some("ulg") | Some("bin"));
+            if self.with.is_none() && !log {
+                return usage(
+                    "gaps",
+                    format!(
+                        "--data {} needs --with MAP_OR_AIRCRAFT (only .ulg and .bin logs read without one)",
+                        data.display()
+                    ),
+                );
+            }
+            if self.list {
+                let listing = match ext.as_deref() {
+                    Some("ulg") => aerosid::io::ulog::list_topics(data),
+                    Some("bin") => aerosid::io::dataflash::list_messages(data),
+                    _ => {
+                        return usage(
+                            "gaps",
+                            "--list lists the topics of a .ulg or the messages of a .bin log",
+                        )
+                    }
+                };
+                return match listing {
+                    Ok(text) => {
+                        print!("{text}");
+                        ExitCode::SUCCESS
+                    }
+                    Err(e) => fail("gaps", e),
+                };
+            }
+        }
+        let settings = aerosid::gaps::GapSettings {
+            air_data: self.air_data,
+            apply_corrections: !self.no_corrections,
+            compatibility: matches!(self.compatibility, OnOff::On),
+            baseline: self.baseline.clone(),
+            ..aerosid::gaps::GapSettings::default()
+        };
+        let opts = match self.read_options() {
+            Ok(o) => o,
+            Err(e) => return usage("gaps", e),
+        };
+        let flight = match (&self.data, &self.with) {
+            (Some(data), with) => {
+                aerosid::io::read_measured_with(data, with.as_deref(), &opts).map_err(|e| e.to_string())
+            }
+            _ => {
+                // A simulated flight with the hidden effect's size drawn from the seed.
+                use rand::SeedableRng;
+                let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(self.seed);
+                let effect = self.simulate.map(|k| k.draw(&mut rng));
+                let flight = aerosid::gaps::hidden::flight(effect.as_ref(), self.seconds, self.seed, !self.calm);
+                // The campaign's baseline (eq. 3 without the δa a kind hides) unless one is given.
+                return match flight {
+                    Ok(f) => {
+                        let baseline = settings
+                            .baseline
+                            .clone()
+                            .or_else(|| Some(HiddenEffect::baseline(effect.as_ref())));
+                        gaps(&f, &self.out, aerosid::gaps::GapSettings { baseline, ..settings })
+                    }
+                    Err(e) => fail("gaps", e),
+                };
+            }
+        };
+        match flight {
+            Ok(f) => gaps(&f, &self.out, settings),
+            Err(e) => fail("gaps", e),
+        }
+    }
+}
+
+/// Analyses `flight`, prints the table, writes report.json, report.txt and the figures to `out`.
+fn gaps(flight: &aerosid::io::measured::MeasuredFlight, out: &Path, settings: aerosid::gaps::GapSettings) -> ExitCode {
+    let report = match aerosid::gaps::run_gaps(flight, &settings) {
+        Ok(r) => r,
+        Err(e) => {
+            // What the data can and cannot support is said even when the analysis cannot run
+            // (too few samples, no coefficient): the table here, data_quality.json in `out`.
+            let q = aerosid::io::quality::assess(flight);
+            print!("{}", aerosid::io::quality::table(&q));
+            let json = serde_json::json!({
+                "schema": "aerosid-data-quality/1",
+                "source": flight.source,
+                "analysis": e.to_string(),
+                "data_quality": q,
+            });
+            let file = out.join("data_quality.json");
+            let written = std::fs::create_dir_all(out)
+                .and_then(|_| std::fs::write(&file, serde_json::to_string_pretty(&json).unwrap_or_default()));
+            match written {
+                Ok(()) => println!("data quality written to {}", file.display()),
+                Err(w) => eprintln!("aerosid gaps: {}: {w}", file.display()),
+            }
+            return fail("gaps", format!("the analysis did not run: {e}"));
+        }
+    };
+    // The table first: it is printed even if the files cannot be written.
+    print!("{}", aerosid::gaps::report::table(&report));
+    finish(
+        "gaps",
+        "files",
+        aerosid::gaps::report::write(&report, out).map(|f| (String::new(), f)),
+    )
+}
+
+/// The model-gap campaign behind scripts/bench/: simulated turbulent flights per hidden kind, clean
+/// flights, the vendored JSBSim flights and the real flight-test data; writes DIR/manifest.json and
+/// one regression table per flight.
+#[derive(Args)]
+struct GapsBenchArgs {
+    /// Folder of the manifest and the tables (created if missing).
+    #[arg(long, value_name = "DIR", default_value = "out/gaps-bench")]
+    out: PathBuf,
+    /// Simulated turbulent flights per hidden kind.
+    #[arg(long, value_name = "N", default_value_t = 2)]
+    draws: usize,
+    /// Simulated clean flights.
+    #[arg(long, value_name = "N", default_value_t = 10)]
+    clean: usize,
+}
+
+impl Execute for GapsBenchArgs {
+    fn execute(self) -> ExitCode {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+        let data = aerosid::fem_report::flight_data_dir();
+        let campaign = aerosid::gaps::bench::Campaign {
+            draws_per_kind: self.draws,
+            clean: self.clean,
+            jsbsim: Some(root.join("data/jsbsim")),
+            real: data.is_dir().then(|| (data, root.join("data/maps"))),
+        };
+        match aerosid::gaps::bench::write(&campaign, &self.out) {
+            Ok(lines) => {
+                for l in lines {
+                    println!("{l}");
+                }
+                println!("wrote {}/manifest.json and its tables", self.out.display());
+                ExitCode::SUCCESS
+            }
+            Err(e) => fail("gaps-bench", e),
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Reliability and firmware checks
+
+/// H hours of simulated flight through the on-board `f32` pipeline: excitation, calm cruise, two
+/// parameter jumps; prints the worst orthonormality, λ_F, k, N_eff, refusals per coefficient and how
+/// each jump was tracked, and fails when an invariant is broken.
+#[derive(Args)]
+struct LongRunArgs {
+    #[arg(long, value_name = "H", default_value_t = 10.0, value_parser = in_range(LONG_RUN_HOURS),
+          help = range_help("Simulated hours", LONG_RUN_HOURS))]
+    hours: f64,
+    /// Seed of the flight.
+    #[arg(long, value_name = "N", default_value_t = 1)]
+    seed: u64,
+}
+
+impl Execute for LongRunArgs {
+    fn execute(self) -> ExitCode {
+        use aerosid::longrun;
+        let cfg = longrun::LongRunConfig::hours(self.hours, self.seed);
+        let start = std::time::Instant::now();
+        let result = longrun::run(&cfg, |t| {
+            if (t as u64).is_multiple_of(3600) && t > 0.0 {
+                eprintln!(
+                    "long-run: {:.0} h simulated, {:.0} s wall",
+                    t / 3600.0,
+                    start.elapsed().as_secs_f64()
+                );
+            }
+        });
+        match result {
+            Ok(r) => {
+                print!("{}", longrun::format_report(&r, start.elapsed().as_secs_f64()));
+                let broken = r.violations(&longrun::Invariants::REQUIRED);
+                if broken.is_empty() {
+                    println!("invariants: all kept");
+                    ExitCode::SUCCESS
+                } else {
+                    for b in &broken {
+                        eprintln!("aerosid long-run: invariant broken: {b}");
+                    }
+                    ExitCode::FAILURE
+                }
+            }
+            Err(e) => fail("long-run", e),
+        }
+    }
+}
+
+/// Every panic path left in a firmware image, checked against an allow-list; fails on a path the
+/// list does not cover (CI: the release firmware with firmware/panic-allow.txt).
+#[derive(Args)]
+struct PanicAuditArgs {
+    /// The firmware image.
+    #[arg(value_name = "ELF")]
+    elf: PathBuf,
+    /// The allow-list (firmware/panic-allow.txt).
+    #[arg(value_name = "ALLOW")]
+    allow: PathBuf,
+}
+
+impl Execute for PanicAuditArgs {
+    fn execute(self) -> ExitCode {
+        match aerosid_elf_check::panic_audit::audit_elf(&self.elf, &self.allow) {
+            Ok(a) => {
+                print!("{}", a.report());
+                if a.uncovered().is_empty() {
+                    println!(
+                        "panic audit: every panic path is on the allow-list ({})",
+                        self.allow.display()
+                    );
+                    ExitCode::SUCCESS
+                } else {
+                    fail(
+                        "panic-audit",
+                        format!("{} new panic path(s) in {}", a.uncovered().len(), self.elf.display()),
+                    )
+                }
+            }
+            Err(e) => fail("panic-audit", e),
+        }
+    }
+}
+
+/// A static bound on a firmware image's stack from its machine code, plus its static RAM; fails
+/// when the sum exceeds --ram-budget (CI: the flight computer, 16 384 B).
+#[derive(Args)]
+struct StackBoundArgs {
+    /// The firmware image.
+    #[arg(value_name = "ELF")]
+    elf: PathBuf,
+    /// The handlers' priorities and the targets of the indirect calls (firmware/stack-bound.txt).
+    #[arg(value_name = "CONFIG")]
+    config: PathBuf,
+    /// Fail when static RAM plus the stack bound exceeds this many bytes.
+    #[arg(long, value_name = "BYTES")]
+    ram_budget: Option<u64>,
+}
+
+impl Execute for StackBoundArgs {
+    fn execute(self) -> ExitCode {
+        let b = match aerosid_elf_check::stack_bound::analyse_elf(&self.elf, &self.config) {
+            Ok(b) => b,
+            Err(e) => return fail("stack-bound", e),
+        };
+        print!("{}", b.report());
+        match self.ram_budget {
+            Some(budget) if b.ram() > budget => fail(
+                "stack-bound",
+                format!(
+                    "{}: RAM {} B (static {} + stack {}) exceeds the budget of {budget} B",
+                    self.elf.display(),
+                    b.ram(),
+                    b.static_ram,
+                    b.total
+                ),
+            ),
+            Some(budget) => {
+                println!("RAM within the budget: {} B ≤ {budget} B", b.ram());
+                ExitCode::SUCCESS
+            }
+            None => ExitCode::SUCCESS,
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------------------------------
+// Shell completion
+
+/// Print a completion script for SHELL to stdout, e.g. `aerosid completions bash >
+/// ~/.local/share/bash-completion/completions/aerosid`.
+#[derive(Args)]
+struct CompletionsArgs {
+    #[arg(value_enum)]
+    shell: clap_complete::Shell,
+}
+
+impl Execute for CompletionsArgs {
+    fn execute(self) -> ExitCode {
+        clap_complete::generate(self.shell, &mut Cli::command(), "aerosid", &mut std::io::stdout());
+        ExitCode::SUCCESS
+    }
+}

@@ -1,0 +1,321 @@
+//! The benchmark campaign of the model-gap analysis: runs [`super::run_gaps`] on simulated
+//! turbulent flights with planted effects, on the vendored JSBSim flights and on the real
+//! flight-test data, and writes what other tools need to run on the same flights — one regression
+//! table per flight (the synthesised coefficients and every candidate's column) and a manifest
+//! with the truth and this analysis's answer. `scripts/bench/peers.py` runs pysindy and
+//! sysidentpy on the tables, `scripts/bench/score.py` scores all three (contract:
+//! `scripts/bench/README.md`).
+//!
+//! **Time**: each flight's analysis ([`run_gaps`], from the flight in memory to the report) is
+//! timed on its own thread (the flights run in parallel, one thread each, so a flight's time is
+//! single-threaded): `seconds` wall-clock, `cpu_seconds` the thread's CPU time (what a shared,
+//! loaded machine does not inflate by time-slicing). `timing.json` gives the medians per suite
+//! and the number of threads.
+
+use super::hidden::{flight, HiddenEffect, HiddenKind};
+use super::{run_gaps, GapReport, GapSettings, COEFFICIENTS};
+use crate::io::read_measured;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use rayon::prelude::*;
+use serde_json::{json, Value};
+use std::path::{Path, PathBuf};
+
+/// The shared real flight-test files and their column maps (`tool/data/maps/`).
+pub const REAL_FLIGHTS: [(&str, &str); 5] = [
+    ("hfb320_1_10.asc", "hfb320.map"),
+    ("fAttasElv1_pqrDot.asc", "attas.map"),
+    ("fAttasAil1_pqrDot.asc", "attas.map"),
+    ("fAttasRud1_pqrDot.asc", "attas.map"),
+    ("totter_lon_020213f1_018_fdata.asc", "twin_otter.map"),
+];
+
+/// What the campaign runs.
+#[derive(Debug, Clone)]
+pub struct Campaign {
+    /// Simulated turbulent flights per kind of [`HiddenKind::ALL`].
+    pub draws_per_kind: usize,
+    /// Simulated clean flights.
+    pub clean: usize,
+    /// The vendored JSBSim flights (`tool/data/jsbsim`), if wanted.
+    pub jsbsim: Option<PathBuf>,
+    /// The folder of the real flight-test data (`shared/data/flight`) and the maps'
+    /// folder, if wanted.
+    pub real: Option<(PathBuf, PathBuf)>,
+}
+
+/// One flight of the campaign.
+struct Case {
+    id: String,
+    suite: &'static str,
+    planted: Value,
+    table_effects: Value,
+    result: Result<(GapReport, Seconds), String>,
+}
+
+/// Wall-clock and thread CPU seconds of one analysis.
+#[derive(Debug, Clone, Copy)]
+struct Seconds {
+    wall: f64,
+    cpu: f64,
+}
+
+/// Writes `dir/manifest.json` and `dir/tables/*.csv`; returns one line per flight.
+pub fn write(c: &Campaign, dir: &Path) -> Result<Vec<String>, String> {
+    let tables = dir.join("tables");
+    std::fs::create_dir_all(&tables).map_err(|e| format!("{}: {e}", tables.display()))?;
+    let mut jobs: Vec<Box<dyn Fn() -> Case + Send + Sync>> = Vec::new();
+    // Simulated: the campaign's turbulence, one seeded draw sequence.
+    let mut rng = ChaCha8Rng::seed_from_u64(0xB3);
+    let mut seed = 20_000u64;
+    for _ in 0..c.draws_per_kind {
+        for k in HiddenKind::ALL {
+            let e = k.draw(&mut rng);
+            seed += 1;
+            let s = seed;
+            jobs.push(Box::new(move || sim_case(Some(e), s)));
+        }
+    }
+    for _ in 0..c.clean {
+        seed += 1;
+        let s = seed;
+        jobs.push(Box::new(move || sim_case(None, s)));
+    }
+    if let Some(j) = &c.jsbsim {
+        let truth_path = j.join("truth.json");
+        let text = std::fs::read_to_string(&truth_path).map_err(|e| format!("{}: {e}", truth_path.display()))?;
+        let truth: Value = serde_json::from_str(&text).map_err(|e| format!("{}: {e}", truth_path.display()))?;
+        let flights = truth["flights"]
+            .as_object()
+            .ok_or_else(|| format!("{}: no `flights` object", truth_path.display()))?
+            .clone();
+        for (file, t) in flights {
+            let (csv, aircraft) = (j.join(&file), j.join("c172x.aircraft"));
+            let planted = match &t["planted"] {
+                Value::Null => json!([]),
+                p => json!([p]),
+            };
+            let effects = t["table_effects"].clone();
+            let id = format!("jsbsim/{}", file.trim_end_matches(".csv"));
+            jobs.push(Box::new(move || Case {
+                id: id.clone(),
+                suite: "jsbsim",
+                planted: planted.clone(),
+                table_effects: effects.clone(),
+                result: analyse(&csv, &aircraft, &GapSettings::default()),
+            }));
+        }
+    }
+    if let Some((data, maps)) = &c.real {
+        for (file, map) in REAL_FLIGHTS {
+            let (d, m) = (data.join(file), maps.join(map));
+            let id = format!("real/{}", file.trim_end_matches(".asc"));
+            jobs.push(Box::new(move || Case {
+                id: id.clone(),
+                suite: "real",
+                planted: Value::Null,
+                table_effects: Value::Null,
+                result: analyse(&d, &m, &GapSettings::default()),
+            }));
+        }
+    }
+    let cases: Vec<Case> = jobs.par_iter().map(|j| j()).collect();
+    let mut manifest = Vec::new();
+    let mut lines = Vec::new();
+    for case in &cases {
+        match &case.result {
+            Err(e) => lines.push(format!("{:<40} ERROR {e}", case.id)),
+            Ok((r, t)) => {
+                let name = format!("{}.csv", case.id.replace('/', "_"));
+                let path = tables.join(&name);
+                std::fs::write(&path, table_csv(r)).map_err(|e| format!("{}: {e}", path.display()))?;
+                manifest.push(entry(case, r, *t, &format!("tables/{name}")));
+                lines.push(format!(
+                    "{:<40} {:>6.2} s ({:.2} s CPU)  {}",
+                    case.id,
+                    t.wall,
+                    t.cpu,
+                    r.named
+                        .iter()
+                        .map(|n| format!("{:?} in {}: {}", n.kind, n.location, n.what))
+                        .collect::<Vec<_>>()
+                        .join("; ")
+                ));
+            }
+        }
+    }
+    let m = dir.join("manifest.json");
+    let timing = timing_summary(&manifest);
+    let text = serde_json::to_string_pretty(&Value::Array(manifest)).map_err(|e| e.to_string())?;
+    std::fs::write(&m, text).map_err(|e| format!("{}: {e}", m.display()))?;
+    let t = dir.join("timing.json");
+    let text = serde_json::to_string_pretty(&timing).map_err(|e| e.to_string())?;
+    std::fs::write(&t, text).map_err(|e| format!("{}: {e}", t.display()))?;
+    if let Some(suites) = timing["suites"].as_object() {
+        for (suite, v) in suites {
+            lines.push(format!(
+                "{suite}: median {:.3} s ({:.3} s CPU) per flight over {} flights ({} threads)",
+                v["median_s"].as_f64().unwrap_or(f64::NAN),
+                v["median_cpu_s"].as_f64().unwrap_or(f64::NAN),
+                v["flights"],
+                timing["threads"]
+            ));
+        }
+    }
+    Ok(lines)
+}
+
+/// The median, smallest and largest analysis time per suite of the manifest's entries.
+pub fn timing_summary(manifest: &[Value]) -> Value {
+    let mut by_suite: std::collections::BTreeMap<String, (Vec<f64>, Vec<f64>)> = Default::default();
+    for e in manifest {
+        let a = &e["aerosid"];
+        if let (Some(suite), Some(s), Some(c)) = (e["suite"].as_str(), a["seconds"].as_f64(), a["cpu_seconds"].as_f64())
+        {
+            let v = by_suite.entry(suite.to_string()).or_default();
+            v.0.push(s);
+            v.1.push(c);
+        }
+    }
+    let median = |t: &mut Vec<f64>| {
+        t.sort_by(f64::total_cmp);
+        let k = t.len();
+        if k % 2 == 1 {
+            t[k / 2]
+        } else {
+            0.5 * (t[k / 2 - 1] + t[k / 2])
+        }
+    };
+    let suites: serde_json::Map<String, Value> = by_suite
+        .into_iter()
+        .map(|(suite, (mut wall, mut cpu))| {
+            let k = wall.len();
+            let (mw, mc) = (median(&mut wall), median(&mut cpu));
+            (
+                suite,
+                json!({"flights": k, "median_s": mw, "min_s": wall[0], "max_s": wall[k - 1], "median_cpu_s": mc}),
+            )
+        })
+        .collect();
+    json!({
+        "what": "seconds of run_gaps per flight (flight in memory to report), one thread per flight: wall-clock (`_s`) and the thread's CPU time (`_cpu_s`)",
+        "threads": rayon::current_num_threads(),
+        "suites": suites,
+    })
+}
+
+fn sim_case(e: Option<HiddenEffect>, seed: u64) -> Case {
+    let id = format!(
+        "sim/{}_{seed}",
+        e.map_or("clean".to_string(), |e| e.kind.name().to_string())
+    );
+    let planted = match &e {
+        None => json!([]),
+        Some(e) => {
+            let (k, l) = e.expected();
+            json!([{"kind": format!("{k:?}"), "location": l, "size": e.size}])
+        }
+    };
+    let result = flight(e.as_ref(), 90.0, seed, true)
+        .map_err(|x| x.to_string())
+        .and_then(|f| {
+            let s = GapSettings {
+                baseline: Some(HiddenEffect::baseline(e.as_ref())),
+                ..GapSettings::default()
+            };
+            timed(&f, &s)
+        });
+    Case {
+        id,
+        suite: "sim",
+        planted,
+        table_effects: Value::Null,
+        result,
+    }
+}
+
+fn analyse(data: &Path, companion: &Path, s: &GapSettings) -> Result<(GapReport, Seconds), String> {
+    let f = read_measured(data, companion).map_err(|e| e.to_string())?;
+    timed(&f, s)
+}
+
+fn timed(f: &crate::io::measured::MeasuredFlight, s: &GapSettings) -> Result<(GapReport, Seconds), String> {
+    let t0 = std::time::Instant::now();
+    let c0 = cpu_time::ThreadTime::now();
+    let r = run_gaps(f, s).map_err(|e| e.to_string())?;
+    let cpu = c0.elapsed().as_secs_f64();
+    Ok((
+        r,
+        Seconds {
+            wall: t0.elapsed().as_secs_f64(),
+            cpu,
+        },
+    ))
+}
+
+fn entry(case: &Case, r: &GapReport, t: Seconds, table: &str) -> Value {
+    let reg = &r.regression;
+    let coefficients: serde_json::Map<String, Value> = reg
+        .coefficients
+        .iter()
+        .map(|(name, _, base, lib)| {
+            let i = COEFFICIENTS.iter().position(|c| c == name).unwrap_or(0);
+            let cands: serde_json::Map<String, Value> = lib
+                .iter()
+                .map(|t| (t.name().to_string(), json!(format!("{:?}", t.kind(i)))))
+                .collect();
+            (
+                name.clone(),
+                json!({
+                    "baseline": base.iter().map(|t| t.name()).collect::<Vec<_>>(),
+                    "candidates": cands,
+                }),
+            )
+        })
+        .collect();
+    let mut e = json!({
+        "id": case.id,
+        "suite": case.suite,
+        "table": table,
+        "split": reg.n_id,
+        "planted": case.planted,
+        "coefficients": coefficients,
+        "aerosid": {
+            "named": r.named.iter().map(|n| json!({
+                "kind": format!("{:?}", n.kind), "location": n.location, "what": n.what,
+            })).collect::<Vec<_>>(),
+            "seconds": t.wall,
+            "cpu_seconds": t.cpu,
+            "verdict": r.verdict,
+            "air_data": r.air_data,
+        },
+    });
+    if !case.table_effects.is_null() {
+        e["table_effects"] = case.table_effects.clone();
+    }
+    e
+}
+
+/// The regression table: `t_s`, `z:C_L` …, `x:<term>` for every term with a column.
+fn table_csv(r: &GapReport) -> String {
+    let reg = &r.regression;
+    let mut s = String::from("t_s");
+    for (name, ..) in &reg.coefficients {
+        s.push_str(&format!(",z:{name}"));
+    }
+    for t in reg.columns.keys() {
+        s.push_str(&format!(",x:{}", t.name()));
+    }
+    s.push('\n');
+    for (k, t) in reg.t_s.iter().enumerate() {
+        s.push_str(&format!("{t}"));
+        for (_, z, ..) in &reg.coefficients {
+            s.push_str(&format!(",{:.6e}", z[k]));
+        }
+        for c in reg.columns.values() {
+            s.push_str(&format!(",{:.6e}", c[k]));
+        }
+        s.push('\n');
+    }
+    s
+}

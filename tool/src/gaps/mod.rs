@@ -1,0 +1,1351 @@
+//! The model-gap analysis: what does the identified model get wrong, and why?
+//!
+//! [`run_gaps`] takes a [`MeasuredFlight`] and, in this order:
+//! 1. **Data compatibility** ([`compat`]): flight-path reconstruction by output error on the
+//!    kinematic equations, with sensor biases, scale factors, time delays and vane positions chosen
+//!    by stepwise regression. Errors found are removed from the data before any aerodynamics.
+//! 2. **Baseline fit** ([`model`], [`regress`], [`noise`]): the coefficients of eq. 1–2 synthesised
+//!    from the corrected, smoothed channels; each fitted to its baseline regressors (eq. 3 by
+//!    default, or the model given) by the core's PCA-GTLS ([`aerosid_core::gtls::Gtls`], `f64`)
+//!    with `W_T` from a Monte Carlo of the sensors' white noise through the whole chain, on the
+//!    identification segment (the first [`GapSettings::identification_fraction`] of the flight).
+//! 3. **What the model gets wrong**: the fitted models predict each coefficient on the held-out
+//!    rest of the flight, and simulate the motion there ([`simulate`]: forces → V, α, β, moments →
+//!    p, q, r; the reconstruction of seed 000's Fig. 4–5); R², RMS and PSE, figures.
+//! 4. **The cause**: every candidate of the library ([`model::Term::library`]) is scored by the
+//!    partial `t²` of adding it, σ the coloured-residual sandwich of the GTLS estimating equation
+//!    ([`regress::sandwich_sigma`]).
+//! 5. **Extension**: stepwise regression (forward selection with the removal step) adds the best
+//!    candidate while its `t²` exceeds the threshold, the estimator's own fit confirming each
+//!    entry; then refit and before/after metrics on the held-out segment, with each new parameter
+//!    ± σ.
+//! 6. The [`report`] (terminal table, SVG figures, JSON; schema in `docs/model-gaps.md`).
+//!
+//! ## The criterion and its threshold
+//! A candidate is named when its partial `t²` (the partial F of stepwise regression, Klein &
+//! Morelli 2006 §5.4.1, with a coloured-residual σ after Morelli & Klein 1997) exceeds the
+//! two-sided normal critical value at family-wise level `α = 0.001` with a Bonferroni correction
+//! over every candidate tested in the flight (compatibility parameters and all coefficients'
+//! library terms). Why: the F-test answers "is this term's effect distinguishable from noise", and
+//! the Bonferroni correction keeps the chance of naming anything on a clean flight below `α`
+//! however many candidates there are — if σ is right, which is what the errors-in-variables model
+//! and the coloured σ are for. Morelli's PSE is reported, not required to fall (see
+//! `docs/model-gaps.md`). Measurement causes take precedence over aerodynamic ones (the
+//! sensors are cleared before the aerodynamics is blamed), so the **top cause** is the sensor error with the largest
+//! final `t²`, else the aerodynamic term with the largest final `t²` over all coefficients.
+
+pub mod airdata;
+pub mod bench;
+pub mod compat;
+pub mod hidden;
+pub mod model;
+pub mod noise;
+pub mod regress;
+pub mod report;
+pub mod select;
+pub mod signal;
+pub mod simulate;
+
+use crate::io::measured::{MeasuredFlight, Quantity};
+use airdata::AirDataChoice;
+use compat::{CompatSettings, Compatibility, SensorParam};
+use model::{CauseKind, Corrections, Signal, Table, Term, TermRefs, COEFFICIENTS};
+use noise::{ColumnErrors, MonteCarlo};
+use regress::{gtls_fit, metrics, ols, predict, EivModel, Metrics};
+use std::collections::BTreeMap;
+
+/// Settings of the analysis. `Default` is what the tests and the command use.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GapSettings {
+    /// Fraction of the samples (from the start) used for identification; the rest is held out.
+    /// Default 0.6.
+    pub identification_fraction: f64,
+    /// Family-wise significance level before the Bonferroni division. Default 0.001.
+    pub alpha: f64,
+    /// Savitzky–Golay half-width for smoothing, s. Default 0.1 (M = 10 at 100 Hz).
+    pub smoothing_half_width_s: f64,
+    /// Largest lag of the residual autocorrelation in the coloured-residual covariance, s.
+    /// Default [`compat::SEGMENT_S`] (5 s): the reconstructed states carry an initial-state error
+    /// that is constant over a whole segment of the flight-path reconstruction, plus the random
+    /// walk of the integrated inertial noise, so the residuals of both the compatibility check and
+    /// the coefficient fits are correlated over a segment's length. (With 2.5 s the σ of a
+    /// gyro or accelerometer bias was understated: clean flights reached `t²` 16–20 for
+    /// `bias(YawRate)`, `bias(AccelY)`; with 5 s at most 15.9 over the 60 campaign flights.)
+    pub max_lag_s: f64,
+    /// The blocked cross-validation of the selection ([`select`]).
+    pub cv: select::CvSettings,
+    /// Baseline model per coefficient (`None`: eq. 3, [`Term::eq3`]).
+    pub baseline: Option<[Vec<Term>; 6]>,
+    /// Run the compatibility check. Default true.
+    pub compatibility: bool,
+    /// The air data of the synthesis and the regressors ([`airdata`]). Default
+    /// [`AirDataChoice::Auto`]: the vanes and the inertial reconstruction fused when both exist.
+    pub air_data: AirDataChoice,
+    /// Remove the sensor errors the compatibility check names (significant, improving the
+    /// held-out reconstruction, identifiable in the air of this flight) from the data before the
+    /// aerodynamics. Default true; the report says so and shows the baselines as logged beside
+    /// them (`as_logged`), so no correction is silent. False: named only.
+    pub apply_corrections: bool,
+    /// The errors-in-variables model of the fits ([`noise`]): `Some` (default) — PCA-GTLS with
+    /// `W_T` from the Monte Carlo; `None` — every column exact (ordinary least squares).
+    pub errors_in_variables: Option<MonteCarlo>,
+}
+
+impl Default for GapSettings {
+    fn default() -> Self {
+        Self {
+            identification_fraction: 0.6,
+            alpha: 0.01,
+            smoothing_half_width_s: 0.1,
+            max_lag_s: compat::SEGMENT_S,
+            cv: select::CvSettings::default(),
+            baseline: None,
+            compatibility: true,
+            air_data: AirDataChoice::Auto,
+            apply_corrections: true,
+            errors_in_variables: Some(MonteCarlo::default()),
+        }
+    }
+}
+
+/// Why the analysis could not run.
+#[derive(Debug, Clone, PartialEq)]
+pub enum GapError {
+    /// Fewer than 200 samples.
+    TooShort {
+        /// The flight's source.
+        source: String,
+        /// Samples.
+        n: usize,
+    },
+    /// The time base is not uniform within 1 % (the analysis needs a fixed step).
+    NonUniformTime {
+        /// The flight's source.
+        source: String,
+        /// First sample index where the step differs.
+        index: usize,
+    },
+    /// A channel's length differs from the time base, or it holds a non-finite value.
+    BadChannel {
+        /// The flight's source.
+        source: String,
+        /// The channel.
+        channel: String,
+        /// Sample index (the length, for a length mismatch).
+        index: usize,
+    },
+    /// No coefficient could be synthesised.
+    NothingToAnalyse {
+        /// The flight's source.
+        source: String,
+        /// Why.
+        notes: Vec<String>,
+    },
+}
+
+impl core::fmt::Display for GapError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::TooShort { source, n } => write!(f, "{source}: {n} samples, the analysis needs at least 200"),
+            Self::NonUniformTime { source, index } => write!(
+                f,
+                "{source}: sample {index}: time step differs by more than 1 % from the median (resample first)"
+            ),
+            Self::BadChannel { source, channel, index } => {
+                write!(f, "{source}: channel {channel}: bad value or length at sample {index}")
+            }
+            Self::NothingToAnalyse { source, notes } => {
+                write!(f, "{source}: no coefficient can be synthesised ({})", notes.join("; "))
+            }
+        }
+    }
+}
+
+impl std::error::Error for GapError {}
+
+/// One candidate's score for one coefficient (first round of the selection: the candidate added
+/// to the baseline alone).
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct CandidateScore {
+    /// The term.
+    pub term: String,
+    /// The cause it stands for.
+    pub kind: CauseKind,
+    /// Partial `t²` (block sandwich, [`select`]); 0 when not scored.
+    pub t2: f64,
+    /// Held-out gain: the mean decrease of the blocks' held-out squared error relative to the
+    /// baseline's.
+    pub cv_gain: f64,
+    /// The held-out gain over its standard error across blocks.
+    pub cv_gain_z: f64,
+    /// Not used by the selection (NaN); kept in the schema.
+    pub pse: f64,
+    /// Both tests passed: `t²` above the threshold and the held-out gain beyond noise.
+    pub significant: bool,
+    /// Why the candidate was not scored (`None`: scored).
+    pub reason: Option<String>,
+}
+
+impl CandidateScore {
+    /// A candidate that could not be scored, with the reason.
+    pub fn unscored(t: Term, coef: usize, reason: String) -> Self {
+        Self {
+            term: t.name().into(),
+            kind: t.kind(coef),
+            t2: 0.0,
+            cv_gain: 0.0,
+            cv_gain_z: 0.0,
+            pse: f64::NAN,
+            significant: false,
+            reason: Some(reason),
+        }
+    }
+}
+
+/// One estimated parameter.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct Parameter {
+    /// The term.
+    pub term: String,
+    /// Estimate (PCA-GTLS).
+    pub value: f64,
+    /// Standard error for coloured residuals (the GTLS sandwich, [`regress::gtls`]).
+    pub sigma: f64,
+    /// The estimator's own standard error, eq. 17 (white residuals); NaN when eq. 17 does not
+    /// apply.
+    pub sigma_eq17: f64,
+    /// Whether the column was treated as exact (no error in `W_T`).
+    pub exact: bool,
+    /// Ordinary least squares on the same columns (the cross-check).
+    pub ols_value: f64,
+}
+
+/// A model fitted to one coefficient.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct ModelFit {
+    /// The estimator: `"PCA-GTLS"` (the core's [`aerosid_core::gtls::Gtls`]), or `"OLS"` when
+    /// every column is exact or the errors-in-variables model is switched off.
+    pub estimator: String,
+    /// How the estimator ended (eq. 21): `"Tls"` when every direction is excited.
+    pub solution: String,
+    /// The output entry of `W_T` ([`regress::corrected_ls`]).
+    pub sigma_z2: f64,
+    /// Parameters.
+    pub parameters: Vec<Parameter>,
+    /// Metrics on the identification segment.
+    pub identification: Metrics,
+    /// Metrics of the prediction on the held-out segment.
+    pub validation: Metrics,
+}
+
+/// A term added to a coefficient's model.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct Added {
+    /// The term.
+    pub term: String,
+    /// The cause.
+    pub kind: CauseKind,
+    /// `t²` when it entered.
+    pub t2: f64,
+    /// Estimate in the extended model.
+    pub value: f64,
+    /// Its standard error.
+    pub sigma: f64,
+    /// Held-out gain of the extended model over the same model without this term (relative
+    /// decrease of the held-out squared error).
+    pub cv_gain: f64,
+    /// Candidates the data cannot tell apart from this term (in its place they predict the
+    /// held-out blocks not significantly worse).
+    pub alternatives: Vec<String>,
+}
+
+/// The analysis of one coefficient.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct CoefficientGap {
+    /// `C_L` …
+    pub name: String,
+    /// What the analysis concludes for this coefficient, in words.
+    pub verdict: String,
+    /// Held-out (blocked cross-validation) R² of the baseline over the whole flight.
+    pub cv_r2_baseline: f64,
+    /// The same for the extended model.
+    pub cv_r2_extended: f64,
+    /// The cross-validation's block length for this coefficient, s.
+    pub block_s: f64,
+    /// The `t²` threshold at this coefficient's number of blocks.
+    pub threshold_t2: f64,
+    /// Baseline terms requested but not available (channel missing).
+    pub dropped_terms: Vec<String>,
+    /// The baseline.
+    pub baseline: ModelFit,
+    /// Every candidate's first-round score, best first.
+    pub candidates: Vec<CandidateScore>,
+    /// Terms added, in order.
+    pub added: Vec<Added>,
+    /// The extended model (equal to the baseline when nothing was added).
+    pub extended: ModelFit,
+    /// Time histories for the figures: time, measured, baseline prediction, extended prediction.
+    #[serde(skip)]
+    pub traces: Traces,
+    /// The baseline's terms with their estimates (for the simulation).
+    #[serde(skip)]
+    pub baseline_model: Vec<(Term, f64)>,
+    /// The extended model's terms with their estimates.
+    #[serde(skip)]
+    pub extended_model: Vec<(Term, f64)>,
+}
+
+/// Time histories of one coefficient.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Traces {
+    /// Time, s.
+    pub t_s: Vec<f64>,
+    /// Synthesised (measured) coefficient.
+    pub measured: Vec<f64>,
+    /// Baseline prediction.
+    pub baseline: Vec<f64>,
+    /// Extended prediction.
+    pub extended: Vec<f64>,
+    /// Index of the first held-out sample.
+    pub split: usize,
+}
+
+/// A cause named by the analysis.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct NamedCause {
+    /// The kind.
+    pub kind: CauseKind,
+    /// Coefficient (`C_L` …) or sensor channel (`Alpha` …).
+    pub location: String,
+    /// The term or sensor parameter.
+    pub what: String,
+    /// Its `t²` when it entered.
+    pub t2: f64,
+    /// Estimate.
+    pub value: f64,
+    /// Standard error.
+    pub sigma: f64,
+}
+
+/// Everything the analysis found.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GapReport {
+    /// The flight's source.
+    pub source: String,
+    /// The aircraft's name.
+    pub aircraft: String,
+    /// Identification segment `[t₀, t₁]`, s.
+    pub identification_s: [f64; 2],
+    /// Held-out segment, s.
+    pub validation_s: [f64; 2],
+    /// Number of candidates tested (the Bonferroni divisor).
+    pub candidates_tested: usize,
+    /// The `t²` threshold.
+    pub threshold_t2: f64,
+    /// Settings used.
+    pub settings: GapSettings,
+    /// The compatibility check.
+    pub compatibility: Compatibility,
+    /// Per coefficient.
+    pub coefficients: Vec<CoefficientGap>,
+    /// The simulation of the held-out segment with the baseline and the extended models
+    /// ([`simulate`]).
+    pub simulation: simulate::Simulation,
+    /// Causes named, top cause first.
+    pub named: Vec<NamedCause>,
+    /// Which air data were used and why.
+    pub air_data: String,
+    /// Whether named sensor errors were removed from the data before the aerodynamics.
+    pub corrections_applied: bool,
+    /// The baseline estimates on the data as logged, per coefficient (`term`, value), when the
+    /// aerodynamics were fitted to corrected data: the model before the correction.
+    pub as_logged: Vec<(String, Vec<(String, f64)>)>,
+    /// The overall conclusion, in words.
+    pub verdict: String,
+    /// Notes (assumptions, skipped steps).
+    pub notes: Vec<String>,
+    /// The regression problem the coefficients were fitted to (for benchmarks that run other
+    /// tools on the same columns).
+    pub regression: Regression,
+    /// What the data can support ([`crate::io::quality`]); when it cannot support a verdict,
+    /// `named` is empty and `verdict` says why.
+    pub data_quality: crate::io::quality::DataQuality,
+}
+
+/// One coefficient of a [`Regression`]: name, synthesised values, baseline terms, candidate terms.
+pub type RegressionCoefficient = (String, Vec<f64>, Vec<Term>, Vec<Term>);
+
+/// The coefficients and every term's column, as the selection saw them.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Regression {
+    /// Time, s.
+    pub t_s: Vec<f64>,
+    /// Samples of the identification segment.
+    pub n_id: usize,
+    /// Per coefficient (`C_L` …): the synthesised coefficient, the baseline's terms and the
+    /// library's terms that have a column.
+    pub coefficients: Vec<RegressionCoefficient>,
+    /// Every term's column.
+    pub columns: BTreeMap<Term, Vec<f64>>,
+}
+
+impl GapReport {
+    /// The top cause (`None`: nothing missing).
+    pub fn top_cause(&self) -> Option<&NamedCause> {
+        self.named.first()
+    }
+}
+
+fn param_kind(p: &SensorParam) -> CauseKind {
+    match p {
+        SensorParam::Bias(_) => CauseKind::SensorBias,
+        SensorParam::Scale(_) => CauseKind::ScaleFactor,
+        SensorParam::Delay(_) => CauseKind::TimeDelay,
+        SensorParam::VaneX(_) => CauseKind::VanePosition,
+    }
+}
+
+fn check_input(flight: &MeasuredFlight) -> Result<f64, GapError> {
+    let n = flight.len();
+    let src = || flight.source.clone();
+    if n < 200 {
+        return Err(GapError::TooShort { source: src(), n });
+    }
+    let mut dts: Vec<f64> = flight.t_s.windows(2).map(|w| w[1] - w[0]).collect();
+    dts.sort_by(f64::total_cmp);
+    let h = dts[dts.len() / 2];
+    for (i, w) in flight.t_s.windows(2).enumerate() {
+        let d = w[1] - w[0];
+        if !(d.is_finite() && (d - h).abs() <= 0.01 * h && h > 0.0) {
+            return Err(GapError::NonUniformTime {
+                source: src(),
+                index: i + 1,
+            });
+        }
+    }
+    for (q, v) in &flight.channels {
+        if v.len() != n {
+            return Err(GapError::BadChannel {
+                source: src(),
+                channel: format!("{q:?}"),
+                index: v.len(),
+            });
+        }
+        if let Some(i) = v.iter().position(|x| !x.is_finite()) {
+            return Err(GapError::BadChannel {
+                source: src(),
+                channel: format!("{q:?}"),
+                index: i,
+            });
+        }
+    }
+    Ok(h)
+}
+
+fn percentile(x: &[f64], p: f64) -> f64 {
+    let mut v = x.to_vec();
+    v.sort_by(f64::total_cmp);
+    if v.is_empty() {
+        return 0.0;
+    }
+    v[((v.len() - 1) as f64 * p).round() as usize]
+}
+
+/// The analysis of a measured flight (the hook every front end calls: simulated flights, and file
+/// readers producing [`MeasuredFlight`]).
+pub fn run_gaps(flight: &MeasuredFlight, settings: &GapSettings) -> Result<GapReport, GapError> {
+    let h = check_input(flight)?;
+    let n = flight.len();
+    let max_lag = ((settings.max_lag_s / h).round() as usize).max(1);
+    let sg_half = (settings.smoothing_half_width_s / h).round() as usize;
+    let n_id = ((n as f64 * settings.identification_fraction).round() as usize).clamp(100, n - 50);
+    // The candidate count (Bonferroni divisor) needs the table; synthesise once uncorrected to
+    // learn which signals exist (the corrected table has the same signals).
+    let probe = model::synthesise(flight, h, &Corrections::default(), sg_half, None);
+    let baseline_of = |i: usize| -> Vec<Term> {
+        match &settings.baseline {
+            Some(b) => b[i].clone(),
+            None => Term::eq3(i),
+        }
+    };
+    let refs_probe = TermRefs {
+        alpha_break_rad: 0.0,
+        airspeed_mps: 1.0,
+        mach: 0.0,
+    };
+    let mut n_aero = 0usize;
+    for i in 0..6 {
+        if probe.z[i].is_none() {
+            continue;
+        }
+        let base = baseline_of(i);
+        n_aero += Term::library(i)
+            .iter()
+            .filter(|t| !base.contains(t) && t.column(&probe, &refs_probe).is_some())
+            .count();
+    }
+    let n_compat_est = if settings.compatibility {
+        compat_candidate_count(flight)
+    } else {
+        0
+    };
+    let m = (n_aero + n_compat_est).max(1);
+    let z = signal::normal_upper_quantile(settings.alpha / (2.0 * m as f64));
+    // The compatibility check's statistic is normal (many segments); the coefficients' block
+    // sandwich has G − 1 degrees of freedom (G blocks of `cv.block_s`).
+    let compat_threshold_t2 = z * z;
+    let blocks = (n / ((settings.cv.block_s / h).round() as usize).max(10)).max(2);
+    let threshold_t2 = select::student_t_upper_quantile(settings.alpha / (2.0 * m as f64), blocks as f64 - 1.0).powi(2);
+    let mut notes = Vec::new();
+    // 1. Compatibility.
+    let cs = CompatSettings {
+        threshold_t2: compat_threshold_t2,
+        max_lag,
+        max_added: 3,
+        gain_alpha: settings.cv.gain_alpha,
+    };
+    let compatibility = if settings.compatibility {
+        compat::check(flight, h, &cs)
+    } else {
+        Compatibility {
+            notes: vec!["compatibility check switched off".into()],
+            ..Compatibility::default()
+        }
+    };
+    let found_corr = corrections_of(&compatibility);
+    let corr = if settings.apply_corrections {
+        if !compatibility.found.is_empty() {
+            notes.push("the sensor errors named are removed from the data before the aerodynamics; the baselines as logged are listed beside (`as_logged`)".into());
+        }
+        found_corr.clone()
+    } else {
+        Corrections::default()
+    };
+    // 2–5. Aerodynamics.
+    let (air_owned, fuse_cutoffs, air_note) = choose_air_data(flight, h, settings.air_data, &compatibility);
+    notes.push(air_note);
+    let air = air_owned.as_ref();
+    let table = model::synthesise(flight, h, &corr, sg_half, air);
+    notes.extend(table.notes.iter().cloned());
+    if table.z.iter().all(|z| z.is_none()) {
+        return Err(GapError::NothingToAnalyse {
+            source: flight.source.clone(),
+            notes,
+        });
+    }
+    let id_mean = |s: Signal| table.signals.get(&s).map(|v| signal::mean(&v[..n_id]));
+    let refs = TermRefs {
+        alpha_break_rad: table
+            .signals
+            .get(&Signal::Alpha)
+            .map_or(0.0, |a| percentile(&a[..n_id], 0.85)),
+        airspeed_mps: id_mean(Signal::Airspeed).unwrap_or(1.0).max(1.0),
+        mach: id_mean(Signal::Mach).unwrap_or(0.0),
+    };
+    // The errors-in-variables model of every column the analysis may fit.
+    let baselines: [Vec<Term>; 6] = core::array::from_fn(baseline_of);
+    let all_terms: [Vec<Term>; 6] = core::array::from_fn(|i| {
+        let mut v = baselines[i].clone();
+        for t in Term::library(i) {
+            if !v.contains(&t) {
+                v.push(t);
+            }
+        }
+        v
+    });
+    let errors: [Option<ColumnErrors>; 6] = match &settings.errors_in_variables {
+        Some(mc) => {
+            let syn = noise::Synthesis {
+                flight,
+                h_s: h,
+                corrections: &corr,
+                sg_half,
+                compat: air.map(|_| &compatibility),
+                fuse_cutoffs: fuse_cutoffs.as_ref(),
+                refs: &refs,
+                n_id,
+            };
+            noise::column_errors(&syn, &table, &all_terms, mc)
+        }
+        None => Default::default(),
+    };
+    if settings.errors_in_variables.is_some() {
+        notes.push(format!(
+            "fits by PCA-GTLS (aerosid_core::gtls::Gtls) with W_T from a {}-replica Monte Carlo of the sensors' white noise",
+            settings.errors_in_variables.map_or(0, |m| m.replicas)
+        ));
+    }
+    let mut regression = Regression {
+        t_s: table.t_s.clone(),
+        n_id,
+        ..Regression::default()
+    };
+    for i in 0..6 {
+        let Some(zc) = &table.z[i] else { continue };
+        let mut base = Vec::new();
+        let mut lib = Vec::new();
+        for t in all_terms[i].iter() {
+            if let Some(c) = t.column(&table, &refs) {
+                if baselines[i].contains(t) {
+                    base.push(*t);
+                } else {
+                    lib.push(*t);
+                }
+                regression.columns.entry(*t).or_insert(c);
+            }
+        }
+        regression
+            .coefficients
+            .push((COEFFICIENTS[i].to_string(), zc.clone(), base, lib));
+    }
+    let mut coefficients = Vec::new();
+    for i in 0..6 {
+        let Some(zc) = &table.z[i] else { continue };
+        if let Some(g) = analyse_coefficient(
+            i,
+            zc,
+            &table,
+            &refs,
+            &baselines[i],
+            n_id,
+            settings.alpha / (2.0 * m as f64),
+            max_lag,
+            h,
+            settings,
+            errors[i].as_ref(),
+        ) {
+            coefficients.push(g);
+        }
+    }
+    // What the simulation gets wrong: both model sets simulate the held-out segment.
+    let model_set = |ext: bool| -> simulate::ModelSet {
+        core::array::from_fn(|i| {
+            coefficients.iter().find(|c| c.name == COEFFICIENTS[i]).map(|c| {
+                if ext {
+                    c.extended_model.clone()
+                } else {
+                    c.baseline_model.clone()
+                }
+            })
+        })
+    };
+    let (set_b, set_e) = (model_set(false), model_set(true));
+    let simulation = simulate::simulate(&table, &flight.aircraft, h, &refs, n_id, [&set_b, &set_e]);
+    // Verdict.
+    let mut named: Vec<NamedCause> = compatibility
+        .found
+        .iter()
+        .map(|f| NamedCause {
+            kind: param_kind(&f.param),
+            location: format!("{:?}", f.param.channel()),
+            what: f.param.name(),
+            t2: f.t2,
+            value: f.value,
+            sigma: f.sigma,
+        })
+        .collect();
+    let mut aero: Vec<NamedCause> = coefficients
+        .iter()
+        .flat_map(|c| c.added.iter().map(move |a| named_aero(c, a)))
+        .collect();
+    // Each list by the partial t² of the cause in the final joint fit (the entry order depends on
+    // the path of the selection).
+    let final_t2 = |c: &NamedCause| {
+        let t = (c.value / c.sigma).powi(2);
+        if t.is_finite() {
+            t
+        } else {
+            -1.0
+        }
+    };
+    named.sort_by(|a, b| final_t2(b).total_cmp(&final_t2(a)));
+    aero.sort_by(|a, b| final_t2(b).total_cmp(&final_t2(a)));
+    named.extend(aero);
+    let corrections_applied = settings.apply_corrections && !compatibility.found.is_empty();
+    let as_logged = if corrections_applied {
+        baselines_as_logged(flight, h, sg_half, air, &refs, &baselines, settings)
+    } else {
+        Vec::new()
+    };
+    let mut data_quality = crate::io::quality::assess(flight);
+    crate::io::quality::after_analysis(&mut data_quality, &coefficients, &regression);
+    let verdict = if data_quality.supports_verdict {
+        overall_verdict(&named, &coefficients)
+    } else {
+        named.clear();
+        format!("no verdict: {}", data_quality.why_not.join("; "))
+    };
+    let air_data = notes
+        .iter()
+        .find(|n| n.starts_with("air data:"))
+        .cloned()
+        .unwrap_or_default();
+    let t = &flight.t_s;
+    Ok(GapReport {
+        source: flight.source.clone(),
+        aircraft: flight.aircraft.name.clone(),
+        identification_s: [t[0], t[n_id - 1]],
+        validation_s: [t[n_id], t[n - 1]],
+        candidates_tested: m,
+        threshold_t2,
+        settings: settings.clone(),
+        compatibility,
+        coefficients,
+        simulation,
+        named,
+        notes,
+        air_data,
+        corrections_applied,
+        as_logged,
+        verdict,
+        regression,
+        data_quality,
+    })
+}
+
+/// A term added to a coefficient, as a named cause. A surface-rate term is a time delay of that
+/// surface: `C_δ·δ(t−τ) ≈ C_δ·δ − C_δτ·δ̇`, so `τ = −θ_δ̇/θ_δ` with `θ_δ` from the same fit.
+fn named_aero(c: &CoefficientGap, a: &Added) -> NamedCause {
+    let surface = match a.term.as_str() {
+        "δė" => Some(("Elevator", "δe")),
+        "δȧ" => Some(("Aileron", "δa")),
+        "δṙ" => Some(("Rudder", "δr")),
+        _ => None,
+    };
+    if let Some((loc, sym)) = surface {
+        let theta_d = c.extended.parameters.iter().find(|p| p.term == sym).map(|p| p.value);
+        let tau = theta_d.map_or(f64::NAN, |d| -a.value / d);
+        return NamedCause {
+            kind: a.kind,
+            location: loc.into(),
+            what: format!(
+                "delay({sym}) {:.3} s (from {} {} = {:+.4}, {sym} = {:+.4})",
+                tau,
+                c.name,
+                a.term,
+                a.value,
+                theta_d.unwrap_or(f64::NAN)
+            ),
+            t2: a.t2,
+            value: tau,
+            sigma: theta_d.map_or(f64::NAN, |d| (a.sigma / d).abs()),
+        };
+    }
+    NamedCause {
+        kind: a.kind,
+        location: c.name.clone(),
+        what: a.term.clone(),
+        t2: a.t2,
+        value: a.value,
+        sigma: a.sigma,
+    }
+}
+
+/// The baselines fitted to the data as logged (least squares over the whole flight), for the
+/// report's before-and-after of the sensor corrections.
+fn baselines_as_logged(
+    flight: &MeasuredFlight,
+    h: f64,
+    sg_half: usize,
+    air: Option<&BTreeMap<Quantity, Vec<f64>>>,
+    refs: &TermRefs,
+    baselines: &[Vec<Term>; 6],
+    settings: &GapSettings,
+) -> Vec<(String, Vec<(String, f64)>)> {
+    let table = model::synthesise(flight, h, &Corrections::default(), sg_half, air);
+    let mut out = Vec::new();
+    for i in 0..6 {
+        let Some(z) = &table.z[i] else { continue };
+        let cols: Vec<(Term, Vec<f64>)> = baselines[i]
+            .iter()
+            .filter_map(|t| t.column(&table, refs).map(|c| (*t, c)))
+            .collect();
+        let refs_c: Vec<&[f64]> = cols.iter().map(|(_, c)| c.as_slice()).collect();
+        let d = select::Design::new(&refs_c, z, h, &settings.cv, None);
+        let idx: Vec<usize> = (0..cols.len()).collect();
+        if let Ok(f) = d.fit(&idx) {
+            out.push((
+                COEFFICIENTS[i].to_string(),
+                cols.iter()
+                    .zip(&f.theta)
+                    .map(|((t, _), v)| (t.name().to_string(), *v))
+                    .collect(),
+            ));
+        }
+    }
+    out
+}
+
+/// The report's conclusion in one sentence.
+fn overall_verdict(named: &[NamedCause], coefficients: &[CoefficientGap]) -> String {
+    let unpredicted: Vec<&str> = coefficients
+        .iter()
+        .filter(|c| c.verdict.starts_with("the model does not predict"))
+        .map(|c| c.name.as_str())
+        .collect();
+    let undecided: Vec<&str> = coefficients
+        .iter()
+        .filter(|c| c.verdict.starts_with("not decided"))
+        .map(|c| c.name.as_str())
+        .collect();
+    let mut tail = String::new();
+    if !unpredicted.is_empty() {
+        tail += &format!(
+            "; {} not predicted by the model, so their causes are not identifiable from this flight",
+            unpredicted.join(", ")
+        );
+    }
+    if !undecided.is_empty() {
+        tail += &format!(
+            "; {}: a candidate is significant but this flight cannot confirm it on held-out data (see the verdicts)",
+            undecided.join(", ")
+        );
+    }
+    match named.first() {
+        None if tail.is_empty() => "nothing missing: the baseline predicts the held-out data within noise".to_string(),
+        None => format!("no cause named{tail}"),
+        Some(top) => format!(
+            "{} cause{} named, top: {:?} in {}: {}{tail}",
+            named.len(),
+            if named.len() == 1 { "" } else { "s" },
+            top.kind,
+            top.location,
+            top.what
+        ),
+    }
+}
+
+/// How many sensor-error candidates the compatibility check will test on this flight.
+fn compat_candidate_count(flight: &MeasuredFlight) -> usize {
+    compat::attitude_candidates(flight).len() + compat::velocity_candidates(flight).len()
+}
+
+#[allow(clippy::too_many_arguments)]
+fn analyse_coefficient(
+    i: usize,
+    zc: &[f64],
+    table: &Table,
+    refs: &TermRefs,
+    base: &[Term],
+    n_id: usize,
+    p_test: f64,
+    max_lag: usize,
+    h_s: f64,
+    settings: &GapSettings,
+    errors: Option<&ColumnErrors>,
+) -> Option<CoefficientGap> {
+    let n = zc.len();
+    let mut dropped = Vec::new();
+    let mut terms = Vec::new();
+    let mut cols_full = Vec::new();
+    for t in base {
+        match t.column(table, refs) {
+            Some(c) => {
+                terms.push(*t);
+                cols_full.push(c);
+            }
+            None => dropped.push(t.name().to_string()),
+        }
+    }
+    let eiv_of = |terms: &[Term]| errors.map_or_else(|| EivModel::exact(terms.len()), |e| e.eiv(terms));
+    let id = |c: &Vec<f64>| c[..n_id].to_vec();
+    let z_id = &zc[..n_id];
+    let z_val = &zc[n_id..];
+    let fit_model = |cols_full: &[Vec<f64>], terms: &[Term]| -> Option<(ModelFit, Vec<f64>, regress::GtlsFit)> {
+        let cols: Vec<Vec<f64>> = cols_full.iter().map(id).collect();
+        let eiv = eiv_of(terms);
+        let all_exact = eiv.exact.iter().all(|e| *e);
+        // GTLS when it applies; OLS (said so) when the errors-in-variables model cannot be
+        // formed: XᵀX − N·W̃ not positive definite (a column whose estimated error variance is as
+        // large as its own variation: not excited in the sense of eq. 21) or W_T indefinite.
+        let (f, estimator) = match gtls_fit(&cols, z_id, &eiv, n_id, max_lag, None) {
+            Some(f) => (f, if all_exact { "OLS" } else { "PCA-GTLS" }),
+            None => (
+                gtls_fit(&cols, z_id, &EivModel::exact(terms.len()), n_id, max_lag, None)?,
+                "OLS (GTLS not applicable: W_T exceeds a column's variation)",
+            ),
+        };
+        let o = ols(&cols, z_id, n_id, 0)?;
+        let pred = predict(cols_full, &f.theta);
+        let p = terms.len();
+        let mf = ModelFit {
+            estimator: estimator.into(),
+            solution: format!("{:?}", f.solution),
+            sigma_z2: f.sigma_z2,
+            parameters: terms
+                .iter()
+                .enumerate()
+                .map(|(k, t)| Parameter {
+                    term: t.name().into(),
+                    value: f.theta[k],
+                    sigma: f.sigma[k],
+                    sigma_eq17: f.sigma_eq17[k],
+                    exact: eiv.exact[k],
+                    ols_value: o.theta[k],
+                })
+                .collect(),
+            identification: metrics(z_id, &pred[..n_id], p),
+            validation: metrics(z_val, &pred[n_id..], p),
+        };
+        Some((mf, pred, f))
+    };
+    let (baseline, base_pred, base_fit) = fit_model(&cols_full, &terms)?;
+    let baseline_model: Vec<(Term, f64)> = terms.iter().copied().zip(base_fit.theta.iter().copied()).collect();
+    // Every candidate of the library, with its column or the reason it has none.
+    let mut candidates = Vec::new();
+    let mut library: Vec<(Term, Vec<f64>)> = Vec::new();
+    for t in Term::library(i).into_iter().filter(|t| !terms.contains(t)) {
+        match t.column(table, refs) {
+            Some(c) => library.push((t, c)),
+            None => candidates.push(CandidateScore::unscored(
+                t,
+                i,
+                "a signal it needs is not in the log".into(),
+            )),
+        }
+    }
+    let sel = stepwise(i, zc, h_s, &terms, &cols_full, &library, errors, p_test, settings);
+    candidates.extend(sel.candidates);
+    let added_terms: Vec<(Term, f64, f64, Vec<Term>)> = sel.added;
+    for (t, _, _, _) in &added_terms {
+        if let Some((_, c)) = library.iter().find(|(x, _)| x == t) {
+            terms.push(*t);
+            cols_full.push(c.clone());
+        }
+    }
+    let added: Vec<(Term, f64)> = added_terms.iter().map(|(t, t2, _, _)| (*t, *t2)).collect();
+    candidates.sort_by(|a, b| b.t2.total_cmp(&a.t2));
+    let (extended, ext_pred, ext_fit) = fit_model(&cols_full, &terms)?;
+    let p0 = terms.len() - added.len();
+    let added = added
+        .iter()
+        .enumerate()
+        .map(|(k, (t, t2))| Added {
+            term: t.name().into(),
+            kind: t.kind(i),
+            t2: *t2,
+            value: ext_fit.theta[p0 + k],
+            sigma: ext_fit.sigma[p0 + k],
+            cv_gain: added_terms[k].2,
+            alternatives: added_terms[k].3.iter().map(|a| a.name().to_string()).collect(),
+        })
+        .collect();
+    Some(CoefficientGap {
+        name: COEFFICIENTS[i].into(),
+        verdict: sel.verdict,
+        cv_r2_baseline: sel.cv_r2_baseline,
+        cv_r2_extended: sel.cv_r2_extended,
+        block_s: sel.block_s,
+        threshold_t2: sel.threshold_t2,
+        dropped_terms: dropped,
+        baseline,
+        candidates,
+        added,
+        extended,
+        traces: Traces {
+            t_s: table.t_s.clone(),
+            measured: zc.to_vec(),
+            baseline: base_pred,
+            extended: ext_pred,
+            split: n_id.min(n),
+        },
+        baseline_model,
+        extended_model: terms.iter().copied().zip(ext_fit.theta.iter().copied()).collect(),
+    })
+}
+
+/// The candidates that are significant and lower the held-out error by at least 5 % on average,
+/// but whose gain rests on too few blocks to be beyond noise (a term excited by one or two
+/// manoeuvres): said, not named.
+fn unconfirmed(candidates: &[CandidateScore], threshold_t2: f64) -> String {
+    let list: Vec<String> = candidates
+        .iter()
+        .filter(|c| !c.significant && c.reason.is_none() && c.t2 > threshold_t2 && c.cv_gain >= 0.05)
+        .map(|c| {
+            format!(
+                "{} (t² {:.0}, held-out error −{:.0} %, gain z {:.1})",
+                c.term,
+                c.t2,
+                100.0 * c.cv_gain,
+                c.cv_gain_z
+            )
+        })
+        .collect();
+    list.join(", ")
+}
+
+/// The delay a surface-rate term implies in a fit (`None` for other terms or without the surface
+/// term in the model; NaN when the surface's own term is within 3σ of zero, whose ratio means
+/// nothing).
+fn delay_of(t: Term, model: &[usize], terms: &[Term], theta: &[f64], sigma: &[f64]) -> Option<f64> {
+    let surface = match t {
+        Term::ElevatorRate => Term::Elevator,
+        Term::AileronRate => Term::Aileron,
+        Term::RudderRate => Term::Rudder,
+        _ => return None,
+    };
+    let k_rate = model.iter().position(|&c| terms[c] == t)?;
+    let k_surf = model.iter().position(|&c| terms[c] == surface)?;
+    if theta[k_surf].abs() < 3.0 * sigma[k_surf] {
+        return Some(f64::NAN);
+    }
+    Some(-theta[k_rate] / theta[k_surf])
+}
+
+/// Below this held-out R² the baseline is said not to predict the coefficient, and no cause is
+/// named for it: a term that "improves" a model which explains less than half of the held-out
+/// variation fits whatever the model misses (turbulence, unmodelled inputs, a wrong synthesis),
+/// and naming it would be a confident answer the data do not support.
+pub const MIN_PREDICTIVE_R2: f64 = 0.5;
+
+/// Smallest ratio of a candidate column's variance to its error variance for it to be scored
+/// (eq. 21's excitation condition with a margin: below 4 the column is mostly its own noise).
+const MIN_EXCITATION: f64 = 4.0;
+
+/// The outcome of the stepwise selection of one coefficient.
+struct Selection {
+    candidates: Vec<CandidateScore>,
+    /// Added terms: (term, `t²` in the final joint fit, held-out gain relative to the model
+    /// without it, the candidates the data cannot tell apart from it).
+    added: Vec<(Term, f64, f64, Vec<Term>)>,
+    verdict: String,
+    cv_r2_baseline: f64,
+    cv_r2_extended: f64,
+    block_s: f64,
+    threshold_t2: f64,
+}
+
+/// Forward selection with the removal step (Klein & Morelli 2006 §5.4.1), each entry decided by
+/// both tests of [`select`]: the partial `t²` with the block sandwich above the Bonferroni
+/// threshold, and a held-out gain beyond noise. No cap on the number of terms.
+#[allow(clippy::too_many_arguments)]
+fn stepwise(
+    i: usize,
+    zc: &[f64],
+    h_s: f64,
+    base_terms: &[Term],
+    base_cols: &[Vec<f64>],
+    library: &[(Term, Vec<f64>)],
+    errors: Option<&ColumnErrors>,
+    p_test: f64,
+    settings: &GapSettings,
+) -> Selection {
+    let nb = base_terms.len();
+    let terms: Vec<Term> = base_terms
+        .iter()
+        .copied()
+        .chain(library.iter().map(|(t, _)| *t))
+        .collect();
+    let cols: Vec<&[f64]> = base_cols
+        .iter()
+        .map(Vec::as_slice)
+        .chain(library.iter().map(|(_, c)| c.as_slice()))
+        .collect();
+    let p = terms.len();
+    // The per-sample error covariance of [X z] from the Monte Carlo (exact columns: zero).
+    let w: Option<Vec<f64>> = errors.map(|e| {
+        let k = e.terms.len() + 1;
+        let idx = |j: usize| {
+            if j < p {
+                e.terms.iter().position(|t| *t == terms[j] && !e.is_exact(t))
+            } else {
+                Some(k - 1)
+            }
+        };
+        let mut w = vec![0.0; (p + 1) * (p + 1)];
+        for r in 0..=p {
+            for c in 0..=p {
+                if let (Some(a), Some(b)) = (idx(r), idx(c)) {
+                    w[r * (p + 1) + c] = e.cov[a * k + b];
+                }
+            }
+        }
+        w
+    });
+    let block_s = settings.cv.block_s;
+    let cv = settings.cv;
+    let mut design = select::Design::new(&cols, zc, h_s, &cv, w.as_deref());
+    if let Some(j) = terms.iter().position(|t| *t == Term::One) {
+        design = design.with_ones(j);
+    }
+    let g = design.n_blocks();
+    let threshold_t2 = select::student_t_upper_quantile(p_test, (g as f64 - 1.0).max(1.0)).powi(2);
+    let gain_crit = select::student_t_upper_quantile(settings.cv.gain_alpha, (g as f64 - 1.0).max(1.0));
+    let mut out = Selection {
+        candidates: Vec::new(),
+        added: Vec::new(),
+        verdict: String::new(),
+        cv_r2_baseline: f64::NAN,
+        cv_r2_extended: f64::NAN,
+        block_s: design.blocks.first().map_or(block_s, |(a, b)| (b - a) as f64 * h_s),
+        threshold_t2,
+    };
+    let mut model: Vec<usize> = (0..nb).collect();
+    let base = match design.fit(&model) {
+        Ok(f) => f,
+        Err(e) => {
+            out.verdict = format!("the baseline cannot be fitted ({e:?}): no candidate scored");
+            out.candidates = library
+                .iter()
+                .map(|(t, _)| CandidateScore::unscored(*t, i, "the baseline cannot be fitted".into()))
+                .collect();
+            return out;
+        }
+    };
+    out.cv_r2_baseline = design.cv_r2(&base);
+    // Excitation: a column whose variation does not clearly exceed its error is not scored.
+    let excitation = |j: usize| -> Option<f64> {
+        let e = errors?;
+        let var_err = e.variance(&terms[j]);
+        if var_err <= 0.0 {
+            return None;
+        }
+        let c = cols[j];
+        let m = c.iter().sum::<f64>() / c.len() as f64;
+        let var = c.iter().map(|x| (x - m).powi(2)).sum::<f64>() / c.len() as f64;
+        Some(var / var_err)
+    };
+    let mut removed: Vec<usize> = Vec::new();
+    let mut current = base.clone();
+    let mut first = true;
+    loop {
+        let mut best: Option<(usize, f64, select::SubsetFit)> = None;
+        for j in nb..p {
+            if model.contains(&j) || removed.contains(&j) {
+                continue;
+            }
+            if let Some(r) = excitation(j).filter(|r| *r < MIN_EXCITATION) {
+                if first {
+                    out.candidates.push(CandidateScore::unscored(
+                        terms[j],
+                        i,
+                        format!("not enough excitation: its variation is {r:.1}× its error variance"),
+                    ));
+                }
+                continue;
+            }
+            let mut trial = model.clone();
+            trial.push(j);
+            let f = match design.fit(&trial) {
+                Ok(f) => f,
+                Err(e) => {
+                    if first {
+                        let why = match e {
+                            select::Unfit::NotPositiveDefinite => {
+                                "collinear with the model or not excited (singular normal equations)"
+                            }
+                            select::Unfit::TooFewData => "too few data blocks",
+                        };
+                        out.candidates.push(CandidateScore::unscored(terms[j], i, why.into()));
+                    }
+                    continue;
+                }
+            };
+            let t2 = f.t2(trial.len() - 1);
+            let (z, rel) = select::gain(&current.cv_sse, &f.cv_sse);
+            // A surface-rate term stands for a delay `τ = −θ_δ̇/θ_δ`; one shorter than a sample
+            // period cannot be resolved by the data, and one of the wrong sign (the surface
+            // leading its own log) is not a delay: such a term is some other rate effect, not
+            // named as a delay.
+            let unresolved =
+                delay_of(terms[j], &trial, &terms, &f.theta, &f.sigma).filter(|tau| tau.is_nan() || *tau < h_s);
+            let ok = t2 > threshold_t2 && z > gain_crit && unresolved.is_none();
+            if first {
+                out.candidates.push(CandidateScore {
+                    term: terms[j].name().into(),
+                    kind: terms[j].kind(i),
+                    t2,
+                    cv_gain: rel,
+                    cv_gain_z: z,
+                    pse: f64::NAN,
+                    significant: ok,
+                    reason: unresolved.map(|tau| {
+                        format!(
+                            "implies a delay of {:.4} s: shorter than a sample or negative, not a delay",
+                            tau
+                        )
+                    }),
+                });
+            }
+            // The classical order of forward selection: the largest partial t² among the
+            // candidates that pass both tests.
+            if ok && best.as_ref().is_none_or(|b| t2 > b.1) {
+                best = Some((j, t2, f));
+            }
+        }
+        first = false;
+        let Some((j, _, f)) = best else { break };
+        model.push(j);
+        current = f;
+        // The removal step: an added term that no longer passes both tests in the joint model
+        // leaves (the weakest first) and may not re-enter.
+        loop {
+            let mut weakest: Option<(usize, f64)> = None;
+            for (k, &c) in model.iter().enumerate().skip(nb) {
+                let t2 = current.t2(k);
+                let without: Vec<usize> = model.iter().copied().filter(|&x| x != c).collect();
+                let z = design
+                    .fit(&without)
+                    .map_or(f64::INFINITY, |w| select::gain(&w.cv_sse, &current.cv_sse).0);
+                if (t2 <= threshold_t2 || z <= gain_crit) && weakest.is_none_or(|w| t2 < w.1) {
+                    weakest = Some((c, t2));
+                }
+            }
+            let Some((c, _)) = weakest else { break };
+            model.retain(|&x| x != c);
+            removed.push(c);
+            match design.fit(&model) {
+                Ok(f) => current = f,
+                Err(_) => break,
+            }
+        }
+    }
+    out.cv_r2_extended = design.cv_r2(&current);
+    // A model that does not predict the held-out blocks even when extended names nothing.
+    let predictive = out.cv_r2_extended >= MIN_PREDICTIVE_R2;
+    if !predictive {
+        model.truncate(nb);
+    }
+    // What the data cannot tell apart: a candidate that, in place of an added term, predicts
+    // the held-out blocks not significantly worse and is itself significant.
+    for (k, &a) in model.iter().enumerate().skip(nb) {
+        let mut alternatives = Vec::new();
+        for j in nb..p {
+            if model.contains(&j) {
+                continue;
+            }
+            let swapped: Vec<usize> = model.iter().map(|&x| if x == a { j } else { x }).collect();
+            let Ok(f) = design.fit(&swapped) else { continue };
+            let (z, _) = select::gain(&current.cv_sse, &f.cv_sse);
+            if z > -gain_crit && f.t2(k) > threshold_t2 {
+                alternatives.push(terms[j]);
+            }
+        }
+        let without: Vec<usize> = model.iter().copied().filter(|&x| x != a).collect();
+        let rel = design
+            .fit(&without)
+            .map_or(f64::NAN, |w| select::gain(&w.cv_sse, &current.cv_sse).1);
+        out.added.push((terms[a], current.t2(k), rel, alternatives));
+    }
+    out.verdict = if !predictive {
+        format!(
+            "the model does not predict this coefficient (held-out R² {:.2} baseline, {:.2} extended, < {MIN_PREDICTIVE_R2}): causes not identifiable from this flight",
+            out.cv_r2_baseline, out.cv_r2_extended
+        )
+    } else if out.added.is_empty() {
+        let open = unconfirmed(&out.candidates, threshold_t2);
+        if open.is_empty() {
+            format!(
+                "nothing missing: no candidate predicts held-out data better than the baseline beyond noise (held-out R² {:.3})",
+                out.cv_r2_baseline
+            )
+        } else {
+            format!(
+                "not decided by this flight (held-out R² {:.3}): {open} — significant, but the held-out gain rests on too few excited blocks; more manoeuvres exciting it would decide",
+                out.cv_r2_baseline
+            )
+        }
+    } else {
+        format!(
+            "extended: held-out R² {:.3} → {:.3}",
+            out.cv_r2_baseline, out.cv_r2_extended
+        )
+    };
+    out
+}
+
+/// The corrections of the sensor errors the compatibility check named.
+fn corrections_of(c: &Compatibility) -> Corrections {
+    let mut corr = Corrections::default();
+    for f in &c.found {
+        match f.param {
+            SensorParam::Bias(q) => {
+                corr.bias.insert(q, f.value);
+            }
+            SensorParam::Scale(q) => {
+                corr.scale.insert(q, f.value);
+            }
+            SensorParam::Delay(q) => {
+                corr.delay_s.insert(q, f.value);
+            }
+            SensorParam::VaneX(q) => {
+                corr.vane_dx_m.insert(q, f.value);
+            }
+        }
+    }
+    corr
+}
+
+/// The air data the analysis uses (`None`: the sensors as logged), the fusion's crossovers, and
+/// the report's sentence saying which and why.
+#[allow(clippy::type_complexity)]
+fn choose_air_data(
+    flight: &MeasuredFlight,
+    h_s: f64,
+    choice: AirDataChoice,
+    compat: &Compatibility,
+) -> (
+    Option<BTreeMap<Quantity, Vec<f64>>>,
+    Option<BTreeMap<Quantity, f64>>,
+    String,
+) {
+    let vanes = flight.get(Quantity::Alpha).is_some() && flight.get(Quantity::Airspeed).is_some();
+    let rec = !compat.air_data.is_empty();
+    let turbulent = !compat.turbulent.is_empty();
+    let resolved = match choice {
+        AirDataChoice::Auto if vanes && rec && !turbulent => AirDataChoice::Fused,
+        AirDataChoice::Auto if vanes => AirDataChoice::Measured,
+        AirDataChoice::Auto if rec => AirDataChoice::Reconstructed,
+        AirDataChoice::Fused if !rec || !vanes => {
+            if vanes {
+                AirDataChoice::Measured
+            } else {
+                AirDataChoice::Reconstructed
+            }
+        }
+        AirDataChoice::Reconstructed if !rec => AirDataChoice::Measured,
+        c => c,
+    };
+    let asked = if resolved == choice || choice == AirDataChoice::Auto {
+        String::new()
+    } else {
+        format!(" ({} asked for, not available)", choice.name())
+    };
+    match resolved {
+        AirDataChoice::Fused => {
+            let (air, fcs) = airdata::fuse_all(flight, &compat.air_data, h_s, None);
+            let list: Vec<String> = fcs.iter().map(|(q, f)| format!("{q:?} {f} Hz")).collect();
+            (
+                Some(air),
+                Some(fcs),
+                format!(
+                    "air data: fused{asked} — the vanes/pitot below and the inertial reconstruction above a crossover chosen from the data ({}); both are logged",
+                    list.join(", ")
+                ),
+            )
+        }
+        AirDataChoice::Reconstructed if rec => (
+            Some(compat.air_data.clone()),
+            None,
+            format!(
+                "air data: reconstructed{asked} from the accelerometers, gyros and attitude (steady air assumed: gusts are model errors here){}",
+                if vanes { "" } else { "; no α vane or airspeed in the log" }
+            ),
+        ),
+        AirDataChoice::Measured if vanes => (
+            None,
+            None,
+            format!(
+                "air data: measured{asked} (vanes and pitot as logged){}",
+                if !rec {
+                    "; no inertial reconstruction possible"
+                } else if turbulent {
+                    "; turbulence detected, so the reconstruction (which misses the gusts) is not used, nor fused (the gusts it misses would bias the fits)"
+                } else {
+                    ""
+                }
+            ),
+        ),
+        _ => (None, None, "air data: none usable (no vanes and no inertial reconstruction)".into()),
+    }
+}

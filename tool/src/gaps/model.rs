@@ -1,0 +1,1062 @@
+//! Coefficient synthesis from a [`MeasuredFlight`] (seed 000 eq. 1–2) and the model terms: the
+//! regressors of eq. 3 and the library of candidate causes.
+//!
+//! ## Synthesis (the same equations as [`aerosid_core::aero::synthesise`], on named channels)
+//! * Sensor errors found by the compatibility check are removed first (bias, scale, delay), the
+//!   air data are moved to the CG exactly (`v_cg = V(cos α cos β, sin β, sin α cos β) − ω × r`
+//!   at each sensor's position, α, β, V recomputed; to first order Klein & Morelli eq.
+//!   10.12–10.13, `α = α_v − (p y_v − q x_v)/V`) and the accelerometer to the CG
+//!   (`a_cg = a − ω̇ × r − ω × (ω × r)`); moments are taken about the moment reference point.
+//! * Angular accelerations: a measured `ṗ, q̇, ṙ` channel when present, otherwise the 5-point
+//!   central difference of the gyro. Then every channel is smoothed with the same Savitzky–Golay
+//!   filter ([`super::signal`]).
+//! * `q̄ = ½ρV²` (a `DynamicPressure` channel if measured; `ρ` from `AirDensity`, else from the
+//!   ISA at `Altitude`, else sea level — reported as a note).
+//! * Thrust: [`ThrustSource::Measured`] along its line at its point, [`ThrustSource::Propeller`]
+//!   from `PropSpeed` by the core's propeller model (torque sign −1, the core's default),
+//!   [`ThrustSource::Unknown`] zero (thrust then belongs to `C_D`).
+//! * `F_A = m a_cg − F_T`; stability axes: `C_D = −(F_x cos α + F_z sin α)/(q̄S)`,
+//!   `C_L = (F_x sin α − F_z cos α)/(q̄S)`, `C_Y = F_y/(q̄S)`;
+//!   `M_A = J ω̇ + ω × Jω − M_T`, `C_l = M_x/(q̄Sb)`, `C_m = M_y/(q̄Sc̄)`, `C_n = M_z/(q̄Sb)`.
+//!
+//! A coefficient is synthesised only when its channels are present: `C_L`, `C_D` need `a_x`, `a_z`,
+//! `V`, `α`; `C_m` needs `q`, `V`; `C_Y` needs `a_y`; `C_l`, `C_n` need `p`, `r` (plus `q`).
+
+use super::signal::{derivative, sg_smooth, shift};
+use crate::io::measured::{MeasuredFlight, Quantity, ThrustSource};
+use crate::sim::atmosphere::isa_density;
+use aerosid_core::aero::synthesis::{propeller_output, propulsion_force_moment};
+use nalgebra::Vector3;
+use std::collections::BTreeMap;
+
+/// The six coefficients, in the order of `aerosid_core::aero::model::idx`.
+pub const COEFFICIENTS: [&str; 6] = ["C_L", "C_D", "C_Y", "C_l", "C_m", "C_n"];
+
+/// A baseline from a specification `COEF=term,term;COEF=…` (coefficients as in
+/// [`COEFFICIENTS`] or without the underscore, terms as [`Term::parse`] reads them); coefficients
+/// not named keep eq. 3. E.g. the HFB-320 book model: `CL=1,alpha,dV;CD=1,alpha,dV;Cm=1,alpha,dV,q,de`.
+pub fn parse_baseline(spec: &str) -> Result<[Vec<Term>; 6], String> {
+    let mut out: [Vec<Term>; 6] = core::array::from_fn(Term::eq3);
+    for part in spec.split(';').map(str::trim).filter(|p| !p.is_empty()) {
+        let (coef, terms) = part
+            .split_once('=')
+            .ok_or_else(|| format!("`{part}`: expected COEF=term,term"))?;
+        let coef = coef.trim();
+        let i = COEFFICIENTS
+            .iter()
+            .position(|c| *c == coef || c.replace('_', "") == coef)
+            .ok_or_else(|| format!("`{coef}`: unknown coefficient (one of {})", COEFFICIENTS.join(", ")))?;
+        let mut v = Vec::new();
+        for t in terms.split(',').map(str::trim).filter(|t| !t.is_empty()) {
+            let term = Term::parse(t).ok_or_else(|| {
+                let names: Vec<&str> = Term::ALL.iter().map(|t| t.ascii()).collect();
+                format!("`{t}`: unknown term (one of {})", names.join(", "))
+            })?;
+            if !v.contains(&term) {
+                v.push(term);
+            }
+        }
+        if v.is_empty() {
+            return Err(format!("`{coef}`: no terms"));
+        }
+        out[i] = v;
+    }
+    Ok(out)
+}
+
+/// Whether coefficient `i` is longitudinal (`C_L`, `C_D`, `C_m`).
+pub fn is_longitudinal(i: usize) -> bool {
+    matches!(i, 0 | 1 | 4)
+}
+
+/// A synthesised signal of the table.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+pub enum Signal {
+    /// α at the CG, rad.
+    Alpha,
+    /// β at the CG, rad.
+    Beta,
+    /// `p b/(2V)`.
+    PN,
+    /// `q c̄/(2V)`.
+    QN,
+    /// `r b/(2V)`.
+    RN,
+    /// δe, rad.
+    Elevator,
+    /// δa, rad.
+    Aileron,
+    /// δr, rad.
+    Rudder,
+    /// V, m/s.
+    Airspeed,
+    /// Mach number.
+    Mach,
+    /// Thrust coefficient `T/(q̄S)`.
+    ThrustCoeff,
+    /// `α̇ c̄/(2V)`.
+    AlphaDotN,
+    /// `β̇ b/(2V)`.
+    BetaDotN,
+    /// δė, rad/s (the column of a time delay of the elevator: `δe(t−τ) ≈ δe − τ δė`).
+    ElevatorRate,
+    /// δȧ, rad/s.
+    AileronRate,
+    /// δṙ, rad/s.
+    RudderRate,
+    /// The measured lift coefficient (a regressor of `C_D`: the drag polar's `C_L²`).
+    LiftCoeff,
+}
+
+impl Signal {
+    /// Every signal.
+    pub const ALL: [Signal; 17] = [
+        Signal::Alpha,
+        Signal::Beta,
+        Signal::PN,
+        Signal::QN,
+        Signal::RN,
+        Signal::Elevator,
+        Signal::Aileron,
+        Signal::Rudder,
+        Signal::Airspeed,
+        Signal::Mach,
+        Signal::ThrustCoeff,
+        Signal::AlphaDotN,
+        Signal::BetaDotN,
+        Signal::ElevatorRate,
+        Signal::AileronRate,
+        Signal::RudderRate,
+        Signal::LiftCoeff,
+    ];
+
+    /// Position in [`Signal::ALL`].
+    pub fn index(self) -> usize {
+        Signal::ALL.iter().position(|s| *s == self).unwrap_or(0)
+    }
+}
+
+/// The value of every signal at one instant (NaN: not available), indexed by [`Signal::index`].
+pub type Snapshot = [f64; Signal::ALL.len()];
+
+impl Table {
+    /// The signals at sample `k` plus `frac` of a step (linear interpolation; NaN where absent).
+    pub fn snapshot(&self, k: usize, frac: f64) -> Snapshot {
+        let mut out = [f64::NAN; Signal::ALL.len()];
+        for (sig, v) in &self.signals {
+            let a = v[k];
+            out[sig.index()] = if frac == 0.0 || k + 1 >= v.len() {
+                a
+            } else {
+                a + frac * (v[k + 1] - a)
+            };
+        }
+        out
+    }
+}
+
+/// Coefficients and signals of a flight, per sample, after correction and smoothing.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Table {
+    /// Time, s.
+    pub t_s: Vec<f64>,
+    /// The synthesised coefficients (`None`: channels missing).
+    pub z: [Option<Vec<f64>>; 6],
+    /// The regressor signals available.
+    pub signals: BTreeMap<Signal, Vec<f64>>,
+    /// Notes (assumptions taken for missing channels).
+    pub notes: Vec<String>,
+    /// The quantities eq. 1–2 used besides the coefficients (for the simulation of
+    /// [`super::simulate`]); `None` when no coefficient could be synthesised.
+    pub kinematics: Option<Kinematics>,
+}
+
+/// The smoothed, corrected quantities the synthesis used, per sample.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Kinematics {
+    /// Body rates `p, q, r`, rad/s (zero where not measured).
+    pub rates_rad_s: [Vec<f64>; 3],
+    /// Roll and pitch attitude, rad (zero where not measured).
+    pub attitude_rad: [Vec<f64>; 2],
+    /// Dynamic pressure, Pa.
+    pub qbar_pa: Vec<f64>,
+    /// Air density `2q̄/V²`, kg/m³.
+    pub density_kgpm3: Vec<f64>,
+    /// Thrust force (body), N.
+    pub thrust_force_n: Vec<Vector3<f64>>,
+    /// Thrust moment about the CG (body), N·m.
+    pub thrust_moment_nm: Vec<Vector3<f64>>,
+    /// Aerodynamic force `m a_cg − F_T` (body), N (zero in an axis without an accelerometer).
+    pub aero_force_n: Vec<Vector3<f64>>,
+    /// Whether the roll and pitch attitude were measured.
+    pub attitude_measured: bool,
+}
+
+/// Corrections from the compatibility check.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Corrections {
+    /// Additive bias per channel.
+    pub bias: BTreeMap<Quantity, f64>,
+    /// Scale factor error per channel.
+    pub scale: BTreeMap<Quantity, f64>,
+    /// Delay per channel, s.
+    pub delay_s: BTreeMap<Quantity, f64>,
+    /// Extra vane x positions, m (`Alpha`, `Beta`).
+    pub vane_dx_m: BTreeMap<Quantity, f64>,
+}
+
+/// Builds the table: corrections, CG transfer, derivatives, smoothing (half-width `sg_half`),
+/// synthesis.
+#[allow(non_snake_case)]
+///
+/// `air_data`: reconstructed `Airspeed`, `Alpha`, `Beta` at the CG from the compatibility check;
+/// when given they replace the (corrected) air-data channels. Why: the airspeed sensor's noise
+/// enters both `q̄` (so every coefficient) and any speed regressor, an errors-in-variables
+/// correlation that least squares turns into a spurious speed dependence; the reconstructed states
+/// carry only the integrated inertial noise.
+pub fn synthesise(
+    flight: &MeasuredFlight,
+    h_s: f64,
+    corr: &Corrections,
+    sg_half: usize,
+    air_data: Option<&BTreeMap<Quantity, Vec<f64>>>,
+) -> Table {
+    use Quantity::*;
+    let n = flight.len();
+    let ac = &flight.aircraft;
+    let mut notes = Vec::new();
+    // Corrected raw channels.
+    let raw = |q: Quantity| -> Option<Vec<f64>> {
+        if let Some(x) = air_data.and_then(|a| a.get(&q)) {
+            return Some(x.clone());
+        }
+        let x = flight.get(q)?;
+        let b = corr.bias.get(&q).copied().unwrap_or(0.0);
+        let k = corr.scale.get(&q).copied().unwrap_or(0.0);
+        let v: Vec<f64> = x.iter().map(|m| (m - b) / (1.0 + k)).collect();
+        Some(match corr.delay_s.get(&q) {
+            Some(&tau) => shift(&v, h_s, tau),
+            None => v,
+        })
+    };
+    let zeros = vec![0.0; n];
+    let (p, q, r) = (raw(RollRate), raw(PitchRate), raw(YawRate));
+    let rate_dot = |acc: Quantity, w: &Option<Vec<f64>>| -> Option<Vec<f64>> {
+        match flight.get(acc) {
+            Some(x) => Some(x.to_vec()),
+            None => w.as_ref().map(|w| derivative(w, h_s)),
+        }
+    };
+    let (pd, qd, rd) = (
+        rate_dot(RollAccel, &p),
+        rate_dot(PitchAccel, &q),
+        rate_dot(YawAccel, &r),
+    );
+    let sm = |x: Option<Vec<f64>>| x.map(|v| sg_smooth(&v, sg_half));
+    let wz = |x: &Option<Vec<f64>>| x.clone().unwrap_or_else(|| zeros.clone());
+    let (p_s, q_s, r_s) = (sm(p.clone()), sm(q.clone()), sm(r.clone()));
+    let (pd_s, qd_s, rd_s) = (sm(pd), sm(qd), sm(rd));
+    let lateral_rates = p.is_some() && r.is_some();
+    // Air data moved to the CG (before smoothing), exactly as the book's pre-processing of the
+    // ATTAS noseboom data (README s.2): the measured V, α, β give the air-relative velocity at
+    // each sensor, `v_s = V (cos α cos β, sin β, sin α cos β)`; the velocity its rotation about the
+    // CG induces, `ω × r_s`, is removed, `v_cg = v_s − ω × r_s`, and α, β, V are recomputed from
+    // `v_cg`. Each angle uses its own vane's position (plus the `x` offset the compatibility check
+    // found), the airspeed the pitot's (`airspeed_*` keys). (Reading chosen: the angle a vane
+    // measures is taken with the airspeed and the other angle as measured, i.e. both vanes see the
+    // same local velocity apart from the rotation term.) Reconstructed air data are CG values
+    // already.
+    let reconstructed = |q: Quantity| air_data.is_some_and(|a| a.contains_key(&q));
+    let (v_raw, a_raw, b_raw) = (raw(Airspeed), raw(Alpha), raw(Beta));
+    let rate = |x: &Option<Vec<f64>>, i: usize| x.as_ref().map_or(0.0, |x| x[i]);
+    let omega = |i: usize| Vector3::new(rate(&p, i), rate(&q, i), rate(&r, i));
+    let sensor_velocity = |i: usize| -> Option<Vector3<f64>> {
+        let vv = v_raw.as_ref()?[i];
+        let al = a_raw.as_ref().map_or(0.0, |a| a[i]);
+        let be = b_raw.as_ref().map_or(0.0, |b| b[i]);
+        Some(Vector3::new(al.cos() * be.cos(), be.sin(), al.sin() * be.cos()) * vv)
+    };
+    let dx = |ch: Quantity| Vector3::new(corr.vane_dx_m.get(&ch).copied().unwrap_or(0.0), 0.0, 0.0);
+    let r_alpha = ac.alpha_vane_position_m + dx(Alpha);
+    let r_beta = ac.beta_vane_position_m + dx(Beta);
+    let r_pitot = ac.airspeed_position_m;
+    let moved = |r_s: Vector3<f64>| r_s != Vector3::zeros();
+    let alpha_raw = a_raw.clone().map(|a| {
+        if reconstructed(Alpha) || !moved(r_alpha) {
+            return a;
+        }
+        (0..n)
+            .map(|i| match sensor_velocity(i) {
+                Some(vs) => {
+                    let v = vs - omega(i).cross(&r_alpha);
+                    v.z.atan2(v.x)
+                }
+                None => a[i],
+            })
+            .collect::<Vec<f64>>()
+    });
+    let beta_raw = b_raw.clone().map(|b| {
+        if reconstructed(Beta) || !moved(r_beta) {
+            return b;
+        }
+        (0..n)
+            .map(|i| match sensor_velocity(i) {
+                Some(vs) => {
+                    let v = vs - omega(i).cross(&r_beta);
+                    (v.y / v.norm().max(1e-6)).clamp(-1.0, 1.0).asin()
+                }
+                None => b[i],
+            })
+            .collect::<Vec<f64>>()
+    });
+    let v = sm(v_raw.clone().map(|vm| {
+        if reconstructed(Airspeed) || !moved(r_pitot) {
+            return vm;
+        }
+        (0..n)
+            .map(|i| sensor_velocity(i).map_or(vm[i], |vs| (vs - omega(i).cross(&r_pitot)).norm()))
+            .collect::<Vec<f64>>()
+    }));
+    let alpha_dot = alpha_raw.as_ref().map(|a| sg_smooth(&derivative(a, h_s), sg_half));
+    let beta_dot = beta_raw.as_ref().map(|b| sg_smooth(&derivative(b, h_s), sg_half));
+    let alpha = sm(alpha_raw);
+    let beta = sm(beta_raw);
+    let (de, da, dr) = (sm(raw(Elevator)), sm(raw(Aileron)), sm(raw(Rudder)));
+    // Surface rates: differentiated before smoothing, as α̇ (the signal module's doc says why).
+    let rate = |q: Quantity| raw(q).map(|x| sg_smooth(&derivative(&x, h_s), sg_half));
+    let surface_rates = [
+        (Signal::ElevatorRate, rate(Elevator)),
+        (Signal::AileronRate, rate(Aileron)),
+        (Signal::RudderRate, rate(Rudder)),
+    ];
+    let (axs, ays, azs) = (sm(raw(AccelX)), sm(raw(AccelY)), sm(raw(AccelZ)));
+    // Density and dynamic pressure.
+    let rho: Option<Vec<f64>> = match (flight.get(AirDensity), flight.get(Altitude)) {
+        (Some(x), _) => Some(sg_smooth(x, sg_half)),
+        (None, Some(h)) => {
+            notes.push("air density from the ISA at the pressure altitude".into());
+            Some(h.iter().map(|&h| isa_density(h)).collect())
+        }
+        _ => None,
+    };
+    let qbar: Option<Vec<f64>> = match (flight.get(DynamicPressure), &rho, &v) {
+        (Some(x), _, _) => Some(sg_smooth(x, sg_half)),
+        (None, Some(rho), Some(v)) => Some(rho.iter().zip(v).map(|(r, v)| 0.5 * r * v * v).collect()),
+        (None, None, Some(v)) => {
+            notes.push("no density, dynamic pressure or altitude: ISA sea-level density assumed".into());
+            Some(v.iter().map(|v| 0.5 * 1.225 * v * v).collect())
+        }
+        _ => None,
+    };
+    let mut signals = BTreeMap::new();
+    let mut z: [Option<Vec<f64>>; 6] = Default::default();
+    let (S, b, c) = (ac.wing_area_m2, ac.span_m, ac.chord_m);
+    let J = ac.inertia_kgm2;
+    let (Some(v), Some(qbar)) = (v, qbar) else {
+        notes.push("no airspeed or dynamic pressure: no coefficient can be synthesised".into());
+        return Table {
+            t_s: flight.t_s.clone(),
+            z,
+            signals,
+            notes,
+            kinematics: None,
+        };
+    };
+    let vv: Vec<f64> = v.iter().map(|x| x.max(1.0)).collect();
+    let rho_v: Vec<f64> = (0..n).map(|i| 2.0 * qbar[i] / (vv[i] * vv[i])).collect();
+    let al = alpha.clone().unwrap_or_else(|| zeros.clone());
+    let be = beta.clone().unwrap_or_else(|| zeros.clone());
+    let (pw, qw, rw) = (wz(&p_s), wz(&q_s), wz(&r_s));
+    let (pdw, qdw, rdw) = (wz(&pd_s), wz(&qd_s), wz(&rd_s));
+    // Thrust force and moment.
+    let mut thrust_n = vec![0.0; n];
+    let mut f_t = vec![Vector3::zeros(); n];
+    let mut m_t = vec![Vector3::zeros(); n];
+    let mut thrust_known = true;
+    match &ac.thrust {
+        // One engine on the thrust line, or a twin whose left engine mirrors the right one (the
+        // single engine is a twin with both at `position_m` and no thrust difference).
+        ThrustSource::Measured {
+            position_m: r_r,
+            pitch_rad,
+        }
+        | ThrustSource::MeasuredTwin {
+            right_engine_position_m: r_r,
+            pitch_rad,
+        } => match flight.get(Thrust) {
+            Some(tt) => {
+                let twin = matches!(ac.thrust, ThrustSource::MeasuredTwin { .. });
+                let r_l = if twin { Vector3::new(r_r.x, -r_r.y, r_r.z) } else { *r_r };
+                // F_L − F_R, when measured (0: a symmetric split).
+                let dt = flight
+                    .get(ThrustDifference)
+                    .filter(|_| twin)
+                    .map(|d| sg_smooth(d, sg_half));
+                let tt = sg_smooth(tt, sg_half);
+                let u = Vector3::new(pitch_rad.cos(), 0.0, -pitch_rad.sin());
+                for i in 0..n {
+                    thrust_n[i] = tt[i];
+                    f_t[i] = u * tt[i];
+                    m_t[i] = if twin {
+                        let d = dt.as_ref().map_or(0.0, |d| d[i]);
+                        r_r.cross(&(u * (0.5 * (tt[i] - d)))) + r_l.cross(&(u * (0.5 * (tt[i] + d))))
+                    } else {
+                        r_r.cross(&f_t[i])
+                    };
+                }
+            }
+            None => {
+                thrust_known = false;
+                notes.push("thrust declared measured but no Thrust channel: thrust taken as zero".into());
+            }
+        },
+        ThrustSource::Propeller(prop) => match sm(raw(PropSpeed)) {
+            Some(w) => {
+                for i in 0..n {
+                    let (sa, ca) = al[i].sin_cos();
+                    let (sp, cp) = prop.pitch_rad.sin_cos();
+                    let axial = vv[i] * be[i].cos() * (ca * cp - sa * sp);
+                    let o = propeller_output(prop, rho_v[i], axial, w[i]);
+                    let (f, m) = propulsion_force_moment(prop, &o, -1.0);
+                    thrust_n[i] = o.thrust_n;
+                    f_t[i] = f;
+                    m_t[i] = m;
+                }
+            }
+            None => {
+                thrust_known = false;
+                notes.push("propeller model but no PropSpeed channel: thrust taken as zero".into());
+            }
+        },
+        ThrustSource::Unknown => {
+            thrust_known = false;
+            notes.push("thrust unknown: it is part of C_D and no thrust candidate is tested".into());
+        }
+    }
+    // Accelerometer to the CG.
+    let ra = ac.accel_position_m;
+    let accel = |i: usize, x: &Option<Vec<f64>>, k: usize| -> Option<f64> {
+        let a = x.as_ref()?[i];
+        if ra == Vector3::zeros() {
+            return Some(a);
+        }
+        let w = Vector3::new(pw[i], qw[i], rw[i]);
+        let wd = Vector3::new(pdw[i], qdw[i], rdw[i]);
+        let corr = wd.cross(&ra) + w.cross(&w.cross(&ra));
+        Some(a - corr[k])
+    };
+    let qs: Vec<f64> = qbar.iter().map(|q| q * S).collect();
+    if let (Some(_), Some(_), Some(_)) = (&axs, &azs, &alpha) {
+        let mut cl = vec![0.0; n];
+        let mut cd = vec![0.0; n];
+        for i in 0..n {
+            let (Some(ax), Some(az)) = (accel(i, &axs, 0), accel(i, &azs, 2)) else {
+                continue;
+            };
+            let fx = ac.mass_kg * ax - f_t[i].x;
+            let fz = ac.mass_kg * az - f_t[i].z;
+            let (sa, ca) = al[i].sin_cos();
+            cd[i] = -(fx * ca + fz * sa) / qs[i];
+            cl[i] = (fx * sa - fz * ca) / qs[i];
+        }
+        z[0] = Some(cl);
+        z[1] = Some(cd);
+    }
+    if ays.is_some() {
+        z[2] = Some(
+            (0..n)
+                .map(|i| (ac.mass_kg * accel(i, &ays, 1).unwrap_or(0.0) - f_t[i].y) / qs[i])
+                .collect(),
+        );
+    }
+    // An inertia the aircraft file gives as unknown (the longitudinal HFB-320 test has only Iy)
+    // enters as zero in the gyroscopic term `ω × Jω` (reading chosen: for a longitudinal
+    // manoeuvre the `(Ix − Iz) p r` and `Ixz (p² − r²)` parts of the pitching moment are second
+    // order, and the book's HFB-320 model leaves them out); `C_l`, `C_n` then need the span and
+    // Ix, Iz and are not synthesised.
+    let lateral_inertia = [J[(0, 0)], J[(2, 2)], J[(0, 2)]].iter().all(|x| x.is_finite()) && b.is_finite();
+    let j_known = J.map(|x| if x.is_finite() { x } else { 0.0 });
+    if !lateral_inertia && lateral_rates {
+        notes.push(
+            "Ix, Iz, Ixz or the span unknown: C_l, C_n not synthesised; the unknown inertias taken as zero in ω × Jω of C_m"
+                .into(),
+        );
+    }
+    let lateral_rates = lateral_rates && lateral_inertia;
+    if q_s.is_some() || lateral_rates {
+        let mut mom = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
+        for i in 0..n {
+            let w = Vector3::new(pw[i], qw[i], rw[i]);
+            let wd = Vector3::new(pdw[i], qdw[i], rdw[i]);
+            let mut m = j_known * wd + w.cross(&(j_known * w)) - m_t[i];
+            // About the moment reference point `r_P` (README s.2 for the ATTAS):
+            // `M_P = M_CG − r_P × F_A` with the aerodynamic force `F_A = m a_cg − F_T`.
+            if ac.moment_reference_m != Vector3::zeros() {
+                let fa = Vector3::new(
+                    accel(i, &axs, 0).map_or(0.0, |a| ac.mass_kg * a - f_t[i].x),
+                    accel(i, &ays, 1).map_or(0.0, |a| ac.mass_kg * a - f_t[i].y),
+                    accel(i, &azs, 2).map_or(0.0, |a| ac.mass_kg * a - f_t[i].z),
+                );
+                m -= ac.moment_reference_m.cross(&fa);
+            }
+            mom[0][i] = m.x / (qs[i] * b);
+            mom[1][i] = m.y / (qs[i] * c);
+            mom[2][i] = m.z / (qs[i] * b);
+        }
+        let [ml, mm, mn] = mom;
+        if q_s.is_some() {
+            z[4] = Some(mm);
+        }
+        if lateral_rates {
+            z[3] = Some(ml);
+            z[5] = Some(mn);
+        }
+    }
+    if let Some(a) = alpha {
+        signals.insert(Signal::Alpha, a);
+    }
+    if let Some(bb) = beta {
+        signals.insert(Signal::Beta, bb);
+    }
+    // The lateral normalisations need the span (unknown for the longitudinal HFB-320 test).
+    if let (Some(x), true) = (&p_s, b.is_finite()) {
+        signals.insert(Signal::PN, (0..n).map(|i| x[i] * b / (2.0 * vv[i])).collect());
+    }
+    if let Some(x) = &q_s {
+        signals.insert(Signal::QN, (0..n).map(|i| x[i] * c / (2.0 * vv[i])).collect());
+    }
+    if let (Some(x), true) = (&r_s, b.is_finite()) {
+        signals.insert(Signal::RN, (0..n).map(|i| x[i] * b / (2.0 * vv[i])).collect());
+    }
+    for (sig, x) in [(Signal::Elevator, de), (Signal::Aileron, da), (Signal::Rudder, dr)] {
+        if let Some(x) = x {
+            signals.insert(sig, x);
+        }
+    }
+    for (sig, x) in surface_rates {
+        if let Some(x) = x {
+            signals.insert(sig, x);
+        }
+    }
+    if let Some(cl) = &z[0] {
+        signals.insert(Signal::LiftCoeff, cl.clone());
+    }
+    if let Some(m) = flight.get(Mach) {
+        signals.insert(Signal::Mach, sg_smooth(m, sg_half));
+    }
+    if thrust_known {
+        signals.insert(Signal::ThrustCoeff, (0..n).map(|i| thrust_n[i] / qs[i]).collect());
+    }
+    // α̇ and β̇ from the kinematics when the accelerations, rates and attitude are measured
+    // (Klein & Morelli 2006 §10.1: the flow-angle rates from `u̇, v̇, ẇ` of the rigid-body
+    // equations, with `u, v, w` from the measured air data): differentiating a vane amplifies its
+    // noise by about `1/h` — on the campaign's flights the differentiated α̇ column was half noise
+    // (variance 2× its error variance), the kinematic one is not.
+    let kinematic_rates = (|| {
+        let (th, ph) = (
+            sg_smooth(flight.get(Pitch)?, sg_half),
+            sg_smooth(flight.get(Roll)?, sg_half),
+        );
+        let (_, _) = (axs.as_ref()?, azs.as_ref()?);
+        let (mut ad, mut bd) = (vec![0.0; n], vec![0.0; n]);
+        for i in 0..n {
+            let (ax, az) = (accel(i, &axs, 0)?, accel(i, &azs, 2)?);
+            let ay = accel(i, &ays, 1).unwrap_or(0.0);
+            let (p, q, r) = (pw[i], qw[i], rw[i]);
+            let vt = vv[i];
+            let (sa, ca) = al[i].sin_cos();
+            let (sb, cb) = be[i].sin_cos();
+            let (u, v, w) = (vt * ca * cb, vt * sb, vt * sa * cb);
+            let g = 9.806_65;
+            let udot = ax - g * th[i].sin() + r * v - q * w;
+            let vdot = ay + g * th[i].cos() * ph[i].sin() + p * w - r * u;
+            let wdot = az + g * th[i].cos() * ph[i].cos() + q * u - p * v;
+            ad[i] = (u * wdot - w * udot) / (u * u + w * w);
+            let vtdot = (u * udot + v * vdot + w * wdot) / vt;
+            bd[i] = (vdot * vt - v * vtdot) / (vt * vt * cb.max(0.1));
+        }
+        Some((ad, bd))
+    })();
+    let (alpha_dot, beta_dot) = match kinematic_rates {
+        Some((ad, bd)) if alpha_dot.is_some() => (Some(ad), beta_dot.map(|_| bd)),
+        _ => (alpha_dot, beta_dot),
+    };
+    if let Some(x) = alpha_dot {
+        signals.insert(Signal::AlphaDotN, (0..n).map(|i| x[i] * c / (2.0 * vv[i])).collect());
+    }
+    if let (Some(x), true) = (beta_dot, b.is_finite()) {
+        signals.insert(Signal::BetaDotN, (0..n).map(|i| x[i] * b / (2.0 * vv[i])).collect());
+    }
+    let aero_force_n: Vec<Vector3<f64>> = (0..n)
+        .map(|i| {
+            Vector3::new(
+                accel(i, &axs, 0).map_or(0.0, |a| ac.mass_kg * a - f_t[i].x),
+                accel(i, &ays, 1).map_or(0.0, |a| ac.mass_kg * a - f_t[i].y),
+                accel(i, &azs, 2).map_or(0.0, |a| ac.mass_kg * a - f_t[i].z),
+            )
+        })
+        .collect();
+    signals.insert(Signal::Airspeed, v);
+    let attitude_measured = flight.get(Pitch).is_some();
+    let att = |q: Quantity| sm(flight.get(q).map(|x| x.to_vec())).unwrap_or_else(|| zeros.clone());
+    Table {
+        t_s: flight.t_s.clone(),
+        z,
+        signals,
+        notes,
+        kinematics: Some(Kinematics {
+            rates_rad_s: [pw, qw, rw],
+            attitude_rad: [att(Roll), att(Pitch)],
+            qbar_pa: qbar,
+            density_kgpm3: rho_v,
+            thrust_force_n: f_t,
+            thrust_moment_nm: m_t,
+            aero_force_n,
+            attitude_measured,
+        }),
+    }
+}
+
+/// What kind of cause a term or sensor error stands for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, serde::Serialize)]
+pub enum CauseKind {
+    /// α², α³, a stall break: a lift/drag/moment curve that is not linear in α.
+    NonlinearAlpha,
+    /// A control effect the baseline lacks (|δ|, δ², α·δ, or a missing δ).
+    ControlTerm,
+    /// α̇ (downwash lag) or β̇.
+    AlphaDot,
+    /// A thrust term (thrust-line moment, propwash).
+    Thrust,
+    /// Longitudinal–lateral coupling (α·β, α·p, α·r, β² in a longitudinal coefficient).
+    CrossCoupling,
+    /// Nonlinear in β within a lateral coefficient (β³).
+    NonlinearBeta,
+    /// Rate terms beyond eq. 3 (α·q).
+    RateNonlinearity,
+    /// Airspeed or Mach dependence.
+    SpeedDependence,
+    /// An eq. 3 regressor missing from the given baseline.
+    MissingBaselineTerm,
+    /// A sensor bias.
+    SensorBias,
+    /// A sensor scale factor (e.g. vane upwash).
+    ScaleFactor,
+    /// A channel's time delay.
+    TimeDelay,
+    /// A vane not where the aircraft file says (not at the CG).
+    VanePosition,
+    /// A control surface's time delay (its rate enters the coefficient).
+    ControlDelay,
+}
+
+/// A model term: an eq. 3 regressor or a candidate of the library.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Term {
+    /// 1.
+    One,
+    /// α.
+    Alpha,
+    /// α².
+    Alpha2,
+    /// α³.
+    Alpha3,
+    /// `(α − α_b)₊²`: a stall break above `α_b`, the 85th percentile of α in the identification data.
+    StallBreak,
+    /// β.
+    Beta,
+    /// β².
+    Beta2,
+    /// |β|.
+    AbsBeta,
+    /// β³.
+    Beta3,
+    /// `p b/(2V)`.
+    P,
+    /// `q c̄/(2V)`.
+    Q,
+    /// `r b/(2V)`.
+    R,
+    /// δe.
+    Elevator,
+    /// δa.
+    Aileron,
+    /// δr.
+    Rudder,
+    /// |δe|.
+    AbsElevator,
+    /// δe².
+    Elevator2,
+    /// α·q_n.
+    AlphaQ,
+    /// α·δe.
+    AlphaElevator,
+    /// α·δa.
+    AlphaAileron,
+    /// α·β.
+    AlphaBeta,
+    /// α·p_n.
+    AlphaP,
+    /// α·r_n.
+    AlphaR,
+    /// `α̇ c̄/(2V)`.
+    AlphaDot,
+    /// `β̇ b/(2V)`.
+    BetaDot,
+    /// `(V − V_ref)/V_ref`, `V_ref` the identification mean.
+    Speed,
+    /// `M − M_ref`.
+    Mach,
+    /// Thrust coefficient `T/(q̄S)`.
+    Thrust,
+    /// `T/(q̄S) · δe` (propwash on the tail).
+    ThrustElevator,
+    /// `w·ln(1 + e^{(α−α_b)/w})`, `w` = 0.02 rad: a smooth hinge at `α_b` (the 85th percentile of
+    /// α), the lift-curve slope changing over a few degrees — the onset of stall as a smooth
+    /// saturation rather than the kink of [`Term::StallBreak`].
+    StallHinge,
+    /// `C_L²` (the measured lift coefficient squared): the drag polar's induced drag.
+    Lift2,
+    /// δė: a time delay `τ` of the elevator, `C_δe·δe(t−τ) ≈ C_δe·δe − C_δe τ·δė`.
+    ElevatorRate,
+    /// δȧ: a time delay of the ailerons.
+    AileronRate,
+    /// δṙ: a time delay of the rudder.
+    RudderRate,
+}
+
+/// Reference values of the terms that need them, from the identification segment.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TermRefs {
+    /// α of the stall break, rad.
+    pub alpha_break_rad: f64,
+    /// Reference airspeed, m/s.
+    pub airspeed_mps: f64,
+    /// Reference Mach number.
+    pub mach: f64,
+}
+
+impl Term {
+    /// The eq. 3 regressors (seed 000 with δa in `C_l`, `C_n`; the core's defaults).
+    pub fn eq3(coef: usize) -> Vec<Term> {
+        use Term::*;
+        match coef {
+            0 | 4 => vec![One, Alpha, Q, Elevator],
+            1 => vec![One, Alpha, Alpha2, Q, Elevator],
+            _ => vec![One, Beta, P, R, Aileron, Rudder],
+        }
+    }
+
+    /// The candidate library of a coefficient (before removing terms already in the model).
+    pub fn library(coef: usize) -> Vec<Term> {
+        use Term::*;
+        // C_L² is a regressor of the drag only (in C_L it is the output itself).
+        let mut lib = if is_longitudinal(coef) {
+            vec![
+                One,
+                Alpha,
+                Alpha2,
+                Alpha3,
+                StallBreak,
+                Q,
+                Elevator,
+                AbsElevator,
+                Elevator2,
+                AlphaElevator,
+                AlphaQ,
+                AlphaDot,
+                Beta2,
+                AbsBeta,
+                Speed,
+                Mach,
+                Thrust,
+                ThrustElevator,
+                StallHinge,
+                Lift2,
+                ElevatorRate,
+            ]
+        } else {
+            vec![
+                One,
+                Beta,
+                P,
+                R,
+                Aileron,
+                Rudder,
+                Beta3,
+                AlphaBeta,
+                AlphaP,
+                AlphaR,
+                AlphaAileron,
+                BetaDot,
+                Speed,
+                Mach,
+                Thrust,
+                AileronRate,
+                RudderRate,
+            ]
+        };
+        lib.retain(|t| *t != Lift2 || coef == 1);
+        lib
+    }
+
+    /// Printable name.
+    pub fn name(&self) -> &'static str {
+        use Term::*;
+        match self {
+            One => "1",
+            Alpha => "α",
+            Alpha2 => "α²",
+            Alpha3 => "α³",
+            StallBreak => "(α−α_b)₊²",
+            Beta => "β",
+            Beta2 => "β²",
+            AbsBeta => "|β|",
+            Beta3 => "β³",
+            P => "p_n",
+            Q => "q_n",
+            R => "r_n",
+            Elevator => "δe",
+            Aileron => "δa",
+            Rudder => "δr",
+            AbsElevator => "|δe|",
+            Elevator2 => "δe²",
+            AlphaQ => "α·q_n",
+            AlphaElevator => "α·δe",
+            AlphaAileron => "α·δa",
+            AlphaBeta => "α·β",
+            AlphaP => "α·p_n",
+            AlphaR => "α·r_n",
+            AlphaDot => "α̇_n",
+            BetaDot => "β̇_n",
+            Speed => "ΔV/V",
+            Mach => "ΔM",
+            Thrust => "C_T",
+            ThrustElevator => "C_T·δe",
+            StallHinge => "stall(α)",
+            Lift2 => "C_L²",
+            ElevatorRate => "δė",
+            AileronRate => "δȧ",
+            RudderRate => "δṙ",
+        }
+    }
+
+    /// The cause this term stands for when it is added to coefficient `coef`.
+    pub fn kind(&self, coef: usize) -> CauseKind {
+        use Term::*;
+        match self {
+            Alpha2 | Alpha3 | StallBreak | StallHinge | Lift2 => CauseKind::NonlinearAlpha,
+            ElevatorRate | AileronRate | RudderRate => CauseKind::ControlDelay,
+            AbsElevator | Elevator2 | AlphaElevator | AlphaAileron | Elevator | Aileron | Rudder => {
+                CauseKind::ControlTerm
+            }
+            AlphaDot | BetaDot => CauseKind::AlphaDot,
+            Thrust | ThrustElevator => CauseKind::Thrust,
+            AlphaBeta | AlphaP | AlphaR => CauseKind::CrossCoupling,
+            Beta2 | AbsBeta if is_longitudinal(coef) => CauseKind::CrossCoupling,
+            Beta2 | AbsBeta | Beta3 => CauseKind::NonlinearBeta,
+            AlphaQ => CauseKind::RateNonlinearity,
+            Speed | Mach => CauseKind::SpeedDependence,
+            One | Alpha | Beta | P | Q | R => CauseKind::MissingBaselineTerm,
+        }
+    }
+
+    /// The term's value at one instant ([`Table::snapshot`], possibly with simulated signals
+    /// written into it); `None` when a signal it needs is absent (NaN). Equal to
+    /// [`Term::column`] sample by sample.
+    pub fn eval(&self, s: &Snapshot, refs: &TermRefs) -> Option<f64> {
+        use Term::*;
+        let g = |x: Signal| {
+            let v = s[x.index()];
+            (!v.is_nan()).then_some(v)
+        };
+        let a = || g(Signal::Alpha);
+        let v = match self {
+            One => 1.0,
+            Alpha => a()?,
+            Alpha2 => a()?.powi(2),
+            Alpha3 => a()?.powi(3),
+            StallBreak => (a()? - refs.alpha_break_rad).max(0.0).powi(2),
+            Beta => g(Signal::Beta)?,
+            Beta2 => g(Signal::Beta)?.powi(2),
+            AbsBeta => g(Signal::Beta)?.abs(),
+            Beta3 => g(Signal::Beta)?.powi(3),
+            P => g(Signal::PN)?,
+            Q => g(Signal::QN)?,
+            R => g(Signal::RN)?,
+            Elevator => g(Signal::Elevator)?,
+            Aileron => g(Signal::Aileron)?,
+            Rudder => g(Signal::Rudder)?,
+            AbsElevator => g(Signal::Elevator)?.abs(),
+            Elevator2 => g(Signal::Elevator)?.powi(2),
+            AlphaQ => a()? * g(Signal::QN)?,
+            AlphaElevator => a()? * g(Signal::Elevator)?,
+            AlphaAileron => a()? * g(Signal::Aileron)?,
+            AlphaBeta => a()? * g(Signal::Beta)?,
+            AlphaP => a()? * g(Signal::PN)?,
+            AlphaR => a()? * g(Signal::RN)?,
+            AlphaDot => g(Signal::AlphaDotN)?,
+            BetaDot => g(Signal::BetaDotN)?,
+            Speed => (g(Signal::Airspeed)? - refs.airspeed_mps) / refs.airspeed_mps,
+            Mach => g(Signal::Mach)? - refs.mach,
+            Thrust => g(Signal::ThrustCoeff)?,
+            ThrustElevator => g(Signal::ThrustCoeff)? * g(Signal::Elevator)?,
+            StallHinge => stall_hinge(a()?, refs.alpha_break_rad),
+            Lift2 => g(Signal::LiftCoeff)?.powi(2),
+            ElevatorRate => g(Signal::ElevatorRate)?,
+            AileronRate => g(Signal::AileronRate)?,
+            RudderRate => g(Signal::RudderRate)?,
+        };
+        Some(v)
+    }
+
+    /// An ASCII name for the command line (`alpha`, `q`, `de`, `dV` …).
+    pub fn ascii(&self) -> &'static str {
+        use Term::*;
+        match self {
+            One => "1",
+            Alpha => "alpha",
+            Alpha2 => "alpha2",
+            Alpha3 => "alpha3",
+            StallBreak => "stall",
+            Beta => "beta",
+            Beta2 => "beta2",
+            AbsBeta => "absbeta",
+            Beta3 => "beta3",
+            P => "p",
+            Q => "q",
+            R => "r",
+            Elevator => "de",
+            Aileron => "da",
+            Rudder => "dr",
+            AbsElevator => "absde",
+            Elevator2 => "de2",
+            AlphaQ => "alpha_q",
+            AlphaElevator => "alpha_de",
+            AlphaAileron => "alpha_da",
+            AlphaBeta => "alpha_beta",
+            AlphaP => "alpha_p",
+            AlphaR => "alpha_r",
+            AlphaDot => "alphadot",
+            BetaDot => "betadot",
+            Speed => "dV",
+            Mach => "dMach",
+            Thrust => "CT",
+            ThrustElevator => "CT_de",
+            StallHinge => "stall_smooth",
+            Lift2 => "CL2",
+            ElevatorRate => "dedot",
+            AileronRate => "dadot",
+            RudderRate => "drdot",
+        }
+    }
+
+    /// The term of a name ([`Term::name`] or [`Term::ascii`]).
+    pub fn parse(s: &str) -> Option<Term> {
+        Term::ALL.into_iter().find(|t| t.name() == s || t.ascii() == s)
+    }
+
+    /// Every term (the union of the libraries and eq. 3).
+    pub const ALL: [Term; 34] = [
+        Term::One,
+        Term::Alpha,
+        Term::Alpha2,
+        Term::Alpha3,
+        Term::StallBreak,
+        Term::Beta,
+        Term::Beta2,
+        Term::AbsBeta,
+        Term::Beta3,
+        Term::P,
+        Term::Q,
+        Term::R,
+        Term::Elevator,
+        Term::Aileron,
+        Term::Rudder,
+        Term::AbsElevator,
+        Term::Elevator2,
+        Term::AlphaQ,
+        Term::AlphaElevator,
+        Term::AlphaAileron,
+        Term::AlphaBeta,
+        Term::AlphaP,
+        Term::AlphaR,
+        Term::AlphaDot,
+        Term::BetaDot,
+        Term::Speed,
+        Term::Mach,
+        Term::Thrust,
+        Term::ThrustElevator,
+        Term::StallHinge,
+        Term::Lift2,
+        Term::ElevatorRate,
+        Term::AileronRate,
+        Term::RudderRate,
+    ];
+
+    /// The term's column, or `None` when a signal it needs is missing.
+    pub fn column(&self, t: &Table, refs: &TermRefs) -> Option<Vec<f64>> {
+        use Term::*;
+        let s = |x: Signal| t.signals.get(&x);
+        let n = t.t_s.len();
+        let map1 = |x: Signal, f: &dyn Fn(f64) -> f64| s(x).map(|v| v.iter().map(|&a| f(a)).collect());
+        let map2 = |x: Signal, y: Signal| Some(s(x)?.iter().zip(s(y)?).map(|(a, b)| a * b).collect());
+        match self {
+            One => Some(vec![1.0; n]),
+            Alpha => s(Signal::Alpha).cloned(),
+            Alpha2 => map1(Signal::Alpha, &|a| a * a),
+            Alpha3 => map1(Signal::Alpha, &|a| a * a * a),
+            StallBreak => {
+                let ab = refs.alpha_break_rad;
+                map1(Signal::Alpha, &|a| (a - ab).max(0.0).powi(2))
+            }
+            Beta => s(Signal::Beta).cloned(),
+            Beta2 => map1(Signal::Beta, &|a| a * a),
+            AbsBeta => map1(Signal::Beta, &|a| a.abs()),
+            Beta3 => map1(Signal::Beta, &|a| a * a * a),
+            P => s(Signal::PN).cloned(),
+            Q => s(Signal::QN).cloned(),
+            R => s(Signal::RN).cloned(),
+            Elevator => s(Signal::Elevator).cloned(),
+            Aileron => s(Signal::Aileron).cloned(),
+            Rudder => s(Signal::Rudder).cloned(),
+            AbsElevator => map1(Signal::Elevator, &|a| a.abs()),
+            Elevator2 => map1(Signal::Elevator, &|a| a * a),
+            AlphaQ => map2(Signal::Alpha, Signal::QN),
+            AlphaElevator => map2(Signal::Alpha, Signal::Elevator),
+            AlphaAileron => map2(Signal::Alpha, Signal::Aileron),
+            AlphaBeta => map2(Signal::Alpha, Signal::Beta),
+            AlphaP => map2(Signal::Alpha, Signal::PN),
+            AlphaR => map2(Signal::Alpha, Signal::RN),
+            AlphaDot => s(Signal::AlphaDotN).cloned(),
+            BetaDot => s(Signal::BetaDotN).cloned(),
+            Speed => {
+                let v0 = refs.airspeed_mps;
+                map1(Signal::Airspeed, &|v| (v - v0) / v0)
+            }
+            Mach => {
+                let m0 = refs.mach;
+                map1(Signal::Mach, &|m| m - m0)
+            }
+            Thrust => s(Signal::ThrustCoeff).cloned(),
+            ThrustElevator => map2(Signal::ThrustCoeff, Signal::Elevator),
+            StallHinge => {
+                let ab = refs.alpha_break_rad;
+                map1(Signal::Alpha, &|a| stall_hinge(a, ab))
+            }
+            Lift2 => map1(Signal::LiftCoeff, &|c| c * c),
+            ElevatorRate => s(Signal::ElevatorRate).cloned(),
+            AileronRate => s(Signal::AileronRate).cloned(),
+            RudderRate => s(Signal::RudderRate).cloned(),
+        }
+    }
+}
+
+/// Width of the smooth stall hinge, rad.
+const STALL_WIDTH_RAD: f64 = 0.02;
+
+/// The smooth hinge `w·ln(1 + e^{(α−α_b)/w})` of [`Term::StallHinge`] (overflow-free form).
+fn stall_hinge(alpha: f64, alpha_b: f64) -> f64 {
+    let x = (alpha - alpha_b) / STALL_WIDTH_RAD;
+    STALL_WIDTH_RAD * (x.max(0.0) + (-x.abs()).exp().ln_1p())
+}

@@ -1,0 +1,7 @@
+//! The tests of the `aerosid` command and of the analyses it runs on vendored data, one module per
+//! file, built as one test binary. They live in this package because only its own tests are given
+//! the binary's path (`CARGO_BIN_EXE_aerosid`).
+
+mod cli;
+mod real_logs;
+mod workflow;
