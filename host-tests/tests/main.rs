@@ -12,6 +12,7 @@ mod coverage;
 mod default_aircraft;
 mod fem;
 mod fem_qemu;
+mod flow_angles;
 mod forgetting;
 mod fuzz_readers;
 mod gaps;
