@@ -377,3 +377,64 @@ fn the_choice_vanes_none_and_estimated() {
     assert_eq!(FlowAngleChoice::parse("estimated"), Some(FlowAngleChoice::Estimated));
     assert_eq!(FlowAngleChoice::parse("vane"), None);
 }
+
+#[test]
+fn the_command_estimates_alpha_from_a_csv_log_without_vanes() {
+    use aerosid_host::io::project_csv::csv_column;
+    // GIVEN the circling flight as a project CSV log with the ground-velocity columns and no vane
+    let (f, _) = flight(17, 60.0, 0.06, 0.05);
+    let g = without_vanes(&f);
+    let dir = std::env::temp_dir().join(format!("aerosid-flow-angles-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("scratch dir");
+    let cols: Vec<(&str, &Vec<f64>)> = g.channels.iter().map(|(q, x)| (csv_column(*q), x)).collect();
+    assert!(cols.iter().any(|(c, _)| *c == "vel_ned_mps_n"));
+    let mut text = String::from("t_s");
+    for (c, _) in &cols {
+        text += &format!(",{c}");
+    }
+    text.push('\n');
+    for (k, t) in g.t_s.iter().enumerate() {
+        text += &format!("{t}");
+        for (_, x) in &cols {
+            text += &format!(",{}", x[k]);
+        }
+        text.push('\n');
+    }
+    let csv = dir.join("flight.csv");
+    std::fs::write(&csv, text).expect("write");
+    let aircraft = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("data/aircraft/skywalker_2013_mod.aircraft");
+    // WHEN `aerosid gaps` reads it (default --flow-angles auto)
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_aerosid"))
+        .args(["gaps", "--data"])
+        .arg(&csv)
+        .arg("--with")
+        .arg(&aircraft)
+        .arg("--out")
+        .arg(dir.join("out"))
+        .output()
+        .expect("run aerosid");
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}\n{out}", String::from_utf8_lossy(&o.stderr));
+    // THEN the CSV's velocity columns are read, α and β are estimated, and the report says so
+    assert!(out.contains("air data: estimated (no vane used)"), "{out}");
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("out/report.json")).expect("report.json"))
+            .expect("parse");
+    let fa = &json["data_quality"]["flow_angles"];
+    assert_eq!(fa["status"], serde_json::json!("estimated"), "{fa}");
+    assert_eq!(fa["wind_source"], serde_json::json!("wind-triangle fit"));
+    // AND `--flow-angles vanes` (there are none) leaves α out
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_aerosid"))
+        .args(["gaps", "--flow-angles", "vanes", "--data"])
+        .arg(&csv)
+        .arg("--with")
+        .arg(&aircraft)
+        .arg("--out")
+        .arg(dir.join("vanes"))
+        .output()
+        .expect("run aerosid");
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("no α/β vane: none"), "{out}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
