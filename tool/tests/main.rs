@@ -3,5 +3,6 @@
 //! the binary's path (`CARGO_BIN_EXE_aerosid`).
 
 mod cli;
+mod flow_angles;
 mod real_logs;
 mod workflow;

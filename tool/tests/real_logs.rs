@@ -6,6 +6,7 @@
 //! `tool/data/flight/totter_lon_020213f1_018.mat` with its text export `_fdata.asc`.
 
 use aerosid::gaps::{run_gaps, GapSettings};
+use aerosid::io::flow_angles::{prepare, FlowAngleChoice, WindFitSettings};
 use aerosid::io::measured::{MeasuredFlight, Quantity};
 use aerosid::io::quality::{assess, table};
 use aerosid::io::{read_measured, read_measured_with, ReadOptions};
@@ -352,5 +353,145 @@ fn the_command_reads_each_real_log_without_an_aircraft_file() {
         .output()
         .expect("run aerosid");
     assert!(String::from_utf8_lossy(&o.stdout).contains("vehicle_land_detected (instance 0)"));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn the_alpha_free_mode_on_every_real_log_says_what_it_can_and_cannot_do() {
+    for name in LOGS {
+        let f = read(name, &ReadOptions::default());
+        let has = |q: Quantity| f.get(q).is_some();
+        let velocity = has(Quantity::VelocityNorth) && has(Quantity::VelocityEast) && has(Quantity::VelocityDown);
+        let p = prepare(&f, FlowAngleChoice::Auto, &WindFitSettings::default());
+        let info = p.log.flow_angles.clone().expect("the mode ran");
+        let q = assess(&p);
+        println!(
+            "{name}: velocity {velocity}, airspeed {}, autopilot wind {}; {}: {}\n   air data: {}",
+            has(Quantity::Airspeed),
+            has(Quantity::WindNorth),
+            info.status,
+            if info.why_not.is_empty() {
+                info.summary.clone()
+            } else {
+                info.why_not.join("; ")
+            },
+            q.air_data
+        );
+        // No vane on any of them: the mode either estimated α/β (and said how, with the
+        // assumptions) or said why not; either way no verdict (none of these logs supports one).
+        assert!(f.get(Quantity::Alpha).is_none(), "{name}");
+        match info.status.as_str() {
+            "estimated" => {
+                assert!(
+                    q.air_data.contains("estimated from GPS velocity"),
+                    "{name}: {}",
+                    q.air_data
+                );
+                assert!(
+                    q.warnings.iter().any(|w| w.contains("vertical wind assumed 0")),
+                    "{name}"
+                );
+            }
+            "not estimated" => {
+                assert!(!info.why_not.is_empty(), "{name}");
+                assert!(p.get(Quantity::Alpha).is_none(), "{name}");
+                assert!(q.air_data.contains("was not made"), "{name}: {}", q.air_data);
+            }
+            s => panic!("{name}: status {s}"),
+        }
+        assert!(!q.supports_verdict, "{name}");
+        if let Ok(r) = run_gaps(&f, &GapSettings::default()) {
+            assert!(
+                r.named.is_empty() && r.verdict.starts_with("no verdict"),
+                "{name}: {}",
+                r.verdict
+            );
+        }
+    }
+}
+
+#[test]
+fn an_optional_channel_that_starts_late_is_read_inside_a_window_that_it_covers() {
+    // The handheld ArduPlane log: the EKF (XKF1, XKF2) starts 1.5 s after the attitude, so the
+    // whole log's window leaves its velocity and wind out, with a warning naming the way in.
+    let f = read("pyflightcoach_center_0003.bin", &ReadOptions::default());
+    assert!(f.get(Quantity::VelocityNorth).is_none());
+    assert!(f
+        .log
+        .warnings
+        .iter()
+        .any(|w| w.contains("XKF1[0].VN") && w.contains("--from/--to")));
+    let o = ReadOptions {
+        from_s: Some(6.0),
+        ..ReadOptions::default()
+    };
+    let f = read("pyflightcoach_center_0003.bin", &o);
+    for q in [
+        Quantity::VelocityNorth,
+        Quantity::VelocityEast,
+        Quantity::VelocityDown,
+        Quantity::WindNorth,
+        Quantity::WindEast,
+    ] {
+        assert!(f.get(q).is_some(), "{q}");
+    }
+    // Walked by hand: the ground speed stays under 2 m/s (the README).
+    let vn = f.get(Quantity::VelocityNorth).expect("vel_n");
+    let ve = f.get(Quantity::VelocityEast).expect("vel_e");
+    let mut speed: Vec<f64> = vn.iter().zip(ve).map(|(n, e)| n.hypot(*e)).collect();
+    speed.sort_by(f64::total_cmp);
+    println!(
+        "EKF ground speed: median {:.2} m/s, max {:.2} m/s",
+        speed[speed.len() / 2],
+        speed[speed.len() - 1]
+    );
+    assert!(speed[speed.len() / 2] < 2.0, "a walk, not a flight");
+    // No airspeed: the autopilot's wind would be used, but on the ground the angles are wild,
+    // and the estimate is refused, saying so.
+    let p = prepare(&f, FlowAngleChoice::Auto, &WindFitSettings::default());
+    let info = p.log.flow_angles.clone().expect("ran");
+    println!("{:?}", info.why_not);
+    assert_eq!(info.status, "not estimated");
+    assert!(p.get(Quantity::Alpha).is_none());
+}
+
+#[test]
+fn the_command_takes_the_flow_angle_choice() {
+    let exe = env!("CARGO_BIN_EXE_aerosid");
+    let dir = scratch("flow");
+    // log_52 has GPS velocity and airspeed, but 8 s of flight turn it by only 84°: the estimate
+    // is refused and the data quality says why.
+    let o = std::process::Command::new(exe)
+        .args(["gaps", "--flow-angles", "estimated", "--data"])
+        .arg(logs().join(LOG_52))
+        .arg("--out")
+        .arg(dir.join("log52"))
+        .output()
+        .expect("run aerosid");
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(
+        out.contains("α-free estimate") && out.contains("heading spans only"),
+        "{out}"
+    );
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("log52/report.json")).expect("report.json"))
+            .expect("parse");
+    let fa = &json["data_quality"]["flow_angles"];
+    assert_eq!(fa["status"], serde_json::json!("not estimated"), "{fa}");
+    assert!(
+        fa["fit"]["blocks"][0]["heading_span_deg"]
+            .as_f64()
+            .is_some_and(|d| d < 90.0),
+        "{fa}"
+    );
+    // An unknown choice is a usage error naming the choices.
+    let o = std::process::Command::new(exe)
+        .args(["gaps", "--flow-angles", "vane", "--data"])
+        .arg(logs().join(LOG_52))
+        .output()
+        .expect("run aerosid");
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("estimated"));
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -9,6 +9,7 @@
 use aerosid::gaps::airdata::AirDataChoice;
 use aerosid::gaps::hidden::{HiddenEffect, HiddenKind};
 use aerosid::gaps::model::Term;
+use aerosid::io::flow_angles::FlowAngleChoice;
 use aerosid::report::MainJob;
 use clap::builder::{PossibleValuesParser, TypedValueParser};
 use clap::{ArgGroup, Args, CommandFactory, Parser, Subcommand, ValueEnum};
@@ -394,6 +395,11 @@ fn hidden_kind_parser() -> impl TypedValueParser<Value = HiddenKind> {
         .try_map(|s| HiddenKind::parse(&s).ok_or_else(|| format!("unknown kind `{s}`")))
 }
 
+fn flow_angles_parser() -> impl TypedValueParser<Value = FlowAngleChoice> {
+    PossibleValuesParser::new(["auto", "vanes", "estimated", "none"])
+        .try_map(|s| FlowAngleChoice::parse(&s).ok_or_else(|| format!("unknown flow-angle choice `{s}`")))
+}
+
 fn air_data_parser() -> impl TypedValueParser<Value = AirDataChoice> {
     PossibleValuesParser::new(AIR_DATA_NAMES)
         .try_map(|s| AirDataChoice::parse(&s).ok_or_else(|| format!("unknown air-data choice `{s}`")))
@@ -459,6 +465,12 @@ struct GapsArgs {
     /// auto (fused when both exist).
     #[arg(long, value_name = "CHOICE", default_value = "auto", value_parser = air_data_parser())]
     air_data: AirDataChoice,
+    /// Where α and β come from: the vanes (vanes), an estimate from the ground velocity, the
+    /// attitude and a wind fitted with the pitot scale (estimated; replaces any vanes), neither
+    /// (none), or auto: the vanes when logged, else estimated when the data allow it
+    /// (docs/measured-data.md, "the α-free mode").
+    #[arg(long, value_name = "CHOICE", default_value = "auto", value_parser = flow_angles_parser())]
+    flow_angles: FlowAngleChoice,
     /// Keep the named sensor errors instead of removing them before the aerodynamics.
     #[arg(long)]
     no_corrections: bool,
@@ -551,6 +563,7 @@ impl Execute for GapsArgs {
         }
         let settings = aerosid::gaps::GapSettings {
             air_data: self.air_data,
+            flow_angles: self.flow_angles,
             apply_corrections: !self.no_corrections,
             compatibility: matches!(self.compatibility, OnOff::On),
             baseline: self.baseline.clone(),
@@ -597,7 +610,12 @@ fn gaps(flight: &aerosid::io::measured::MeasuredFlight, out: &Path, settings: ae
         Err(e) => {
             // What the data can and cannot support is said even when the analysis cannot run
             // (too few samples, no coefficient): the table here, data_quality.json in `out`.
-            let q = aerosid::io::quality::assess(flight);
+            let prepared = aerosid::io::flow_angles::prepare(
+                flight,
+                settings.flow_angles,
+                &aerosid::io::flow_angles::WindFitSettings::default(),
+            );
+            let q = aerosid::io::quality::assess(&prepared);
             print!("{}", aerosid::io::quality::table(&q));
             let json = serde_json::json!({
                 "schema": "aerosid-data-quality/1",

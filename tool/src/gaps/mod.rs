@@ -46,6 +46,7 @@ pub mod select;
 pub mod signal;
 pub mod simulate;
 
+use crate::io::flow_angles::{FlowAngleChoice, WindFitSettings};
 use crate::io::measured::{MeasuredFlight, Quantity};
 use airdata::AirDataChoice;
 use compat::{CompatSettings, Compatibility, SensorParam};
@@ -89,6 +90,10 @@ pub struct GapSettings {
     /// The errors-in-variables model of the fits ([`noise`]): `Some` (default) — PCA-GTLS with
     /// `W_T` from the Monte Carlo; `None` — every column exact (ordinary least squares).
     pub errors_in_variables: Option<MonteCarlo>,
+    /// Where α and β come from ([`crate::io::flow_angles`]): default
+    /// [`FlowAngleChoice::Auto`] — the vanes when logged, else estimated from the ground velocity,
+    /// the attitude and a fitted wind when the data allow it.
+    pub flow_angles: FlowAngleChoice,
 }
 
 impl Default for GapSettings {
@@ -104,6 +109,7 @@ impl Default for GapSettings {
             air_data: AirDataChoice::Auto,
             apply_corrections: true,
             errors_in_variables: Some(MonteCarlo::default()),
+            flow_angles: FlowAngleChoice::Auto,
         }
     }
 }
@@ -454,6 +460,11 @@ fn percentile(x: &[f64], p: f64) -> f64 {
 /// The analysis of a measured flight (the hook every front end calls: simulated flights, and file
 /// readers producing [`MeasuredFlight`]).
 pub fn run_gaps(flight: &MeasuredFlight, settings: &GapSettings) -> Result<GapReport, GapError> {
+    // α and β: the vanes, or the α-free estimate, as `flow_angles` asks (the data-quality
+    // assessment below reads what was done from the flight's metadata).
+    let prepared = crate::io::flow_angles::prepare(flight, settings.flow_angles, &WindFitSettings::default());
+    let flight = &prepared;
+    let alpha_estimated = flight.log.flow_angles.as_ref().is_some_and(|f| f.status == "estimated");
     let h = check_input(flight)?;
     let n = flight.len();
     let max_lag = ((settings.max_lag_s / h).round() as usize).max(1);
@@ -667,6 +678,18 @@ pub fn run_gaps(flight: &MeasuredFlight, settings: &GapSettings) -> Result<GapRe
     } else {
         Vec::new()
     };
+    if alpha_estimated {
+        // No vane is fitted: a "vane" error the compatibility check names is an error of the
+        // wind estimate (or the attitude), not a sensor to fix, so it is not named as one.
+        let before = named.len();
+        named.retain(|c| !matches!(c.location.as_str(), "Alpha" | "Beta"));
+        if named.len() < before {
+            notes.push(format!(
+                "{} α/β sensor error(s) found by the compatibility check not named: α and β are estimated (wind triangle), not measured by a vane",
+                before - named.len()
+            ));
+        }
+    }
     let mut data_quality = crate::io::quality::assess(flight);
     crate::io::quality::after_analysis(&mut data_quality, &coefficients, &regression);
     let verdict = if data_quality.supports_verdict {

@@ -107,7 +107,7 @@ pub fn dimension(q: Quantity) -> Dimension {
         AccelX | AccelY | AccelZ => Dimension::Acceleration,
         RollRate | PitchRate | YawRate | PropSpeed => Dimension::AngularRate,
         RollAccel | PitchAccel | YawAccel => Dimension::AngularAcceleration,
-        Airspeed => Dimension::Speed,
+        Airspeed | VelocityNorth | VelocityEast | VelocityDown | WindNorth | WindEast => Dimension::Speed,
         Alpha | Beta | Roll | Pitch | Yaw | Elevator | Aileron | Rudder | Flap => Dimension::Angle,
         Throttle | Mach => Dimension::Ratio,
         Thrust | ThrustDifference => Dimension::Force,

@@ -32,6 +32,14 @@
 //! | alpha, beta | `AOA.AOA`, `AOA.SSA` (dropped, with a warning, when every sample is zero: no vane) |
 //! | altitude | `BARO.Alt` |
 //! | throttle | the `RCOU` output whose `SERVOn_FUNCTION` is 70, scaled by `SERVOn_MIN`/`MAX` |
+//! | vel_n, vel_e, vel_d (optional) | `XKF1.VN/VE/VD` (EKF3), else `NKF1.VN/VE/VD` (EKF2), else `GPS.Spd`·(cos, sin)`GPS.GCrs` and `GPS.VZ` |
+//! | wind_n, wind_e (optional) | `XKF2.VWN/VWE`, else `NKF2.VWN/VWE` (the EKF's wind estimate) |
+//!
+//! The EKF's velocity is preferred to the GPS's: it is logged faster, blends the GPS with the
+//! IMU, and is the same filter's solution as the `ATT` attitude the α-free mode
+//! ([`super::flow_angles`]) rotates it with. The optional channels do not cut the window: one that
+//! does not cover it (to within two of its own intervals, held at its ends) or is not finite in
+//! it is left out with a warning.
 //!
 //! Surface outputs (`SERVOn_FUNCTION` 4 aileron, 19 elevator, 21 rudder) are PWM; their throw in
 //! radians is the airframe's and is not logged, so they are named in a warning, not read.
@@ -337,6 +345,9 @@ pub fn list_messages(path: &Path) -> Result<String, ReadError> {
     Ok(out)
 }
 
+/// A field read: its source name, times (µs) and SI values.
+type NamedSeries = (String, Vec<f64>, Vec<f64>);
+
 /// A channel to read: quantity, message, label, SI unit, the factor when the log names no unit.
 type Want = (Quantity, &'static str, &'static str, &'static str, f64);
 
@@ -425,6 +436,92 @@ pub fn parse_dataflash(
             s.values[j].iter().map(|v| v * factor).collect(),
         ));
     }
+    // Optional channels: the ground velocity (α-free mode) and the autopilot's wind. The EKF's
+    // velocity (`XKF1`, EKF3, else `NKF1`, EKF2) is preferred to the GPS's: it is logged faster
+    // than the GPS (which is 5–10 Hz), blends the GPS with the IMU, and is the same filter's
+    // solution as the `ATT` attitude the α/β estimate rotates it with. Else `GPS.Spd` and
+    // `GPS.GCrs` (ground speed and course over ground) give north and east, and `GPS.VZ` (down,
+    // positive descending, as ArduPilot logs the GPS's NED velocity) the vertical.
+    let field_of = |msg: &str, label: &str, si: &str, default: f64| -> Result<Option<NamedSeries>, ReadError> {
+        let Some((src, s)) = series(msg) else { return Ok(None) };
+        let Some(j) = s.labels.iter().position(|l| l == label) else {
+            return Ok(None);
+        };
+        let factor = match log.units.get(msg).and_then(|m| m.get(label)) {
+            Some(u) => unit_factor(u, si).ok_or_else(|| {
+                err(format!(
+                    "`{msg}.{label}` is logged in `{u}` (FMTU/UNIT), which this reader cannot convert to {si}"
+                ))
+            })?,
+            None => default,
+        };
+        Ok(Some((
+            format!("{src}.{label}"),
+            s.time_us.clone(),
+            s.values[j].iter().map(|v| v * factor).collect(),
+        )))
+    };
+    // An optional channel in a unit this reader cannot convert is left out with a warning, not a
+    // reason to refuse the log.
+    let opt = |r: Result<Option<NamedSeries>, ReadError>, w: &mut Vec<String>| match r {
+        Ok(x) => x,
+        Err(e) => {
+            w.push(format!("{}; this optional channel is not read", e.message));
+            None
+        }
+    };
+    let mut optional: Vec<(Quantity, String, Vec<f64>, Vec<f64>)> = Vec::new();
+    let mut ekf_velocity = false;
+    for msg in ["XKF1", "NKF1"] {
+        if let (Some(n), Some(e), Some(d)) = (
+            opt(field_of(msg, "VN", "m/s", 1.0), &mut warnings),
+            opt(field_of(msg, "VE", "m/s", 1.0), &mut warnings),
+            opt(field_of(msg, "VD", "m/s", 1.0), &mut warnings),
+        ) {
+            for (q, (src, t, v)) in [
+                (Quantity::VelocityNorth, n),
+                (Quantity::VelocityEast, e),
+                (Quantity::VelocityDown, d),
+            ] {
+                optional.push((q, src, t, v));
+            }
+            ekf_velocity = true;
+            break;
+        }
+    }
+    if !ekf_velocity {
+        if let (Some(spd), Some(crs), Some(vz)) = (
+            opt(field_of("GPS", "Spd", "m/s", 1.0), &mut warnings),
+            opt(field_of("GPS", "GCrs", "rad", PI / 180.0), &mut warnings),
+            opt(field_of("GPS", "VZ", "m/s", 1.0), &mut warnings),
+        ) {
+            let north: Vec<f64> = spd.2.iter().zip(&crs.2).map(|(v, c)| v * c.cos()).collect();
+            let east: Vec<f64> = spd.2.iter().zip(&crs.2).map(|(v, c)| v * c.sin()).collect();
+            optional.push((
+                Quantity::VelocityNorth,
+                format!("{} × cos {}", spd.0, crs.0),
+                spd.1.clone(),
+                north,
+            ));
+            optional.push((
+                Quantity::VelocityEast,
+                format!("{} × sin {}", spd.0, crs.0),
+                spd.1.clone(),
+                east,
+            ));
+            optional.push((Quantity::VelocityDown, vz.0, vz.1, vz.2));
+        }
+    }
+    for msg in ["XKF2", "NKF2"] {
+        if let (Some(n), Some(e)) = (
+            opt(field_of(msg, "VWN", "m/s", 1.0), &mut warnings),
+            opt(field_of(msg, "VWE", "m/s", 1.0), &mut warnings),
+        ) {
+            optional.push((Quantity::WindNorth, n.0, n.1, n.2));
+            optional.push((Quantity::WindEast, e.0, e.1, e.2));
+            break;
+        }
+    }
     if raw.iter().any(|(q, ..)| *q == Quantity::Airspeed) {
         warnings.push("`ARSP.Airspeed` is ArduPilot's equivalent airspeed; it is used as the true airspeed (no EAS2TAS correction: about 1 % low per 200 m of density altitude)".into());
     }
@@ -488,7 +585,7 @@ pub fn parse_dataflash(
         )));
     }
     // Times strictly increasing per series (drop repeats), finite values checked in the window.
-    for (_, src, t, v) in raw.iter_mut() {
+    for (_, src, t, v) in raw.iter_mut().chain(optional.iter_mut()) {
         let mut keep = Vec::with_capacity(t.len());
         let mut last = f64::NEG_INFINITY;
         for (i, &ti) in t.iter().enumerate() {
@@ -670,6 +767,55 @@ pub fn parse_dataflash(
         channels.insert(*q, out);
         logged_rate_hz.insert(*q, count_in(t) as f64 / ((hi - lo + h_us) * 1e-6));
     }
+    // The optional channels: read where they cover the window (to within two of their own
+    // intervals, held at their ends) and are finite in it; else left out with a warning.
+    for (q, src, t, v) in &optional {
+        let dt = median(&t.windows(2).map(|w| w[1] - w[0]).collect::<Vec<_>>());
+        if t.len() < 2 || t[0] > lo + 2.0 * dt || t[t.len() - 1] < hi - 2.0 * dt {
+            warnings.push(format!(
+                "`{src}` ({q}) covers {:.3}…{:.3} s, not the window {:.3}…{:.3} s: not read (choose a window inside it with --from/--to to read it)",
+                t.first().copied().unwrap_or(0.0) * 1e-6,
+                t.last().copied().unwrap_or(0.0) * 1e-6,
+                lo * 1e-6,
+                hi * 1e-6
+            ));
+            continue;
+        }
+        let i0 = t.partition_point(|&x| x < lo).saturating_sub(1);
+        let i1 = (t.partition_point(|&x| x <= hi) + 1).min(t.len());
+        if let Some(i) = v[i0..i1].iter().position(|x| !x.is_finite()) {
+            warnings.push(format!(
+                "`{src}` is {} at t = {:.6} s inside the window: {q} not read",
+                v[i0 + i],
+                t[i0 + i] * 1e-6
+            ));
+            continue;
+        }
+        if let Some((count, longest, at)) = gaps(t, lo, hi) {
+            warnings.push(format!(
+                "`{src}`: {count} gap{} longer than {GAP_FACTOR} × its median interval, the longest {:.3} s from t = {:.3} s (interpolated across)",
+                if count == 1 { "" } else { "s" },
+                longest * 1e-6,
+                at * 1e-6
+            ));
+        }
+        let mut j = 0usize;
+        let out: Vec<f64> = grid
+            .iter()
+            .map(|&tq| {
+                while j + 1 < t.len() && t[j + 1] < tq {
+                    j += 1;
+                }
+                if j + 1 >= t.len() || tq <= t[j] {
+                    v[j.min(t.len() - 1)]
+                } else {
+                    v[j] + (tq - t[j]) / (t[j + 1] - t[j]) * (v[j + 1] - v[j])
+                }
+            })
+            .collect();
+        channels.insert(*q, out);
+        logged_rate_hz.insert(*q, count_in(t) as f64 / ((hi - lo + h_us) * 1e-6));
+    }
     let flight = MeasuredFlight {
         source: file.to_string(),
         t_s: grid.iter().map(|t| t * 1e-6).collect(),
@@ -692,12 +838,13 @@ pub fn parse_dataflash(
             aircraft_unknown: false,
             parameters: log.parameters.clone(),
             warnings,
+            flow_angles: None,
         },
     };
     flight.validate().map_err(|inv| {
         let src = inv
             .quantity
-            .and_then(|q| raw.iter().find(|r| r.0 == q))
+            .and_then(|q| raw.iter().chain(&optional).find(|r| r.0 == q))
             .map_or(String::new(), |r| format!(" (from `{}`)", r.1));
         let at = inv.sample.map_or(String::new(), |k| {
             format!(" at output sample {k} (t = {:.6} s)", flight.t_s[k])

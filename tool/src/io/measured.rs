@@ -69,6 +69,18 @@ pub enum Quantity {
     Altitude,
     /// Mach number.
     Mach,
+    /// Ground (inertial) velocity, north component, NED, m/s (GPS or the navigation filter).
+    VelocityNorth,
+    /// Ground velocity, east component, NED, m/s.
+    VelocityEast,
+    /// Ground velocity, down component, NED, m/s (positive descending).
+    VelocityDown,
+    /// The autopilot's own wind estimate, north component (velocity of the air), m/s; logged for
+    /// comparison and as the wind of last resort when no airspeed is logged
+    /// ([`crate::io::flow_angles`]).
+    WindNorth,
+    /// The autopilot's wind estimate, east component, m/s.
+    WindEast,
 }
 
 /// How thrust is known.
@@ -188,6 +200,10 @@ pub struct LogMeta {
     pub parameters: BTreeMap<String, f64>,
     /// Warnings from reading (each a sentence naming the topic or message).
     pub warnings: Vec<String>,
+    /// Where α and β come from when the α-free mode ([`super::flow_angles::prepare`]) was run:
+    /// the vanes, an estimate (with its wind fit and uncertainty) or why there is none
+    /// (`None`: not run; the vanes as logged).
+    pub flow_angles: Option<super::flow_angles::FlowAngles>,
 }
 
 impl MeasuredFlight {
@@ -242,7 +258,7 @@ impl MeasuredFlight {
 
 impl Quantity {
     /// Every quantity, in declaration order.
-    pub const ALL: [Quantity; 27] = [
+    pub const ALL: [Quantity; 32] = [
         Quantity::AccelX,
         Quantity::AccelY,
         Quantity::AccelZ,
@@ -270,6 +286,11 @@ impl Quantity {
         Quantity::AirDensity,
         Quantity::Altitude,
         Quantity::Mach,
+        Quantity::VelocityNorth,
+        Quantity::VelocityEast,
+        Quantity::VelocityDown,
+        Quantity::WindNorth,
+        Quantity::WindEast,
     ];
 
     /// The snake-case name used in column-map files and error messages (`pitch_rate`).
@@ -303,6 +324,11 @@ impl Quantity {
             AirDensity => "air_density",
             Altitude => "altitude",
             Mach => "mach",
+            VelocityNorth => "vel_n",
+            VelocityEast => "vel_e",
+            VelocityDown => "vel_d",
+            WindNorth => "wind_n",
+            WindEast => "wind_e",
         }
     }
 
@@ -318,7 +344,7 @@ impl Quantity {
             AccelX | AccelY | AccelZ => "m/s2",
             RollRate | PitchRate | YawRate => "rad/s",
             RollAccel | PitchAccel | YawAccel => "rad/s2",
-            Airspeed => "m/s",
+            Airspeed | VelocityNorth | VelocityEast | VelocityDown | WindNorth | WindEast => "m/s",
             Alpha | Beta | Roll | Pitch | Yaw | Elevator | Aileron | Rudder | Flap => "rad",
             Throttle | Mach => "1",
             PropSpeed => "rad/s",
@@ -407,6 +433,9 @@ fn bounds(q: Quantity) -> Option<Bounds> {
         // a negative airspeed on the ground is not a unit error; −20 m/s is.
         Airspeed => b(-20.0, 350.0, 350.0, "ft/s or km/h given as m/s?"),
         AirDensity => b(0.1, 1.6, 1.6, "slug/ft³ given as kg/m³?"),
+        // A small UAV's ground speed stays well below 150 m/s; a log in km/h or cm/s passes it.
+        VelocityNorth | VelocityEast | VelocityDown => b(-150.0, 150.0, 100.0, "km/h, knots or cm/s given as m/s?"),
+        WindNorth | WindEast => b(-60.0, 60.0, 40.0, "km/h or knots given as m/s?"),
         DynamicPressure => b(-500.0, 1.0e5, 1.0e5, "hPa or kPa given as Pa?"),
         Throttle => b(-0.05, 1.05, 1.05, "percent given as a fraction 0…1?"),
         Mach => b(0.0, 3.0, 3.0, "not a Mach number?"),

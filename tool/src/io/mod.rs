@@ -13,6 +13,8 @@
 //! * [`dataflash`] — ArduPilot DataFlash (`.bin`), the same way.
 //! * [`mat`] — MATLAB `.mat` (level 5) through the `matfile` crate, a matrix read through a
 //!   column map as an ASCII file is.
+//! * [`flow_angles`] — the α-free mode: α and β estimated from the ground velocity, the attitude
+//!   and a wind fitted with the pitot scale (wind triangle), when no vane is logged.
 //! * [`quality`] — what a flight can and cannot support: rates, duration, gaps, saturation,
 //!   constant columns, excitation, which coefficients are identifiable from what is logged.
 //!
@@ -24,6 +26,7 @@
 pub mod aircraft;
 pub mod colmap;
 pub mod dataflash;
+pub mod flow_angles;
 pub mod log;
 pub mod mat;
 pub mod measured;

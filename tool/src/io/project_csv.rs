@@ -48,6 +48,11 @@ pub fn csv_column(q: Quantity) -> &'static str {
         DynamicPressure => "dynamic_pressure_pa",
         Altitude => "altitude_m",
         Mach => "mach",
+        VelocityNorth => "vel_ned_mps_n",
+        VelocityEast => "vel_ned_mps_e",
+        VelocityDown => "vel_ned_mps_d",
+        WindNorth => "wind_ned_mps_n",
+        WindEast => "wind_ned_mps_e",
     }
 }
 

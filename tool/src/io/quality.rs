@@ -13,6 +13,11 @@
 //!   thrust → C_D holds thrust too (not separable); no α/β vane → no α, β (the analysis's inertial
 //!   reconstruction, which assumes steady air per segment, is anchored to a measured α), so no
 //!   C_L, C_D and no α or β derivative.
+//!   With the α-free mode ([`super::flow_angles`]) α and β are estimated from the ground velocity,
+//!   the attitude and a fitted wind; the air data then say so with the wind, the pitot scale and
+//!   α's σ, the assumptions are listed in the warnings, and each coefficient's notes give the
+//!   uncertainty it inherits (β derivatives flagged weak where the sideslip excitation is under
+//!   3 σ).
 //! * **Whether a verdict is supported** — if not, the reasons, and the gap analysis names nothing
 //!   ([`crate::gaps::run_gaps`] clears its causes and says "no verdict").
 //!
@@ -32,6 +37,10 @@
 //!   nothing aerodynamic.
 //! * **The baseline predicts something.** If no coefficient's baseline has a held-out R² above
 //!   zero, the model explains nothing on new data, and a "missing term" cannot be told from noise.
+//! * **An estimated α good enough to rest a verdict on**: σ_α ≤ 0.035 rad (2°) and α varying by
+//!   at least 3 × its σ after the analysis's smoothing (RMS; then an errors-in-variables bias of
+//!   the α terms is at most 1/9 ≈ 11 %); an α from the autopilot's wind estimate (unknown σ)
+//!   supports none.
 //! * Warnings only: condition number of the baseline's regressors (columns scaled to unit length)
 //!   above 100, a baseline parameter with |value| < 2σ, a control at its limit for more than 5 %
 //!   of the samples.
@@ -54,6 +63,12 @@ pub const MIN_AIRSPEED_RATE_HZ: f64 = 2.0;
 pub const WARN_CONDITION: f64 = 100.0;
 /// Share of samples at a control's limit above which it is called saturated.
 pub const SATURATED_SHARE: f64 = 0.05;
+/// Above this 1-σ of an estimated α (no vane), rad, no verdict (2°: about the α excursion of a
+/// small UAV's elevator doublet, so a larger error would mask any α term).
+pub const MAX_ESTIMATED_ALPHA_SIGMA_RAD: f64 = 0.035;
+/// An estimated α or β must vary by at least this many times its σ (RMS) for its derivatives to
+/// be told from the estimate's error.
+pub const MIN_EXCITATION_OVER_SIGMA: f64 = 3.0;
 
 /// Whether one coefficient can be identified from what is logged.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -83,6 +98,9 @@ pub struct DataQuality {
     pub resampling: Option<String>,
     /// Where α and β come from.
     pub air_data: String,
+    /// The α-free mode's estimate (wind fit, pitot scale, α/β σ, assumptions) or why there is
+    /// none; `None` when it was not run.
+    pub flow_angles: Option<super::flow_angles::FlowAngles>,
     /// Warnings.
     pub warnings: Vec<String>,
     /// Per coefficient, what can be identified.
@@ -118,7 +136,23 @@ pub fn assess(flight: &MeasuredFlight) -> DataQuality {
         ));
     }
     for (&q, &r) in &meta.logged_rate_hz {
-        let motion = !matches!(q, Airspeed | AirDensity | Altitude | Throttle | DynamicPressure | Mach);
+        // The ground velocity and the autopilot's wind are slow channels (GPS 5–10 Hz, wind 1 Hz):
+        // they feed the α-free mode's wind fit, not the dynamics, and are not held to the motion
+        // channels' rates.
+        let motion = !matches!(
+            q,
+            Airspeed
+                | AirDensity
+                | Altitude
+                | Throttle
+                | DynamicPressure
+                | Mach
+                | VelocityNorth
+                | VelocityEast
+                | VelocityDown
+                | WindNorth
+                | WindEast
+        );
         if r < rate_hz * 0.99 {
             if q == Airspeed && r < MIN_AIRSPEED_RATE_HZ {
                 why_not.push(format!(
@@ -190,11 +224,45 @@ pub fn assess(flight: &MeasuredFlight) -> DataQuality {
     }
     let live = |q: Quantity| has(q) && !constant.contains(&q);
     // Air data.
-    let air_data = if live(Alpha) {
+    let flow = meta.flow_angles.as_ref();
+    let estimated = flow.is_some_and(|f| f.status == "estimated") && live(Alpha);
+    let no_vane = "no α/β vane: none. The analysis's inertial reconstruction (`--air-data reconstructed`) integrates the accelerometers and gyros with steady air assumed per 5-s segment, but anchors each segment to a measured α (`gaps::compat::velocity_problem`), so without a vane there is no α or β: C_L and C_D (wind axes) and every α or β term are not identified";
+    let air_data = if estimated {
+        let f = flow.map_or(String::new(), |f| f.summary.clone());
+        format!("estimated (no vane used): {f}")
+    } else if live(Alpha) {
         "measured: α (and β where logged) from vanes, airspeed from the pitot".to_string()
     } else {
-        "no α/β vane: none. The analysis's inertial reconstruction (`--air-data reconstructed`) integrates the accelerometers and gyros with steady air assumed per 5-s segment, but anchors each segment to a measured α (`gaps::compat::velocity_problem`), so without a vane there is no α or β: C_L and C_D (wind axes) and every α or β term are not identified".to_string()
+        match flow {
+            Some(f) if f.status == "off" => format!("{no_vane} ({})", f.summary),
+            Some(f) if !f.why_not.is_empty() => format!(
+                "{no_vane}. The α-free estimate (GPS velocity, attitude, wind) was not made: {}",
+                f.why_not.join("; ")
+            ),
+            _ => no_vane.to_string(),
+        }
     };
+    if let Some(f) = flow.filter(|_| estimated) {
+        for a in &f.assumptions {
+            warnings.push(format!("α-free mode: {a}"));
+        }
+        if f.alpha_sigma_rad > MAX_ESTIMATED_ALPHA_SIGMA_RAD {
+            why_not.push(format!(
+                "the estimated α is uncertain to σ ≈ {:.3} rad ({:.1}°), more than {:.3} rad: a missing α term could not be told from the wind estimate's error",
+                f.alpha_sigma_rad,
+                f.alpha_sigma_rad.to_degrees(),
+                MAX_ESTIMATED_ALPHA_SIGMA_RAD
+            ));
+        } else if !f.alpha_sigma_rad.is_finite() {
+            why_not.push("the estimated α comes from the autopilot's wind estimate, whose uncertainty is unknown: no verdict rests on it".into());
+        }
+        if f.alpha_excitation_rad < MIN_EXCITATION_OVER_SIGMA * f.alpha_sigma_smoothed_rad {
+            why_not.push(format!(
+                "the estimated α varies by {:.3} rad RMS, less than {MIN_EXCITATION_OVER_SIGMA} × its σ after smoothing ({:.3} rad; gusts the constant wind does not follow): the α terms cannot be told from the estimate's error, and their fits would be biased low (errors in variables)",
+                f.alpha_excitation_rad, f.alpha_sigma_smoothed_rad
+            ));
+        }
+    }
     // What can be identified.
     let inertia = flight.aircraft.inertia_kgm2;
     let lateral_inertia = inertia[(0, 0)].is_finite() && inertia[(2, 2)].is_finite() && inertia[(0, 2)].is_finite();
@@ -221,6 +289,14 @@ pub fn assess(flight: &MeasuredFlight) -> DataQuality {
                 if !live(*q) {
                     ok = false;
                     notes.push(format!("no `{}`: the force is not measured", name(*q)));
+                }
+            }
+            if matches!(coef, "C_L" | "C_D") && estimated {
+                if let Some(f) = flow {
+                    notes.push(format!(
+                        "α estimated, not measured (σ ≈ {:.3} rad): the wind axes and the α derivatives carry that uncertainty",
+                        f.alpha_sigma_rad
+                    ));
                 }
             }
             if matches!(coef, "C_L" | "C_D") && !live(Alpha) {
@@ -273,6 +349,28 @@ pub fn assess(flight: &MeasuredFlight) -> DataQuality {
         if matches!(coef, "C_Y" | "C_l" | "C_n") && !live(Beta) {
             notes.push("no β: no β derivative (no vane)".into());
         }
+        if let Some(f) = flow.filter(|_| estimated) {
+            if coef == "C_m" {
+                notes.push(format!(
+                    "C_mα from the estimated α (σ ≈ {:.3} rad, α varies by {:.3} rad RMS)",
+                    f.alpha_sigma_rad, f.alpha_excitation_rad
+                ));
+            }
+            if matches!(coef, "C_Y" | "C_l" | "C_n") {
+                let weak = f.beta_excitation_rad.is_nan()
+                    || f.beta_excitation_rad < MIN_EXCITATION_OVER_SIGMA * f.beta_sigma_smoothed_rad;
+                notes.push(format!(
+                    "β estimated (σ ≈ {:.3} rad; β varies by {:.3} rad RMS){}",
+                    f.beta_sigma_rad,
+                    f.beta_excitation_rad,
+                    if weak {
+                        format!(": the sideslip excitation is under {MIN_EXCITATION_OVER_SIGMA} × the estimate's σ, so the β derivatives are weakly determined (fly rudder doublets)")
+                    } else {
+                        String::new()
+                    }
+                ));
+            }
+        }
         coefficients.push(Identifiability {
             coefficient: coef.to_string(),
             identifiable: ok,
@@ -290,6 +388,7 @@ pub fn assess(flight: &MeasuredFlight) -> DataQuality {
         window: meta.window.clone(),
         resampling: meta.resampling.clone(),
         air_data,
+        flow_angles: flow.cloned(),
         warnings,
         coefficients,
         supports_verdict: why_not.is_empty(),

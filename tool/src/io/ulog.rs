@@ -24,6 +24,12 @@
 //! | air density, altitude | `vehicle_air_data.rho`, `vehicle_air_data.baro_alt_meter` | if present |
 //! | alpha, beta | `airflow_aoa.aoa_rad`, `airflow_slip.slip_rad` | if present |
 //! | throttle | `actuator_motors.control[0]`, else `actuator_controls_0.control[3]` | if present |
+//! | vel_n, vel_e, vel_d (ground velocity, NED) | `vehicle_local_position.vx,vy,vz` (the navigation filter's), else `vehicle_gps_position` or `sensor_gps` `.vel_n_m_s, vel_e_m_s, vel_d_m_s` | optional |
+//! | wind_n, wind_e (the autopilot's wind estimate) | `wind`, else `wind_estimate` `.windspeed_north, windspeed_east` | optional |
+//!
+//! The optional channels (for the α-free mode, [`super::flow_angles`]) do not cut the window: a
+//! topic that does not cover it (to within two of its own intervals, held at its ends) or is not
+//! finite in it is left out, with a warning, rather than shortening the flight or refusing it.
 //!
 //! A channel the log lacks is simply absent; the data-quality assessment
 //! ([`super::quality`]) says what can then not be identified (no airspeed: no coefficient).
@@ -239,7 +245,7 @@ fn decode_u64(b: &[u8]) -> Option<u64> {
 }
 
 /// The topics the built-in mapping reads.
-const BUILTIN_TOPICS: [&str; 14] = [
+const BUILTIN_TOPICS: [&str; 19] = [
     "vehicle_attitude",
     "vehicle_angular_velocity",
     "sensor_combined",
@@ -254,6 +260,11 @@ const BUILTIN_TOPICS: [&str; 14] = [
     "actuator_controls_0",
     "vehicle_land_detected",
     "actuator_outputs",
+    "vehicle_local_position",
+    "vehicle_gps_position",
+    "sensor_gps",
+    "wind",
+    "wind_estimate",
 ];
 
 /// How to decode one wanted message id: topic, time-field offset and name, every field's type
@@ -675,6 +686,36 @@ pub fn parse_ulog_with(
     if let Some(r) = field("actuator_motors", "control[0]").or_else(|| field("actuator_controls_0", "control[3]")) {
         builtin.push((Quantity::Throttle, r));
     }
+    // Optional channels (the ground velocity for the α-free mode, the autopilot's wind for
+    // comparison): they do not cut the window; one that does not cover it is left out, with a
+    // warning.
+    let mut optional: Vec<(Quantity, Resolved)> = Vec::new();
+    let velocity = [
+        ("vehicle_local_position", ["vx", "vy", "vz"]),
+        ("vehicle_gps_position", ["vel_n_m_s", "vel_e_m_s", "vel_d_m_s"]),
+        ("sensor_gps", ["vel_n_m_s", "vel_e_m_s", "vel_d_m_s"]),
+    ]
+    .into_iter()
+    .find_map(|(topic, names)| match names.map(|n| field(topic, n)) {
+        [Some(a), Some(b), Some(c)] => Some([a, b, c]),
+        _ => None,
+    });
+    if let Some([a, b, c]) = velocity {
+        optional.extend([
+            (Quantity::VelocityNorth, a),
+            (Quantity::VelocityEast, b),
+            (Quantity::VelocityDown, c),
+        ]);
+    }
+    let wind = ["wind", "wind_estimate"].into_iter().find_map(|topic| {
+        match (field(topic, "windspeed_north"), field(topic, "windspeed_east")) {
+            (Some(a), Some(b)) => Some([a, b]),
+            _ => None,
+        }
+    });
+    if let Some([a, b]) = wind {
+        optional.extend([(Quantity::WindNorth, a), (Quantity::WindEast, b)]);
+    }
     let attitude = match ["q[0]", "q[1]", "q[2]", "q[3]"].map(|n| field("vehicle_attitude", n)) {
         [Some(a), Some(b), Some(c), Some(d)] => Some([a, b, c, d]),
         _ => None,
@@ -734,6 +775,7 @@ pub fn parse_ulog_with(
     }
     // A map channel replaces the built-in of the same quantity.
     builtin.retain(|(q, _)| !map_has(*q));
+    optional.retain(|(q, _)| !map_has(*q));
     let attitude = if map_has(Quantity::Roll) || map_has(Quantity::Pitch) || map_has(Quantity::Yaw) {
         None
     } else {
@@ -999,6 +1041,69 @@ pub fn parse_ulog_with(
             logged_rate_hz.insert(*q, rate_of(r.topic));
         }
     }
+    // The optional channels: read where their topic covers the window (to within two of its own
+    // intervals; held at its ends) and is finite there.
+    let mut optional_topics: BTreeMap<&str, Vec<&(Quantity, Resolved)>> = BTreeMap::new();
+    for o in &optional {
+        optional_topics.entry(o.1.topic).or_default().push(o);
+    }
+    for (name, fields) in optional_topics {
+        let tp = &topics[name];
+        let t: Vec<f64> = tp.time_us.iter().map(|&x| x as f64).collect();
+        let dt = median(&t.windows(2).map(|w| w[1] - w[0]).collect::<Vec<_>>());
+        let what: Vec<&str> = fields.iter().map(|(q, _)| q.name()).collect();
+        if t.len() < 2 || t[0] > lo + 2.0 * dt || t[t.len() - 1] < hi - 2.0 * dt {
+            warnings.push(format!(
+                "`{name}` ({}) covers {:.3}…{:.3} s, not the window {:.3}…{:.3} s: not read (choose a window inside it with --from/--to to read it)",
+                what.join(", "),
+                t.first().copied().unwrap_or(0.0) * 1e-6,
+                t.last().copied().unwrap_or(0.0) * 1e-6,
+                lo * 1e-6,
+                hi * 1e-6
+            ));
+            continue;
+        }
+        let i0 = t.partition_point(|&x| x < lo).saturating_sub(1);
+        let i1 = (t.partition_point(|&x| x <= hi) + 1).min(t.len());
+        let bad = fields.iter().find_map(|(_, r)| {
+            tp.values[r.field][i0..i1]
+                .iter()
+                .position(|v| !v.is_finite())
+                .map(|i| (r, i + i0))
+        });
+        if let Some((r, i)) = bad {
+            let p = tp.places[i];
+            warnings.push(format!(
+                "ULog message #{} at byte {}: `{name}.{}` is {} inside the window: `{name}` ({}) not read",
+                p.index,
+                p.offset,
+                tp.names[r.field],
+                tp.values[r.field][i],
+                what.join(", ")
+            ));
+            continue;
+        }
+        if let Some((count, longest, at)) = gaps(&t, lo, hi) {
+            warnings.push(format!(
+                "`{name}`: {count} gap{} longer than {GAP_FACTOR} × its median interval in the window, the longest {:.3} s from t = {:.3} s (dropped messages; interpolated across)",
+                if count == 1 { "" } else { "s" },
+                longest * 1e-6,
+                at * 1e-6
+            ));
+        }
+        let k = t.iter().filter(|x| **x >= lo && **x <= hi).count();
+        for (q, r) in fields {
+            let mut j = 0;
+            channels.insert(
+                *q,
+                base_us
+                    .iter()
+                    .map(|&tq| interp(&t, &tp.values[r.field], tq, &mut j))
+                    .collect(),
+            );
+            logged_rate_hz.insert(*q, k as f64 / ((hi - lo + h_us) * 1e-6));
+        }
+    }
     let surfaces = [Quantity::Elevator, Quantity::Aileron, Quantity::Rudder];
     if !surfaces.iter().any(|q| channels.contains_key(q)) {
         let present: Vec<&str> = ["actuator_servos", "actuator_controls_0", "actuator_outputs"]
@@ -1035,6 +1140,7 @@ pub fn parse_ulog_with(
             aircraft_unknown: false,
             parameters: s.parameters,
             warnings,
+            flow_angles: None,
         },
     };
     flight.validate().map_err(|inv| {
@@ -1042,7 +1148,7 @@ pub fn parse_ulog_with(
             if let Some((_, _, rs)) = mapped.iter().find(|(c, _, _)| *c == q) {
                 rs.first()
                     .map_or(String::new(), |r| format!(" (from `{}`, map {})", r.topic, map.file))
-            } else if let Some((_, r)) = builtin.iter().find(|(c, _)| *c == q) {
+            } else if let Some((_, r)) = builtin.iter().chain(&optional).find(|(c, _)| *c == q) {
                 format!(" (from `{}.{}`)", r.topic, topics[r.topic].names[r.field])
             } else {
                 " (from `vehicle_attitude.q`)".to_string()
