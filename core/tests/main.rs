@@ -9,4 +9,5 @@ mod driver_ms4525do;
 mod faults_drivers;
 mod faults_sequence;
 mod faults_stuck;
+mod harness;
 mod mavlink;

@@ -11,13 +11,14 @@
 //! ≈ 1.91 kB/s of the 5.76 kB/s link (`stack_hw` is the stack high-water mark in bytes, `step_max`
 //! and `lock_max` the longest estimator step and estimator-lock hold in counter ticks).
 
-use crate::board::{ChipHealth, SensorHealth, TelemetryPort};
+use crate::board::{SensorHealth, TelemetryPort};
 use crate::estimate::{Estimator, StepCost, PROBES};
-use aerosid_core::aero::model::{channel, idx};
+use aerosid_core::aero::model::idx;
 use aerosid_core::aero::Pipeline;
+use aerosid_core::harness::SampleCounts;
 use aerosid_core::mavlink::frame::{CHECKSUM_LEN, HEADER_LEN_V2, MAV_COMP_ID_ONBOARD_COMPUTER};
 use aerosid_core::mavlink::messages::{DebugFloatArray, Heartbeat, MavMessage, NamedValueFloat};
-use aerosid_core::mavlink::telemetry::{health_slot as slot, report, HealthReport};
+use aerosid_core::mavlink::telemetry::{report, HealthReport};
 use aerosid_core::mavlink::Telemetry;
 
 /// Coefficient reports every 500 ms (2 Hz).
@@ -109,48 +110,16 @@ impl Link {
     }
 }
 
-/// The health report of `stats` and `estimator` (slots in `health_slot`).
+/// The health report of `stats` and `estimator` ([`aerosid_core::harness::health_report`]).
 pub fn health_report(stats: &Stats, estimator: &Estimator) -> HealthReport {
-    let mut r = HealthReport::default();
-    let v = &mut r.values;
-    let h = &stats.sensors;
-    let seq = estimator.sequence();
-    let chips: [(&ChipHealth, usize, usize); 4] = [
-        (&h.imu, slot::IMU_FAULTS, slot::IMU_REINITS),
-        (&h.airspeed, slot::AIRSPEED_FAULTS, slot::AIRSPEED_REINITS),
-        (&h.alpha_vane, slot::ALPHA_FAULTS, slot::ALPHA_REINITS),
-        (&h.beta_vane, slot::BETA_FAULTS, slot::BETA_REINITS),
-    ];
-    v[slot::SAMPLED] = stats.sampled;
-    v[slot::DROPPED] = stats.dropped;
-    v[slot::GAPS] = seq.gaps;
-    v[slot::MISSED] = seq.missed;
-    v[slot::STALE] = seq.stale;
-    for (c, faults, reinits) in chips {
-        if let Some(o) = v.get_mut(faults) {
-            *o = c.faults;
-        }
-        if let Some(o) = v.get_mut(reinits) {
-            *o = c.reinits;
-        }
-    }
-    v[slot::AUTOPILOT_FAULTS] = h.autopilot_faults;
-    v[slot::STUCK_NOW] = u32::from(h.stuck_now);
-    v[slot::STUCK_EPISODES] = h.stuck_episodes;
-    v[slot::STUCK_SAMPLES] = h.stuck_samples;
-    v[slot::LINK_FRAMES] = h.link.frames;
-    v[slot::LINK_REJECTED] = h.link.rejected;
-    v[slot::LINK_DISCARDED] = h.link.discarded;
-    v[slot::LINK_LOST] = h.link.lost;
-    v[slot::LINK_NOT_NEWER] = h.link.not_newer;
-    v[slot::INVALID_NOW] = u32::from(estimator.invalid_now());
-    for (o, c) in v[slot::INVALID..slot::INVALID + channel::COUNT]
-        .iter_mut()
-        .zip(estimator.pipeline().health().invalid_channel.iter())
-    {
-        *o = *c;
-    }
-    r
+    let counts = SampleCounts {
+        sampled: stats.sampled,
+        dropped: stats.dropped,
+        sequence: *estimator.sequence(),
+        invalid_now: estimator.invalid_now(),
+        invalid_channel: &estimator.pipeline().health().invalid_channel,
+    };
+    aerosid_core::harness::health_report(&stats.sensors, &counts)
 }
 
 /// One part of a report period ([`Link::encode`]): one frame buffer's worth, encoded under one

@@ -9,11 +9,12 @@
 
 use aerosid_core::aero::model::channel;
 use aerosid_core::aero::SensorSample;
+use aerosid_core::harness::REINIT_AFTER;
 use aerosid_core::mavlink::frame::frame_crc;
 use aerosid_core::mavlink::messages::ServoOutputRaw;
 use aerosid_core::mavlink::telemetry::{health_bit, health_slot as slot};
 use aerosid_core::mavlink::Encoder;
-use aerosid_qemu::{self as qemu, Chip, Fault, FaultEvent, Scenario, REINIT_AFTER};
+use aerosid_qemu::{self as qemu, Chip, Fault, FaultEvent, Scenario};
 use aerosid_sim::{self as sim, flights};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -160,10 +161,16 @@ fn faults_and_garbage_under_qemu_are_survived_reported_and_equal_the_host_model(
         (3, 1, 3, 0)
     );
     // bus faults: skip and count; a re-initialisation per REINIT_AFTER failures in a row
-    assert_eq!((h[slot::IMU_FAULTS], h[slot::IMU_REINITS]), (60, 60 / REINIT_AFTER));
+    assert_eq!(
+        (h[slot::IMU_FAULTS], h[slot::IMU_REINITS]),
+        (60, 60 / u32::from(REINIT_AFTER))
+    );
     assert_eq!((h[slot::AIRSPEED_FAULTS], h[slot::AIRSPEED_REINITS]), (10, 0));
     assert_eq!((h[slot::ALPHA_FAULTS], h[slot::ALPHA_REINITS]), (0, 0));
-    assert_eq!((h[slot::BETA_FAULTS], h[slot::BETA_REINITS]), (200, 200 / REINIT_AFTER));
+    assert_eq!(
+        (h[slot::BETA_FAULTS], h[slot::BETA_REINITS]),
+        (200, 200 / u32::from(REINIT_AFTER))
+    );
     // the jammed vane: caught after its 50-sample window, for the remaining 71 samples
     assert!(
         h[slot::STUCK_EPISODES] >= 1 && h[slot::STUCK_SAMPLES] >= 120 - 49,

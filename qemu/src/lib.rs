@@ -18,13 +18,15 @@
 //! [`emulate`] is the host's model of what the firmware does with the same input: the sensor
 //! layer (injected faults, the per-chip fault counters and re-initialisations, the autopilot link,
 //! the stuck-sensor check), the sampler (dropped samples still numbered), the estimator's sequence
-//! check and the `f32` pipeline, and the health report the firmware sends. The chip counters are
-//! re-implemented here from the firmware's documentation (`board::ChipHealth`), independently.
+//! check and the `f32` pipeline, and the health report the firmware sends. The chip and link
+//! counters and the report's assembly are the core's (`aerosid_core::harness`, tested there), the
+//! same code the firmware runs; what is modelled here is the order of the firmware's stages.
 
 use aerosid_core::aero::model::{channel, ChannelMask};
 use aerosid_core::aero::{model::idx, onboard, Admission, SensorSample, SequenceCheck, StuckDetector};
+use aerosid_core::harness::{health_report, ChipHealth, LinkHealth, SampleCounts, SensorHealth};
 use aerosid_core::mavlink::messages::{Attitude, Rpm, ServoOutputRaw};
-use aerosid_core::mavlink::telemetry::{health_slot, HealthReport};
+use aerosid_core::mavlink::telemetry::HealthReport;
 use aerosid_core::mavlink::{telemetry::reports, CoefficientReport, Encoder, MavlinkSurfaces, Message, Parser};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
@@ -485,33 +487,6 @@ pub struct Emulation {
     pub pipeline_health: aerosid_core::aero::Health,
 }
 
-/// Failed reads in a row after which the firmware re-initialises a chip
-/// ([`aerosid_core::harness::REINIT_AFTER`]), as the model's counter type.
-pub const REINIT_AFTER: u32 = aerosid_core::harness::REINIT_AFTER as u32;
-
-/// The firmware's handling of a chip's read outcomes (`board::ChipHealth`), re-implemented.
-#[derive(Debug, Clone, Copy, Default)]
-struct ChipModel {
-    faults: u32,
-    reinits: u32,
-    streak: u32,
-}
-
-impl ChipModel {
-    fn read(&mut self, ok: bool) {
-        if ok {
-            self.streak = 0;
-        } else {
-            self.faults += 1;
-            self.streak += 1;
-            if self.streak == REINIT_AFTER {
-                self.streak = 0;
-                self.reinits += 1;
-            }
-        }
-    }
-}
-
 /// The host's model of the firmware on a scenario (module doc): what it sends at the end.
 pub fn emulate(sc: &Scenario<'_>) -> Result<Emulation, QemuError> {
     let mut p = onboard::pipeline::<f32>().map_err(|e| QemuError::Output(format!("on-board configuration: {e:?}")))?;
@@ -524,7 +499,7 @@ pub fn emulate(sc: &Scenario<'_>) -> Result<Emulation, QemuError> {
         ),
         None => None,
     };
-    let mut chips = [ChipModel::default(); 4];
+    let mut chips = [ChipHealth::default(); 4];
     let mut holds: Vec<[f32; 3]> = vec![[0.0; 3]; sc.faults.len()];
     let (mut sampled, mut dropped, mut autopilot_faults, mut link_lost) = (0u32, 0u32, 0u32, 0u32);
     let (mut stuck_now, mut invalid_now, mut processed) = (0u16, 0u16, 0usize);
@@ -570,7 +545,7 @@ pub fn emulate(sc: &Scenario<'_>) -> Result<Emulation, QemuError> {
             if failing[c] {
                 s.invalidate(bits);
             }
-            model.read(!failing[c]);
+            model.record(!failing[c]);
         }
         if let (Some(link), Some(chunks)) = (link.as_mut(), sc.autopilot) {
             let chunk = chunks.get(k).map_or(&[][..], Vec::as_slice);
@@ -597,44 +572,31 @@ pub fn emulate(sc: &Scenario<'_>) -> Result<Emulation, QemuError> {
         invalid_now = !p.settings().limits.valid_channels(&s) & channel::ALL;
         processed += 1;
     }
-    let mut h = HealthReport::default();
-    let v = &mut h.values;
-    let seq = sequence.health();
-    v[health_slot::SAMPLED] = sampled;
-    v[health_slot::DROPPED] = dropped;
-    v[health_slot::GAPS] = seq.gaps;
-    v[health_slot::MISSED] = seq.missed;
-    v[health_slot::STALE] = seq.stale;
-    let faults = [
-        health_slot::IMU_FAULTS,
-        health_slot::AIRSPEED_FAULTS,
-        health_slot::ALPHA_FAULTS,
-        health_slot::BETA_FAULTS,
-    ];
-    let reinits = [
-        health_slot::IMU_REINITS,
-        health_slot::AIRSPEED_REINITS,
-        health_slot::ALPHA_REINITS,
-        health_slot::BETA_REINITS,
-    ];
-    for (c, m) in chips.iter().enumerate() {
-        v[faults[c]] = m.faults;
-        v[reinits[c]] = m.reinits;
-    }
-    v[health_slot::AUTOPILOT_FAULTS] = autopilot_faults;
-    v[health_slot::STUCK_NOW] = u32::from(stuck_now);
-    v[health_slot::STUCK_EPISODES] = stuck.health().episodes.iter().sum();
-    v[health_slot::STUCK_SAMPLES] = stuck.health().samples.iter().sum();
-    if let Some(link) = &link {
-        let st = link.parser_stats();
-        v[health_slot::LINK_FRAMES] = st.frames;
-        v[health_slot::LINK_REJECTED] = st.bad_crc + st.bad_length + st.bad_incompat_flags;
-        v[health_slot::LINK_DISCARDED] = st.discarded_bytes;
-        v[health_slot::LINK_NOT_NEWER] = link.not_newer_frames();
-    }
-    v[health_slot::LINK_LOST] = link_lost;
-    v[health_slot::INVALID_NOW] = u32::from(invalid_now);
-    v[health_slot::INVALID..health_slot::INVALID + channel::COUNT].copy_from_slice(&p.health().invalid_channel);
+    let sensors = SensorHealth {
+        imu: chips[0],
+        airspeed: chips[1],
+        alpha_vane: chips[2],
+        beta_vane: chips[3],
+        autopilot_faults,
+        link: match &link {
+            Some(link) => LinkHealth::from_link(link, link_lost),
+            None => LinkHealth {
+                lost: link_lost,
+                ..LinkHealth::default()
+            },
+        },
+        stuck_now,
+        stuck_episodes: stuck.health().episodes.iter().sum(),
+        stuck_samples: stuck.health().samples.iter().sum(),
+    };
+    let counts = SampleCounts {
+        sampled,
+        dropped,
+        sequence: *sequence.health(),
+        invalid_now,
+        invalid_channel: &p.health().invalid_channel,
+    };
+    let h = health_report(&sensors, &counts);
     Ok(Emulation {
         reports: reports(&p),
         health: h,

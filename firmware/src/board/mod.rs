@@ -27,9 +27,7 @@ pub use qemu::{halt, init, CountLog, CycleCounter, Port, Sensors};
 #[cfg(feature = "qemu")]
 pub enum AutopilotRx {}
 
-use aerosid_core::aero::model::ChannelMask;
 use aerosid_core::aero::{SensorSample, StuckDetector};
-use aerosid_core::mavlink::MavlinkSurfaces;
 
 /// Where samples come from.
 pub trait SensorSource {
@@ -58,94 +56,9 @@ pub trait SensorSource {
     }
 }
 
-pub use aerosid_core::harness::REINIT_AFTER;
-
-/// The read outcomes of one chip.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, defmt::Format)]
-pub struct ChipHealth {
-    /// Failed reads since boot (saturating).
-    pub faults: u32,
-    /// Re-initialisations since boot (saturating).
-    pub reinits: u32,
-    /// Failed reads in a row.
-    streak: u16,
-}
-
-impl ChipHealth {
-    /// Counts one read; `true` when the chip has now failed [`REINIT_AFTER`] times in a row and
-    /// is to be re-initialised (counted here). The streak then starts again, so a dead chip is
-    /// retried every [`REINIT_AFTER`] samples.
-    pub fn record(&mut self, ok: bool) -> bool {
-        if ok {
-            self.streak = 0;
-            return false;
-        }
-        self.faults = self.faults.saturating_add(1);
-        self.streak = self.streak.saturating_add(1);
-        if self.streak >= REINIT_AFTER {
-            self.streak = 0;
-            self.reinits = self.reinits.saturating_add(1);
-            true
-        } else {
-            false
-        }
-    }
-}
-
-/// The autopilot link's receive counters.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, defmt::Format)]
-pub struct LinkHealth {
-    /// Frames received (any message, any sender).
-    pub frames: u32,
-    /// Frames rejected: bad checksum, impossible length, unknown incompatibility flags.
-    pub rejected: u32,
-    /// Bytes discarded while looking for a frame.
-    pub discarded: u32,
-    /// Received bytes lost (receiver overrun or full ring).
-    pub lost: u32,
-    /// Frames not kept because their stamp was not newer than the kept frame's (repeats, replays).
-    pub not_newer: u32,
-}
-
-impl LinkHealth {
-    /// The counters of the link's parser and surfaces source, and `lost` bytes.
-    pub fn from_link(link: &MavlinkSurfaces, lost: u32) -> Self {
-        let stats = link.parser_stats();
-        Self {
-            frames: stats.frames,
-            rejected: stats
-                .bad_crc
-                .saturating_add(stats.bad_length)
-                .saturating_add(stats.bad_incompat_flags),
-            discarded: stats.discarded_bytes,
-            lost,
-            not_newer: link.not_newer_frames(),
-        }
-    }
-}
-
-/// What the sensor layer reports (each counter saturates).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, defmt::Format)]
-pub struct SensorHealth {
-    /// IMU (gyro and accelerometer).
-    pub imu: ChipHealth,
-    /// Airspeed sensor (airspeed and, from its temperature, air density).
-    pub airspeed: ChipHealth,
-    /// α vane.
-    pub alpha_vane: ChipHealth,
-    /// β vane.
-    pub beta_vane: ChipHealth,
-    /// Samples with a surface, the throttle, the RPM or the attitude missing or stale.
-    pub autopilot_faults: u32,
-    /// The autopilot link.
-    pub link: LinkHealth,
-    /// Channels stuck at the last sample.
-    pub stuck_now: ChannelMask,
-    /// Times a channel became stuck, all channels (`StuckHealth::episodes` summed).
-    pub stuck_episodes: u32,
-    /// Samples with a channel stuck, summed over the channels (`StuckHealth::samples`).
-    pub stuck_samples: u32,
-}
+// The chips' and the link's counters are the core's: the host's model of this firmware
+// (`aerosid_qemu::emulate`) counts with the same types.
+pub use aerosid_core::harness::{LinkHealth, SensorHealth, REINIT_AFTER};
 
 /// The last stage of every board's `read`: the stuck-sensor check on the finished sample
 /// ([`StuckDetector`], windows of [`aerosid_core::aero::onboard::stuck_settings`]).

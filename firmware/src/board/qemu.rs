@@ -29,10 +29,11 @@
 //!   region of the step (inside the period: the write is part of what this board executes per
 //!   sample).
 
-use super::{ChipHealth, Counter, Finish, LinkHealth, SensorHealth, SensorSource, TelemetryPort};
+use super::{Counter, Finish, LinkHealth, SensorHealth, SensorSource, TelemetryPort};
 use aerosid_core::aero::model::channel;
 use aerosid_core::aero::onboard::AUTOPILOT_LINK;
 use aerosid_core::aero::{SensorSample, REPLAY_RECORD_BYTES};
+use aerosid_core::harness::ChipHealth;
 use aerosid_core::mavlink::MavlinkSurfaces;
 use semihosting::fs::File;
 use semihosting::io::{Read, Write};
