@@ -218,7 +218,12 @@ mod app {
             };
             let t_us = cx.local.sensors.time_us(now_us);
             let seq = cx.local.sampler.next_seq();
-            let queued = if cx.local.sensors.drop_injected() {
+            // Fault injection exists on the QEMU board only.
+            #[cfg(feature = "qemu")]
+            let injected_drop = cx.local.sensors.drop_injected();
+            #[cfg(not(feature = "qemu"))]
+            let injected_drop = false;
+            let queued = if injected_drop {
                 false
             } else {
                 // The token first, then (no yield between: the estimate task cannot run) the

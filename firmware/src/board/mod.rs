@@ -48,12 +48,6 @@ pub trait SensorSource {
     fn time_us(&self, sampler_us: u64) -> u64 {
         sampler_us
     }
-
-    /// Fault injection (QEMU board only; never on hardware): the sample just read is to be dropped
-    /// as if the estimator's queue were full.
-    fn drop_injected(&self) -> bool {
-        false
-    }
 }
 
 // The chips' and the link's counters are the core's: the host's model of this firmware

@@ -329,8 +329,12 @@ impl SensorSource for Replay {
     fn time_us(&self, _sampler_us: u64) -> u64 {
         self.t_us
     }
+}
 
-    fn drop_injected(&self) -> bool {
+impl Replay {
+    /// Fault injection, a test hook of this board only (not part of [`SensorSource`]): the sample
+    /// just read is to be dropped as if the estimator's queue were full.
+    pub fn drop_injected(&self) -> bool {
         self.drop
     }
 }
