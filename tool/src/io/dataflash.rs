@@ -609,27 +609,8 @@ pub fn parse_dataflash(
     let last_us = raw.iter().map(|r| r.2[r.2.len() - 1]).fold(f64::NEG_INFINITY, f64::max);
     // Window.
     let mut airborne = None;
-    let (w0, w1, window) = if opts.from_s.is_some() || opts.to_s.is_some() {
-        let a = opts.from_s.map_or(f64::NEG_INFINITY, |v| v * 1e6);
-        let b = opts.to_s.map_or(f64::INFINITY, |v| v * 1e6);
-        if a >= b || a > last_us || b < first_us {
-            return Err(err(format!(
-                "the window --from/--to does not overlap the log's data, {:.3}…{:.3} s (boot time)",
-                first_us * 1e-6,
-                last_us * 1e-6
-            )));
-        }
-        (
-            a,
-            b,
-            Some(format!(
-                "--from/--to: {:.3}…{:.3} s",
-                a.max(first_us) * 1e-6,
-                b.min(last_us) * 1e-6
-            )),
-        )
-    } else if opts.whole_log {
-        (f64::NEG_INFINITY, f64::INFINITY, None)
+    let (w0, w1, window) = if let Some(w) = opts.chosen_window(first_us, last_us).map_err(err)? {
+        w
     } else {
         let (thr, from) = match log.parameters.get("ARSPD_FBW_MIN") {
             Some(v) if *v > 0.0 => (0.8 * v, "0.8 × ARSPD_FBW_MIN"),

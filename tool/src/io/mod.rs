@@ -184,6 +184,41 @@ impl ReadOptions {
     }
 }
 
+/// A window of a log on its own clock, µs: from, to, and what chose it (for the data-quality
+/// report; `None` for the whole log).
+pub(crate) type LogWindow = (f64, f64, Option<String>);
+
+impl ReadOptions {
+    /// The window the user chose (`--from/--to`, or `--whole-log`) for a log whose data span
+    /// `first_us…last_us`; `Ok(None)` when the reader is to find the in-air window itself. A
+    /// `--from/--to` outside the data is refused with the log's span.
+    pub(crate) fn chosen_window(&self, first_us: f64, last_us: f64) -> Result<Option<LogWindow>, String> {
+        if self.from_s.is_some() || self.to_s.is_some() {
+            let a = self.from_s.map_or(f64::NEG_INFINITY, |v| v * 1e6);
+            let b = self.to_s.map_or(f64::INFINITY, |v| v * 1e6);
+            if a >= b || a > last_us || b < first_us {
+                return Err(format!(
+                    "the window --from {} --to {} s does not overlap the log's data, {:.3}…{:.3} s (boot time, as the report prints it)",
+                    self.from_s.map_or("start".into(), |v| v.to_string()),
+                    self.to_s.map_or("end".into(), |v| v.to_string()),
+                    first_us * 1e-6,
+                    last_us * 1e-6
+                ));
+            }
+            let what = format!(
+                "--from/--to: {:.3}…{:.3} s",
+                a.max(first_us) * 1e-6,
+                b.min(last_us) * 1e-6
+            );
+            Ok(Some((a, b, Some(what))))
+        } else if self.whole_log {
+            Ok(Some((f64::NEG_INFINITY, f64::INFINITY, None)))
+        } else {
+            Ok(None)
+        }
+    }
+}
+
 /// The aircraft used when a log comes without an aircraft file: unit mass, inertia and geometry,
 /// so that the channels can be read and their quality judged; no coefficient is scaled by it, and
 /// [`measured::LogMeta::aircraft_unknown`] says so.

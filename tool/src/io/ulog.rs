@@ -839,29 +839,8 @@ pub fn parse_ulog_with(
         .fold(f64::NEG_INFINITY, f64::max);
     // Window, µs.
     let mut airborne = None;
-    let (w0, w1, window) = if opts.from_s.is_some() || opts.to_s.is_some() {
-        let a = opts.from_s.map_or(f64::NEG_INFINITY, |v| v * 1e6);
-        let b = opts.to_s.map_or(f64::INFINITY, |v| v * 1e6);
-        if a >= b || a > last_us || b < first_us {
-            return Err(err(format!(
-                "the window --from {} --to {} s does not overlap the log's data, {:.3}…{:.3} s (boot time, as the report prints it)",
-                opts.from_s.map_or("start".into(), |v| v.to_string()),
-                opts.to_s.map_or("end".into(), |v| v.to_string()),
-                first_us * 1e-6,
-                last_us * 1e-6
-            )));
-        }
-        (
-            a,
-            b,
-            Some(format!(
-                "--from/--to: {:.3}…{:.3} s",
-                a.max(first_us) * 1e-6,
-                b.min(last_us) * 1e-6
-            )),
-        )
-    } else if opts.whole_log {
-        (f64::NEG_INFINITY, f64::INFINITY, None)
+    let (w0, w1, window) = if let Some(w) = opts.chosen_window(first_us, last_us).map_err(err)? {
+        w
     } else {
         let land = field("vehicle_land_detected", "landed");
         let airspeed = builtin.iter().find(|(q, _)| *q == Quantity::Airspeed).map(|(_, r)| r);
