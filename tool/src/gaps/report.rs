@@ -246,6 +246,11 @@ pub fn json(r: &GapReport) -> Value {
         },
         "notes": r.notes.iter().chain(&compat.notes).collect::<Vec<_>>(),
         "air_data": r.air_data,
+        "term_refs": {
+            "alpha_break_rad": f(r.refs.alpha_break_rad),
+            "airspeed_mps": f(r.refs.airspeed_mps),
+            "mach": f(r.refs.mach),
+        },
         "corrections_applied": r.corrections_applied,
         "verdict": r.verdict,
         "data_quality": r.data_quality,
