@@ -337,7 +337,8 @@ impl Execute for FemArgs {
 /// prediction.json and a measured-vs-predicted figure (SVG). The report.json of `gaps` (schema
 /// aerosid-gaps/3): each coefficient synthesised from the --data flight (read as `gaps` reads it,
 /// --with MAP_OR_AIRCRAFT) and predicted by the saved baseline and extended models, RMS, R² and
-/// Theil's U of both, prediction.json and prediction.svg (docs/model-gaps.md).
+/// Theil's U of both, the output simulation with both model sets, prediction.json,
+/// prediction.svg and prediction_simulation.svg (docs/model-gaps.md).
 #[derive(Args)]
 struct PredictArgs {
     /// The saved identification (identification.json of `fem`, or report.json of `gaps`).

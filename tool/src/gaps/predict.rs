@@ -13,6 +13,7 @@
 
 use super::airdata::AirDataChoice;
 use super::model::{Signal, Table, Term, TermRefs, COEFFICIENTS};
+use super::simulate::{ModelSet, Simulation};
 use super::{check_input, percentile, preprocess, signal, GapSettings};
 use crate::io::flow_angles::WindFitSettings;
 use crate::io::measured::MeasuredFlight;
@@ -212,6 +213,20 @@ pub struct GapsPrediction {
     pub notes: Vec<String>,
     /// Per coefficient of the report.
     pub coefficients: Vec<CoefficientPrediction>,
+    /// The output simulation of the whole flight ([`super::simulate`], pieces from the measured
+    /// state) with the predicted coefficients' baseline and extended models.
+    #[serde(serialize_with = "simulation_json")]
+    pub simulation: Simulation,
+}
+
+/// The simulation as report.json writes it (`piece_s`, `notes`, `outputs`).
+fn simulation_json<S: serde::Serializer>(sim: &Simulation, s: S) -> Result<S::Ok, S::Error> {
+    serde_json::json!({
+        "piece_s": sim.piece_s,
+        "notes": sim.notes,
+        "outputs": sim.outputs,
+    })
+    .serialize(s)
 }
 
 /// Why a coefficient is not synthesised, from the channels eq. 1–2 need ([`super::model`]).
@@ -343,11 +358,26 @@ pub fn predict(report: &SavedReport, flight: &MeasuredFlight) -> Result<GapsPred
             (r, "new flight")
         }
     };
-    let coefficients = report
+    let coefficients: Vec<CoefficientPrediction> = report
         .coefficients
         .iter()
         .map(|c| predict_one(c, &table, &refs))
         .collect();
+    // The simulation takes the models of the predicted coefficients (every term formed); the
+    // others are left to the measured values, as in the analysis.
+    let model_set = |extended: bool| -> ModelSet {
+        core::array::from_fn(|i| {
+            let saved = report.coefficients.iter().find(|c| c.name == COEFFICIENTS[i])?;
+            coefficients.iter().find(|c| c.name == COEFFICIENTS[i] && c.predicted)?;
+            let fit = if extended { &saved.extended } else { &saved.baseline };
+            fit.parameters
+                .iter()
+                .map(|(t, v)| Some((Term::parse(t)?, *v)))
+                .collect()
+        })
+    };
+    let (set_b, set_e) = (model_set(false), model_set(true));
+    let simulation = super::simulate::simulate(&table, &flight.aircraft, h, &refs, 0, [&set_b, &set_e]);
     let air_data = notes
         .iter()
         .find(|n| n.starts_with("air data:"))
@@ -369,6 +399,7 @@ pub fn predict(report: &SavedReport, flight: &MeasuredFlight) -> Result<GapsPred
         }),
         notes,
         coefficients,
+        simulation,
     })
 }
 
@@ -408,7 +439,33 @@ pub fn table(p: &GapsPrediction) -> String {
             }
         }
     }
-    for n in &p.notes {
+    if !p.simulation.outputs.is_empty() {
+        let _ = writeln!(
+            s,
+            "output simulation of the flight ({:.0} s pieces from the measured state)",
+            p.simulation.piece_s
+        );
+        let _ = writeln!(
+            s,
+            "{:<10} {:>8} {:>11} | {:>8} {:>11} | diverged",
+            "output", "R² base", "RMS base", "R² ext", "RMS ext"
+        );
+        for o in &p.simulation.outputs {
+            let _ = writeln!(
+                s,
+                "{:<10} {:>8.4} {:>11.4e} | {:>8.4} {:>11.4e} | {}/{} ({})",
+                o.channel,
+                o.baseline.r2,
+                o.baseline.rms,
+                o.extended.r2,
+                o.extended.rms,
+                o.diverged[0],
+                o.diverged[1],
+                o.unit
+            );
+        }
+    }
+    for n in p.notes.iter().chain(&p.simulation.notes) {
         if !n.starts_with("air data:") {
             let _ = writeln!(s, "note: {n}");
         }
@@ -443,6 +500,17 @@ pub fn write(p: &GapsPrediction, out: &Path) -> Result<Vec<PathBuf>, String> {
     if p.coefficients.iter().any(|c| c.predicted) {
         let sp = out.join("prediction.svg");
         figure(p).write_svg(&sp).map_err(|e| format!("{}: {e}", sp.display()))?;
+        files.push(sp);
+    }
+    if !p.simulation.traces.is_empty() {
+        let sp = out.join("prediction_simulation.svg");
+        let title = format!(
+            "{} simulated with the saved models ({:.0} s pieces, each from the measured state)",
+            p.data, p.simulation.piece_s
+        );
+        super::report::simulation_figure_titled(&p.simulation, &title)
+            .write_svg(&sp)
+            .map_err(|e| format!("{}: {e}", sp.display()))?;
         files.push(sp);
     }
     Ok(files)
