@@ -4,5 +4,6 @@
 
 mod cli;
 mod flow_angles;
+mod predict;
 mod real_logs;
 mod workflow;

@@ -332,18 +332,28 @@ impl Execute for FemArgs {
     }
 }
 
-/// Apply a saved identification (the identification.json of `fem`) to other data: the outputs
-/// simulated from the first measured state with the measured inputs, RMS, R² and Theil's U per
-/// output, prediction.json and a measured-vs-predicted figure (SVG).
+/// Apply a saved model to other data. The identification.json of `fem`: the outputs simulated
+/// from the first measured state with the measured inputs, RMS, R² and Theil's U per output,
+/// prediction.json and a measured-vs-predicted figure (SVG). The report.json of `gaps` (schema
+/// aerosid-gaps/3): each coefficient synthesised from the --data flight (read as `gaps` reads it,
+/// --with MAP_OR_AIRCRAFT) and predicted by the saved baseline and extended models, RMS, R² and
+/// Theil's U of both, the output simulation with both model sets, prediction.json,
+/// prediction.svg and prediction_simulation.svg (docs/model-gaps.md).
 #[derive(Args)]
 struct PredictArgs {
-    /// The saved identification.
+    /// The saved identification (identification.json of `fem`, or report.json of `gaps`).
     #[arg(long, value_name = "FILE.json")]
     saved: PathBuf,
-    /// A data file (repeatable; default the model file's `[data] file`).
+    /// A data file (repeatable for `fem`; default the model file's `[data] file`; exactly one for
+    /// a gap report).
     #[arg(long, value_name = "FILE")]
     data: Vec<PathBuf>,
-    /// A segment of each data file, seconds from its first sample (repeatable; default all).
+    /// The column map or aircraft file of the --data flight, for a gap report (optional for .ulg
+    /// and .bin).
+    #[arg(long = "with", value_name = "MAP_OR_AIRCRAFT")]
+    with: Option<PathBuf>,
+    /// A segment of each data file, seconds from its first sample (repeatable; default all; `fem`
+    /// models only).
     #[arg(long, value_name = "FROM:TO", value_parser = aerosid::workflow::parse_range, allow_hyphen_values = true)]
     segment: Vec<(f64, f64)>,
     /// Folder the JSON and figure are written to (created if missing).
@@ -353,10 +363,59 @@ struct PredictArgs {
 
 impl Execute for PredictArgs {
     fn execute(self) -> ExitCode {
+        match aerosid::gaps::predict::is_gap_report(&self.saved) {
+            Err(e) => return fail("predict", e),
+            Ok(true) => return self.gap_report(),
+            Ok(false) => {}
+        }
+        if self.with.is_some() {
+            return usage("predict", "--with is for a gap report (report.json of `aerosid gaps`)");
+        }
         finish(
             "predict",
             "written",
             aerosid::workflow::run_predict(&self.saved, &self.data, &self.segment, &self.out).map(|(_, t, f)| (t, f)),
+        )
+    }
+}
+
+impl PredictArgs {
+    /// Coefficient prediction with a gap report.
+    fn gap_report(self) -> ExitCode {
+        let [data] = self.data.as_slice() else {
+            return usage(
+                "predict",
+                "a gap report predicts one flight: give exactly one --data FILE",
+            );
+        };
+        if !self.segment.is_empty() {
+            return usage(
+                "predict",
+                "--segment is for `fem` models; a gap report predicts the whole --data flight",
+            );
+        }
+        let ext = data.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+        if self.with.is_none() && !matches!(ext.as_deref(), Some("ulg") | Some("bin")) {
+            return usage(
+                "predict",
+                format!(
+                    "--data {} needs --with MAP_OR_AIRCRAFT (only .ulg and .bin logs read without one)",
+                    data.display()
+                ),
+            );
+        }
+        let report = match aerosid::gaps::predict::read_report(&self.saved) {
+            Ok(r) => r,
+            Err(e) => return fail("predict", e),
+        };
+        let flight = match aerosid::io::read_measured_with(data, self.with.as_deref(), &Default::default()) {
+            Ok(f) => f,
+            Err(e) => return fail("predict", e),
+        };
+        finish(
+            "predict",
+            "written",
+            aerosid::gaps::predict::run(&report, &flight, &self.out).map(|(_, t, f)| (t, f)),
         )
     }
 }

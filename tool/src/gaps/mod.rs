@@ -40,6 +40,7 @@ pub mod compat;
 pub mod hidden;
 pub mod model;
 pub mod noise;
+pub mod predict;
 pub mod regress;
 pub mod report;
 pub mod select;
@@ -376,6 +377,9 @@ pub struct GapReport {
     /// What the data can support ([`crate::io::quality`]); when it cannot support a verdict,
     /// `named` is empty and `verdict` says why.
     pub data_quality: crate::io::quality::DataQuality,
+    /// The terms' reference values (from the identification segment), saved so that a prediction
+    /// of another flight forms the terms with the same references.
+    pub refs: TermRefs,
 }
 
 /// One coefficient of a [`Regression`]: name, synthesised values, baseline terms, candidate terms.
@@ -466,78 +470,25 @@ pub fn run_gaps(flight: &MeasuredFlight, settings: &GapSettings) -> Result<GapRe
     let flight = &prepared;
     let alpha_estimated = flight.log.flow_angles.as_ref().is_some_and(|f| f.status == "estimated");
     let h = check_input(flight)?;
-    let n = flight.len();
-    let max_lag = ((settings.max_lag_s / h).round() as usize).max(1);
-    let sg_half = (settings.smoothing_half_width_s / h).round() as usize;
-    let n_id = ((n as f64 * settings.identification_fraction).round() as usize).clamp(100, n - 50);
-    // The candidate count (Bonferroni divisor) needs the table; synthesise once uncorrected to
-    // learn which signals exist (the corrected table has the same signals).
-    let probe = model::synthesise(flight, h, &Corrections::default(), sg_half, None);
-    let baseline_of = |i: usize| -> Vec<Term> {
-        match &settings.baseline {
-            Some(b) => b[i].clone(),
-            None => Term::eq3(i),
-        }
-    };
-    let refs_probe = TermRefs {
-        alpha_break_rad: 0.0,
-        airspeed_mps: 1.0,
-        mach: 0.0,
-    };
-    let mut n_aero = 0usize;
-    for i in 0..6 {
-        if probe.z[i].is_none() {
-            continue;
-        }
-        let base = baseline_of(i);
-        n_aero += Term::library(i)
-            .iter()
-            .filter(|t| !base.contains(t) && t.column(&probe, &refs_probe).is_some())
-            .count();
-    }
-    let n_compat_est = if settings.compatibility {
-        compat_candidate_count(flight)
-    } else {
-        0
-    };
-    let m = (n_aero + n_compat_est).max(1);
-    let z = signal::normal_upper_quantile(settings.alpha / (2.0 * m as f64));
-    // The compatibility check's statistic is normal (many segments); the coefficients' block
-    // sandwich has G − 1 degrees of freedom (G blocks of `cv.block_s`).
-    let compat_threshold_t2 = z * z;
-    let blocks = (n / ((settings.cv.block_s / h).round() as usize).max(10)).max(2);
-    let threshold_t2 = select::student_t_upper_quantile(settings.alpha / (2.0 * m as f64), blocks as f64 - 1.0).powi(2);
-    let mut notes = Vec::new();
-    // 1. Compatibility.
-    let cs = CompatSettings {
-        threshold_t2: compat_threshold_t2,
+    let baselines: [Vec<Term>; 6] = core::array::from_fn(|i| match &settings.baseline {
+        Some(b) => b[i].clone(),
+        None => Term::eq3(i),
+    });
+    let Preprocessed {
         max_lag,
-        max_added: 3,
-        gain_alpha: settings.cv.gain_alpha,
-    };
-    let compatibility = if settings.compatibility {
-        compat::check(flight, h, &cs)
-    } else {
-        Compatibility {
-            notes: vec!["compatibility check switched off".into()],
-            ..Compatibility::default()
-        }
-    };
-    let found_corr = corrections_of(&compatibility);
-    let corr = if settings.apply_corrections {
-        if !compatibility.found.is_empty() {
-            notes.push("the sensor errors named are removed from the data before the aerodynamics; the baselines as logged are listed beside (`as_logged`)".into());
-        }
-        found_corr.clone()
-    } else {
-        Corrections::default()
-    };
-    // 2–5. Aerodynamics.
-    let (air_owned, fuse_cutoffs, air_note) = choose_air_data(flight, h, settings.air_data, &compatibility);
-    notes.push(air_note);
+        sg_half,
+        n_id,
+        m,
+        threshold_t2,
+        compatibility,
+        corr,
+        air: air_owned,
+        fuse_cutoffs,
+        table,
+        mut notes,
+    } = preprocess(flight, h, settings, &baselines);
     let air = air_owned.as_ref();
-    let table = model::synthesise(flight, h, &corr, sg_half, air);
-    notes.extend(table.notes.iter().cloned());
+    let n = flight.len();
     if table.z.iter().all(|z| z.is_none()) {
         return Err(GapError::NothingToAnalyse {
             source: flight.source.clone(),
@@ -554,7 +505,6 @@ pub fn run_gaps(flight: &MeasuredFlight, settings: &GapSettings) -> Result<GapRe
         mach: id_mean(Signal::Mach).unwrap_or(0.0),
     };
     // The errors-in-variables model of every column the analysis may fit.
-    let baselines: [Vec<Term>; 6] = core::array::from_fn(baseline_of);
     let all_terms: [Vec<Term>; 6] = core::array::from_fn(|i| {
         let mut v = baselines[i].clone();
         for t in Term::library(i) {
@@ -723,7 +673,123 @@ pub fn run_gaps(flight: &MeasuredFlight, settings: &GapSettings) -> Result<GapRe
         verdict,
         regression,
         data_quality,
+        refs,
     })
+}
+
+/// The analysis's pre-processing of a flight up to the coefficients' table: step sizes, the
+/// candidate count and thresholds, the compatibility check, the sensor corrections and the air
+/// data ([`run_gaps`]; [`predict`] applies the same to another flight).
+pub(crate) struct Preprocessed {
+    /// Largest residual-autocorrelation lag, samples.
+    pub max_lag: usize,
+    /// Savitzky–Golay half-width, samples.
+    pub sg_half: usize,
+    /// Samples of the identification segment.
+    pub n_id: usize,
+    /// Candidates tested (the Bonferroni divisor).
+    pub m: usize,
+    /// The coefficients' `t²` threshold.
+    pub threshold_t2: f64,
+    /// The compatibility check.
+    pub compatibility: Compatibility,
+    /// The sensor errors removed before the synthesis.
+    pub corr: Corrections,
+    /// The air data replacing the sensors' (`None`: as logged).
+    pub air: Option<BTreeMap<Quantity, Vec<f64>>>,
+    /// The fusion's crossovers.
+    pub fuse_cutoffs: Option<BTreeMap<Quantity, f64>>,
+    /// The synthesised coefficients and signals.
+    pub table: Table,
+    /// What was done, in words.
+    pub notes: Vec<String>,
+}
+
+/// [`Preprocessed`] of a checked flight with time step `h`.
+pub(crate) fn preprocess(
+    flight: &MeasuredFlight,
+    h: f64,
+    settings: &GapSettings,
+    baselines: &[Vec<Term>; 6],
+) -> Preprocessed {
+    let n = flight.len();
+    let max_lag = ((settings.max_lag_s / h).round() as usize).max(1);
+    let sg_half = (settings.smoothing_half_width_s / h).round() as usize;
+    let n_id = ((n as f64 * settings.identification_fraction).round() as usize).clamp(100, n - 50);
+    // The candidate count (Bonferroni divisor) needs the table; synthesise once uncorrected to
+    // learn which signals exist (the corrected table has the same signals).
+    let probe = model::synthesise(flight, h, &Corrections::default(), sg_half, None);
+    let refs_probe = TermRefs {
+        alpha_break_rad: 0.0,
+        airspeed_mps: 1.0,
+        mach: 0.0,
+    };
+    let mut n_aero = 0usize;
+    for i in 0..6 {
+        if probe.z[i].is_none() {
+            continue;
+        }
+        let base = &baselines[i];
+        n_aero += Term::library(i)
+            .iter()
+            .filter(|t| !base.contains(t) && t.column(&probe, &refs_probe).is_some())
+            .count();
+    }
+    let n_compat_est = if settings.compatibility {
+        compat_candidate_count(flight)
+    } else {
+        0
+    };
+    let m = (n_aero + n_compat_est).max(1);
+    let z = signal::normal_upper_quantile(settings.alpha / (2.0 * m as f64));
+    // The compatibility check's statistic is normal (many segments); the coefficients' block
+    // sandwich has G − 1 degrees of freedom (G blocks of `cv.block_s`).
+    let compat_threshold_t2 = z * z;
+    let blocks = (n / ((settings.cv.block_s / h).round() as usize).max(10)).max(2);
+    let threshold_t2 = select::student_t_upper_quantile(settings.alpha / (2.0 * m as f64), blocks as f64 - 1.0).powi(2);
+    let mut notes = Vec::new();
+    // 1. Compatibility.
+    let cs = CompatSettings {
+        threshold_t2: compat_threshold_t2,
+        max_lag,
+        max_added: 3,
+        gain_alpha: settings.cv.gain_alpha,
+    };
+    let compatibility = if settings.compatibility {
+        compat::check(flight, h, &cs)
+    } else {
+        Compatibility {
+            notes: vec!["compatibility check switched off".into()],
+            ..Compatibility::default()
+        }
+    };
+    let found_corr = corrections_of(&compatibility);
+    let corr = if settings.apply_corrections {
+        if !compatibility.found.is_empty() {
+            notes.push("the sensor errors named are removed from the data before the aerodynamics; the baselines as logged are listed beside (`as_logged`)".into());
+        }
+        found_corr.clone()
+    } else {
+        Corrections::default()
+    };
+    // 2–5. Aerodynamics.
+    let (air_owned, fuse_cutoffs, air_note) = choose_air_data(flight, h, settings.air_data, &compatibility);
+    notes.push(air_note);
+    let table = model::synthesise(flight, h, &corr, sg_half, air_owned.as_ref());
+    notes.extend(table.notes.iter().cloned());
+    Preprocessed {
+        max_lag,
+        sg_half,
+        n_id,
+        m,
+        threshold_t2,
+        compatibility,
+        corr,
+        air: air_owned,
+        fuse_cutoffs,
+        table,
+        notes,
+    }
 }
 
 /// A term added to a coefficient, as a named cause. A surface-rate term is a time delay of that

@@ -246,6 +246,11 @@ pub fn json(r: &GapReport) -> Value {
         },
         "notes": r.notes.iter().chain(&compat.notes).collect::<Vec<_>>(),
         "air_data": r.air_data,
+        "term_refs": {
+            "alpha_break_rad": f(r.refs.alpha_break_rad),
+            "airspeed_mps": f(r.refs.airspeed_mps),
+            "mach": f(r.refs.mach),
+        },
         "corrections_applied": r.corrections_applied,
         "verdict": r.verdict,
         "data_quality": r.data_quality,
@@ -375,10 +380,18 @@ pub fn write(r: &GapReport, dir: &Path) -> Result<Vec<PathBuf>, ReportError> {
 /// The held-out segment simulated with the baseline and the extended models: per output, the
 /// measured (reconstructed) state and both simulations, and both errors.
 pub fn simulation_figure(sim: &super::simulate::Simulation) -> Figure {
-    let mut fig = Figure::new("time [s]").title(format!(
-        "held-out segment simulated with the fitted models ({:.0} s pieces, each from the measured state)",
-        sim.piece_s
-    ));
+    simulation_figure_titled(
+        sim,
+        &format!(
+            "held-out segment simulated with the fitted models ({:.0} s pieces, each from the measured state)",
+            sim.piece_s
+        ),
+    )
+}
+
+/// [`simulation_figure`] with another title (the prediction of another flight).
+pub fn simulation_figure_titled(sim: &super::simulate::Simulation, title: &str) -> Figure {
+    let mut fig = Figure::new("time [s]").title(title);
     for (tr, o) in sim.traces.iter().zip(&sim.outputs) {
         let eb: Vec<f64> = tr.measured.iter().zip(&tr.baseline).map(|(a, b)| a - b).collect();
         let ee: Vec<f64> = tr.measured.iter().zip(&tr.extended).map(|(a, b)| a - b).collect();

@@ -456,23 +456,29 @@ pub fn fit_metrics(model: &UserModel, segments: &[Segment], sims: &[Vec<YVec>]) 
         .map(|i| {
             let meas: Vec<f64> = segments.iter().flat_map(|s| s.y.iter().map(move |y| y[i])).collect();
             let pred: Vec<f64> = sims.iter().flat_map(|s| s.iter().map(move |y| y[i])).collect();
-            let n = meas.len() as f64;
-            let mean = meas.iter().sum::<f64>() / n;
-            let ss_tot: f64 = meas.iter().map(|m| (m - mean).powi(2)).sum();
-            let ss_res: f64 = meas.iter().zip(&pred).map(|(m, p)| (m - p).powi(2)).sum();
-            let rms = (ss_res / n).sqrt();
-            let rms_m = (meas.iter().map(|m| m * m).sum::<f64>() / n).sqrt();
-            let rms_p = (pred.iter().map(|p| p * p).sum::<f64>() / n).sqrt();
-            OutputFit {
-                name: model.file.outputs[i].name.clone(),
-                unit: model.file.outputs[i].unit.clone(),
-                samples: meas.len(),
-                rms,
-                r2: 1.0 - ss_res / ss_tot,
-                theil_u: rms / (rms_m + rms_p),
-            }
+            output_fit(&model.file.outputs[i].name, &model.file.outputs[i].unit, &meas, &pred)
         })
         .collect()
+}
+
+/// RMS of `meas − pred`, R² = `1 − SS_res/SS_tot` and Theil's U = `RMS/(RMS(meas) + RMS(pred))`
+/// of one output (the same definitions for every prediction the tool scores).
+pub fn output_fit(name: &str, unit: &str, meas: &[f64], pred: &[f64]) -> OutputFit {
+    let n = meas.len() as f64;
+    let mean = meas.iter().sum::<f64>() / n;
+    let ss_tot: f64 = meas.iter().map(|m| (m - mean).powi(2)).sum();
+    let ss_res: f64 = meas.iter().zip(pred).map(|(m, p)| (m - p).powi(2)).sum();
+    let rms = (ss_res / n).sqrt();
+    let rms_m = (meas.iter().map(|m| m * m).sum::<f64>() / n).sqrt();
+    let rms_p = (pred.iter().map(|p| p * p).sum::<f64>() / n).sqrt();
+    OutputFit {
+        name: name.to_string(),
+        unit: unit.to_string(),
+        samples: meas.len(),
+        rms,
+        r2: 1.0 - ss_res / ss_tot,
+        theil_u: rms / (rms_m + rms_p),
+    }
 }
 
 /// One parameter of a saved identification.
@@ -758,7 +764,7 @@ pub fn report_text(s: &SavedModel) -> String {
     out
 }
 
-fn fit_table(out: &mut String, title: &str, fits: &[OutputFit]) {
+pub fn fit_table(out: &mut String, title: &str, fits: &[OutputFit]) {
     let _ = writeln!(out, "{title}");
     let _ = writeln!(
         out,
