@@ -31,12 +31,12 @@ fn s(p: &Path) -> &str {
     p.to_str().expect("UTF-8 path")
 }
 
-/// The shared fixture: a folder with flights `a.csv` (seed 1) and `b.csv` (seed 2), 90 s each,
+/// The shared fixture (under the target folder, rewritten each run): a folder with flights `a.csv` (seed 1) and `b.csv` (seed 2), 90 s each,
 /// and `id/report.json`, the gap analysis of `a.csv` (run once for every test of this file).
 fn fixture() -> &'static PathBuf {
     static DIR: OnceLock<PathBuf> = OnceLock::new();
     DIR.get_or_init(|| {
-        let dir = std::env::temp_dir().join(format!("aerosid-predict-{}", std::process::id()));
+        let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("predict");
         std::fs::create_dir_all(&dir).expect("scratch folder");
         for (name, seed) in [("a.csv", "1"), ("b.csv", "2")] {
             let o = aerosid(&[
@@ -192,7 +192,7 @@ fn a_flight_lacking_a_channel_lists_the_coefficients_it_cannot_predict() {
 
 #[test]
 fn a_wrong_report_or_path_is_refused_with_a_clear_error() {
-    let dir = std::env::temp_dir().join(format!("aerosid-predict-refused-{}", std::process::id()));
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("predict-refused");
     std::fs::create_dir_all(&dir).expect("scratch folder");
     let other = dir.join("quality.json");
     std::fs::write(&other, r#"{"schema": "aerosid-data-quality/1"}"#).expect("write");
