@@ -827,14 +827,7 @@ pub fn parse_dataflash(
             .quantity
             .and_then(|q| raw.iter().chain(&optional).find(|r| r.0 == q))
             .map_or(String::new(), |r| format!(" (from `{}`)", r.1));
-        let at = inv.sample.map_or(String::new(), |k| {
-            format!(" at output sample {k} (t = {:.6} s)", flight.t_s[k])
-        });
-        err(format!(
-            "{}{src}{at}: {}",
-            inv.quantity.map_or("time".to_string(), |q| q.name().to_string()),
-            inv.message
-        ))
+        err(inv.describe(&src, &flight.t_s))
     })?;
     Ok(flight)
 }

@@ -375,6 +375,22 @@ pub struct Invalid {
     pub message: String,
 }
 
+impl Invalid {
+    /// The reader's message for a flight that fails [`MeasuredFlight::validate`]: the channel (or
+    /// "time"), where it came from (`src`, e.g. `` (from `IMU.GyrX`)``, or empty) and the output
+    /// sample with its time on `t_s`.
+    pub fn describe(&self, src: &str, t_s: &[f64]) -> String {
+        let at = self.sample.map_or(String::new(), |k| {
+            format!(" at output sample {k} (t = {:.6} s)", t_s[k])
+        });
+        format!(
+            "{}{src}{at}: {}",
+            self.quantity.map_or("time".to_string(), |q| q.name().to_string()),
+            self.message
+        )
+    }
+}
+
 impl std::fmt::Display for Invalid {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         if let Some(q) = self.quantity {

@@ -1133,14 +1133,7 @@ pub fn parse_ulog_with(
                 " (from `vehicle_attitude.q`)".to_string()
             }
         });
-        let at = inv.sample.map_or(String::new(), |k| {
-            format!(" at output sample {k} (t = {:.6} s)", flight.t_s[k])
-        });
-        err(format!(
-            "{}{src}{at}: {}",
-            inv.quantity.map_or("time".to_string(), |q| q.name().to_string()),
-            inv.message
-        ))
+        err(inv.describe(&src, &flight.t_s))
     })?;
     Ok(flight)
 }
