@@ -183,8 +183,11 @@ pub struct CandidateScore {
     /// Held-out gain: the mean decrease of the blocks' held-out squared error relative to the
     /// baseline's.
     pub cv_gain: f64,
-    /// The held-out gain over its standard error across blocks.
+    /// The sign-flip statistic of the blocks' held-out gains ([`select::gain`]).
     pub cv_gain_z: f64,
+    /// The held-out gain against the noise of the held-out residuals ([`select::Design::noise_gain`],
+    /// the test a candidate must pass); NaN where not computed (`t²` below the threshold).
+    pub cv_noise_z: f64,
     /// Not used by the selection (NaN); kept in the schema.
     pub pse: f64,
     /// Both tests passed: `t²` above the threshold and the held-out gain beyond noise.
@@ -202,6 +205,7 @@ impl CandidateScore {
             t2: 0.0,
             cv_gain: 0.0,
             cv_gain_z: 0.0,
+            cv_noise_z: f64::NAN,
             pse: f64::NAN,
             significant: false,
             reason: Some(reason),
@@ -1052,11 +1056,11 @@ fn unconfirmed(candidates: &[CandidateScore], threshold_t2: f64) -> String {
         .filter(|c| !c.significant && c.reason.is_none() && c.t2 > threshold_t2 && c.cv_gain >= 0.05)
         .map(|c| {
             format!(
-                "{} (t² {:.0}, held-out error −{:.0} %, gain z {:.1})",
+                "{} (t² {:.0}, held-out error −{:.0} %, gain {:.1} σ of noise)",
                 c.term,
                 c.t2,
                 100.0 * c.cv_gain,
-                c.cv_gain_z
+                c.cv_noise_z
             )
         })
         .collect();
@@ -1238,7 +1242,15 @@ fn stepwise(
             // named as a delay.
             let unresolved =
                 delay_of(terms[j], &trial, &terms, &f.theta, &f.sigma).filter(|tau| tau.is_nan() || *tau < h_s);
-            let ok = t2 > threshold_t2 && z > gain_crit && unresolved.is_none();
+            // The held-out gain must lean positive (sign-flip z > 0) and exceed what the noise
+            // of the held-out residuals explains (only computed where the t² test passes: it
+            // reads every sample).
+            let noise_z = if t2 > threshold_t2 && z > 0.0 {
+                design.noise_gain(&current, &f)
+            } else {
+                f64::NAN
+            };
+            let ok = t2 > threshold_t2 && z > 0.0 && noise_z > gain_crit && unresolved.is_none();
             if first {
                 out.candidates.push(CandidateScore {
                     term: terms[j].name().into(),
@@ -1246,6 +1258,7 @@ fn stepwise(
                     t2,
                     cv_gain: rel,
                     cv_gain_z: z,
+                    cv_noise_z: noise_z,
                     pse: f64::NAN,
                     significant: ok,
                     reason: unresolved.map(|tau| {
@@ -1273,10 +1286,19 @@ fn stepwise(
             for (k, &c) in model.iter().enumerate().skip(nb) {
                 let t2 = current.t2(k);
                 let without: Vec<usize> = model.iter().copied().filter(|&x| x != c).collect();
-                let z = design
-                    .fit(&without)
-                    .map_or(f64::INFINITY, |w| select::gain(&w.cv_sse, &current.cv_sse).0);
-                if (t2 <= threshold_t2 || z <= gain_crit) && weakest.is_none_or(|w| t2 < w.1) {
+                let (z, noise_z) = design.fit(&without).map_or((f64::INFINITY, f64::INFINITY), |w| {
+                    let z = select::gain(&w.cv_sse, &current.cv_sse).0;
+                    (
+                        z,
+                        if z > 0.0 {
+                            design.noise_gain(&w, &current)
+                        } else {
+                            f64::NAN
+                        },
+                    )
+                });
+                let passes = t2 > threshold_t2 && z > 0.0 && noise_z > gain_crit;
+                if !passes && weakest.is_none_or(|w| t2 < w.1) {
                     weakest = Some((c, t2));
                 }
             }
@@ -1330,7 +1352,7 @@ fn stepwise(
             )
         } else {
             format!(
-                "not decided by this flight (held-out R² {:.3}): {open} — significant, but the held-out gain rests on too few excited blocks; more manoeuvres exciting it would decide",
+                "not decided by this flight (held-out R² {:.3}): {open} — significant, but its held-out gain is not beyond the noise; more manoeuvres exciting it would decide",
                 out.cv_r2_baseline
             )
         }
