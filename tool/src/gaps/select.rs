@@ -386,11 +386,10 @@ impl Design {
 /// 0's mean held-out SSE)`, with `z = Σd_b / √(Σd_b²)` the normal approximation of the sign-flip
 /// (randomisation) test of the gains `d_b = SSE₀_b − SSE₁_b`: under "no gain" each block's gain
 /// is as likely negative as positive, whatever its size, so `Σ s_b|d_b|` with random signs has
-/// variance `Σd_b²` (Fisher's randomisation test; Efron 1969 for the normal approximation). Why
-/// not the ordinary paired t: a term's gain concentrates in the few blocks where it is excited
-/// (β² where the rudder moved), and the t's spread about the mean counts that concentration as
-/// noise — on a JSBSim flight a planted `C_mβ²` cut the held-out error by 33 % and its paired t
-/// was 1.9; the sign-flip statistic asks only whether the gains lean positive beyond chance.
+/// variance `Σd_b²` (Fisher's randomisation test; Efron 1969 for the normal approximation).
+/// Self-normalised, it cannot exceed `√k` when the gain lives in `k` blocks, so the selection
+/// uses it only for the direction (`z > 0`, and "not significantly worse" for alternatives) and
+/// tests the size against the noise with [`Design::noise_gain`].
 pub fn gain(sse0: &[f64], sse1: &[f64]) -> (f64, f64) {
     let g = sse0.len().min(sse1.len());
     if g < 2 {
