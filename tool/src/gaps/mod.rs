@@ -1067,6 +1067,18 @@ fn unconfirmed(candidates: &[CandidateScore], threshold_t2: f64) -> String {
     list.join(", ")
 }
 
+/// The held-out test of `f1` over `f0` beyond the sign-flip `z`: the gains must lean positive
+/// (`z > 0`) and exceed what the noise of the held-out residuals explains
+/// ([`select::Design::noise_gain`]). Computed only when `wanted` (the `t²` test passed: it reads
+/// every sample); NaN otherwise.
+fn noise_z_if(design: &select::Design, f0: &select::SubsetFit, f1: &select::SubsetFit, z: f64, wanted: bool) -> f64 {
+    if wanted && z > 0.0 {
+        design.noise_gain(f0, f1)
+    } else {
+        f64::NAN
+    }
+}
+
 /// The delay a surface-rate term implies in a fit (`None` for other terms or without the surface
 /// term in the model; NaN when the surface's own term is within 3σ of zero, whose ratio means
 /// nothing).
@@ -1242,14 +1254,7 @@ fn stepwise(
             // named as a delay.
             let unresolved =
                 delay_of(terms[j], &trial, &terms, &f.theta, &f.sigma).filter(|tau| tau.is_nan() || *tau < h_s);
-            // The held-out gain must lean positive (sign-flip z > 0) and exceed what the noise
-            // of the held-out residuals explains (only computed where the t² test passes: it
-            // reads every sample).
-            let noise_z = if t2 > threshold_t2 && z > 0.0 {
-                design.noise_gain(&current, &f)
-            } else {
-                f64::NAN
-            };
+            let noise_z = noise_z_if(&design, &current, &f, z, t2 > threshold_t2);
             let ok = t2 > threshold_t2 && z > 0.0 && noise_z > gain_crit && unresolved.is_none();
             if first {
                 out.candidates.push(CandidateScore {
@@ -1286,18 +1291,12 @@ fn stepwise(
             for (k, &c) in model.iter().enumerate().skip(nb) {
                 let t2 = current.t2(k);
                 let without: Vec<usize> = model.iter().copied().filter(|&x| x != c).collect();
-                let (z, noise_z) = design.fit(&without).map_or((f64::INFINITY, f64::INFINITY), |w| {
-                    let z = select::gain(&w.cv_sse, &current.cv_sse).0;
-                    (
-                        z,
-                        if z > 0.0 {
-                            design.noise_gain(&w, &current)
-                        } else {
-                            f64::NAN
-                        },
-                    )
-                });
-                let passes = t2 > threshold_t2 && z > 0.0 && noise_z > gain_crit;
+                // A term whose removal cannot be fitted stays.
+                let passes = t2 > threshold_t2
+                    && design.fit(&without).map_or(true, |w| {
+                        let z = select::gain(&w.cv_sse, &current.cv_sse).0;
+                        z > 0.0 && noise_z_if(&design, &w, &current, z, true) > gain_crit
+                    });
                 if !passes && weakest.is_none_or(|w| t2 < w.1) {
                     weakest = Some((c, t2));
                 }

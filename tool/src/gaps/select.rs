@@ -324,11 +324,14 @@ impl Design {
         }
         // Autocorrelation of the held-out residuals, lags within a block, each block's own
         // mean square as its scale.
+        let mean_sq: Vec<f64> = resid
+            .iter()
+            .map(|r| r.iter().map(|x| x * x).sum::<f64>() / r.len().max(1) as f64)
+            .collect();
         let len = self.blocks.iter().map(|(a, e)| e - a).max().unwrap_or(0);
         let mut acf = vec![0.0; len];
         let mut norm = 0.0;
-        for r in &resid {
-            let ms = r.iter().map(|x| x * x).sum::<f64>() / r.len().max(1) as f64;
+        for (r, &ms) in resid.iter().zip(&mean_sq) {
             if ms <= 0.0 {
                 continue;
             }
@@ -346,10 +349,8 @@ impl Design {
             .map(|(k, a)| a / norm * (1.0 - k as f64 / len as f64))
             .collect();
         let (mut sum, mut var) = (0.0, 0.0);
-        for b in 0..g {
+        for (b, (d, ms)) in delta.iter().zip(&mean_sq).enumerate() {
             sum += f0.cv_sse[b] - f1.cv_sse[b];
-            let (d, r) = (&delta[b], &resid[b]);
-            let ms = r.iter().map(|x| x * x).sum::<f64>() / r.len().max(1) as f64;
             let mut q = 0.0;
             for k in 0..d.len().min(rho.len()) {
                 let c: f64 = (0..d.len() - k).map(|i| d[i] * d[i + k]).sum();

@@ -168,7 +168,7 @@ pub struct WindFit {
 
 /// What the α-free mode did, for the data-quality assessment and the report
 /// ([`super::measured::LogMeta::flow_angles`]).
-#[derive(Debug, Clone, PartialEq, Serialize, Default)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct FlowAngles {
     /// `vanes`, `estimated`, `not estimated` or `off`.
     pub status: String,
@@ -198,6 +198,27 @@ pub struct FlowAngles {
     pub why_not: Vec<String>,
     /// One sentence for the data-quality table.
     pub summary: String,
+}
+
+impl Default for FlowAngles {
+    /// Nothing estimated: the σ's and excitations unknown (NaN), the texts empty.
+    fn default() -> Self {
+        Self {
+            status: String::new(),
+            wind_source: String::new(),
+            fit: None,
+            autopilot_wind_ne_mps: None,
+            alpha_sigma_rad: f64::NAN,
+            beta_sigma_rad: f64::NAN,
+            alpha_sigma_smoothed_rad: f64::NAN,
+            beta_sigma_smoothed_rad: f64::NAN,
+            alpha_excitation_rad: f64::NAN,
+            beta_excitation_rad: f64::NAN,
+            assumptions: Vec::new(),
+            why_not: Vec::new(),
+            summary: String::new(),
+        }
+    }
 }
 
 /// The circular span of a set of angles, rad: 2π less the largest gap between neighbours.
@@ -496,12 +517,6 @@ pub fn estimate(flight: &MeasuredFlight, s: &WindFitSettings) -> Result<Estimate
     let n = flight.len();
     let mut info = FlowAngles {
         status: "not estimated".into(),
-        alpha_sigma_rad: f64::NAN,
-        beta_sigma_rad: f64::NAN,
-        alpha_sigma_smoothed_rad: f64::NAN,
-        beta_sigma_smoothed_rad: f64::NAN,
-        alpha_excitation_rad: f64::NAN,
-        beta_excitation_rad: f64::NAN,
         ..FlowAngles::default()
     };
     let autopilot = match (flight.get(WindNorth), flight.get(WindEast)) {
@@ -728,12 +743,6 @@ pub fn prepare(flight: &MeasuredFlight, choice: FlowAngleChoice, s: &WindFitSett
     let vanes = flight.get(Quantity::Alpha).is_some();
     let off = |why: &str| FlowAngles {
         status: "off".into(),
-        alpha_sigma_rad: f64::NAN,
-        beta_sigma_rad: f64::NAN,
-        alpha_sigma_smoothed_rad: f64::NAN,
-        beta_sigma_smoothed_rad: f64::NAN,
-        alpha_excitation_rad: f64::NAN,
-        beta_excitation_rad: f64::NAN,
         summary: why.to_string(),
         ..FlowAngles::default()
     };
