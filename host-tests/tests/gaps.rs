@@ -165,12 +165,13 @@ fn each_kind_of_hidden_effect_is_named_in_its_place() {
     assert!(missed.is_empty(), "missed: {missed:?}");
 }
 
-/// The kinds that the analysis cannot identify in turbulence from the kinematics and the forces
-/// alone, with what it must do instead: a vane scale factor is not named (the gust response makes
-/// the kinematic residual proportional to α; the report says so); a delay of the α vane is open —
-/// it is named as α̇ terms, the known failure the benchmark table records.
+/// The kinds whose detection in turbulence depends on their drawn size, with what the analysis
+/// must do when it does not name them: a vane scale factor (tested by instrumental variables,
+/// which on these flights resolve about ±0.03) is named in its place or not at all, with the
+/// output-error check's turbulence reason in the report; the lift curvature is open (the
+/// benchmark table records its misses).
 const NOT_IDENTIFIABLE_IN_TURBULENCE: [HiddenKind; 1] = [HiddenKind::VaneScale];
-const OPEN_IN_TURBULENCE: [HiddenKind; 2] = [HiddenKind::TimeDelay, HiddenKind::LiftQuadratic];
+const OPEN_IN_TURBULENCE: [HiddenKind; 1] = [HiddenKind::LiftQuadratic];
 
 #[test]
 fn in_turbulence_each_identifiable_kind_is_named_and_clean_flights_stay_quiet() {
@@ -192,8 +193,8 @@ fn in_turbulence_each_identifiable_kind_is_named_and_clean_flights_stay_quiet() 
     for ((o, r), (e, _)) in out.iter().zip(&draws) {
         let Some(e) = e else { continue };
         if NOT_IDENTIFIABLE_IN_TURBULENCE.contains(&e.kind) {
-            // AND what cannot be identified is not named, and the report says why
-            assert!(r.named.is_empty(), "{}: named {:?}", o.detail, r.named);
+            // AND a scale factor is named right or nothing is, and the report says why
+            assert!(o.correct || r.named.is_empty(), "{}: named {:?}", o.detail, r.named);
             assert!(
                 r.compatibility.rejected.iter().any(|f| f.why.contains("turbulence")),
                 "{}: no turbulence reason in {:?}",
@@ -250,6 +251,10 @@ fn the_monte_carlo_error_model_matches_the_reconstructions_actual_error() {
                 max_lag: 500,
                 max_added: 3,
                 gain_alpha: 0.01,
+                iv: aerosid::gaps::instrumental::IvSettings {
+                    level: 1e-5,
+                    cv: aerosid::gaps::select::CvSettings::default(),
+                },
             },
         );
         let corr = Corrections::default();

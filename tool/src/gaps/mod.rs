@@ -3,7 +3,8 @@
 //! [`run_gaps`] takes a [`MeasuredFlight`] and, in this order:
 //! 1. **Data compatibility** ([`compat`]): flight-path reconstruction by output error on the
 //!    kinematic equations, with sensor biases, scale factors, time delays and vane positions chosen
-//!    by stepwise regression. Errors found are removed from the data before any aerodynamics.
+//!    by stepwise regression; on a turbulent vane its scale and delay by instrumental variables
+//!    ([`instrumental`]). Errors found are removed from the data before any aerodynamics.
 //! 2. **Baseline fit** ([`model`], [`regress`], [`noise`]): the coefficients of eq. 1–2 synthesised
 //!    from the corrected, smoothed channels; each fitted to its baseline regressors (eq. 3 by
 //!    default, or the model given) by the core's PCA-GTLS ([`aerosid_core::gtls::Gtls`], `f64`)
@@ -38,6 +39,7 @@ pub mod airdata;
 pub mod bench;
 pub mod compat;
 pub mod hidden;
+pub mod instrumental;
 pub mod model;
 pub mod noise;
 pub mod predict;
@@ -758,6 +760,10 @@ pub(crate) fn preprocess(
         max_lag,
         max_added: 3,
         gain_alpha: settings.cv.gain_alpha,
+        iv: instrumental::IvSettings {
+            level: settings.alpha / m as f64,
+            cv: settings.cv,
+        },
     };
     let compatibility = if settings.compatibility {
         compat::check(flight, h, &cs)
