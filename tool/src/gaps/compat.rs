@@ -131,6 +131,8 @@ pub struct ParamScore {
     pub sigma: f64,
     /// Partial test statistic `t²`.
     pub t2: f64,
+    /// Which part scored it (`"attitude"`, `"velocity"` or `"instrumental"`).
+    pub part: &'static str,
 }
 
 /// A sensor error found, with its final estimate.
@@ -147,9 +149,10 @@ pub struct Found {
     /// Which part found it (`"attitude"`, `"velocity"` or `"instrumental"`).
     pub part: &'static str,
     /// Held-out gain of the kinematic reconstruction with this error over the same model without
-    /// it: its mean over the segments (each predicted by a fit that left its fold out) divided
-    /// by its standard error. For the `"instrumental"` part, the gain against the noise of the
-    /// held-out residuals, `T` of [`super::select::Design::noise_gain`].
+    /// it (each segment predicted by a fit that left its fold out), against the noise of the
+    /// held-out residuals: `T` of [`super::select::noise_referenced_gain`] (for the
+    /// `"instrumental"` part, of its regression's blocks); NaN when the gains lean negative. For a
+    /// bias of a turbulent air-data channel, the sign-flip `z` of [`super::select::gain`] instead.
     pub cv_gain_z: f64,
     /// The same gain relative to the held-out squared error without it.
     pub cv_gain: f64,
@@ -528,6 +531,7 @@ impl Problem<'_> {
                     value: st.g[c] + t.theta,
                     sigma: t.sigma,
                     t2: t.t2,
+                    part: "",
                 });
             }
         }
@@ -538,13 +542,17 @@ impl Problem<'_> {
     /// segments are dealt round-robin into folds; for each fold the active parameters are
     /// re-estimated on the other segments (initial states projected out per segment, so a
     /// held-out segment keeps its own refitted initial state) and predict the fold's residuals.
-    /// Returns, per active parameter, `(z, relative gain)` of the full model over the model
-    /// without it.
-    fn held_out(&self, st: &State) -> Vec<(usize, f64, f64)> {
+    /// Returns, per active parameter, `(z, T, relative gain)` of the full model over the model
+    /// without it: `z` the sign-flip statistic ([`super::select::gain`]), `T` the gain against the
+    /// noise of the held-out residuals ([`super::select::noise_referenced_gain`]), NaN when the
+    /// gains lean negative (`z ≤ 0`). Why not the sign-flip `z` itself: over 18 segments of turbulent data it is
+    /// self-normalised and saturates — an a_z bias of 0.114 m/s² (`t²` 26) had `z` 1.5, α-vane
+    /// biases of 2° and 2.5° (`t²` 32 and 57) `z` 2.0 against the critical 2.6.
+    fn held_out(&self, st: &State) -> Vec<(usize, f64, f64, f64)> {
         let act: Vec<usize> = (0..st.g.len()).filter(|&c| st.active[c]).collect();
         let nseg = self.segments.len();
         if act.is_empty() || nseg < 4 {
-            return act.iter().map(|&c| (c, 0.0, 0.0)).collect();
+            return act.iter().map(|&c| (c, 0.0, 0.0, 0.0)).collect();
         }
         let x0c = self.bases(st);
         let (rs, _) = self.residual(st);
@@ -560,7 +568,8 @@ impl Problem<'_> {
         let folds = nseg.min(5);
         // Held-out SSE per segment of the model with the active parameters `keep` (indices into
         // `act`); the residual is taken with the others' contributions added back.
-        let sse = |keep: &[usize]| -> Vec<f64> {
+        // Held-out errors per segment of the model with the active parameters `keep`.
+        let errors = |keep: &[usize]| -> Vec<Vec<f64>> {
             let dropped: Vec<usize> = (0..act.len()).filter(|k| !keep.contains(k)).collect();
             // r̃ = r + Σ_dropped c·g (the fit without them), per segment.
             let rt: Vec<Vec<f64>> = (0..nseg)
@@ -575,7 +584,7 @@ impl Problem<'_> {
                     v
                 })
                 .collect();
-            let mut out = vec![0.0; nseg];
+            let mut out = vec![Vec::new(); nseg];
             for f in 0..folds {
                 let train: Vec<usize> = (0..nseg).filter(|s| s % folds != f).collect();
                 let delta = if keep.is_empty() {
@@ -594,21 +603,35 @@ impl Problem<'_> {
                         .enumerate()
                         .map(|(i, y)| {
                             let pred: f64 = keep.iter().zip(&delta).map(|(&k, d)| cols[k][s][i] * d).sum();
-                            (y - pred).powi(2)
+                            y - pred
                         })
-                        .sum();
+                        .collect();
                 }
             }
             out
         };
+        let sse = |e: &[Vec<f64>]| -> Vec<f64> { e.iter().map(|v| v.iter().map(|x| x * x).sum()).collect() };
         let all: Vec<usize> = (0..act.len()).collect();
-        let full = sse(&all);
+        let e_full = errors(&all);
+        let full = sse(&e_full);
         act.iter()
             .enumerate()
             .map(|(k, &c)| {
                 let without: Vec<usize> = all.iter().copied().filter(|&x| x != k).collect();
-                let (z, rel) = super::select::gain(&sse(&without), &full);
-                (c, z, rel)
+                let e_wo = errors(&without);
+                let sse_wo = sse(&e_wo);
+                let (z, rel) = super::select::gain(&sse_wo, &full);
+                let t = if z > 0.0 {
+                    let delta: Vec<Vec<f64>> = e_wo
+                        .iter()
+                        .zip(&e_full)
+                        .map(|(a, b)| a.iter().zip(b).map(|(x, y)| x - y).collect())
+                        .collect();
+                    super::select::noise_referenced_gain(&delta, &e_full, &sse_wo, &full)
+                } else {
+                    f64::NAN
+                };
+                (c, z, t, rel)
             })
             .collect()
     }
@@ -645,6 +668,7 @@ fn run(
     x0: Vec<Vec<f64>>,
     s: &CompatSettings,
     part: &'static str,
+    exclude: &dyn Fn(&Problem, &State) -> Vec<SensorParam>,
 ) -> (
     Vec<ParamScore>,
     (Vec<Found>, Vec<Found>),
@@ -662,9 +686,11 @@ fn run(
     };
     prob.fit(&mut st);
     let before = prob.rms(&st);
+    let excluded = exclude(prob, &st);
     let mut first = None;
     let mut entered: Vec<(usize, f64)> = Vec::new();
-    let mut removed: Vec<usize> = Vec::new();
+    // Excluded candidates are scored but may not enter, as if removed.
+    let mut removed: Vec<usize> = (0..nc).filter(|&c| excluded.contains(&prob.candidates[c])).collect();
     for _ in 0..s.max_added {
         let (scores, _) = prob.scores(&st, s.max_lag);
         let best = scores
@@ -674,7 +700,12 @@ fn run(
             .max_by(|a, b| a.t2.total_cmp(&b.t2))
             .cloned();
         if first.is_none() {
-            first = Some(scores);
+            first = Some(
+                scores
+                    .iter()
+                    .map(|c| ParamScore { part, ..c.clone() })
+                    .collect::<Vec<_>>(),
+            );
         }
         match best {
             Some(b) if b.t2 > s.threshold_t2 => {
@@ -717,22 +748,33 @@ fn run(
     let (_, sig) = prob.scores(&st, s.max_lag);
     let held = prob.held_out(&st);
     let crit = super::select::student_t_upper_quantile(s.gain_alpha, (prob.segments.len() as f64 - 1.0).max(1.0));
+    // A bias of an air-data channel in turbulence is judged by the sign-flip `z`, not by `T`: a
+    // mean wind over the flight moves that channel like a bias, and the gusts' correlation across
+    // segments (longer than the 5 s segments for the along-track gust) is not in `T`'s noise (on
+    // a simulated flight with 0.34 m/s of low-frequency airspeed residual, `bias(Airspeed)`
+    // 0.99 m/s — ten times the sensor's bias σ — had `t²` 33 and `T` 3.1, `z` below the critical).
+    let wind_like =
+        |p: &SensorParam| matches!(p, SensorParam::Bias(_)) && excluded.iter().any(|e| e.channel() == p.channel());
     let (found, rejected): (Vec<Found>, Vec<Found>) = entered
         .iter()
         .map(|&(c, t2)| {
-            let (z, rel) = held.iter().find(|h| h.0 == c).map_or((0.0, 0.0), |h| (h.1, h.2));
+            let param = prob.candidates[c];
+            let (z, t, rel) = held.iter().find(|h| h.0 == c).map_or((0.0, 0.0, 0.0), |h| (h.1, h.2, h.3));
+            let stat = if wind_like(&param) { z } else { t };
             Found {
-                param: prob.candidates[c],
+                param,
                 value: st.g[c],
                 sigma: sig.iter().find(|(k, _)| *k == c).map_or(f64::NAN, |x| x.1),
                 t2,
                 part,
-                cv_gain_z: z,
+                cv_gain_z: stat,
                 cv_gain: rel,
-                why: if z > crit {
+                why: if stat > crit {
                     String::new()
+                } else if wind_like(&param) {
+                    format!("in turbulence a mean wind moves this channel like a bias: judged by the sign-flip test of its held-out gain, which it does not pass (z {z:.1} ≤ {crit:.1})")
                 } else {
-                    format!("does not improve the held-out reconstruction beyond noise (gain z {z:.1} ≤ {crit:.1})")
+                    format!("does not improve the held-out reconstruction beyond noise (gain T {stat:.1} ≤ {crit:.1})")
                 },
             }
         })
@@ -746,6 +788,22 @@ fn run(
     }
     if !rejected.is_empty() {
         prob.fit(&mut st);
+    }
+    // The excluded candidates that would have passed the first round, with the reason.
+    let mut rejected = rejected;
+    for c in first.iter().flatten() {
+        if excluded.contains(&c.param) && c.t2 > s.threshold_t2 {
+            rejected.push(Found {
+                param: c.param,
+                value: c.value,
+                sigma: c.sigma,
+                t2: c.t2,
+                part,
+                cv_gain_z: f64::NAN,
+                cv_gain: f64::NAN,
+                why: TURBULENCE_WHY.into(),
+            });
+        }
     }
     let after = prob.rms(&st);
     let rms = prob
@@ -1313,7 +1371,7 @@ pub fn check(flight: &MeasuredFlight, h_s: f64, s: &CompatSettings) -> Compatibi
         x0_sens: None,
         split: None,
     };
-    let (tested, found, rms, g_a, _, _) = run(&prob_a, x0, s, "attitude");
+    let (tested, found, rms, g_a, _, _) = run(&prob_a, x0, s, "attitude", &|_, _| Vec::new());
     let gyro_bias = [
         bias_of(&g_a, RollRate),
         bias_of(&g_a, PitchRate),
@@ -1331,7 +1389,25 @@ pub fn check(flight: &MeasuredFlight, h_s: f64, s: &CompatSettings) -> Compatibi
     };
     let (prob_b, x0, states_c, lat_v) = (vp.problem, vp.x0, vp.states, vp.lateral);
     let (outputs, measured) = (prob_b.outputs.clone(), prob_b.measured.clone());
-    let (tested, found, rms, g_b, y, (w_b, x0_b)) = run(&prob_b, x0, s, "velocity");
+    // Turbulence is judged on the baseline reconstruction, before any sensor error enters: in
+    // turbulence the scale, delay and position of an air-data channel may not enter the output-error
+    // selection (they would take its places with the gust response: on a turbulent flight with
+    // an a_z bias of 0.114 m/s², `vane_x(α)`, `delay(α)` and `scale(α)` entered first with `t²`
+    // 50–230 and the bias, `t²` 26, never did).
+    let turbulent = std::cell::RefCell::new(Vec::new());
+    let screen = |p: &Problem, st: &State| -> Vec<SensorParam> {
+        let found = turbulence_in(p, st, h_s);
+        let banned = p
+            .candidates
+            .iter()
+            .filter(|c| !matches!(c, SensorParam::Bias(_)) && found.iter().any(|(q, _)| *q == c.channel()))
+            .copied()
+            .collect();
+        *turbulent.borrow_mut() = found;
+        banned
+    };
+    let (tested, found, rms, g_b, y, (w_b, x0_b)) = run(&prob_b, x0, s, "velocity", &screen);
+    out.turbulent = turbulent.into_inner();
     out.air_data = air_data_of(&prob_b, &states_c, &g_b, &x0_b, lat_v);
     out.velocity_fit = Some((w_b, x0_b));
     out.tested.extend(tested);
@@ -1341,61 +1417,24 @@ pub fn check(flight: &MeasuredFlight, h_s: f64, s: &CompatSettings) -> Compatibi
     for ((o, m), yy) in outputs.iter().zip(measured).zip(y) {
         out.traces.push((*o, m, yy));
     }
-    turbulence_screen(&mut out, h_s);
-    if let Some((w, x0)) = &out.velocity_fit {
-        let (w, x0) = (w.clone(), x0.clone());
-        instrumental_check(&mut out, flight, h_s, &prob_b, (&g_b, &w, &x0), &s.iv);
-    }
+    turbulence_note(&mut out);
+    instrumental_check(&mut out, flight, h_s, &s.iv);
     out
 }
 
 /// On each turbulent vane channel, the test of its scale and delay by instrumental variables
-/// ([`super::instrumental`]) in place of the output-error one the turbulence screen refused. The
-/// reconstruction it compares the vane with is refitted without the refused errors (every
-/// segment's initial state again, the biases and the other channels' errors held): undoing a
-/// scale in the trace would not do, the initial states were fitted with it (on clean turbulent
-/// flights the refused `scale(α)` reaches −0.7, and the trace divided by 0.3 is no reconstruction).
-fn instrumental_check(
-    out: &mut Compatibility,
-    flight: &MeasuredFlight,
-    h_s: f64,
-    prob: &Problem,
-    fit: (&[f64], &[f64], &[Vec<f64>]),
-    s: &super::instrumental::IvSettings,
-) {
-    let vanes: Vec<Quantity> = [Quantity::Alpha, Quantity::Beta]
-        .into_iter()
-        .filter(|ch| out.turbulent.iter().any(|(q, _)| q == ch) && prob.outputs.contains(ch))
-        .collect();
-    if vanes.is_empty() {
-        return;
-    }
-    let (g, weights, x0) = fit;
-    let mut st = State {
-        g: prob
-            .candidates
-            .iter()
-            .zip(g)
-            .map(|(c, &v)| match c {
-                SensorParam::Scale(q) | SensorParam::Delay(q) | SensorParam::VaneX(q) if vanes.contains(q) => 0.0,
-                _ => v,
-            })
-            .collect(),
-        active: vec![false; prob.candidates.len()],
-        x0: x0.to_vec(),
-        weights: weights.to_vec(),
-    };
-    if st.g.as_slice() != g {
-        for seg in 0..prob.segments.len() {
-            prob.fit_x0(&mut st, seg);
+/// ([`super::instrumental`]) in place of the output-error one, which may not enter them in
+/// turbulence: the reconstruction it compares the vane with is the trace's (the errors found
+/// removed, no scale, delay or position of a turbulent channel among them).
+fn instrumental_check(out: &mut Compatibility, flight: &MeasuredFlight, h_s: f64, s: &super::instrumental::IvSettings) {
+    for ch in [Quantity::Alpha, Quantity::Beta] {
+        if !out.turbulent.iter().any(|(q, _)| *q == ch) {
+            continue;
         }
-    }
-    let y = prob.outputs_of(&st);
-    for ch in vanes {
-        let Some(o) = prob.outputs.iter().position(|q| *q == ch) else {
+        let Some((_, m, y)) = out.traces.iter().find(|t| t.0 == ch) else {
             continue;
         };
-        let r = super::instrumental::check_channel(flight, h_s, ch, &prob.measured[o], &y[o], s);
+        let r = super::instrumental::check_channel(flight, h_s, ch, m, y, s);
         out.notes.push(r.note);
         out.tested.extend(r.tested);
         out.found.extend(r.found);
@@ -1412,6 +1451,13 @@ const TURBULENCE_RATIO: f64 = 3.0;
 /// Crossover of the wind estimate, Hz.
 const WIND_CROSSOVER_HZ: f64 = 1.0;
 
+/// Why an air-data channel's scale, delay or position is not estimated by output error in
+/// turbulence.
+const TURBULENCE_WHY: &str = "not identifiable in turbulence by output error: the gust response makes the kinematic residual proportional to the flow angle (the vanes' scale and delay are tested by instrumental variables instead)";
+
+/// The air-data outputs on which the air is turbulent, with the σ of their low-frequency
+/// residual (the wind, in the channel's unit), judged on the fit `st`.
+///
 /// In turbulence a scale factor, time delay or vane position of an air-data channel is not
 /// identifiable from the kinematics: the aircraft's response to a gust moves the inertial α (and
 /// β, V) with the gust, so the measured-minus-reconstructed difference — the gust — is
@@ -1419,17 +1465,29 @@ const WIND_CROSSOVER_HZ: f64 = 1.0;
 /// every test on held-out segments of the same turbulent flight (measured on clean simulated
 /// flights with σ = 0.3 m/s Dryden gusts: `scale(α)`, `delay(α)` and `vane_x(α)` with `t²` 55–250
 /// and held-out gains of 3–7 σ, with no error in the sensor). Biases stay identifiable (a gust has
-/// no mean). So with turbulence detected on a channel, its scale, delay and position are moved to
-/// `rejected`, with the wind's size, instead of being named.
-fn turbulence_screen(out: &mut Compatibility, h_s: f64) {
-    let mut turbulent: Vec<(Quantity, f64)> = Vec::new();
-    for (q, m, y) in &out.traces {
-        if !matches!(q, Quantity::Alpha | Quantity::Beta | Quantity::Airspeed) || m.len() != y.len() || m.len() < 100 {
+/// no mean).
+///
+/// The residual is taken after removing what a bias, scale and delay of the sensor explain (its
+/// least-squares part on `1, y, ẏ`): a sensor error alone leaves a white residual and is not
+/// turbulence, so that in calm air such errors stay with the output-error selection.
+fn turbulence_in(prob: &Problem, st: &State, h_s: f64) -> Vec<(Quantity, f64)> {
+    let y = prob.outputs_of(st);
+    let mut turbulent = Vec::new();
+    for (o, q) in prob.outputs.iter().enumerate() {
+        let (m, yo) = (&prob.measured[o], &y[o]);
+        if !matches!(q, Quantity::Alpha | Quantity::Beta | Quantity::Airspeed) || m.len() != yo.len() || m.len() < 100 {
             continue;
         }
-        let d: Vec<f64> = m.iter().zip(y).map(|(a, b)| a - b).collect();
+        let d: Vec<f64> = m.iter().zip(yo).map(|(a, b)| a - b).collect();
+        let cols = vec![vec![1.0; yo.len()], yo.clone(), super::signal::derivative(yo, h_s)];
+        let r: Vec<f64> = match ols_theta(&cols, &d) {
+            Some(th) => (0..d.len())
+                .map(|i| d[i] - cols.iter().zip(&th).map(|(c, t)| c[i] * t).sum::<f64>())
+                .collect(),
+            None => d,
+        };
         let noise = super::signal::white_noise_sd(m);
-        let lp = super::airdata::low_pass(&d, WIND_CROSSOVER_HZ, h_s);
+        let lp = super::airdata::low_pass(&r, WIND_CROSSOVER_HZ, h_s);
         let mean = lp.iter().sum::<f64>() / lp.len() as f64;
         let sd = (lp.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / lp.len() as f64).sqrt();
         // The low-pass's white-noise gain (first order forward and backward: about π·fc·h).
@@ -1438,27 +1496,23 @@ fn turbulence_screen(out: &mut Compatibility, h_s: f64) {
             turbulent.push((*q, sd));
         }
     }
-    out.turbulent = turbulent.clone();
-    if turbulent.is_empty() {
+    turbulent
+}
+
+/// The report's note on the turbulence found.
+fn turbulence_note(out: &mut Compatibility) {
+    if out.turbulent.is_empty() {
         return;
     }
-    let list: Vec<String> = turbulent
+    let list: Vec<String> = out
+        .turbulent
         .iter()
         .map(|(q, sd)| format!("{q:?} {sd:.2e} {}", unit_of(*q)))
         .collect();
     out.notes.push(format!(
-        "turbulence: the air-data channels differ from the inertial reconstruction at low frequency far beyond their noise ({}); scale factors, delays and vane positions of these channels are not identifiable from this flight",
+        "turbulence: the air-data channels differ from the inertial reconstruction at low frequency far beyond their noise ({}); scale factors, delays and vane positions of these channels are not identifiable by output error from this flight",
         list.join(", ")
     ));
-    let (keep, moved): (Vec<Found>, Vec<Found>) = out.found.drain(..).partition(|f| {
-        let ch = f.param.channel();
-        matches!(f.param, SensorParam::Bias(_)) || !turbulent.iter().any(|(q, _)| *q == ch)
-    });
-    out.found = keep;
-    out.rejected.extend(moved.into_iter().map(|mut f| {
-        f.why = "not identifiable in turbulence by output error: the gust response makes the kinematic residual proportional to the flow angle (the vanes' scale and delay are tested by instrumental variables instead)".into();
-        f
-    }));
 }
 
 #[cfg(test)]

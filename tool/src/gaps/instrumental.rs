@@ -12,42 +12,48 @@
 //! ## Method
 //! Two-stage least squares (Söderström & Stoica, *System Identification*, 1989, ch. 8, the basic
 //! IV estimator; Klein & Morelli 2006 §5.3 on errors in the regressors): the **instruments** are
-//! the logged control deflections — the manoeuvre, not the gusts, moves them — each passed
-//! through a bank of [`ORDERS`] discrete Laguerre filters with time constant [`LAGUERRE_T_S`]
-//! (Wahlberg 1991: an orthonormal basis of the aircraft's response to the control over a few
-//! seconds, far fewer columns than a finite impulse response of the same memory). The first stage
-//! projects `α_kin` on them: `α̂` is the part of the inertial flow angle that the controls
-//! explain, independent of the gusts. The second stage regresses `d` on `α̂` (scale `k`) and on
-//! `−dα̂/dt` (delay `τ`; `α_m(t) = (1+k)α(t−τ) ≈ α + kα − τα̇`). Under "perfect vane" `d` is the
-//! gust, independent of both columns, so the regression is an ordinary one with coloured noise:
-//! the same statistics as the aerodynamic selection ([`super::select`]) hold — partial `t²` with
-//! the block sandwich against Student t, and the held-out gain against the noise of the held-out
-//! residuals ([`super::select::Design::noise_gain`]) — at the compatibility check's level.
+//! the logged controls of the channel's plane (elevator and throttle for α, aileron and rudder for
+//! β) — the manoeuvre, not the gusts, moves them — each passed through a bank of [`ORDERS`]
+//! discrete Laguerre filters with time constant [`LAGUERRE_T_S`] (Wahlberg 1991: an orthonormal
+//! basis of the aircraft's response to the control over a few seconds, far fewer columns than a
+//! finite impulse response of the same memory). Everything runs on the signals high-passed at
+//! [`BAND_HZ`] (zero-phase). The first stage projects the band's `α_kin` on the band's
+//! instruments: `α̂` is the part of the inertial flow angle that the controls explain, independent
+//! of the gusts. The second stage regresses `d` on `α̂` (scale `k`) and on `−dα̂/dt` (delay `τ`;
+//! `α_m(t) = (1+k)α(t−τ) ≈ α + kα − τα̇`). Under "perfect vane" `d` is the gust, independent of
+//! both columns, so the regression is an ordinary one with coloured noise: the same statistics as
+//! the aerodynamic selection ([`super::select`]) hold — partial `t²` with the block sandwich
+//! against Student t, and the held-out gain against the noise of the held-out residuals
+//! ([`super::select::Design::noise_gain`]) — at the analysis's per-test level. **Reading**: the
+//! first stage is fitted on the whole flight, not per fold (its columns carry no gust, so the
+//! held-out blocks' gusts reach `α̂` only through the finite-sample fit of 2 × 9 columns to
+//! thousands of samples).
 //!
-//! **Band**: the regression runs on the signals high-passed at [`BAND_HZ`] (zero-phase). The
-//! logged deflections also carry any stabiliser's or pilot's response to the gusts (a feedback
-//! makes the instruments correlated with the noise, the one thing an instrument must not be); that
-//! response, like most of the gust energy, sits at the low frequencies of the attitude loops and
-//! the phugoid, while the manoeuvre's pulses (0.5–1 s) put their energy above. Measured with the
-//! prototype of this check on the campaign's 10 clean simulated flights and JSBSim's 4 clean
-//! flights (both flown with a weak attitude-hold): at 0.1 Hz `scale(α)` came out −0.04 (sim) and
-//! −0.15…−0.39 (JSBSim, `t` to −3.9) on perfect vanes; at 0.6 Hz every clean estimate was within
-//! `|t|` 2.3 of zero, while the planted scale factors −0.135 and −0.125 came out −0.145 ± 0.031 and
-//! −0.110 ± 0.028 and the planted delays 0.143 s and 0.117 s at `t` 13 and 11.
+//! **Band**: the logged deflections also carry any stabiliser's or pilot's response to the gusts
+//! (a feedback makes the instruments correlated with the noise, the one thing an instrument must
+//! not be); that response, like most of the gust energy, sits at the low frequencies of the
+//! attitude loops and the phugoid, while the manoeuvre's pulses (0.5–1 s) put their energy above.
+//! Measured with an earlier form of this check (all four controls, the band applied after the first
+//! stage) on the campaign's 10 clean simulated flights and JSBSim's 4 clean flights (both flown
+//! with a weak attitude hold): at 0.1 Hz `scale(α)` came out −0.04 (sim) and −0.15…−0.39 (JSBSim,
+//! `t` to −3.9) on perfect vanes; at 0.6 Hz every clean estimate was within `|t|` 2.3 of zero. A
+//! strong rate damper would act inside the band; that is not tested.
 //!
 //! **Delay**: its test uses the first-order column `−α̂̇`; once it enters, its value is the exact
 //! delay `τ` minimising the residual of `d = (1+k)α̂(t−τ) − α̂(t)` (a search over the plausible
-//! range), since the first-order form underestimates delays of a tenth of the pulse length and
-//! leaves a spurious scale factor beside them — so a scale tested after the delay is tested on
-//! `d − (α̂(t−τ) − α̂(t))` with the column `α̂(t−τ)`. The σ reported for the delay is the
-//! first-order one.
+//! range; a best fit at the range's edge is refused), since the first-order form underestimates
+//! delays of a tenth of the pulse length and leaves a spurious scale factor beside them — so a
+//! scale beside a delay is tested, and its value and σ taken, on `d − (α̂(t−τ) − α̂(t))` with the
+//! column `α̂(t−τ)`. The σ reported for the delay is the first-order one. A vane `Δx` ahead of its
+//! stated position reads `−Δx·q/V`, in the short period nearly a delay `Δx/V`: a delay named here
+//! may be either.
 //!
 //! **Not done**: the airspeed channel (its control-driven part is the throttle's and the phugoid's,
-//! at the low frequencies this band removes), the vane position (its column `q̂/V` is the pitch
-//! rate, which the gusts move as much as the controls do), biases (a gust has no mean: the
-//! output-error check identifies them in turbulence). When the controls explain less than
-//! [`MIN_FIRST_STAGE_R2`] of the flow angle's variance the channel is not tested and the note says
-//! so: weak instruments make the estimator fall back towards least squares, with its bias.
+//! at the low frequencies this band removes), the vane position as its own candidate (see the
+//! delay), biases (a gust has no mean: the output-error check identifies them in turbulence).
+//! When the controls explain less than [`MIN_FIRST_STAGE_R2`] of the band's flow angle the channel
+//! is not tested and the note says so: weak instruments make the estimator fall back towards least
+//! squares, with its bias. A value outside its kind's physical range is refused, with the reason.
 
 use super::compat::{Found, ParamScore, SensorParam};
 use super::select::{self, CvSettings, Design, SubsetFit};
@@ -58,9 +64,9 @@ use crate::io::measured::{MeasuredFlight, Quantity};
 pub const ORDERS: usize = 8;
 /// Time constant of the Laguerre filters, s (the bank spans about `ORDERS · T` of memory).
 pub const LAGUERRE_T_S: f64 = 0.5;
-/// High-pass corner of the second stage, Hz.
+/// High-pass corner of both stages, Hz.
 pub const BAND_HZ: f64 = 0.6;
-/// Least share of the flow angle's variance the controls must explain for the channel to be tested.
+/// Least share of the band's flow-angle variance the controls must explain for the channel to be tested.
 pub const MIN_FIRST_STAGE_R2: f64 = 0.2;
 /// The range searched for the exact delay, s (the plausible range of [`SensorParam::plausible`]).
 const DELAY_RANGE_S: f64 = 0.5;
@@ -78,8 +84,9 @@ pub struct ChannelCheck {
     pub note: String,
 }
 
-/// The statistics' settings: the per-test two-sided level (the compatibility check's family-wise
-/// level divided by its candidates) and the blocks and folds of the held-out test.
+/// The statistics' settings: the per-test two-sided level (the analysis's family-wise level divided
+/// by every candidate it tests, as for the aerodynamic terms) and the blocks and folds of the
+/// held-out test.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct IvSettings {
     /// Two-sided level of each partial test.
@@ -91,23 +98,39 @@ pub struct IvSettings {
 /// A candidate's entry statistics: `(t², sign-flip z, relative held-out gain, T)`.
 type Score = (f64, f64, f64, f64);
 
-/// The controls used as instruments, in this order.
-const CONTROLS: [Quantity; 4] = [
-    Quantity::Elevator,
-    Quantity::Aileron,
-    Quantity::Rudder,
-    Quantity::Throttle,
-];
+/// A tested candidate: which (0 scale, 1 delay), its entry statistics, and its value and σ from
+/// the same fit.
+#[derive(Debug, Clone, Copy)]
+struct Entry {
+    j: usize,
+    score: Score,
+    value: f64,
+    sigma: f64,
+}
 
-/// The instruments of a flight: a constant, then per varying control its deviation from the mean
-/// and its [`ORDERS`] Laguerre outputs. Also the names of the controls used.
-fn instruments(flight: &MeasuredFlight, n: usize, h_s: f64) -> (Vec<Vec<f64>>, Vec<Quantity>) {
-    let mut z = vec![vec![1.0; n]];
+/// The controls that are instruments of a channel: the longitudinal ones for α, the lateral
+/// ones for β (a control of the other plane moves the channel little and adds columns that only
+/// pull the estimate towards least squares).
+fn controls_of(channel: Quantity) -> &'static [Quantity] {
+    match channel {
+        Quantity::Alpha => &[Quantity::Elevator, Quantity::Throttle],
+        Quantity::Beta => &[Quantity::Aileron, Quantity::Rudder],
+        _ => &[],
+    }
+}
+
+/// The instruments of a flight: per control of `controls` that is logged, finite and varying, its
+/// deviation from the mean and its [`ORDERS`] Laguerre outputs. Also the controls used.
+fn instruments(flight: &MeasuredFlight, n: usize, h_s: f64, controls: &[Quantity]) -> (Vec<Vec<f64>>, Vec<Quantity>) {
+    let mut z = Vec::new();
     let mut used = Vec::new();
     let a = (-h_s / LAGUERRE_T_S).exp();
     let gain = (1.0 - a * a).sqrt();
-    for q in CONTROLS {
-        let Some(u) = flight.get(q).filter(|u| u.len() == n) else {
+    for &q in controls {
+        let Some(u) = flight
+            .get(q)
+            .filter(|u| u.len() == n && u.iter().all(|v| v.is_finite()))
+        else {
             continue;
         };
         let m = u.iter().sum::<f64>() / n as f64;
@@ -122,12 +145,13 @@ fn instruments(flight: &MeasuredFlight, n: usize, h_s: f64) -> (Vec<Vec<f64>>, V
         }
         z.push(u);
         for _ in 1..ORDERS {
-            let prev = x.clone();
-            z.push(prev.clone());
+            let prev = std::mem::take(&mut x);
+            x = vec![0.0; n];
             for i in 0..n {
                 let back = if i > 0 { a * x[i - 1] + prev[i - 1] } else { 0.0 };
                 x[i] = back - a * prev[i];
             }
+            z.push(prev);
         }
         z.push(x);
         used.push(q);
@@ -156,6 +180,9 @@ fn empty_fit(design: &Design, d: &[f64]) -> SubsetFit {
     }
 }
 
+/// Least duration of a flight for the check, s.
+const MIN_DURATION_S: f64 = 20.0;
+
 /// Checks the scale factor and delay of `channel` (`Alpha` or `Beta`): `measured` the vane,
 /// `kinematic` the flight-path reconstruction's flow angle at the vane (biases found removed, no
 /// scale or delay of the vane in it).
@@ -169,50 +196,57 @@ pub fn check_channel(
 ) -> ChannelCheck {
     let mut out = ChannelCheck::default();
     let n = measured.len();
-    let (z, used) = instruments(flight, n, h_s);
-    if kinematic.len() != n || used.is_empty() || n < 20 * (1.0 / h_s) as usize {
+    let finite = |x: &[f64]| x.iter().all(|v| v.is_finite());
+    if kinematic.len() != n
+        || n as f64 * h_s < MIN_DURATION_S
+        || !h_s.is_finite()
+        || !finite(measured)
+        || !finite(kinematic)
+    {
         out.note = format!(
-            "{channel:?}: scale and delay not tested by instrumental variables (needs logged controls and 20 s of data)"
+            "{channel:?}: scale and delay not tested by instrumental variables (needs {MIN_DURATION_S} s of finite vane and reconstruction)"
         );
         return out;
     }
-    let Some(theta) = super::regress::ols_theta(&z, kinematic) else {
-        out.note = format!("{channel:?}: the control instruments are linearly dependent; scale and delay not tested");
+    let (z, used) = instruments(flight, n, h_s, controls_of(channel));
+    if used.is_empty() {
+        out.note = format!("{channel:?}: scale and delay not tested by instrumental variables (needs logged controls)");
         return out;
-    };
-    let fitted: Vec<f64> = (0..n)
-        .map(|i| z.iter().zip(&theta).map(|(c, t)| c[i] * t).sum())
-        .collect();
-    let var = |x: &[f64]| {
-        let m = x.iter().sum::<f64>() / x.len() as f64;
-        x.iter().map(|v| (v - m).powi(2)).sum::<f64>()
-    };
-    let resid: Vec<f64> = kinematic.iter().zip(&fitted).map(|(a, b)| a - b).collect();
-    let r2 = 1.0 - var(&resid) / var(kinematic).max(1e-300);
+    }
+    // First stage in the band: the band's reconstruction projected on the band's instruments
+    // (two-stage least squares on the high-passed signals).
+    let zh: Vec<Vec<f64>> = z.iter().map(|c| high_pass(c, h_s)).collect();
+    let kh = high_pass(kinematic, h_s);
+    let kk: f64 = kh.iter().map(|v| v * v).sum();
+    let fitted: Option<Vec<f64>> = super::regress::ols_theta(&zh, &kh).map(|th| {
+        (0..n)
+            .map(|i| zh.iter().zip(&th).map(|(c, t)| c[i] * t).sum())
+            .collect()
+    });
     let names: Vec<String> = used.iter().map(|q| format!("{q:?}")).collect();
-    if r2 < MIN_FIRST_STAGE_R2 {
+    let r2 = fitted.as_ref().map_or(f64::NAN, |f| {
+        1.0 - kh.iter().zip(f).map(|(a, b)| (a - b).powi(2)).sum::<f64>() / kk
+    });
+    let (Some(yh), true) = (fitted, kk > 0.0 && r2 >= MIN_FIRST_STAGE_R2) else {
         out.note = format!(
-            "{channel:?}: the controls ({}) explain {:.0} % of the reconstructed flow angle (< {:.0} %): too weak as instruments, scale and delay not identifiable from this flight",
+            "{channel:?}: the controls ({}) explain {:.0} % of the reconstructed flow angle above {BAND_HZ} Hz (< {:.0} %): too weak as instruments, scale and delay not identifiable from this flight",
             names.join(", "),
-            100.0 * r2,
+            100.0 * if r2.is_finite() { r2 } else { 0.0 },
             100.0 * MIN_FIRST_STAGE_R2
         );
         return out;
-    }
+    };
     let d = high_pass(
         &measured.iter().zip(kinematic).map(|(m, k)| m - k).collect::<Vec<_>>(),
         h_s,
     );
-    let yh = high_pass(&fitted, h_s);
     let ydot: Vec<f64> = derivative(&yh, h_s).iter().map(|v| -v).collect();
     let design = Design::new(&[&yh, &ydot], &d, h_s, &s.cv, None);
-    let g = design.n_blocks();
-    let dof = (g as f64 - 1.0).max(1.0);
+    let dof = (design.n_blocks() as f64 - 1.0).max(1.0);
     let threshold = select::student_t_upper_quantile(s.level / 2.0, dof).powi(2);
     let crit = select::student_t_upper_quantile(s.cv.gain_alpha, dof);
     let params = [SensorParam::Scale(channel), SensorParam::Delay(channel)];
     let empty = empty_fit(&design, &d);
-    // Round 1: each candidate alone.
     let singles: Vec<Option<SubsetFit>> = (0..2).map(|j| design.fit(&[j]).ok()).collect();
     for (j, f) in singles.iter().enumerate() {
         if let Some(f) = f {
@@ -221,9 +255,14 @@ pub fn check_channel(
                 value: f.theta[0],
                 sigma: f.sigma[0],
                 t2: f.t2(0),
+                part: "instrumental",
             });
         }
     }
+    let (Some(f_scale), Some(f_delay)) = (&singles[0], &singles[1]) else {
+        out.note = format!("{channel:?}: the instrumental regression cannot be fitted on this flight (too few blocks, or a column without variance)");
+        return out;
+    };
     // A candidate's entry: its partial t², the sign-flip direction of its held-out gain, the gain
     // relative to the smaller model, and the gain against the held-out noise (T).
     let judge = |design: &Design, f0: &SubsetFit, f1: &SubsetFit, k: usize| -> Score {
@@ -237,122 +276,160 @@ pub fn check_channel(
         (t2, z, rel, noise)
     };
     let passes = |(t2, z, _, noise): Score| t2 > threshold && z > 0.0 && noise > crit;
-    // Forward selection over the two candidates in the order of their t² alone, then the removal
-    // step. A scale tested after the delay is tested against the exact delay (the first-order
-    // column leaves a spurious scale beside a real delay: on a 0.10 s delay, t² 36).
-    let mut entered: Vec<(usize, Score)> = Vec::new();
-    let mut significant: Vec<(usize, Score)> = Vec::new();
-    let (mut values, mut sigmas) = ([0.0; 2], [f64::NAN; 2]);
-    let order = {
-        let mut o: Vec<usize> = (0..2).filter(|&j| singles[j].is_some()).collect();
-        o.sort_by(|&a, &b| {
-            let t = |j: usize| singles[j].as_ref().map_or(0.0, |f| f.t2(0));
-            t(b).total_cmp(&t(a))
-        });
-        o
+    let alone = |j: usize, f: &SubsetFit| Entry {
+        j,
+        score: judge(&design, &empty, f, 0),
+        value: f.theta[0],
+        sigma: f.sigma[0],
     };
-    let mut current = empty.clone();
-    for &j in &order {
-        if j == 0 && entered.iter().any(|e| e.0 == 1) {
-            let (tau, _) = exact_delay(&d, &yh, h_s, false);
-            let shifted = super::signal::shift(&yh, h_s, -tau);
-            let rest: Vec<f64> = (0..n).map(|i| d[i] + yh[i] - shifted[i]).collect();
-            let d2 = Design::new(&[&shifted], &rest, h_s, &s.cv, None);
-            let Ok(f) = d2.fit(&[0]) else {
-                continue;
-            };
-            let score = judge(&d2, &empty_fit(&d2, &rest), &f, 0);
-            if passes(score) {
-                entered.push((0, score));
-                sigmas[0] = f.sigma[0];
-            } else if score.0 > threshold {
-                significant.push((0, score));
+    // The scale given an exact delay τ: `d + ŷ − ŷ(t−τ) = k·ŷ(t−τ) + noise` (the first-order
+    // delay column leaves a spurious scale beside a real delay: on a 0.10 s delay, t² 36).
+    let scale_given = |tau: Option<f64>| -> Option<Entry> {
+        let shifted = super::signal::shift(&yh, h_s, -tau?);
+        let rest: Vec<f64> = (0..n).map(|i| d[i] + yh[i] - shifted[i]).collect();
+        let d2 = Design::new(&[&shifted], &rest, h_s, &s.cv, None);
+        let f = d2.fit(&[0]).ok()?;
+        Some(Entry {
+            j: 0,
+            score: judge(&d2, &empty_fit(&d2, &rest), &f, 0),
+            value: f.theta[0],
+            sigma: f.sigma[0],
+        })
+    };
+    // Forward selection in the order of the candidates' t² alone, then the removal step.
+    let (mut entered, mut refused): (Vec<Entry>, Vec<Entry>) = (Vec::new(), Vec::new());
+    let mut tau = None;
+    if f_delay.t2(0) >= f_scale.t2(0) {
+        let e = alone(1, f_delay);
+        if passes(e.score) {
+            let t = exact_delay(&d, &yh, h_s, false);
+            tau = Some(t);
+            entered.push(e);
+            if let Some(sc) = scale_given(t) {
+                if passes(sc.score) {
+                    entered.push(sc);
+                } else {
+                    refused.push(sc);
+                }
             }
-            continue;
-        }
-        let mut cols: Vec<usize> = entered.iter().map(|e| e.0).collect();
-        cols.push(j);
-        let Ok(f) = design.fit(&cols) else {
-            continue;
-        };
-        let score = judge(&design, &current, &f, cols.len() - 1);
-        if passes(score) {
-            entered.push((j, score));
-            current = f;
-        } else if score.0 > threshold {
-            significant.push((j, score));
-        }
-    }
-    if entered.len() == 2 && entered[0].0 == 0 {
-        // The scale entered first leaves if the delay explains it.
-        if let Ok(f) = design.fit(&[1]) {
-            let score = judge(&design, &f, &current, 0);
-            if !passes(score) {
-                entered.remove(0);
-                significant.push((0, score));
-                current = f;
+        } else {
+            refused.push(e);
+            let e = alone(0, f_scale);
+            if passes(e.score) {
+                entered.push(e)
+            } else {
+                refused.push(e)
             }
         }
-    }
-    for (k, &c) in current.cols.iter().enumerate() {
-        values[c] = current.theta[k];
-        sigmas[c] = current.sigma[k];
-    }
-    if entered.iter().any(|e| e.0 == 1) {
-        let with_scale = entered.iter().any(|e| e.0 == 0);
-        let (tau, k) = exact_delay(&d, &yh, h_s, with_scale);
-        values[1] = tau;
-        if with_scale {
-            values[0] = k;
+    } else {
+        let e = alone(0, f_scale);
+        if passes(e.score) {
+            entered.push(e);
+            if let Ok(joint) = design.fit(&[0, 1]) {
+                let ed = Entry {
+                    j: 1,
+                    score: judge(&design, f_scale, &joint, 1),
+                    value: joint.theta[1],
+                    sigma: joint.sigma[1],
+                };
+                if passes(ed.score) {
+                    let t = exact_delay(&d, &yh, h_s, true);
+                    tau = Some(t);
+                    entered.push(ed);
+                    // Removal: the scale stays only if it passes given the exact delay (kept as
+                    // it is when the delay has no minimum inside the range: then the delay is
+                    // refused below).
+                    match scale_given(t) {
+                        Some(sc) if passes(sc.score) => entered[0] = sc,
+                        Some(sc) => {
+                            entered.remove(0);
+                            refused.push(sc);
+                        }
+                        None => {}
+                    }
+                } else {
+                    refused.push(ed);
+                }
+            }
+        } else {
+            refused.push(e);
+            let e = alone(1, f_delay);
+            if passes(e.score) {
+                let t = exact_delay(&d, &yh, h_s, false);
+                tau = Some(t);
+                entered.push(e);
+            } else {
+                refused.push(e);
+            }
         }
     }
-    let found = |j: usize, (t2, _z, rel, noise): (f64, f64, f64, f64), why: String| Found {
-        param: params[j],
-        value: values[j],
-        sigma: sigmas[j],
-        t2,
+    let to_found = |e: &Entry, why: String| Found {
+        param: params[e.j],
+        value: e.value,
+        sigma: e.sigma,
+        t2: e.score.0,
         part: "instrumental",
-        cv_gain_z: noise,
-        cv_gain: rel,
+        cv_gain_z: e.score.3,
+        cv_gain: e.score.2,
         why,
     };
-    for &(j, sc) in &entered {
-        out.found.push(found(j, sc, String::new()));
-    }
-    for &(j, sc) in &significant {
-        let fit = singles[j].as_ref();
-        let mut f = found(j, sc, format!(
-            "significant with the control instruments but does not improve the held-out fit beyond noise (gain T {:.1} ≤ {crit:.1})",
-            if sc.3.is_finite() { sc.3 } else { 0.0 }
-        ));
-        if !entered.iter().any(|e| e.0 == j) {
-            if let Some(fit) = fit {
-                f.value = fit.theta[0];
-                f.sigma = fit.sigma[0];
+    for e in &entered {
+        let mut f = to_found(e, String::new());
+        if e.j == 1 {
+            match tau {
+                Some(Some(t)) => f.value = t,
+                _ => {
+                    f.why = format!(
+                        "the delay's best fit lies at the edge of the ±{DELAY_RANGE_S} s searched: not a sensor delay (the reconstruction of this channel fails)"
+                    )
+                }
             }
         }
-        out.rejected.push(f);
+        if f.why.is_empty() && !f.param.plausible(f.value) {
+            f.why = format!(
+                "{} = {:.3} is outside the physical range of its kind: the reconstruction of this channel fails, not this sensor",
+                f.param.name(),
+                f.value
+            );
+        }
+        if f.why.is_empty() {
+            out.found.push(f);
+        } else {
+            out.rejected.push(f);
+        }
+    }
+    for e in refused.iter().filter(|e| e.score.0 > threshold) {
+        let why = if e.score.1 > 0.0 {
+            format!(
+                "significant with the control instruments but does not improve the held-out fit beyond noise (gain T {:.1} ≤ {crit:.1})",
+                e.score.3
+            )
+        } else {
+            "significant with the control instruments but its held-out gain is not positive".to_string()
+        };
+        out.rejected.push(to_found(e, why));
     }
     out.note = format!(
-        "{channel:?}: scale and delay tested by instrumental variables (instruments: {} through {ORDERS} Laguerre filters of {LAGUERRE_T_S} s; first stage R² {r2:.2}; band above {BAND_HZ} Hz; t² threshold {threshold:.1}, held-out T > {crit:.2})",
+        "{channel:?}: scale and delay tested by instrumental variables (instruments: {} through {ORDERS} Laguerre filters of {LAGUERRE_T_S} s; first stage R² {r2:.2} above {BAND_HZ} Hz; t² threshold {threshold:.1}, held-out T > {crit:.2})",
         names.join(", ")
     );
     out
 }
 
-/// The exact delay `τ` (and the scale `k` when `with_scale`, else 0) minimising
-/// `‖d − ((1+k)ŷ(t−τ) − ŷ(t))‖²`: a search at sample resolution over ±[`DELAY_RANGE_S`], refined by
-/// a parabola through the best sample and its neighbours.
-fn exact_delay(d: &[f64], yh: &[f64], h_s: f64, with_scale: bool) -> (f64, f64) {
+/// The exact delay `τ` minimising `‖d − ((1+k)ŷ(t−τ) − ŷ(t))‖²` (`k` fitted when `with_scale`,
+/// else 0): a search at sample resolution over ±[`DELAY_RANGE_S`], refined by a parabola through
+/// the best sample and its neighbours. `None` when the best sample is at the edge of the range
+/// (no minimum inside it).
+fn exact_delay(d: &[f64], yh: &[f64], h_s: f64, with_scale: bool) -> Option<f64> {
     let n = d.len();
     let steps = (DELAY_RANGE_S / h_s).round() as i64;
     // Interior samples only, so that every shift sees data.
     let lo = steps.unsigned_abs() as usize;
     let hi = n.saturating_sub(lo);
-    if hi <= lo + 10 {
-        return (0.0, 0.0);
+    if hi <= lo + 10 || steps < 2 {
+        return None;
     }
-    let sse = |shift: f64| -> (f64, f64) {
+    let sse = |shift: f64| -> f64 {
         let s = super::signal::shift(yh, h_s, -shift);
         let (mut sy, mut ss) = (0.0, 0.0);
         for i in lo..hi {
@@ -360,22 +437,20 @@ fn exact_delay(d: &[f64], yh: &[f64], h_s: f64, with_scale: bool) -> (f64, f64) 
             ss += s[i] * s[i];
         }
         let one_plus_k = if with_scale && ss > 0.0 { sy / ss } else { 1.0 };
-        let e: f64 = (lo..hi).map(|i| (d[i] + yh[i] - one_plus_k * s[i]).powi(2)).sum();
-        (e, one_plus_k - 1.0)
+        (lo..hi).map(|i| (d[i] + yh[i] - one_plus_k * s[i]).powi(2)).sum()
     };
-    let costs: Vec<(f64, f64)> = (-steps..=steps).map(|k| sse(k as f64 * h_s)).collect();
-    let best = (0..costs.len())
-        .min_by(|&a, &b| costs[a].0.total_cmp(&costs[b].0))
-        .unwrap_or(0);
-    let mut tau = (best as i64 - steps) as f64 * h_s;
-    if best > 0 && best + 1 < costs.len() {
-        let (a, b, c) = (costs[best - 1].0, costs[best].0, costs[best + 1].0);
-        let den = a - 2.0 * b + c;
-        if den > 0.0 {
-            tau += 0.5 * (a - c) / den * h_s;
-        }
+    let costs: Vec<f64> = (-steps..=steps).map(|k| sse(k as f64 * h_s)).collect();
+    let best = (0..costs.len()).min_by(|&a, &b| costs[a].total_cmp(&costs[b]))?;
+    if best == 0 || best + 1 == costs.len() {
+        return None;
     }
-    (tau, sse(tau).1)
+    let mut tau = (best as i64 - steps) as f64 * h_s;
+    let (a, b, c) = (costs[best - 1], costs[best], costs[best + 1]);
+    let den = a - 2.0 * b + c;
+    if den > 0.0 {
+        tau += 0.5 * (a - c) / den * h_s;
+    }
+    Some(tau)
 }
 
 #[cfg(test)]
@@ -538,20 +613,49 @@ mod tests {
         u[10] = 1.0;
         let f = blank(n, u);
         // WHEN the instruments are built
-        let (z, used) = instruments(&f, n, H);
-        // THEN the Laguerre outputs (columns 2…) are orthonormal: Σ lᵢ(k) lⱼ(k) = δᵢⱼ, up to the
+        let (z, used) = instruments(&f, n, H, &[Quantity::Elevator]);
+        // THEN the Laguerre outputs (columns 1…) are orthonormal: Σ lᵢ(k) lⱼ(k) = δᵢⱼ, up to the
         // de-meaned input's constant −1/n, which every filter passes with its DC gain
         // G = √((1+a)/(1−a)) ≈ 10 and changes each sum by at most 3G²/n (≈ 0.015)
         assert_eq!(used, vec![Quantity::Elevator]);
-        assert_eq!(z.len(), 2 + ORDERS);
+        assert_eq!(z.len(), 1 + ORDERS);
         let a = (-H / LAGUERRE_T_S).exp();
         let tol = 3.0 * (1.0 + a) / (1.0 - a) / n as f64;
-        for i in 2..z.len() {
-            for j in 2..z.len() {
+        for i in 1..z.len() {
+            for j in 1..z.len() {
                 let dot: f64 = z[i].iter().zip(&z[j]).map(|(a, b)| a * b).sum();
                 let want = if i == j { 1.0 } else { 0.0 };
-                assert!((dot - want).abs() < tol, "⟨L{}, L{}⟩ = {dot}", i - 2, j - 2);
+                assert!((dot - want).abs() < tol, "⟨L{}, L{}⟩ = {dot}", i - 1, j - 1);
             }
         }
+    }
+
+    #[test]
+    fn a_stuck_vane_nan_samples_and_a_short_flight_name_nothing_and_do_not_panic() {
+        // GIVEN a gusty flight whose vane is stuck (constant), one with a NaN sample in the vane,
+        // and one of 10 s
+        let (f, vane, kin) = flight(4, 0.0, 0.0);
+        let stuck = vec![0.05; vane.len()];
+        let r = check_channel(&f, H, Quantity::Alpha, &stuck, &kin, &settings());
+        // THEN the stuck vane is not named as a scale factor (its fit, k ≈ −1, is outside the
+        // physical range and refused with the reason) and nothing panics
+        assert!(r.found.is_empty(), "{:?}", r.found);
+        assert!(r.rejected.iter().all(|x| !x.why.is_empty()), "{:?}", r.rejected);
+        let mut bad = vane.clone();
+        bad[100] = f64::NAN;
+        let r = check_channel(&f, H, Quantity::Alpha, &bad, &kin, &settings());
+        assert!(r.found.is_empty() && r.tested.is_empty());
+        assert!(r.note.contains("finite"), "{}", r.note);
+        let short = 1000;
+        let r = check_channel(
+            &blank(short, f.channels[&Quantity::Elevator][..short].to_vec()),
+            H,
+            Quantity::Alpha,
+            &vane[..short],
+            &kin[..short],
+            &settings(),
+        );
+        assert!(r.found.is_empty() && r.tested.is_empty());
+        assert!(r.note.contains("20 s"), "{}", r.note);
     }
 }

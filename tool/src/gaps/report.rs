@@ -261,7 +261,7 @@ pub fn json(r: &GapReport) -> Value {
             "tested": compat.tested.iter().map(|c| json!({
                 "parameter": c.param.name(), "channel": format!("{:?}", c.param.channel()),
                 "kind": format!("{:?}", super::param_kind(&c.param)), "unit": c.param.unit(),
-                "value": f(c.value), "sigma": f(c.sigma), "t2": f(c.t2),
+                "value": f(c.value), "sigma": f(c.sigma), "t2": f(c.t2), "part": c.part,
                 "significant": c.t2 > r.threshold_t2,
             })).collect::<Vec<_>>(),
             "found": compat.found.iter().map(|c| found_json(c, false)).collect::<Vec<_>>(),

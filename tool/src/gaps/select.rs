@@ -322,47 +322,7 @@ impl Design {
             delta.push(db);
             resid.push(rb);
         }
-        // Autocorrelation of the held-out residuals, lags within a block, each block's own
-        // mean square as its scale.
-        let mean_sq: Vec<f64> = resid
-            .iter()
-            .map(|r| r.iter().map(|x| x * x).sum::<f64>() / r.len().max(1) as f64)
-            .collect();
-        let len = self.blocks.iter().map(|(a, e)| e - a).max().unwrap_or(0);
-        let mut acf = vec![0.0; len];
-        let mut norm = 0.0;
-        for (r, &ms) in resid.iter().zip(&mean_sq) {
-            if ms <= 0.0 {
-                continue;
-            }
-            for (k, a) in acf.iter_mut().enumerate().take(r.len()) {
-                *a += (0..r.len() - k).map(|i| r[i] * r[i + k]).sum::<f64>() / ms;
-            }
-            norm += r.len() as f64;
-        }
-        if norm <= 0.0 {
-            return 0.0;
-        }
-        let rho: Vec<f64> = acf
-            .iter()
-            .enumerate()
-            .map(|(k, a)| a / norm * (1.0 - k as f64 / len as f64))
-            .collect();
-        let (mut sum, mut var) = (0.0, 0.0);
-        for (b, (d, ms)) in delta.iter().zip(&mean_sq).enumerate() {
-            sum += f0.cv_sse[b] - f1.cv_sse[b];
-            let mut q = 0.0;
-            for k in 0..d.len().min(rho.len()) {
-                let c: f64 = (0..d.len() - k).map(|i| d[i] * d[i + k]).sum();
-                q += if k == 0 { c } else { 2.0 * c } * rho[k];
-            }
-            var += 4.0 * ms * q.max(0.0);
-        }
-        if var > 0.0 {
-            sum / var.sqrt()
-        } else {
-            0.0
-        }
+        noise_referenced_gain(&delta, &resid, &f0.cv_sse, &f1.cv_sse)
     }
 
     /// Marks column `j` as the column of ones (for [`Self::cv_r2`]).
@@ -380,6 +340,54 @@ impl Design {
             n += self.rows(b);
         }
         Some(s / n)
+    }
+}
+
+/// The noise-referenced held-out gain `T = Σ_b d_b / √(Σ_b 4 σ_b² δ_bᵀ R δ_b)` of model 1 over
+/// model 0 ([`Design::noise_gain`] explains it): per block `δ_b` the difference of the two
+/// models' held-out predictions (or errors), `resid` model 1's held-out residual, `sse0`, `sse1`
+/// the blocks' held-out SSEs. 0 when the variance is 0.
+pub fn noise_referenced_gain(delta: &[Vec<f64>], resid: &[Vec<f64>], sse0: &[f64], sse1: &[f64]) -> f64 {
+    // Autocorrelation of the held-out residuals, lags within a block, each block's own
+    // mean square as its scale.
+    let mean_sq: Vec<f64> = resid
+        .iter()
+        .map(|r| r.iter().map(|x| x * x).sum::<f64>() / r.len().max(1) as f64)
+        .collect();
+    let len = resid.iter().map(|r| r.len()).max().unwrap_or(0);
+    let mut acf = vec![0.0; len];
+    let mut norm = 0.0;
+    for (r, &ms) in resid.iter().zip(&mean_sq) {
+        if ms <= 0.0 {
+            continue;
+        }
+        for (k, a) in acf.iter_mut().enumerate().take(r.len()) {
+            *a += (0..r.len() - k).map(|i| r[i] * r[i + k]).sum::<f64>() / ms;
+        }
+        norm += r.len() as f64;
+    }
+    if norm <= 0.0 {
+        return 0.0;
+    }
+    let rho: Vec<f64> = acf
+        .iter()
+        .enumerate()
+        .map(|(k, a)| a / norm * (1.0 - k as f64 / len as f64))
+        .collect();
+    let (mut sum, mut var) = (0.0, 0.0);
+    for (b, (d, ms)) in delta.iter().zip(&mean_sq).enumerate() {
+        sum += sse0[b] - sse1[b];
+        let mut q = 0.0;
+        for k in 0..d.len().min(rho.len()) {
+            let c: f64 = (0..d.len() - k).map(|i| d[i] * d[i + k]).sum();
+            q += if k == 0 { c } else { 2.0 * c } * rho[k];
+        }
+        var += 4.0 * ms * q.max(0.0);
+    }
+    if var > 0.0 {
+        sum / var.sqrt()
+    } else {
+        0.0
     }
 }
 
