@@ -193,13 +193,22 @@ fn in_turbulence_each_identifiable_kind_is_named_and_clean_flights_stay_quiet() 
     for ((o, r), (e, _)) in out.iter().zip(&draws) {
         let Some(e) = e else { continue };
         if NOT_IDENTIFIABLE_IN_TURBULENCE.contains(&e.kind) {
-            // AND a scale factor is named right or nothing is, and the report says why
+            // AND a scale factor is named right or nothing is, and the report says what was
+            // done: the turbulence noted, and the vane's scale scored by the instrumental check
             assert!(o.correct || r.named.is_empty(), "{}: named {:?}", o.detail, r.named);
+            let c = &r.compatibility;
             assert!(
-                r.compatibility.rejected.iter().any(|f| f.why.contains("turbulence")),
-                "{}: no turbulence reason in {:?}",
+                c.notes.iter().any(|n| n.starts_with("turbulence")),
+                "{}: no turbulence note in {:?}",
                 o.detail,
-                r.compatibility.rejected
+                c.notes
+            );
+            assert!(
+                c.tested.iter().any(|t| t.part == "instrumental"
+                    && t.param == aerosid::gaps::compat::SensorParam::Scale(aerosid::io::measured::Quantity::Alpha)),
+                "{}: scale(Alpha) not scored by the instrumental check: {:?}",
+                o.detail,
+                c.tested
             );
         } else if !OPEN_IN_TURBULENCE.contains(&e.kind) {
             assert!(o.correct, "missed in turbulence: {}", o.detail);

@@ -566,9 +566,8 @@ impl Problem<'_> {
             })
             .collect();
         let folds = nseg.min(5);
-        // Held-out SSE per segment of the model with the active parameters `keep` (indices into
-        // `act`); the residual is taken with the others' contributions added back.
-        // Held-out errors per segment of the model with the active parameters `keep`.
+        // Held-out errors per segment of the model with the active parameters `keep` (indices
+        // into `act`); the residual is taken with the others' contributions added back.
         let errors = |keep: &[usize]| -> Vec<Vec<f64>> {
             let dropped: Vec<usize> = (0..act.len()).filter(|k| !keep.contains(k)).collect();
             // r̃ = r + Σ_dropped c·g (the fit without them), per segment.
@@ -773,6 +772,8 @@ fn run(
                     String::new()
                 } else if wind_like(&param) {
                     format!("in turbulence a mean wind moves this channel like a bias: judged by the sign-flip test of its held-out gain, which it does not pass (z {z:.1} ≤ {crit:.1})")
+                } else if stat.is_nan() {
+                    "its held-out gain is not positive".to_string()
                 } else {
                     format!("does not improve the held-out reconstruction beyond noise (gain T {stat:.1} ≤ {crit:.1})")
                 },
@@ -792,7 +793,7 @@ fn run(
     // The excluded candidates that would have passed the first round, with the reason.
     let mut rejected = rejected;
     for c in first.iter().flatten() {
-        if excluded.contains(&c.param) && c.t2 > s.threshold_t2 {
+        if excluded.contains(&c.param) && c.t2 > s.threshold_t2 && c.param.plausible(c.value) {
             rejected.push(Found {
                 param: c.param,
                 value: c.value,
@@ -801,7 +802,7 @@ fn run(
                 part,
                 cv_gain_z: f64::NAN,
                 cv_gain: f64::NAN,
-                why: TURBULENCE_WHY.into(),
+                why: turbulence_why(&c.param),
             });
         }
     }
@@ -1435,6 +1436,9 @@ fn instrumental_check(out: &mut Compatibility, flight: &MeasuredFlight, h_s: f64
             continue;
         };
         let r = super::instrumental::check_channel(flight, h_s, ch, m, y, s);
+        // The instrumental verdict replaces the output-error refusal of the same parameter.
+        out.rejected
+            .retain(|f| f.part == "instrumental" || !r.tested.iter().any(|t| t.param == f.param));
         out.notes.push(r.note);
         out.tested.extend(r.tested);
         out.found.extend(r.found);
@@ -1452,8 +1456,16 @@ const TURBULENCE_RATIO: f64 = 3.0;
 const WIND_CROSSOVER_HZ: f64 = 1.0;
 
 /// Why an air-data channel's scale, delay or position is not estimated by output error in
-/// turbulence.
-const TURBULENCE_WHY: &str = "not identifiable in turbulence by output error: the gust response makes the kinematic residual proportional to the flow angle (the vanes' scale and delay are tested by instrumental variables instead)";
+/// turbulence, and what is done instead.
+fn turbulence_why(p: &SensorParam) -> String {
+    let instead = match p {
+        SensorParam::Scale(Quantity::Alpha | Quantity::Beta) | SensorParam::Delay(Quantity::Alpha | Quantity::Beta) => {
+            "tested by instrumental variables instead, see `part: instrumental`"
+        }
+        _ => "not identifiable from this flight",
+    };
+    format!("not identifiable in turbulence by output error: the gust response makes the kinematic residual proportional to the flow angle ({instead})")
+}
 
 /// The air-data outputs on which the air is turbulent, with the σ of their low-frequency
 /// residual (the wind, in the channel's unit), judged on the fit `st`.
@@ -1467,8 +1479,9 @@ const TURBULENCE_WHY: &str = "not identifiable in turbulence by output error: th
 /// and held-out gains of 3–7 σ, with no error in the sensor). Biases stay identifiable (a gust has
 /// no mean).
 ///
-/// The residual is taken after removing what a bias, scale and delay of the sensor explain (its
-/// least-squares part on `1, y, ẏ`): a sensor error alone leaves a white residual and is not
+/// The residual is taken after removing what a bias, scale and delay of the sensor explain and
+/// the within-segment ramp of an accelerometer bias (its least-squares part on `1, y, ẏ` and a
+/// sawtooth over the segments): a sensor error alone leaves a white residual and is not
 /// turbulence, so that in calm air such errors stay with the output-error selection.
 fn turbulence_in(prob: &Problem, st: &State, h_s: f64) -> Vec<(Quantity, f64)> {
     let y = prob.outputs_of(st);
@@ -1479,7 +1492,17 @@ fn turbulence_in(prob: &Problem, st: &State, h_s: f64) -> Vec<(Quantity, f64)> {
             continue;
         }
         let d: Vec<f64> = m.iter().zip(yo).map(|(a, b)| a - b).collect();
-        let cols = vec![vec![1.0; yo.len()], yo.clone(), super::signal::derivative(yo, h_s)];
+        // The rate within each segment (the reconstruction jumps at the segments' boundaries),
+        // and the within-segment ramp an accelerometer bias leaves (the baseline has none).
+        let (mut rate, mut ramp) = (vec![0.0; yo.len()], vec![0.0; yo.len()]);
+        for &(a, b) in &prob.segments {
+            rate[a..b].copy_from_slice(&super::signal::derivative(&yo[a..b], h_s));
+            let mid = 0.5 * (a + b - 1) as f64;
+            for (i, r) in ramp[a..b].iter_mut().enumerate() {
+                *r = (a + i) as f64 - mid;
+            }
+        }
+        let cols = vec![vec![1.0; yo.len()], yo.clone(), rate, ramp];
         let r: Vec<f64> = match ols_theta(&cols, &d) {
             Some(th) => (0..d.len())
                 .map(|i| d[i] - cols.iter().zip(&th).map(|(c, t)| c[i] * t).sum::<f64>())

@@ -342,8 +342,10 @@ pub fn check_channel(
                     match scale_given(t) {
                         Some(sc) if passes(sc.score) => entered[0] = sc,
                         Some(sc) => {
+                            // Without the scale, the delay is the one fitted alone.
                             entered.remove(0);
                             refused.push(sc);
+                            tau = Some(exact_delay(&d, &yh, h_s, false));
                         }
                         None => {}
                     }
