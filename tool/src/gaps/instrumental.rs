@@ -33,7 +33,7 @@
 //! (a feedback makes the instruments correlated with the noise, the one thing an instrument must
 //! not be); that response, like most of the gust energy, sits at the low frequencies of the
 //! attitude loops and the phugoid, while the manoeuvre's pulses (0.5–1 s) put their energy above.
-//! Measured with an earlier form of this check (all four controls, the band applied after the first
+//! Measured with a variant of this check (all four controls, the band applied after the first
 //! stage) on the campaign's 10 clean simulated flights and JSBSim's 4 clean flights (both flown
 //! with a weak attitude hold): at 0.1 Hz `scale(α)` came out −0.04 (sim) and −0.15…−0.39 (JSBSim,
 //! `t` to −3.9) on perfect vanes; at 0.6 Hz every clean estimate was within `|t|` 2.3 of zero. A
@@ -298,6 +298,16 @@ pub fn check_channel(
     };
     // Forward selection in the order of the candidates' t² alone, then the removal step.
     let (mut entered, mut refused): (Vec<Entry>, Vec<Entry>) = (Vec::new(), Vec::new());
+    // Files a candidate tested on its own: entered if it passes, else refused.
+    let file = |e: Entry, entered: &mut Vec<Entry>, refused: &mut Vec<Entry>| -> bool {
+        let ok = passes(e.score);
+        if ok {
+            entered.push(e)
+        } else {
+            refused.push(e)
+        }
+        ok
+    };
     let mut tau = None;
     if f_delay.t2(0) >= f_scale.t2(0) {
         let e = alone(1, f_delay);
@@ -306,20 +316,11 @@ pub fn check_channel(
             tau = Some(t);
             entered.push(e);
             if let Some(sc) = scale_given(t) {
-                if passes(sc.score) {
-                    entered.push(sc);
-                } else {
-                    refused.push(sc);
-                }
+                file(sc, &mut entered, &mut refused);
             }
         } else {
             refused.push(e);
-            let e = alone(0, f_scale);
-            if passes(e.score) {
-                entered.push(e)
-            } else {
-                refused.push(e)
-            }
+            file(alone(0, f_scale), &mut entered, &mut refused);
         }
     } else {
         let e = alone(0, f_scale);
@@ -355,13 +356,8 @@ pub fn check_channel(
             }
         } else {
             refused.push(e);
-            let e = alone(1, f_delay);
-            if passes(e.score) {
-                let t = exact_delay(&d, &yh, h_s, false);
-                tau = Some(t);
-                entered.push(e);
-            } else {
-                refused.push(e);
+            if file(alone(1, f_delay), &mut entered, &mut refused) {
+                tau = Some(exact_delay(&d, &yh, h_s, false));
             }
         }
     }
