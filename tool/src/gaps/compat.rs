@@ -246,6 +246,9 @@ struct Problem<'a> {
     /// `sim` split into states and outputs, when the problem has them: the sensitivity of a
     /// candidate that moves one output only is then differenced on that output alone.
     split: Option<Split<'a>>,
+    /// Analytic sensitivities of the outputs to a candidate, when the problem has them for it
+    /// (else central differences of `sim`).
+    g_sens: Option<CandidateSens<'a>>,
 }
 
 /// A simulation in two parts: `states(g, x0, start, end)`, and `outputs(g, states, start, only)`
@@ -267,6 +270,10 @@ type SegmentSim<'a> = Box<dyn Fn(&[f64], &[f64], usize, usize) -> Vec<Vec<f64>> 
 /// `(candidate values, x0, segment)` → per output and sample, the output's derivative with
 /// respect to each initial state (unweighted).
 type SegmentSens<'a> = Box<dyn Fn(&[f64], &[f64], usize) -> Vec<Vec<[f64; 3]>> + 'a>;
+
+/// `(candidate values, x0, segment, candidate)` → per output and sample, the output's derivative
+/// with respect to that candidate (unweighted), or `None` when the problem has none for it.
+type CandidateSens<'a> = Box<dyn Fn(&[f64], &[f64], usize, usize) -> Option<Vec<Vec<f64>>> + 'a>;
 
 /// Segment length, s.
 pub const SEGMENT_S: f64 = 5.0;
@@ -370,6 +377,22 @@ impl Problem<'_> {
 
     /// Global sensitivity column of candidate `c` (segment-major rows).
     fn g_col(&self, st: &State, c: usize) -> Vec<Vec<f64>> {
+        if let Some(sens) = &self.g_sens {
+            let cols: Option<Vec<Vec<f64>>> = (0..self.segments.len())
+                .map(|s| {
+                    let d = sens(&st.g, &st.x0[s], s, c)?;
+                    let mut col = Vec::with_capacity(d.iter().map(Vec::len).sum());
+                    for (o, dy) in d.iter().enumerate() {
+                        let sw = st.weights[o].sqrt();
+                        col.extend(dy.iter().map(|x| x * sw));
+                    }
+                    Some(col)
+                })
+                .collect();
+            if let Some(cols) = cols {
+                return cols;
+            }
+        }
         let h = self.candidates[c].fd_step();
         let (mut up, mut dn) = (st.g.clone(), st.g.clone());
         up[c] += h;
@@ -498,6 +521,19 @@ impl Problem<'_> {
 
     /// Scores of the inactive candidates and σ of the active ones.
     fn scores(&self, st: &State, max_lag: usize) -> (Vec<ParamScore>, Vec<(usize, f64)>) {
+        self.scores_of(st, max_lag, true)
+    }
+
+    /// σ of the active candidates alone (none scored: their columns are the costly part).
+    fn active_sigma(&self, st: &State, max_lag: usize) -> Vec<(usize, f64)> {
+        if st.active.iter().any(|&a| a) {
+            self.scores_of(st, max_lag, false).1
+        } else {
+            Vec::new()
+        }
+    }
+
+    fn scores_of(&self, st: &State, max_lag: usize, inactive: bool) -> (Vec<ParamScore>, Vec<(usize, f64)>) {
         let x0c = self.bases(st);
         let (rs, _) = self.residual(st);
         let r = self.project(&x0c, &rs);
@@ -514,6 +550,9 @@ impl Problem<'_> {
                 .map(|f| act.iter().zip(f.sigma).map(|(&j, s)| (j, s)).collect())
                 .unwrap_or_default()
         };
+        if !inactive {
+            return (Vec::new(), sig);
+        }
         // The active columns are factorised once; each candidate is then tested against them.
         let Some(basis) = Basis::new(&cols, n) else {
             return (Vec::new(), sig);
@@ -723,7 +762,7 @@ fn run(
         // parameter now explains what it explained) leaves the model and may not re-enter. The
         // same threshold in and out; the weakest leaves first.
         while entered.len() > 1 {
-            let (_, sig) = prob.scores(&st, s.max_lag);
+            let sig = prob.active_sigma(&st, s.max_lag);
             let weakest = entered
                 .iter()
                 .enumerate()
@@ -744,7 +783,7 @@ fn run(
             }
         }
     }
-    let (_, sig) = prob.scores(&st, s.max_lag);
+    let sig = prob.active_sigma(&st, s.max_lag);
     let held = prob.held_out(&st);
     let crit = super::select::student_t_upper_quantile(s.gain_alpha, (prob.segments.len() as f64 - 1.0).max(1.0));
     // A bias of an air-data channel in turbulence is judged by the sign-flip `z`, not by `T`: a
@@ -989,105 +1028,165 @@ fn velocity_problem(flight: &MeasuredFlight, h_s: f64, gyro_bias: [f64; 3]) -> O
     let rc: Vec<f64> = r_m.iter().map(|v| v - gyro_bias[2]).collect();
     let rates = std::rc::Rc::new([pc, qc, rc]);
     let attitude = std::rc::Rc::new(AttitudeTable::new(&phi_m, theta_m));
-    let states: VelocityStates<'_> = {
-        let attitude = attitude.clone();
-        let par = par.clone();
+    let segs = segments(n, h_s);
+    // The velocity equations are linear in the state and in the accelerometer biases
+    // (`ẋ = A(t)x + u(t) − b`, `A = −[ω×]` with the measured rates, `u` the measured specific force
+    // and gravity), and RK4 of an affine system is affine in its initial state and its constant
+    // input: per segment, `x(t) = Φ(t)x₀ + x_u(t) + Σⱼ bⱼ ψⱼ(t)` with `Φ` the RK4 of `Φ̇ = AΦ`,
+    // `x_u` the RK4 solution from rest with no bias and `ψⱼ` the one of `ψ̇ = Aψ − eⱼ` from rest.
+    // Each is integrated once for the whole check (`A`, `u` depend on no candidate); a candidate's
+    // states are then the combination, equal to integrating them (to rounding).
+    let lat_mask = move |d: Vector3<f64>| [d.x, if lat_v { d.y } else { 0.0 }, d.z];
+    let rate_at = {
         let rates = rates.clone();
-        let (phi_m, ay) = (phi_m.clone(), ay.clone());
-        std::rc::Rc::new(move |g: &[f64], x0: &[f64], a: usize, b: usize| -> Vec<[f64; 3]> {
-            use SensorParam as S;
+        move |k: usize, fr: f64| {
             let [pc, qc, rc] = &*rates;
-            let (bx, by, bz) = (
-                par(g, S::Bias(AccelX)),
-                par(g, S::Bias(AccelY)),
-                par(g, S::Bias(AccelZ)),
-            );
-            integrate([x0[0], x0[1], x0[2]], a, b, h_s, |x, k, fr| {
-                let w = Vector3::new(lerp(pc, k, fr), lerp(qc, k, fr), lerp(rc, k, fr));
+            Vector3::new(lerp(pc, k, fr), lerp(qc, k, fr), lerp(rc, k, fr))
+        }
+    };
+    let state_of = |x: &[f64; 3]| Vector3::new(x[0], if lat_v { x[1] } else { 0.0 }, x[2]);
+    let forced: Vec<Vec<[f64; 3]>> = segs
+        .iter()
+        .map(|&(a, b)| {
+            integrate([0.0; 3], a, b, h_s, |x, k, fr| {
                 let [sf, cf, st, ct] = attitude.at(k, fr).unwrap_or_else(|| {
                     let (sf, cf) = lerp(&phi_m, k, fr).sin_cos();
                     let (st, ct) = lerp(theta_m, k, fr).sin_cos();
                     [sf, cf, st, ct]
                 });
-                let acc = Vector3::new(lerp(ax, k, fr) - bx, lerp(&ay, k, fr) - by, lerp(az, k, fr) - bz);
+                let acc = Vector3::new(lerp(ax, k, fr), lerp(&ay, k, fr), lerp(az, k, fr));
                 let gv = Vector3::new(-st, ct * sf, ct * cf) * G_MPS2;
-                let v = Vector3::new(x[0], if lat_v { x[1] } else { 0.0 }, x[2]);
-                let d = acc + gv - w.cross(&v);
-                [d.x, if lat_v { d.y } else { 0.0 }, d.z]
-            })
-        })
-    };
-    let segs = segments(n, h_s);
-    // The state transition matrix Φ(t) = ∂x(t)/∂x₀ of every segment. The velocity equations are
-    // linear in the state (`ẋ = A(t)x + b(t)`, `A = −[ω×]` with the measured rates), and RK4 of an
-    // affine system is affine in the initial state with the linear part RK4 of `Φ̇ = AΦ`, so this Φ
-    // is exactly what central differences of the integrated states return (to rounding), at the
-    // cost of one integration per segment for the whole check instead of six per Gauss–Newton
-    // step: A depends only on the (bias-corrected) rates, not on any candidate.
-    let phis: Vec<Vec<[f64; 9]>> = segs
-        .iter()
-        .map(|&(a, b)| {
-            let [pc, qc, rc] = &*rates;
-            let eye = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0];
-            integrate(eye, a, b, h_s, |m, k, fr| {
-                let w = Vector3::new(lerp(pc, k, fr), lerp(qc, k, fr), lerp(rc, k, fr));
-                let mut d = [0.0; 9];
-                for c in 0..3 {
-                    let v = Vector3::new(m[c], if lat_v { m[3 + c] } else { 0.0 }, m[6 + c]);
-                    let dv = -w.cross(&v);
-                    d[c] = dv.x;
-                    d[3 + c] = if lat_v { dv.y } else { 0.0 };
-                    d[6 + c] = dv.z;
-                }
-                d
+                lat_mask(acc + gv - rate_at(k, fr).cross(&state_of(x)))
             })
         })
         .collect();
-    let outs_s = outputs.clone();
-    let (states_d, rates_d, segs_d, par_d) = (states.clone(), rates.clone(), segs.clone(), par.clone());
+    let unit_bias: std::rc::Rc<Vec<[Vec<[f64; 3]>; 3]>> = std::rc::Rc::new(
+        segs.iter()
+            .map(|&(a, b)| {
+                core::array::from_fn(|j| {
+                    let e = Vector3::from_fn(|i, _| if i == j { 1.0 } else { 0.0 });
+                    integrate([0.0; 3], a, b, h_s, |x, k, fr| {
+                        lat_mask(-e - rate_at(k, fr).cross(&state_of(x)))
+                    })
+                })
+            })
+            .collect(),
+    );
+    // The state transition matrix Φ(t) = ∂x(t)/∂x₀ of every segment (also the analytic
+    // initial-state sensitivity of the outputs, below).
+    let phis: std::rc::Rc<Vec<Vec<[f64; 9]>>> = std::rc::Rc::new(
+        segs.iter()
+            .map(|&(a, b)| {
+                let eye = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0];
+                integrate(eye, a, b, h_s, |m, k, fr| {
+                    let w = rate_at(k, fr);
+                    let mut d = [0.0; 9];
+                    for c in 0..3 {
+                        let dv = lat_mask(-w.cross(&state_of(&[m[c], m[3 + c], m[6 + c]])));
+                        d[c] = dv[0];
+                        d[3 + c] = dv[1];
+                        d[6 + c] = dv[2];
+                    }
+                    d
+                })
+            })
+            .collect(),
+    );
+    let states: VelocityStates<'_> = {
+        let (par, phis, segs, unit_bias) = (par.clone(), phis.clone(), segs.clone(), unit_bias.clone());
+        std::rc::Rc::new(move |g: &[f64], x0: &[f64], a: usize, b: usize| -> Vec<[f64; 3]> {
+            use SensorParam as S;
+            let bias = [
+                par(g, S::Bias(AccelX)),
+                par(g, S::Bias(AccelY)),
+                par(g, S::Bias(AccelZ)),
+            ];
+            // The problem integrates whole segments only.
+            let Some(sg) = segs.iter().position(|&s| s == (a, b)) else {
+                return Vec::new();
+            };
+            let (phi, xu, psi) = (&phis[sg], &forced[sg], &unit_bias[sg]);
+            (0..b - a)
+                .map(|i| {
+                    let f = &phi[i];
+                    core::array::from_fn(|r| {
+                        let free = f[3 * r] * x0[0] + f[3 * r + 1] * x0[1] + f[3 * r + 2] * x0[2];
+                        free + xu[i][r] + bias[0] * psi[0][i][r] + bias[1] * psi[1][i][r] + bias[2] * psi[2][i][r]
+                    })
+                })
+                .collect()
+        })
+    };
     // The outputs' derivatives: each output is `(1+k)·y(t−τ) + b` of a function `y(l)` of the
-    // local velocity `l = v + ω × r` at the sensor, so `∂y/∂x₀ = (1+k)·shift(∇y(l)ᵀ Φ)`.
+    // local velocity `l = v + ω × r` at the sensor, so a state sensitivity `s(t)` (a column of Φ,
+    // or the response ψⱼ to an accelerometer bias) moves it by `(1+k)·shift(∇y(l)ᵀ s)`.
+    let gradients = {
+        let (outs, rates, par) = (outputs.clone(), rates.clone(), par.clone());
+        std::rc::Rc::new(move |g: &[f64], xs: &[[f64; 3]], a: usize| -> Vec<Vec<Vector3<f64>>> {
+            use SensorParam as S;
+            let [pc, qc, rc] = &*rates;
+            outs.iter()
+                .map(|o| {
+                    let r = match o {
+                        Airspeed => r_pitot,
+                        Alpha => rv_a + Vector3::new(par(g, S::VaneX(Alpha)), 0.0, 0.0),
+                        _ => rv_b + Vector3::new(par(g, S::VaneX(Beta)), 0.0, 0.0),
+                    };
+                    xs.iter()
+                        .enumerate()
+                        .map(|(i, x)| {
+                            let k = a + i;
+                            let w = Vector3::new(pc[k], qc[k], rc[k]);
+                            let l = Vector3::new(x[0], x[1], x[2]) + w.cross(&r);
+                            match o {
+                                Airspeed => l / l.norm(),
+                                Alpha => Vector3::new(-l.z, 0.0, l.x) / (l.x * l.x + l.z * l.z),
+                                _ => {
+                                    let nl = l.norm().max(1e-6);
+                                    let sb = l.y / nl;
+                                    let c = (1.0 - sb * sb).max(1e-12).sqrt();
+                                    (Vector3::new(0.0, 1.0 / nl, 0.0) - l * (l.y / (nl * nl * nl))) / c
+                                }
+                            }
+                        })
+                        .collect()
+                })
+                .collect()
+        })
+    };
+    // `(1+k)·shift(series)` of output `o`.
+    let delayed = {
+        let (outs, par) = (outputs.clone(), par.clone());
+        move |g: &[f64], o: usize, series: &[f64]| -> Vec<f64> {
+            let q = outs[o];
+            let (tau, k) = (par(g, SensorParam::Delay(q)), par(g, SensorParam::Scale(q)));
+            shift(series, h_s, -tau).into_iter().map(|v| (1.0 + k) * v).collect()
+        }
+    };
+    let (states_d, segs_d, phis_d, grads_d, delayed_d) = (
+        states.clone(),
+        segs.clone(),
+        phis.clone(),
+        gradients.clone(),
+        delayed.clone(),
+    );
     let sens_b = move |g: &[f64], x0: &[f64], seg: usize| -> Vec<Vec<[f64; 3]>> {
-        use SensorParam as S;
-        let [pc, qc, rc] = &*rates_d;
         let (a, b) = segs_d[seg];
         let xs = states_d(g, x0, a, b);
-        let phi = &phis[seg];
-        outs_s
+        let phi = &phis_d[seg];
+        grads_d(g, &xs, a)
             .iter()
-            .map(|o| {
-                let r = match o {
-                    Airspeed => r_pitot,
-                    Alpha => rv_a + Vector3::new(par_d(g, S::VaneX(Alpha)), 0.0, 0.0),
-                    _ => rv_b + Vector3::new(par_d(g, S::VaneX(Beta)), 0.0, 0.0),
-                };
-                let grads: Vec<[f64; 3]> = xs
-                    .iter()
-                    .enumerate()
-                    .map(|(i, x)| {
-                        let k = a + i;
-                        let w = Vector3::new(pc[k], qc[k], rc[k]);
-                        let l = Vector3::new(x[0], x[1], x[2]) + w.cross(&r);
-                        let dy = match o {
-                            Airspeed => l / l.norm(),
-                            Alpha => Vector3::new(-l.z, 0.0, l.x) / (l.x * l.x + l.z * l.z),
-                            _ => {
-                                let nl = l.norm().max(1e-6);
-                                let sb = l.y / nl;
-                                let c = (1.0 - sb * sb).max(1e-12).sqrt();
-                                (Vector3::new(0.0, 1.0 / nl, 0.0) - l * (l.y / (nl * nl * nl))) / c
-                            }
-                        };
-                        let f = &phi[i];
-                        core::array::from_fn(|c| dy.x * f[c] + dy.y * f[3 + c] + dy.z * f[6 + c])
-                    })
-                    .collect();
-                let (tau, k) = (par_d(g, S::Delay(*o)), par_d(g, S::Scale(*o)));
-                let comp: [Vec<f64>; 3] =
-                    core::array::from_fn(|c| shift(&grads.iter().map(|d| d[c]).collect::<Vec<_>>(), h_s, -tau));
-                (0..grads.len())
-                    .map(|i| [(1.0 + k) * comp[0][i], (1.0 + k) * comp[1][i], (1.0 + k) * comp[2][i]])
-                    .collect()
+            .enumerate()
+            .map(|(o, dy)| {
+                let comp: [Vec<f64>; 3] = core::array::from_fn(|c| {
+                    let s: Vec<f64> = dy
+                        .iter()
+                        .zip(phi)
+                        .map(|(d, f)| d.x * f[c] + d.y * f[3 + c] + d.z * f[6 + c])
+                        .collect();
+                    delayed_d(g, o, &s)
+                });
+                (0..dy.len()).map(|i| [comp[0][i], comp[1][i], comp[2][i]]).collect()
             })
             .collect()
     };
@@ -1142,6 +1241,69 @@ fn velocity_problem(flight: &MeasuredFlight, h_s: f64, gyro_bias: [f64; 3]) -> O
             c => outputs.iter().position(|o| *o == c.channel()),
         })
         .collect();
+    // Analytic candidate columns where they are cheap and exact: an air-data bias moves its output
+    // by 1, a scale factor by the delayed output `y(t−τ)`, an accelerometer bias through `ψⱼ`.
+    // Delays and vane positions are differenced.
+    let (cands_g, outs_g, segs_g, states_g, out_g) = (
+        cands.clone(),
+        outputs.clone(),
+        segs.clone(),
+        states.clone(),
+        out_map.clone(),
+    );
+    let g_sens_b = move |g: &[f64], x0: &[f64], seg: usize, cand: usize| -> Option<Vec<Vec<f64>>> {
+        use SensorParam as S;
+        let (a, b) = segs_g[seg];
+        let zero = || vec![0.0; b - a];
+        let param = *cands_g.get(cand)?;
+        let out_of = |q: Quantity| outs_g.iter().position(|o| *o == q);
+        let per_output = |o: usize, col: Vec<f64>| -> Vec<Vec<f64>> {
+            let mut v = vec![Vec::new(); outs_g.len()];
+            v[o] = col;
+            v.iter_mut().filter(|c| c.is_empty()).for_each(|c| *c = zero());
+            v
+        };
+        match param {
+            S::Bias(AccelX | AccelY | AccelZ) => {
+                let j = match param.channel() {
+                    AccelX => 0,
+                    AccelY => 1,
+                    _ => 2,
+                };
+                let xs = states_g(g, x0, a, b);
+                let psi = &unit_bias[seg][j];
+                Some(
+                    gradients(g, &xs, a)
+                        .iter()
+                        .enumerate()
+                        .map(|(o, dy)| {
+                            let s: Vec<f64> = dy
+                                .iter()
+                                .zip(psi)
+                                .map(|(d, p)| d.x * p[0] + d.y * p[1] + d.z * p[2])
+                                .collect();
+                            delayed(g, o, &s)
+                        })
+                        .collect(),
+                )
+            }
+            S::Bias(q) => Some(per_output(out_of(q)?, vec![1.0; b - a])),
+            S::Scale(q) => {
+                let o = out_of(q)?;
+                // The output with no scale and no bias: `y(t−τ)`.
+                let mut g0 = g.to_vec();
+                for (c, p) in cands_g.iter().enumerate() {
+                    if *p == S::Scale(q) || *p == S::Bias(q) {
+                        g0[c] = 0.0;
+                    }
+                }
+                let xs = states_g(&g0, x0, a, b);
+                let mut y = out_g(&g0, &xs, a, Some(o));
+                Some(per_output(o, std::mem::take(&mut y[o])))
+            }
+            _ => None,
+        }
+    };
     let x0: Vec<Vec<f64>> = segs
         .iter()
         .map(|&(a, b)| {
@@ -1167,6 +1329,7 @@ fn velocity_problem(flight: &MeasuredFlight, h_s: f64, gyro_bias: [f64; 3]) -> O
                 outputs: out_map,
                 channel,
             }),
+            g_sens: Some(Box::new(g_sens_b)),
         },
         states,
         x0,
@@ -1287,24 +1450,20 @@ pub fn reconstruct_air_data(
     air_data_of(prob, &vp.states, &st.g, &st.x0, vp.lateral)
 }
 
-/// The compatibility check of a flight (uniform time base `h_s`).
-pub fn check(flight: &MeasuredFlight, h_s: f64, s: &CompatSettings) -> Compatibility {
+/// Builds the attitude problem (`None` without pitch rate and pitch): Euler's kinematic equations
+/// driven by the gyros, the measured attitude its outputs, the gyro biases its candidates; with
+/// the initial states of its segments.
+fn attitude_problem(flight: &MeasuredFlight, h_s: f64) -> Option<(Problem<'_>, Vec<Vec<f64>>)> {
     use Quantity::*;
-    let mut out = Compatibility::default();
     let n = flight.len();
     let segs = segments(n, h_s);
-    let zeros = vec![0.0; n];
     let get = |q: Quantity| flight.get(q);
-    let (Some(q_m), Some(theta_m)) = (get(PitchRate), get(Pitch)) else {
-        out.notes
-            .push("no pitch rate or pitch attitude: compatibility check not performed".into());
-        return out;
-    };
+    let (q_m, theta_m) = (get(PitchRate)?, get(Pitch)?);
     let lateral = get(RollRate).is_some() && get(YawRate).is_some() && get(Roll).is_some();
-    let p_m = get(RollRate).unwrap_or(&zeros);
-    let r_m = get(YawRate).unwrap_or(&zeros);
-    let phi_m = get(Roll).unwrap_or(&zeros);
-    // ---- Part A: attitude.
+    // Missing lateral channels read as zero.
+    let ch = |q: Quantity| get(q).map_or_else(|| vec![0.0; n], <[f64]>::to_vec);
+    let lat = std::rc::Rc::new([ch(RollRate), ch(YawRate), ch(Roll)]);
+    let phi_m = &lat[2];
     let psi_m = get(Yaw).filter(|_| lateral).map(unwrap);
     let mut outputs = vec![Pitch];
     let mut measured = vec![theta_m.to_vec()];
@@ -1324,43 +1483,121 @@ pub fn check(flight: &MeasuredFlight, h_s: f64, s: &CompatSettings) -> Compatibi
             .position(|c| *c == SensorParam::Bias(q))
             .map_or(0.0, |i| g[i])
     };
+    // Euler's kinematic equations with the rates less the gyro biases `b`,
+    // `ẋ = f(x, ω − b)`, `x = (φ, θ, ψ)`; beside `f`, its Jacobians `J = ∂f/∂x` and `∂f/∂b`
+    // (row-major 3×3) for the variational equations of the sensitivities.
+    let kin_lat = lat.clone();
+    let kinematics = move |x: &[f64], k: usize, fr: f64, bias: [f64; 3]| -> ([f64; 3], [f64; 9], [f64; 9]) {
+        let [p_m, r_m, _] = &*kin_lat;
+        let (pp, qq, rr) = (
+            lerp(p_m, k, fr) - bias[0],
+            lerp(q_m, k, fr) - bias[1],
+            lerp(r_m, k, fr) - bias[2],
+        );
+        if !lateral {
+            let mut db = [0.0; 9];
+            db[4] = -1.0;
+            return ([0.0, qq, 0.0], [0.0; 9], db);
+        }
+        let (sf, cf) = x[0].sin_cos();
+        let (st, ct) = x[1].sin_cos();
+        // At θ = ±90° the equations are singular; `cos θ` is held at ±10⁻³ there (never reached
+        // in flight), and the Jacobian is that of the held form.
+        let ct = if ct.abs() < 1e-3 { 1e-3f64.copysign(ct) } else { ct };
+        let (tn, sec) = (st / ct, 1.0 / ct);
+        let a = qq * sf + rr * cf;
+        let b = qq * cf - rr * sf;
+        let f = [pp + a * tn, b, a * sec];
+        let j = [b * tn, a * sec * sec, 0.0, -a, 0.0, 0.0, b * sec, a * tn * sec, 0.0];
+        let db = [-1.0, -sf * tn, -cf * tn, 0.0, -cf, sf, 0.0, -sf * sec, -cf * sec];
+        (f, j, db)
+    };
+    let biases_of = {
+        let bias_of = bias_of.clone();
+        move |g: &[f64]| [bias_of(g, RollRate), bias_of(g, PitchRate), bias_of(g, YawRate)]
+    };
+    let index_of = |o: &Quantity| match o {
+        Roll => 0,
+        Pitch => 1,
+        _ => 2,
+    };
     let outs_a = outputs.clone();
     let sim_a = {
-        let bias_of = bias_of.clone();
+        let (biases_of, kinematics) = (biases_of.clone(), kinematics.clone());
         move |g: &[f64], x0: &[f64], a: usize, b: usize| -> Vec<Vec<f64>> {
-            let (bp, bq, br) = (bias_of(g, RollRate), bias_of(g, PitchRate), bias_of(g, YawRate));
+            let bias = biases_of(g);
             let xs = integrate([x0[0], x0[1], x0[2]], a, b, h_s, |x, k, fr| {
-                let (pp, qq, rr) = (lerp(p_m, k, fr) - bp, lerp(q_m, k, fr) - bq, lerp(r_m, k, fr) - br);
-                if !lateral {
-                    return [0.0, qq, 0.0];
-                }
-                let (sf, cf) = x[0].sin_cos();
-                let (st, ct) = x[1].sin_cos();
-                let ct = if ct.abs() < 1e-3 { 1e-3f64.copysign(ct) } else { ct };
-                [
-                    pp + (qq * sf + rr * cf) * st / ct,
-                    qq * cf - rr * sf,
-                    (qq * sf + rr * cf) / ct,
-                ]
+                kinematics(x, k, fr, bias).0
             });
             outs_a
                 .iter()
-                .map(|o| {
-                    let i = match o {
-                        Roll => 0,
-                        Pitch => 1,
-                        _ => 2,
-                    };
-                    xs.iter().map(|x| x[i]).collect()
-                })
+                .map(|o| xs.iter().map(|x| x[index_of(o)]).collect())
                 .collect()
         }
+    };
+    // The sensitivities by the variational equations integrated with the states by the same
+    // RK4: RK4 commutes with differentiation, so these are the exact derivatives of the
+    // integrated outputs (what central differences approximate), at the cost of one integration
+    // instead of two per initial state or candidate.
+    let outs_x = outputs.clone();
+    let (segs_x, biases_x, kin_x) = (segs.clone(), biases_of.clone(), kinematics.clone());
+    let sens_a = move |g: &[f64], x0: &[f64], seg: usize| -> Vec<Vec<[f64; 3]>> {
+        let bias = biases_x(g);
+        let (a, b) = segs_x[seg];
+        let mut z0 = [0.0; 12];
+        z0[..3].copy_from_slice(&x0[..3]);
+        for i in 0..3 {
+            z0[3 + 4 * i] = 1.0;
+        }
+        let zs = integrate(z0, a, b, h_s, |z, k, fr| {
+            let (f, j, _) = kin_x(&z[..3], k, fr, bias);
+            let mut d = [0.0; 12];
+            d[..3].copy_from_slice(&f);
+            for r in 0..3 {
+                for c in 0..3 {
+                    d[3 + 3 * r + c] = (0..3).map(|m| j[3 * r + m] * z[3 + 3 * m + c]).sum();
+                }
+            }
+            d
+        });
+        outs_x
+            .iter()
+            .map(|o| {
+                let r = index_of(o);
+                zs.iter().map(|z| [z[3 + 3 * r], z[4 + 3 * r], z[5 + 3 * r]]).collect()
+            })
+            .collect()
+    };
+    let (outs_g, cands_g, segs_g) = (outputs.clone(), cands.clone(), segs.clone());
+    let g_sens_a = move |g: &[f64], x0: &[f64], seg: usize, cand: usize| -> Option<Vec<Vec<f64>>> {
+        let col = match cands_g.get(cand)? {
+            SensorParam::Bias(RollRate) => 0,
+            SensorParam::Bias(PitchRate) => 1,
+            SensorParam::Bias(YawRate) => 2,
+            _ => return None,
+        };
+        let bias = biases_of(g);
+        let (a, b) = segs_g[seg];
+        let zs = integrate([x0[0], x0[1], x0[2], 0.0, 0.0, 0.0], a, b, h_s, |z, k, fr| {
+            let (f, j, db) = kinematics(&z[..3], k, fr, bias);
+            let mut d = [f[0], f[1], f[2], 0.0, 0.0, 0.0];
+            for r in 0..3 {
+                d[3 + r] = (0..3).map(|m| j[3 * r + m] * z[3 + m]).sum::<f64>() + db[3 * r + col];
+            }
+            d
+        });
+        Some(
+            outs_g
+                .iter()
+                .map(|o| zs.iter().map(|z| z[3 + index_of(o)]).collect())
+                .collect(),
+        )
     };
     let x0: Vec<Vec<f64>> = segs
         .iter()
         .map(|&(a, _)| vec![phi_m[a], theta_m[a], psi_m.as_ref().map_or(0.0, |v| v[a])])
         .collect();
-    let prob_a = Problem {
+    let problem = Problem {
         nx: 3,
         x_mask: vec![lateral, true, psi_m.is_some()],
         x_steps: vec![1e-4; 3],
@@ -1369,8 +1606,28 @@ pub fn check(flight: &MeasuredFlight, h_s: f64, s: &CompatSettings) -> Compatibi
         sim: Box::new(sim_a),
         measured,
         outputs: outputs.clone(),
-        x0_sens: None,
+        x0_sens: Some(Box::new(sens_a)),
         split: None,
+        g_sens: Some(Box::new(g_sens_a)),
+    };
+    Some((problem, x0))
+}
+
+/// The compatibility check of a flight (uniform time base `h_s`).
+pub fn check(flight: &MeasuredFlight, h_s: f64, s: &CompatSettings) -> Compatibility {
+    use Quantity::*;
+    let mut out = Compatibility::default();
+    let Some((prob_a, x0)) = attitude_problem(flight, h_s) else {
+        out.notes
+            .push("no pitch rate or pitch attitude: compatibility check not performed".into());
+        return out;
+    };
+    let bias_of = |g: &[f64], q: Quantity| -> f64 {
+        prob_a
+            .candidates
+            .iter()
+            .position(|c| *c == SensorParam::Bias(q))
+            .map_or(0.0, |i| g[i])
     };
     let (tested, found, rms, g_a, _, _) = run(&prob_a, x0, s, "attitude", &|_, _| Vec::new());
     let gyro_bias = [
@@ -1594,15 +1851,70 @@ mod tests {
             let d = rel_diff(&analytic, &numeric);
             assert!(d < 1e-6, "segment {s}: relative difference {d:e}");
         }
-        // AND the sensitivity of every candidate is the same differenced on its output alone as
-        // on the whole simulation (the same arithmetic: 1e-12 leaves room for nothing but rounding)
+        let mut g_sens = vp.problem.g_sens.take();
         for c in 0..vp.problem.candidates.len() {
+            // AND the sensitivity of every candidate is the same differenced on its output alone
+            // as on the whole simulation (the same arithmetic: 1e-12 leaves room for nothing but
+            // rounding)
             let split = vp.problem.g_col(&st, c);
             let sp = vp.problem.split.take();
             let whole = vp.problem.g_col(&st, c);
             vp.problem.split = sp;
             let d = rel_diff(&split, &whole);
             assert!(d <= 1e-12, "{:?}: relative difference {d:e}", vp.problem.candidates[c]);
+            // AND where the column is analytic (biases, scale factors) it equals the differences
+            // within their truncation and rounding (air-data biases and scales ≈ 1e-12; an
+            // accelerometer bias's differences carry the outputs' curvature over the segment's
+            // integration, ≈ 5e-8), bounded here at 1e-6
+            vp.problem.g_sens = g_sens.take();
+            let analytic = vp.problem.g_col(&st, c);
+            g_sens = vp.problem.g_sens.take();
+            let d = rel_diff(&analytic, &whole);
+            assert!(
+                d < 1e-6,
+                "{:?}: analytic against differences {d:e}",
+                vp.problem.candidates[c]
+            );
+        }
+    }
+
+    #[test]
+    fn the_attitude_sensitivities_by_the_variational_equations_equal_the_central_differences() {
+        // GIVEN a turbulent simulated flight (seeded) with gyro biases set in the candidate values
+        // and initial states off the measured attitude, so that every term of both Jacobians is
+        // exercised away from zero
+        let flight = super::super::hidden::flight(None, 30.0, 9, true).expect("simulated flight");
+        let h = flight.t_s[1] - flight.t_s[0];
+        let (mut prob, x0) = attitude_problem(&flight, h).expect("attitude problem");
+        assert_eq!(prob.candidates.len(), 3);
+        let st = State {
+            g: vec![0.004, -0.003, 0.002],
+            active: vec![false; 3],
+            x0: x0.iter().map(|x| vec![x[0] + 0.05, x[1] - 0.03, x[2] + 0.02]).collect(),
+            weights: vec![1.0, 4.0, 0.25],
+        };
+        for s in [0, 3] {
+            // WHEN the initial-state columns come from the variational equations and from central
+            // differences (step 1e-4 rad)
+            let analytic = prob.x0_cols(&st, s);
+            let sens = prob.x0_sens.take();
+            let numeric = prob.x0_cols(&st, s);
+            prob.x0_sens = sens;
+            // THEN they agree within the differences' truncation error (h² times the third
+            // derivative of trigonometric terms of O(1): ≤ 1e-8; 3e-10 measured), bounded here
+            // at 1e-6
+            let d = rel_diff(&analytic, &numeric);
+            assert!(d < 1e-6, "segment {s}: relative difference {d:e}");
+        }
+        // AND so do the gyro biases' columns (step 1e-5 rad/s: truncation ≈ 1e-10, rounding
+        // ε·|φ|/h ≈ 1e-11)
+        for c in 0..3 {
+            let analytic = prob.g_col(&st, c);
+            let sens = prob.g_sens.take();
+            let numeric = prob.g_col(&st, c);
+            prob.g_sens = sens;
+            let d = rel_diff(&analytic, &numeric);
+            assert!(d < 1e-6, "{:?}: relative difference {d:e}", prob.candidates[c]);
         }
     }
 }

@@ -357,12 +357,16 @@ pub fn noise_referenced_gain(delta: &[Vec<f64>], resid: &[Vec<f64>], sse0: &[f64
     let len = resid.iter().map(|r| r.len()).max().unwrap_or(0);
     let mut acf = vec![0.0; len];
     let mut norm = 0.0;
+    // The lag sums by FFT (`regress::lag_sums`): every lag of a block is summed, `O(N²)` directly.
     for (r, &ms) in resid.iter().zip(&mean_sq) {
         if ms <= 0.0 {
             continue;
         }
-        for (k, a) in acf.iter_mut().enumerate().take(r.len()) {
-            *a += (0..r.len() - k).map(|i| r[i] * r[i + k]).sum::<f64>() / ms;
+        for (a, s) in acf
+            .iter_mut()
+            .zip(super::regress::lag_sums(r, r.len().saturating_sub(1)))
+        {
+            *a += s / ms;
         }
         norm += r.len() as f64;
     }
@@ -377,11 +381,14 @@ pub fn noise_referenced_gain(delta: &[Vec<f64>], resid: &[Vec<f64>], sse0: &[f64
     let (mut sum, mut var) = (0.0, 0.0);
     for (b, (d, ms)) in delta.iter().zip(&mean_sq).enumerate() {
         sum += sse0[b] - sse1[b];
-        let mut q = 0.0;
-        for k in 0..d.len().min(rho.len()) {
-            let c: f64 = (0..d.len() - k).map(|i| d[i] * d[i + k]).sum();
-            q += if k == 0 { c } else { 2.0 * c } * rho[k];
-        }
+        let lags = d.len().min(rho.len());
+        let c = super::regress::lag_sums(d, lags.saturating_sub(1));
+        let q: f64 = c
+            .iter()
+            .zip(&rho)
+            .enumerate()
+            .map(|(k, (c, r))| if k == 0 { c * r } else { 2.0 * c * r })
+            .sum();
         var += 4.0 * ms * q.max(0.0);
     }
     if var > 0.0 {
