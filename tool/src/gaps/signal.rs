@@ -30,14 +30,20 @@ pub fn sg_smooth(x: &[f64], m: usize) -> Vec<f64> {
             (3.0 * (3.0 * mf * mf + 3.0 * mf - 1.0) - 15.0 * k * k) / den
         })
         .collect();
-    for i in 0..n {
-        if i >= m && i + m < n {
-            out[i] = (0..=2 * m).map(|j| w[j] * x[i + j - m]).sum();
-        } else {
-            let lo = i.saturating_sub(m);
-            let hi = (i + m).min(n - 1);
-            out[i] = local_quadratic(x, lo, hi, i);
+    // The interior: tap by tap over every sample (each sample's sum in the same order as a
+    // per-sample dot product, but the inner loop vectorises).
+    if n > 2 * m {
+        let inner = &mut out[m..n - m];
+        for (j, wj) in w.iter().enumerate() {
+            for (o, xv) in inner.iter_mut().zip(&x[j..j + n - 2 * m]) {
+                *o += wj * xv;
+            }
         }
+    }
+    for i in (0..n).filter(|&i| i < m || i + m >= n) {
+        let lo = i.saturating_sub(m);
+        let hi = (i + m).min(n - 1);
+        out[i] = local_quadratic(x, lo, hi, i);
     }
     out
 }
@@ -92,19 +98,28 @@ pub fn derivative(x: &[f64], h_s: f64) -> Vec<f64> {
 /// positive shift, a channel measured `shift_s` late is moved back onto the time base.
 pub fn shift(x: &[f64], h_s: f64, shift_s: f64) -> Vec<f64> {
     let n = x.len();
-    if n == 0 {
-        return Vec::new();
-    }
     let s = shift_s / h_s;
-    (0..n)
+    if n == 0 || s == 0.0 {
+        return x.to_vec();
+    }
+    if !s.is_finite() || s.abs() >= n as f64 {
+        let end = if s > 0.0 { x[n - 1] } else { x[0] };
+        return vec![if s.is_nan() { f64::NAN } else { end }; n];
+    }
+    // Whole samples and the fraction, the same for every sample: `x(i + m + f)`.
+    let m = s.floor();
+    let f = s - m;
+    let m = m as isize;
+    (0..n as isize)
         .map(|i| {
-            let p = (i as f64 + s).clamp(0.0, (n - 1) as f64);
-            let j = (p.floor() as usize).min(n - 1);
-            let f = p - j as f64;
-            if j + 1 < n {
-                x[j] + f * (x[j + 1] - x[j])
+            let j = i + m;
+            if j < 0 {
+                x[0]
+            } else if j as usize >= n - 1 {
+                x[n - 1]
             } else {
-                x[j]
+                let j = j as usize;
+                x[j] + f * (x[j + 1] - x[j])
             }
         })
         .collect()
@@ -221,5 +236,41 @@ mod tests {
         let x: Vec<f64> = (0..20).map(|i| i as f64).collect();
         let s = shift(&x, 0.01, 0.025);
         assert!((s[3] - 5.5).abs() < 1e-12);
+        // AND it is the series interpolated at `t + shift`, held at the ends, for shifts of
+        // whole and fractional samples either way and past either end (the reference is the
+        // definition, point by point); no shift returns the series itself
+        let y: Vec<f64> = (0..50).map(|i| (i as f64 * 0.37).sin()).collect();
+        let at = |p: f64| {
+            let p = p.clamp(0.0, 49.0);
+            let j = (p.floor() as usize).min(48);
+            y[j] + (p - j as f64) * (y[j + 1] - y[j])
+        };
+        for samples in [0.0, 1.0, -3.0, 0.25, -0.25, 2.6, -7.4, 48.5, -49.5, 60.0, -60.0] {
+            let s = shift(&y, 0.01, samples * 0.01);
+            for (i, v) in s.iter().enumerate() {
+                // 1e-12: the fraction is taken once rather than per sample (rounding of `i + s`)
+                assert!((v - at(i as f64 + samples)).abs() < 1e-12, "shift {samples}, sample {i}");
+            }
+        }
+        assert_eq!(shift(&y, 0.01, 0.0), y);
+        assert!(shift(&y, 0.01, f64::NAN).iter().all(|v| v.is_nan()));
+    }
+
+    #[test]
+    fn smoothing_by_taps_equals_the_per_sample_sums() {
+        // GIVEN a rough series and the half-widths of the analysis, including one wider than
+        // half the series (no interior)
+        let x: Vec<f64> = (0..300).map(|i| (i as f64 * 0.7).sin() + 0.01 * (i * i % 17) as f64).collect();
+        for m in [1, 5, 12, 25, 160] {
+            // WHEN smoothed
+            let s = sg_smooth(&x, m);
+            // THEN every sample is its window's least-squares parabola at the sample (1e-12:
+            // rounding of the two ways of summing)
+            for (i, v) in s.iter().enumerate() {
+                let (lo, hi) = (i.saturating_sub(m), (i + m).min(x.len() - 1));
+                let r = local_quadratic(&x, lo, hi, i);
+                assert!((v - r).abs() < 1e-12, "m {m}, sample {i}: {v} vs {r}");
+            }
+        }
     }
 }
