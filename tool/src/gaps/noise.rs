@@ -208,7 +208,7 @@ pub fn column_errors(
             d.push((0..n_id).map(|j| zk[j] - z0[j]).collect());
             for a in 0..k {
                 for b in a..k {
-                    let v: f64 = d[a].iter().zip(&d[b]).map(|(x, y)| x * y).sum();
+                    let v = super::signal::dot(&d[a], &d[b]);
                     sum[a * k + b] += v;
                     if a != b {
                         sum[b * k + a] += v;

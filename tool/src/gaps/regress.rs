@@ -396,10 +396,12 @@ impl Basis {
 
     /// `v` less its projection on the columns.
     pub fn residual(&self, v: &[f64]) -> Vec<f64> {
+        // `v − Q(Qᵀv)`: Q's columns are contiguous slices of its column-major storage.
         let mut out = v.to_vec();
-        for q in self.q.column_iter() {
-            let c: f64 = q.iter().zip(v).map(|(a, b)| a * b).sum();
-            for (o, a) in out.iter_mut().zip(q.iter()) {
+        let n = self.q.nrows();
+        for q in self.q.as_slice().chunks_exact(n.max(1)).take(self.q.ncols()) {
+            let c = super::signal::dot(q, v);
+            for (o, a) in out.iter_mut().zip(q) {
                 *o -= c * a;
             }
         }
@@ -440,12 +442,12 @@ pub fn partial_test_against(
     }
     let cs: Vec<f64> = candidate.iter().map(|v| v / scale).collect();
     let ct = basis.residual(&cs);
-    let cc: f64 = ct.iter().map(|v| v * v).sum();
+    let cc = super::signal::dot(&ct, &ct);
     let rpp = cc.sqrt();
     if rpp < 1e-9 * basis.rdiag_max.max(rpp).max(1e-300) {
         return None;
     }
-    let ts = ct.iter().zip(z_res).map(|(a, b)| a * b).sum::<f64>() / cc;
+    let ts = super::signal::dot(&ct, z_res) / cc;
     let residual: Vec<f64> = z_res.iter().zip(&ct).map(|(r, c)| r - ts * c).collect();
     let w: Vec<f64> = ct.iter().map(|c| c / cc).collect();
     let theta = ts / scale;
@@ -587,7 +589,7 @@ pub fn sandwich_sigma(
     let mut h = DMatrix::<f64>::zeros(p, p);
     for r in 0..p {
         for c in r..p {
-            let v: f64 = cols[r].iter().zip(&cols[c]).map(|(x, y)| x * y).sum();
+            let v = super::signal::dot(&cols[r], &cols[c]);
             h[(r, c)] = v;
             h[(c, r)] = v;
         }
@@ -708,11 +710,11 @@ pub fn corrected_ls(
     let mut b = DVector::<f64>::zeros(p);
     for r in 0..p {
         for c in r..p {
-            let v: f64 = cols[r].iter().zip(&cols[c]).map(|(x, y)| x * y).sum::<f64>() / (scale[r] * scale[c]);
+            let v = super::signal::dot(&cols[r], &cols[c]) / (scale[r] * scale[c]);
             a[(r, c)] = v;
             a[(c, r)] = v;
         }
-        b[r] = cols[r].iter().zip(z).map(|(x, y)| x * y).sum::<f64>() / scale[r];
+        b[r] = super::signal::dot(&cols[r], z) / scale[r];
     }
     for (kr, &r) in noisy.iter().enumerate() {
         for (kc, &c) in noisy.iter().enumerate() {
