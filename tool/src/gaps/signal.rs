@@ -266,7 +266,10 @@ mod tests {
             let s = shift(&y, 0.01, samples * 0.01);
             for (i, v) in s.iter().enumerate() {
                 // 1e-12: the fraction is taken once rather than per sample (rounding of `i + s`)
-                assert!((v - at(i as f64 + samples)).abs() < 1e-12, "shift {samples}, sample {i}");
+                assert!(
+                    (v - at(i as f64 + samples)).abs() < 1e-12,
+                    "shift {samples}, sample {i}"
+                );
             }
         }
         assert_eq!(shift(&y, 0.01, 0.0), y);
@@ -290,7 +293,9 @@ mod tests {
     fn smoothing_by_taps_equals_the_per_sample_sums() {
         // GIVEN a rough series and the half-widths of the analysis, including one wider than
         // half the series (no interior)
-        let x: Vec<f64> = (0..300).map(|i| (i as f64 * 0.7).sin() + 0.01 * (i * i % 17) as f64).collect();
+        let x: Vec<f64> = (0..300)
+            .map(|i| (i as f64 * 0.7).sin() + 0.01 * (i * i % 17) as f64)
+            .collect();
         for m in [1, 5, 12, 25, 160] {
             // WHEN smoothed
             let s = sg_smooth(&x, m);
