@@ -270,6 +270,11 @@ pub struct Added {
     /// Candidates the data cannot tell apart from this term (in its place they predict the
     /// held-out blocks not significantly worse).
     pub alternatives: Vec<String>,
+    /// For a surface-rate term (a delay of that surface): the delay by an exact shift, s — the
+    /// model with `δ(t−τ)` in place of `δ` and its rate term, `τ` of least identification error
+    /// ([`exact_surface_delay`]); the rate term's `τ = −θ_δ̇/θ_δ` is its first-order estimate.
+    /// `None` for other terms.
+    pub exact_delay_s: Option<f64>,
 }
 
 /// The analysis of one coefficient.
@@ -295,6 +300,9 @@ pub struct CoefficientGap {
     pub candidates: Vec<CandidateScore>,
     /// Terms added, in order.
     pub added: Vec<Added>,
+    /// What the selection withdrew after it, and why (a term that only fitted a named surface
+    /// delay's higher-order terms).
+    pub notes: Vec<String>,
     /// The extended model (equal to the baseline when nothing was added).
     pub extended: ModelFit,
     /// Time histories for the figures: time, measured, baseline prediction, extended prediction.
@@ -813,12 +821,17 @@ fn named_aero(c: &CoefficientGap, a: &Added) -> NamedCause {
     };
     if let Some((loc, sym)) = surface {
         let theta_d = c.extended.parameters.iter().find(|p| p.term == sym).map(|p| p.value);
-        let tau = theta_d.map_or(f64::NAN, |d| -a.value / d);
+        let first_order = theta_d.map_or(f64::NAN, |d| -a.value / d);
+        let tau = a.exact_delay_s.unwrap_or(first_order);
+        let how = match a.exact_delay_s {
+            Some(_) => format!("exact shift; first order {first_order:.3} s from"),
+            None => "from".to_string(),
+        };
         return NamedCause {
             kind: a.kind,
             location: loc.into(),
             what: format!(
-                "delay({sym}) {:.3} s (from {} {} = {:+.4}, {sym} = {:+.4})",
+                "delay({sym}) {:.3} s ({how} {} {} = {:+.4}, {sym} = {:+.4})",
                 tau,
                 c.name,
                 a.term,
@@ -1005,7 +1018,18 @@ fn analyse_coefficient(
     }
     let sel = stepwise(i, zc, h_s, &terms, &cols_full, &library, errors, p_test, settings);
     candidates.extend(sel.candidates);
-    let added_terms: Vec<(Term, f64, f64, Vec<Term>)> = sel.added;
+    let mut added_terms: Vec<(Term, f64, f64, Vec<Term>)> = sel.added;
+    let (exact_delays, notes) = refine_surface_delays(
+        &mut added_terms,
+        &terms,
+        &cols_full,
+        &library,
+        z_id,
+        n_id,
+        h_s,
+        max_lag,
+        sel.threshold_t2,
+    );
     for (t, _, _, _) in &added_terms {
         if let Some((_, c)) = library.iter().find(|(x, _)| x == t) {
             terms.push(*t);
@@ -1027,6 +1051,7 @@ fn analyse_coefficient(
             sigma: ext_fit.sigma[p0 + k],
             cv_gain: added_terms[k].2,
             alternatives: added_terms[k].3.iter().map(|a| a.name().to_string()).collect(),
+            exact_delay_s: exact_delays.iter().find(|(x, _)| x == t).map(|(_, tau)| *tau),
         })
         .collect();
     Some(CoefficientGap {
@@ -1040,6 +1065,7 @@ fn analyse_coefficient(
         baseline,
         candidates,
         added,
+        notes,
         extended,
         traces: Traces {
             t_s: table.t_s.clone(),
@@ -1051,6 +1077,147 @@ fn analyse_coefficient(
         baseline_model,
         extended_model: terms.iter().copied().zip(ext_fit.theta.iter().copied()).collect(),
     })
+}
+
+/// A named surface delay's model made exact, and what it leaves. The rate term stands for the
+/// first-order expansion `C_δ·δ(t−τ) ≈ C_δ·δ − C_δτ·δ̇`; for a delay comparable with the inputs'
+/// time scale (a 70 ms elevator delay under 3-2-1-1 steps) the rest, `C_δτ²δ̈/2 − …`, is large
+/// enough that other candidates fit it (α̇ and a thrust term in C_m beside δė) and the first-order
+/// τ is biased low (54 ms for 72 ms). For each added surface-rate term whose surface is in the
+/// model: the delay by an exact shift ([`exact_surface_delay`]), then every other added term is
+/// re-tested in that model (δ delayed, no rate term): one whose `t²` falls to the threshold or
+/// below is withdrawn, with a note — it fitted the delay, not an effect of its own. Returns the
+/// exact delays per rate term and the notes.
+#[allow(clippy::too_many_arguments)]
+fn refine_surface_delays(
+    added: &mut Vec<(Term, f64, f64, Vec<Term>)>,
+    terms: &[Term],
+    cols_full: &[Vec<f64>],
+    library: &[(Term, Vec<f64>)],
+    z_id: &[f64],
+    n_id: usize,
+    h_s: f64,
+    max_lag: usize,
+    threshold_t2: f64,
+) -> (Vec<(Term, f64)>, Vec<String>) {
+    let (mut delays, mut notes) = (Vec::new(), Vec::new());
+    let rates: Vec<Term> = added.iter().map(|a| a.0).filter(|t| surface_of(*t).is_some()).collect();
+    for rate in rates {
+        let Some(surface) = surface_of(rate) else { continue };
+        let Some(k_surf) = terms.iter().position(|t| *t == surface) else {
+            continue;
+        };
+        // The model as selected: the baseline and every added term.
+        let mut model_terms: Vec<Term> = terms.to_vec();
+        let mut cols: Vec<Vec<f64>> = cols_full.to_vec();
+        for (t, ..) in added.iter() {
+            if let Some((_, c)) = library.iter().find(|(x, _)| x == t) {
+                model_terms.push(*t);
+                cols.push(c.clone());
+            }
+        }
+        let Some(k_rate) = model_terms.iter().position(|t| *t == rate) else {
+            continue;
+        };
+        let Some(tau) = exact_surface_delay(&cols, k_surf, k_rate, z_id, n_id, h_s) else {
+            continue;
+        };
+        delays.push((rate, tau));
+        // The exact model: δ(t−τ) for δ, the rate term out.
+        cols[k_surf] = signal::shift(&cols[k_surf], h_s, -tau);
+        cols.remove(k_rate);
+        model_terms.remove(k_rate);
+        let id: Vec<Vec<f64>> = cols.iter().map(|c| c[..n_id].to_vec()).collect();
+        let Some(fit) = ols(&id, z_id, n_id, max_lag) else {
+            continue;
+        };
+        let mut withdrawn = Vec::new();
+        for (t, t2_entered, ..) in added.iter() {
+            if surface_of(*t).is_some() {
+                continue;
+            }
+            let Some(k) = model_terms.iter().position(|x| x == t) else {
+                continue;
+            };
+            let t2 = (fit.theta[k] / fit.sigma[k]).powi(2);
+            // NaN (an unresolved σ) withdraws as well: the term is not shown to stand alone.
+            if t2.is_nan() || t2 <= threshold_t2 {
+                notes.push(format!(
+                    "{} (t² {:.1} when it entered) withdrawn: with {} delayed {:.3} s in place of {} its t² is {:.1}, not above {:.1} — it fitted the delay's higher-order terms",
+                    t.name(),
+                    t2_entered,
+                    surface.name(),
+                    tau,
+                    rate.name(),
+                    t2,
+                    threshold_t2
+                ));
+                withdrawn.push(*t);
+            }
+        }
+        added.retain(|a| !withdrawn.contains(&a.0));
+    }
+    (delays, notes)
+}
+
+/// The surface term whose delay a surface-rate term stands for.
+fn surface_of(t: Term) -> Option<Term> {
+    match t {
+        Term::ElevatorRate => Some(Term::Elevator),
+        Term::AileronRate => Some(Term::Aileron),
+        Term::RudderRate => Some(Term::Rudder),
+        _ => None,
+    }
+}
+
+/// The delay of surface column `k_surf` by an exact shift: OLS on the identification samples of
+/// the model with `δ(t−τ)` in place of `δ` and without the rate column `k_rate`, `τ` on a grid of
+/// quarter samples from one sample to `min(0.5 s, max(4τ₁, 4 samples))` (`τ₁ = −θ_δ̇/θ_δ`, the
+/// first-order estimate of the same model), the `τ` of least squared error. `None` when `τ₁` is
+/// not a delay (shorter than a sample, negative, or the surface's estimate within 3σ of zero) or
+/// the least error is at the grid's end (not a minimum: said by returning nothing).
+fn exact_surface_delay(
+    cols: &[Vec<f64>],
+    k_surf: usize,
+    k_rate: usize,
+    z_id: &[f64],
+    n_id: usize,
+    h_s: f64,
+) -> Option<f64> {
+    let id = |c: &Vec<f64>| c[..n_id].to_vec();
+    let all: Vec<Vec<f64>> = cols.iter().map(id).collect();
+    let f = ols(&all, z_id, n_id, 0)?;
+    if f.theta[k_surf].abs() < 3.0 * f.sigma[k_surf] {
+        return None;
+    }
+    let tau1 = -f.theta[k_rate] / f.theta[k_surf];
+    if tau1.is_nan() || tau1 < h_s {
+        return None;
+    }
+    let hi = (4.0 * tau1).max(4.0 * h_s).min(0.5);
+    let steps = ((hi - h_s) / (0.25 * h_s)).floor() as usize;
+    let mut rest: Vec<Vec<f64>> = all.clone();
+    rest.remove(k_rate);
+    let k = if k_rate < k_surf { k_surf - 1 } else { k_surf };
+    let sse = |tau: f64, rest: &mut Vec<Vec<f64>>| -> f64 {
+        rest[k] = id(&signal::shift(&cols[k_surf], h_s, -tau));
+        regress::ols_theta(rest, z_id).map_or(f64::INFINITY, |th| {
+            (0..n_id)
+                .map(|i| {
+                    let p: f64 = rest.iter().zip(&th).map(|(c, t)| c[i] * t).sum();
+                    (z_id[i] - p).powi(2)
+                })
+                .sum()
+        })
+    };
+    let (mut best, mut best_sse) = (0, f64::INFINITY);
+    for s in 0..=steps {
+        let e = sse(h_s + 0.25 * h_s * s as f64, &mut rest);
+        if e < best_sse {
+            (best, best_sse) = (s, e);
+        }
+    }
+    (best > 0 && best < steps).then_some(h_s + 0.25 * h_s * best as f64)
 }
 
 /// The candidates that are significant and lower the held-out error by at least 5 % on average,
@@ -1463,5 +1630,101 @@ fn choose_air_data(
             ),
         ),
         _ => (None, None, "air data: none usable (no vanes and no inertial reconstruction)".into()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, Normal};
+
+    /// A 3-2-1-1 elevator sequence every 6 s (±0.05 rad, alternating), through a 30 ms
+    /// first-order actuator, at 100 Hz; with its rate and second derivative (central differences).
+    fn elevator(n: usize, h: f64) -> [Vec<f64>; 3] {
+        let mut de = vec![0.0; n];
+        let mut x = 0.0;
+        for (i, d) in de.iter_mut().enumerate() {
+            let t = (i as f64 * h) % 6.0;
+            let sign = if (((i as f64 * h) / 6.0) as usize).is_multiple_of(2) {
+                1.0
+            } else {
+                -1.0
+            };
+            let cmd = match t {
+                t if (1.0..1.3).contains(&t) => 0.05,
+                t if (1.3..1.5).contains(&t) => -0.05,
+                t if (1.5..1.6).contains(&t) => 0.05,
+                t if (1.6..1.7).contains(&t) => -0.05,
+                _ => 0.0,
+            } * sign;
+            x += h / 0.03 * (cmd - x);
+            *d = x;
+        }
+        let rate = signal::derivative(&de, h);
+        let acc = signal::derivative(&rate, h);
+        [de, rate, acc]
+    }
+
+    #[test]
+    fn a_surface_delay_is_found_by_exact_shift_and_what_only_fitted_it_is_withdrawn() {
+        // GIVEN C = 0.1 + 0.8·δe(t − 0.07 s) + 0.05·s(t) + white noise (σ 0.002, seeded), with
+        // s a slow sine independent of the elevator, and a selection that added δė (the delay's
+        // first-order term), δë (standing for any candidate that fits its higher orders: α̇, a
+        // thrust term) and s (a real effect)
+        let (n, h, tau) = (6000, 0.01, 0.07);
+        let [de, rate, acc] = elevator(n, h);
+        let delayed = signal::shift(&de, h, -tau);
+        let s: Vec<f64> = (0..n).map(|i| (i as f64 * h * 0.37).sin()).collect();
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(41);
+        let noise = Normal::new(0.0, 0.002).unwrap();
+        let z: Vec<f64> = (0..n)
+            .map(|i| 0.1 + 0.8 * delayed[i] + 0.05 * s[i] + noise.sample(&mut rng))
+            .collect();
+        let terms = [Term::One, Term::Elevator];
+        let cols = vec![vec![1.0; n], de.clone()];
+        let library = vec![
+            (Term::ElevatorRate, rate.clone()),
+            (Term::AlphaDot, acc.clone()),
+            (Term::Alpha2, s.clone()),
+        ];
+        let mut added = vec![
+            (Term::ElevatorRate, 900.0, 0.3, Vec::new()),
+            (Term::AlphaDot, 60.0, 0.05, Vec::new()),
+            (Term::Alpha2, 400.0, 0.1, Vec::new()),
+        ];
+        // WHEN the delay is refined
+        let (delays, notes) = refine_surface_delays(&mut added, &terms, &cols, &library, &z, n, h, 50, 18.0);
+        // THEN the delay is the planted one within half a sample (the grid is a quarter sample;
+        // the linear interpolation of the shifted steps adds less than that), where the
+        // first-order estimate is biased low
+        let exact = delays.iter().find(|(t, _)| *t == Term::ElevatorRate).expect("delay").1;
+        assert!((exact - tau).abs() <= 0.5 * h, "exact delay {exact}");
+        let f = ols(&[vec![1.0; n], de, rate], &z, n, 0).unwrap();
+        let first_order = -f.theta[2] / f.theta[1];
+        assert!(first_order < tau - 0.5 * h, "first order {first_order}");
+        // AND the term that fitted the delay's remainder is withdrawn with a note; the real
+        // effect and the delay stay
+        let kept: Vec<Term> = added.iter().map(|a| a.0).collect();
+        assert_eq!(kept, vec![Term::ElevatorRate, Term::Alpha2]);
+        assert_eq!(notes.len(), 1);
+        assert!(
+            notes[0].starts_with("α̇_n (t² 60.0 when it entered) withdrawn"),
+            "{}",
+            notes[0]
+        );
+    }
+
+    #[test]
+    fn no_exact_delay_is_claimed_without_one() {
+        // GIVEN the same elevator with no delay (C = 0.1 + 0.8·δe + noise)
+        let (n, h) = (6000, 0.01);
+        let [de, rate, _] = elevator(n, h);
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(43);
+        let noise = Normal::new(0.0, 0.002).unwrap();
+        let z: Vec<f64> = de.iter().map(|d| 0.1 + 0.8 * d + noise.sample(&mut rng)).collect();
+        // THEN the first-order delay is below a sample and no exact shift is searched
+        let cols = vec![vec![1.0; n], de, rate];
+        assert_eq!(exact_surface_delay(&cols, 1, 2, &z, n, h), None);
     }
 }

@@ -140,6 +140,9 @@ pub fn table(r: &GapReport) -> String {
                 a.alternatives.join(", ")
             );
         }
+        for n in &c.notes {
+            let _ = writeln!(s, "         {n}");
+        }
     }
     let _ = writeln!(s, "   overall: {}", r.verdict);
     let _ = writeln!(
