@@ -690,13 +690,20 @@ fn minimum_norm<T: Real, const NT: usize, const NA: usize>(
                 }
             }
         }
-        if let Some(y) = solve_gram(&mw, &rhs, k, nx) {
-            for j in 0..nx {
-                let mut acc = T::zero();
-                for r in 0..k {
-                    acc += mw[r][j] * y[r];
+        if let Some(y) = solve_gram(&mw, &rhs, k) {
+            // a_j = Σ_r mw[r][j]·y_r / w_j, the rows outer (run-time k) and the entries inner
+            // (compile-time nx, unrolled into registers): each sum in increasing r, as a j-outer
+            // loop would add them.
+            let mut acc = [T::zero(); NA];
+            for r in 0..k {
+                let yr = y[r];
+                let mr = &mw[r];
+                for j in 0..nx {
+                    acc[j] += mr[j] * yr;
                 }
-                a[j] = acc / weights[ne + j];
+            }
+            for j in 0..nx {
+                a[j] = acc[j] / weights[ne + j];
             }
         }
     }
@@ -705,17 +712,22 @@ fn minimum_norm<T: Real, const NT: usize, const NA: usize>(
 }
 
 /// Solves `G y = b` with the Gram matrix `G = M Mᵀ` of the first `k` rows of `m` over their first
-/// `n` entries (the lower triangle is formed and factorised in place by Cholesky), regularised by
+/// `N − 1` entries (the lower triangle is formed and factorised in place by Cholesky), regularised by
 /// `μ = 16·k·ε·max(tr G/k, tiny)` on the diagonal if a pivot is not positive (as
 /// [`cholesky_regularised`]; `G` is then formed again, which is rare). `None` if that fails too or
 /// the result is not finite.
-fn solve_gram<T: Real, const N: usize>(m: &[[T; N]; N], b: &[T; N], k: usize, n: usize) -> Option<[T; N]> {
+fn solve_gram<T: Real, const N: usize>(m: &[[T; N]; N], b: &[T; N], k: usize) -> Option<[T; N]> {
+    // The entries of a row: `N − 1`, a compile-time length, so that each inner product is
+    // unrolled with the row `r` in registers (the rows are the run-time loops).
+    let n = N.saturating_sub(1);
     let gram = |g: &mut [[T; N]; N], mu: T| {
         for r in 0..k.min(N) {
+            let mr = &m[r];
             for q in 0..r + 1 {
+                let mq = &m[q];
                 let mut acc = T::zero();
-                for j in 0..n.min(N) {
-                    acc += m[r][j] * m[q][j];
+                for j in 0..n {
+                    acc += mr[j] * mq[j];
                 }
                 g[r][q] = if q == r { acc + mu } else { acc };
             }
@@ -726,7 +738,7 @@ fn solve_gram<T: Real, const N: usize>(m: &[[T; N]; N], b: &[T; N], k: usize, n:
     if !cholesky_lower_in_place(&mut g, k) {
         let mut tr = T::zero();
         for r in 0..k.min(N) {
-            for j in 0..n.min(N) {
+            for j in 0..n {
                 tr += m[r][j] * m[r][j];
             }
         }

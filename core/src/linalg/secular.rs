@@ -559,15 +559,15 @@ pub fn steady_update<T: Real, const M: usize>(
     if !ok {
         return None;
     }
-    // Pole differences pd[k][j] = δ_j − δ_k (exactly antisymmetric) and their reciprocals (k ≠ j).
-    let mut pd = [[T::zero(); M]; M];
+    // Pole differences pd[k][j] = δ_j − δ_k (exactly antisymmetric: a rounded difference changes
+    // sign with its operands; 0 on the diagonal) and their reciprocals (k ≠ j). `pd` is built
+    // element by element rather than zero-filled and then written: the fill was a `memclr` call
+    // per update.
+    let pd: [[T; M]; M] = core::array::from_fn(|k| core::array::from_fn(|j| d[j] - d[k]));
     let mut rp = [[T::zero(); M]; M];
     for k in 0..M {
         for j in (k + 1)..M {
-            let t = d[j] - d[k];
-            let r = T::one() / t;
-            pd[k][j] = t;
-            pd[j][k] = -t;
+            let r = T::one() / pd[k][j];
             rp[k][j] = r;
             rp[j][k] = -r;
         }
