@@ -672,9 +672,11 @@ fn minimum_norm<T: Real, const NT: usize, const NA: usize>(
     if k > 0 {
         let vc = &v.data.0;
         let cc = &c.data.0;
-        // Rows r < k of M W⁻¹ and b: (v_rᵀ C)_j = Σ_{i ≤ j} v_r[i]·C[(i, j)] (rows ≥ k unused, 0).
+        // Rows r < k of M W⁻¹ and b: (v_rᵀ C)_j = Σ_{i ≤ j} v_r[i]·C[(i, j)]. Rows ≥ k are never
+        // read; their placeholder is 1, not 0, because LLVM turns an all-zero array initialiser
+        // into a `memclr` call (≈ 70 instructions on the M4F) but stores other constants inline.
         let mut rhs = [T::zero(); NA];
-        let mut mw = [[T::zero(); NA]; NA];
+        let mut mw = [[T::one(); NA]; NA];
         for r in 0..k {
             let vr = &vc[r];
             for j in 0..NA {
@@ -733,7 +735,9 @@ fn solve_gram<T: Real, const N: usize>(m: &[[T; N]; N], b: &[T; N], k: usize) ->
             }
         }
     };
-    let mut g = [[T::zero(); N]; N];
+    // Only the lower triangle of the leading k×k block is written and read; the placeholder 1
+    // elsewhere (not 0) keeps the initialiser inline, as for `minimum_norm`'s rows.
+    let mut g = [[T::one(); N]; N];
     gram(&mut g, T::zero());
     if !cholesky_lower_in_place(&mut g, k) {
         let mut tr = T::zero();
