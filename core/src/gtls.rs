@@ -527,18 +527,19 @@ impl<T: Real, const NT: usize, const NE: usize, const NA: usize> Gtls<T, NT, NE,
 /// exceeds the tolerance (`0`: the default `4·NA·ε`). Cost: one dot product of length `NA` per
 /// sample. Returns the next cursor and whether `v` was re-orthonormalised.
 fn guard_orthonormality<T: Real, const NA: usize>(v: &mut SMatrix<T, NA, NA>, cursor: u16, tol: T) -> (u16, bool) {
-    let pairs = NA * (NA + 1) / 2;
-    let mut c = (cursor as usize) % pairs;
-    let next = ((c + 1) % pairs) as u16;
-    // Map the cursor to (i, j), i ≤ j.
-    let mut i = 0usize;
-    while c >= NA - i {
-        c -= NA - i;
-        i += 1;
-    }
-    let j = i + c;
+    // The cursor is the pair (i, j), i ≤ j, as i·NA + j: the upper triangle row by row, so the
+    // pair is two constant divisions away (a count of pairs would need a loop to map back).
+    let c = cursor as usize;
+    let (i, j) = ((c / NA).min(NA - 1), c % NA);
+    let next = if j + 1 < NA {
+        c + 1
+    } else if i + 1 < NA {
+        (i + 1) * (NA + 1)
+    } else {
+        0
+    } as u16;
     let cols = &v.data.0;
-    let (vi, vj) = (&cols[i.min(NA - 1)], &cols[j.min(NA - 1)]);
+    let (vi, vj) = (&cols[i], &cols[j]);
     let mut dot = T::zero();
     for r in 0..NA {
         dot += vi[r] * vj[r];
