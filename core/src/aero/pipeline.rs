@@ -342,6 +342,9 @@ pub struct Pipeline<T: Real> {
     pitch: Gtls<T, 4, 1, 4>,
     yaw: Gtls<T, 6, 1, 6>,
     health: Health,
+    /// [`Pipeline::needed_channels`] and the regressors' own channels of each coefficient, fixed
+    /// by the configuration: formed once there, not from the models on every sample.
+    needs: [(ChannelMask, ChannelMask); idx::COUNT],
     /// Set by a successful [`Pipeline::configure`]; until then every sample is refused
     /// ([`Refusal::NotConfigured`]).
     configured: bool,
@@ -431,6 +434,7 @@ impl<T: Real> Pipeline<T> {
         pitch: Gtls::PLACEHOLDER,
         yaw: Gtls::PLACEHOLDER,
         health: Health::ZERO,
+        needs: [(0, 0); idx::COUNT],
         configured: false,
     };
 
@@ -470,6 +474,7 @@ impl<T: Real> Pipeline<T> {
             *self = Self::PLACEHOLDER;
             return Err(e);
         }
+        self.needs = core::array::from_fn(|i| (self.needed_channels(i), self.regressor_channels(i)));
         self.configured = true;
         Ok(())
     }
@@ -610,11 +615,11 @@ impl<T: Real> Pipeline<T> {
         for i in 0..idx::COUNT {
             let is_moment = matches!(i, idx::ROLL | idx::PITCH | idx::YAW);
             let filtered = is_moment && prefilter;
-            let needed = self.needed_channels(i);
+            let (needed, own) = self.needs[i];
             let mut missing = needed & !cmask;
             if filtered && window_full {
                 // The regressors' channels in every sample of the window.
-                missing |= self.regressor_channels(i) & !wmask;
+                missing |= own & !wmask;
             }
             let x_out = &mut step.regressors[i];
             *x_out = [T::zero(); MAX_PARAMETERS];
