@@ -557,9 +557,12 @@ impl<T: Real> Pipeline<T> {
         }
         let mask = self.settings.limits.valid_channels(sample);
         self.health.samples = self.health.samples.saturating_add(1);
-        for bit in 0..channel::COUNT {
-            if mask & (1 << bit) == 0 {
-                self.health.invalid_channel[bit] = self.health.invalid_channel[bit].saturating_add(1);
+        // Every channel valid (the common case): nothing to count.
+        if mask != channel::ALL {
+            for bit in 0..channel::COUNT {
+                if mask & (1 << bit) == 0 {
+                    self.health.invalid_channel[bit] = self.health.invalid_channel[bit].saturating_add(1);
+                }
             }
         }
         self.differentiator.push(
@@ -707,47 +710,51 @@ impl<T: Real> Pipeline<T> {
 
 /// A copy of the sample with every invalid channel set to 0.
 fn sanitise<T: Real>(s: &SensorSample<T>, mask: ChannelMask) -> SensorSample<T> {
-    let ok = |bit: u16| mask & bit != 0;
-    let z = T::zero();
     let mut c = *s;
-    if !ok(channel::ACCEL) {
-        c.accel_mps2 = Vector3::zeros();
-    }
-    if !ok(channel::GYRO) {
-        c.gyro_rad_s = Vector3::zeros();
-    }
-    if !ok(channel::AIRSPEED) {
-        c.airspeed_mps = z;
-    }
-    if !ok(channel::ALPHA) {
-        c.alpha_rad = z;
-    }
-    if !ok(channel::BETA) {
-        c.beta_rad = z;
-    }
-    if !ok(channel::PROP) {
-        c.prop_speed_rad_s = z;
-    }
-    if !ok(channel::ELEVATOR) {
-        c.elevator_rad = z;
-    }
-    if !ok(channel::AILERON) {
-        c.aileron_rad = z;
-    }
-    if !ok(channel::RUDDER) {
-        c.rudder_rad = z;
-    }
-    if !ok(channel::DENSITY) {
-        c.air_density_kgpm3 = z;
-    }
-    if !ok(channel::DT) {
-        c.dt_s = z;
-        if !c.t_s.finite() {
-            c.t_s = z;
+    // Every channel valid (the common case): no channel to zero. The attitude and the throttle
+    // are checked whatever the mask (they have no channel bit).
+    if mask != channel::ALL {
+        let ok = |bit: u16| mask & bit != 0;
+        let z = T::zero();
+        if !ok(channel::ACCEL) {
+            c.accel_mps2 = Vector3::zeros();
+        }
+        if !ok(channel::GYRO) {
+            c.gyro_rad_s = Vector3::zeros();
+        }
+        if !ok(channel::AIRSPEED) {
+            c.airspeed_mps = z;
+        }
+        if !ok(channel::ALPHA) {
+            c.alpha_rad = z;
+        }
+        if !ok(channel::BETA) {
+            c.beta_rad = z;
+        }
+        if !ok(channel::PROP) {
+            c.prop_speed_rad_s = z;
+        }
+        if !ok(channel::ELEVATOR) {
+            c.elevator_rad = z;
+        }
+        if !ok(channel::AILERON) {
+            c.aileron_rad = z;
+        }
+        if !ok(channel::RUDDER) {
+            c.rudder_rad = z;
+        }
+        if !ok(channel::DENSITY) {
+            c.air_density_kgpm3 = z;
+        }
+        if !ok(channel::DT) {
+            c.dt_s = z;
+            if !c.t_s.finite() {
+                c.t_s = z;
+            }
         }
     }
     if !c.throttle.finite() {
-        c.throttle = z;
+        c.throttle = T::zero();
     }
     if !c.euler_rad.iter().all(|x| x.finite()) {
         c.euler_rad = Vector3::zeros();
