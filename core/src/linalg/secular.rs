@@ -561,8 +561,8 @@ pub fn steady_update<T: Real, const M: usize>(
     }
     // Pole differences pd[k][j] = δ_j − δ_k (exactly antisymmetric: a rounded difference changes
     // sign with its operands; 0 on the diagonal) and their reciprocals (k ≠ j). `pd` is built
-    // element by element rather than zero-filled and then written: the fill was a `memclr` call
-    // per update.
+    // element by element rather than zero-filled and then written: a zero fill of the array is a
+    // `memclr` call per update on the M4F.
     let pd: [[T; M]; M] = core::array::from_fn(|k| core::array::from_fn(|j| d[j] - d[k]));
     let mut rp = [[T::zero(); M]; M];
     for k in 0..M {
