@@ -60,10 +60,13 @@ struct Seconds {
     cpu: f64,
 }
 
-/// Writes `dir/manifest.json` and `dir/tables/*.csv`; returns one line per flight.
+/// Writes `dir/manifest.json`, `dir/tables/*.csv` and each flight's report (`dir/reports/*.json`,
+/// the schema of `aerosid gaps`); returns one line per flight.
 pub fn write(c: &Campaign, dir: &Path) -> Result<Vec<String>, String> {
     let tables = dir.join("tables");
     std::fs::create_dir_all(&tables).map_err(|e| format!("{}: {e}", tables.display()))?;
+    let reports = dir.join("reports");
+    std::fs::create_dir_all(&reports).map_err(|e| format!("{}: {e}", reports.display()))?;
     let mut jobs: Vec<Box<dyn Fn() -> Case + Send + Sync>> = Vec::new();
     // Simulated: the campaign's turbulence, one seeded draw sequence.
     let mut rng = ChaCha8Rng::seed_from_u64(0xB3);
@@ -129,6 +132,9 @@ pub fn write(c: &Campaign, dir: &Path) -> Result<Vec<String>, String> {
                 let name = format!("{}.csv", case.id.replace('/', "_"));
                 let path = tables.join(&name);
                 std::fs::write(&path, table_csv(r)).map_err(|e| format!("{}: {e}", path.display()))?;
+                let path = reports.join(format!("{}.json", case.id.replace('/', "_")));
+                let text = serde_json::to_string_pretty(&super::report::json(r)).map_err(|e| e.to_string())?;
+                std::fs::write(&path, text).map_err(|e| format!("{}: {e}", path.display()))?;
                 manifest.push(entry(case, r, *t, &format!("tables/{name}")));
                 lines.push(format!(
                     "{:<40} {:>6.2} s ({:.2} s CPU)  {}",

@@ -321,6 +321,7 @@ fn coef_json(c: &CoefficientGap) -> Value {
         "baseline": c.baseline,
         "candidates": c.candidates,
         "added": c.added,
+        "notes": c.notes,
         "extended": c.extended,
     })
 }
