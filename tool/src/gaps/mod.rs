@@ -1019,7 +1019,7 @@ fn analyse_coefficient(
     let sel = stepwise(i, zc, h_s, &terms, &cols_full, &library, errors, p_test, settings);
     candidates.extend(sel.candidates);
     let mut added_terms: Vec<(Term, f64, f64, Vec<Term>)> = sel.added;
-    let (exact_delays, notes) = refine_surface_delays(
+    let (exact_delays, delay_notes) = refine_surface_delays(
         &mut added_terms,
         &terms,
         &cols_full,
@@ -1030,6 +1030,7 @@ fn analyse_coefficient(
         max_lag,
         sel.threshold_t2,
     );
+    let notes: Vec<String> = sel.notes.into_iter().chain(delay_notes).collect();
     for (t, _, _, _) in &added_terms {
         if let Some((_, c)) = library.iter().find(|(x, _)| x == t) {
             terms.push(*t);
@@ -1291,6 +1292,8 @@ struct Selection {
     cv_r2_extended: f64,
     block_s: f64,
     threshold_t2: f64,
+    /// What the selection decided beyond the tests (the effect hierarchy).
+    notes: Vec<String>,
 }
 
 /// Forward selection with the removal step (Klein & Morelli 2006 §5.4.1), each entry decided by
@@ -1357,6 +1360,7 @@ fn stepwise(
         cv_r2_extended: f64::NAN,
         block_s: design.blocks.first().map_or(block_s, |(a, b)| (b - a) as f64 * h_s),
         threshold_t2,
+        notes: Vec::new(),
     };
     let mut model: Vec<usize> = (0..nb).collect();
     let base = match design.fit(&model) {
@@ -1489,6 +1493,16 @@ fn stepwise(
     if !predictive {
         model.truncate(nb);
     }
+    out.notes = prefer_main_effects(
+        &design,
+        &terms,
+        nb,
+        &mut model,
+        &removed,
+        &mut current,
+        (threshold_t2, gain_crit),
+        h_s,
+    );
     // What the data cannot tell apart: a candidate that, in place of an added term, predicts
     // the held-out blocks not significantly worse and is itself significant.
     for (k, &a) in model.iter().enumerate().skip(nb) {
@@ -1535,6 +1549,65 @@ fn stepwise(
         )
     };
     out
+}
+
+/// The effect hierarchy among terms the data cannot tell apart (Wu & Hamada 2009 §4.6): an added
+/// interaction (a product of two variables, such as α·q; [`Term::is_interaction`]) in `model`
+/// gives way to a main effect (a function of one variable, such as α²) that, in its place,
+/// predicts the held-out blocks not significantly worse and itself passes both entry tests
+/// against the model without the interaction (`t²` above `tests.0`, noise-referenced held-out
+/// gain above `tests.1`, a surface rate implying a delay of at least a sample) — the one with the
+/// largest `t²`. `model` and `current` are updated; returns a note per swap (the interaction
+/// then shows as an alternative of the main effect).
+#[allow(clippy::too_many_arguments)]
+fn prefer_main_effects(
+    design: &select::Design,
+    terms: &[Term],
+    nb: usize,
+    model: &mut [usize],
+    removed: &[usize],
+    current: &mut select::SubsetFit,
+    tests: (f64, f64),
+    h_s: f64,
+) -> Vec<String> {
+    let (threshold_t2, gain_crit) = tests;
+    let mut notes = Vec::new();
+    for k in nb..model.len() {
+        let a = model[k];
+        if !terms[a].is_interaction() {
+            continue;
+        }
+        let without: Vec<usize> = model.iter().copied().filter(|&x| x != a).collect();
+        let Ok(w) = design.fit(&without) else { continue };
+        let mut pick: Option<(usize, f64, select::SubsetFit)> = None;
+        for j in nb..terms.len() {
+            if model.contains(&j) || removed.contains(&j) || terms[j].is_interaction() {
+                continue;
+            }
+            let swapped: Vec<usize> = model.iter().map(|&x| if x == a { j } else { x }).collect();
+            let Ok(f) = design.fit(&swapped) else { continue };
+            let t2 = f.t2(k);
+            let not_worse = select::gain(&current.cv_sse, &f.cv_sse).0 > -gain_crit;
+            let z = select::gain(&w.cv_sse, &f.cv_sse).0;
+            let unresolved =
+                delay_of(terms[j], &swapped, terms, &f.theta, &f.sigma).filter(|tau| tau.is_nan() || *tau < h_s);
+            let enters =
+                t2 > threshold_t2 && z > 0.0 && unresolved.is_none() && noise_z_if(design, &w, &f, z, true) > gain_crit;
+            if not_worse && enters && pick.as_ref().is_none_or(|b| t2 > b.1) {
+                pick = Some((j, t2, f));
+            }
+        }
+        if let Some((j, _, f)) = pick {
+            notes.push(format!(
+                "{} named in place of {}: the flight cannot tell them apart, and a main effect (a function of one variable) is preferred to an interaction (effect hierarchy)",
+                terms[j].name(),
+                terms[a].name()
+            ));
+            model[k] = j;
+            *current = f;
+        }
+    }
+    notes
 }
 
 /// The corrections of the sensor errors the compatibility check named.
@@ -1726,5 +1799,60 @@ mod tests {
         // THEN the first-order delay is below a sample and no exact shift is searched
         let cols = vec![vec![1.0; n], de, rate];
         assert_eq!(exact_surface_delay(&cols, 1, 2, &z, n, h), None);
+    }
+
+    /// A flight's α (a sum of slow sines, ±0.1 rad) and a second variable `x` = `mix`·α plus
+    /// an independent sine, at 100 Hz for 90 s; the design of `[1, α, α·x, α²]` for `z`.
+    fn hierarchy_case(mix: f64, z_of: impl Fn(f64, f64) -> f64, seed: u64) -> (select::Design, Vec<Term>) {
+        let (n, h) = (9000, 0.01);
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        let noise = Normal::new(0.0, 0.002).unwrap();
+        let alpha: Vec<f64> = (0..n)
+            .map(|i| {
+                let t = i as f64 * h;
+                0.06 * (0.9 * t).sin() + 0.04 * (2.3 * t + 1.0).sin()
+            })
+            .collect();
+        let x: Vec<f64> = (0..n)
+            .map(|i| mix * alpha[i] + (1.0 - mix) * 0.1 * (1.7 * i as f64 * h + 0.4).sin())
+            .collect();
+        let z: Vec<f64> = (0..n).map(|i| z_of(alpha[i], x[i]) + noise.sample(&mut rng)).collect();
+        let ones = vec![1.0; n];
+        let ax: Vec<f64> = alpha.iter().zip(&x).map(|(a, b)| a * b).collect();
+        let a2: Vec<f64> = alpha.iter().map(|a| a * a).collect();
+        let design = select::Design::new(&[&ones, &alpha, &ax, &a2], &z, h, &select::CvSettings::default(), None);
+        (design, vec![Term::One, Term::Alpha, Term::AlphaQ, Term::Alpha2])
+    }
+
+    #[test]
+    fn an_interaction_the_data_cannot_tell_from_a_main_effect_gives_way_to_it() {
+        // GIVEN C = 1 + 2α − 5α² + noise (σ 0.002, seeded) and a variable q equal to α (so α·q
+        // is α², exactly collinear in the data), with α·q added by the selection
+        let (design, terms) = hierarchy_case(1.0 - 1e-3, |a, _| 1.0 + 2.0 * a - 5.0 * a * a, 51);
+        let mut model = vec![0, 1, 2];
+        let mut current = design.fit(&model).expect("fits");
+        assert!(current.t2(2) > 18.0, "α·q stands for α²: t² {}", current.t2(2));
+        // WHEN the effect hierarchy is applied
+        let notes = prefer_main_effects(&design, &terms, 2, &mut model, &[], &mut current, (18.0, 2.4), 0.01);
+        // THEN α² is named in its place, with a note saying why
+        assert_eq!(model, vec![0, 1, 3]);
+        assert_eq!(current.cols, vec![0, 1, 3]);
+        assert_eq!(notes.len(), 1);
+        assert!(notes[0].starts_with("α² named in place of α·q_n"), "{}", notes[0]);
+    }
+
+    #[test]
+    fn an_interaction_the_data_tell_apart_stays() {
+        // GIVEN C = 1 + 2α + 40·α·q + noise with q independent of α (a different sine), α·q added
+        let (design, terms) = hierarchy_case(0.0, |a, q| 1.0 + 2.0 * a + 40.0 * a * q, 52);
+        let mut model = vec![0, 1, 2];
+        let mut current = design.fit(&model).expect("fits");
+        let before = current.clone();
+        // WHEN the effect hierarchy is applied
+        let notes = prefer_main_effects(&design, &terms, 2, &mut model, &[], &mut current, (18.0, 2.4), 0.01);
+        // THEN α·q stays (α² in its place predicts the held-out blocks far worse)
+        assert_eq!(model, vec![0, 1, 2]);
+        assert_eq!(current, before);
+        assert!(notes.is_empty(), "{notes:?}");
     }
 }

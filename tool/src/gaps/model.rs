@@ -861,6 +861,18 @@ impl Term {
         }
     }
 
+    /// A product of two different variables (α·q, α·δe, C_T·δe …): an interaction, in the sense
+    /// of the effect hierarchy (Wu & Hamada, *Experiments*, 2009, §4.6: main effects are more
+    /// likely to matter than interactions), which the selection uses between terms the data
+    /// cannot tell apart.
+    pub fn is_interaction(&self) -> bool {
+        use Term::*;
+        matches!(
+            self,
+            AlphaQ | AlphaElevator | AlphaAileron | AlphaBeta | AlphaP | AlphaR | ThrustElevator
+        )
+    }
+
     /// The term's value at one instant ([`Table::snapshot`], possibly with simulated signals
     /// written into it); `None` when a signal it needs is absent (NaN). Equal to
     /// [`Term::column`] sample by sample.
