@@ -711,6 +711,11 @@ pub enum Term {
     Thrust,
     /// `T/(q̄S) · δe` (propwash on the tail).
     ThrustElevator,
+    /// `T/(q̄S) · α`: the propeller's P-factor in yaw (at an angle of attack the blades' loads
+    /// differ from side to side, so the thrust line moves sideways with α).
+    ThrustAlpha,
+    /// `T/(q̄S) · β`: the P-factor in pitch (with sideslip the thrust line moves up or down).
+    ThrustBeta,
     /// `w·ln(1 + e^{(α−α_b)/w})`, `w` = 0.02 rad: a smooth hinge at `α_b` (the 85th percentile of
     /// α), the lift-curve slope changing over a few degrees — the onset of stall as a smooth
     /// saturation rather than the kink of [`Term::StallBreak`].
@@ -774,6 +779,8 @@ impl Term {
                 StallHinge,
                 Lift2,
                 ElevatorRate,
+                R,
+                ThrustBeta,
             ]
         } else {
             vec![
@@ -794,6 +801,8 @@ impl Term {
                 Thrust,
                 AileronRate,
                 RudderRate,
+                Q,
+                ThrustAlpha,
             ]
         };
         lib.retain(|t| *t != Lift2 || coef == 1);
@@ -833,6 +842,8 @@ impl Term {
             Mach => "ΔM",
             Thrust => "C_T",
             ThrustElevator => "C_T·δe",
+            ThrustAlpha => "C_T·α",
+            ThrustBeta => "C_T·β",
             StallHinge => "stall(α)",
             Lift2 => "C_L²",
             ElevatorRate => "δė",
@@ -851,11 +862,15 @@ impl Term {
                 CauseKind::ControlTerm
             }
             AlphaDot | BetaDot => CauseKind::AlphaDot,
-            Thrust | ThrustElevator => CauseKind::Thrust,
+            Thrust | ThrustElevator | ThrustAlpha | ThrustBeta => CauseKind::Thrust,
             AlphaBeta | AlphaP | AlphaR => CauseKind::CrossCoupling,
             Beta2 | AbsBeta if is_longitudinal(coef) => CauseKind::CrossCoupling,
             Beta2 | AbsBeta | Beta3 => CauseKind::NonlinearBeta,
             AlphaQ => CauseKind::RateNonlinearity,
+            // A rate of the other plane: the propeller's gyroscopic moment (yaw with q, pitch
+            // with r) or inertial coupling.
+            Q if !is_longitudinal(coef) => CauseKind::CrossCoupling,
+            P | R if is_longitudinal(coef) => CauseKind::CrossCoupling,
             Speed | Mach => CauseKind::SpeedDependence,
             One | Alpha | Beta | P | Q | R => CauseKind::MissingBaselineTerm,
         }
@@ -869,7 +884,15 @@ impl Term {
         use Term::*;
         matches!(
             self,
-            AlphaQ | AlphaElevator | AlphaAileron | AlphaBeta | AlphaP | AlphaR | ThrustElevator
+            AlphaQ
+                | AlphaElevator
+                | AlphaAileron
+                | AlphaBeta
+                | AlphaP
+                | AlphaR
+                | ThrustElevator
+                | ThrustAlpha
+                | ThrustBeta
         )
     }
 
@@ -913,6 +936,8 @@ impl Term {
             Mach => g(Signal::Mach)? - refs.mach,
             Thrust => g(Signal::ThrustCoeff)?,
             ThrustElevator => g(Signal::ThrustCoeff)? * g(Signal::Elevator)?,
+            ThrustAlpha => g(Signal::ThrustCoeff)? * a()?,
+            ThrustBeta => g(Signal::ThrustCoeff)? * g(Signal::Beta)?,
             StallHinge => stall_hinge(a()?, refs.alpha_break_rad),
             Lift2 => g(Signal::LiftCoeff)?.powi(2),
             ElevatorRate => g(Signal::ElevatorRate)?,
@@ -955,6 +980,8 @@ impl Term {
             Mach => "dMach",
             Thrust => "CT",
             ThrustElevator => "CT_de",
+            ThrustAlpha => "CT_alpha",
+            ThrustBeta => "CT_beta",
             StallHinge => "stall_smooth",
             Lift2 => "CL2",
             ElevatorRate => "dedot",
@@ -969,7 +996,7 @@ impl Term {
     }
 
     /// Every term (the union of the libraries and eq. 3).
-    pub const ALL: [Term; 34] = [
+    pub const ALL: [Term; 36] = [
         Term::One,
         Term::Alpha,
         Term::Alpha2,
@@ -999,6 +1026,8 @@ impl Term {
         Term::Mach,
         Term::Thrust,
         Term::ThrustElevator,
+        Term::ThrustAlpha,
+        Term::ThrustBeta,
         Term::StallHinge,
         Term::Lift2,
         Term::ElevatorRate,
@@ -1052,6 +1081,8 @@ impl Term {
             }
             Thrust => s(Signal::ThrustCoeff).cloned(),
             ThrustElevator => map2(Signal::ThrustCoeff, Signal::Elevator),
+            ThrustAlpha => map2(Signal::ThrustCoeff, Signal::Alpha),
+            ThrustBeta => map2(Signal::ThrustCoeff, Signal::Beta),
             StallHinge => {
                 let ab = refs.alpha_break_rad;
                 map1(Signal::Alpha, &|a| stall_hinge(a, ab))
