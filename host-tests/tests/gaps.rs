@@ -483,9 +483,14 @@ fn on_the_jsbsim_flights_table_effects_are_found_and_no_sensor_error_is_invented
             "{id}: {n:?}"
         );
     }
+    // (once: C_m and C_D both show it, and a surface has one delay)
     let delay = named("jsbsim/elevator_delay");
-    assert!(
-        delay.iter().any(|c| c.0 == "ControlDelay" && c.1 == "Elevator"),
+    assert_eq!(
+        delay
+            .iter()
+            .filter(|c| c.0 == "ControlDelay" && c.1 == "Elevator")
+            .count(),
+        1,
         "{delay:?}"
     );
     // AND the propeller's gyroscopic moment (c172x: I_prop 1.67 slug·ft²) is named on every

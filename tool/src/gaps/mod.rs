@@ -635,7 +635,20 @@ pub fn run_gaps(flight: &MeasuredFlight, settings: &GapSettings) -> Result<GapRe
     };
     named.sort_by(|a, b| final_t2(b).total_cmp(&final_t2(a)));
     aero.sort_by(|a, b| final_t2(b).total_cmp(&final_t2(a)));
-    named.extend(aero);
+    // A surface has one delay, though several coefficients may show it: one cause per surface,
+    // the strongest, with what the others found.
+    for c in aero {
+        if c.kind == CauseKind::ControlDelay {
+            if let Some(first) = named
+                .iter_mut()
+                .find(|m| m.kind == CauseKind::ControlDelay && m.location == c.location)
+            {
+                first.what.push_str(&format!("; also {}", c.what));
+                continue;
+            }
+        }
+        named.push(c);
+    }
     let corrections_applied = settings.apply_corrections && !compatibility.found.is_empty();
     let as_logged = if corrections_applied {
         baselines_as_logged(flight, h, sg_half, air, &refs, &baselines, settings)
