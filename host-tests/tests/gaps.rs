@@ -212,6 +212,29 @@ fn in_turbulence_each_identifiable_kind_is_named_and_clean_flights_stay_quiet() 
             );
         } else if !OPEN_IN_TURBULENCE.contains(&e.kind) {
             assert!(o.correct, "missed in turbulence: {}", o.detail);
+        } else if !o.correct {
+            // AND a missed lift curvature is one the report says the flight cannot detect: the
+            // planted |C_Lα²| below the least the flight names with 80 % probability
+            let c = r.coefficients.iter().find(|c| c.name == "C_L").expect("C_L analysed");
+            let a2 = c.candidates.iter().find(|k| k.term == "α²").expect("α² scored");
+            assert!(
+                a2.min_detectable > e.size.abs(),
+                "{}: α² missed though detectable (needs {} < {})",
+                o.detail,
+                a2.min_detectable,
+                e.size.abs()
+            );
+        }
+        // AND every scored candidate states its estimate, σ and the least detectable effect
+        for c in &r.coefficients {
+            for k in c.candidates.iter().filter(|k| k.reason.is_none()) {
+                assert!(
+                    k.sigma > 0.0 && k.min_detectable >= c.threshold_t2.sqrt() * k.sigma,
+                    "{} {}: {k:?}",
+                    c.name,
+                    k.term
+                );
+            }
         }
     }
     // AND at most one clean flight in ten names anything

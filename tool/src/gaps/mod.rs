@@ -196,6 +196,16 @@ pub struct CandidateScore {
     pub significant: bool,
     /// Why the candidate was not scored (`None`: scored).
     pub reason: Option<String>,
+    /// Its estimate beside the baseline (NaN when not scored).
+    pub value: f64,
+    /// The estimate's block-sandwich σ.
+    pub sigma: f64,
+    /// The smallest `|value|` this flight names with 80 % probability: `(t_need + t₀.₂)·σ`,
+    /// `t_need` the larger of the `t²` threshold's root and twice the held-out test's critical
+    /// value (a real term's noise-referenced gain is about half its `t`), `t₀.₂` the Student-t
+    /// 80 % quantile at the blocks' degrees of freedom. An effect the flight carries, smaller
+    /// than this, is more likely missed than found: not identifiable from this flight.
+    pub min_detectable: f64,
 }
 
 impl CandidateScore {
@@ -211,6 +221,9 @@ impl CandidateScore {
             pse: f64::NAN,
             significant: false,
             reason: Some(reason),
+            value: f64::NAN,
+            sigma: f64::NAN,
+            min_detectable: f64::NAN,
         }
     }
 }
@@ -1365,6 +1378,8 @@ fn stepwise(
     let g = design.n_blocks();
     let threshold_t2 = select::student_t_upper_quantile(p_test, (g as f64 - 1.0).max(1.0)).powi(2);
     let gain_crit = select::student_t_upper_quantile(settings.cv.gain_alpha, (g as f64 - 1.0).max(1.0));
+    let t_detect =
+        threshold_t2.sqrt().max(2.0 * gain_crit) + select::student_t_upper_quantile(0.2, (g as f64 - 1.0).max(1.0));
     let mut out = Selection {
         candidates: Vec::new(),
         added: Vec::new(),
@@ -1462,6 +1477,9 @@ fn stepwise(
                             tau
                         )
                     }),
+                    value: f.theta[trial.len() - 1],
+                    sigma: f.sigma[trial.len() - 1],
+                    min_detectable: t_detect * f.sigma[trial.len() - 1],
                 });
             }
             // The classical order of forward selection: the largest partial t² among the

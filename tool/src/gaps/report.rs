@@ -132,6 +132,32 @@ pub fn table(r: &GapReport) -> String {
     );
     for c in &r.coefficients {
         let _ = writeln!(s, "   {:<5} {}", c.name, c.verdict);
+        // Where nothing was added, what the flight could have found: the strongest candidates
+        // with the smallest effect it names with 80 % probability.
+        if c.added.is_empty() {
+            let reach: Vec<String> = c
+                .candidates
+                .iter()
+                .filter(|k| k.min_detectable.is_finite())
+                .take(3)
+                .map(|k| {
+                    format!(
+                        "{} {} ± {} (needs |·| ≥ {})",
+                        k.term,
+                        sig3(k.value, true),
+                        sig3(k.sigma, false),
+                        sig3(k.min_detectable, false)
+                    )
+                })
+                .collect();
+            if !reach.is_empty() {
+                let _ = writeln!(
+                    s,
+                    "         strongest candidates and the least this flight detects: {}",
+                    reach.join(", ")
+                );
+            }
+        }
         for a in c.added.iter().filter(|a| !a.alternatives.is_empty()) {
             let _ = writeln!(
                 s,
@@ -324,6 +350,33 @@ fn coef_json(c: &CoefficientGap) -> Value {
         "notes": c.notes,
         "extended": c.extended,
     })
+}
+
+/// `x` to three significant digits (fixed point from 0.01 to 10⁴, else an exponent).
+fn sig3(x: f64, signed: bool) -> String {
+    let a = x.abs();
+    let body = if a == 0.0 || !a.is_finite() || (0.01..1e4).contains(&a) {
+        let decimals = if a >= 100.0 {
+            0
+        } else if a >= 10.0 {
+            1
+        } else if a >= 1.0 {
+            2
+        } else {
+            3
+        };
+        format!("{a:.decimals$}")
+    } else {
+        format!("{a:.2e}")
+    };
+    let sign = if x < 0.0 {
+        "-"
+    } else if signed {
+        "+"
+    } else {
+        ""
+    };
+    format!("{sign}{body}")
 }
 
 /// Writes `report.json`, `report.txt` and the figures into `dir`; returns the files written.
