@@ -228,11 +228,18 @@ fn in_turbulence_each_identifiable_kind_is_named_and_clean_flights_stay_quiet() 
         // AND every scored candidate states its estimate, σ and the least detectable effect
         for c in &r.coefficients {
             for k in c.candidates.iter().filter(|k| k.reason.is_none()) {
+                // (max(√t²_thr, 2·T_crit) + t₀.₂)·σ, T_crit the held-out test's one-sided 1 %
+                // quantile, both at G − 1 degrees of freedom (G blocks over the whole flight)
+                let t = &c.traces.t_s;
+                let g = ((t[t.len() - 1] - t[0] + (t[1] - t[0])) / c.block_s).round();
+                let q = |p: f64| aerosid::gaps::select::student_t_upper_quantile(p, g - 1.0);
+                let need = c.threshold_t2.sqrt().max(2.0 * q(0.01)) + q(0.2);
                 assert!(
-                    k.sigma > 0.0 && k.min_detectable >= c.threshold_t2.sqrt() * k.sigma,
-                    "{} {}: {k:?}",
+                    k.sigma > 0.0 && (k.min_detectable / (need * k.sigma) - 1.0).abs() < 1e-9,
+                    "{} {}: {k:?}, expected {}·σ",
                     c.name,
-                    k.term
+                    k.term,
+                    need
                 );
             }
         }

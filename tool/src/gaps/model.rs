@@ -876,10 +876,9 @@ impl Term {
         }
     }
 
-    /// A product of two different variables (α·q, α·δe, C_T·δe …): an interaction, in the sense
-    /// of the effect hierarchy (Wu & Hamada, *Experiments*, 2009, §4.6: main effects are more
-    /// likely to matter than interactions), which the selection uses between terms the data
-    /// cannot tell apart.
+    /// A product of two different variables (α·q, α·δe, C_T·δe …): the selection's convention
+    /// between terms the data cannot tell apart names a term of one variable before such a
+    /// product (after the effect hierarchy of Wu & Hamada, *Experiments*, 2009, §4.6).
     pub fn is_interaction(&self) -> bool {
         use Term::*;
         matches!(
