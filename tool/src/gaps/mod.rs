@@ -1279,6 +1279,53 @@ fn noise_z_if(design: &select::Design, f0: &select::SubsetFit, f1: &select::Subs
     }
 }
 
+/// A term's entry statistics ([`entry_test`]).
+struct EntryTest {
+    /// Partial `t²` (block sandwich).
+    t2: f64,
+    /// Sign-flip statistic of the blocks' held-out gains over the model without the term.
+    z: f64,
+    /// Relative held-out gain.
+    rel: f64,
+    /// Noise-referenced held-out gain `T` (NaN unless `t²` passes and `z > 0`).
+    noise_z: f64,
+    /// For a surface-rate term, the delay it implies when that is shorter than a sample, negative
+    /// or undefined (such a term is some other rate effect, not a delay).
+    unresolved: Option<f64>,
+    /// Both tests passed and no unresolved delay.
+    ok: bool,
+}
+
+/// The entry tests of the term at position `k` of `f1` against `f0`, the same model without it:
+/// `t²` above `tests.0`, a positive held-out gain whose noise-referenced `T` exceeds `tests.1`,
+/// and, for a surface-rate term, a delay `τ = −θ_δ̇/θ_δ` of at least a sample period (one shorter
+/// cannot be resolved; one of the wrong sign, the surface leading its own log, is not a delay).
+fn entry_test(
+    design: &select::Design,
+    terms: &[Term],
+    f0: &select::SubsetFit,
+    f1: &select::SubsetFit,
+    k: usize,
+    tests: (f64, f64),
+    h_s: f64,
+) -> EntryTest {
+    let (threshold_t2, gain_crit) = tests;
+    let t2 = f1.t2(k);
+    let (z, rel) = select::gain(&f0.cv_sse, &f1.cv_sse);
+    let unresolved =
+        delay_of(terms[f1.cols[k]], &f1.cols, terms, &f1.theta, &f1.sigma).filter(|tau| tau.is_nan() || *tau < h_s);
+    let noise_z = noise_z_if(design, f0, f1, z, t2 > threshold_t2);
+    let ok = t2 > threshold_t2 && z > 0.0 && noise_z > gain_crit && unresolved.is_none();
+    EntryTest {
+        t2,
+        z,
+        rel,
+        noise_z,
+        unresolved,
+        ok,
+    }
+}
+
 /// The delay a surface-rate term implies in a fit (`None` for other terms or without the surface
 /// term in the model; NaN when the surface's own term is within 3σ of zero, whose ratio means
 /// nothing).
@@ -1453,16 +1500,22 @@ fn stepwise(
                     continue;
                 }
             };
-            let t2 = f.t2(trial.len() - 1);
-            let (z, rel) = select::gain(&current.cv_sse, &f.cv_sse);
-            // A surface-rate term stands for a delay `τ = −θ_δ̇/θ_δ`; one shorter than a sample
-            // period cannot be resolved by the data, and one of the wrong sign (the surface
-            // leading its own log) is not a delay: such a term is some other rate effect, not
-            // named as a delay.
-            let unresolved =
-                delay_of(terms[j], &trial, &terms, &f.theta, &f.sigma).filter(|tau| tau.is_nan() || *tau < h_s);
-            let noise_z = noise_z_if(&design, &current, &f, z, t2 > threshold_t2);
-            let ok = t2 > threshold_t2 && z > 0.0 && noise_z > gain_crit && unresolved.is_none();
+            let EntryTest {
+                t2,
+                z,
+                rel,
+                noise_z,
+                unresolved,
+                ok,
+            } = entry_test(
+                &design,
+                &terms,
+                &current,
+                &f,
+                trial.len() - 1,
+                (threshold_t2, gain_crit),
+                h_s,
+            );
             if first {
                 out.candidates.push(CandidateScore {
                     term: terms[j].name().into(),
@@ -1608,7 +1661,7 @@ fn prefer_main_effects(
     tests: (f64, f64),
     h_s: f64,
 ) -> Vec<String> {
-    let (threshold_t2, gain_crit) = tests;
+    let gain_crit = tests.1;
     let mut notes = Vec::new();
     for k in nb..model.len() {
         let a = model[k];
@@ -1624,16 +1677,11 @@ fn prefer_main_effects(
             }
             let swapped: Vec<usize> = model.iter().map(|&x| if x == a { j } else { x }).collect();
             let Ok(f) = design.fit(&swapped) else { continue };
-            let t2 = f.t2(k);
             // Tied: neither predicts the held-out blocks significantly better.
             let tied = select::gain(&current.cv_sse, &f.cv_sse).0.abs() < gain_crit;
-            let z = select::gain(&w.cv_sse, &f.cv_sse).0;
-            let unresolved =
-                delay_of(terms[j], &swapped, terms, &f.theta, &f.sigma).filter(|tau| tau.is_nan() || *tau < h_s);
-            let enters =
-                t2 > threshold_t2 && z > 0.0 && unresolved.is_none() && noise_z_if(design, &w, &f, z, true) > gain_crit;
-            if tied && enters && pick.as_ref().is_none_or(|b| t2 > b.1) {
-                pick = Some((j, t2, f));
+            let e = entry_test(design, terms, &w, &f, k, tests, h_s);
+            if tied && e.ok && pick.as_ref().is_none_or(|b| e.t2 > b.1) {
+                pick = Some((j, e.t2, f));
             }
         }
         if let Some((j, _, f)) = pick {

@@ -356,15 +356,7 @@ fn coef_json(c: &CoefficientGap) -> Value {
 fn sig3(x: f64, signed: bool) -> String {
     let a = x.abs();
     let body = if a == 0.0 || !a.is_finite() || (0.01..1e4).contains(&a) {
-        let decimals = if a >= 100.0 {
-            0
-        } else if a >= 10.0 {
-            1
-        } else if a >= 1.0 {
-            2
-        } else {
-            3
-        };
+        let decimals = (2.0 - a.log10().floor()).clamp(0.0, 3.0) as usize;
         format!("{a:.decimals$}")
     } else {
         format!("{a:.2e}")
