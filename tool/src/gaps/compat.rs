@@ -249,6 +249,48 @@ struct Problem<'a> {
     /// Analytic sensitivities of the outputs to a candidate, when the problem has them for it
     /// (else central differences of `sim`).
     g_sens: Option<CandidateSens<'a>>,
+    /// The last segment simulations and initial-state sensitivities, by their exact arguments:
+    /// the fit asks for the same ones repeatedly (the residual after the initial states'
+    /// Gauss–Newton steps, the bases, the scores); a hit returns what the call would compute.
+    memo: Memo,
+}
+
+/// A small most-recent-first store of [`Problem::sim`] and [`Problem::x0_sens`] results, keyed by
+/// the bit patterns of their arguments (so a hit is exactly the value the call would return).
+#[derive(Default)]
+struct Memo {
+    sim: MemoStore<Vec<Vec<f64>>>,
+    sens: MemoStore<Vec<Vec<[f64; 3]>>>,
+}
+
+/// Most recent first: `(key, value)`.
+type MemoStore<T> = std::cell::RefCell<Vec<(Vec<u64>, std::rc::Rc<T>)>>;
+
+/// Entries kept per store: a few per segment of a 90 s flight's 18.
+const MEMO_ENTRIES: usize = 64;
+
+fn memo_key(g: &[f64], x0: &[f64], a: usize, b: usize) -> Vec<u64> {
+    let mut k = Vec::with_capacity(g.len() + x0.len() + 2);
+    k.push(a as u64);
+    k.push(b as u64);
+    k.extend(g.iter().chain(x0).map(|v| v.to_bits()));
+    k
+}
+
+fn memo_get<T>(store: &MemoStore<T>, key: Vec<u64>, f: impl FnOnce() -> T) -> std::rc::Rc<T> {
+    let hit = store.borrow().iter().position(|(k, _)| *k == key);
+    if let Some(i) = hit {
+        let mut s = store.borrow_mut();
+        let e = s.remove(i);
+        let v = e.1.clone();
+        s.insert(0, e);
+        return v;
+    }
+    let v = std::rc::Rc::new(f());
+    let mut s = store.borrow_mut();
+    s.insert(0, (key, v.clone()));
+    s.truncate(MEMO_ENTRIES);
+    v
 }
 
 /// A simulation in two parts: `states(g, x0, start, end)`, and `outputs(g, states, start, only)`
@@ -290,10 +332,15 @@ impl Problem<'_> {
         self.measured.first().map_or(0, |m| m.len())
     }
 
+    /// `sim(g, x0, a, b)`, remembered.
+    fn simulate(&self, g: &[f64], x0: &[f64], a: usize, b: usize) -> std::rc::Rc<Vec<Vec<f64>>> {
+        memo_get(&self.memo.sim, memo_key(g, x0, a, b), || (self.sim)(g, x0, a, b))
+    }
+
     /// Weighted residual rows of segment `s` (output-major within the segment).
     fn seg_res(&self, g: &[f64], x0: &[f64], s: usize, w: &[f64]) -> Vec<f64> {
         let (a, b) = self.segments[s];
-        let y = (self.sim)(g, x0, a, b);
+        let y = self.simulate(g, x0, a, b);
         let mut r = Vec::with_capacity(y.len() * (b - a));
         for (o, yo) in y.iter().enumerate() {
             let sw = w[o].sqrt();
@@ -307,7 +354,9 @@ impl Problem<'_> {
         let (a, b) = self.segments[s];
         let mut cols = Vec::new();
         if let Some(sens) = &self.x0_sens {
-            let d = sens(&st.g, &st.x0[s], s);
+            let d = memo_get(&self.memo.sens, memo_key(&st.g, &st.x0[s], a, b), || {
+                sens(&st.g, &st.x0[s], s)
+            });
             for j in (0..self.nx).filter(|&j| self.x_mask[j]) {
                 let mut c = Vec::with_capacity(d.len() * (b - a));
                 for (o, dj) in d.iter().enumerate() {
@@ -683,8 +732,8 @@ impl Problem<'_> {
     fn outputs_of(&self, st: &State) -> Vec<Vec<f64>> {
         let mut y = vec![Vec::new(); self.measured.len()];
         for (s, &(a, b)) in self.segments.iter().enumerate() {
-            for (o, yo) in (self.sim)(&st.g, &st.x0[s], a, b).into_iter().enumerate() {
-                y[o].extend(yo);
+            for (o, yo) in self.simulate(&st.g, &st.x0[s], a, b).iter().enumerate() {
+                y[o].extend_from_slice(yo);
             }
         }
         y
@@ -1330,6 +1379,7 @@ fn velocity_problem(flight: &MeasuredFlight, h_s: f64, gyro_bias: [f64; 3]) -> O
                 channel,
             }),
             g_sens: Some(Box::new(g_sens_b)),
+            memo: Memo::default(),
         },
         states,
         x0,
@@ -1609,6 +1659,7 @@ fn attitude_problem(flight: &MeasuredFlight, h_s: f64) -> Option<(Problem<'_>, V
         x0_sens: Some(Box::new(sens_a)),
         split: None,
         g_sens: Some(Box::new(g_sens_a)),
+        memo: Memo::default(),
     };
     Some((problem, x0))
 }

@@ -117,16 +117,17 @@ impl Design {
         let blocks: Vec<(usize, usize)> = (0..g).map(|i| (i * n / g, (i + 1) * n / g)).collect();
         let folds = cv.folds.clamp(2, g.max(2));
         let fold = (0..g).map(|i| i % folds).collect();
+        // `[X z]` as one matrix; each block's Gram by one matrix product, its upper triangle
+        // mirrored (the product's two triangles may round differently).
+        let xz = DMatrix::from_fn(n, p + 1, |i, j| if j < p { cols[j][i] } else { z[i] });
         let grams = blocks
             .iter()
             .map(|&(a, b)| {
-                let mut m = DMatrix::zeros(p + 1, p + 1);
-                let col = |j: usize, i: usize| if j < p { cols[j][i] } else { z[i] };
+                let v = xz.rows(a, b - a);
+                let mut m = v.transpose() * v;
                 for r in 0..=p {
-                    for c in r..=p {
-                        let s: f64 = (a..b).map(|i| col(r, i) * col(c, i)).sum();
-                        m[(r, c)] = s;
-                        m[(c, r)] = s;
+                    for c in r + 1..=p {
+                        m[(c, r)] = m[(r, c)];
                     }
                 }
                 m
