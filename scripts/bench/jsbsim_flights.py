@@ -68,17 +68,18 @@ SPECS = [
     dict(name="alpha3_CD", seed=12, kind="NonlinearAlpha", location="C_D", size=100.0, term="α³",
          axis="DRAG", fn="<product><property>aero/qbar-area</property><property>aero/alpha-rad</property>"
                         "<property>aero/alpha-rad</property><property>aero/alpha-rad</property><value>{k}</value></product>"),
-    dict(name="alphadot_Cm", seed=13, kind="AlphaDot", location="C_m", size=-8.0, term="α̇ c̄/(2V)",
+    dict(name="alphadot_Cm", seed=13, kind="AlphaDot", location="C_m", size=-8.0, term="α̇ c̄/(2V)", terms=["α̇_n"],
          axis="PITCH", fn="<product><property>aero/qbar-area</property><property>metrics/cbarw-ft</property>"
                          "<property>aero/ci2vel</property><property>aero/alphadot-rad_sec</property><value>{k}</value></product>"),
     dict(name="beta2_Cm", seed=14, kind="CrossCoupling", accept_kinds=["CrossCoupling", "NonlinearBeta"],
-         location="C_m", size=-2.0, term="β²",
+         location="C_m", size=-2.0, term="β²", terms=["β²", "|β|"],
          axis="PITCH", fn="<product><property>aero/qbar-area</property><property>metrics/cbarw-ft</property>"
                          "<property>aero/beta-rad</property><property>aero/beta-rad</property><value>{k}</value></product>"),
     dict(name="thrust_Cm", seed=15, kind="Thrust", location="C_m", size=-0.15, term="Δz·T/(q̄Sc̄), Δz = -0.15 m (thrust line moved up)",
+         terms=["C_T"],
          thruster_dz_in=0.15 / IN),
     dict(name="alphadelta_a_Cn", seed=16, kind="ControlTerm", location="C_n", size=1.5, xml_k=-1.5,
-         term="α·δa (project sign: δa + = right aileron TED; adverse yaw growing with lift)",
+         term="α·δa (project sign: δa + = right aileron TED; adverse yaw growing with lift)", terms=["α·δa"],
          axis="YAW", fn="<product><property>aero/qbar-area</property><property>metrics/bw-ft</property>"
                        "<property>aero/alpha-rad</property><property>fcs/effective-aileron-pos</property><value>{k}</value></product>"),
     dict(name="vane_bias", seed=17, kind="SensorBias", location="Alpha", size=math.radians(2.0), term="α_vane = α + 2°",
@@ -400,15 +401,20 @@ FMTS = {"t_s": "%.2f", "accel_mps2_x": "%.3f", "accel_mps2_y": "%.3f", "accel_mp
 TABLE_EFFECTS = [
     {"location": "C_L", "term": "α² / α³ (CLwbh table: slope 5.2 below α = 0, 5.3 on 0…0.09 rad, 10 on 0.09…0.10, 4.5 above; "
                                 "CLalpha = α·table(α, β) falling from 4.73 at α = −7° to 4.27 at 10°)", "kind": "NonlinearAlpha"},
-    {"location": "C_L", "term": "α·β² (CLalpha table falls with |β|: −1.1 % at |β| = 5°)", "kind": "CrossCoupling"},
+    {"location": "C_L", "term": "α·β² (CLalpha table falls with |β|: −1.1 % at |β| = 5°)", "kind": "CrossCoupling",
+     "terms": ["β²", "|β|"]},
     {"location": "C_D", "term": "α³ (CDwbh table in α, not a parabola)", "kind": "NonlinearAlpha"},
-    {"location": "C_D", "term": "|δe| (CDDe = 0.06·|δe|)", "kind": "ControlTerm"},
-    {"location": "C_D", "term": "|β| (CDbeta = 0.17·|β|)", "kind": "NonlinearBeta"},
-    {"location": "C_l", "term": "α·r̂ (Clr table: 0.08 at α = 0, 0.19 at α = 0.094 rad)", "kind": "CrossCoupling"},
+    {"location": "C_D", "term": "|δe| (CDDe = 0.06·|δe|)", "kind": "ControlTerm", "terms": ["|δe|", "δe²"]},
+    {"location": "C_D", "term": "|β| (CDbeta = 0.17·|β|)", "kind": "NonlinearBeta", "terms": ["|β|", "β²"]},
+    {"location": "C_l", "term": "α·r̂ (Clr table: 0.08 at α = 0, 0.19 at α = 0.094 rad)", "kind": "CrossCoupling",
+     "terms": ["α·r_n"]},
     {"location": "C_l", "term": "C_T (propeller torque reacts on the airframe as a rolling moment; sense −1)", "kind": "Thrust"},
-    {"location": "C_n", "term": "C_T·α, C_T·β (propeller P-factor, p_factor = 10: the thrust point moves sideways with the flow angle)", "kind": "Thrust"},
-    {"location": "C_n", "term": "q̂ (propeller gyroscopic moment, I_prop = 1.67 slug·ft², with the pitch rate)", "kind": "CrossCoupling"},
-    {"location": "C_m", "term": "r̂ (propeller gyroscopic moment with the yaw rate)", "kind": "CrossCoupling"},
+    {"location": "C_n", "term": "C_T·α, C_T·β (propeller P-factor, p_factor = 10: the thrust point moves sideways with the flow angle)", "kind": "Thrust",
+     "terms": ["C_T·α", "C_T·β"]},
+    {"location": "C_n", "term": "q̂ (propeller gyroscopic moment, I_prop = 1.67 slug·ft², with the pitch rate)", "kind": "CrossCoupling",
+     "terms": ["q_n"]},
+    {"location": "C_m", "term": "r̂ (propeller gyroscopic moment with the yaw rate)", "kind": "CrossCoupling",
+     "terms": ["r_n"]},
     {"location": "C_m", "term": "C_T (thrust changes with the inflow: the stated thrust point is exact, but the P-factor moves the thrust point vertically with β)", "kind": "Thrust"},
 ]
 
@@ -441,6 +447,8 @@ def main():
         entry = None
         if "kind" in spec:
             entry = {"kind": spec["kind"], "location": spec["location"], "size": spec["size"], "term": spec["term"]}
+            if "terms" in spec:
+                entry["terms"] = spec["terms"]
             if "accept_kinds" in spec:
                 entry["accept_kinds"] = spec["accept_kinds"]
         contrib = planted_contribution(spec, d)

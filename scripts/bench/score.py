@@ -8,16 +8,19 @@ Reads the manifest (each flight's "planted", optional "table_effects", and the R
 (peers.py; default peers.json next to the manifest), and prints one markdown table per suite with
 one row per peer configuration found (every key of a flight's "peers"), labelled with its settings.
 
-Matching (a named item = {kind, location}):
+Matching (a named item = {kind, location, term}; aerosid's term is its "what"):
   * planted effect named: some named item has the planted location and the planted kind (or one of
-    the planted "accept_kinds"). A planted ControlDelay on the channel "Elevator" is also matched by
+    the planted "accept_kinds") and, when the effect lists "terms", one of those terms (a kind that
+    also covers other effects at that location: a gyroscopic r̂ in C_m is CrossCoupling, as is the
+    planted β²; the terms are the library's names, which the peers share). A planted ControlDelay on the channel "Elevator" is also matched by
     a ControlDelay named in C_L, C_D or C_m (a δė term: how a regression names a surface delay) and
     by a TimeDelay on "Elevator". Sensor kinds: SensorBias, ScaleFactor, ControlDelay, TimeDelay,
     VanePosition; the rest are aerodynamic.
   * clean flight with a cause: a flight with "planted": [] where anything is named; named / clean
     flight: mean items named on those flights.
   * table effect named (jsbsim): a named item, not matching a planted effect, whose location and
-    kind equal a listed table effect (each listed effect counted once per flight). A table effect
+    kind equal a listed table effect, and its term one of the effect's "terms" when listed (each
+    listed effect counted once per flight). A table effect
     of kind NonlinearBeta is also matched by CrossCoupling (the manifest's kind for |β|, β² in
     C_L/C_D/C_m; the same equivalence the planted β² effect carries in accept_kinds).
   * spurious: a named item that matches neither a planted effect nor a table effect.
@@ -34,9 +37,18 @@ SENSOR = {"SensorBias", "ScaleFactor", "ControlDelay", "TimeDelay", "VanePositio
 LONG = {"C_L", "C_D", "C_m"}
 
 
+def term_of(item):
+    return item.get("term") or item.get("what")
+
+
+def term_ok(item, effect):
+    terms = effect.get("terms")
+    return not terms or term_of(item) in terms
+
+
 def matches_planted(item, p):
     kinds = set(p.get("accept_kinds") or []) | {p["kind"]}
-    if item["location"] == p["location"] and item["kind"] in kinds:
+    if item["location"] == p["location"] and item["kind"] in kinds and term_ok(item, p):
         return True
     if p["kind"] == "ControlDelay" and p["location"] == "Elevator":
         if item["kind"] == "ControlDelay" and item["location"] in LONG:
@@ -51,7 +63,8 @@ TABLE_EQUIV = {"NonlinearBeta": {"NonlinearBeta", "CrossCoupling"}}
 
 def matches_table(item, effects):
     return [i for i, e in enumerate(effects or [])
-            if item["kind"] in TABLE_EQUIV.get(e.get("kind"), {e.get("kind")}) and e["location"] == item["location"]]
+            if item["kind"] in TABLE_EQUIV.get(e.get("kind"), {e.get("kind")}) and e["location"] == item["location"]
+            and term_ok(item, e)]
 
 
 def dedupe(named):

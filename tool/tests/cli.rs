@@ -117,6 +117,17 @@ fn values_out_of_range_or_missing_are_refused_with_the_argument_named() {
     refused(&["gaps", "--data", "f.asc"], "--with");
     refused(&["gaps", "--clean", "--simulate", "alpha-dot"], "cannot be used with");
     refused(&["gaps", "--simulate", "no-such-kind"], "lift-quadratic");
+    refused(&["gaps", "--clean", "--size", "1"], "--simulate");
+    refused(&["gaps", "--simulate", "alpha-dot", "--size", "NaN"], "finite");
+    refused(
+        &["gaps", "--simulate", "missing-roll-control", "--size", "1"],
+        "has none",
+    );
+    refused(
+        &["gaps", "--simulate", "alpha-dot", "--channel", "alpha"],
+        "sensor-bias",
+    );
+    refused(&["gaps", "--simulate", "sensor-bias", "--channel", "beta"], "accel-z");
     refused(&["gaps", "--clean", "--air-data", "vanes"], "reconstructed");
     refused(&["gaps", "--clean", "--compatibility", "maybe"], "off");
     refused(&["gaps", "--clean", "--baseline", "CQ=1"], "--baseline");

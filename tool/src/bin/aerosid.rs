@@ -513,6 +513,15 @@ struct GapsArgs {
     /// Seed of the simulated flight and of the hidden effect's size.
     #[arg(long, value_name = "N", default_value_t = 1)]
     seed: u64,
+    /// The hidden effect's size instead of the one drawn from the seed, in the unit of its
+    /// parameter (docs/model-gaps.md); with --seed, reproduces a flight of `aerosid gaps-bench`
+    /// (its manifest's `reproduce`).
+    #[arg(long, value_name = "X", allow_negative_numbers = true)]
+    size: Option<f64>,
+    /// The channel of a hidden sensor bias instead of the one drawn from the seed.
+    #[arg(long, value_name = "CHANNEL",
+          value_parser = PossibleValuesParser::new(aerosid::gaps::hidden::BIAS_CHANNELS.map(|c| c.0)))]
+    channel: Option<String>,
     #[arg(long, value_name = "S", default_value_t = 90.0, value_parser = in_range(GAPS_SECONDS),
           help = range_help("Duration of the simulated flight, s", GAPS_SECONDS))]
     seconds: f64,
@@ -632,6 +641,12 @@ impl Execute for GapsArgs {
             Ok(o) => o,
             Err(e) => return usage("gaps", e),
         };
+        if self.simulate.is_none() && (self.size.is_some() || self.channel.is_some()) {
+            return usage(
+                "gaps",
+                "--size and --channel describe the hidden effect of --simulate KIND",
+            );
+        }
         let flight = match (&self.data, &self.with) {
             (Some(data), with) => {
                 aerosid::io::read_measured_with(data, with.as_deref(), &opts).map_err(|e| e.to_string())
@@ -640,7 +655,30 @@ impl Execute for GapsArgs {
                 // A simulated flight with the hidden effect's size drawn from the seed.
                 use rand::SeedableRng;
                 let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(self.seed);
-                let effect = self.simulate.map(|k| k.draw(&mut rng));
+                let mut effect = self.simulate.map(|k| k.draw(&mut rng));
+                if let Some(e) = effect.as_mut() {
+                    if let Some(x) = self.size {
+                        if !x.is_finite() || e.kind == HiddenKind::MissingRollControl {
+                            return usage(
+                                "gaps",
+                                format!("--size {x}: give a finite number, and only for a kind with a size (missing-roll-control has none)"),
+                            );
+                        }
+                        e.size = x;
+                    }
+                    if let Some(c) = &self.channel {
+                        if e.kind != HiddenKind::SensorBias {
+                            return usage(
+                                "gaps",
+                                format!("--channel {c}: only --simulate sensor-bias has a choice of channel"),
+                            );
+                        }
+                        e.channel = aerosid::gaps::hidden::BIAS_CHANNELS
+                            .iter()
+                            .find(|x| x.0 == c)
+                            .map(|x| x.1);
+                    }
+                }
                 let flight = aerosid::gaps::hidden::flight(effect.as_ref(), self.seconds, self.seed, !self.calm);
                 // The campaign's baseline (eq. 3 without the δa a kind hides) unless one is given.
                 return match flight {

@@ -50,6 +50,8 @@ struct Case {
     suite: &'static str,
     planted: Value,
     table_effects: Value,
+    /// The `aerosid gaps` command line that analyses this flight alone.
+    reproduce: String,
     result: Result<(GapReport, Seconds), String>,
 }
 
@@ -100,11 +102,13 @@ pub fn write(c: &Campaign, dir: &Path) -> Result<Vec<String>, String> {
             };
             let effects = t["table_effects"].clone();
             let id = format!("jsbsim/{}", file.trim_end_matches(".csv"));
+            let reproduce = format!("aerosid gaps --data {} --with {}", csv.display(), aircraft.display());
             jobs.push(Box::new(move || Case {
                 id: id.clone(),
                 suite: "jsbsim",
                 planted: planted.clone(),
                 table_effects: effects.clone(),
+                reproduce: reproduce.clone(),
                 result: analyse(&csv, &aircraft, &GapSettings::default()),
             }));
         }
@@ -113,11 +117,13 @@ pub fn write(c: &Campaign, dir: &Path) -> Result<Vec<String>, String> {
         for (file, map) in REAL_FLIGHTS {
             let (d, m) = (data.join(file), maps.join(map));
             let id = format!("real/{}", file.trim_end_matches(".asc"));
+            let reproduce = format!("aerosid gaps --data {} --with {}", d.display(), m.display());
             jobs.push(Box::new(move || Case {
                 id: id.clone(),
                 suite: "real",
                 planted: Value::Null,
                 table_effects: Value::Null,
+                reproduce: reproduce.clone(),
                 result: analyse(&d, &m, &GapSettings::default()),
             }));
         }
@@ -215,11 +221,19 @@ fn sim_case(e: Option<HiddenEffect>, seed: u64) -> Case {
         "sim/{}_{seed}",
         e.map_or("clean".to_string(), |e| e.kind.name().to_string())
     );
+    let reproduce = match &e {
+        Some(e) => e.command_line(seed),
+        None => format!("aerosid gaps --clean --seed {seed}"),
+    };
     let planted = match &e {
         None => json!([]),
         Some(e) => {
             let (k, l) = e.expected();
-            json!([{"kind": format!("{k:?}"), "location": l, "size": e.size}])
+            let mut p = json!({"kind": format!("{k:?}"), "location": l, "size": e.size});
+            if let Some(t) = e.expected_terms() {
+                p["terms"] = json!(t);
+            }
+            json!([p])
         }
     };
     let result = flight(e.as_ref(), 90.0, seed, true)
@@ -236,6 +250,7 @@ fn sim_case(e: Option<HiddenEffect>, seed: u64) -> Case {
         suite: "sim",
         planted,
         table_effects: Value::Null,
+        reproduce,
         result,
     }
 }
@@ -285,6 +300,7 @@ fn entry(case: &Case, r: &GapReport, t: Seconds, table: &str) -> Value {
         "table": table,
         "split": reg.n_id,
         "planted": case.planted,
+        "reproduce": case.reproduce,
         "coefficients": coefficients,
         "aerosid": {
             "named": r.named.iter().map(|n| json!({

@@ -129,6 +129,13 @@ impl HiddenKind {
     }
 }
 
+/// The channels a [`HiddenKind::SensorBias`] may sit on, by their command-line names.
+pub const BIAS_CHANNELS: [(&str, FaultChannel); 3] = [
+    ("alpha", FaultChannel::Alpha),
+    ("pitch-rate", FaultChannel::PitchRate),
+    ("accel-z", FaultChannel::AccelZ),
+];
+
 /// One hidden effect with its size (in the unit of the kind's parameter) and channel.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct HiddenEffect {
@@ -189,6 +196,47 @@ impl HiddenEffect {
             HiddenKind::MissingRollControl => (CauseKind::ControlTerm, "C_l".into()),
             HiddenKind::ElevatorDelay => (CauseKind::ControlDelay, "Elevator".into()),
         }
+    }
+
+    /// The terms of the analysis's library that express the effect, when its kind at its location
+    /// also covers other effects (the benchmark's scoring then asks for one of these terms: a
+    /// gyroscopic `r̂` in `C_m` is `CrossCoupling` too, but not a `β²`); `None`: any term of the
+    /// kind there expresses it (the lift curve's `α²`, `α³`, stall break) or it is a sensor error.
+    pub fn expected_terms(&self) -> Option<Vec<&'static str>> {
+        use super::model::Term;
+        let terms: &[Term] = match self.kind {
+            HiddenKind::ElevatorDrag => &[Term::AbsElevator, Term::Elevator2],
+            HiddenKind::AlphaDot => &[Term::AlphaDot],
+            HiddenKind::ThrustMoment => &[Term::Thrust],
+            HiddenKind::CrossCoupling => &[Term::AlphaBeta],
+            HiddenKind::PitchBeta2 => &[Term::Beta2, Term::AbsBeta],
+            HiddenKind::AdverseYaw | HiddenKind::MissingRollControl => &[Term::Aileron],
+            _ => return None,
+        };
+        Some(terms.iter().map(Term::name).collect())
+    }
+
+    /// The command line that simulates and analyses this flight again (`aerosid gaps --simulate`
+    /// with the seed of the flight, the size and, for a sensor bias, the channel).
+    pub fn command_line(&self, seed: u64) -> String {
+        let channel = match (self.kind, self.channel) {
+            (HiddenKind::SensorBias, Some(c)) => BIAS_CHANNELS
+                .iter()
+                .find(|(_, x)| *x == c)
+                .map(|(n, _)| format!(" --channel {n}"))
+                .unwrap_or_default(),
+            _ => String::new(),
+        };
+        let size = if self.kind == HiddenKind::MissingRollControl {
+            String::new()
+        } else {
+            // Shortest text that reads back as the same f64.
+            format!(" --size {:?}", self.size)
+        };
+        format!(
+            "aerosid gaps --simulate {} --seed {seed}{size}{channel}",
+            self.kind.name()
+        )
     }
 
     /// A one-line description.
@@ -295,4 +343,39 @@ pub fn flight(
         }
     }
     Ok(f)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::SeedableRng;
+
+    /// The command line names the kind, the seed, a size that reads back as the same `f64` and,
+    /// for a sensor bias, the drawn channel by its command-line name.
+    #[test]
+    fn the_command_line_carries_the_exact_effect() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+        for _ in 0..4 {
+            for k in HiddenKind::ALL {
+                let e = k.draw(&mut rng);
+                let line = e.command_line(20_001);
+                let words: Vec<&str> = line.split(' ').collect();
+                let after = |flag: &str| words.iter().position(|w| *w == flag).map(|i| words[i + 1]);
+                assert_eq!(after("--simulate"), Some(k.name()), "{line}");
+                assert_eq!(after("--seed"), Some("20001"), "{line}");
+                match after("--size") {
+                    Some(s) => assert_eq!(s.parse::<f64>().map(f64::to_bits), Ok(e.size.to_bits()), "{line}"),
+                    None => assert_eq!(k, HiddenKind::MissingRollControl, "{line}"),
+                }
+                let channel = after("--channel")
+                    .and_then(|c| BIAS_CHANNELS.iter().find(|x| x.0 == c))
+                    .map(|x| x.1);
+                if k == HiddenKind::SensorBias {
+                    assert_eq!(channel, e.channel, "{line}");
+                } else {
+                    assert_eq!(channel, None, "{line}");
+                }
+            }
+        }
+    }
 }
