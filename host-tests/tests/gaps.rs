@@ -203,12 +203,23 @@ fn in_turbulence_each_identifiable_kind_is_named_and_clean_flights_stay_quiet() 
                 o.detail,
                 c.notes
             );
+            let iv = c.tested.iter().find(|t| {
+                t.part == "instrumental"
+                    && t.param == aerosid::gaps::compat::SensorParam::Scale(aerosid::io::measured::Quantity::Alpha)
+            });
+            let Some(iv) = iv else {
+                panic!(
+                    "{}: scale(Alpha) not scored by the instrumental check: {:?}",
+                    o.detail, c.tested
+                );
+            };
+            // AND a scale factor not named is one the report says the flight cannot detect
             assert!(
-                c.tested.iter().any(|t| t.part == "instrumental"
-                    && t.param == aerosid::gaps::compat::SensorParam::Scale(aerosid::io::measured::Quantity::Alpha)),
-                "{}: scale(Alpha) not scored by the instrumental check: {:?}",
+                o.correct || iv.min_detectable > e.size.abs(),
+                "{}: scale(Alpha) missed though detectable (needs {} < {})",
                 o.detail,
-                c.tested
+                iv.min_detectable,
+                e.size.abs()
             );
         } else if !OPEN_IN_TURBULENCE.contains(&e.kind) {
             assert!(o.correct, "missed in turbulence: {}", o.detail);
@@ -225,7 +236,17 @@ fn in_turbulence_each_identifiable_kind_is_named_and_clean_flights_stay_quiet() 
                 e.size.abs()
             );
         }
-        // AND every scored candidate states its estimate, σ and the least detectable effect
+        // AND every scored candidate states its estimate, σ and the least detectable effect:
+        // sensor errors (its factor, (max(√t²_thr, 2·T_crit) + t₀.₂), between 4 and 8 at these
+        // thresholds and block counts)
+        for k in &r.compatibility.tested {
+            let factor = k.min_detectable / k.sigma;
+            assert!(
+                k.sigma > 0.0 && (4.0..8.0).contains(&factor),
+                "{}: {k:?}: min_detectable {factor}·σ",
+                o.detail
+            );
+        }
         for c in &r.coefficients {
             for k in c.candidates.iter().filter(|k| k.reason.is_none()) {
                 // (max(√t²_thr, 2·T_crit) + t₀.₂)·σ, T_crit the held-out test's one-sided 1 %

@@ -133,6 +133,17 @@ pub struct ParamScore {
     pub t2: f64,
     /// Which part scored it (`"attitude"`, `"velocity"` or `"instrumental"`).
     pub part: &'static str,
+    /// The least |error| this flight names with about 80 % probability, in the parameter's unit:
+    /// `(max(√t²_threshold, 2·T_crit) + t₀.₂)·σ`, as for the aerodynamic candidates
+    /// (docs/model-gaps.md, "What the flight could detect"); NaN when not computed.
+    pub min_detectable: f64,
+}
+
+/// `min_detectable / σ` for an entry threshold `threshold_t2`, a held-out critical value `crit`
+/// and `dof` degrees of freedom of both: a real error's noise-referenced held-out gain `T` is about
+/// half its `t`, so the held-out test needs `t ≈ 2·T_crit`.
+pub fn detection_factor(threshold_t2: f64, crit: f64, dof: f64) -> f64 {
+    threshold_t2.sqrt().max(2.0 * crit) + super::select::student_t_upper_quantile(0.2, dof.max(1.0))
 }
 
 /// A sensor error found, with its final estimate.
@@ -620,6 +631,7 @@ impl Problem<'_> {
                     sigma: t.sigma,
                     t2: t.t2,
                     part: "",
+                    min_detectable: f64::NAN,
                 });
             }
         }
@@ -787,10 +799,17 @@ fn run(
             .max_by(|a, b| a.t2.total_cmp(&b.t2))
             .cloned();
         if first.is_none() {
+            let dof = prob.segments.len() as f64 - 1.0;
+            let crit = super::select::student_t_upper_quantile(s.gain_alpha, dof.max(1.0));
+            let factor = detection_factor(s.threshold_t2, crit, dof);
             first = Some(
                 scores
                     .iter()
-                    .map(|c| ParamScore { part, ..c.clone() })
+                    .map(|c| ParamScore {
+                        part,
+                        min_detectable: factor * c.sigma,
+                        ..c.clone()
+                    })
                     .collect::<Vec<_>>(),
             );
         }

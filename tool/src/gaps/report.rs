@@ -45,12 +45,13 @@ pub fn table(r: &GapReport) -> String {
     for c in tested.iter().take(5) {
         let _ = writeln!(
             s,
-            "     {:<18} t² {:>10.1}   {:+.5} ± {:.5} {}",
+            "     {:<18} t² {:>10.1}   {:+.5} ± {:.5} {} (needs |·| ≥ {:.5})",
             c.param.name(),
             c.t2,
             c.value,
             c.sigma,
-            c.param.unit()
+            c.param.unit(),
+            c.min_detectable
         );
     }
     for f in &r.compatibility.rejected {
@@ -292,6 +293,7 @@ pub fn json(r: &GapReport) -> Value {
                 "kind": format!("{:?}", super::param_kind(&c.param)), "unit": c.param.unit(),
                 "value": f(c.value), "sigma": f(c.sigma), "t2": f(c.t2), "part": c.part,
                 "significant": c.t2 > r.threshold_t2,
+                "min_detectable": f(c.min_detectable),
             })).collect::<Vec<_>>(),
             "found": compat.found.iter().map(|c| found_json(c, false)).collect::<Vec<_>>(),
             "rejected": compat.rejected.iter().map(|c| found_json(c, true)).collect::<Vec<_>>(),
