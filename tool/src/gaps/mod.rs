@@ -1547,31 +1547,14 @@ fn stepwise(
         let Some((j, _, f)) = best else { break };
         model.push(j);
         current = f;
-        // The removal step: an added term that no longer passes both tests in the joint model
-        // leaves (the weakest first) and may not re-enter.
-        loop {
-            let mut weakest: Option<(usize, f64)> = None;
-            for (k, &c) in model.iter().enumerate().skip(nb) {
-                let t2 = current.t2(k);
-                let without: Vec<usize> = model.iter().copied().filter(|&x| x != c).collect();
-                // A term whose removal cannot be fitted stays.
-                let passes = t2 > threshold_t2
-                    && design.fit(&without).map_or(true, |w| {
-                        let z = select::gain(&w.cv_sse, &current.cv_sse).0;
-                        z > 0.0 && noise_z_if(&design, &w, &current, z, true) > gain_crit
-                    });
-                if !passes && weakest.is_none_or(|w| t2 < w.1) {
-                    weakest = Some((c, t2));
-                }
-            }
-            let Some((c, _)) = weakest else { break };
-            model.retain(|&x| x != c);
-            removed.push(c);
-            match design.fit(&model) {
-                Ok(f) => current = f,
-                Err(_) => break,
-            }
-        }
+        removal_step(
+            &design,
+            nb,
+            &mut model,
+            &mut removed,
+            &mut current,
+            (threshold_t2, gain_crit),
+        );
     }
     out.cv_r2_extended = design.cv_r2(&current);
     // A model that does not predict the held-out blocks even when extended names nothing.
@@ -1590,8 +1573,26 @@ fn stepwise(
         (threshold_t2, gain_crit),
         h_s,
     );
-    if predictive && !out.notes.is_empty() {
-        out.cv_r2_extended = design.cv_r2(&current);
+    if !out.notes.is_empty() {
+        // The other added terms are tested again in the model with the swap.
+        let before = model.clone();
+        removal_step(
+            &design,
+            nb,
+            &mut model,
+            &mut removed,
+            &mut current,
+            (threshold_t2, gain_crit),
+        );
+        for c in before.iter().filter(|c| !model.contains(c)) {
+            out.notes.push(format!(
+                "{} withdrawn after that: in the model with the term of one variable it no longer passes both entry tests",
+                terms[*c].name()
+            ));
+        }
+        if predictive {
+            out.cv_r2_extended = design.cv_r2(&current);
+        }
     }
     // What the data cannot tell apart: a candidate that, in place of an added term, predicts
     // the held-out blocks not significantly worse and is itself significant.
@@ -1639,6 +1640,44 @@ fn stepwise(
         )
     };
     out
+}
+
+/// The removal step of stepwise regression (Klein & Morelli 2006 §5.4.1): an added term of
+/// `model` (after its first `nb`) that no longer passes both tests (`tests`: the `t²` threshold and
+/// the held-out critical value) in the joint model leaves, the weakest first, onto `removed`;
+/// `current` is refitted.
+fn removal_step(
+    design: &select::Design,
+    nb: usize,
+    model: &mut Vec<usize>,
+    removed: &mut Vec<usize>,
+    current: &mut select::SubsetFit,
+    tests: (f64, f64),
+) {
+    let (threshold_t2, gain_crit) = tests;
+    loop {
+        let mut weakest: Option<(usize, f64)> = None;
+        for (k, &c) in model.iter().enumerate().skip(nb) {
+            let t2 = current.t2(k);
+            let without: Vec<usize> = model.iter().copied().filter(|&x| x != c).collect();
+            // A term whose removal cannot be fitted stays.
+            let passes = t2 > threshold_t2
+                && design.fit(&without).map_or(true, |w| {
+                    let z = select::gain(&w.cv_sse, &current.cv_sse).0;
+                    z > 0.0 && noise_z_if(design, &w, current, z, true) > gain_crit
+                });
+            if !passes && weakest.is_none_or(|w| t2 < w.1) {
+                weakest = Some((c, t2));
+            }
+        }
+        let Some((c, _)) = weakest else { break };
+        model.retain(|&x| x != c);
+        removed.push(c);
+        match design.fit(model) {
+            Ok(f) => *current = f,
+            Err(_) => break,
+        }
+    }
 }
 
 /// A convention among terms the data cannot tell apart, after the effect hierarchy (Wu & Hamada
@@ -1941,5 +1980,24 @@ mod tests {
         assert_eq!(model, vec![0, 1, 2]);
         assert_eq!(current, before);
         assert!(notes.is_empty(), "{notes:?}");
+    }
+
+    #[test]
+    fn the_removal_step_drops_an_added_term_that_no_longer_passes_and_keeps_one_that_does() {
+        // GIVEN C = 1 + 2α + noise with α·q (q independent of α) in the model beside the baseline
+        let (design, _) = hierarchy_case(0.0, |a, _| 1.0 + 2.0 * a, 53);
+        let (mut model, mut removed) = (vec![0, 1, 2], Vec::new());
+        let mut current = design.fit(&model).expect("fits");
+        // WHEN the removal step runs
+        removal_step(&design, 2, &mut model, &mut removed, &mut current, (18.0, 2.4));
+        // THEN α·q leaves and the fit is the baseline's
+        assert_eq!((model.clone(), removed), (vec![0, 1], vec![2]));
+        assert_eq!(current, design.fit(&model).expect("fits"));
+        // AND with C = 1 + 2α + 40·α·q + noise it stays
+        let (design, _) = hierarchy_case(0.0, |a, q| 1.0 + 2.0 * a + 40.0 * a * q, 52);
+        let (mut model, mut removed) = (vec![0, 1, 2], Vec::new());
+        let mut current = design.fit(&model).expect("fits");
+        removal_step(&design, 2, &mut model, &mut removed, &mut current, (18.0, 2.4));
+        assert_eq!((model, removed), (vec![0, 1, 2], Vec::<usize>::new()));
     }
 }
