@@ -1425,6 +1425,7 @@ fn stepwise(
     let g = design.n_blocks();
     let threshold_t2 = select::student_t_upper_quantile(p_test, (g as f64 - 1.0).max(1.0)).powi(2);
     let gain_crit = select::student_t_upper_quantile(settings.cv.gain_alpha, (g as f64 - 1.0).max(1.0));
+    let tests = (threshold_t2, gain_crit);
     let t_detect =
         threshold_t2.sqrt().max(2.0 * gain_crit) + select::student_t_upper_quantile(0.2, (g as f64 - 1.0).max(1.0));
     let mut out = Selection {
@@ -1547,14 +1548,7 @@ fn stepwise(
         let Some((j, _, f)) = best else { break };
         model.push(j);
         current = f;
-        removal_step(
-            &design,
-            nb,
-            &mut model,
-            &mut removed,
-            &mut current,
-            (threshold_t2, gain_crit),
-        );
+        removal_step(&design, nb, &mut model, &mut removed, &mut current, tests);
     }
     out.cv_r2_extended = design.cv_r2(&current);
     // A model that does not predict the held-out blocks even when extended names nothing.
@@ -1576,14 +1570,7 @@ fn stepwise(
     if !out.notes.is_empty() {
         // The other added terms are tested again in the model with the swap.
         let before = model.clone();
-        removal_step(
-            &design,
-            nb,
-            &mut model,
-            &mut removed,
-            &mut current,
-            (threshold_t2, gain_crit),
-        );
+        removal_step(&design, nb, &mut model, &mut removed, &mut current, tests);
         for c in before.iter().filter(|c| !model.contains(c)) {
             out.notes.push(format!(
                 "{} withdrawn after that: in the model with the term of one variable it no longer passes both entry tests",
