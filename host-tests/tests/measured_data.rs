@@ -1189,6 +1189,19 @@ fn the_analysis_runs_on_every_real_flight() {
                 "{file} {name}"
             );
         }
+        // AND a flight with no verdict has none per coefficient either, and a coefficient whose
+        // baseline cannot be fitted says why in the user's terms (not the solver's)
+        for c in &r.coefficients {
+            if r.verdict.starts_with("no verdict") {
+                assert!(c.verdict.starts_with("no verdict"), "{file} {}: {}", c.name, c.verdict);
+            }
+            assert!(
+                !c.verdict.contains("NotPositiveDefinite"),
+                "{file} {}: {}",
+                c.name,
+                c.verdict
+            );
+        }
         // AND the held-out simulation ran for the forces and the pitching moment
         for out in ["Alpha", "PitchRate"] {
             let o = r.simulation.outputs.iter().find(|o| o.channel == out);
@@ -1218,7 +1231,14 @@ fn twin_otter_pitching_moment_matches_the_published_values_and_needs_no_alpha_el
     let f = load("totter_lon_020213f1_018_fdata.asc", "twin_otter.map");
     let r = run_gaps(&f, &GapSettings::default()).unwrap_or_else(|e| panic!("{e}"));
     let cm = r.coefficients.iter().find(|c| c.name == "C_m").expect("C_m");
-    // THEN α·δe is tested and not added — as SIDPAC's stepwise regression rejected it
+    // THEN the flight (8 s) is too short for a verdict, and no coefficient claims one
+    assert!(
+        r.verdict.starts_with("no verdict") && r.verdict.contains("8.0 s"),
+        "{}",
+        r.verdict
+    );
+    assert!(r.coefficients.iter().all(|c| c.verdict.starts_with("no verdict")));
+    // AND α·δe is tested and not added — as SIDPAC's stepwise regression rejected it
     // (flight-data README s.3)
     let ad = cm.candidates.iter().find(|c| c.term == "α·δe").expect("α·δe tested");
     assert!(!ad.significant, "α·δe t² {}", ad.t2);

@@ -686,6 +686,13 @@ pub fn run_gaps(flight: &MeasuredFlight, settings: &GapSettings) -> Result<GapRe
         overall_verdict(&named, &coefficients)
     } else {
         named.clear();
+        // The coefficients' own verdicts rest on the same data: none of them stands either.
+        for c in &mut coefficients {
+            c.verdict = format!(
+                "no verdict (the data cannot support one: see the data quality); as computed: {}",
+                c.verdict
+            );
+        }
         format!("no verdict: {}", data_quality.why_not.join("; "))
     };
     let air_data = notes
@@ -1354,6 +1361,35 @@ pub const MIN_PREDICTIVE_R2: f64 = 0.5;
 /// (eq. 21's excitation condition with a margin: below 4 the column is mostly its own noise).
 const MIN_EXCITATION: f64 = 4.0;
 
+/// Why a coefficient's baseline cannot be fitted, in the user's terms: too few blocks, or the
+/// baseline's regressors that this flight does not excite (variation below [`MIN_EXCITATION`]×
+/// their error variance; `None` when a column's error is unknown), else a collinearity among
+/// them. A lateral baseline on a flight with only elevator inputs is the common case.
+fn baseline_unfit_reason(e: select::Unfit, excitation: impl Iterator<Item = (Term, Option<f64>)>) -> String {
+    if e == select::Unfit::TooFewData {
+        return "too few data blocks for its held-out test".into();
+    }
+    let weak: Vec<String> = excitation
+        .filter_map(|(t, r)| {
+            r.filter(|r| *r < MIN_EXCITATION)
+                .map(|r| format!("{} ({r:.1}×)", t.name()))
+        })
+        .collect();
+    if weak.is_empty() {
+        "its regressors are collinear on this flight (singular normal equations)".into()
+    } else {
+        let (verb, pronoun) = if weak.len() == 1 {
+            ("varies", "it")
+        } else {
+            ("vary", "them")
+        };
+        format!(
+            "not excited on this flight — {} {verb} less than {MIN_EXCITATION}× the error variance (singular normal equations); a manoeuvre exciting {pronoun} would decide",
+            weak.join(", ")
+        )
+    }
+}
+
 /// The outcome of the stepwise selection of one coefficient.
 struct Selection {
     candidates: Vec<CandidateScore>,
@@ -1438,19 +1474,6 @@ fn stepwise(
         threshold_t2,
         notes: Vec::new(),
     };
-    let mut model: Vec<usize> = (0..nb).collect();
-    let base = match design.fit(&model) {
-        Ok(f) => f,
-        Err(e) => {
-            out.verdict = format!("the baseline cannot be fitted ({e:?}): no candidate scored");
-            out.candidates = library
-                .iter()
-                .map(|(t, _)| CandidateScore::unscored(*t, i, "the baseline cannot be fitted".into()))
-                .collect();
-            return out;
-        }
-    };
-    out.cv_r2_baseline = design.cv_r2(&base);
     // Excitation: a column whose variation does not clearly exceed its error is not scored.
     let excitation = |j: usize| -> Option<f64> {
         let e = errors?;
@@ -1463,6 +1486,20 @@ fn stepwise(
         let var = c.iter().map(|x| (x - m).powi(2)).sum::<f64>() / c.len() as f64;
         Some(var / var_err)
     };
+    let mut model: Vec<usize> = (0..nb).collect();
+    let base = match design.fit(&model) {
+        Ok(f) => f,
+        Err(e) => {
+            let why = baseline_unfit_reason(e, (0..nb).map(|j| (terms[j], excitation(j))));
+            out.verdict = format!("the baseline cannot be fitted: {why}; no candidate scored");
+            out.candidates = library
+                .iter()
+                .map(|(t, _)| CandidateScore::unscored(*t, i, format!("the baseline cannot be fitted: {why}")))
+                .collect();
+            return out;
+        }
+    };
+    out.cv_r2_baseline = design.cv_r2(&base);
     let mut removed: Vec<usize> = Vec::new();
     let mut unexcited: Vec<usize> = Vec::new();
     let mut current = base.clone();
@@ -1850,6 +1887,24 @@ mod tests {
         let rate = signal::derivative(&de, h);
         let acc = signal::derivative(&rate, h);
         [de, rate, acc]
+    }
+
+    #[test]
+    fn an_unfit_baseline_names_the_regressors_the_flight_does_not_excite() {
+        // GIVEN a lateral baseline whose δr varies 1.5× its error variance, p̂ 30×, β unknown
+        let ex = [(Term::Rudder, Some(1.5)), (Term::P, Some(30.0)), (Term::Beta, None)];
+        // THEN δr alone is named, with its ratio, as not excited
+        let why = baseline_unfit_reason(select::Unfit::NotPositiveDefinite, ex.into_iter());
+        assert!(
+            why.starts_with("not excited on this flight — δr (1.5×) varies"),
+            "{why}"
+        );
+        assert!(!why.contains("p_n") && !why.contains("β"), "{why}");
+        // AND with every column excited the cause is a collinearity; with too few blocks, that
+        let why = baseline_unfit_reason(select::Unfit::NotPositiveDefinite, [(Term::P, Some(30.0))].into_iter());
+        assert!(why.contains("collinear"), "{why}");
+        let why = baseline_unfit_reason(select::Unfit::TooFewData, ex.into_iter());
+        assert!(why.contains("too few data blocks"), "{why}");
     }
 
     #[test]
