@@ -1195,12 +1195,16 @@ fn the_analysis_runs_on_every_real_flight() {
             if r.verdict.starts_with("no verdict") {
                 assert!(c.verdict.starts_with("no verdict"), "{file} {}: {}", c.name, c.verdict);
             }
-            assert!(
-                !c.verdict.contains("NotPositiveDefinite"),
-                "{file} {}: {}",
-                c.name,
-                c.verdict
-            );
+            if c.verdict.contains("cannot be fitted") {
+                assert!(
+                    ["excited", "collinear", "too few data"]
+                        .iter()
+                        .any(|w| c.verdict.contains(w)),
+                    "{file} {}: {}",
+                    c.name,
+                    c.verdict
+                );
+            }
         }
         // AND the held-out simulation ran for the forces and the pitching moment
         for out in ["Alpha", "PitchRate"] {

@@ -119,6 +119,9 @@ fn values_out_of_range_or_missing_are_refused_with_the_argument_named() {
     refused(&["gaps", "--simulate", "no-such-kind"], "lift-quadratic");
     refused(&["gaps", "--clean", "--size", "1"], "--simulate");
     refused(&["gaps", "--simulate", "alpha-dot", "--size", "NaN"], "finite");
+    refused(&["gaps", "--simulate", "time-delay", "--size", "-0.5"], "0 to 1 s");
+    refused(&["gaps", "--simulate", "elevator-delay", "--size", "2"], "0 to 1 s");
+    refused(&["gaps", "--simulate", "vane-scale", "--size", "-1"], "−0.99 to 10");
     refused(
         &["gaps", "--simulate", "missing-roll-control", "--size", "1"],
         "has none",

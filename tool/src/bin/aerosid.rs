@@ -664,6 +664,19 @@ impl Execute for GapsArgs {
                                 format!("--size {x}: give a finite number, and only for a kind with a size (missing-roll-control has none)"),
                             );
                         }
+                        // A delay is a lag (≥ 0, at most 1 s); a scale factor below −1 flips the
+                        // vane's sign (−1 zeroes it).
+                        let range = match e.kind {
+                            HiddenKind::TimeDelay | HiddenKind::ElevatorDelay => Some((0.0, 1.0, "0 to 1 s")),
+                            HiddenKind::VaneScale => Some((-0.99, 10.0, "−0.99 to 10")),
+                            _ => None,
+                        };
+                        if let Some((_, _, text)) = range.filter(|&(lo, hi, _)| !(lo..=hi).contains(&x)) {
+                            return usage(
+                                "gaps",
+                                format!("--size {x}: a {} size must lie in {text}", e.kind.name()),
+                            );
+                        }
                         e.size = x;
                     }
                     if let Some(c) = &self.channel {

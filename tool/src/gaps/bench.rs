@@ -216,14 +216,17 @@ pub fn timing_summary(manifest: &[Value]) -> Value {
     })
 }
 
+/// Duration of each simulated benchmark flight, s.
+const SIM_SECONDS: f64 = 90.0;
+
 fn sim_case(e: Option<HiddenEffect>, seed: u64) -> Case {
     let id = format!(
         "sim/{}_{seed}",
         e.map_or("clean".to_string(), |e| e.kind.name().to_string())
     );
     let reproduce = match &e {
-        Some(e) => e.command_line(seed),
-        None => format!("aerosid gaps --clean --seed {seed}"),
+        Some(e) => e.command_line(seed, SIM_SECONDS),
+        None => format!("aerosid gaps --clean --seed {seed} --seconds {SIM_SECONDS:?}"),
     };
     let planted = match &e {
         None => json!([]),
@@ -236,7 +239,7 @@ fn sim_case(e: Option<HiddenEffect>, seed: u64) -> Case {
             json!([p])
         }
     };
-    let result = flight(e.as_ref(), 90.0, seed, true)
+    let result = flight(e.as_ref(), SIM_SECONDS, seed, true)
         .map_err(|x| x.to_string())
         .and_then(|f| {
             let s = GapSettings {

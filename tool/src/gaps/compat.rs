@@ -139,13 +139,6 @@ pub struct ParamScore {
     pub min_detectable: f64,
 }
 
-/// `min_detectable / σ` for an entry threshold `threshold_t2`, a held-out critical value `crit`
-/// and `dof` degrees of freedom of both: a real error's noise-referenced held-out gain `T` is about
-/// half its `t`, so the held-out test needs `t ≈ 2·T_crit`.
-pub fn detection_factor(threshold_t2: f64, crit: f64, dof: f64) -> f64 {
-    threshold_t2.sqrt().max(2.0 * crit) + super::select::student_t_upper_quantile(0.2, dof.max(1.0))
-}
-
 /// A sensor error found, with its final estimate.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Found {
@@ -268,27 +261,40 @@ struct Problem<'a> {
 
 /// A small most-recent-first store of [`Problem::sim`] and [`Problem::x0_sens`] results, keyed by
 /// the bit patterns of their arguments (so a hit is exactly the value the call would return).
-#[derive(Default)]
 struct Memo {
     sim: MemoStore<Vec<Vec<f64>>>,
     sens: MemoStore<Vec<Vec<[f64; 3]>>>,
+    /// Entries kept per store.
+    capacity: usize,
+}
+
+impl Memo {
+    /// A store for a flight of `segments` segments: a few entries per segment (the residual walks
+    /// the segments in order, so a store smaller than the segments would never hit), at least 64.
+    fn for_segments(segments: usize) -> Self {
+        Self {
+            sim: Default::default(),
+            sens: Default::default(),
+            capacity: (4 * segments).max(64),
+        }
+    }
 }
 
 /// Most recent first: `(key, value)`.
 type MemoStore<T> = std::cell::RefCell<Vec<(Vec<u64>, std::rc::Rc<T>)>>;
 
-/// Entries kept per store: a few per segment of a 90 s flight's 18.
-const MEMO_ENTRIES: usize = 64;
-
+/// The key of a call: the segment's sample range, the length of `g` (so that two argument lists
+/// of different splits cannot share a key), then the bits of `g` and `x0`.
 fn memo_key(g: &[f64], x0: &[f64], a: usize, b: usize) -> Vec<u64> {
-    let mut k = Vec::with_capacity(g.len() + x0.len() + 2);
+    let mut k = Vec::with_capacity(g.len() + x0.len() + 3);
     k.push(a as u64);
     k.push(b as u64);
+    k.push(g.len() as u64);
     k.extend(g.iter().chain(x0).map(|v| v.to_bits()));
     k
 }
 
-fn memo_get<T>(store: &MemoStore<T>, key: Vec<u64>, f: impl FnOnce() -> T) -> std::rc::Rc<T> {
+fn memo_get<T>(store: &MemoStore<T>, capacity: usize, key: Vec<u64>, f: impl FnOnce() -> T) -> std::rc::Rc<T> {
     let hit = store.borrow().iter().position(|(k, _)| *k == key);
     if let Some(i) = hit {
         let mut s = store.borrow_mut();
@@ -300,7 +306,7 @@ fn memo_get<T>(store: &MemoStore<T>, key: Vec<u64>, f: impl FnOnce() -> T) -> st
     let v = std::rc::Rc::new(f());
     let mut s = store.borrow_mut();
     s.insert(0, (key, v.clone()));
-    s.truncate(MEMO_ENTRIES);
+    s.truncate(capacity);
     v
 }
 
@@ -345,7 +351,9 @@ impl Problem<'_> {
 
     /// `sim(g, x0, a, b)`, remembered.
     fn simulate(&self, g: &[f64], x0: &[f64], a: usize, b: usize) -> std::rc::Rc<Vec<Vec<f64>>> {
-        memo_get(&self.memo.sim, memo_key(g, x0, a, b), || (self.sim)(g, x0, a, b))
+        memo_get(&self.memo.sim, self.memo.capacity, memo_key(g, x0, a, b), || {
+            (self.sim)(g, x0, a, b)
+        })
     }
 
     /// Weighted residual rows of segment `s` (output-major within the segment).
@@ -365,9 +373,12 @@ impl Problem<'_> {
         let (a, b) = self.segments[s];
         let mut cols = Vec::new();
         if let Some(sens) = &self.x0_sens {
-            let d = memo_get(&self.memo.sens, memo_key(&st.g, &st.x0[s], a, b), || {
-                sens(&st.g, &st.x0[s], s)
-            });
+            let d = memo_get(
+                &self.memo.sens,
+                self.memo.capacity,
+                memo_key(&st.g, &st.x0[s], a, b),
+                || sens(&st.g, &st.x0[s], s),
+            );
             for j in (0..self.nx).filter(|&j| self.x_mask[j]) {
                 let mut c = Vec::with_capacity(d.len() * (b - a));
                 for (o, dj) in d.iter().enumerate() {
@@ -786,6 +797,8 @@ fn run(
     prob.fit(&mut st);
     let before = prob.rms(&st);
     let excluded = exclude(prob, &st);
+    // The held-out test's critical value (G − 1 degrees of freedom, G the segments).
+    let crit = super::select::student_t_upper_quantile(s.gain_alpha, (prob.segments.len() as f64 - 1.0).max(1.0));
     let mut first = None;
     let mut entered: Vec<(usize, f64)> = Vec::new();
     // Excluded candidates are scored but may not enter, as if removed.
@@ -800,14 +813,19 @@ fn run(
             .cloned();
         if first.is_none() {
             let dof = prob.segments.len() as f64 - 1.0;
-            let crit = super::select::student_t_upper_quantile(s.gain_alpha, dof.max(1.0));
-            let factor = detection_factor(s.threshold_t2, crit, dof);
+            let factor = super::select::detection_factor(s.threshold_t2, crit, dof);
             first = Some(
                 scores
                     .iter()
                     .map(|c| ParamScore {
                         part,
-                        min_detectable: factor * c.sigma,
+                        // A candidate barred from output error here (an air-data channel's scale,
+                        // delay or position in turbulence) cannot be named by it, whatever its size.
+                        min_detectable: if excluded.contains(&c.param) {
+                            f64::NAN
+                        } else {
+                            factor * c.sigma
+                        },
                         ..c.clone()
                     })
                     .collect::<Vec<_>>(),
@@ -853,7 +871,6 @@ fn run(
     }
     let sig = prob.active_sigma(&st, s.max_lag);
     let held = prob.held_out(&st);
-    let crit = super::select::student_t_upper_quantile(s.gain_alpha, (prob.segments.len() as f64 - 1.0).max(1.0));
     // A bias of an air-data channel in turbulence is judged by the sign-flip `z`, not by `T`: a
     // mean wind over the flight moves that channel like a bias, and the gusts' correlation across
     // segments (longer than the 5 s segments for the along-track gust) is not in `T`'s noise (on
@@ -1381,6 +1398,7 @@ fn velocity_problem(flight: &MeasuredFlight, h_s: f64, gyro_bias: [f64; 3]) -> O
             vec![v0 * al0.cos() * be0.cos(), v0 * be0.sin(), v0 * al0.sin() * be0.cos()]
         })
         .collect();
+    let n_segments = segs.len();
     Some(VelocityProblem {
         problem: Problem {
             nx: 3,
@@ -1398,7 +1416,7 @@ fn velocity_problem(flight: &MeasuredFlight, h_s: f64, gyro_bias: [f64; 3]) -> O
                 channel,
             }),
             g_sens: Some(Box::new(g_sens_b)),
-            memo: Memo::default(),
+            memo: Memo::for_segments(n_segments),
         },
         states,
         x0,
@@ -1678,7 +1696,7 @@ fn attitude_problem(flight: &MeasuredFlight, h_s: f64) -> Option<(Problem<'_>, V
         x0_sens: Some(Box::new(sens_a)),
         split: None,
         g_sens: Some(Box::new(g_sens_a)),
-        memo: Memo::default(),
+        memo: Memo::for_segments(segs.len()),
     };
     Some((problem, x0))
 }

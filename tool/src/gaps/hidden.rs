@@ -218,7 +218,7 @@ impl HiddenEffect {
 
     /// The command line that simulates and analyses this flight again (`aerosid gaps --simulate`
     /// with the seed of the flight, the size and, for a sensor bias, the channel).
-    pub fn command_line(&self, seed: u64) -> String {
+    pub fn command_line(&self, seed: u64, seconds: f64) -> String {
         let channel = match (self.kind, self.channel) {
             (HiddenKind::SensorBias, Some(c)) => BIAS_CHANNELS
                 .iter()
@@ -234,7 +234,7 @@ impl HiddenEffect {
             format!(" --size {:?}", self.size)
         };
         format!(
-            "aerosid gaps --simulate {} --seed {seed}{size}{channel}",
+            "aerosid gaps --simulate {} --seed {seed} --seconds {seconds:?}{size}{channel}",
             self.kind.name()
         )
     }
@@ -350,7 +350,7 @@ mod tests {
     use super::*;
     use rand::SeedableRng;
 
-    /// The command line names the kind, the seed, a size that reads back as the same `f64` and,
+    /// The command line names the kind, the seed, the duration, a size that reads back as the same `f64` and,
     /// for a sensor bias, the drawn channel by its command-line name.
     #[test]
     fn the_command_line_carries_the_exact_effect() {
@@ -358,11 +358,12 @@ mod tests {
         for _ in 0..4 {
             for k in HiddenKind::ALL {
                 let e = k.draw(&mut rng);
-                let line = e.command_line(20_001);
+                let line = e.command_line(20_001, 90.0);
                 let words: Vec<&str> = line.split(' ').collect();
                 let after = |flag: &str| words.iter().position(|w| *w == flag).map(|i| words[i + 1]);
                 assert_eq!(after("--simulate"), Some(k.name()), "{line}");
                 assert_eq!(after("--seed"), Some("20001"), "{line}");
+                assert_eq!(after("--seconds"), Some("90.0"), "{line}");
                 match after("--size") {
                     Some(s) => assert_eq!(s.parse::<f64>().map(f64::to_bits), Ok(e.size.to_bits()), "{line}"),
                     None => assert_eq!(k, HiddenKind::MissingRollControl, "{line}"),

@@ -246,7 +246,7 @@ pub fn check_channel(
     let threshold = select::student_t_upper_quantile(s.level / 2.0, dof).powi(2);
     let crit = select::student_t_upper_quantile(s.cv.gain_alpha, dof);
     let params = [SensorParam::Scale(channel), SensorParam::Delay(channel)];
-    let factor = super::compat::detection_factor(threshold, crit, dof);
+    let factor = super::select::detection_factor(threshold, crit, dof);
     let empty = empty_fit(&design, &d);
     let singles: Vec<Option<SubsetFit>> = (0..2).map(|j| design.fit(&[j]).ok()).collect();
     for (j, f) in singles.iter().enumerate() {

@@ -1361,13 +1361,13 @@ pub const MIN_PREDICTIVE_R2: f64 = 0.5;
 /// (eq. 21's excitation condition with a margin: below 4 the column is mostly its own noise).
 const MIN_EXCITATION: f64 = 4.0;
 
-/// Why a coefficient's baseline cannot be fitted, in the user's terms: too few blocks, or the
+/// Why a coefficient's baseline cannot be fitted, in the user's terms: too few data, or the
 /// baseline's regressors that this flight does not excite (variation below [`MIN_EXCITATION`]×
 /// their error variance; `None` when a column's error is unknown), else a collinearity among
 /// them. A lateral baseline on a flight with only elevator inputs is the common case.
 fn baseline_unfit_reason(e: select::Unfit, excitation: impl Iterator<Item = (Term, Option<f64>)>) -> String {
     if e == select::Unfit::TooFewData {
-        return "too few data blocks for its held-out test".into();
+        return "too few data (samples or blocks) for its held-out test".into();
     }
     let weak: Vec<String> = excitation
         .filter_map(|(t, r)| {
@@ -1378,13 +1378,15 @@ fn baseline_unfit_reason(e: select::Unfit, excitation: impl Iterator<Item = (Ter
     if weak.is_empty() {
         "its regressors are collinear on this flight (singular normal equations)".into()
     } else {
+        // Below 1× a column is within its own error; between 1× and 4× it may be excited a
+        // little while a collinearity is the cause, so the text says "or weakly".
         let (verb, pronoun) = if weak.len() == 1 {
             ("varies", "it")
         } else {
             ("vary", "them")
         };
         format!(
-            "not excited on this flight — {} {verb} less than {MIN_EXCITATION}× the error variance (singular normal equations); a manoeuvre exciting {pronoun} would decide",
+            "singular normal equations; not or weakly excited on this flight — {} {verb} less than {MIN_EXCITATION}× the error variance; a manoeuvre exciting {pronoun} would decide",
             weak.join(", ")
         )
     }
@@ -1462,8 +1464,7 @@ fn stepwise(
     let threshold_t2 = select::student_t_upper_quantile(p_test, (g as f64 - 1.0).max(1.0)).powi(2);
     let gain_crit = select::student_t_upper_quantile(settings.cv.gain_alpha, (g as f64 - 1.0).max(1.0));
     let tests = (threshold_t2, gain_crit);
-    let t_detect =
-        threshold_t2.sqrt().max(2.0 * gain_crit) + select::student_t_upper_quantile(0.2, (g as f64 - 1.0).max(1.0));
+    let t_detect = select::detection_factor(threshold_t2, gain_crit, g as f64 - 1.0);
     let mut out = Selection {
         candidates: Vec::new(),
         added: Vec::new(),
@@ -1896,7 +1897,7 @@ mod tests {
         // THEN δr alone is named, with its ratio, as not excited
         let why = baseline_unfit_reason(select::Unfit::NotPositiveDefinite, ex.into_iter());
         assert!(
-            why.starts_with("not excited on this flight — δr (1.5×) varies"),
+            why.contains("weakly excited on this flight — δr (1.5×) varies"),
             "{why}"
         );
         assert!(!why.contains("p_n") && !why.contains("β"), "{why}");
@@ -1904,7 +1905,7 @@ mod tests {
         let why = baseline_unfit_reason(select::Unfit::NotPositiveDefinite, [(Term::P, Some(30.0))].into_iter());
         assert!(why.contains("collinear"), "{why}");
         let why = baseline_unfit_reason(select::Unfit::TooFewData, ex.into_iter());
-        assert!(why.contains("too few data blocks"), "{why}");
+        assert!(why.contains("too few data"), "{why}");
     }
 
     #[test]

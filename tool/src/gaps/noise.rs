@@ -197,8 +197,8 @@ pub fn column_errors(
                 continue;
             };
             let k = terms[i].len() + 1;
-            // The differences as the columns of an `n_id × k` matrix `D`; `DᵀD` by one matrix
-            // product (cache-blocked, vectorised) instead of `k(k+1)/2` separate dot products.
+            // The differences as the columns of an `n_id × k` matrix `D`; `DᵀD` by one
+            // cache-blocked, vectorised matrix product.
             let mut d = Vec::with_capacity(k * n_id);
             for (t, c0) in terms[i].iter().zip(nom) {
                 match (c0, t.column(&tk, s.refs)) {

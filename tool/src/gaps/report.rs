@@ -43,15 +43,19 @@ pub fn table(r: &GapReport) -> String {
     tested.sort_by(|a, b| b.t2.total_cmp(&a.t2));
     let _ = writeln!(s, "   best candidates (first round): ");
     for c in tested.iter().take(5) {
+        let detect = if c.min_detectable.is_finite() {
+            format!("needs |·| ≥ {:.5}", c.min_detectable)
+        } else {
+            "not testable by output error in turbulence".to_string()
+        };
         let _ = writeln!(
             s,
-            "     {:<18} t² {:>10.1}   {:+.5} ± {:.5} {} (needs |·| ≥ {:.5})",
+            "     {:<18} t² {:>10.1}   {:+.5} ± {:.5} {} ({detect})",
             c.param.name(),
             c.t2,
             c.value,
             c.sigma,
             c.param.unit(),
-            c.min_detectable
         );
     }
     for f in &r.compatibility.rejected {

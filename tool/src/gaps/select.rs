@@ -420,6 +420,13 @@ pub fn gain(sse0: &[f64], sse1: &[f64]) -> (f64, f64) {
     (z, if base > 0.0 { sum / g as f64 / base } else { 0.0 })
 }
 
+/// `min_detectable / σ` for an entry threshold `threshold_t2`, a held-out critical value `crit`
+/// and `dof` degrees of freedom of both: a real error's noise-referenced held-out gain `T` is about
+/// half its `t`, so the held-out test needs `t ≈ 2·T_crit`.
+pub fn detection_factor(threshold_t2: f64, crit: f64, dof: f64) -> f64 {
+    threshold_t2.sqrt().max(2.0 * crit) + student_t_upper_quantile(0.2, dof.max(1.0))
+}
+
 /// Upper `p` quantile of Student's t with `nu` degrees of freedom (`P(T > t) = p`), by bisection
 /// on the regularised incomplete beta function. Written here rather than taken from `statrs`:
 /// that crate pins another nalgebra major version, a second copy in every build for one function.
