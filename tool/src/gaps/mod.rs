@@ -1586,7 +1586,7 @@ fn stepwise(
         let Some((j, _, f)) = best else { break };
         model.push(j);
         current = f;
-        removal_step(&design, nb, &mut model, &mut removed, &mut current, tests);
+        removal_step(&design, nb, &mut model, &mut removed, &mut current, tests, &[]);
     }
     out.cv_r2_extended = design.cv_r2(&current);
     // A model that does not predict the held-out blocks even when extended names nothing.
@@ -1595,6 +1595,7 @@ fn stepwise(
         model.truncate(nb);
     }
     let excluded: Vec<usize> = removed.iter().chain(&unexcited).copied().collect();
+    let before_swap = model.clone();
     out.notes = prefer_main_effects(
         &design,
         &terms,
@@ -1606,9 +1607,11 @@ fn stepwise(
         h_s,
     );
     if !out.notes.is_empty() {
-        // The other added terms are tested again in the model with the swap.
+        // The other added terms are tested again in the model with the swap; the terms swapped
+        // in stay (each passed both entry tests in place of its product).
+        let swapped_in: Vec<usize> = model.iter().copied().filter(|c| !before_swap.contains(c)).collect();
         let before = model.clone();
-        removal_step(&design, nb, &mut model, &mut removed, &mut current, tests);
+        removal_step(&design, nb, &mut model, &mut removed, &mut current, tests, &swapped_in);
         for c in before.iter().filter(|c| !model.contains(c)) {
             out.notes.push(format!(
                 "{} withdrawn after that: in the model with the term of one variable it no longer passes both entry tests",
@@ -1670,7 +1673,7 @@ fn stepwise(
 /// The removal step of stepwise regression (Klein & Morelli 2006 §5.4.1): an added term of
 /// `model` (after its first `nb`) that no longer passes both tests (`tests`: the `t²` threshold and
 /// the held-out critical value) in the joint model leaves, the weakest first, onto `removed`;
-/// `current` is refitted.
+/// `current` is refitted. The terms in `keep` stay whatever their tests.
 fn removal_step(
     design: &select::Design,
     nb: usize,
@@ -1678,11 +1681,15 @@ fn removal_step(
     removed: &mut Vec<usize>,
     current: &mut select::SubsetFit,
     tests: (f64, f64),
+    keep: &[usize],
 ) {
     let (threshold_t2, gain_crit) = tests;
     loop {
         let mut weakest: Option<(usize, f64)> = None;
         for (k, &c) in model.iter().enumerate().skip(nb) {
+            if keep.contains(&c) {
+                continue;
+            }
             let t2 = current.t2(k);
             let without: Vec<usize> = model.iter().copied().filter(|&x| x != c).collect();
             // A term whose removal cannot be fitted stays.
@@ -2032,15 +2039,20 @@ mod tests {
         let (mut model, mut removed) = (vec![0, 1, 2], Vec::new());
         let mut current = design.fit(&model).expect("fits");
         // WHEN the removal step runs
-        removal_step(&design, 2, &mut model, &mut removed, &mut current, (18.0, 2.4));
+        removal_step(&design, 2, &mut model, &mut removed, &mut current, (18.0, 2.4), &[]);
         // THEN α·q leaves and the fit is the baseline's
         assert_eq!((model.clone(), removed), (vec![0, 1], vec![2]));
         assert_eq!(current, design.fit(&model).expect("fits"));
+        // AND a term it is told to keep (a term just swapped in for a product) stays
+        let (mut model, mut removed) = (vec![0, 1, 2], Vec::new());
+        let mut current = design.fit(&model).expect("fits");
+        removal_step(&design, 2, &mut model, &mut removed, &mut current, (18.0, 2.4), &[2]);
+        assert_eq!((model.clone(), removed), (vec![0, 1, 2], Vec::<usize>::new()));
         // AND with C = 1 + 2α + 40·α·q + noise it stays
         let (design, _) = hierarchy_case(0.0, |a, q| 1.0 + 2.0 * a + 40.0 * a * q, 52);
         let (mut model, mut removed) = (vec![0, 1, 2], Vec::new());
         let mut current = design.fit(&model).expect("fits");
-        removal_step(&design, 2, &mut model, &mut removed, &mut current, (18.0, 2.4));
+        removal_step(&design, 2, &mut model, &mut removed, &mut current, (18.0, 2.4), &[]);
         assert_eq!((model, removed), (vec![0, 1, 2], Vec::<usize>::new()));
     }
 }
