@@ -495,6 +495,27 @@ fn on_the_jsbsim_flights_table_effects_are_found_and_no_sensor_error_is_invented
         let header = std::fs::read_to_string(&table).expect("table written");
         assert!(header.starts_with("t_s,z:C_L,z:C_D"), "{}", table.display());
     }
+    // AND the drag polar's C_L², beside α and α² in the C_D baseline, is reported as not excited
+    // beyond its own measurement error (regular normal equations before the errors-in-variables
+    // correction), not as collinear, on a clean flight
+    let report: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(out.join("reports/jsbsim_clean_s1.json")).expect("report written"),
+    )
+    .expect("report is JSON");
+    let cd = report["coefficients"]
+        .as_array()
+        .and_then(|c| c.iter().find(|c| c["name"] == "C_D"))
+        .expect("C_D analysed");
+    let cl2 = cd["candidates"]
+        .as_array()
+        .and_then(|c| c.iter().find(|k| k["term"] == "C_L²"))
+        .expect("C_L² listed");
+    assert!(
+        cl2["reason"]
+            .as_str()
+            .is_some_and(|r| r.contains("beyond its measurement error")),
+        "{cl2}"
+    );
     let named = |id: &str| -> Vec<(String, String, String)> {
         let f = flights.iter().find(|f| f["id"] == id).expect("flight present");
         f["aerosid"]["named"]

@@ -1529,6 +1529,9 @@ fn stepwise(
                 Err(e) => {
                     if first {
                         let why = match e {
+                            select::Unfit::NotPositiveDefinite if design.regular_without_errors(&trial) => {
+                                "not excited beyond its measurement error given the model: the errors-in-variables correction leaves singular normal equations"
+                            }
                             select::Unfit::NotPositiveDefinite => {
                                 "collinear with the model or not excited (singular normal equations)"
                             }

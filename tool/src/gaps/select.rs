@@ -193,6 +193,27 @@ impl Design {
         (a, c, n)
     }
 
+    /// Whether `cols` has regular normal equations over all blocks before the errors-in-variables
+    /// correction: when [`Self::fit`] finds them singular but this holds, the columns do vary
+    /// independently, only not beyond their own measurement error.
+    pub fn regular_without_errors(&self, cols: &[usize]) -> bool {
+        if cols.iter().any(|&c| c >= self.p) {
+            return false;
+        }
+        let k = cols.len();
+        let mut a = DMatrix::zeros(k, k);
+        let mut c = DVector::zeros(k);
+        for g in &self.grams {
+            for (r, &i) in cols.iter().enumerate() {
+                c[r] += g[(i, self.p)];
+                for (q, &j) in cols.iter().enumerate() {
+                    a[(r, q)] += g[(i, j)];
+                }
+            }
+        }
+        Self::solve(a, &c).is_some()
+    }
+
     fn solve(a: DMatrix<f64>, c: &DVector<f64>) -> Option<(DVector<f64>, DMatrix<f64>)> {
         // Equilibrate so that the positive-definiteness test does not depend on column scales.
         let d: Vec<f64> = (0..a.nrows()).map(|i| a[(i, i)].max(0.0).sqrt()).collect();
