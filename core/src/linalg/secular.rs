@@ -728,7 +728,7 @@ fn steady_update_in<T: Real, const M: usize, const LOCK_STEP: bool>(
 /// So: in turn on bare-metal targets, in lock step elsewhere.
 pub const ROOTS_IN_LOCK_STEP: bool = cfg!(not(target_os = "none"));
 
-/// Root `r`'s start for [`steady_roots`]: `(origin, t, lo, hi, mid)`. Root `r` lies in
+/// Root `r`'s start for [`steady_roots_in_lock_step`]: `(origin, t, lo, hi, mid)`. Root `r` lies in
 /// `(δ_r, δ_{r+1})` (the last in `(δ_r, δ_r + ‖z‖²]`); its origin is the pole it is nearer to; the
 /// start is that pole's first-order offset, or (when neither pole's first-order root falls in its
 /// half of the gap) the midpoint, whose sign of `f` decides (one evaluation, counted in `out`).
