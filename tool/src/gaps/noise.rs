@@ -152,6 +152,12 @@ pub struct Synthesis<'a> {
     pub n_id: usize,
 }
 
+/// Samples synthesised beyond the identification segment in a replica: 2 s, and at least four
+/// smoothing half-widths.
+fn replica_margin(h_s: f64, sg_half: usize) -> usize {
+    ((2.0 / h_s).ceil() as usize).max(4 * sg_half)
+}
+
 /// The error moments of every coefficient's `terms` (`None` where the coefficient is absent).
 pub fn column_errors(
     s: &Synthesis,
@@ -173,14 +179,26 @@ pub fn column_errors(
         .map(|i| nominal[i].as_ref().map(|_| vec![0.0; (terms[i].len() + 1).pow(2)]))
         .collect();
     let mut count = 0usize;
+    // With measured air data a replica is synthesised over the identification segment and a
+    // margin: the moments are taken over `0..n_id`, and the synthesis is local within a few
+    // smoothing half-widths (the Savitzky–Golay filters, the derivatives). A reconstruction is
+    // not: its segments and their initial states span the whole flight, which is kept.
+    let n_keep = match s.compat {
+        None => (n_id + replica_margin(s.h_s, s.sg_half)).min(s.flight.len()),
+        Some(_) => s.flight.len(),
+    };
     for r in 0..mc.replicas {
         let mut rng = ChaCha8Rng::seed_from_u64(mc.seed.wrapping_add(r as u64));
         let mut pert = s.flight.clone();
+        pert.t_s.truncate(n_keep);
         for (q, v) in pert.channels.iter_mut() {
             let sd = noise.get(q).copied().unwrap_or(0.0);
-            if sd > 0.0 {
-                for x in v.iter_mut() {
-                    let e: f64 = StandardNormal.sample(&mut rng);
+            // The whole flight's draws, so that a replica's noise does not depend on the margin.
+            let draws = if sd > 0.0 { v.len() } else { 0 };
+            v.truncate(n_keep);
+            for j in 0..draws {
+                let e: f64 = StandardNormal.sample(&mut rng);
+                if let Some(x) = v.get_mut(j) {
                     *x += sd * e;
                 }
             }
@@ -192,6 +210,8 @@ pub fn column_errors(
         });
         let tk = synthesise(&pert, s.h_s, s.corrections, s.sg_half, air.as_ref());
         count += n_id;
+        // Each term's replica column once (the coefficients share most of their terms).
+        let mut columns: BTreeMap<Term, Option<Vec<f64>>> = BTreeMap::new();
         for i in 0..6 {
             let (Some(nom), Some(sum), Some(z0), Some(zk)) = (&nominal[i], &mut sums[i], &table.z[i], &tk.z[i]) else {
                 continue;
@@ -201,7 +221,8 @@ pub fn column_errors(
             // cache-blocked, vectorised matrix product.
             let mut d = Vec::with_capacity(k * n_id);
             for (t, c0) in terms[i].iter().zip(nom) {
-                match (c0, t.column(&tk, s.refs)) {
+                let ck = columns.entry(*t).or_insert_with(|| t.column(&tk, s.refs));
+                match (c0, ck) {
                     (Some(c0), Some(ck)) => d.extend((0..n_id).map(|j| ck[j] - c0[j])),
                     _ => d.extend(core::iter::repeat_n(0.0, n_id)),
                 }
@@ -241,4 +262,42 @@ pub fn column_errors(
         });
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The premise of the replicas' margin: the synthesis of a flight cut `replica_margin` samples
+    /// after the identification segment equals the whole flight's on that segment, to the bit.
+    #[test]
+    fn a_flight_cut_after_the_margin_synthesises_the_same_identification_segment() {
+        let flight = super::super::hidden::flight(None, 30.0, 11, true).expect("simulated flight");
+        let h_s = flight.t_s[1] - flight.t_s[0];
+        let sg_half = (super::super::GapSettings::default().smoothing_half_width_s / h_s).round() as usize;
+        let n_id = flight.len() * 6 / 10;
+        let keep = n_id + replica_margin(h_s, sg_half);
+        assert!(keep < flight.len(), "the test needs a cut inside the flight");
+        let mut cut = flight.clone();
+        cut.t_s.truncate(keep);
+        for v in cut.channels.values_mut() {
+            v.truncate(keep);
+        }
+        let corr = Corrections::default();
+        let (whole, part) = (
+            synthesise(&flight, h_s, &corr, sg_half, None),
+            synthesise(&cut, h_s, &corr, sg_half, None),
+        );
+        for i in 0..6 {
+            let (a, b) = (
+                whole.z[i].as_ref().expect("coefficient"),
+                part.z[i].as_ref().expect("coefficient"),
+            );
+            assert_eq!(a[..n_id], b[..n_id], "coefficient {i}");
+        }
+        assert_eq!(whole.signals.len(), part.signals.len());
+        for (s, a) in &whole.signals {
+            assert_eq!(a[..n_id], part.signals[s][..n_id], "{s:?}");
+        }
+    }
 }

@@ -306,7 +306,8 @@ fn column_scales(cols: &[Vec<f64>], n: usize) -> Option<Vec<f64>> {
 /// (`None`) when a column's part orthogonal to the others is below `1e-9` of the largest `|R_ii|`:
 /// the dependence test shared by [`ols`], [`ols_theta`] and [`Basis`].
 struct ScaledQr {
-    x: DMatrix<f64>,
+    /// The scaled columns, when asked for (`new_keeping_x`): only the residual needs them.
+    x: Option<DMatrix<f64>>,
     qr: nalgebra::linalg::QR<f64, nalgebra::Dyn, nalgebra::Dyn>,
     r: DMatrix<f64>,
     scale: Vec<f64>,
@@ -315,10 +316,22 @@ struct ScaledQr {
 
 impl ScaledQr {
     fn new(cols: &[Vec<f64>], n: usize) -> Option<Self> {
+        Self::factor(cols, n, false)
+    }
+
+    fn new_keeping_x(cols: &[Vec<f64>], n: usize) -> Option<Self> {
+        Self::factor(cols, n, true)
+    }
+
+    fn factor(cols: &[Vec<f64>], n: usize, keep_x: bool) -> Option<Self> {
         let p = cols.len();
         let scale = column_scales(cols, n)?;
         let x = DMatrix::from_fn(n, p, |i, j| cols[j][i] / scale[j]);
-        let qr = x.clone().qr();
+        let (x, qr) = if keep_x {
+            (Some(x.clone()), x.qr())
+        } else {
+            (None, x.qr())
+        };
         let r = qr.r();
         let rdiag_max = (0..p).map(|i| r[(i, i)].abs()).fold(0.0, f64::max);
         if (0..p).any(|i| r[(i, i)].abs() < 1e-9 * rdiag_max.max(1e-300)) {
@@ -342,15 +355,18 @@ pub fn ols_sigma(cols: &[Vec<f64>], z: &[f64], block_len: usize, max_lag: usize,
     if p == 0 || n <= p || cols.iter().any(|c| c.len() != n) {
         return None;
     }
-    let ScaledQr { x, qr, r, scale, .. } = ScaledQr::new(cols, n)?;
-    let qtz = qr.q().transpose() * DVector::from_column_slice(z);
+    let ScaledQr { x, qr, r, scale, .. } = ScaledQr::new_keeping_x(cols, n)?;
+    let x = x?;
+    // Q formed once: for `Qᵀz` and for the weight series below.
+    let q = qr.q();
+    let qtz = q.transpose() * DVector::from_column_slice(z);
     let ts = r.solve_upper_triangular(&qtz)?;
     let residual: Vec<f64> = (0..n)
         .map(|i| z[i] - (0..p).map(|j| x[(i, j)] * ts[j]).sum::<f64>())
         .collect();
     // W = X (XᵀX)⁻¹ = Q R⁻ᵀ: column j of W is the weight series of parameter j.
     let rinv = r.clone().try_inverse()?;
-    let w = qr.q() * rinv.transpose();
+    let w = q * rinv.transpose();
     let mut theta = vec![0.0; p];
     let mut sigma = vec![0.0; p];
     let lags = ResidualLags::new(&residual, block_len, max_lag);
