@@ -567,6 +567,24 @@ fn on_the_jsbsim_flights_table_effects_are_found_and_no_sensor_error_is_invented
             "{id}: {n:?}"
         );
     }
+    // AND where the held-out test alone chose between two significant terms, the report shows
+    // the one it passed over: on the α̇ flight ΔV/V is named in C_m, and the planted α̇ (which
+    // in its place is as significant, with the planted value) is listed as its rival
+    let report: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(out.join("reports").join("jsbsim_alphadot_Cm.json")).expect("report written"),
+    )
+    .expect("report is JSON");
+    let rivals: Vec<&str> = report["coefficients"]
+        .as_array()
+        .into_iter()
+        .flatten()
+        .filter(|c| c["name"] == "C_m")
+        .flat_map(|c| c["added"].as_array().into_iter().flatten())
+        .filter(|a| a["term"] == "ΔV/V")
+        .flat_map(|a| a["rivals"].as_array().into_iter().flatten())
+        .filter_map(|r| r["term"].as_str())
+        .collect();
+    assert!(rivals.contains(&"α̇_n"), "{rivals:?}");
     // (once: C_m and C_D both show it, and a surface has one delay)
     let delay = named("jsbsim/elevator_delay");
     assert_eq!(

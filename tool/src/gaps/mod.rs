@@ -264,6 +264,18 @@ pub struct ModelFit {
     pub validation: Metrics,
 }
 
+/// A candidate significant in place of an added term, rejected by the held-out test alone.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct Rival {
+    /// The candidate.
+    pub term: String,
+    /// Its partial `t²` in the added term's place.
+    pub t2: f64,
+    /// The held-out comparison of the model with it against the model as selected (sign-flip
+    /// `z`; negative: it predicts worse, beyond the critical value).
+    pub cv_z: f64,
+}
+
 /// A term added to a coefficient's model.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct Added {
@@ -283,6 +295,9 @@ pub struct Added {
     /// Candidates the data cannot tell apart from this term (in its place they predict the
     /// held-out blocks not significantly worse).
     pub alternatives: Vec<String>,
+    /// Candidates that, in its place, would also pass the `t²` test but predict the held-out
+    /// blocks significantly worse: the held-out test alone chose this term over them.
+    pub rivals: Vec<Rival>,
     /// For a surface-rate term (a delay of that surface): the delay by an exact shift, s — the
     /// model with `δ(t−τ)` in place of `δ` and its rate term, `τ` of least identification error
     /// ([`exact_surface_delay`]); the rate term's `τ = −θ_δ̇/θ_δ` is its first-order estimate.
@@ -1051,7 +1066,7 @@ fn analyse_coefficient(
     }
     let sel = stepwise(i, zc, h_s, &terms, &cols_full, &library, errors, p_test, settings);
     candidates.extend(sel.candidates);
-    let mut added_terms: Vec<(Term, f64, f64, Vec<Term>)> = sel.added;
+    let mut added_terms: Vec<AddedTerm> = sel.added;
     let (exact_delays, delay_notes) = refine_surface_delays(
         &mut added_terms,
         &terms,
@@ -1064,13 +1079,13 @@ fn analyse_coefficient(
         sel.threshold_t2,
     );
     let notes: Vec<String> = sel.notes.into_iter().chain(delay_notes).collect();
-    for (t, _, _, _) in &added_terms {
+    for (t, ..) in &added_terms {
         if let Some((_, c)) = library.iter().find(|(x, _)| x == t) {
             terms.push(*t);
             cols_full.push(c.clone());
         }
     }
-    let added: Vec<(Term, f64)> = added_terms.iter().map(|(t, t2, _, _)| (*t, *t2)).collect();
+    let added: Vec<(Term, f64)> = added_terms.iter().map(|(t, t2, ..)| (*t, *t2)).collect();
     candidates.sort_by(|a, b| b.t2.total_cmp(&a.t2));
     let (extended, ext_pred, ext_fit) = fit_model(&cols_full, &terms)?;
     let p0 = terms.len() - added.len();
@@ -1085,6 +1100,15 @@ fn analyse_coefficient(
             sigma: ext_fit.sigma[p0 + k],
             cv_gain: added_terms[k].2,
             alternatives: added_terms[k].3.iter().map(|a| a.name().to_string()).collect(),
+            rivals: added_terms[k]
+                .4
+                .iter()
+                .map(|(r, t2, z)| Rival {
+                    term: r.name().into(),
+                    t2: *t2,
+                    cv_z: *z,
+                })
+                .collect(),
             exact_delay_s: exact_delays.iter().find(|(x, _)| x == t).map(|(_, tau)| *tau),
         })
         .collect();
@@ -1124,7 +1148,7 @@ fn analyse_coefficient(
 /// exact delays per rate term and the notes.
 #[allow(clippy::too_many_arguments)]
 fn refine_surface_delays(
-    added: &mut Vec<(Term, f64, f64, Vec<Term>)>,
+    added: &mut Vec<AddedTerm>,
     terms: &[Term],
     cols_full: &[Vec<f64>],
     library: &[(Term, Vec<f64>)],
@@ -1392,12 +1416,16 @@ fn baseline_unfit_reason(e: select::Unfit, excitation: impl Iterator<Item = (Ter
     }
 }
 
+/// An added term: (term, `t²` in the final joint fit, held-out gain relative to the model
+/// without it, the candidates the data cannot tell apart from it, its rivals as
+/// `(term, t², held-out z)`: see [`Added::rivals`]).
+type AddedTerm = (Term, f64, f64, Vec<Term>, Vec<(Term, f64, f64)>);
+
 /// The outcome of the stepwise selection of one coefficient.
 struct Selection {
     candidates: Vec<CandidateScore>,
-    /// Added terms: (term, `t²` in the final joint fit, held-out gain relative to the model
-    /// without it, the candidates the data cannot tell apart from it).
-    added: Vec<(Term, f64, f64, Vec<Term>)>,
+    /// Added terms.
+    added: Vec<AddedTerm>,
     verdict: String,
     cv_r2_baseline: f64,
     cv_r2_extended: f64,
@@ -1627,8 +1655,9 @@ fn stepwise(
     }
     // What the data cannot tell apart: a candidate that, in place of an added term, predicts
     // the held-out blocks not significantly worse and is itself significant.
+    // And the rivals: significant in its place too, but predicting significantly worse.
     for (k, &a) in model.iter().enumerate().skip(nb) {
-        let mut alternatives = Vec::new();
+        let (mut alternatives, mut rivals) = (Vec::new(), Vec::new());
         for j in nb..p {
             if model.contains(&j) {
                 continue;
@@ -1636,15 +1665,19 @@ fn stepwise(
             let swapped: Vec<usize> = model.iter().map(|&x| if x == a { j } else { x }).collect();
             let Ok(f) = design.fit(&swapped) else { continue };
             let (z, _) = select::gain(&current.cv_sse, &f.cv_sse);
-            if z > -gain_crit && f.t2(k) > threshold_t2 {
-                alternatives.push(terms[j]);
+            if f.t2(k) > threshold_t2 {
+                if z > -gain_crit {
+                    alternatives.push(terms[j]);
+                } else {
+                    rivals.push((terms[j], f.t2(k), z));
+                }
             }
         }
         let without: Vec<usize> = model.iter().copied().filter(|&x| x != a).collect();
         let rel = design
             .fit(&without)
             .map_or(f64::NAN, |w| select::gain(&w.cv_sse, &current.cv_sse).1);
-        out.added.push((terms[a], current.t2(k), rel, alternatives));
+        out.added.push((terms[a], current.t2(k), rel, alternatives, rivals));
     }
     out.verdict = if !predictive {
         format!(
@@ -1941,9 +1974,9 @@ mod tests {
             (Term::Alpha2, s.clone()),
         ];
         let mut added = vec![
-            (Term::ElevatorRate, 900.0, 0.3, Vec::new()),
-            (Term::AlphaDot, 60.0, 0.05, Vec::new()),
-            (Term::Alpha2, 400.0, 0.1, Vec::new()),
+            (Term::ElevatorRate, 900.0, 0.3, Vec::new(), Vec::new()),
+            (Term::AlphaDot, 60.0, 0.05, Vec::new(), Vec::new()),
+            (Term::Alpha2, 400.0, 0.1, Vec::new(), Vec::new()),
         ];
         // WHEN the delay is refined
         let (delays, notes) = refine_surface_delays(&mut added, &terms, &cols, &library, &z, n, h, 50, 18.0);

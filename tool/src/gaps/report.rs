@@ -171,6 +171,19 @@ pub fn table(r: &GapReport) -> String {
                 a.alternatives.join(", ")
             );
         }
+        for a in c.added.iter().filter(|a| !a.rivals.is_empty()) {
+            let r: Vec<String> = a
+                .rivals
+                .iter()
+                .map(|r| format!("{} (t² {:.0}, held-out z {:.1})", r.term, r.t2, r.cv_z))
+                .collect();
+            let _ = writeln!(
+                s,
+                "         {} predicts the held-out blocks better than (each significant in its place): {}",
+                a.term,
+                r.join(", ")
+            );
+        }
         for n in &c.notes {
             let _ = writeln!(s, "         {n}");
         }
