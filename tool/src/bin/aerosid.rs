@@ -549,6 +549,27 @@ struct GapsArgs {
     /// `off` skips the flight-path reconstruction (the data are used as they are).
     #[arg(long, value_enum, default_value_t = OnOff::On)]
     compatibility: OnOff,
+    /// The highest rate the analysis runs at, Hz: data logged twice as fast or faster are averaged
+    /// in blocks of ⌊rate/cap⌋ samples first (docs/model-gaps.md, "Analysis rate"); `native`
+    /// analyses them as logged
+    #[arg(long, value_name = "HZ", default_value = "50", value_parser = max_rate_parser)]
+    max_rate: MaxRate,
+}
+
+/// `--max-rate`: a cap in Hz, or none (`native`).
+#[derive(Debug, Clone, Copy)]
+struct MaxRate(Option<f64>);
+
+/// `--max-rate`: a positive finite rate in Hz, or `native` (no cap).
+fn max_rate_parser(s: &str) -> Result<MaxRate, String> {
+    if s == "native" {
+        return Ok(MaxRate(None));
+    }
+    s.parse::<f64>()
+        .ok()
+        .filter(|v| v.is_finite() && *v > 0.0)
+        .map(|v| MaxRate(Some(v)))
+        .ok_or_else(|| format!("`{s}` is neither a positive rate in Hz nor `native`"))
 }
 
 /// A finite number of seconds (`--from`, `--to`).
@@ -635,6 +656,7 @@ impl Execute for GapsArgs {
             apply_corrections: !self.no_corrections,
             compatibility: matches!(self.compatibility, OnOff::On),
             baseline: self.baseline.clone(),
+            max_rate_hz: self.max_rate.0,
             ..aerosid::gaps::GapSettings::default()
         };
         let opts = match self.read_options() {
