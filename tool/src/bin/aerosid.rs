@@ -552,13 +552,22 @@ struct GapsArgs {
     /// The highest rate the analysis runs at, Hz: data logged twice as fast or faster are averaged
     /// in blocks of ⌊rate/cap⌋ samples first (docs/model-gaps.md, "Analysis rate"); `native`
     /// analyses them as logged
-    #[arg(long, value_name = "HZ", default_value = "50", value_parser = max_rate_parser)]
+    #[arg(long, value_name = "HZ", default_value_t = MaxRate(Some(aerosid::gaps::MAX_ANALYSIS_RATE_HZ)), value_parser = max_rate_parser)]
     max_rate: MaxRate,
 }
 
 /// `--max-rate`: a cap in Hz, or none (`native`).
 #[derive(Debug, Clone, Copy)]
 struct MaxRate(Option<f64>);
+
+impl std::fmt::Display for MaxRate {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self.0 {
+            Some(hz) => write!(f, "{hz}"),
+            None => f.write_str("native"),
+        }
+    }
+}
 
 /// `--max-rate`: a positive finite rate in Hz, or `native` (no cap).
 fn max_rate_parser(s: &str) -> Result<MaxRate, String> {

@@ -471,23 +471,21 @@ fn param_kind(p: &SensorParam) -> CauseKind {
 }
 
 /// The flight at the analysis rate: its block means ([`MeasuredFlight::block_means`]) when it was
-/// logged at twice `max_rate_hz` or faster, with the report's note saying so; `(None, None)` when
+/// logged at twice `max_rate_hz` or faster, with the report's note saying so; `None` when
 /// it is analysed as logged (slower, no cap, or fewer than [`MIN_SAMPLES`] samples after
 /// averaging). The time base is uniform ([`check_input`] passed).
-fn at_analysis_rate(flight: &MeasuredFlight, max_rate_hz: Option<f64>) -> (Option<MeasuredFlight>, Option<String>) {
+fn at_analysis_rate(flight: &MeasuredFlight, max_rate_hz: Option<f64>) -> Option<(MeasuredFlight, String)> {
     let n = flight.len();
-    let Some(cap) = max_rate_hz.filter(|c| c.is_finite() && *c > 0.0) else {
-        return (None, None);
-    };
+    let cap = max_rate_hz.filter(|c| c.is_finite() && *c > 0.0)?;
     if n < 2 {
-        return (None, None);
+        return None;
     }
     let h = (flight.t_s[n - 1] - flight.t_s[0]) / (n - 1) as f64;
     let rate = 1.0 / h;
     // A relative tolerance: 100 Hz logged as steps of 0.010000001 s is still twice 50 Hz.
     let k = (rate / cap * (1.0 + 1e-6)).floor();
     if k < 2.0 || k.is_nan() || n / (k as usize) < MIN_SAMPLES {
-        return (None, None);
+        return None;
     }
     let k = k as usize;
     let note = format!(
@@ -495,7 +493,7 @@ fn at_analysis_rate(flight: &MeasuredFlight, max_rate_hz: Option<f64>) -> (Optio
         rate / k as f64,
         rate
     );
-    (Some(flight.block_means(k)), Some(note))
+    Some((flight.block_means(k), note))
 }
 
 /// Fewest samples the analysis runs on.
@@ -550,12 +548,12 @@ fn percentile(x: &[f64], p: f64) -> f64 {
 /// The analysis of a measured flight (the hook every front end calls: simulated flights, and file
 /// readers producing [`MeasuredFlight`]).
 pub fn run_gaps(flight: &MeasuredFlight, settings: &GapSettings) -> Result<GapReport, GapError> {
-    // α and β: the vanes, or the α-free estimate, as `flow_angles` asks (the data-quality
-    // assessment below reads what was done from the flight's metadata).
     // The input's errors name its own samples: checked before the rate changes.
     check_input(flight)?;
-    let (decimated, rate_note) = at_analysis_rate(flight, settings.max_rate_hz);
+    let (decimated, rate_note) = at_analysis_rate(flight, settings.max_rate_hz).unzip();
     let flight = decimated.as_ref().unwrap_or(flight);
+    // α and β: the vanes, or the α-free estimate, as `flow_angles` asks (the data-quality
+    // assessment below reads what was done from the flight's metadata).
     let prepared = crate::io::flow_angles::prepare(flight, settings.flow_angles, &WindFitSettings::default());
     let flight = &prepared;
     let alpha_estimated = flight.log.flow_angles.as_ref().is_some_and(|f| f.status == "estimated");
@@ -2016,8 +2014,7 @@ mod tests {
         // GIVEN 100 s at 200 Hz and the default cap of 50 Hz
         let f = uniform(20_001, 0.005);
         // WHEN brought to the analysis rate
-        let (g, note) = at_analysis_rate(&f, Some(MAX_ANALYSIS_RATE_HZ));
-        let (g, note) = (g.expect("averaged"), note.expect("said"));
+        let (g, note) = at_analysis_rate(&f, Some(MAX_ANALYSIS_RATE_HZ)).expect("averaged");
         // THEN blocks of 4: 5 000 samples (the last, incomplete block dropped) 0.02 s apart,
         // stamped at their blocks' mean time, and the report's note says so
         assert_eq!(g.len(), 5_000);
@@ -2056,11 +2053,11 @@ mod tests {
         for (rate, averaged) in [(50.0, false), (99.0, false), (100.0, true)] {
             let f = uniform(2_000, 1.0 / rate);
             // WHEN brought to the analysis rate THEN only twice the cap or more is averaged
-            assert_eq!(at_analysis_rate(&f, Some(50.0)).0.is_some(), averaged, "{rate} Hz");
+            assert_eq!(at_analysis_rate(&f, Some(50.0)).is_some(), averaged, "{rate} Hz");
             // AND no cap, or a result shorter than the analysis needs, keeps the flight as logged
-            assert!(at_analysis_rate(&f, None).0.is_none());
+            assert!(at_analysis_rate(&f, None).is_none());
         }
-        assert!(at_analysis_rate(&uniform(600, 0.005), Some(50.0)).0.is_none());
+        assert!(at_analysis_rate(&uniform(600, 0.005), Some(50.0)).is_none());
     }
 
     #[test]

@@ -224,38 +224,47 @@ impl MeasuredFlight {
     /// `sin(πfk h)/(k sin(πf h))`, 1 at 0, ≥ 0.97 up to a tenth of the new rate and 0 at the
     /// new rate itself, folding back only what lies between half the new rate and it.
     pub fn block_means(&self, k: usize) -> MeasuredFlight {
-        let mut out = self.clone();
         if k <= 1 {
-            return out;
+            return self.clone();
         }
+        use core::f64::consts::{PI, TAU};
         let m = self.len() / k;
-        let mean = |v: &[f64], i: usize| v[i * k..(i + 1) * k].iter().sum::<f64>() / k as f64;
-        out.t_s = (0..m).map(|i| mean(&self.t_s, i)).collect();
-        for (q, v) in out.channels.iter_mut() {
-            let angle = matches!(q, Quantity::Roll | Quantity::Pitch | Quantity::Yaw);
-            *v = (0..m)
-                .map(|i| {
-                    let block = &self.channels[q][i * k..(i + 1) * k];
-                    if !angle {
-                        return block.iter().sum::<f64>() / k as f64;
-                    }
-                    let tau = core::f64::consts::TAU;
-                    let first = block[0];
-                    let s: f64 = block
-                        .iter()
-                        .map(|a| first + (a - first + core::f64::consts::PI).rem_euclid(tau) - core::f64::consts::PI)
-                        .sum();
-                    let a = s / k as f64;
-                    // Back into the range the first sample was in (±π for a wrapped yaw).
-                    if (-core::f64::consts::PI..=core::f64::consts::PI).contains(&first) {
-                        (a + core::f64::consts::PI).rem_euclid(tau) - core::f64::consts::PI
-                    } else {
-                        a
-                    }
-                })
-                .collect();
+        let blocks = |v: &[f64]| -> Vec<Vec<f64>> { v.chunks_exact(k).take(m).map(<[f64]>::to_vec).collect() };
+        let mean = |b: &[f64]| b.iter().sum::<f64>() / k as f64;
+        // An angle's samples taken within ±π of the block's first, their mean wrapped back to ±π
+        // when the first sample was there.
+        let angle_mean = |b: &[f64]| {
+            let first = b[0];
+            let a = mean(
+                &b.iter()
+                    .map(|x| first + (x - first + PI).rem_euclid(TAU) - PI)
+                    .collect::<Vec<_>>(),
+            );
+            if (-PI..=PI).contains(&first) {
+                (a + PI).rem_euclid(TAU) - PI
+            } else {
+                a
+            }
+        };
+        let channels = self
+            .channels
+            .iter()
+            .map(|(q, v)| {
+                let angle = matches!(q, Quantity::Roll | Quantity::Pitch | Quantity::Yaw);
+                let avg = blocks(v)
+                    .iter()
+                    .map(|b| if angle { angle_mean(b) } else { mean(b) })
+                    .collect();
+                (*q, avg)
+            })
+            .collect();
+        MeasuredFlight {
+            source: self.source.clone(),
+            t_s: blocks(&self.t_s).iter().map(|b| mean(b)).collect(),
+            channels,
+            aircraft: self.aircraft.clone(),
+            log: self.log.clone(),
         }
-        out
     }
 
     /// Number of samples.
