@@ -38,7 +38,7 @@
 //! interpolated linearly between samples.
 
 use super::regress::{ols, ols_theta, partial_test_against, Basis};
-use super::signal::{mean, shift};
+use super::signal::{mean, shift, sin_cos};
 use crate::io::measured::{MeasuredFlight, Quantity};
 use nalgebra::Vector3;
 
@@ -1135,8 +1135,8 @@ fn velocity_problem(flight: &MeasuredFlight, h_s: f64, gyro_bias: [f64; 3]) -> O
         .map(|&(a, b)| {
             integrate([0.0; 3], a, b, h_s, |x, k, fr| {
                 let [sf, cf, st, ct] = attitude.at(k, fr).unwrap_or_else(|| {
-                    let (sf, cf) = lerp(&phi_m, k, fr).sin_cos();
-                    let (st, ct) = lerp(theta_m, k, fr).sin_cos();
+                    let (sf, cf) = sin_cos(lerp(&phi_m, k, fr));
+                    let (st, ct) = sin_cos(lerp(theta_m, k, fr));
                     [sf, cf, st, ct]
                 });
                 let acc = Vector3::new(lerp(ax, k, fr), lerp(&ay, k, fr), lerp(az, k, fr));
@@ -1435,8 +1435,8 @@ struct AttitudeTable {
 impl AttitudeTable {
     fn new(phi: &[f64], theta: &[f64]) -> Self {
         let sc = |f: f64, t: f64| {
-            let (sf, cf) = f.sin_cos();
-            let (st, ct) = t.sin_cos();
+            let (sf, cf) = sin_cos(f);
+            let (st, ct) = sin_cos(t);
             [sf, cf, st, ct]
         };
         let n = phi.len();
@@ -1586,8 +1586,8 @@ fn attitude_problem(flight: &MeasuredFlight, h_s: f64) -> Option<(Problem<'_>, V
             db[4] = -1.0;
             return ([0.0, qq, 0.0], [0.0; 9], db);
         }
-        let (sf, cf) = x[0].sin_cos();
-        let (st, ct) = x[1].sin_cos();
+        let (sf, cf) = sin_cos(x[0]);
+        let (st, ct) = sin_cos(x[1]);
         // At θ = ±90° the equations are singular; `cos θ` is held at ±10⁻³ there (never reached
         // in flight), and the Jacobian is that of the held form.
         let ct = if ct.abs() < 1e-3 { 1e-3f64.copysign(ct) } else { ct };

@@ -215,7 +215,11 @@ pub fn check_channel(
     }
     // First stage in the band: the band's reconstruction projected on the band's instruments
     // (two-stage least squares on the high-passed signals).
-    let zh: Vec<Vec<f64>> = z.iter().map(|c| high_pass(c, h_s)).collect();
+    let zh: Vec<Vec<f64>> = super::airdata::low_pass_all(&z, BAND_HZ, h_s)
+        .into_iter()
+        .zip(&z)
+        .map(|(lp, c)| c.iter().zip(lp).map(|(a, b)| a - b).collect())
+        .collect();
     let kh = high_pass(kinematic, h_s);
     let kk: f64 = kh.iter().map(|v| v * v).sum();
     let fitted: Option<Vec<f64>> = super::regress::ols_theta(&zh, &kh).map(|th| {

@@ -22,7 +22,7 @@
 //! A coefficient is synthesised only when its channels are present: `C_L`, `C_D` need `a_x`, `a_z`,
 //! `V`, `α`; `C_m` needs `q`, `V`; `C_Y` needs `a_y`; `C_l`, `C_n` need `p`, `r` (plus `q`).
 
-use super::signal::{derivative, sg_smooth, shift};
+use super::signal::{derivative, sg_smooth, shift, sin_cos};
 use crate::io::measured::{MeasuredFlight, Quantity, ThrustSource};
 use crate::sim::atmosphere::isa_density;
 use aerosid_core::aero::synthesis::{propeller_output, propulsion_force_moment};
@@ -274,7 +274,8 @@ pub fn synthesise(
         let vv = v_raw.as_ref()?[i];
         let al = a_raw.as_ref().map_or(0.0, |a| a[i]);
         let be = b_raw.as_ref().map_or(0.0, |b| b[i]);
-        Some(Vector3::new(al.cos() * be.cos(), be.sin(), al.sin() * be.cos()) * vv)
+        let ((sa, ca), (sb, cb)) = (sin_cos(al), sin_cos(be));
+        Some(Vector3::new(ca * cb, sb, sa * cb) * vv)
     };
     let dx = |ch: Quantity| Vector3::new(corr.vane_dx_m.get(&ch).copied().unwrap_or(0.0), 0.0, 0.0);
     let r_alpha = ac.alpha_vane_position_m + dx(Alpha);
@@ -412,9 +413,9 @@ pub fn synthesise(
         },
         ThrustSource::Propeller(prop) => match sm(raw(PropSpeed)) {
             Some(w) => {
+                let (sp, cp) = sin_cos(prop.pitch_rad);
                 for i in 0..n {
-                    let (sa, ca) = al[i].sin_cos();
-                    let (sp, cp) = prop.pitch_rad.sin_cos();
+                    let (sa, ca) = sin_cos(al[i]);
                     let axial = vv[i] * be[i].cos() * (ca * cp - sa * sp);
                     let o = propeller_output(prop, rho_v[i], axial, w[i]);
                     let (f, m) = propulsion_force_moment(prop, &o, -1.0);
@@ -455,7 +456,7 @@ pub fn synthesise(
             };
             let fx = ac.mass_kg * ax - f_t[i].x;
             let fz = ac.mass_kg * az - f_t[i].z;
-            let (sa, ca) = al[i].sin_cos();
+            let (sa, ca) = sin_cos(al[i]);
             cd[i] = -(fx * ca + fz * sa) / qs[i];
             cl[i] = (fx * sa - fz * ca) / qs[i];
         }
@@ -564,13 +565,14 @@ pub fn synthesise(
             let ay = accel(i, &ays, 1).unwrap_or(0.0);
             let (p, q, r) = (pw[i], qw[i], rw[i]);
             let vt = vv[i];
-            let (sa, ca) = al[i].sin_cos();
-            let (sb, cb) = be[i].sin_cos();
+            let (sa, ca) = sin_cos(al[i]);
+            let (sb, cb) = sin_cos(be[i]);
             let (u, v, w) = (vt * ca * cb, vt * sb, vt * sa * cb);
             let g = 9.806_65;
-            let udot = ax - g * th[i].sin() + r * v - q * w;
-            let vdot = ay + g * th[i].cos() * ph[i].sin() + p * w - r * u;
-            let wdot = az + g * th[i].cos() * ph[i].cos() + q * u - p * v;
+            let ((st, ct), (sp, cp)) = (sin_cos(th[i]), sin_cos(ph[i]));
+            let udot = ax - g * st + r * v - q * w;
+            let vdot = ay + g * ct * sp + p * w - r * u;
+            let wdot = az + g * ct * cp + q * u - p * v;
             ad[i] = (u * wdot - w * udot) / (u * u + w * w);
             let vtdot = (u * udot + v * vdot + w * wdot) / vt;
             bd[i] = (vdot * vt - v * vtdot) / (vt * vt * cb.max(0.1));

@@ -152,6 +152,10 @@ pub struct Synthesis<'a> {
     pub n_id: usize,
 }
 
+/// The coefficients (indices into [`super::model::COEFFICIENTS`]) whose error moments share one
+/// Gram matrix: the longitudinal ones and the lateral ones.
+const GROUPS: [[usize; 3]; 2] = [[0, 1, 4], [2, 3, 5]];
+
 /// Samples synthesised beyond the identification segment in a replica: 2 s, and at least four
 /// smoothing half-widths.
 fn replica_margin(h_s: f64, sg_half: usize) -> usize {
@@ -167,16 +171,34 @@ pub fn column_errors(
 ) -> [Option<ColumnErrors>; 6] {
     let n_id = s.n_id.min(table.t_s.len());
     let noise = channel_noise(s.flight);
-    // Nominal columns.
-    let nominal: Vec<Option<Vec<Option<Vec<f64>>>>> = (0..6)
-        .map(|i| {
-            table.z[i]
-                .as_ref()
-                .map(|_| terms[i].iter().map(|t| t.column(table, s.refs)).collect())
+    // The coefficients present, in groups that share most of their terms (the longitudinal and
+    // the lateral ones): one Gram matrix per group instead of one per coefficient.
+    let present = |i: usize| table.z[i].is_some();
+    let groups: Vec<Vec<usize>> = GROUPS
+        .iter()
+        .map(|g| g.iter().copied().filter(|&i| present(i)).collect::<Vec<_>>())
+        .filter(|g| !g.is_empty())
+        .collect();
+    // Each group's distinct terms, and each coefficient's terms as indices into them.
+    let union: Vec<Vec<Term>> = groups
+        .iter()
+        .map(|g| {
+            let mut u: Vec<Term> = Vec::new();
+            for t in g.iter().flat_map(|&i| &terms[i]) {
+                if !u.contains(t) {
+                    u.push(*t);
+                }
+            }
+            u
         })
         .collect();
+    // Nominal columns, once per distinct term.
+    let mut nominal: BTreeMap<Term, Option<Vec<f64>>> = BTreeMap::new();
+    for t in union.iter().flatten() {
+        nominal.entry(*t).or_insert_with(|| t.column(table, s.refs));
+    }
     let mut sums: Vec<Option<Vec<f64>>> = (0..6)
-        .map(|i| nominal[i].as_ref().map(|_| vec![0.0; (terms[i].len() + 1).pow(2)]))
+        .map(|i| present(i).then(|| vec![0.0; (terms[i].len() + 1).pow(2)]))
         .collect();
     let mut count = 0usize;
     // With measured air data a replica is synthesised over the identification segment and a
@@ -210,33 +232,42 @@ pub fn column_errors(
         });
         let tk = synthesise(&pert, s.h_s, s.corrections, s.sg_half, air.as_ref());
         count += n_id;
-        // Each term's replica column once (the coefficients share most of their terms).
-        let mut columns: BTreeMap<Term, Option<Vec<f64>>> = BTreeMap::new();
-        for i in 0..6 {
-            let (Some(nom), Some(sum), Some(z0), Some(zk)) = (&nominal[i], &mut sums[i], &table.z[i], &tk.z[i]) else {
-                continue;
-            };
-            let k = terms[i].len() + 1;
-            // The differences as the columns of an `n_id × k` matrix `D`; `DᵀD` by one
-            // cache-blocked, vectorised matrix product.
+        for (g, u) in groups.iter().zip(&union) {
+            // The group's differences as the columns of an `n_id × k` matrix `D` (its distinct
+            // terms, then each coefficient's output); `DᵀD` by one cache-blocked, vectorised
+            // matrix product.
+            let k = u.len() + g.len();
             let mut d = Vec::with_capacity(k * n_id);
-            for (t, c0) in terms[i].iter().zip(nom) {
-                let ck = columns.entry(*t).or_insert_with(|| t.column(&tk, s.refs));
-                match (c0, ck) {
+            for t in u {
+                match (&nominal[t], t.column(&tk, s.refs)) {
                     (Some(c0), Some(ck)) => d.extend((0..n_id).map(|j| ck[j] - c0[j])),
                     _ => d.extend(core::iter::repeat_n(0.0, n_id)),
                 }
             }
-            d.extend((0..n_id).map(|j| zk[j] - z0[j]));
+            for &i in g {
+                match (&table.z[i], &tk.z[i]) {
+                    (Some(z0), Some(zk)) => d.extend((0..n_id).map(|j| zk[j] - z0[j])),
+                    _ => d.extend(core::iter::repeat_n(0.0, n_id)),
+                }
+            }
             let d = nalgebra::DMatrix::from_vec(n_id, k, d);
             let gram = d.transpose() * &d;
-            // Its upper triangle, mirrored: the product's two triangles may round differently.
-            for a in 0..k {
-                for b in a..k {
-                    let v = gram[(a, b)];
-                    sum[a * k + b] += v;
-                    if a != b {
-                        sum[b * k + a] += v;
+            for (m, &i) in g.iter().enumerate() {
+                let (Some(sum), Some(_)) = (&mut sums[i], &tk.z[i]) else {
+                    continue;
+                };
+                // The coefficient's columns in the group's matrix: its terms, then its output.
+                let idx: Vec<usize> = terms[i]
+                    .iter()
+                    .map(|t| u.iter().position(|v| v == t).unwrap_or(0))
+                    .chain([u.len() + m])
+                    .collect();
+                let ki = idx.len();
+                // The upper triangle, mirrored: the product's two triangles may round
+                // differently.
+                for (a, &ia) in idx.iter().enumerate() {
+                    for (b, &ib) in idx.iter().enumerate() {
+                        sum[a * ki + b] += gram[(ia.min(ib), ia.max(ib))];
                     }
                 }
             }
@@ -244,13 +275,13 @@ pub fn column_errors(
     }
     let mut out: [Option<ColumnErrors>; 6] = Default::default();
     for i in 0..6 {
-        let (Some(nom), Some(sum)) = (&nominal[i], &sums[i]) else {
+        let Some(sum) = &sums[i] else {
             continue;
         };
-        let mean_square = nom
+        let mean_square = terms[i]
             .iter()
-            .map(|c| {
-                c.as_ref().map_or(0.0, |c| {
+            .map(|t| {
+                nominal[t].as_ref().map_or(0.0, |c| {
                     c[..n_id].iter().map(|v| v * v).sum::<f64>() / n_id.max(1) as f64
                 })
             })

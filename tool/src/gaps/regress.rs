@@ -361,9 +361,8 @@ pub fn ols_sigma(cols: &[Vec<f64>], z: &[f64], block_len: usize, max_lag: usize,
     let q = qr.q();
     let qtz = q.transpose() * DVector::from_column_slice(z);
     let ts = r.solve_upper_triangular(&qtz)?;
-    let residual: Vec<f64> = (0..n)
-        .map(|i| z[i] - (0..p).map(|j| x[(i, j)] * ts[j]).sum::<f64>())
-        .collect();
+    let x_cols: Vec<&[f64]> = x.as_slice().chunks_exact(n).collect();
+    let residual = residual_of(&x_cols, z, ts.as_slice());
     // W = X (XᵀX)⁻¹ = Q R⁻ᵀ: column j of W is the weight series of parameter j.
     let rinv = r.clone().try_inverse()?;
     let w = q * rinv.transpose();
@@ -579,7 +578,6 @@ pub fn sandwich_sigma(
     only: Option<usize>,
 ) -> Vec<f64> {
     let p = cols.len();
-    let n = residual.len();
     let mut sigma = vec![f64::NAN; p];
     let noisy: Vec<usize> = (0..p).filter(|&j| !exact[j]).collect();
     let nx = noisy.len();
@@ -623,14 +621,15 @@ pub fn sandwich_sigma(
         if only.is_some_and(|k| k != j) {
             continue;
         }
+        // `wᵢ = hⱼᵀx̂ᵢ = hⱼᵀxᵢ + rᵢ hⱼᵀU/s`, column by column (each pass vectorises).
         let hj: Vec<f64> = (0..p).map(|c| hinv[(j, c)]).collect();
-        let w: Vec<f64> = (0..n)
-            .map(|i| {
-                (0..p)
-                    .map(|c| hj[c] * (cols[c][i] + residual[i] * u[c] / s))
-                    .sum::<f64>()
-            })
-            .collect();
+        let hu = (0..p).map(|c| hj[c] * u[c]).sum::<f64>() / s;
+        let mut w: Vec<f64> = residual.iter().map(|r| r * hu).collect();
+        for (c, h) in cols.iter().zip(&hj) {
+            for (wi, x) in w.iter_mut().zip(c) {
+                *wi += h * x;
+            }
+        }
         *sj = lags.variance(&w).sqrt();
     }
     sigma
@@ -744,9 +743,7 @@ pub fn corrected_ls(
     if theta.iter().any(|t| !t.is_finite()) {
         return None;
     }
-    let residual: Vec<f64> = (0..n)
-        .map(|i| z[i] - (0..p).map(|j| cols[j][i] * theta[j]).sum::<f64>())
-        .collect();
+    let residual = residual_of(cols, z, &theta);
     let rss = residual.iter().map(|r| r * r).sum::<f64>();
     let mut twx = 0.0;
     let mut txz = 0.0;
@@ -763,6 +760,18 @@ pub fn corrected_ls(
     DMatrix::from_row_slice(na, na, &em.w_t).cholesky()?;
     let sigma = sandwich_sigma(cols, &residual, &theta, &eiv.exact, &em.w_t, block_len, max_lag, only);
     Some((Fit { theta, sigma, residual }, s2))
+}
+
+/// `z − Σⱼ θⱼ colsⱼ`, column by column (each pass vectorises; a sum over the columns per sample
+/// does not).
+fn residual_of<C: AsRef<[f64]>>(cols: &[C], z: &[f64], theta: &[f64]) -> Vec<f64> {
+    let mut fit = vec![0.0; z.len()];
+    for (c, t) in cols.iter().zip(theta) {
+        for (f, x) in fit.iter_mut().zip(c.as_ref()) {
+            *f += x * t;
+        }
+    }
+    z.iter().zip(fit).map(|(z, f)| z - f).collect()
 }
 
 /// The PCA-GTLS fit of the analysis: `σ_z²` from [`corrected_ls`], then the core's estimator
@@ -825,8 +834,8 @@ pub fn gtls(
     if p == 0 || n <= p || cols.iter().any(|c| c.len() != n) || em.exact.len() != p {
         return None;
     }
-    // Dependent columns: refuse as OLS does.
-    ols_sigma(cols, z, n, 0, Some(0))?;
+    // Dependent columns: refuse as OLS does (its test, without its fit).
+    ScaledQr::new(cols, n)?;
     let order: Vec<usize> = (0..p)
         .filter(|&j| em.exact[j])
         .chain((0..p).filter(|&j| !em.exact[j]))
@@ -865,9 +874,7 @@ pub fn gtls(
         theta[j] = th_o[k];
         sigma_eq17[j] = s17_o[k];
     }
-    let residual: Vec<f64> = (0..n)
-        .map(|i| z[i] - (0..p).map(|j| cols[j][i] * theta[j]).sum::<f64>())
-        .collect();
+    let residual = residual_of(cols, z, &theta);
     let sigma = if solution == aerosid_core::Solution::Tls {
         sandwich_sigma(cols, &residual, &theta, &em.exact, &em.w_t, block_len, max_lag, only)
     } else {

@@ -58,6 +58,9 @@ pub struct Design {
     pub folds: usize,
     /// `[X z]ᵀ[X z]` per block, `(p+1)²`.
     grams: Vec<DMatrix<f64>>,
+    /// The blocks' Grams summed per fold, and the fold's sample count: the normal equations of
+    /// a fit on all blocks, or all but one fold, from `folds` matrices instead of every block's.
+    fold_grams: Vec<(DMatrix<f64>, f64)>,
     /// The per-sample error covariance of `[X z]` (zero: ordinary least squares).
     w: DMatrix<f64>,
     /// Number of columns `p` (the output is column `p`).
@@ -120,7 +123,7 @@ impl Design {
         // `[X z]` as one matrix; each block's Gram by one matrix product, its upper triangle
         // mirrored (the product's two triangles may round differently).
         let xz = DMatrix::from_fn(n, p + 1, |i, j| if j < p { cols[j][i] } else { z[i] });
-        let grams = blocks
+        let grams: Vec<DMatrix<f64>> = blocks
             .iter()
             .map(|&(a, b)| {
                 let v = xz.rows(a, b - a);
@@ -133,6 +136,12 @@ impl Design {
                 m
             })
             .collect();
+        let mut fold_grams = vec![(DMatrix::zeros(p + 1, p + 1), 0.0); folds];
+        for (b, g) in grams.iter().enumerate() {
+            let (sum, rows) = &mut fold_grams[b % folds];
+            *sum += g;
+            *rows += (blocks[b].1 - blocks[b].0) as f64;
+        }
         let w = match w {
             Some(w) if w.len() == (p + 1) * (p + 1) => DMatrix::from_row_slice(p + 1, p + 1, w),
             _ => DMatrix::zeros(p + 1, p + 1),
@@ -147,6 +156,7 @@ impl Design {
             fold,
             folds,
             grams,
+            fold_grams,
             w,
             p,
             ones: None,
@@ -163,34 +173,54 @@ impl Design {
         (self.blocks[b].1 - self.blocks[b].0) as f64
     }
 
-    /// `(A, c)` of the normal equations of `cols` over the blocks `use_block` selects.
-    fn normal(&self, cols: &[usize], use_block: impl Fn(usize) -> bool) -> (DMatrix<f64>, DVector<f64>, f64) {
-        self.normal_over(cols, (0..self.grams.len()).filter(|&b| use_block(b)))
-    }
-
-    /// `(A, c)` of the normal equations of `cols` over the given blocks.
-    fn normal_over(&self, cols: &[usize], blocks: impl Iterator<Item = usize>) -> (DMatrix<f64>, DVector<f64>, f64) {
+    /// `(A, c)` of the normal equations of `cols` over the folds `use_fold` selects.
+    fn normal(&self, cols: &[usize], use_fold: impl Fn(usize) -> bool) -> (DMatrix<f64>, DVector<f64>, f64) {
         let k = cols.len();
         let mut a = DMatrix::zeros(k, k);
         let mut c = DVector::zeros(k);
         let mut n = 0.0;
-        for b in blocks {
-            let g = &self.grams[b];
-            n += self.rows(b);
+        for (g, rows) in self
+            .fold_grams
+            .iter()
+            .enumerate()
+            .filter(|(f, _)| use_fold(*f))
+            .map(|(_, x)| x)
+        {
+            n += rows;
+            Self::add_normal(&mut a, &mut c, g, cols, self.p);
+        }
+        self.correct(&mut a, &mut c, cols, n);
+        (a, c, n)
+    }
+
+    /// Adds the entries of `cols` (and the output column `p`) of the Gram `g` to `(a, c)`.
+    fn add_normal(a: &mut DMatrix<f64>, c: &mut DVector<f64>, g: &DMatrix<f64>, cols: &[usize], p: usize) {
+        for (s, &j) in cols.iter().enumerate() {
+            c[s] += g[(j, p)];
             for (r, &i) in cols.iter().enumerate() {
-                c[r] += g[(i, self.p)];
-                for (s, &j) in cols.iter().enumerate() {
-                    a[(r, s)] += g[(i, j)];
-                }
+                a[(r, s)] += g[(i, j)];
             }
         }
+    }
+
+    /// The errors-in-variables correction of `n` samples' normal equations: `− n W`.
+    fn correct(&self, a: &mut DMatrix<f64>, c: &mut DVector<f64>, cols: &[usize], n: f64) {
         for (r, &i) in cols.iter().enumerate() {
             c[r] -= n * self.w[(i, self.p)];
             for (s, &j) in cols.iter().enumerate() {
                 a[(r, s)] -= n * self.w[(i, j)];
             }
         }
-        (a, c, n)
+    }
+
+    /// `(A, c)` of the normal equations of `cols` over block `b`.
+    fn normal_of_block(&self, cols: &[usize], b: usize) -> (DMatrix<f64>, DVector<f64>) {
+        let k = cols.len();
+        let mut a = DMatrix::zeros(k, k);
+        let mut c = DVector::zeros(k);
+        Self::add_normal(&mut a, &mut c, &self.grams[b], cols, self.p);
+        self.correct(&mut a, &mut c, cols, self.rows(b));
+        (a, c)
     }
 
     /// Whether `cols` has regular normal equations over all blocks before the errors-in-variables
@@ -203,13 +233,8 @@ impl Design {
         let k = cols.len();
         let mut a = DMatrix::zeros(k, k);
         let mut c = DVector::zeros(k);
-        for g in &self.grams {
-            for (r, &i) in cols.iter().enumerate() {
-                c[r] += g[(i, self.p)];
-                for (q, &j) in cols.iter().enumerate() {
-                    a[(r, q)] += g[(i, j)];
-                }
-            }
+        for (g, _) in &self.fold_grams {
+            Self::add_normal(&mut a, &mut c, g, cols, self.p);
         }
         Self::solve(a, &c).is_some()
     }
@@ -264,7 +289,7 @@ impl Design {
         let k = cols.len();
         let mut meat = DMatrix::zeros(k, k);
         for b in 0..g {
-            let (ab, cb, _) = self.normal_over(cols, core::iter::once(b));
+            let (ab, cb) = self.normal_of_block(cols, b);
             let s = cb - ab * &theta;
             meat += &s * s.transpose();
         }
@@ -274,7 +299,7 @@ impl Design {
         let mut cv_sse = vec![0.0; g];
         let mut cv_theta = Vec::with_capacity(self.folds);
         for f in 0..self.folds {
-            let (af, cf, _) = self.normal(cols, |x| self.fold[x] != f);
+            let (af, cf, _) = self.normal(cols, |x| x != f);
             let (tf, _) = Self::solve(af, &cf).ok_or(Unfit::NotPositiveDefinite)?;
             for (b, sse) in cv_sse.iter_mut().enumerate() {
                 if self.fold[b] == f {

@@ -30,13 +30,18 @@ pub fn sg_smooth(x: &[f64], m: usize) -> Vec<f64> {
             (3.0 * (3.0 * mf * mf + 3.0 * mf - 1.0) - 15.0 * k * k) / den
         })
         .collect();
-    // The interior: tap by tap over every sample (each sample's sum in the same order as a
-    // per-sample dot product, but the inner loop vectorises).
+    // The interior: tap pair by tap pair over every sample (the weights are symmetric, so
+    // `w_k (x_{i−k} + x_{i+k})` halves the products; the inner loop vectorises).
     if n > 2 * m {
+        let len = n - 2 * m;
         let inner = &mut out[m..n - m];
-        for (j, wj) in w.iter().enumerate() {
-            for (o, xv) in inner.iter_mut().zip(&x[j..j + n - 2 * m]) {
-                *o += wj * xv;
+        for (o, xv) in inner.iter_mut().zip(&x[m..m + len]) {
+            *o = w[m] * xv;
+        }
+        for k in 1..=m {
+            let (lo, hi) = (&x[m - k..m - k + len], &x[m + k..m + k + len]);
+            for ((o, a), b) in inner.iter_mut().zip(lo).zip(hi) {
+                *o += w[m - k] * (a + b);
             }
         }
     }
@@ -109,6 +114,16 @@ pub fn dot(a: &[f64], b: &[f64]) -> f64 {
     }
     let tail: f64 = ra.iter().zip(rb).map(|(x, y)| x * y).sum();
     ((acc[0] + acc[1]) + (acc[2] + acc[3])) + ((acc[4] + acc[5]) + (acc[6] + acc[7])) + tail
+}
+
+/// `(sin x, cos x)` by musl's `sincos` (the `libm` crate, < 1 ulp): one argument reduction for
+/// both, and none for `|x| < π/4`. The standard library's `f64::sin_cos` calls glibc's `sin`
+/// and `cos` in turn, each saving and restoring the rounding mode — in the per-sample loops of
+/// the analysis (attitude kinematics, force synthesis) that bookkeeping cost more than the
+/// polynomials.
+#[inline]
+pub fn sin_cos(x: f64) -> (f64, f64) {
+    libm::sincos(x)
 }
 
 /// `x(t + shift_s)` on the same uniform base (linear interpolation, held at the ends): with a

@@ -36,6 +36,7 @@
 use super::compat::SEGMENT_S;
 use super::model::{Kinematics, Signal, Table, Term, TermRefs};
 use super::regress::{metrics, Metrics};
+use super::signal::sin_cos;
 use crate::io::measured::Aircraft;
 use nalgebra::{Matrix3, Vector3};
 
@@ -310,7 +311,7 @@ fn force_group(
                 } else {
                     0.0
                 };
-                let (sa, ca) = al.sin_cos();
+                let (sa, ca) = sin_cos(al);
                 let qs = qbar * s_area;
                 let fa = Vector3::new(qs * (-cd * ca + cl * sa), qs * cy, qs * (-cd * sa - cl * ca));
                 let acc = (fa + lerp3(&kin.thrust_force_n, k, fr)) / ac.mass_kg;
@@ -319,8 +320,8 @@ fn force_group(
                     lerp(&kin.rates_rad_s[1], k, fr),
                     lerp(&kin.rates_rad_s[2], k, fr),
                 );
-                let (sf, cf) = lerp(&kin.attitude_rad[0], k, fr).sin_cos();
-                let (st, cth) = lerp(&kin.attitude_rad[1], k, fr).sin_cos();
+                let (sf, cf) = sin_cos(lerp(&kin.attitude_rad[0], k, fr));
+                let (st, cth) = sin_cos(lerp(&kin.attitude_rad[1], k, fr));
                 let g = Vector3::new(-st, cth * sf, cth * cf) * G_MPS2;
                 let d = acc + g - om.cross(&vel);
                 Some([d.x, if lateral { d.y } else { 0.0 }, d.z])

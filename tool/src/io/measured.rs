@@ -229,38 +229,44 @@ impl MeasuredFlight {
         }
         use core::f64::consts::{PI, TAU};
         let m = self.len() / k;
-        let blocks = |v: &[f64]| -> Vec<Vec<f64>> { v.chunks_exact(k).take(m).map(<[f64]>::to_vec).collect() };
         let mean = |b: &[f64]| b.iter().sum::<f64>() / k as f64;
         // An angle's samples taken within ±π of the block's first, their mean wrapped back to ±π
-        // when the first sample was there.
+        // when the first sample was there. `rem_euclid` is exact, and the identity on `[0, 2π)`,
+        // so the usual case skips it.
         let angle_mean = |b: &[f64]| {
             let first = b[0];
-            let a = mean(
-                &b.iter()
-                    .map(|x| first + (x - first + PI).rem_euclid(TAU) - PI)
-                    .collect::<Vec<_>>(),
-            );
+            let near = |x: f64| {
+                let y = x - first + PI;
+                let wrapped = if (0.0..TAU).contains(&y) { y } else { y.rem_euclid(TAU) };
+                first + wrapped - PI
+            };
+            let a = b.iter().map(|&x| near(x)).sum::<f64>() / k as f64;
             if (-PI..=PI).contains(&first) {
                 (a + PI).rem_euclid(TAU) - PI
             } else {
                 a
             }
         };
+        let averaged =
+            |v: &[f64], f: &dyn Fn(&[f64]) -> f64| -> Vec<f64> { v.chunks_exact(k).take(m).map(f).collect() };
         let channels = self
             .channels
             .iter()
             .map(|(q, v)| {
                 let angle = matches!(q, Quantity::Roll | Quantity::Pitch | Quantity::Yaw);
-                let avg = blocks(v)
-                    .iter()
-                    .map(|b| if angle { angle_mean(b) } else { mean(b) })
-                    .collect();
-                (*q, avg)
+                (
+                    *q,
+                    if angle {
+                        averaged(v, &angle_mean)
+                    } else {
+                        averaged(v, &mean)
+                    },
+                )
             })
             .collect();
         MeasuredFlight {
             source: self.source.clone(),
-            t_s: blocks(&self.t_s).iter().map(|b| mean(b)).collect(),
+            t_s: averaged(&self.t_s, &mean),
             channels,
             aircraft: self.aircraft.clone(),
             log: self.log.clone(),
