@@ -621,10 +621,16 @@ pub fn run_gaps(flight: &MeasuredFlight, settings: &GapSettings) -> Result<GapRe
         }
         None => Default::default(),
     };
-    if settings.errors_in_variables.is_some() {
+    if let Some(mc) = &settings.errors_in_variables {
+        let reconstructed = air.is_some();
         notes.push(format!(
-            "fits by PCA-GTLS (aerosid_core::gtls::Gtls) with W_T from a {}-replica Monte Carlo of the sensors' white noise",
-            settings.errors_in_variables.map_or(0, |m| m.replicas)
+            "fits by PCA-GTLS (aerosid_core::gtls::Gtls) with W_T from a {}-replica Monte Carlo of the sensors' white noise{}",
+            noise::replicas(mc, reconstructed, n_id.min(table.t_s.len()), sg_half),
+            if reconstructed {
+                ""
+            } else {
+                " (measured air data: enough for 1 000 smoothing windows of draws, docs/model-gaps.md)"
+            }
         ));
     }
     let mut regression = Regression {
