@@ -525,9 +525,9 @@ pub struct GtlsFit {
     pub sigma_z2: f64,
 }
 
-/// Runs `Gtls<f64, NT, NE, NA>` over the rows (`rows[i]` ordered exact columns first).
+/// Runs `Gtls<f64, NT, NE, NA>` over the samples of `cols` (ordered exact columns first).
 fn run_gtls<const NT: usize, const NE: usize, const NA: usize>(
-    rows: &[Vec<f64>],
+    cols: &[&[f64]],
     z: &[f64],
     w_t: &[f64],
     weights: &[f64],
@@ -542,8 +542,8 @@ fn run_gtls<const NT: usize, const NE: usize, const NA: usize>(
         ..GtlsSettings::default()
     };
     let mut g = Gtls::<f64, NT, NE, NA>::new(&w, &wv, settings).ok()?;
-    for (x, &zi) in rows.iter().zip(z) {
-        let xv = SVector::<f64, NT>::from_fn(|i, _| x[i]);
+    for (k, &zi) in z.iter().enumerate() {
+        let xv = SVector::<f64, NT>::from_fn(|i, _| cols[i][k]);
         g.update(&xv, zi).ok()?;
     }
     let theta: Vec<f64> = g.theta().iter().copied().collect();
@@ -845,7 +845,8 @@ pub fn gtls(
     if em.w_t.len() != na * na || na < 2 {
         return None;
     }
-    let rows: Vec<Vec<f64>> = (0..n).map(|i| order.iter().map(|&j| cols[j][i]).collect()).collect();
+    // The columns in the estimator's order (exact ones first); it reads sample `k` of each.
+    let ordered: Vec<&[f64]> = order.iter().map(|&j| &cols[j][..n]).collect();
     let weights: Vec<f64> = order
         .iter()
         .map(|&j| {
@@ -857,7 +858,7 @@ pub fn gtls(
             }
         })
         .collect();
-    let args = (&rows[..], z, &em.w_t[..], &weights[..]);
+    let args = (&ordered[..], z, &em.w_t[..], &weights[..]);
     let (th_o, s17_o, solution, excited) = gtls_dispatch!(p, ne, (args.0, args.1, args.2, args.3);
         (2,0,3),(2,1,2),
         (3,0,4),(3,1,3),(3,2,2),
