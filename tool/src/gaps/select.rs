@@ -120,17 +120,19 @@ impl Design {
         let blocks: Vec<(usize, usize)> = (0..g).map(|i| (i * n / g, (i + 1) * n / g)).collect();
         let folds = cv.folds.clamp(2, g.max(2));
         let fold = (0..g).map(|i| i % folds).collect();
-        // `[X z]` as one matrix; each block's Gram by one matrix product, its upper triangle
-        // mirrored (the product's two triangles may round differently).
-        let xz = DMatrix::from_fn(n, p + 1, |i, j| if j < p { cols[j][i] } else { z[i] });
+        // Each block's Gram `[X z]ᵀ[X z]` by dot products of the columns' slices (blocks of a few
+        // hundred rows and a few tens of columns: a matrix product's packing costs more than the
+        // products), each entry computed once and stored in both triangles.
+        let col = |j: usize| if j < p { &cols[j][..n] } else { &z[..n] };
         let grams: Vec<DMatrix<f64>> = blocks
             .iter()
             .map(|&(a, b)| {
-                let v = xz.rows(a, b - a);
-                let mut m = v.transpose() * v;
-                for r in 0..=p {
-                    for c in r + 1..=p {
-                        m[(c, r)] = m[(r, c)];
+                let mut m = DMatrix::zeros(p + 1, p + 1);
+                for c in 0..=p {
+                    for r in 0..=c {
+                        let v = super::signal::dot(&col(r)[a..b], &col(c)[a..b]);
+                        m[(r, c)] = v;
+                        m[(c, r)] = v;
                     }
                 }
                 m
