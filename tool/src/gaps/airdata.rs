@@ -90,17 +90,16 @@ pub fn low_pass_all(xs: &[Vec<f64>], fc_hz: f64, h_s: f64) -> Vec<Vec<f64>> {
         let n = group.first().map_or(0, Vec::len);
         let same_length = group.iter().all(|y| y.len() == n);
         if let ([y0, y1, y2, y3], true) = (&mut *group, same_length) {
+            let mut lanes = [y0, y1, y2, y3];
             for i in 1..n {
-                y0[i] = a * y0[i - 1] + (1.0 - a) * y0[i];
-                y1[i] = a * y1[i - 1] + (1.0 - a) * y1[i];
-                y2[i] = a * y2[i - 1] + (1.0 - a) * y2[i];
-                y3[i] = a * y3[i - 1] + (1.0 - a) * y3[i];
+                for y in lanes.iter_mut() {
+                    y[i] = a * y[i - 1] + (1.0 - a) * y[i];
+                }
             }
             for i in (0..n.saturating_sub(1)).rev() {
-                y0[i] = a * y0[i + 1] + (1.0 - a) * y0[i];
-                y1[i] = a * y1[i + 1] + (1.0 - a) * y1[i];
-                y2[i] = a * y2[i + 1] + (1.0 - a) * y2[i];
-                y3[i] = a * y3[i + 1] + (1.0 - a) * y3[i];
+                for y in lanes.iter_mut() {
+                    y[i] = a * y[i + 1] + (1.0 - a) * y[i];
+                }
             }
         } else {
             for y in group.iter_mut() {

@@ -161,7 +161,17 @@ fn instruments(flight: &MeasuredFlight, n: usize, h_s: f64, controls: &[Quantity
 
 /// Zero-phase high-pass at [`BAND_HZ`].
 fn high_pass(x: &[f64], h_s: f64) -> Vec<f64> {
-    let lp = super::airdata::low_pass(x, BAND_HZ, h_s);
+    minus(x, super::airdata::low_pass(x, BAND_HZ, h_s))
+}
+
+/// [`high_pass`] of every channel, the low-passes four at a time ([`super::airdata::low_pass_all`]).
+fn high_pass_all(xs: &[Vec<f64>], h_s: f64) -> Vec<Vec<f64>> {
+    let lps = super::airdata::low_pass_all(xs, BAND_HZ, h_s);
+    xs.iter().zip(lps).map(|(x, lp)| minus(x, lp)).collect()
+}
+
+/// `x − lp`, sample by sample.
+fn minus(x: &[f64], lp: Vec<f64>) -> Vec<f64> {
     x.iter().zip(lp).map(|(a, b)| a - b).collect()
 }
 
@@ -215,11 +225,7 @@ pub fn check_channel(
     }
     // First stage in the band: the band's reconstruction projected on the band's instruments
     // (two-stage least squares on the high-passed signals).
-    let zh: Vec<Vec<f64>> = super::airdata::low_pass_all(&z, BAND_HZ, h_s)
-        .into_iter()
-        .zip(&z)
-        .map(|(lp, c)| c.iter().zip(lp).map(|(a, b)| a - b).collect())
-        .collect();
+    let zh = high_pass_all(&z, h_s);
     let kh = high_pass(kinematic, h_s);
     let kk: f64 = kh.iter().map(|v| v * v).sum();
     let fitted: Option<Vec<f64>> = super::regress::ols_theta(&zh, &kh).map(|th| {

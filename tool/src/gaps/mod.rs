@@ -617,22 +617,21 @@ pub fn run_gaps(flight: &MeasuredFlight, settings: &GapSettings) -> Result<GapRe
                 refs: &refs,
                 n_id,
             };
+            notes.push(format!(
+                "fits by PCA-GTLS (aerosid_core::gtls::Gtls) with W_T from a {}-replica Monte Carlo of the sensors' white noise{}",
+                syn.replicas(&table, mc),
+                match syn.compat {
+                    Some(_) => String::new(),
+                    None => format!(
+                        " (measured air data: enough for {} smoothing windows of draws, docs/model-gaps.md)",
+                        noise::WINDOW_DRAWS
+                    ),
+                }
+            ));
             noise::column_errors(&syn, &table, &all_terms, mc)
         }
         None => Default::default(),
     };
-    if let Some(mc) = &settings.errors_in_variables {
-        let reconstructed = air.is_some();
-        notes.push(format!(
-            "fits by PCA-GTLS (aerosid_core::gtls::Gtls) with W_T from a {}-replica Monte Carlo of the sensors' white noise{}",
-            noise::replicas(mc, reconstructed, n_id.min(table.t_s.len()), sg_half),
-            if reconstructed {
-                ""
-            } else {
-                " (measured air data: enough for 1 000 smoothing windows of draws, docs/model-gaps.md)"
-            }
-        ));
-    }
     let mut regression = Regression {
         t_s: table.t_s.clone(),
         n_id,

@@ -179,6 +179,13 @@ pub struct Synthesis<'a> {
     pub n_id: usize,
 }
 
+impl Synthesis<'_> {
+    /// The replicas [`column_errors`] runs on this table ([`replicas`]).
+    pub fn replicas(&self, table: &Table, mc: &MonteCarlo) -> usize {
+        replicas(mc, self.compat.is_some(), self.n_id.min(table.t_s.len()), self.sg_half)
+    }
+}
+
 /// The coefficients (indices into [`super::model::COEFFICIENTS`]) whose error moments share one
 /// Gram matrix: the longitudinal ones and the lateral ones.
 const GROUPS: [[usize; 3]; 2] = [[0, 1, 4], [2, 3, 5]];
@@ -206,7 +213,8 @@ pub fn column_errors(
         .map(|g| g.iter().copied().filter(|&i| present(i)).collect::<Vec<_>>())
         .filter(|g| !g.is_empty())
         .collect();
-    // Each group's distinct terms, and each coefficient's terms as indices into them.
+    // Each group's distinct terms, and each coefficient's columns in its group's matrix (its
+    // terms, then its output) as indices into them.
     let union: Vec<Vec<Term>> = groups
         .iter()
         .map(|g| {
@@ -217,6 +225,22 @@ pub fn column_errors(
                 }
             }
             u
+        })
+        .collect();
+    let index: Vec<Vec<Vec<usize>>> = groups
+        .iter()
+        .zip(&union)
+        .map(|(g, u)| {
+            g.iter()
+                .enumerate()
+                .map(|(m, &i)| {
+                    terms[i]
+                        .iter()
+                        .map(|t| u.iter().position(|v| v == t).unwrap_or(0))
+                        .chain([u.len() + m])
+                        .collect()
+                })
+                .collect()
         })
         .collect();
     // Nominal columns, once per distinct term.
@@ -236,7 +260,7 @@ pub fn column_errors(
         None => (n_id + replica_margin(s.h_s, s.sg_half)).min(s.flight.len()),
         Some(_) => s.flight.len(),
     };
-    for r in 0..replicas(mc, s.compat.is_some(), n_id, s.sg_half) {
+    for r in 0..s.replicas(table, mc) {
         let mut rng = ChaCha8Rng::seed_from_u64(mc.seed.wrapping_add(r as u64));
         let mut pert = s.flight.clone();
         pert.t_s.truncate(n_keep);
@@ -259,7 +283,7 @@ pub fn column_errors(
         });
         let tk = synthesise(&pert, s.h_s, s.corrections, s.sg_half, air.as_ref());
         count += n_id;
-        for (g, u) in groups.iter().zip(&union) {
+        for ((g, u), index) in groups.iter().zip(&union).zip(&index) {
             // The group's differences as the columns of an `n_id × k` matrix `D` (its distinct
             // terms, then each coefficient's output); `DᵀD` by one cache-blocked, vectorised
             // matrix product.
@@ -279,16 +303,10 @@ pub fn column_errors(
             }
             let d = nalgebra::DMatrix::from_vec(n_id, k, d);
             let gram = d.transpose() * &d;
-            for (m, &i) in g.iter().enumerate() {
+            for (&i, idx) in g.iter().zip(index) {
                 let (Some(sum), Some(_)) = (&mut sums[i], &tk.z[i]) else {
                     continue;
                 };
-                // The coefficient's columns in the group's matrix: its terms, then its output.
-                let idx: Vec<usize> = terms[i]
-                    .iter()
-                    .map(|t| u.iter().position(|v| v == t).unwrap_or(0))
-                    .chain([u.len() + m])
-                    .collect();
                 let ki = idx.len();
                 // The upper triangle, mirrored: the product's two triangles may round
                 // differently.

@@ -119,7 +119,7 @@ impl Design {
         let g = (n / len).max(1);
         let blocks: Vec<(usize, usize)> = (0..g).map(|i| (i * n / g, (i + 1) * n / g)).collect();
         let folds = cv.folds.clamp(2, g.max(2));
-        let fold = (0..g).map(|i| i % folds).collect();
+        let fold: Vec<usize> = (0..g).map(|i| i % folds).collect();
         // Each block's Gram `[X z]ᵀ[X z]` by dot products of the columns' slices (blocks of a few
         // hundred rows and a few tens of columns: a matrix product's packing costs more than the
         // products), each entry computed once and stored in both triangles.
@@ -140,7 +140,7 @@ impl Design {
             .collect();
         let mut fold_grams = vec![(DMatrix::zeros(p + 1, p + 1), 0.0); folds];
         for (b, g) in grams.iter().enumerate() {
-            let (sum, rows) = &mut fold_grams[b % folds];
+            let (sum, rows) = &mut fold_grams[fold[b]];
             *sum += g;
             *rows += (blocks[b].1 - blocks[b].0) as f64;
         }
@@ -181,13 +181,7 @@ impl Design {
         let mut a = DMatrix::zeros(k, k);
         let mut c = DVector::zeros(k);
         let mut n = 0.0;
-        for (g, rows) in self
-            .fold_grams
-            .iter()
-            .enumerate()
-            .filter(|(f, _)| use_fold(*f))
-            .map(|(_, x)| x)
-        {
+        for (_, (g, rows)) in self.fold_grams.iter().enumerate().filter(|(f, _)| use_fold(*f)) {
             n += rows;
             Self::add_normal(&mut a, &mut c, g, cols, self.p);
         }
