@@ -134,6 +134,11 @@ fn values_out_of_range_or_missing_are_refused_with_the_argument_named() {
     refused(&["gaps", "--clean", "--air-data", "vanes"], "reconstructed");
     refused(&["gaps", "--clean", "--compatibility", "maybe"], "off");
     refused(&["gaps", "--clean", "--baseline", "CQ=1"], "--baseline");
+    refused(&["gaps", "--clean", "--alpha", "0"], "(0, 1]");
+    refused(&["gaps", "--clean", "--alpha", "1.5"], "--alpha");
+    refused(&["gaps", "--clean", "--gain-alpha", "0.5"], "(0, 0.5)");
+    refused(&["gaps-bench", "--alpha", "NaN"], "(0, 1]");
+    refused(&["gaps-bench", "--gain-alpha", "-0.1"], "--gain-alpha");
     refused(&["stack-bound", "fw.elf"], "<CONFIG>");
     refused(&["replay"], "<LOG.csv>");
     refused(&["no-such-command"], "no-such-command");
@@ -151,4 +156,29 @@ fn completion_scripts_name_every_command() {
         }
     }
     refused(&["completions", "tcsh"], "bash");
+}
+
+#[test]
+fn the_test_levels_reach_the_report() {
+    // GIVEN a clean simulated flight analysed at other levels than the defaults (0.01, 0.01)
+    let out = std::env::temp_dir().join(format!("aerosid-cli-levels-{}", std::process::id()));
+    let o = aerosid(&[
+        "gaps",
+        "--clean",
+        "--seconds",
+        "30",
+        "--alpha",
+        "0.05",
+        "--gain-alpha",
+        "0.2",
+        "--out",
+        out.to_str().expect("a UTF-8 temporary path"),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = std::fs::read_to_string(out.join("report.json")).expect("report.json written");
+    let _ = std::fs::remove_dir_all(&out);
+    let report: serde_json::Value = serde_json::from_str(&text).expect("report.json is JSON");
+    // THEN the report's criterion carries them
+    assert_eq!(report["criterion"]["alpha"], 0.05);
+    assert_eq!(report["criterion"]["gain_alpha"], 0.2);
 }

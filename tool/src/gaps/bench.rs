@@ -42,6 +42,8 @@ pub struct Campaign {
     /// The folder of the real flight-test data (`shared/data/flight`) and the maps'
     /// folder, if wanted.
     pub real: Option<(PathBuf, PathBuf)>,
+    /// The analysis settings of every flight (a simulated flight's baseline is its own).
+    pub settings: GapSettings,
 }
 
 /// One flight of the campaign.
@@ -78,13 +80,15 @@ pub fn write(c: &Campaign, dir: &Path) -> Result<Vec<String>, String> {
             let e = k.draw(&mut rng);
             seed += 1;
             let s = seed;
-            jobs.push(Box::new(move || sim_case(Some(e), s)));
+            let g = c.settings.clone();
+            jobs.push(Box::new(move || sim_case(Some(e), s, &g)));
         }
     }
     for _ in 0..c.clean {
         seed += 1;
         let s = seed;
-        jobs.push(Box::new(move || sim_case(None, s)));
+        let g = c.settings.clone();
+        jobs.push(Box::new(move || sim_case(None, s, &g)));
     }
     if let Some(j) = &c.jsbsim {
         let truth_path = j.join("truth.json");
@@ -96,35 +100,47 @@ pub fn write(c: &Campaign, dir: &Path) -> Result<Vec<String>, String> {
             .clone();
         for (file, t) in flights {
             let (csv, aircraft) = (j.join(&file), j.join("c172x.aircraft"));
+            let settings = c.settings.clone();
             let planted = match &t["planted"] {
                 Value::Null => json!([]),
                 p => json!([p]),
             };
             let effects = t["table_effects"].clone();
             let id = format!("jsbsim/{}", file.trim_end_matches(".csv"));
-            let reproduce = format!("aerosid gaps --data {} --with {}", csv.display(), aircraft.display());
+            let reproduce = format!(
+                "aerosid gaps --data {} --with {}{}",
+                csv.display(),
+                aircraft.display(),
+                level_args(&settings)
+            );
             jobs.push(Box::new(move || Case {
                 id: id.clone(),
                 suite: "jsbsim",
                 planted: planted.clone(),
                 table_effects: effects.clone(),
                 reproduce: reproduce.clone(),
-                result: analyse(&csv, &aircraft, &GapSettings::default()),
+                result: analyse(&csv, &aircraft, &settings),
             }));
         }
     }
     if let Some((data, maps)) = &c.real {
         for (file, map) in REAL_FLIGHTS {
             let (d, m) = (data.join(file), maps.join(map));
+            let settings = c.settings.clone();
             let id = format!("real/{}", file.trim_end_matches(".asc"));
-            let reproduce = format!("aerosid gaps --data {} --with {}", d.display(), m.display());
+            let reproduce = format!(
+                "aerosid gaps --data {} --with {}{}",
+                d.display(),
+                m.display(),
+                level_args(&settings)
+            );
             jobs.push(Box::new(move || Case {
                 id: id.clone(),
                 suite: "real",
                 planted: Value::Null,
                 table_effects: Value::Null,
                 reproduce: reproduce.clone(),
-                result: analyse(&d, &m, &GapSettings::default()),
+                result: analyse(&d, &m, &settings),
             }));
         }
     }
@@ -216,10 +232,23 @@ pub fn timing_summary(manifest: &[Value]) -> Value {
     })
 }
 
+/// The `aerosid gaps` options that give `s`'s test levels, empty for the defaults.
+fn level_args(s: &GapSettings) -> String {
+    let d = GapSettings::default();
+    let mut out = String::new();
+    if s.alpha != d.alpha {
+        out += &format!(" --alpha {}", s.alpha);
+    }
+    if s.cv.gain_alpha != d.cv.gain_alpha {
+        out += &format!(" --gain-alpha {}", s.cv.gain_alpha);
+    }
+    out
+}
+
 /// Duration of each simulated benchmark flight, s.
 const SIM_SECONDS: f64 = 90.0;
 
-fn sim_case(e: Option<HiddenEffect>, seed: u64) -> Case {
+fn sim_case(e: Option<HiddenEffect>, seed: u64, settings: &GapSettings) -> Case {
     let id = format!(
         "sim/{}_{seed}",
         e.map_or("clean".to_string(), |e| e.kind.name().to_string())
@@ -227,7 +256,7 @@ fn sim_case(e: Option<HiddenEffect>, seed: u64) -> Case {
     let reproduce = match &e {
         Some(e) => e.command_line(seed, SIM_SECONDS),
         None => format!("aerosid gaps --clean --seed {seed} --seconds {SIM_SECONDS:?}"),
-    };
+    } + &level_args(settings);
     let planted = match &e {
         None => json!([]),
         Some(e) => {
@@ -244,7 +273,7 @@ fn sim_case(e: Option<HiddenEffect>, seed: u64) -> Case {
         .and_then(|f| {
             let s = GapSettings {
                 baseline: Some(HiddenEffect::baseline(e.as_ref())),
-                ..GapSettings::default()
+                ..settings.clone()
             };
             timed(&f, &s)
         });
