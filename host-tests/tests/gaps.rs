@@ -457,7 +457,7 @@ fn on_the_jsbsim_flights_table_effects_are_found_and_no_sensor_error_is_invented
             clean: 0,
             jsbsim: Some(dir),
             real: None,
-            settings: Default::default(),
+            levels: Default::default(),
         },
         &out,
     )

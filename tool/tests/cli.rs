@@ -134,11 +134,22 @@ fn values_out_of_range_or_missing_are_refused_with_the_argument_named() {
     refused(&["gaps", "--clean", "--air-data", "vanes"], "reconstructed");
     refused(&["gaps", "--clean", "--compatibility", "maybe"], "off");
     refused(&["gaps", "--clean", "--baseline", "CQ=1"], "--baseline");
-    refused(&["gaps", "--clean", "--alpha", "0"], "(0, 1]");
+    refused(&["gaps", "--clean", "--alpha", "0"], "[1e-12, 1]");
     refused(&["gaps", "--clean", "--alpha", "1.5"], "--alpha");
-    refused(&["gaps", "--clean", "--gain-alpha", "0.5"], "(0, 0.5)");
-    refused(&["gaps-bench", "--alpha", "NaN"], "(0, 1]");
-    refused(&["gaps-bench", "--gain-alpha", "-0.1"], "--gain-alpha");
+    refused(&["gaps", "--clean", "--alpha", "x"], "not a number");
+    refused(&["gaps", "--clean", "--gain-alpha", "0.5"], "[1e-12, 0.5)");
+    // (a refusal that regressed would run an empty campaign, not the whole one)
+    let empty = [
+        "gaps-bench",
+        "--draws",
+        "0",
+        "--clean",
+        "0",
+        "--out",
+        "/nonexistent/aerosid",
+    ];
+    refused(&[&empty[..], &["--alpha", "NaN"]].concat(), "[1e-12, 1]");
+    refused(&[&empty[..], &["--gain-alpha", "-0.1"]].concat(), "--gain-alpha");
     refused(&["stack-bound", "fw.elf"], "<CONFIG>");
     refused(&["replay"], "<LOG.csv>");
     refused(&["no-such-command"], "no-such-command");
@@ -158,27 +169,32 @@ fn completion_scripts_name_every_command() {
     refused(&["completions", "tcsh"], "bash");
 }
 
-#[test]
-fn the_test_levels_reach_the_report() {
-    // GIVEN a clean simulated flight analysed at other levels than the defaults (0.01, 0.01)
-    let out = std::env::temp_dir().join(format!("aerosid-cli-levels-{}", std::process::id()));
-    let o = aerosid(&[
-        "gaps",
-        "--clean",
-        "--seconds",
-        "30",
-        "--alpha",
-        "0.05",
-        "--gain-alpha",
-        "0.2",
-        "--out",
-        out.to_str().expect("a UTF-8 temporary path"),
-    ]);
+/// The report.json of a 30 s clean simulated flight analysed with `levels` added to the command.
+fn clean_report(tag: &str, levels: &[&str]) -> serde_json::Value {
+    let out = std::env::temp_dir().join(format!("aerosid-cli-{tag}-{}", std::process::id()));
+    let mut args = vec!["gaps", "--clean", "--seconds", "30"];
+    args.extend_from_slice(levels);
+    args.extend_from_slice(&["--out", out.to_str().expect("a UTF-8 temporary path")]);
+    let o = aerosid(&args);
     assert!(o.status.success(), "{}", stderr(&o));
     let text = std::fs::read_to_string(out.join("report.json")).expect("report.json written");
     let _ = std::fs::remove_dir_all(&out);
-    let report: serde_json::Value = serde_json::from_str(&text).expect("report.json is JSON");
-    // THEN the report's criterion carries them
+    serde_json::from_str(&text).expect("report.json is JSON")
+}
+
+#[test]
+fn the_test_levels_reach_the_report() {
+    // GIVEN a clean simulated flight analysed at other levels than the defaults (0.01, 0.01)
+    let report = clean_report("levels", &["--alpha", "0.05", "--gain-alpha", "0.2"]);
+    let default = clean_report("levels-d", &[]);
+    // THEN the report's criterion carries them, and the entry threshold is the one of α = 0.05:
+    // below the default's (Bonferroni over the same candidates, a larger level)
     assert_eq!(report["criterion"]["alpha"], 0.05);
     assert_eq!(report["criterion"]["gain_alpha"], 0.2);
+    assert_eq!(
+        report["criterion"]["candidates_tested"],
+        default["criterion"]["candidates_tested"]
+    );
+    let t2 = |r: &serde_json::Value| r["criterion"]["threshold_t2"].as_f64().expect("a threshold");
+    assert!(t2(&report) < t2(&default), "{} ≥ {}", t2(&report), t2(&default));
 }

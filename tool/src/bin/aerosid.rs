@@ -555,51 +555,42 @@ struct GapsArgs {
     #[arg(long, value_name = "HZ", default_value_t = MaxRate(Some(aerosid::gaps::MAX_ANALYSIS_RATE_HZ)), value_parser = max_rate_parser)]
     max_rate: MaxRate,
     #[command(flatten)]
-    levels: Levels,
+    levels: LevelArgs,
 }
 
-/// The test levels of `gaps` and `gaps-bench` (docs/model-gaps.md, "Selection").
+/// The test levels of `gaps` and `gaps-bench` ([`aerosid::gaps::Levels`]).
 #[derive(Debug, Clone, Copy, clap::Args)]
-struct Levels {
-    /// Family-wise level of the entry tests, divided among every candidate tested (Bonferroni):
-    /// it bounds the expected number of spurious causes per flight. In (0, 1].
+struct LevelArgs {
+    /// Family-wise level of the significance tests, divided among every candidate tested
+    /// (Bonferroni): nominally a bound on the chance of a spurious cause per flight (measured
+    /// rates: docs/benchmarks.md, "Operating points"). In [1e-12, 1].
     #[arg(long, value_name = "LEVEL", default_value_t = 0.01, value_parser = family_level, allow_negative_numbers = true)]
     alpha: f64,
     /// One-sided level of each candidate's held-out gain test (blocked cross-validation). In
-    /// (0, 0.5).
+    /// [1e-12, 0.5).
     #[arg(long, value_name = "LEVEL", default_value_t = 0.01, value_parser = one_sided_level, allow_negative_numbers = true)]
     gain_alpha: f64,
 }
 
-impl Levels {
-    /// The default settings with these levels.
-    fn settings(self) -> aerosid::gaps::GapSettings {
-        let d = aerosid::gaps::GapSettings::default();
-        aerosid::gaps::GapSettings {
+impl LevelArgs {
+    fn levels(self) -> aerosid::gaps::Levels {
+        aerosid::gaps::Levels {
             alpha: self.alpha,
-            cv: aerosid::gaps::select::CvSettings {
-                gain_alpha: self.gain_alpha,
-                ..d.cv
-            },
-            ..d
+            gain_alpha: self.gain_alpha,
         }
     }
 }
 
-/// `--alpha`: a family-wise level in (0, 1].
+/// `--alpha`: a family-wise level ([`aerosid::gaps::Levels::check_alpha`]).
 fn family_level(s: &str) -> Result<f64, String> {
-    s.parse::<f64>()
-        .ok()
-        .filter(|v| *v > 0.0 && *v <= 1.0)
-        .ok_or_else(|| format!("`{s}` is not a level in (0, 1]"))
+    let v = s.parse::<f64>().map_err(|_| format!("`{s}` is not a number"))?;
+    aerosid::gaps::Levels::check_alpha(v)
 }
 
-/// `--gain-alpha`: a one-sided level in (0, 0.5).
+/// `--gain-alpha`: a one-sided level ([`aerosid::gaps::Levels::check_gain_alpha`]).
 fn one_sided_level(s: &str) -> Result<f64, String> {
-    s.parse::<f64>()
-        .ok()
-        .filter(|v| *v > 0.0 && *v < 0.5)
-        .ok_or_else(|| format!("`{s}` is not a one-sided level in (0, 0.5)"))
+    let v = s.parse::<f64>().map_err(|_| format!("`{s}` is not a number"))?;
+    aerosid::gaps::Levels::check_gain_alpha(v)
 }
 
 /// `--max-rate`: a cap in Hz, or none (`native`).
@@ -712,7 +703,7 @@ impl Execute for GapsArgs {
             compatibility: matches!(self.compatibility, OnOff::On),
             baseline: self.baseline.clone(),
             max_rate_hz: self.max_rate.0,
-            ..self.levels.settings()
+            ..self.levels.levels().apply(aerosid::gaps::GapSettings::default())
         };
         let opts = match self.read_options() {
             Ok(o) => o,
@@ -844,7 +835,7 @@ struct GapsBenchArgs {
     #[arg(long, value_name = "N", default_value_t = 10)]
     clean: usize,
     #[command(flatten)]
-    levels: Levels,
+    levels: LevelArgs,
 }
 
 impl Execute for GapsBenchArgs {
@@ -856,7 +847,7 @@ impl Execute for GapsBenchArgs {
             clean: self.clean,
             jsbsim: Some(root.join("data/jsbsim")),
             real: data.is_dir().then(|| (data, root.join("data/maps"))),
-            settings: self.levels.settings(),
+            levels: self.levels.levels(),
         };
         match aerosid::gaps::bench::write(&campaign, &self.out) {
             Ok(lines) => {

@@ -13,7 +13,7 @@
 //! and the number of threads.
 
 use super::hidden::{flight, HiddenEffect, HiddenKind};
-use super::{run_gaps, GapReport, GapSettings, COEFFICIENTS};
+use super::{run_gaps, GapReport, GapSettings, Levels, COEFFICIENTS};
 use crate::io::read_measured;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -42,8 +42,9 @@ pub struct Campaign {
     /// The folder of the real flight-test data (`shared/data/flight`) and the maps'
     /// folder, if wanted.
     pub real: Option<(PathBuf, PathBuf)>,
-    /// The analysis settings of every flight (a simulated flight's baseline is its own).
-    pub settings: GapSettings,
+    /// The test levels of every flight's analysis (the rest are the defaults; a simulated
+    /// flight's baseline is its own).
+    pub levels: Levels,
 }
 
 /// One flight of the campaign.
@@ -80,14 +81,14 @@ pub fn write(c: &Campaign, dir: &Path) -> Result<Vec<String>, String> {
             let e = k.draw(&mut rng);
             seed += 1;
             let s = seed;
-            let g = c.settings.clone();
+            let g = c.levels.apply(GapSettings::default());
             jobs.push(Box::new(move || sim_case(Some(e), s, &g)));
         }
     }
     for _ in 0..c.clean {
         seed += 1;
         let s = seed;
-        let g = c.settings.clone();
+        let g = c.levels.apply(GapSettings::default());
         jobs.push(Box::new(move || sim_case(None, s, &g)));
     }
     if let Some(j) = &c.jsbsim {
@@ -100,7 +101,7 @@ pub fn write(c: &Campaign, dir: &Path) -> Result<Vec<String>, String> {
             .clone();
         for (file, t) in flights {
             let (csv, aircraft) = (j.join(&file), j.join("c172x.aircraft"));
-            let settings = c.settings.clone();
+            let settings = c.levels.apply(GapSettings::default());
             let planted = match &t["planted"] {
                 Value::Null => json!([]),
                 p => json!([p]),
@@ -111,7 +112,7 @@ pub fn write(c: &Campaign, dir: &Path) -> Result<Vec<String>, String> {
                 "aerosid gaps --data {} --with {}{}",
                 csv.display(),
                 aircraft.display(),
-                level_args(&settings)
+                c.levels.args()
             );
             jobs.push(Box::new(move || Case {
                 id: id.clone(),
@@ -126,13 +127,13 @@ pub fn write(c: &Campaign, dir: &Path) -> Result<Vec<String>, String> {
     if let Some((data, maps)) = &c.real {
         for (file, map) in REAL_FLIGHTS {
             let (d, m) = (data.join(file), maps.join(map));
-            let settings = c.settings.clone();
+            let settings = c.levels.apply(GapSettings::default());
             let id = format!("real/{}", file.trim_end_matches(".asc"));
             let reproduce = format!(
                 "aerosid gaps --data {} --with {}{}",
                 d.display(),
                 m.display(),
-                level_args(&settings)
+                c.levels.args()
             );
             jobs.push(Box::new(move || Case {
                 id: id.clone(),
@@ -232,19 +233,6 @@ pub fn timing_summary(manifest: &[Value]) -> Value {
     })
 }
 
-/// The `aerosid gaps` options that give `s`'s test levels, empty for the defaults.
-fn level_args(s: &GapSettings) -> String {
-    let d = GapSettings::default();
-    let mut out = String::new();
-    if s.alpha != d.alpha {
-        out += &format!(" --alpha {}", s.alpha);
-    }
-    if s.cv.gain_alpha != d.cv.gain_alpha {
-        out += &format!(" --gain-alpha {}", s.cv.gain_alpha);
-    }
-    out
-}
-
 /// Duration of each simulated benchmark flight, s.
 const SIM_SECONDS: f64 = 90.0;
 
@@ -256,7 +244,7 @@ fn sim_case(e: Option<HiddenEffect>, seed: u64, settings: &GapSettings) -> Case 
     let reproduce = match &e {
         Some(e) => e.command_line(seed, SIM_SECONDS),
         None => format!("aerosid gaps --clean --seed {seed} --seconds {SIM_SECONDS:?}"),
-    } + &level_args(settings);
+    } + &Levels::of(settings).args();
     let planted = match &e {
         None => json!([]),
         Some(e) => {

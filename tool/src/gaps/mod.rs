@@ -25,12 +25,15 @@
 //! ## The criterion and its threshold
 //! A candidate is named when its partial `t²` (the partial F of stepwise regression, Klein &
 //! Morelli 2006 §5.4.1, with a coloured-residual σ after Morelli & Klein 1997) exceeds the
-//! two-sided normal critical value at family-wise level `α = 0.001` with a Bonferroni correction
-//! over every candidate tested in the flight (compatibility parameters and all coefficients'
-//! library terms). Why: the F-test answers "is this term's effect distinguishable from noise", and
-//! the Bonferroni correction keeps the chance of naming anything on a clean flight below `α`
-//! however many candidates there are — if σ is right, which is what the errors-in-variables model
-//! and the coloured σ are for. Morelli's PSE is reported, not required to fall (see
+//! two-sided critical value at family-wise level `α` (default 0.01, [`Levels`]) with a Bonferroni
+//! correction over every candidate tested in the flight (compatibility parameters and all
+//! coefficients' library terms): Student t with `G − 1` degrees of freedom for the coefficients'
+//! block sandwich (`G` blocks), normal for the compatibility check's many segments; a held-out
+//! gain test then confirms each entry. Why: the F-test answers "is this term's effect
+//! distinguishable from noise", and the Bonferroni correction keeps the chance of naming anything
+//! on a clean flight below `α` however many candidates there are — nominally, if σ is right, which
+//! is what the errors-in-variables model and the coloured σ are for (the measured rates:
+//! `docs/benchmarks.md`, "Operating points"). Morelli's PSE is reported, not required to fall (see
 //! `docs/model-gaps.md`). Measurement causes take precedence over aerodynamic ones (the
 //! sensors are cleared before the aerodynamics is blamed), so the **top cause** is the sensor error with the largest
 //! final `t²`, else the aerodynamic term with the largest final `t²` over all coefficients.
@@ -127,6 +130,85 @@ impl Default for GapSettings {
             flow_angles: FlowAngleChoice::Auto,
             max_rate_hz: Some(MAX_ANALYSIS_RATE_HZ),
         }
+    }
+}
+
+/// The two test levels of the selection (`aerosid gaps --alpha --gain-alpha`): the family-wise
+/// level of the significance tests ([`GapSettings::alpha`]) and the one-sided level of each
+/// held-out test ([`select::CvSettings::gain_alpha`]). The selection, the compatibility check and
+/// the instrumental check all take them; a report records them in its `criterion`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Levels {
+    /// Family-wise level, Bonferroni over every candidate tested: in `[ALPHA_MIN, 1]`.
+    pub alpha: f64,
+    /// One-sided level of each candidate's held-out gain test: in `[ALPHA_MIN, 0.5)`.
+    pub gain_alpha: f64,
+}
+
+impl Default for Levels {
+    fn default() -> Self {
+        Self::of(&GapSettings::default())
+    }
+}
+
+impl Levels {
+    /// The smallest level taken: below it the critical values leave the range where the quantile
+    /// functions are accurate (at 5·10⁻³²⁴ the level is 0 and the threshold infinite).
+    pub const ALPHA_MIN: f64 = 1e-12;
+
+    /// The levels of `s`.
+    pub fn of(s: &GapSettings) -> Self {
+        Self {
+            alpha: s.alpha,
+            gain_alpha: s.cv.gain_alpha,
+        }
+    }
+
+    /// `s` with these levels.
+    pub fn apply(self, s: GapSettings) -> GapSettings {
+        GapSettings {
+            alpha: self.alpha,
+            cv: select::CvSettings {
+                gain_alpha: self.gain_alpha,
+                ..s.cv
+            },
+            ..s
+        }
+    }
+
+    /// `alpha` if it is a family-wise level in `[ALPHA_MIN, 1]`, else what is wrong.
+    pub fn check_alpha(alpha: f64) -> Result<f64, String> {
+        if (Self::ALPHA_MIN..=1.0).contains(&alpha) {
+            Ok(alpha)
+        } else {
+            Err(format!("{alpha} is not a level in [{:e}, 1]", Self::ALPHA_MIN))
+        }
+    }
+
+    /// `gain_alpha` if it is a one-sided level in `[ALPHA_MIN, 0.5)`, else what is wrong.
+    pub fn check_gain_alpha(gain_alpha: f64) -> Result<f64, String> {
+        if (Self::ALPHA_MIN..0.5).contains(&gain_alpha) {
+            Ok(gain_alpha)
+        } else {
+            Err(format!(
+                "{gain_alpha} is not a one-sided level in [{:e}, 0.5)",
+                Self::ALPHA_MIN
+            ))
+        }
+    }
+
+    /// The `aerosid gaps` options that set these levels, each with a leading space; empty for the
+    /// defaults. The numbers are Rust's shortest text that reads back to the same `f64`.
+    pub fn args(self) -> String {
+        let d = Self::default();
+        let mut out = String::new();
+        if self.alpha != d.alpha {
+            out += &format!(" --alpha {}", self.alpha);
+        }
+        if self.gain_alpha != d.gain_alpha {
+            out += &format!(" --gain-alpha {}", self.gain_alpha);
+        }
+        out
     }
 }
 
@@ -1959,6 +2041,42 @@ mod tests {
     use super::*;
     use rand::SeedableRng;
     use rand_distr::{Distribution, Normal};
+
+    #[test]
+    fn levels_give_the_options_that_set_them() {
+        // GIVEN the default levels and others
+        let d = Levels::default();
+        let other = Levels {
+            alpha: 0.03,
+            gain_alpha: 0.1 + 0.2,
+        };
+        // THEN the defaults need no option, and the others' options read back to the same levels
+        assert_eq!(d.args(), "");
+        assert_eq!(d, Levels::of(&GapSettings::default()));
+        let args = other.args();
+        let words: Vec<&str> = args.split_whitespace().collect();
+        assert_eq!(words.len(), 4, "{args}");
+        assert_eq!(words[0], "--alpha");
+        assert_eq!(words[2], "--gain-alpha");
+        let alpha = Levels::check_alpha(words[1].parse().expect("a number")).expect("in range");
+        let gain = Levels::check_gain_alpha(words[3].parse().expect("a number")).expect("in range");
+        assert_eq!(
+            Levels {
+                alpha,
+                gain_alpha: gain
+            },
+            other
+        );
+        // AND apply sets both in the settings
+        assert_eq!(Levels::of(&other.apply(GapSettings::default())), other);
+        // AND out-of-range levels are refused
+        for bad in [0.0, -0.1, 1.5, f64::NAN, 1e-13] {
+            assert!(Levels::check_alpha(bad).is_err(), "{bad}");
+        }
+        for bad in [0.0, 0.5, f64::INFINITY] {
+            assert!(Levels::check_gain_alpha(bad).is_err(), "{bad}");
+        }
+    }
 
     /// A 3-2-1-1 elevator sequence every 6 s (±0.05 rad, alternating), through a 30 ms
     /// first-order actuator, at 100 Hz; with its rate and second derivative (central differences).

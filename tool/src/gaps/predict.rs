@@ -14,7 +14,7 @@
 use super::airdata::AirDataChoice;
 use super::model::{Signal, Table, Term, TermRefs, COEFFICIENTS};
 use super::simulate::{ModelSet, Simulation};
-use super::{check_input, percentile, preprocess, signal, GapSettings};
+use super::{check_input, percentile, preprocess, signal, GapSettings, Levels};
 use crate::io::flow_angles::WindFitSettings;
 use crate::io::measured::MeasuredFlight;
 use crate::plot::{Colour, Figure, Line, Panel};
@@ -60,6 +60,9 @@ pub struct SavedReport {
     pub air_data: String,
     /// Whether the compatibility check ran.
     pub compatibility: bool,
+    /// The test levels of the analysis (`criterion`; the defaults for a report without them):
+    /// the compatibility check on the predicted flight takes the same.
+    pub levels: Levels,
     /// The terms' reference values, when the report saved them.
     pub refs: Option<TermRefs>,
     /// Per coefficient.
@@ -139,12 +142,25 @@ pub fn read_report(path: &Path) -> Result<SavedReport, String> {
         .get("notes")
         .and_then(Value::as_array)
         .is_some_and(|n| n.iter().any(|s| s.as_str() == Some("compatibility check switched off")));
+    let d = Levels::default();
+    let level = |key: &str, default: f64| {
+        v.get("criterion")
+            .and_then(|c| c.get(key))
+            .and_then(Value::as_f64)
+            .unwrap_or(default)
+    };
+    let levels = Levels {
+        alpha: Levels::check_alpha(level("alpha", d.alpha)).map_err(|e| format!("{p}: criterion.alpha: {e}"))?,
+        gain_alpha: Levels::check_gain_alpha(level("gain_alpha", d.gain_alpha))
+            .map_err(|e| format!("{p}: criterion.gain_alpha: {e}"))?,
+    };
     Ok(SavedReport {
         path: p.to_string(),
         source: text("source"),
         aircraft: text("aircraft"),
         air_data: text("air_data"),
         compatibility,
+        levels,
         refs,
         coefficients,
     })
@@ -299,7 +315,7 @@ pub fn predict(report: &SavedReport, flight: &MeasuredFlight) -> Result<GapsPred
     let settings = GapSettings {
         air_data: air_choice(&report.air_data),
         compatibility: report.compatibility,
-        ..GapSettings::default()
+        ..report.levels.apply(GapSettings::default())
     };
     let prepared = crate::io::flow_angles::prepare(flight, settings.flow_angles, &WindFitSettings::default());
     let flight = &prepared;
@@ -527,4 +543,52 @@ pub fn run(
     let files = write(&p, out)?;
     let text = table(&p);
     Ok((p, text, files))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A gap report with no coefficients and `criterion` as given, read back.
+    fn read_with(criterion: Option<Value>) -> Result<SavedReport, String> {
+        let mut v = serde_json::json!({"schema": REPORT_SCHEMA, "coefficients": []});
+        if let Some(c) = criterion {
+            v["criterion"] = c;
+        }
+        let path = std::env::temp_dir().join(format!(
+            "aerosid-predict-levels-{}-{}.json",
+            std::process::id(),
+            criterion_tag(&v)
+        ));
+        std::fs::write(&path, v.to_string()).expect("temporary report written");
+        let r = read_report(&path);
+        let _ = std::fs::remove_file(&path);
+        r
+    }
+
+    fn criterion_tag(v: &Value) -> String {
+        v.get("criterion").map_or("none".into(), |c| {
+            c.to_string().chars().filter(char::is_ascii_alphanumeric).collect()
+        })
+    }
+
+    #[test]
+    fn the_report_levels_are_the_prediction_levels() {
+        // GIVEN reports analysed at other levels, at none recorded, and at a level out of range
+        let set = read_with(Some(serde_json::json!({"alpha": 0.05, "gain_alpha": 0.2}))).expect("read");
+        let old = read_with(None).expect("read");
+        let bad = read_with(Some(serde_json::json!({"alpha": 2.0})));
+        // THEN the prediction's compatibility check takes the report's levels, the defaults when
+        // it has none, and a level out of range is refused with the field named
+        assert_eq!(
+            set.levels,
+            Levels {
+                alpha: 0.05,
+                gain_alpha: 0.2
+            }
+        );
+        assert_eq!(old.levels, Levels::default());
+        let e = bad.expect_err("alpha 2 refused");
+        assert!(e.contains("criterion.alpha"), "{e}");
+    }
 }

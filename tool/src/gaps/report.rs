@@ -13,7 +13,7 @@ pub fn table(r: &GapReport) -> String {
     let _ = writeln!(s, "model-gap analysis — {}", r.source);
     let _ = writeln!(
         s,
-        "aircraft {}; identification {:.1}–{:.1} s, held out {:.1}–{:.1} s; {} candidates tested, threshold t² > {:.1} (α = {} / {} two-sided)",
+        "aircraft {}; identification {:.1}–{:.1} s, held out {:.1}–{:.1} s; {} candidates tested, threshold t² > {:.1} (α = {} / {} two-sided), held-out gain one-sided at {}",
         r.aircraft,
         r.identification_s[0],
         r.identification_s[1],
@@ -22,7 +22,8 @@ pub fn table(r: &GapReport) -> String {
         r.candidates_tested,
         r.threshold_t2,
         r.settings.alpha,
-        r.candidates_tested
+        r.candidates_tested,
+        r.settings.cv.gain_alpha
     );
     for n in r.notes.iter().chain(&r.compatibility.notes) {
         let _ = writeln!(s, "note: {n}");
