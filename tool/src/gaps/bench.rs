@@ -72,7 +72,9 @@ pub fn write(c: &Campaign, dir: &Path) -> Result<Vec<String>, String> {
     std::fs::create_dir_all(&tables).map_err(|e| format!("{}: {e}", tables.display()))?;
     let reports = dir.join("reports");
     std::fs::create_dir_all(&reports).map_err(|e| format!("{}: {e}", reports.display()))?;
-    let mut jobs: Vec<Box<dyn Fn() -> Case + Send + Sync>> = Vec::new();
+    let settings = &c.levels.apply(GapSettings::default());
+    let level_args = c.levels.args();
+    let mut jobs: Vec<Box<dyn Fn() -> Case + Send + Sync + '_>> = Vec::new();
     // Simulated: the campaign's turbulence, one seeded draw sequence.
     let mut rng = ChaCha8Rng::seed_from_u64(0xB3);
     let mut seed = 20_000u64;
@@ -81,15 +83,13 @@ pub fn write(c: &Campaign, dir: &Path) -> Result<Vec<String>, String> {
             let e = k.draw(&mut rng);
             seed += 1;
             let s = seed;
-            let g = c.levels.apply(GapSettings::default());
-            jobs.push(Box::new(move || sim_case(Some(e), s, &g)));
+            jobs.push(Box::new(move || sim_case(Some(e), s, settings)));
         }
     }
     for _ in 0..c.clean {
         seed += 1;
         let s = seed;
-        let g = c.levels.apply(GapSettings::default());
-        jobs.push(Box::new(move || sim_case(None, s, &g)));
+        jobs.push(Box::new(move || sim_case(None, s, settings)));
     }
     if let Some(j) = &c.jsbsim {
         let truth_path = j.join("truth.json");
@@ -101,7 +101,6 @@ pub fn write(c: &Campaign, dir: &Path) -> Result<Vec<String>, String> {
             .clone();
         for (file, t) in flights {
             let (csv, aircraft) = (j.join(&file), j.join("c172x.aircraft"));
-            let settings = c.levels.apply(GapSettings::default());
             let planted = match &t["planted"] {
                 Value::Null => json!([]),
                 p => json!([p]),
@@ -112,7 +111,7 @@ pub fn write(c: &Campaign, dir: &Path) -> Result<Vec<String>, String> {
                 "aerosid gaps --data {} --with {}{}",
                 csv.display(),
                 aircraft.display(),
-                c.levels.args()
+                level_args
             );
             jobs.push(Box::new(move || Case {
                 id: id.clone(),
@@ -120,20 +119,19 @@ pub fn write(c: &Campaign, dir: &Path) -> Result<Vec<String>, String> {
                 planted: planted.clone(),
                 table_effects: effects.clone(),
                 reproduce: reproduce.clone(),
-                result: analyse(&csv, &aircraft, &settings),
+                result: analyse(&csv, &aircraft, settings),
             }));
         }
     }
     if let Some((data, maps)) = &c.real {
         for (file, map) in REAL_FLIGHTS {
             let (d, m) = (data.join(file), maps.join(map));
-            let settings = c.levels.apply(GapSettings::default());
             let id = format!("real/{}", file.trim_end_matches(".asc"));
             let reproduce = format!(
                 "aerosid gaps --data {} --with {}{}",
                 d.display(),
                 m.display(),
-                c.levels.args()
+                level_args
             );
             jobs.push(Box::new(move || Case {
                 id: id.clone(),
@@ -141,7 +139,7 @@ pub fn write(c: &Campaign, dir: &Path) -> Result<Vec<String>, String> {
                 planted: Value::Null,
                 table_effects: Value::Null,
                 reproduce: reproduce.clone(),
-                result: analyse(&d, &m, &settings),
+                result: analyse(&d, &m, settings),
             }));
         }
     }
