@@ -820,6 +820,7 @@ pub fn parse_dataflash(
             parameters: log.parameters.clone(),
             warnings,
             flow_angles: None,
+            origin: Default::default(),
         },
     };
     flight.validate().map_err(|inv| {

@@ -772,6 +772,14 @@ pub fn prepare(flight: &MeasuredFlight, choice: FlowAngleChoice, s: &WindFitSett
             Ok(e) => {
                 f.channels.insert(Quantity::Alpha, e.alpha_rad);
                 f.channels.insert(Quantity::Beta, e.beta_rad);
+                for q in [Quantity::Alpha, Quantity::Beta] {
+                    f.log.origin.insert(
+                        q,
+                        crate::io::measured::Origin::Estimated {
+                            by: "wind triangle (α-free mode)".into(),
+                        },
+                    );
+                }
                 let mut info = e.info;
                 if vanes {
                     info.assumptions

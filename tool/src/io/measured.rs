@@ -204,6 +204,39 @@ pub struct LogMeta {
     /// the vanes, an estimate (with its wind fit and uncertainty) or why there is none
     /// (`None`: not run; the vanes as logged).
     pub flow_angles: Option<super::flow_angles::FlowAngles>,
+    /// Where a channel's values come from, for the channels that are not a sensor's own reading
+    /// (absent: measured by a sensor — a vane, a pitot, the IMU). Readers set it where the
+    /// format says so (ArduPilot's `AOA`/`SSA`, a PX4 wind-based estimate), a column map or a
+    /// CSV column name can state it, and the α-free mode sets it for what it estimates.
+    pub origin: BTreeMap<Quantity, Origin>,
+}
+
+/// Where a channel's values come from, when not from a sensor measuring that quantity itself.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Origin {
+    /// Measured by its own sensor (a vane, a pitot tube, the IMU).
+    Sensor,
+    /// Computed by an estimator from other channels (the autopilot's α/β from its inertial
+    /// solution and a wind estimate, the α-free mode's wind triangle, a synthetic airspeed).
+    /// Such a channel has no vane errors (scale, bias, vane delay); its error, lag included, is
+    /// an error in the variable, and a candidate that restates the inertial data through a
+    /// kinematic identity (α̇ in C_L when α comes from the inertial data) is no aerodynamic cause.
+    Estimated {
+        /// What estimated it, in words (`ArduPilot AOA message`, `wind triangle (α-free mode)`).
+        by: String,
+    },
+}
+
+impl LogMeta {
+    /// Where channel `q` comes from ([`Origin::Sensor`] unless stated otherwise).
+    pub fn origin_of(&self, q: Quantity) -> Origin {
+        self.origin.get(&q).cloned().unwrap_or(Origin::Sensor)
+    }
+
+    /// Whether channel `q` is an estimator's output, not a sensor's reading.
+    pub fn is_estimated(&self, q: Quantity) -> bool {
+        matches!(self.origin.get(&q), Some(Origin::Estimated { .. }))
+    }
 }
 
 impl MeasuredFlight {

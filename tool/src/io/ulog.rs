@@ -1120,6 +1120,7 @@ pub fn parse_ulog_with(
             parameters: s.parameters,
             warnings,
             flow_angles: None,
+            origin: Default::default(),
         },
     };
     flight.validate().map_err(|inv| {
