@@ -455,4 +455,47 @@ mod tests {
             "clean {a} s, planted {b} s"
         );
     }
+
+    /// The vendored JSBSim cards (tool/data/jsbsim_card, scripts/bench/jsbsim_card.py) read back
+    /// with their aircraft file, have the estimated-α column, and are staircases at the logger's
+    /// rates: at most 1 change more than rate × length, as in
+    /// `records_have_their_lengths_and_staircase_rates`, and at most 10 % + 3 fewer — written with
+    /// 2–4 decimals, two consecutive noisy samples round to the same text with a probability of
+    /// `δ/(σ√2·√(2π))` ≤ 2.8 % for these channels (δ the last decimal, σ the noise; thrust 1 N and
+    /// 10 N); a channel at half its rate would miss by 50 %. The JSBSim thrust is at 10 Hz like the
+    /// airspeed.
+    #[test]
+    fn the_vendored_jsbsim_cards_read_back_as_staircases() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/jsbsim_card");
+        let truth: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(root.join("truth.json")).expect("truth.json")).expect("json");
+        let cards = truth["cards"].as_object().expect("cards");
+        assert_eq!(cards.len(), 3);
+        let l = UavLogging::default();
+        for card in cards.values() {
+            for r in card["records"].as_array().expect("records") {
+                let file = root.join(r["file"].as_str().expect("file"));
+                let f = crate::io::read_measured(&file, &root.join("c172x.aircraft")).expect("reads back");
+                let t = r["duration_s"].as_f64().expect("duration");
+                assert_eq!(f.t_s.len(), (t * 50.0).round() as usize, "{}", file.display());
+                let text = std::fs::read_to_string(&file).expect("text");
+                assert!(text.lines().next().is_some_and(|h| h.contains(ALPHA_EST_COLUMN)));
+                for (q, rate) in [
+                    (Quantity::PitchRate, l.imu.rate_hz),
+                    (Quantity::Pitch, l.attitude.rate_hz),
+                    (Quantity::VelocityNorth, l.gps_velocity.rate_hz),
+                    (Quantity::Airspeed, l.airspeed.rate_hz),
+                    (Quantity::Thrust, l.airspeed.rate_hz),
+                ] {
+                    let n = changes(f.get(q).expect("channel")) as f64;
+                    let expected = rate * t;
+                    assert!(
+                        n >= 0.9 * expected - 3.0 && n <= expected + 1.0,
+                        "{} {q:?}: {n} changes, expected {expected}",
+                        file.display()
+                    );
+                }
+            }
+        }
+    }
 }
