@@ -30,10 +30,10 @@
 //!
 //! | channel | rate | lag | jitter | why |
 //! |---|---|---|---|---|
-//! | IMU (accel, gyro) | 50 Hz | 10 ms | 1 ms | ArduPlane's `IMU` at its 50 Hz loop; the 20 Hz gyro/accel low-pass (`INS_GYRO_FILTER`, `INS_ACCEL_FILTER`) delays ≈ 8–11 ms |
+//! | IMU (accel, gyro) | 50 Hz | 10 ms | 1 ms | a 50 Hz `IMU` log of the filtered sensors; a 20 Hz low-pass (`INS_GYRO_FILTER`, `INS_ACCEL_FILTER`) delays ≈ 8–11 ms |
 //! | attitude | 25 Hz | 20 ms | 2 ms | `ATT` between the 10 Hz ATTITUDE_MED and loop-rate ATTITUDE_FAST settings; EKF output |
-//! | GPS velocity | 5 Hz | 200 ms | 10 ms | a u-blox M8 at 5 Hz; ArduPilot's default `GPS_DELAY_MS`/`EK3_GPS_DELAY` is 200–220 ms |
-//! | airspeed | 10 Hz | 50 ms | 5 ms | `ARSP` at 10 Hz; tubing and `ARSPD` filtering |
+//! | GPS velocity | 5 Hz | 200 ms | 10 ms | a u-blox receiver at 5 Hz; ArduPilot's GPS lag setting (`GPS_DELAY_MS`) is of the order of 200 ms |
+//! | airspeed | 10 Hz | 50 ms | 5 ms | an `ARSP` log at 10 Hz; tubing and filtering |
 //! | servo outputs, throttle | 25 Hz | 0 | 2 ms | the surface positions, logged every 40 ms |
 //! | α̂, β̂ | 10 Hz | 20 ms | 2 ms | the `AOA` message (above) |
 //! | air density (baro) | 10 Hz | 50 ms | 5 ms | `BARO` |
