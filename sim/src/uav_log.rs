@@ -37,6 +37,7 @@
 //! | servo outputs, throttle | 25 Hz | 0 | 2 ms | the surface positions, logged every 40 ms |
 //! | α̂, β̂ | 10 Hz | 20 ms | 2 ms | the `AOA` message (above) |
 //! | air density (baro) | 10 Hz | 50 ms | 5 ms | `BARO` |
+//! | propeller speed | 10 Hz | 50 ms | 5 ms | ESC telemetry or an RPM sensor (`RPM`, `ESC` messages at ≈ 10 Hz) |
 //!
 //! A channel's sample stamped `s` holds the signal at `s − lag + ε`, `ε` uniform in ±jitter (the
 //! scheduler's slip between reading and stamping); its first stamp is a seeded phase in
@@ -90,6 +91,8 @@ pub struct UavLogging {
     pub flow_angles: ChannelTiming,
     /// Air density (from the barometer).
     pub baro: ChannelTiming,
+    /// Propeller speed (ESC telemetry or an RPM sensor).
+    pub rpm: ChannelTiming,
     /// Time constant of the wind estimate's low-pass, s.
     pub wind_time_constant_s: f64,
     /// Standard deviation of the wind estimate's constant error per horizontal axis, m/s.
@@ -111,6 +114,7 @@ impl Default for UavLogging {
             servo: ChannelTiming::new(25.0, 0.0, 0.002),
             flow_angles: ChannelTiming::new(10.0, 0.020, 0.002),
             baro: ChannelTiming::new(10.0, 0.050, 0.005),
+            rpm: ChannelTiming::new(10.0, 0.050, 0.005),
             wind_time_constant_s: 30.0,
             wind_error_mps: 0.5,
             ekf_velocity_noise_mps: 0.05,
@@ -146,6 +150,8 @@ pub struct UavLog {
     pub throttle: Vec<f64>,
     /// Air density, kg/m³.
     pub air_density_kgpm3: Vec<f64>,
+    /// Propeller speed, rad/s.
+    pub prop_speed_rad_s: Vec<f64>,
     /// True α, rad.
     pub truth_alpha_rad: Vec<f64>,
     /// True β, rad.
@@ -370,6 +376,7 @@ pub fn log_flight(
     ];
     let throttle = hold(&col(&|s| s.throttle), &servo);
     let air_density_kgpm3 = hold(&col(&|s| s.air_density_kgpm3), &logging.baro);
+    let prop_speed_rad_s = hold(&col(&|s| s.prop_speed_rad_s), &logging.rpm);
 
     let t_s: Vec<f64> = (0..n).map(|i| i as f64 * grid_dt).collect();
     let truth_at = |f: &dyn Fn(&TruthSample) -> f64| -> Vec<f64> {
@@ -392,6 +399,7 @@ pub fn log_flight(
         surfaces_rad,
         throttle,
         air_density_kgpm3,
+        prop_speed_rad_s,
     }
 }
 

@@ -157,6 +157,7 @@ pub fn columns(log: &UavLog) -> Vec<(&'static str, &[f64])> {
         (csv_column(Rudder), &log.surfaces_rad[2]),
         (csv_column(Throttle), &log.throttle),
         (csv_column(AirDensity), &log.air_density_kgpm3),
+        (csv_column(PropSpeed), &log.prop_speed_rad_s),
         ("truth_alpha_rad", &log.truth_alpha_rad),
         ("truth_beta_rad", &log.truth_beta_rad),
         ("truth_airspeed_mps", &log.truth_airspeed_mps),
@@ -240,6 +241,7 @@ pub fn truth_json(s: &CardSettings, records: &[CardRecord]) -> serde_json::Value
             "servo": timing(&l.servo),
             "flow_angles": timing(&l.flow_angles),
             "baro": timing(&l.baro),
+            "rpm": timing(&l.rpm),
             "wind_time_constant_s": l.wind_time_constant_s,
             "wind_error_mps": l.wind_error_mps,
         },
@@ -328,7 +330,7 @@ mod tests {
             let t = r.manoeuvre.duration_s;
             assert_eq!(r.log.t_s.len(), (t * 50.0).round() as usize, "{}", r.manoeuvre.name);
             let log = &r.log;
-            let channels: [(&str, &[f64], f64); 8] = [
+            let channels: [(&str, &[f64], f64); 9] = [
                 ("gyro q", &log.gyro_rad_s[1], l.imu.rate_hz),
                 ("accel z", &log.accel_mps2[2], l.imu.rate_hz),
                 ("pitch", &log.euler_rad[1], l.attitude.rate_hz),
@@ -337,6 +339,7 @@ mod tests {
                 ("α̂", &log.alpha_est_rad, l.flow_angles.rate_hz),
                 ("elevator", &log.surfaces_rad[0], l.servo.rate_hz),
                 ("density", &log.air_density_kgpm3, l.baro.rate_hz),
+                ("propeller speed", &log.prop_speed_rad_s, l.rpm.rate_hz),
             ];
             for (name, v, f) in channels {
                 let expected = f * t;
