@@ -183,6 +183,9 @@ PROPS = {
     "turb_n": "atmosphere/turb-north-fps", "turb_e": "atmosphere/turb-east-fps", "turb_d": "atmosphere/turb-down-fps",
     "pturb": "atmosphere/p-turb-rad_sec", "qturb": "atmosphere/q-turb-rad_sec", "rturb": "atmosphere/r-turb-rad_sec",
     "u": "velocities/u-fps", "w": "velocities/w-fps",
+    "vn": "velocities/v-north-fps", "ve": "velocities/v-east-fps", "vd": "velocities/v-down-fps",
+    "wind_n": "atmosphere/total-wind-north-fps", "wind_e": "atmosphere/total-wind-east-fps",
+    "wind_d": "atmosphere/total-wind-down-fps",
 }
 
 
@@ -195,7 +198,8 @@ def axis_functions(build, acname):
     return out
 
 
-def simulate(build, acname, seed, sign):
+def simulate(build, acname, seed, sign, duration=DURATION, inputs_fn=inputs):
+    """Trim, then fly `duration` s of `inputs_fn(t, sign)` under the stabiliser; the 200 Hz record."""
     fdm = jsbsim.FGFDMExec(build)
     fdm.set_debug_level(0)
     fdm.disable_output()
@@ -224,13 +228,13 @@ def simulate(build, acname, seed, sign):
     fdm["atmosphere/turb-type"] = TURB_TYPE
     fdm["atmosphere/turbulence/milspec/windspeed_at_20ft_AGL-fps"] = TURB_W20_FPS
     fdm["atmosphere/turbulence/milspec/severity"] = TURB_SEVERITY
-    n = int(round((DURATION + 0.2) / DT))
+    n = int(round((duration + 0.2) / DT))
     axes = axis_functions(build, acname)
     rec = {k: np.empty(n) for k in list(PROPS) + ["axis_" + a for a in axes]}
     t_start = fdm["simulation/sim-time-sec"]
     for i in range(n):
         t = i * DT
-        de, da, dr, dth = inputs(t, sign)
+        de, da, dr, dth = inputs_fn(t, sign)
         # Light stabiliser (wings leveller, pitch-attitude hold, heading via rudder), as a pilot or
         # an autopilot flying the manoeuvre would; it acts on the true attitude.
         phi, theta = fdm["attitude/phi-rad"], fdm["attitude/theta-rad"]

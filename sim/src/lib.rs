@@ -17,6 +17,8 @@
 //! * [`atmosphere`] — ISA density, MIL-F-8785C Dryden turbulence (exact discretisation).
 //! * [`propulsion`] — the propeller `C_T(J)`, `C_P(J)` model the on-board code also uses.
 //! * [`trim`] — straight-level trim; [`manoeuvre`] — doublet, 3-2-1-1, sweep, step; [`sensors`].
+//! * [`test_card`] — a flight-test card of short manoeuvres; [`uav_log`] — a small UAV autopilot's
+//!   log of a flight (per-channel rates, lags, sample-and-hold, α and β estimated, no vanes).
 //!
 //! [`simulate`] runs a flight at 100 Hz (by default) and returns the sensor log
 //! ([`aerosid_core::aero::SensorSample`]) with a truth record per sample. Everything is `f64`,
@@ -32,7 +34,9 @@ pub mod flights;
 pub mod manoeuvre;
 pub mod propulsion;
 pub mod sensors;
+pub mod test_card;
 pub mod trim;
+pub mod uav_log;
 
 pub use actuator::Servo;
 pub use aero::{AeroInput, CoeffModel, Coefficients, LinearAero, ParameterJump, StallBlend, TruthAero, TruthEffects};

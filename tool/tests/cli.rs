@@ -198,3 +198,43 @@ fn the_test_levels_reach_the_report() {
     let t2 = |r: &serde_json::Value| r["criterion"]["threshold_t2"].as_f64().expect("a threshold");
     assert!(t2(&report) < t2(&default), "{} ≥ {}", t2(&report), t2(&default));
 }
+
+#[test]
+fn card_writes_a_card_and_refuses_effects_on_a_vane() {
+    // GIVEN a card with a planted α̇ in C_m
+    let out = std::env::temp_dir().join(format!("aerosid-cli-card-{}", std::process::id()));
+    let dir = out.to_str().expect("a UTF-8 temporary path");
+    let o = aerosid(&[
+        "card",
+        "--out",
+        dir,
+        "--seed",
+        "2",
+        "--effect",
+        "alpha-dot",
+        "--turbulence",
+        "moderate",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    // THEN eight records, the aircraft file and the truth, which names the planted kind
+    let csv = std::fs::read_dir(&out)
+        .expect("the card's folder")
+        .filter(|e| {
+            e.as_ref()
+                .is_ok_and(|e| e.path().extension().is_some_and(|x| x == "csv"))
+        })
+        .count();
+    assert_eq!(csv, 8);
+    assert!(out.join("skywalker_2013_mod.aircraft").is_file());
+    let truth: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("truth.json")).expect("truth.json")).expect("JSON");
+    assert_eq!(truth["planted"]["kind"], "alpha-dot");
+    assert_eq!(truth["turbulence"]["level"], "moderate");
+    let _ = std::fs::remove_dir_all(&out);
+    // AND an effect on the α vane is refused with the reason, nothing written
+    let o = aerosid(&["card", "--out", dir, "--effect", "vane-scale"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("has none"), "{}", stderr(&o));
+    assert!(!out.exists());
+    refused(&["card", "--out", dir, "--turbulence", "severe"], "--turbulence");
+}

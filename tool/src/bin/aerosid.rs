@@ -39,6 +39,7 @@ struct Cli {
 enum Command {
     Run(RunArgs),
     Simulate(SimulateArgs),
+    Card(CardArgs),
     Replay(ReplayArgs),
     #[command(name = "fem-hfb320")]
     FemHfb320(FemHfb320Args),
@@ -64,6 +65,7 @@ impl Command {
         match self {
             Self::Run(a) => a.execute(),
             Self::Simulate(a) => a.execute(),
+            Self::Card(a) => a.execute(),
             Self::Replay(a) => a.execute(),
             Self::FemHfb320(a) => a.execute(),
             Self::Fem(a) => a.execute(),
@@ -204,6 +206,70 @@ impl Execute for SimulateArgs {
                 ExitCode::SUCCESS
             }
             Err(e) => fail("simulate", e),
+        }
+    }
+}
+
+/// Write a simulated flight-test card (docs/test-card.md): eight short manoeuvres (doublets and
+/// 3-2-1-1s on each surface) of the skywalker in MIL-F-8785C turbulence, each from trim, logged as
+/// a small UAV's autopilot logs it (channels at 5–50 Hz held on a 50 Hz grid, α and β estimated
+/// from the inertial velocity and a lagged wind estimate, no vanes), with at most one hidden effect:
+/// one project CSV per manoeuvre, the aircraft file and truth.json in DIR.
+#[derive(Args)]
+struct CardArgs {
+    /// Folder of the card's files (created if missing).
+    #[arg(long, value_name = "DIR")]
+    out: PathBuf,
+    /// The hidden effect (default: none). The kinds on the α vane (vane-scale, time-delay) are
+    /// refused: the card has no vanes; a sensor bias sits on the pitch gyro or the z accelerometer.
+    #[arg(long, value_name = "KIND", value_parser = hidden_kind_parser())]
+    effect: Option<HiddenKind>,
+    /// The hidden effect's size instead of the one drawn from the seed.
+    #[arg(long, value_name = "X", allow_negative_numbers = true, requires = "effect")]
+    size: Option<f64>,
+    /// Seed of the card (turbulence, noise, logger timing, the effect's size).
+    #[arg(long, value_name = "N", default_value_t = 1)]
+    seed: u64,
+    /// Turbulence level (MIL-F-8785C low altitude: wind at 20 ft of 15 or 30 kt).
+    #[arg(long, value_name = "LEVEL", default_value = "light",
+          value_parser = PossibleValuesParser::new(["light", "moderate"]))]
+    turbulence: String,
+}
+
+impl Execute for CardArgs {
+    fn execute(self) -> ExitCode {
+        use aerosid::card::{draw_effect, write_card, CardSettings};
+        use aerosid::sim::test_card::CardTurbulence;
+        let turbulence = if self.turbulence == "moderate" {
+            CardTurbulence::Moderate
+        } else {
+            CardTurbulence::Light
+        };
+        let effect = match self.effect.map(|k| draw_effect(k, self.seed, self.size)).transpose() {
+            Ok(e) => e,
+            Err(e) => return fail("card", e),
+        };
+        let settings = CardSettings {
+            effect,
+            seed: self.seed,
+            turbulence,
+        };
+        match write_card(&self.out, &settings) {
+            Ok(files) => {
+                let what = effect.map_or_else(|| "clean".to_string(), |e| format!("hidden {}", e.describe()));
+                println!(
+                    "{}: {} files ({what}, {} turbulence, seed {})",
+                    self.out.display(),
+                    files.len(),
+                    turbulence.name(),
+                    self.seed
+                );
+                for f in files {
+                    println!("  {}", f.display());
+                }
+                ExitCode::SUCCESS
+            }
+            Err(e) => fail("card", e),
         }
     }
 }
