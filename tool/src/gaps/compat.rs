@@ -763,11 +763,18 @@ impl Problem<'_> {
     }
 }
 
-/// Splits `n` samples into segments of about `SEGMENT_S`.
-fn segments(n: usize, h_s: f64) -> Vec<(usize, usize)> {
+/// Splits the flight into segments of about `SEGMENT_S`, each inside one piece of a pooled
+/// flight ([`MeasuredFlight::pieces`]): a manoeuvre's reconstruction starts from its own initial
+/// state, never integrated across a join.
+fn segments(flight: &MeasuredFlight, h_s: f64) -> Vec<(usize, usize)> {
     let len = ((SEGMENT_S / h_s).round() as usize).max(50);
-    let k = (n / len).max(1);
-    (0..k).map(|i| (i * n / k, (i + 1) * n / k)).collect()
+    let mut out = Vec::new();
+    for p in flight.pieces() {
+        let n = p.end - p.start;
+        let k = (n / len).max(1);
+        out.extend((0..k).map(|i| (p.start + i * n / k, p.start + (i + 1) * n / k)));
+    }
+    out
 }
 
 /// Runs a problem: baseline fit, forward selection of sensor errors. Returns (tested in the first
@@ -1113,7 +1120,7 @@ fn velocity_problem(flight: &MeasuredFlight, h_s: f64, gyro_bias: [f64; 3]) -> O
     let rc: Vec<f64> = r_m.iter().map(|v| v - gyro_bias[2]).collect();
     let rates = std::rc::Rc::new([pc, qc, rc]);
     let attitude = std::rc::Rc::new(AttitudeTable::new(&phi_m, theta_m));
-    let segs = segments(n, h_s);
+    let segs = segments(flight, h_s);
     // The velocity equations are linear in the state and in the accelerometer biases
     // (`ẋ = A(t)x + u(t) − b`, `A = −[ω×]` with the measured rates, `u` the measured specific force
     // and gravity), and RK4 of an affine system is affine in its initial state and its constant
@@ -1543,7 +1550,7 @@ pub fn reconstruct_air_data(
 fn attitude_problem(flight: &MeasuredFlight, h_s: f64) -> Option<(Problem<'_>, Vec<Vec<f64>>)> {
     use Quantity::*;
     let n = flight.len();
-    let segs = segments(n, h_s);
+    let segs = segments(flight, h_s);
     let get = |q: Quantity| flight.get(q);
     let (q_m, theta_m) = (get(PitchRate)?, get(Pitch)?);
     let lateral = get(RollRate).is_some() && get(YawRate).is_some() && get(Roll).is_some();
