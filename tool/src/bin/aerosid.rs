@@ -539,13 +539,19 @@ fn air_data_parser() -> impl TypedValueParser<Value = AirDataChoice> {
 #[derive(Args)]
 #[command(group(ArgGroup::new("flight").required(true).args(["data", "simulate", "clean"])))]
 struct GapsArgs {
-    /// A measured flight (read by `aerosid::io::read_measured_with`): .csv, .asc/.txt/.dat or
-    /// .mat with --with; a PX4 .ulg or ArduPilot .bin log with or without it.
+    /// A measured flight or manoeuvre (read by `aerosid::io::read_measured_with`): .csv,
+    /// .asc/.txt/.dat or .mat with --with; a PX4 .ulg or ArduPilot .bin log with or without it.
+    /// Repeatable: the manoeuvres are pooled, each its own piece, in a canonical order (by file,
+    /// then time), whatever the order given (docs/model-gaps.md, "Pooled manoeuvres").
     #[arg(long, value_name = "FILE")]
-    data: Option<PathBuf>,
-    /// The column map or aircraft file of the --data flight (optional for .ulg and .bin).
+    data: Vec<PathBuf>,
+    /// The column map or aircraft file of every --data file (optional for .ulg and .bin).
     #[arg(long = "with", value_name = "MAP_OR_AIRCRAFT", requires = "data")]
     with: Option<PathBuf>,
+    /// A manoeuvre of each --data file, seconds from its first sample (repeatable; default the
+    /// whole file); every segment is its own piece.
+    #[arg(long, value_name = "FROM:TO", requires = "data", value_parser = aerosid::workflow::parse_range, allow_hyphen_values = true)]
+    segment: Vec<(f64, f64)>,
     /// Start of the window read from a .ulg/.bin log, s of its boot time (the scale the report
     /// prints). Default: the longest stretch in the air.
     #[arg(long, value_name = "S", requires = "data", value_parser = finite_seconds, allow_negative_numbers = true)]
@@ -730,7 +736,10 @@ fn usage(cmd: &str, e: impl std::fmt::Display) -> ExitCode {
 
 impl Execute for GapsArgs {
     fn execute(self) -> ExitCode {
-        if let Some(data) = &self.data {
+        if self.list && self.data.len() > 1 {
+            return usage("gaps", "--list lists one log: give one --data FILE");
+        }
+        for data in &self.data {
             let ext = data.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
             let log = matches!(ext.as_deref(), Some("ulg") | Some("bin"));
             if self.with.is_none() && !log {
@@ -781,10 +790,8 @@ impl Execute for GapsArgs {
                 "--size and --channel describe the hidden effect of --simulate KIND",
             );
         }
-        let flight = match (&self.data, &self.with) {
-            (Some(data), with) => {
-                aerosid::io::read_measured_with(data, with.as_deref(), &opts).map_err(|e| e.to_string())
-            }
+        let flight = match (self.data.is_empty(), &self.with) {
+            (false, with) => aerosid::io::read_pooled(&self.data, with.as_deref(), &self.segment, &opts),
             _ => {
                 // A simulated flight with the hidden effect's size drawn from the seed.
                 use rand::SeedableRng;

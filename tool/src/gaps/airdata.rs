@@ -171,7 +171,15 @@ pub fn fuse_all(
     for (q, rec) in reconstructed {
         match flight.get(*q) {
             Some(m) if m.len() == rec.len() => {
-                let (x, fc) = fuse(m, rec, h_s, cutoffs.and_then(|c| c.get(q).copied()));
+                let (mut x, fc) = fuse(m, rec, h_s, cutoffs.and_then(|c| c.get(q).copied()));
+                if flight.log.pieces.len() > 1 {
+                    // The crossover is chosen on the whole flight; the filter runs per manoeuvre,
+                    // never across a join.
+                    x.clear();
+                    for p in &flight.log.pieces {
+                        x.extend(fuse(&m[p.start..p.end], &rec[p.start..p.end], h_s, Some(fc)).0);
+                    }
+                }
                 out.insert(*q, x);
                 fcs.insert(*q, fc);
             }

@@ -239,6 +239,8 @@ struct Problem<'a> {
     x_mask: Vec<bool>,
     x_steps: Vec<f64>,
     segments: Vec<(usize, usize)>,
+    /// The held-out test's fold of each segment ([`segment_folds`]).
+    fold_of: Vec<usize>,
     candidates: Vec<SensorParam>,
     /// `(candidate values, x0, start, end)` → outputs over `[start, end)`.
     sim: SegmentSim<'a>,
@@ -650,8 +652,8 @@ impl Problem<'_> {
     }
 
     /// Held-out check of every active parameter, linearised about the converged fit: the
-    /// segments are dealt round-robin into folds; for each fold the active parameters are
-    /// re-estimated on the other segments (initial states projected out per segment, so a
+    /// segments are dealt into folds ([`segment_folds`]: by manoeuvre on a pooled flight); for
+    /// each fold the active parameters are re-estimated on the other segments (initial states projected out per segment, so a
     /// held-out segment keeps its own refitted initial state) and predict the fold's residuals.
     /// Returns, per active parameter, `(z, T, relative gain)` of the full model over the model
     /// without it: `z` the sign-flip statistic ([`super::select::gain`]), `T` the gain against the
@@ -676,7 +678,8 @@ impl Problem<'_> {
                 (0..nseg).map(|s| proj(s, &gc[s])).collect()
             })
             .collect();
-        let folds = nseg.min(5);
+        let folds = self.fold_of.iter().max().map_or(1, |f| f + 1);
+        let fold_of = &self.fold_of;
         // Held-out errors per segment of the model with the active parameters `keep` (indices
         // into `act`); the residual is taken with the others' contributions added back.
         let errors = |keep: &[usize]| -> Vec<Vec<f64>> {
@@ -696,7 +699,7 @@ impl Problem<'_> {
                 .collect();
             let mut out = vec![Vec::new(); nseg];
             for f in 0..folds {
-                let train: Vec<usize> = (0..nseg).filter(|s| s % folds != f).collect();
+                let train: Vec<usize> = (0..nseg).filter(|&s| fold_of[s] != f).collect();
                 let delta = if keep.is_empty() {
                     Vec::new()
                 } else {
@@ -707,7 +710,7 @@ impl Problem<'_> {
                     let y: Vec<f64> = train.iter().flat_map(|&s| rt[s].iter().copied()).collect();
                     ols_theta(&xs, &y).unwrap_or_else(|| vec![0.0; keep.len()])
                 };
-                for s in (0..nseg).filter(|s| s % folds == f) {
+                for s in (0..nseg).filter(|&s| fold_of[s] == f) {
                     out[s] = rt[s]
                         .iter()
                         .enumerate()
@@ -763,11 +766,33 @@ impl Problem<'_> {
     }
 }
 
-/// Splits `n` samples into segments of about `SEGMENT_S`.
-fn segments(n: usize, h_s: f64) -> Vec<(usize, usize)> {
+/// The fold of each segment in the held-out test: on a flight of
+/// [`super::select::MIN_PIECES_FOR_FOLDS`] manoeuvres or more the manoeuvre it lies in (leave
+/// one manoeuvre out), else dealt round-robin into `min(segments, 5)` folds.
+fn segment_folds(flight: &MeasuredFlight, segs: &[(usize, usize)]) -> Vec<usize> {
+    let pieces = flight.pieces();
+    if pieces.len() >= super::select::MIN_PIECES_FOR_FOLDS {
+        segs.iter()
+            .map(|&(a, _)| pieces.iter().position(|p| p.start <= a && a < p.end).unwrap_or(0))
+            .collect()
+    } else {
+        let folds = segs.len().clamp(1, 5);
+        (0..segs.len()).map(|s| s % folds).collect()
+    }
+}
+
+/// Splits the flight into segments of about `SEGMENT_S`, each inside one piece of a pooled
+/// flight ([`MeasuredFlight::pieces`]): a manoeuvre's reconstruction starts from its own initial
+/// state, never integrated across a join.
+fn segments(flight: &MeasuredFlight, h_s: f64) -> Vec<(usize, usize)> {
     let len = ((SEGMENT_S / h_s).round() as usize).max(50);
-    let k = (n / len).max(1);
-    (0..k).map(|i| (i * n / k, (i + 1) * n / k)).collect()
+    let mut out = Vec::new();
+    for p in flight.pieces() {
+        let n = p.end - p.start;
+        let k = (n / len).max(1);
+        out.extend((0..k).map(|i| (p.start + i * n / k, p.start + (i + 1) * n / k)));
+    }
+    out
 }
 
 /// Runs a problem: baseline fit, forward selection of sensor errors. Returns (tested in the first
@@ -1113,7 +1138,7 @@ fn velocity_problem(flight: &MeasuredFlight, h_s: f64, gyro_bias: [f64; 3]) -> O
     let rc: Vec<f64> = r_m.iter().map(|v| v - gyro_bias[2]).collect();
     let rates = std::rc::Rc::new([pc, qc, rc]);
     let attitude = std::rc::Rc::new(AttitudeTable::new(&phi_m, theta_m));
-    let segs = segments(n, h_s);
+    let segs = segments(flight, h_s);
     // The velocity equations are linear in the state and in the accelerometer biases
     // (`ẋ = A(t)x + u(t) − b`, `A = −[ω×]` with the measured rates, `u` the measured specific force
     // and gravity), and RK4 of an affine system is affine in its initial state and its constant
@@ -1404,6 +1429,7 @@ fn velocity_problem(flight: &MeasuredFlight, h_s: f64, gyro_bias: [f64; 3]) -> O
             nx: 3,
             x_mask: vec![true, lat_v, true],
             x_steps: vec![1e-3; 3],
+            fold_of: segment_folds(flight, &segs),
             segments: segs,
             candidates: cands,
             sim: Box::new(sim_b),
@@ -1543,7 +1569,7 @@ pub fn reconstruct_air_data(
 fn attitude_problem(flight: &MeasuredFlight, h_s: f64) -> Option<(Problem<'_>, Vec<Vec<f64>>)> {
     use Quantity::*;
     let n = flight.len();
-    let segs = segments(n, h_s);
+    let segs = segments(flight, h_s);
     let get = |q: Quantity| flight.get(q);
     let (q_m, theta_m) = (get(PitchRate)?, get(Pitch)?);
     let lateral = get(RollRate).is_some() && get(YawRate).is_some() && get(Roll).is_some();
@@ -1688,6 +1714,7 @@ fn attitude_problem(flight: &MeasuredFlight, h_s: f64) -> Option<(Problem<'_>, V
         nx: 3,
         x_mask: vec![lateral, true, psi_m.is_some()],
         x_steps: vec![1e-4; 3],
+        fold_of: segment_folds(flight, &segs),
         segments: segs.clone(),
         candidates: cands.clone(),
         sim: Box::new(sim_a),

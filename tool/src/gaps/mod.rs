@@ -428,6 +428,10 @@ pub struct CoefficientGap {
     pub notes: Vec<String>,
     /// The extended model (equal to the baseline when nothing was added).
     pub extended: ModelFit,
+    /// Pooled manoeuvres: for every term the selection added, its per-manoeuvre estimates and
+    /// their homogeneity test; a term whose estimates disagree is withdrawn (empty for one
+    /// record).
+    pub homogeneity: Vec<Homogeneity>,
     /// Time histories for the figures: time, measured, baseline prediction, extended prediction.
     #[serde(skip)]
     pub traces: Traces,
@@ -437,6 +441,39 @@ pub struct CoefficientGap {
     /// The extended model's terms with their estimates.
     #[serde(skip)]
     pub extended_model: Vec<(Term, f64)>,
+}
+
+/// One manoeuvre's estimate of an added term.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct ManoeuvreEstimate {
+    /// Index of the manoeuvre in the report's `manoeuvres`.
+    pub manoeuvre: usize,
+    /// Estimate on this manoeuvre alone.
+    pub value: f64,
+    /// Its standard error.
+    pub sigma: f64,
+}
+
+/// Whether an added term's estimate agrees across manoeuvres: Cochran's Q of the per-manoeuvre
+/// estimates ([`homogeneity_of`]).
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct Homogeneity {
+    /// The term.
+    pub term: String,
+    /// The estimates of the manoeuvres that excite it.
+    pub per_manoeuvre: Vec<ManoeuvreEstimate>,
+    /// Cochran's Q (`NaN`: fewer than two manoeuvres excite the term).
+    pub q: f64,
+    /// Its degrees of freedom, `k − 1`.
+    pub dof: usize,
+    /// `P(χ²_dof > Q)`.
+    pub p: f64,
+    /// The inverse-variance mean of the per-manoeuvre estimates.
+    pub mean: f64,
+    /// The estimates agree (`p` at or above the held-out gain level) over two manoeuvres or more.
+    pub agrees: bool,
+    /// The outcome in words.
+    pub reason: String,
 }
 
 /// Time histories of one coefficient.
@@ -517,6 +554,32 @@ pub struct GapReport {
     /// The terms' reference values (from the identification segment), saved so that a prediction
     /// of another flight forms the terms with the same references.
     pub refs: TermRefs,
+    /// The manoeuvres analysed (one for a single record), in their canonical order.
+    pub manoeuvres: Vec<Manoeuvre>,
+}
+
+/// One manoeuvre of the analysis: where it came from and what it excites.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct Manoeuvre {
+    /// Its file (or generator).
+    pub source: String,
+    /// First and last sample's time in the file's own time, s.
+    pub span_s: [f64; 2],
+    /// Why it starts where it does (the file's start, a `--segment`, a time jump).
+    pub cut: String,
+    /// Samples at the analysis rate.
+    pub samples: usize,
+    /// First and last sample on the pooled time base of the report's figures and `regression`.
+    pub pooled_s: [f64; 2],
+    /// Standard deviation over the manoeuvre of α, β, the normalised rates p̂, q̂, r̂, the
+    /// surfaces and the thrust coefficient (by `Signal` name; rad or dimensionless).
+    pub std: BTreeMap<String, f64>,
+    /// The baseline regressors it excites (`C_m: q`…): variation within the manoeuvre at least
+    /// [`MIN_EXCITATION`]× the column's error variance (every column exact: 10 % of its variation
+    /// over all manoeuvres).
+    pub excites: Vec<String>,
+    /// Whether its samples are in the identification segment (else held out).
+    pub identification: bool,
 }
 
 /// One coefficient of a [`Regression`]: name, synthesised values, baseline terms, candidate terms.
@@ -737,6 +800,7 @@ pub fn run_gaps(flight: &MeasuredFlight, settings: &GapSettings) -> Result<GapRe
             .coefficients
             .push((COEFFICIENTS[i].to_string(), zc.clone(), base, lib));
     }
+    let piece_ranges: Vec<(usize, usize)> = flight.pieces().iter().map(|p| (p.start, p.end)).collect();
     let mut coefficients = Vec::new();
     for i in 0..6 {
         let Some(zc) = &table.z[i] else { continue };
@@ -752,6 +816,7 @@ pub fn run_gaps(flight: &MeasuredFlight, settings: &GapSettings) -> Result<GapRe
             h,
             settings,
             errors[i].as_ref(),
+            &piece_ranges,
         ) {
             coefficients.push(g);
         }
@@ -769,7 +834,15 @@ pub fn run_gaps(flight: &MeasuredFlight, settings: &GapSettings) -> Result<GapRe
         })
     };
     let (set_b, set_e) = (model_set(false), model_set(true));
-    let simulation = simulate::simulate(&table, &flight.aircraft, h, &refs, n_id, [&set_b, &set_e]);
+    let simulation = simulate::simulate(
+        &table,
+        &flight.aircraft,
+        h,
+        &refs,
+        n_id,
+        &piece_ranges,
+        [&set_b, &set_e],
+    );
     // Verdict.
     let mut named: Vec<NamedCause> = compatibility
         .found
@@ -831,6 +904,24 @@ pub fn run_gaps(flight: &MeasuredFlight, settings: &GapSettings) -> Result<GapRe
             ));
         }
     }
+    let manoeuvres = manoeuvres_of(flight, &table, &refs, &baselines, &errors, n_id);
+    if manoeuvres.len() > 1 {
+        let folds = if manoeuvres.len() >= select::MIN_PIECES_FOR_FOLDS {
+            "the held-out data are whole manoeuvres (leave one manoeuvre out; the first fits of the baselines on the manoeuvres before the identification split, the rest held out), and an added term must agree across the manoeuvres that excite it (Cochran's Q at the held-out gain level)".to_string()
+        } else {
+            format!(
+                "fewer than {} manoeuvres: a whole manoeuvre cannot be held out, so the held-out data are time blocks within each manoeuvre as for one record",
+                select::MIN_PIECES_FOR_FOLDS
+            )
+        };
+        notes.insert(
+            0,
+            format!(
+                "{} manoeuvres pooled, each its own piece (smoothing, derivatives and the flight-path reconstruction's initial states per manoeuvre, never across a join); {folds}",
+                manoeuvres.len()
+            ),
+        );
+    }
     let mut data_quality = crate::io::quality::assess(flight);
     crate::io::quality::after_analysis(&mut data_quality, &coefficients, &regression);
     let verdict = if data_quality.supports_verdict {
@@ -872,7 +963,77 @@ pub fn run_gaps(flight: &MeasuredFlight, settings: &GapSettings) -> Result<GapRe
         regression,
         data_quality,
         refs,
+        manoeuvres,
     })
+}
+
+/// Signals whose spread over a manoeuvre the report lists: α, β, the rates and the surfaces (the
+/// first eight of [`Signal::ALL`]), and the thrust coefficient.
+fn spread_signals() -> impl Iterator<Item = &'static Signal> {
+    Signal::ALL[..8].iter().chain([&Signal::ThrustCoeff])
+}
+
+/// The manoeuvres of the flight ([`Manoeuvre`]).
+fn manoeuvres_of(
+    flight: &MeasuredFlight,
+    table: &Table,
+    refs: &TermRefs,
+    baselines: &[Vec<Term>; 6],
+    errors: &[Option<ColumnErrors>; 6],
+    n_id: usize,
+) -> Vec<Manoeuvre> {
+    let var = |x: &[f64]| {
+        let m = signal::mean(x);
+        x.iter().map(|v| (v - m).powi(2)).sum::<f64>() / x.len().max(1) as f64
+    };
+    let mut columns: Vec<(String, Vec<f64>, f64, f64)> = Vec::new();
+    for i in 0..6 {
+        if table.z[i].is_none() {
+            continue;
+        }
+        for t in baselines[i].iter().filter(|t| **t != Term::One) {
+            if let Some(c) = t.column(table, refs) {
+                let err = errors[i].as_ref().map_or(0.0, |e| e.variance(t));
+                let pooled = var(&c);
+                columns.push((format!("{}: {}", COEFFICIENTS[i], t.name()), c, err, pooled));
+            }
+        }
+    }
+    flight
+        .pieces()
+        .iter()
+        .map(|p| {
+            let r = p.start..p.end;
+            let std = spread_signals()
+                .filter_map(|s| {
+                    let v = table.signals.get(s)?;
+                    Some((format!("{s:?}"), var(&v[r.clone()]).sqrt()))
+                })
+                .collect();
+            let excites = columns
+                .iter()
+                .filter(|(_, c, err, pooled)| {
+                    let v = var(&c[r.clone()]);
+                    if *err > 0.0 {
+                        v >= MIN_EXCITATION * err
+                    } else {
+                        v > 0.0 && v >= 0.1 * pooled
+                    }
+                })
+                .map(|(name, ..)| name.clone())
+                .collect();
+            Manoeuvre {
+                source: p.source.clone(),
+                span_s: p.span_s,
+                cut: p.cut.clone(),
+                samples: p.end - p.start,
+                pooled_s: [table.t_s[p.start], table.t_s[p.end - 1]],
+                std,
+                excites,
+                identification: p.end <= n_id,
+            }
+        })
+        .collect()
 }
 
 /// The analysis's pre-processing of a flight up to the coefficients' table: step sizes, the
@@ -903,6 +1064,23 @@ pub(crate) struct Preprocessed {
     pub notes: Vec<String>,
 }
 
+/// The end of the identification segment: the first `fraction` of the samples, clamped to leave
+/// 100 and 50; on a flight of [`select::MIN_PIECES_FOR_FOLDS`] manoeuvres or more, the join
+/// nearest to it (whole manoeuvres held out; at least one on each side).
+fn identification_end(flight: &MeasuredFlight, fraction: f64) -> usize {
+    let n = flight.len();
+    let at = ((n as f64 * fraction).round() as usize).clamp(100, n - 50);
+    let pieces = flight.pieces();
+    if pieces.len() < select::MIN_PIECES_FOR_FOLDS {
+        return at;
+    }
+    pieces[1..]
+        .iter()
+        .map(|p| p.start)
+        .min_by_key(|s| s.abs_diff(at))
+        .unwrap_or(at)
+}
+
 /// [`Preprocessed`] of a checked flight with time step `h`.
 pub(crate) fn preprocess(
     flight: &MeasuredFlight,
@@ -913,7 +1091,7 @@ pub(crate) fn preprocess(
     let n = flight.len();
     let max_lag = ((settings.max_lag_s / h).round() as usize).max(1);
     let sg_half = (settings.smoothing_half_width_s / h).round() as usize;
-    let n_id = ((n as f64 * settings.identification_fraction).round() as usize).clamp(100, n - 50);
+    let n_id = identification_end(flight, settings.identification_fraction);
     // The candidate count (Bonferroni divisor) needs the table; synthesise once uncorrected to
     // learn which signals exist (the corrected table has the same signals).
     let probe = model::synthesise(flight, h, &Corrections::default(), sg_half, None);
@@ -1129,6 +1307,7 @@ fn analyse_coefficient(
     h_s: f64,
     settings: &GapSettings,
     errors: Option<&ColumnErrors>,
+    pieces: &[(usize, usize)],
 ) -> Option<CoefficientGap> {
     let n = zc.len();
     let mut dropped = Vec::new();
@@ -1200,7 +1379,9 @@ fn analyse_coefficient(
             )),
         }
     }
-    let sel = stepwise(i, zc, h_s, &terms, &cols_full, &library, errors, p_test, settings);
+    let sel = stepwise(
+        i, zc, h_s, &terms, &cols_full, &library, errors, p_test, settings, pieces,
+    );
     candidates.extend(sel.candidates);
     let mut added_terms: Vec<AddedTerm> = sel.added;
     let (exact_delays, delay_notes) = refine_surface_delays(
@@ -1214,16 +1395,65 @@ fn analyse_coefficient(
         max_lag,
         sel.threshold_t2,
     );
-    let notes: Vec<String> = sel.notes.into_iter().chain(delay_notes).collect();
+    let notes: Vec<String> = sel.notes.iter().cloned().chain(delay_notes).collect();
     for (t, ..) in &added_terms {
         if let Some((_, c)) = library.iter().find(|(x, _)| x == t) {
             terms.push(*t);
             cols_full.push(c.clone());
         }
     }
-    let added: Vec<(Term, f64)> = added_terms.iter().map(|(t, t2, ..)| (*t, *t2)).collect();
     candidates.sort_by(|a, b| b.t2.total_cmp(&a.t2));
-    let (extended, ext_pred, ext_fit) = fit_model(&cols_full, &terms)?;
+    let (mut extended, mut ext_pred, mut ext_fit) = fit_model(&cols_full, &terms)?;
+    // Pooled manoeuvres: an added term stays only when its per-manoeuvre estimates agree.
+    let mut homogeneity = Vec::new();
+    let mut verdict = sel.verdict;
+    let mut notes = notes;
+    if pieces.len() >= select::MIN_PIECES_FOR_FOLDS && !added_terms.is_empty() {
+        let p0 = terms.len() - added_terms.len();
+        for k in 0..added_terms.len() {
+            homogeneity.push(homogeneity_of(
+                p0 + k,
+                &cols_full,
+                &terms,
+                &ext_fit.theta,
+                zc,
+                pieces,
+                max_lag,
+                errors,
+                settings.cv.gain_alpha,
+            ));
+        }
+        let refused: Vec<&Homogeneity> = homogeneity.iter().filter(|h| !h.agrees).collect();
+        if !refused.is_empty() {
+            for h in &refused {
+                notes.push(format!("{} not confirmed: {}", h.term, h.reason));
+            }
+            let keep: Vec<bool> = terms
+                .iter()
+                .enumerate()
+                .map(|(j, t)| j < p0 || !refused.iter().any(|h| h.term == t.name()))
+                .collect();
+            let mut it = keep.iter();
+            terms.retain(|_| *it.next().unwrap_or(&true));
+            let mut it = keep.iter();
+            cols_full.retain(|_| *it.next().unwrap_or(&true));
+            added_terms.retain(|a| !refused.iter().any(|h| h.term == a.0.name()));
+            let names: Vec<&str> = refused.iter().map(|h| h.term.as_str()).collect();
+            verdict = if added_terms.is_empty() {
+                format!(
+                    "not confirmed: {} predicted held-out manoeuvres better, but its estimates do not agree across the manoeuvres (see `homogeneity`)",
+                    names.join(", ")
+                )
+            } else {
+                format!(
+                    "{verdict}; not confirmed (estimates do not agree across manoeuvres): {}",
+                    names.join(", ")
+                )
+            };
+            (extended, ext_pred, ext_fit) = fit_model(&cols_full, &terms)?;
+        }
+    }
+    let added: Vec<(Term, f64)> = added_terms.iter().map(|(t, t2, ..)| (*t, *t2)).collect();
     let p0 = terms.len() - added.len();
     let added = added
         .iter()
@@ -1250,7 +1480,8 @@ fn analyse_coefficient(
         .collect();
     Some(CoefficientGap {
         name: COEFFICIENTS[i].into(),
-        verdict: sel.verdict,
+        verdict,
+        homogeneity,
         cv_r2_baseline: sel.cv_r2_baseline,
         cv_r2_extended: sel.cv_r2_extended,
         block_s: sel.block_s,
@@ -1271,6 +1502,136 @@ fn analyse_coefficient(
         baseline_model,
         extended_model: terms.iter().copied().zip(ext_fit.theta.iter().copied()).collect(),
     })
+}
+
+/// The homogeneity test of the term in column `k` of a pooled fit (`cols`, `terms`, estimates
+/// `theta` on all manoeuvres; `pieces` the manoeuvres' sample ranges).
+///
+/// Per manoeuvre where the term is excited (its variation within the manoeuvre at least
+/// [`MIN_EXCITATION`]× its error variance, or, with every column exact, 10 % of its pooled
+/// variation), the term is estimated alone from the partial residual `z − Σ_{j≠k} θ_j x_j`, the
+/// other terms held at their pooled estimates (one manoeuvre seldom excites every baseline
+/// regressor) and, when the model has an intercept, both sides centred within the manoeuvre (its
+/// own trim). Its σ is Morelli & Klein's (1997) coloured-residual correction with the pooled
+/// residual autocovariance `R(l)` (from all manoeuvres, lags within each, up to `max_lag`):
+/// `σ² = Σ_l w_l R(l) Σ_i x_i x_{i+l} / (Σx²)²`, Bartlett weights `w_l = 1 − l/(L+1)` (keeping it
+/// positive with a truncated lag window, Newey & West 1987). **Reading**: the autocovariance is
+/// pooled because a manoeuvre of a few seconds is shorter than the lags that matter. The estimates
+/// agree when Cochran's Q ([`select::cochran_q`]) is below the χ² quantile at the held-out gain
+/// level `level`.
+#[allow(clippy::too_many_arguments)]
+fn homogeneity_of(
+    k: usize,
+    cols: &[Vec<f64>],
+    terms: &[Term],
+    theta: &[f64],
+    z: &[f64],
+    pieces: &[(usize, usize)],
+    max_lag: usize,
+    errors: Option<&ColumnErrors>,
+    level: f64,
+) -> Homogeneity {
+    let n = z.len();
+    let resid: Vec<f64> = (0..n)
+        .map(|i| z[i] - cols.iter().zip(theta).map(|(c, t)| c[i] * t).sum::<f64>())
+        .collect();
+    let lags = max_lag.min(n.saturating_sub(1));
+    let mut r = vec![0.0; lags + 1];
+    for &(a, b) in pieces {
+        for (l, rl) in r.iter_mut().enumerate() {
+            if b > a + l {
+                *rl += signal::dot(&resid[a..b - l], &resid[a + l..b]);
+            }
+        }
+    }
+    for rl in &mut r {
+        *rl /= n.max(1) as f64;
+    }
+    let centred = terms.contains(&Term::One);
+    let x_all = &cols[k];
+    let var = |x: &[f64]| {
+        let m = signal::mean(x);
+        x.iter().map(|v| (v - m).powi(2)).sum::<f64>() / x.len().max(1) as f64
+    };
+    let pooled_var = var(x_all);
+    let err_var = errors.map_or(0.0, |e| e.variance(&terms[k]));
+    let mut per = Vec::new();
+    for (m, &(a, b)) in pieces.iter().enumerate() {
+        let mut x = x_all[a..b].to_vec();
+        let mut y: Vec<f64> = (a..b).map(|i| resid[i] + theta[k] * x_all[i]).collect();
+        if centred {
+            let (mx, my) = (signal::mean(&x), signal::mean(&y));
+            x.iter_mut().for_each(|v| *v -= mx);
+            y.iter_mut().for_each(|v| *v -= my);
+        }
+        let v = var(&x);
+        let excited = if err_var > 0.0 {
+            v >= MIN_EXCITATION * err_var
+        } else {
+            v >= 0.1 * pooled_var && v > 0.0
+        };
+        if !excited {
+            continue;
+        }
+        let sxx = signal::dot(&x, &x);
+        let value = signal::dot(&x, &y) / sxx;
+        let mut num = r[0] * sxx;
+        for (l, rl) in r.iter().enumerate().take(x.len()).skip(1) {
+            let w = 1.0 - l as f64 / (lags + 1) as f64;
+            num += 2.0 * w * rl * signal::dot(&x[..x.len() - l], &x[l..]);
+        }
+        if num <= 0.0 {
+            num = r[0] * sxx;
+        }
+        per.push(ManoeuvreEstimate {
+            manoeuvre: m,
+            value,
+            sigma: num.sqrt() / sxx,
+        });
+    }
+    let est: Vec<(f64, f64)> = per.iter().map(|e| (e.value, e.sigma)).collect();
+    let term = terms[k].name().to_string();
+    match select::cochran_q(&est) {
+        Some((q, mean, p)) => {
+            let agrees = p >= level;
+            let reason = if agrees {
+                format!(
+                    "the estimates of {} manoeuvres agree (Cochran's Q = {q:.2}, {} dof, p = {p:.3} ≥ {level})",
+                    est.len(),
+                    est.len() - 1
+                )
+            } else {
+                format!(
+                    "its estimates disagree across the {} manoeuvres that excite it (Cochran's Q = {q:.2}, {} dof, p = {p:.2e} < {level}): the gain is not one effect the manoeuvres share",
+                    est.len(),
+                    est.len() - 1
+                )
+            };
+            Homogeneity {
+                term,
+                per_manoeuvre: per,
+                q,
+                dof: est.len() - 1,
+                p,
+                mean,
+                agrees,
+                reason,
+            }
+        }
+        None => Homogeneity {
+            term,
+            q: f64::NAN,
+            dof: 0,
+            p: f64::NAN,
+            mean: per.first().map_or(f64::NAN, |e| e.value),
+            agrees: false,
+            reason: format!(
+                "excited in {} manoeuvre(s) only: its agreement across manoeuvres cannot be tested; more manoeuvres exciting it would decide",
+                per.len()
+            ),
+            per_manoeuvre: per,
+        },
+    }
 }
 
 /// A named surface delay's model made exact, and what it leaves. The rate term stands for the
@@ -1585,6 +1946,7 @@ fn stepwise(
     errors: Option<&ColumnErrors>,
     p_test: f64,
     settings: &GapSettings,
+    pieces: &[(usize, usize)],
 ) -> Selection {
     let nb = base_terms.len();
     let terms: Vec<Term> = base_terms
@@ -1620,7 +1982,7 @@ fn stepwise(
     });
     let block_s = settings.cv.block_s;
     let cv = settings.cv;
-    let mut design = select::Design::new(&cols, zc, h_s, &cv, w.as_deref());
+    let mut design = select::Design::in_pieces(&cols, zc, h_s, &cv, w.as_deref(), pieces);
     if let Some(j) = terms.iter().position(|t| *t == Term::One) {
         design = design.with_ones(j);
     }

@@ -214,7 +214,92 @@ pub struct Corrections {
 /// enters both `q̄` (so every coefficient) and any speed regressor, an errors-in-variables
 /// correlation that least squares turns into a spurious speed dependence; the reconstructed states
 /// carry only the integrated inertial noise.
+///
+/// A pooled flight ([`MeasuredFlight::pieces`]) is synthesised piece by piece — no smoothing,
+/// derivative or CG transfer across a join — and the tables laid end to end.
 pub fn synthesise(
+    flight: &MeasuredFlight,
+    h_s: f64,
+    corr: &Corrections,
+    sg_half: usize,
+    air_data: Option<&BTreeMap<Quantity, Vec<f64>>>,
+) -> Table {
+    if flight.log.pieces.len() <= 1 {
+        return synthesise_piece(flight, h_s, corr, sg_half, air_data);
+    }
+    let tables: Vec<Table> = flight
+        .log
+        .pieces
+        .iter()
+        .map(|p| {
+            let air: Option<BTreeMap<Quantity, Vec<f64>>> =
+                air_data.map(|a| a.iter().map(|(q, v)| (*q, v[p.start..p.end].to_vec())).collect());
+            synthesise_piece(&flight.piece(p), h_s, corr, sg_half, air.as_ref())
+        })
+        .collect();
+    Table::concat(tables)
+}
+
+impl Table {
+    /// Tables of consecutive pieces end to end: a coefficient or signal is kept when every piece
+    /// has it (the pieces log the same channels, so they all do); the notes of every piece, once.
+    fn concat(tables: Vec<Table>) -> Table {
+        let mut it = tables.into_iter();
+        let Some(mut out) = it.next() else {
+            return Table {
+                t_s: Vec::new(),
+                z: Default::default(),
+                signals: BTreeMap::new(),
+                notes: Vec::new(),
+                kinematics: None,
+            };
+        };
+        for t in it {
+            out.t_s.extend(t.t_s);
+            for (o, z) in out.z.iter_mut().zip(t.z) {
+                match (o.as_mut(), z) {
+                    (Some(o), Some(z)) => o.extend(z),
+                    _ => *o = None,
+                }
+            }
+            let mut signals = t.signals;
+            out.signals.retain(|s, v| match signals.remove(s) {
+                Some(x) => {
+                    v.extend(x);
+                    true
+                }
+                None => false,
+            });
+            for n in t.notes {
+                if !out.notes.contains(&n) {
+                    out.notes.push(n);
+                }
+            }
+            out.kinematics = match (out.kinematics.take(), t.kinematics) {
+                (Some(mut a), Some(b)) => {
+                    for (x, y) in a.rates_rad_s.iter_mut().zip(b.rates_rad_s) {
+                        x.extend(y);
+                    }
+                    for (x, y) in a.attitude_rad.iter_mut().zip(b.attitude_rad) {
+                        x.extend(y);
+                    }
+                    a.qbar_pa.extend(b.qbar_pa);
+                    a.density_kgpm3.extend(b.density_kgpm3);
+                    a.thrust_force_n.extend(b.thrust_force_n);
+                    a.thrust_moment_nm.extend(b.thrust_moment_nm);
+                    a.aero_force_n.extend(b.aero_force_n);
+                    a.attitude_measured &= b.attitude_measured;
+                    Some(a)
+                }
+                _ => None,
+            };
+        }
+        out
+    }
+}
+
+#[allow(non_snake_case)]
+fn synthesise_piece(
     flight: &MeasuredFlight,
     h_s: f64,
     corr: &Corrections,

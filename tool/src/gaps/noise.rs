@@ -260,10 +260,19 @@ pub fn column_errors(
         None => (n_id + replica_margin(s.h_s, s.sg_half)).min(s.flight.len()),
         Some(_) => s.flight.len(),
     };
+    // A pooled flight is cut at the end of a manoeuvre, never inside one.
+    let n_keep = s
+        .flight
+        .log
+        .pieces
+        .iter()
+        .find(|p| p.start < n_keep && n_keep <= p.end)
+        .map_or(n_keep, |p| p.end);
     for r in 0..s.replicas(table, mc) {
         let mut rng = ChaCha8Rng::seed_from_u64(mc.seed.wrapping_add(r as u64));
         let mut pert = s.flight.clone();
         pert.t_s.truncate(n_keep);
+        pert.log.pieces.retain(|p| p.end <= n_keep);
         for (q, v) in pert.channels.iter_mut() {
             let sd = noise.get(q).copied().unwrap_or(0.0);
             // The whole flight's draws, so that a replica's noise does not depend on the margin.

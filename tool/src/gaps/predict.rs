@@ -393,7 +393,15 @@ pub fn predict(report: &SavedReport, flight: &MeasuredFlight) -> Result<GapsPred
         })
     };
     let (set_b, set_e) = (model_set(false), model_set(true));
-    let simulation = super::simulate::simulate(&table, &flight.aircraft, h, &refs, 0, [&set_b, &set_e]);
+    let simulation = super::simulate::simulate(
+        &table,
+        &flight.aircraft,
+        h,
+        &refs,
+        0,
+        &flight.pieces().iter().map(|p| (p.start, p.end)).collect::<Vec<_>>(),
+        [&set_b, &set_e],
+    );
     let air_data = notes
         .iter()
         .find(|n| n.starts_with("air data:"))

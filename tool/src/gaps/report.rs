@@ -28,6 +28,9 @@ pub fn table(r: &GapReport) -> String {
     for n in r.notes.iter().chain(&r.compatibility.notes) {
         let _ = writeln!(s, "note: {n}");
     }
+    if r.manoeuvres.len() > 1 {
+        manoeuvre_table(&mut s, r);
+    }
     s.push_str(&crate::io::quality::table(&r.data_quality));
     let _ = writeln!(s, "\n1. data compatibility (flight-path reconstruction)");
     let _ = writeln!(s, "   {:<10} {:>12} {:>12}", "output", "RMS before", "RMS after");
@@ -270,6 +273,38 @@ pub fn table(r: &GapReport) -> String {
     s
 }
 
+/// The manoeuvres of a pooled analysis and, per added term, its per-manoeuvre estimates.
+fn manoeuvre_table(s: &mut String, r: &GapReport) {
+    let _ = writeln!(s, "\nmanoeuvres ({}, in canonical order)", r.manoeuvres.len());
+    for (k, m) in r.manoeuvres.iter().enumerate() {
+        let _ = writeln!(
+            s,
+            "   #{k} {} {:.2}–{:.2} s, {} samples, {} ({}); excites {}",
+            m.source,
+            m.span_s[0],
+            m.span_s[1],
+            m.samples,
+            if m.identification { "identification" } else { "held out" },
+            m.cut,
+            if m.excites.is_empty() {
+                "no baseline regressor".to_string()
+            } else {
+                m.excites.join(", ")
+            }
+        );
+    }
+    for c in &r.coefficients {
+        for h in &c.homogeneity {
+            let per: Vec<String> = h
+                .per_manoeuvre
+                .iter()
+                .map(|e| format!("#{} {}±{}", e.manoeuvre, sig3(e.value, true), sig3(e.sigma, false)))
+                .collect();
+            let _ = writeln!(s, "   {} {}: {}; {}", c.name, h.term, per.join(", "), h.reason);
+        }
+    }
+}
+
 /// The JSON document (schema `aerosid-gaps/3`).
 pub fn json(r: &GapReport) -> Value {
     let f = |x: f64| if x.is_finite() { json!(x) } else { Value::Null };
@@ -294,6 +329,7 @@ pub fn json(r: &GapReport) -> Value {
         },
         "notes": r.notes.iter().chain(&compat.notes).collect::<Vec<_>>(),
         "air_data": r.air_data,
+        "manoeuvres": r.manoeuvres,
         "term_refs": {
             "alpha_break_rad": f(r.refs.alpha_break_rad),
             "airspeed_mps": f(r.refs.airspeed_mps),
@@ -369,6 +405,7 @@ fn coef_json(c: &CoefficientGap) -> Value {
         "added": c.added,
         "notes": c.notes,
         "extended": c.extended,
+        "homogeneity": c.homogeneity,
     })
 }
 

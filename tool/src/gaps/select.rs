@@ -47,6 +47,10 @@ impl Default for CvSettings {
     }
 }
 
+/// Fewest manoeuvres whose pooled analysis holds out whole manoeuvres (leave one out): with two,
+/// each fold's fit would rest on a single other manoeuvre.
+pub const MIN_PIECES_FOR_FOLDS: usize = 3;
+
 /// Per-block Gram matrices of one regression problem `z ≈ Xθ` over every column it may use.
 #[derive(Debug, Clone)]
 pub struct Design {
@@ -113,13 +117,41 @@ impl Design {
     /// The design of `cols` (each of length `n`) and `z`, cut into blocks of `cv.block_s`. `w`:
     /// the per-sample error covariance of `[X z]`, `(p+1)²` row-major, or `None` (all exact).
     pub fn new(cols: &[&[f64]], z: &[f64], h_s: f64, cv: &CvSettings, w: Option<&[f64]>) -> Self {
+        Self::in_pieces(cols, z, h_s, cv, w, &[(0, z.len())])
+    }
+
+    /// [`Self::new`] for a flight of several manoeuvres (`pieces`: their sample ranges, in order,
+    /// covering `0..n`): the blocks are cut inside each piece, never across a join. With
+    /// [`MIN_PIECES_FOR_FOLDS`] pieces or more, the folds **are** the pieces (leave one manoeuvre
+    /// out: each piece is predicted by a fit to the others, so a held-out gain is a gain on
+    /// manoeuvres the fit never saw); with fewer, the blocks are dealt round-robin as for one
+    /// record.
+    pub fn in_pieces(
+        cols: &[&[f64]],
+        z: &[f64],
+        h_s: f64,
+        cv: &CvSettings,
+        w: Option<&[f64]>,
+        pieces: &[(usize, usize)],
+    ) -> Self {
         let n = z.len();
         let p = cols.len();
         let len = ((cv.block_s / h_s).round() as usize).max(10);
-        let g = (n / len).max(1);
-        let blocks: Vec<(usize, usize)> = (0..g).map(|i| (i * n / g, (i + 1) * n / g)).collect();
-        let folds = cv.folds.clamp(2, g.max(2));
-        let fold: Vec<usize> = (0..g).map(|i| i % folds).collect();
+        let mut blocks: Vec<(usize, usize)> = Vec::new();
+        let mut piece_of: Vec<usize> = Vec::new();
+        for (k, &(a, b)) in pieces.iter().enumerate() {
+            let m = b - a;
+            let g = (m / len).max(1);
+            blocks.extend((0..g).map(|i| (a + i * m / g, a + (i + 1) * m / g)));
+            piece_of.extend(core::iter::repeat_n(k, g));
+        }
+        let g = blocks.len();
+        let (folds, fold): (usize, Vec<usize>) = if pieces.len() >= MIN_PIECES_FOR_FOLDS {
+            (pieces.len(), piece_of)
+        } else {
+            let folds = cv.folds.clamp(2, g.max(2));
+            (folds, (0..g).map(|i| i % folds).collect())
+        };
         // Each block's Gram `[X z]ᵀ[X z]` by dot products of the columns' slices (blocks of a few
         // hundred rows and a few tens of columns: a matrix product's packing costs more than the
         // products), each entry computed once and stored in both triangles.
@@ -553,7 +585,7 @@ fn beta_cf(a: f64, b: f64, x: f64) -> f64 {
 }
 
 /// `ln Γ(x)`, x > 0 (Lanczos, g = 7, n = 9; relative error below 1e-15).
-fn ln_gamma(x: f64) -> f64 {
+pub(crate) fn ln_gamma(x: f64) -> f64 {
     const C: [f64; 9] = [
         0.999_999_999_999_809_9,
         676.520_368_121_885_1,
@@ -576,6 +608,72 @@ fn ln_gamma(x: f64) -> f64 {
     }
     let t = x + 7.5;
     0.5 * (2.0 * core::f64::consts::PI).ln() + (x + 0.5) * t.ln() - t + s.ln()
+}
+
+/// Upper tail `P(χ²_k > x)` of the chi-square law with `k` degrees of freedom: the regularised
+/// upper incomplete gamma `Q(k/2, x/2)`, by its series below `a + 1` and its continued fraction
+/// above (Numerical Recipes §6.2, `gser`/`gcf`).
+pub fn chi2_sf(x: f64, k: f64) -> f64 {
+    if x.is_nan() || x <= 0.0 {
+        return 1.0;
+    }
+    let (a, x) = (0.5 * k, 0.5 * x);
+    let front = (-x + a * x.ln() - ln_gamma(a)).exp();
+    if x < a + 1.0 {
+        let (mut sum, mut term, mut ap) = (1.0 / a, 1.0 / a, a);
+        for _ in 0..500 {
+            ap += 1.0;
+            term *= x / ap;
+            sum += term;
+            if term.abs() < sum.abs() * 1e-15 {
+                break;
+            }
+        }
+        (1.0 - sum * front).clamp(0.0, 1.0)
+    } else {
+        let tiny = 1e-300;
+        let mut b = x + 1.0 - a;
+        let mut c = 1.0 / tiny;
+        let mut d = 1.0 / b;
+        let mut h = d;
+        for i in 1..500 {
+            let an = -(i as f64) * (i as f64 - a);
+            b += 2.0;
+            d = an * d + b;
+            if d.abs() < tiny {
+                d = tiny;
+            }
+            c = b + an / c;
+            if c.abs() < tiny {
+                c = tiny;
+            }
+            d = 1.0 / d;
+            let del = d * c;
+            h *= del;
+            if (del - 1.0).abs() < 1e-15 {
+                break;
+            }
+        }
+        (front * h).clamp(0.0, 1.0)
+    }
+}
+
+/// Cochran's Q of estimates `θ_k ± σ_k` of one quantity (Cochran 1954): `Q = Σ w_k(θ_k − θ̄)²`,
+/// `w_k = 1/σ_k²`, `θ̄` the inverse-variance mean; under homogeneity `Q ~ χ²` with `k − 1`
+/// degrees of freedom. Returns `(Q, θ̄, p)`; `None` with fewer than two finite estimates.
+pub fn cochran_q(estimates: &[(f64, f64)]) -> Option<(f64, f64, f64)> {
+    let ok: Vec<(f64, f64)> = estimates
+        .iter()
+        .copied()
+        .filter(|(t, s)| t.is_finite() && s.is_finite() && *s > 0.0)
+        .collect();
+    if ok.len() < 2 {
+        return None;
+    }
+    let sw: f64 = ok.iter().map(|(_, s)| 1.0 / (s * s)).sum();
+    let mean = ok.iter().map(|(t, s)| t / (s * s)).sum::<f64>() / sw;
+    let q: f64 = ok.iter().map(|(t, s)| ((t - mean) / s).powi(2)).sum();
+    Some((q, mean, chi2_sf(q, (ok.len() - 1) as f64)))
 }
 
 #[cfg(test)]
@@ -706,5 +804,33 @@ mod tests {
         // THEN the one-sided 1 % test passes at most 2 of 60: with the true rate 1 %, P(≥ 3)
         // = 2.3 %; the statistic's null mean is ≤ 0, so it should pass fewer
         assert!(passed <= 2, "{passed} of 60 null terms passed");
+    }
+
+    #[test]
+    fn chi_square_tail_matches_the_tables() {
+        // Tabulated upper quantiles (Abramowitz & Stegun table 26.8): P(χ²_k > x).
+        for (x, k, p) in [
+            (3.841_459, 1.0, 0.05),
+            (9.210_340, 2.0, 0.01),
+            (11.070_50, 5.0, 0.05),
+            (2.204_131, 6.0, 0.90),
+        ] {
+            assert!(
+                (chi2_sf(x, k) - p).abs() < 2e-4,
+                "χ²({k}) > {x}: {} vs {p}",
+                chi2_sf(x, k)
+            );
+        }
+    }
+
+    #[test]
+    fn cochran_q_separates_agreeing_from_scattered_estimates() {
+        let agree = [(1.0, 0.1), (1.05, 0.1), (0.95, 0.1), (1.02, 0.2)];
+        let (q, mean, p) = cochran_q(&agree).unwrap();
+        assert!(q < 1.0 && (mean - 1.0).abs() < 0.05 && p > 0.5, "{q} {mean} {p}");
+        let scatter = [(1.0, 0.1), (2.0, 0.1), (0.0, 0.1)];
+        let (q, _, p) = cochran_q(&scatter).unwrap();
+        assert!((q - 200.0).abs() < 1e-9 && p < 1e-12, "{q} {p}");
+        assert!(cochran_q(&[(1.0, 0.1)]).is_none());
     }
 }

@@ -183,6 +183,7 @@ pub fn simulate(
     h_s: f64,
     refs: &TermRefs,
     n_id: usize,
+    manoeuvres: &[(usize, usize)],
     models: [&ModelSet; 2],
 ) -> Simulation {
     let mut out = Simulation {
@@ -198,7 +199,16 @@ pub fn simulate(
         out.notes.push("held-out segment too short to simulate".into());
         return out;
     }
-    let ps = pieces(n_id, n, h_s);
+    // Each held-out manoeuvre of a pooled flight is simulated on its own (from its own
+    // measured state), in pieces as one record.
+    let ps: Vec<(usize, usize)> = manoeuvres
+        .iter()
+        .filter_map(|&(a, b)| {
+            let a = a.max(n_id);
+            (b > a + 2).then_some((a, b))
+        })
+        .flat_map(|(a, b)| pieces(a, b, h_s))
+        .collect();
     force_group(table, kin, aircraft, h_s, refs, &ps, models, &mut out);
     moment_group(table, kin, aircraft, h_s, refs, &ps, models, &mut out);
     out

@@ -821,6 +821,7 @@ pub fn parse_dataflash(
             warnings,
             flow_angles: None,
             origin: Default::default(),
+            pieces: Vec::new(),
         },
     };
     flight.validate().map_err(|inv| {

@@ -209,7 +209,31 @@ pub struct LogMeta {
     /// format says so (ArduPilot's `AOA`/`SSA`, a PX4 wind-based estimate), a column map or a
     /// CSV column name can state it, and the α-free mode sets it for what it estimates.
     pub origin: BTreeMap<Quantity, Origin>,
+    /// The manoeuvres of a pooled flight ([`MeasuredFlight::pool`]), in order on its time base;
+    /// empty: one piece, the whole flight. Every time-domain stage of the analysis (smoothing,
+    /// differentiation, the flight-path reconstruction's initial states, the block means) runs
+    /// per piece, never across a join.
+    pub pieces: Vec<Piece>,
 }
+
+/// One manoeuvre of a pooled flight: where its samples lie on the pooled time base and where
+/// they came from.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct Piece {
+    /// The file (or generator) it was read from.
+    pub source: String,
+    /// First sample on the pooled time base.
+    pub start: usize,
+    /// One past its last sample.
+    pub end: usize,
+    /// Its first and last sample's time in the source's own time, s.
+    pub span_s: [f64; 2],
+    /// Why it starts where it does (the file's start, a `--segment`, a time jump).
+    pub cut: String,
+}
+
+/// A time step larger than this many median steps splits a record into pieces.
+pub const JUMP_STEPS: f64 = 5.0;
 
 /// Where a channel's values come from, when not from a sensor measuring that quantity itself.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -260,6 +284,16 @@ impl MeasuredFlight {
         if k <= 1 {
             return self.clone();
         }
+        if self.log.pieces.len() > 1 {
+            // Blocks never straddle a join: each piece is averaged alone.
+            let parts = self
+                .log
+                .pieces
+                .iter()
+                .map(|p| (self.piece(p).block_means(k), p.clone()))
+                .collect();
+            return Self::concat(parts);
+        }
         use core::f64::consts::{PI, TAU};
         let m = self.len() / k;
         let mean = |b: &[f64]| b.iter().sum::<f64>() / k as f64;
@@ -304,6 +338,222 @@ impl MeasuredFlight {
             aircraft: self.aircraft.clone(),
             log: self.log.clone(),
         }
+    }
+
+    /// The pieces of the flight: [`LogMeta::pieces`], or one covering every sample.
+    pub fn pieces(&self) -> Vec<Piece> {
+        if !self.log.pieces.is_empty() {
+            return self.log.pieces.clone();
+        }
+        let n = self.len();
+        let span = [
+            self.t_s.first().copied().unwrap_or(0.0),
+            self.t_s.last().copied().unwrap_or(0.0),
+        ];
+        vec![Piece {
+            source: self.source.clone(),
+            start: 0,
+            end: n,
+            span_s: span,
+            cut: "the whole record".into(),
+        }]
+    }
+
+    /// The samples of piece `p` as a flight of their own (no pieces).
+    pub fn piece(&self, p: &Piece) -> MeasuredFlight {
+        let r = p.start..p.end;
+        let mut log = self.log.clone();
+        log.pieces.clear();
+        MeasuredFlight {
+            source: p.source.clone(),
+            t_s: self.t_s[r.clone()].to_vec(),
+            channels: self.channels.iter().map(|(q, v)| (*q, v[r.clone()].to_vec())).collect(),
+            aircraft: self.aircraft.clone(),
+            log,
+        }
+    }
+
+    /// The samples from `from_s` to `to_s`, seconds from the first sample (`--segment`); `None`
+    /// when fewer than two samples fall inside.
+    pub fn window(&self, from_s: f64, to_s: f64) -> Option<MeasuredFlight> {
+        let t0 = *self.t_s.first()?;
+        let a = self.t_s.iter().position(|t| t - t0 >= from_s)?;
+        let b = self.t_s.iter().rposition(|t| t - t0 <= to_s)? + 1;
+        (b >= a + 2).then(|| {
+            let mut f = self.piece(&Piece {
+                source: self.source.clone(),
+                start: a,
+                end: b,
+                span_s: [self.t_s[a], self.t_s[b - 1]],
+                cut: String::new(),
+            });
+            f.log.window = Some(format!("{from_s} to {to_s} s from the first sample (--segment)"));
+            f
+        })
+    }
+
+    /// The record cut where its time jumps: a step above [`JUMP_STEPS`] median steps starts a new
+    /// piece (an interrupted log, or manoeuvres spliced into one file). Each piece is
+    /// `(flight, why it starts there)`; a record without jumps is one piece.
+    pub fn split_at_jumps(&self) -> Vec<(MeasuredFlight, String)> {
+        let n = self.len();
+        if n < 3 {
+            return vec![(self.clone(), "the file's start".into())];
+        }
+        let mut dts: Vec<f64> = self.t_s.windows(2).map(|w| w[1] - w[0]).collect();
+        dts.sort_by(f64::total_cmp);
+        let h = dts[dts.len() / 2];
+        let mut cuts = vec![0];
+        for i in 1..n {
+            let d = self.t_s[i] - self.t_s[i - 1];
+            // A NaN step counts as a jump.
+            if d.is_nan() || d > JUMP_STEPS * h {
+                cuts.push(i);
+            }
+        }
+        cuts.push(n);
+        cuts.windows(2)
+            .map(|w| {
+                let why = if w[0] == 0 {
+                    "the file's start".to_string()
+                } else {
+                    format!(
+                        "a time jump from {:.4} s to {:.4} s (more than {JUMP_STEPS} median steps of {h:.4} s)",
+                        self.t_s[w[0] - 1],
+                        self.t_s[w[0]]
+                    )
+                };
+                let mut f = self.piece(&Piece {
+                    source: self.source.clone(),
+                    start: w[0],
+                    end: w[1],
+                    span_s: [self.t_s[w[0]], self.t_s[w[1] - 1]],
+                    cut: String::new(),
+                });
+                f.log.window = self.log.window.clone();
+                (f, why)
+            })
+            .collect()
+    }
+
+    /// Several manoeuvres as one flight: the pieces sorted canonically (by source, then start
+    /// time) so that nothing downstream depends on the order they were given in, then laid end
+    /// to end on a pooled uniform time base (each piece keeps its own span in
+    /// [`Piece::span_s`]). One piece is returned as it is (no pieces recorded). Every piece must
+    /// have the same channels, aircraft and step (within 1 %).
+    pub fn pool(mut parts: Vec<(MeasuredFlight, String)>) -> Result<MeasuredFlight, String> {
+        if parts.is_empty() {
+            return Err("no manoeuvre to pool".into());
+        }
+        parts.sort_by(|(a, _), (b, _)| {
+            a.source.cmp(&b.source).then(
+                a.t_s
+                    .first()
+                    .copied()
+                    .unwrap_or(0.0)
+                    .total_cmp(&b.t_s.first().copied().unwrap_or(0.0)),
+            )
+        });
+        if parts.len() == 1 {
+            return Ok(parts.pop().map(|(f, _)| f).unwrap_or_else(|| unreachable!()));
+        }
+        let step = |f: &MeasuredFlight| {
+            let n = f.len();
+            if n < 2 {
+                f64::NAN
+            } else {
+                (f.t_s[n - 1] - f.t_s[0]) / (n - 1) as f64
+            }
+        };
+        let (first, _) = &parts[0];
+        let h = step(first);
+        for (f, _) in &parts[1..] {
+            let where_ = || format!("{} ({:.3}–{:.3} s)", f.source, f.t_s[0], f.t_s[f.len() - 1]);
+            if f.len() < 2 || (step(f) - h).abs() > 0.01 * h {
+                return Err(format!(
+                    "{}: its step {:.5} s differs from {:.5} s of {}: pooled manoeuvres must share one rate (resample them to one rate, e.g. the reader's --rate)",
+                    where_(),
+                    step(f),
+                    h,
+                    first.source
+                ));
+            }
+            let keys = |f: &MeasuredFlight| f.channels.keys().copied().collect::<Vec<_>>();
+            if keys(f) != keys(first) {
+                return Err(format!(
+                    "{}: channels {:?} differ from {:?} of {}: pooled manoeuvres must log the same channels",
+                    where_(),
+                    keys(f),
+                    keys(first),
+                    first.source
+                ));
+            }
+            if f.aircraft != first.aircraft {
+                return Err(format!(
+                    "{}: another aircraft than {} ({} vs {}): give every file the same aircraft",
+                    where_(),
+                    first.source,
+                    f.aircraft.name,
+                    first.aircraft.name
+                ));
+            }
+        }
+        let parts = parts
+            .into_iter()
+            .map(|(f, cut)| {
+                let piece = Piece {
+                    source: f.source.clone(),
+                    start: 0,
+                    end: f.len(),
+                    span_s: [f.t_s[0], f.t_s[f.len() - 1]],
+                    cut,
+                };
+                (f, piece)
+            })
+            .collect();
+        Ok(Self::concat(parts))
+    }
+
+    /// The parts end to end on a uniform time base of the first part's step, starting at its
+    /// first time; the pieces recorded with their new sample ranges.
+    fn concat(parts: Vec<(MeasuredFlight, Piece)>) -> MeasuredFlight {
+        let mut out = parts[0].0.clone();
+        out.log.pieces.clear();
+        let n0 = out.len();
+        let h = if n0 > 1 {
+            (out.t_s[n0 - 1] - out.t_s[0]) / (n0 - 1) as f64
+        } else {
+            1.0
+        };
+        let t0 = out.t_s.first().copied().unwrap_or(0.0);
+        out.t_s.clear();
+        for v in out.channels.values_mut() {
+            v.clear();
+        }
+        let mut sources: Vec<String> = Vec::new();
+        for (f, mut p) in parts {
+            let start = out.t_s.len();
+            out.t_s.extend((0..f.len()).map(|i| t0 + (start + i) as f64 * h));
+            for (q, v) in &f.channels {
+                if let Some(o) = out.channels.get_mut(q) {
+                    o.extend_from_slice(v);
+                }
+            }
+            for w in &f.log.warnings {
+                if !out.log.warnings.contains(w) {
+                    out.log.warnings.push(w.clone());
+                }
+            }
+            p.start = start;
+            p.end = out.t_s.len();
+            if !sources.contains(&p.source) {
+                sources.push(p.source.clone());
+            }
+            out.log.pieces.push(p);
+        }
+        out.source = sources.join(" + ");
+        out.log.window = None;
+        out
     }
 
     /// Number of samples.

@@ -239,6 +239,55 @@ pub fn placeholder_aircraft() -> Aircraft {
     }
 }
 
+/// Reads the manoeuvres of a flight test as one pooled flight ([`MeasuredFlight::pool`]): every
+/// file with the same companion and options, each cut to every `segment` (seconds from its first
+/// sample; none: the whole file), each part split where its time jumps
+/// ([`MeasuredFlight::split_at_jumps`]), the pieces sorted canonically. One file without
+/// segments or jumps is returned as read.
+pub fn read_pooled(
+    data: &[std::path::PathBuf],
+    companion: Option<&Path>,
+    segments: &[(f64, f64)],
+    opts: &ReadOptions,
+) -> Result<MeasuredFlight, String> {
+    let mut parts = Vec::new();
+    for file in data {
+        let flight = read_measured_with(file, companion, opts).map_err(|e| e.to_string())?;
+        let windows: Vec<(MeasuredFlight, String)> = if segments.is_empty() {
+            vec![(flight, String::new())]
+        } else {
+            segments
+                .iter()
+                .map(|&(a, b)| {
+                    flight
+                        .window(a, b)
+                        .map(|w| (w, format!("--segment {a}:{b}")))
+                        .ok_or_else(|| {
+                            format!(
+                                "{}: --segment {a}:{b} holds fewer than two samples (the file spans {:.3} s from its first sample); give FROM:TO in seconds from the first sample",
+                                file.display(),
+                                flight.t_s.last().unwrap_or(&0.0) - flight.t_s.first().unwrap_or(&0.0)
+                            )
+                        })
+                })
+                .collect::<Result<_, _>>()?
+        };
+        for (w, seg) in windows {
+            for (piece, why) in w.split_at_jumps() {
+                let cut = if seg.is_empty() {
+                    why
+                } else if why == "the file's start" {
+                    seg.clone()
+                } else {
+                    format!("{seg}, then {why}")
+                };
+                parts.push((piece, cut));
+            }
+        }
+    }
+    MeasuredFlight::pool(parts)
+}
+
 /// Reads measured flight data with the default [`ReadOptions`] (see [`read_measured_with`]).
 pub fn read_measured(data: &Path, companion: &Path) -> Result<MeasuredFlight, ReadError> {
     read_measured_with(data, Some(companion), &ReadOptions::default())

@@ -1121,6 +1121,7 @@ pub fn parse_ulog_with(
             warnings,
             flow_angles: None,
             origin: Default::default(),
+            pieces: Vec::new(),
         },
     };
     flight.validate().map_err(|inv| {
