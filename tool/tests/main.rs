@@ -4,6 +4,7 @@
 
 mod cli;
 mod flow_angles;
+mod origin;
 mod predict;
 mod real_logs;
 mod workflow;

@@ -531,14 +531,6 @@ pub fn parse_map(text: &str, file: &str, dir: &Path) -> Result<ColumnMap, ReadEr
                     }
                 };
                 if kind == "origin" {
-                    if origins.iter().any(|(c, ..)| *c == q) {
-                        return Err(ReadError::new(
-                            file,
-                            kv.line,
-                            kv.key_col,
-                            format!("`origin.{q}` is set twice"),
-                        ));
-                    }
                     let o = parse_origin(kv.value, file, kv.line, kv.value_col)?;
                     origins.push((q, o, kv.line, kv.key_col));
                     continue;
