@@ -346,3 +346,30 @@ fn an_estimated_alpha_gets_no_vane_errors_and_no_alpha_dot_in_c_l() {
         aerosid::gaps::report::table(&r).contains("channel origin: Airspeed sensor; Alpha estimated: test estimator")
     );
 }
+
+#[test]
+fn the_shipped_flight_test_data_hold_only_the_attas_mach() {
+    // Recorded at their own rates (HFB-320 10 Hz, ATTAS 25 Hz, Twin Otter 50 Hz). The ATTAS Mach
+    // column is a staircase (runs of 3 and 4 rows, a few of 6 and 7: about 8 Hz on 25 Hz); every
+    // other channel read, the constant, quantised and stepped ones among them, is left alone.
+    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("data");
+    for (file, map) in [
+        ("hfb320_1_10.asc", "hfb320.map"),
+        ("fAttasElv1_pqrDot.asc", "attas.map"),
+        ("fAttasAil1_pqrDot.asc", "attas.map"),
+        ("fAttasRud1_pqrDot.asc", "attas.map"),
+        ("totter_lon_020213f1_018_fdata.asc", "twin_otter.map"),
+    ] {
+        let f = aerosid::io::read_measured(&data.join("flight").join(file), &data.join("maps").join(map))
+            .unwrap_or_else(|e| panic!("{e}"));
+        println!("{file}: held {:?}", f.log.logged_rate_hz);
+        let held: Vec<_> = f.log.logged_rate_hz.keys().copied().collect();
+        if file.starts_with("fAttas") {
+            assert_eq!(held, [Quantity::Mach], "{file}");
+            let r = f.log.logged_rate_hz[&Quantity::Mach];
+            assert!((7.5..=8.5).contains(&r), "{file}: Mach at {r} Hz");
+        } else {
+            assert!(held.is_empty(), "{file}: {held:?}");
+        }
+    }
+}

@@ -19,8 +19,12 @@
 //!   of ratio 3.3 gives runs of 3 and 4, a hold whose clock drifts against the grid's an
 //!   occasional run one longer or shorter).
 //!
-//! The true rate is the grid's rate divided by `m` (the mean, not the median, so that a
-//! non-integer ratio such as 50 Hz / 15 Hz comes out right; the two agree for an integer ratio).
+//! `m` is the mean length of the runs within one sample of the median (the mean, so that a
+//! non-integer ratio such as 50 Hz / 15 Hz, runs of 3 and 4, comes out right). The true rate is the
+//! number of true samples over the interior runs' span, a run merged from equal neighbours counted
+//! as `round(length/m)` samples: the ATTAS record's Mach column, logged at about 8 Hz on the 25 Hz
+//! time base, has runs of 3 and 4 and a few merged runs of 6 and 7, which a plain mean would
+//! turn into 7.6 Hz.
 //!
 //! What the rule leaves alone, and why: a real constant (one run) or a channel constant for
 //! stretches (a throttle at cruise, a control held between the pulses of a doublet: few runs, of
@@ -83,19 +87,30 @@ pub fn detect(t_s: &[f64], x: &[f64]) -> Option<Held> {
     if lens[lens.len() / 2] < 2 {
         return None;
     }
-    let m = lens.iter().sum::<usize>() as f64 / lens.len() as f64;
+    // The hold's run length: the mean of the runs within one sample of the median (runs of 3
+    // and 4 for a ratio of 3.3; a run merged from equal neighbours left out).
+    let med = lens[lens.len() / 2] as f64;
+    let near: Vec<usize> = lens
+        .iter()
+        .copied()
+        .filter(|&l| (l as f64 - med).abs() <= 1.0)
+        .collect();
+    let m = near.iter().sum::<usize>() as f64 / near.len().max(1) as f64;
     let regular = lens.iter().filter(|&&l| (l as f64 - m).abs() <= 1.0).count();
     if (regular as f64) < REGULAR_SHARE * lens.len() as f64 {
         return None;
     }
-    let span = t_s[n - 1] - t_s[0];
+    // The rate: the true samples over the interior's span, a merged run counted as the samples
+    // it holds.
+    let samples: f64 = lens.iter().map(|&l| (l as f64 / m).round().max(1.0)).sum();
+    let (a, b) = (interior[0].0, r[r.len() - 1].0);
+    let span = t_s[b] - t_s[a];
     if !(span > 0.0) {
         return None;
     }
-    let grid_hz = (n - 1) as f64 / span;
     Some(Held {
         run_samples: m,
-        rate_hz: grid_hz / m,
+        rate_hz: samples / span,
     })
 }
 
