@@ -334,7 +334,7 @@ fn an_estimated_alpha_gets_no_vane_errors_and_no_alpha_dot_in_c_l() {
         .all(|p| p.param.channel() != Quantity::Alpha));
     let cl = r.coefficients.iter().find(|c| c.name == "C_L").expect("C_L");
     assert!(cl.candidates.iter().all(|c| c.term != Term::AlphaDot.name()));
-    assert!(r.named.iter().all(|n| !(n.location == "Alpha")));
+    assert!(r.named.iter().all(|n| n.location != "Alpha"));
     assert!(r
         .notes
         .iter()

@@ -105,7 +105,8 @@ pub fn detect(t_s: &[f64], x: &[f64]) -> Option<Held> {
     let samples: f64 = lens.iter().map(|&l| (l as f64 / m).round().max(1.0)).sum();
     let (a, b) = (interior[0].0, r[r.len() - 1].0);
     let span = t_s[b] - t_s[a];
-    if !(span > 0.0) {
+    // (NaN-safe: a NaN span fails the positive test.)
+    if span.is_nan() || span <= 0.0 {
         return None;
     }
     Some(Held {
