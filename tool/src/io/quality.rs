@@ -18,6 +18,9 @@
 //!   α's σ, the assumptions are listed in the warnings, and each coefficient's notes give the
 //!   uncertainty it inherits (β derivatives flagged weak where the sideslip excitation is under
 //!   3 σ).
+//!   Where α comes from is [`LogMeta::origin`]: a logged α that is an autopilot's estimate
+//!   (ArduPilot's `AOA`, a map's or a CSV column's statement) is reported as estimated, with its
+//!   estimator, and `channel_origin` lists each flow channel's origin.
 //! * **Whether a verdict is supported** — if not, the reasons, and the gap analysis names nothing
 //!   ([`crate::gaps::run_gaps`] clears its causes and says "no verdict").
 //!
