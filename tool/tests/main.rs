@@ -5,6 +5,7 @@
 mod cli;
 mod flow_angles;
 mod pooled;
+mod origin;
 mod predict;
 mod real_logs;
 mod workflow;

@@ -1078,7 +1078,11 @@ pub fn velocity_candidates(flight: &MeasuredFlight) -> Vec<SensorParam> {
     let lateral = get(RollRate).is_some() && get(YawRate).is_some() && get(Roll).is_some();
     let lat_v = lateral && get(AccelY).is_some();
     let mut cands = vec![SensorParam::Bias(AccelX), SensorParam::Bias(AccelZ)];
+    // An estimated channel has no sensor, so no sensor errors (`super::origin`).
     let air = |q: Quantity, vane: bool, cands: &mut Vec<SensorParam>| {
+        if !super::origin::has_sensor_errors(flight, q) {
+            return;
+        }
         cands.push(SensorParam::Bias(q));
         cands.push(SensorParam::Scale(q));
         cands.push(SensorParam::Delay(q));
@@ -1801,7 +1805,7 @@ pub fn check(flight: &MeasuredFlight, h_s: f64, s: &CompatSettings) -> Compatibi
 /// removed, no scale, delay or position of a turbulent channel among them).
 fn instrumental_check(out: &mut Compatibility, flight: &MeasuredFlight, h_s: f64, s: &super::instrumental::IvSettings) {
     for ch in [Quantity::Alpha, Quantity::Beta] {
-        if !out.turbulent.iter().any(|(q, _)| *q == ch) {
+        if !out.turbulent.iter().any(|(q, _)| *q == ch) || !super::origin::has_sensor_errors(flight, ch) {
             continue;
         }
         let Some((_, m, y)) = out.traces.iter().find(|t| t.0 == ch) else {

@@ -45,6 +45,7 @@ pub mod hidden;
 pub mod instrumental;
 pub mod model;
 pub mod noise;
+pub mod origin;
 pub mod predict;
 pub mod regress;
 pub mod report;
@@ -701,7 +702,6 @@ pub fn run_gaps(flight: &MeasuredFlight, settings: &GapSettings) -> Result<GapRe
     // assessment below reads what was done from the flight's metadata).
     let prepared = crate::io::flow_angles::prepare(flight, settings.flow_angles, &WindFitSettings::default());
     let flight = &prepared;
-    let alpha_estimated = flight.log.flow_angles.as_ref().is_some_and(|f| f.status == "estimated");
     let h = check_input(flight)?;
     let baselines: [Vec<Term>; 6] = core::array::from_fn(|i| match &settings.baseline {
         Some(b) => b[i].clone(),
@@ -743,7 +743,7 @@ pub fn run_gaps(flight: &MeasuredFlight, settings: &GapSettings) -> Result<GapRe
     // The errors-in-variables model of every column the analysis may fit.
     let all_terms: [Vec<Term>; 6] = core::array::from_fn(|i| {
         let mut v = baselines[i].clone();
-        for t in Term::library(i) {
+        for t in Term::offered(i, &table) {
             if !v.contains(&t) {
                 v.push(t);
             }
@@ -892,18 +892,9 @@ pub fn run_gaps(flight: &MeasuredFlight, settings: &GapSettings) -> Result<GapRe
     } else {
         Vec::new()
     };
-    if alpha_estimated {
-        // No vane is fitted: a "vane" error the compatibility check names is an error of the
-        // wind estimate (or the attitude), not a sensor to fix, so it is not named as one.
-        let before = named.len();
-        named.retain(|c| !matches!(c.location.as_str(), "Alpha" | "Beta"));
-        if named.len() < before {
-            notes.push(format!(
-                "{} α/β sensor error(s) found by the compatibility check not named: α and β are estimated (wind triangle), not measured by a vane",
-                before - named.len()
-            ));
-        }
-    }
+    // An estimated channel has no sensor errors: the compatibility check offers none
+    // (`origin::has_sensor_errors`); the notes say so.
+    notes.extend(origin::notes(flight));
     let manoeuvres = manoeuvres_of(flight, &table, &refs, &baselines, &errors, n_id);
     if manoeuvres.len() > 1 {
         let folds = if manoeuvres.len() >= select::MIN_PIECES_FOR_FOLDS {
@@ -1106,7 +1097,7 @@ pub(crate) fn preprocess(
             continue;
         }
         let base = &baselines[i];
-        n_aero += Term::library(i)
+        n_aero += Term::offered(i, &probe)
             .iter()
             .filter(|t| !base.contains(t) && t.column(&probe, &refs_probe).is_some())
             .count();
@@ -1369,7 +1360,7 @@ fn analyse_coefficient(
     // Every candidate of the library, with its column or the reason it has none.
     let mut candidates = Vec::new();
     let mut library: Vec<(Term, Vec<f64>)> = Vec::new();
-    for t in Term::library(i).into_iter().filter(|t| !terms.contains(t)) {
+    for t in Term::offered(i, table).into_iter().filter(|t| !terms.contains(t)) {
         match t.column(table, refs) {
             Some(c) => library.push((t, c)),
             None => candidates.push(CandidateScore::unscored(

@@ -169,6 +169,9 @@ pub struct Table {
     /// The quantities eq. 1–2 used besides the coefficients (for the simulation of
     /// [`super::simulate`]); `None` when no coefficient could be synthesised.
     pub kinematics: Option<Kinematics>,
+    /// Library terms not offered to a coefficient (index into [`COEFFICIENTS`]) on this flight,
+    /// with the reason ([`super::origin::barred_terms`]).
+    pub barred: Vec<(usize, Term, String)>,
 }
 
 /// The smoothed, corrected quantities the synthesis used, per sample.
@@ -252,9 +255,15 @@ impl Table {
                 signals: BTreeMap::new(),
                 notes: Vec::new(),
                 kinematics: None,
+                barred: Vec::new(),
             };
         };
         for t in it {
+            for b in t.barred {
+                if !out.barred.contains(&b) {
+                    out.barred.push(b);
+                }
+            }
             out.t_s.extend(t.t_s);
             for (o, z) in out.z.iter_mut().zip(t.z) {
                 match (o.as_mut(), z) {
@@ -446,6 +455,7 @@ fn synthesise_piece(
             signals,
             notes,
             kinematics: None,
+            barred: Vec::new(),
         };
     };
     let vv: Vec<f64> = v.iter().map(|x| x.max(1.0)).collect();
@@ -686,11 +696,19 @@ fn synthesise_piece(
     signals.insert(Signal::Airspeed, v);
     let attitude_measured = flight.get(Pitch).is_some();
     let att = |q: Quantity| sm(flight.get(q).map(|x| x.to_vec())).unwrap_or_else(|| zeros.clone());
+    let barred = super::origin::barred_terms(flight);
+    notes.extend(
+        barred
+            .iter()
+            .filter(|(i, ..)| z[*i].is_some())
+            .map(|(.., why)| why.clone()),
+    );
     Table {
         t_s: flight.t_s.clone(),
         z,
         signals,
         notes,
+        barred,
         kinematics: Some(Kinematics {
             rates_rad_s: [pw, qw, rw],
             attitude_rad: [att(Roll), att(Pitch)],
@@ -837,6 +855,14 @@ impl Term {
             1 => vec![One, Alpha, Alpha2, Q, Elevator],
             _ => vec![One, Beta, P, R, Aileron, Rudder],
         }
+    }
+
+    /// The [`library`](Self::library) of coefficient `coef` less the terms `table` bars on its
+    /// flight ([`Table::barred`]): the candidates the analysis offers.
+    pub fn offered(coef: usize, table: &Table) -> Vec<Term> {
+        let mut lib = Self::library(coef);
+        lib.retain(|t| !table.barred.iter().any(|(i, b, _)| *i == coef && b == t));
+        lib
     }
 
     /// The candidate library of a coefficient (before removing terms already in the model).

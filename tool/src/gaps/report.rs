@@ -330,6 +330,7 @@ pub fn json(r: &GapReport) -> Value {
         "notes": r.notes.iter().chain(&compat.notes).collect::<Vec<_>>(),
         "air_data": r.air_data,
         "manoeuvres": r.manoeuvres,
+        "channel_origin": r.data_quality.channel_origin,
         "term_refs": {
             "alpha_break_rad": f(r.refs.alpha_break_rad),
             "airspeed_mps": f(r.refs.airspeed_mps),

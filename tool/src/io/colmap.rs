@@ -17,6 +17,11 @@
 //!   density), the same value at every sample;
 //! * `bias.QUANTITY = VALUE` — a constant subtracted after the conversion, in SI units (a
 //!   pre-processing step, e.g. the ATTAS sensor biases of the book's flight-path reconstruction);
+//! * `origin.QUANTITY = sensor` or `origin.QUANTITY = estimated BY` — where the channel comes
+//!   from: its own sensor (the default) or an estimator, `BY` naming it in words (e.g.
+//!   `origin.alpha = estimated autopilot EKF, ground velocity minus wind`). An estimated α or β
+//!   gets no vane errors in the analysis ([`super::measured::Origin`]). In an ASCII map it needs a
+//!   `channel.QUANTITY`; in a ULog map it may also state the origin of a built-in channel;
 //! * `description = TEXT` — free text.
 //!
 //! `EXPR` is a linear combination of sources: terms separated by ` + ` or ` - ` (with spaces), each
@@ -28,7 +33,7 @@
 //! Every error names the file, the line and the column (1-based); nothing panics.
 
 use super::aircraft::{read_aircraft, G0_MPS2, KG_PER_SLUG, M_PER_FT};
-use super::measured::{Aircraft, MeasuredFlight, Quantity};
+use super::measured::{Aircraft, MeasuredFlight, Origin, Quantity};
 use super::{key_values, read_text, ReadError};
 use std::collections::BTreeMap;
 use std::f64::consts::PI;
@@ -202,6 +207,8 @@ pub struct ColumnMap {
     /// The matrix of a MATLAB `.mat` file whose columns `$N` name (`variable = fdata`; optional,
     /// see [`super::mat`]).
     pub variable: Option<String>,
+    /// Where channels come from, as the map states it (`origin.QUANTITY`).
+    pub origin: BTreeMap<Quantity, Origin>,
 }
 
 impl ColumnMap {
@@ -216,7 +223,29 @@ impl ColumnMap {
             channels: Vec::new(),
             aircraft,
             variable: None,
+            origin: BTreeMap::new(),
         }
+    }
+}
+
+/// Parses the value of an `origin.QUANTITY` key: `sensor` or `estimated BY`.
+fn parse_origin(value: &str, file: &str, line: usize, col: usize) -> Result<Origin, ReadError> {
+    let (word, rest) = value.split_once(char::is_whitespace).unwrap_or((value, ""));
+    match (word, rest.trim()) {
+        ("sensor", "") => Ok(Origin::Sensor),
+        ("estimated", by) if !by.is_empty() => Ok(Origin::Estimated { by: by.to_string() }),
+        ("estimated", _) => Err(ReadError::new(
+            file,
+            line,
+            col,
+            "`estimated` needs what estimated it, in words (e.g. `estimated autopilot EKF, ground velocity minus wind`)",
+        )),
+        _ => Err(ReadError::new(
+            file,
+            line,
+            col,
+            format!("`{value}`: an origin is `sensor` or `estimated BY` (BY: what estimated it)"),
+        )),
     }
 }
 
@@ -435,6 +464,7 @@ pub fn parse_map(text: &str, file: &str, dir: &Path) -> Result<ColumnMap, ReadEr
     let mut variable = None;
     let mut channels: Vec<(Quantity, Expr)> = Vec::new();
     let mut biases: Vec<(Quantity, f64, usize, usize)> = Vec::new();
+    let mut origins: Vec<(Quantity, Origin, usize, usize)> = Vec::new();
     for kv in &kvs {
         match kv.key {
             "format" | "columns" | "aircraft" | "description" => {}
@@ -482,8 +512,8 @@ pub fn parse_map(text: &str, file: &str, dir: &Path) -> Result<ColumnMap, ReadEr
             key => {
                 let (kind, name) = key.split_once('.').unwrap_or((key, ""));
                 let q = match (kind, Quantity::from_name(name)) {
-                    ("channel" | "bias" | "constant", Some(q)) => q,
-                    ("channel" | "bias" | "constant", None) => {
+                    ("channel" | "bias" | "constant" | "origin", Some(q)) => q,
+                    ("channel" | "bias" | "constant" | "origin", None) => {
                         return Err(ReadError::new(
                             file,
                             kv.line,
@@ -500,6 +530,11 @@ pub fn parse_map(text: &str, file: &str, dir: &Path) -> Result<ColumnMap, ReadEr
                         ))
                     }
                 };
+                if kind == "origin" {
+                    let o = parse_origin(kv.value, file, kv.line, kv.value_col)?;
+                    origins.push((q, o, kv.line, kv.key_col));
+                    continue;
+                }
                 if channels.iter().any(|(c, _)| *c == q) && kind != "bias" {
                     return Err(ReadError::new(
                         file,
@@ -552,6 +587,18 @@ pub fn parse_map(text: &str, file: &str, dir: &Path) -> Result<ColumnMap, ReadEr
             }
         }
     }
+    let mut origin = BTreeMap::new();
+    for (q, o, line, col) in origins {
+        if format == Format::Ascii && !channels.iter().any(|(c, _)| *c == q) {
+            return Err(ReadError::new(
+                file,
+                line,
+                col,
+                format!("`origin.{q}` has no `channel.{q}`"),
+            ));
+        }
+        origin.insert(q, o);
+    }
     if format == Format::Ascii && time.is_none() {
         return Err(ReadError::new(file, 0, 0, "missing key `time` (e.g. `time = $1 s`)"));
     }
@@ -564,6 +611,7 @@ pub fn parse_map(text: &str, file: &str, dir: &Path) -> Result<ColumnMap, ReadEr
         channels,
         aircraft,
         variable,
+        origin,
     })
 }
 
@@ -710,5 +758,8 @@ pub fn parse_ascii(text: &str, file: &str, map: &ColumnMap) -> Result<MeasuredFl
             format!("column {column} (`{what}`, map {}): {msg}", map.file),
         )
     })?;
+    let mut flight = flight;
+    flight.log.origin = map.origin.clone();
+    super::held::resolve(&mut flight);
     Ok(flight)
 }

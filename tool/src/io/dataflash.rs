@@ -29,11 +29,19 @@
 //! | roll/pitch/yaw rate, accel x/y/z | `IMU.GyrX…Z`, `IMU.AccX…Z` |
 //! | roll, pitch, yaw | `ATT.Roll`, `ATT.Pitch`, `ATT.Yaw` |
 //! | airspeed | `ARSP.Airspeed` (ArduPilot's equivalent airspeed, used as true airspeed: see the warning) |
-//! | alpha, beta | `AOA.AOA`, `AOA.SSA` (dropped, with a warning, when every sample is zero: no vane) |
+//! | alpha, beta | `AOA.AOA`, `AOA.SSA`: the autopilot's estimate, not a vane (see below; dropped, with a warning, when every sample is zero) |
 //! | altitude | `BARO.Alt` |
 //! | throttle | the `RCOU` output whose `SERVOn_FUNCTION` is 70, scaled by `SERVOn_MIN`/`MAX` |
 //! | vel_n, vel_e, vel_d (optional) | `XKF1.VN/VE/VD` (EKF3), else `NKF1.VN/VE/VD` (EKF2), else `GPS.Spd`·(cos, sin)`GPS.GCrs` and `GPS.VZ` |
 //! | wind_n, wind_e (optional) | `XKF2.VWN/VWE`, else `NKF2.VWN/VWE` (the EKF's wind estimate) |
+//!
+//! **Origin** ([`LogMeta::origin`]). ArduPilot has no α/β vane driver: `AOA` is written by the
+//! AHRS (`AP_AHRS::update_AOA_SSA`), which rotates its navigation filter's ground
+//! velocity minus its wind estimate into the body axes and takes `atan(w/u)` and `asin(v/V)` —
+//! α and β from the inertial solution, so both are marked estimated. The AHRS sets them to zero
+//! while the air-relative speed is below 2 m/s, hence a log that is zero throughout carries none.
+//! `ARSP` is the airspeed sensor's own reading (the message is not written without a sensor; the
+//! AHRS's synthetic airspeed is not logged in it): a sensor.
 //!
 //! The EKF's velocity is preferred to the GPS's: it is logged faster, blends the GPS with the
 //! IMU, and is the same filter's solution as the `ATT` attitude the α-free mode
@@ -525,16 +533,27 @@ pub fn parse_dataflash(
     if raw.iter().any(|(q, ..)| *q == Quantity::Airspeed) {
         warnings.push("`ARSP.Airspeed` is ArduPilot's equivalent airspeed; it is used as the true airspeed (no EAS2TAS correction: about 1 % low per 200 m of density altitude)".into());
     }
-    // Zero padding: an α/β vane channel that is zero throughout is no vane.
+    // An α/β that is zero throughout was never computed (no air-relative speed above 2 m/s).
     raw.retain(|(q, src, _, v)| {
         let zero = matches!(q, Quantity::Alpha | Quantity::Beta) && v.iter().all(|x| *x == 0.0);
         if zero {
             warnings.push(format!(
-                "`{src}` is zero in every message: no vane fitted (zero padding); not read"
+                "`{src}` is zero in every message: the autopilot did not compute it (zero padding); not read"
             ));
         }
         !zero
     });
+    let mut origin = BTreeMap::new();
+    for (q, src, ..) in &raw {
+        if matches!(q, Quantity::Alpha | Quantity::Beta) && src.starts_with("AOA") {
+            origin.insert(
+                *q,
+                super::measured::Origin::Estimated {
+                    by: format!("ArduPilot `{src}` (the AHRS's EKF ground velocity minus its wind estimate; no vane)"),
+                },
+            );
+        }
+    }
     // Throttle and surfaces from the servo functions.
     let functions: BTreeMap<usize, i64> = (1..=16)
         .filter_map(|n| {
@@ -820,7 +839,7 @@ pub fn parse_dataflash(
             parameters: log.parameters.clone(),
             warnings,
             flow_angles: None,
-            origin: Default::default(),
+            origin,
             pieces: Vec::new(),
         },
     };

@@ -741,6 +741,11 @@ fn summary(f: &FlowAngles) -> String {
 pub fn prepare(flight: &MeasuredFlight, choice: FlowAngleChoice, s: &WindFitSettings) -> MeasuredFlight {
     let mut f = flight.clone();
     let vanes = flight.get(Quantity::Alpha).is_some();
+    // A logged α that is itself an estimate (the autopilot's) is used as logged, and said so.
+    let logged = match flight.log.origin_of(Quantity::Alpha) {
+        crate::io::measured::Origin::Estimated { by } => format!("α, β as logged: estimated by {by}, not vanes"),
+        crate::io::measured::Origin::Sensor => "α, β from the vanes".to_string(),
+    };
     let off = |why: &str| FlowAngles {
         status: "off".into(),
         summary: why.to_string(),
@@ -755,17 +760,17 @@ pub fn prepare(flight: &MeasuredFlight, choice: FlowAngleChoice, s: &WindFitSett
         FlowAngleChoice::Vanes => {
             f.log.flow_angles = Some(FlowAngles {
                 status: if vanes { "vanes" } else { "off" }.into(),
-                ..off(if vanes {
-                    "α, β from the vanes (--flow-angles vanes)"
+                ..off(&if vanes {
+                    format!("{logged} (--flow-angles vanes)")
                 } else {
-                    "no vane and --flow-angles vanes: α, β not estimated"
+                    "no vane and --flow-angles vanes: α, β not estimated".to_string()
                 })
             });
         }
         FlowAngleChoice::Auto if vanes => {
             f.log.flow_angles = Some(FlowAngles {
                 status: "vanes".into(),
-                ..off("α, β from the vanes")
+                ..off(&logged)
             });
         }
         FlowAngleChoice::Auto | FlowAngleChoice::Estimated => match estimate(flight, s) {
@@ -773,12 +778,7 @@ pub fn prepare(flight: &MeasuredFlight, choice: FlowAngleChoice, s: &WindFitSett
                 f.channels.insert(Quantity::Alpha, e.alpha_rad);
                 f.channels.insert(Quantity::Beta, e.beta_rad);
                 for q in [Quantity::Alpha, Quantity::Beta] {
-                    f.log.origin.insert(
-                        q,
-                        crate::io::measured::Origin::Estimated {
-                            by: "wind triangle (α-free mode)".into(),
-                        },
-                    );
+                    f.log.set_estimated(q, "wind triangle (α-free mode)");
                 }
                 let mut info = e.info;
                 if vanes {

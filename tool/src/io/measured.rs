@@ -251,7 +251,22 @@ pub enum Origin {
     },
 }
 
+impl Origin {
+    /// For reports: `sensor` or `estimated: BY`.
+    pub fn describe(&self) -> String {
+        match self {
+            Origin::Sensor => "sensor".into(),
+            Origin::Estimated { by } => format!("estimated: {by}"),
+        }
+    }
+}
+
 impl LogMeta {
+    /// Marks channel `q` as an estimator's output, `by` saying which estimator.
+    pub fn set_estimated(&mut self, q: Quantity, by: &str) {
+        self.origin.insert(q, Origin::Estimated { by: by.to_string() });
+    }
+
     /// Where channel `q` comes from ([`Origin::Sensor`] unless stated otherwise).
     pub fn origin_of(&self, q: Quantity) -> Origin {
         self.origin.get(&q).cloned().unwrap_or(Origin::Sensor)

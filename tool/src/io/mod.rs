@@ -27,6 +27,7 @@ pub mod aircraft;
 pub mod colmap;
 pub mod dataflash;
 pub mod flow_angles;
+pub mod held;
 pub mod log;
 pub mod mat;
 pub mod measured;

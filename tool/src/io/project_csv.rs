@@ -8,6 +8,12 @@
 //! Unknown columns (such as `dt_s` and the simulator's `truth_…` columns) are ignored. Either way
 //! the flight is checked by [`MeasuredFlight::validate`], errors naming the line and column.
 //!
+//! An estimator's α, β or airspeed (no vane, no pitot) has a column of its own,
+//! [`ESTIMATED_COLUMNS`] (`alpha_est_rad`, `beta_est_rad`, `airspeed_est_mps`): read as the same
+//! quantity, with its origin recorded as estimated ([`super::measured::Origin`]). Channels held
+//! between samples (sample-and-hold staircases) are found and interpolated at their true rate
+//! ([`super::held`]).
+//!
 //! [`SensorSample`]: aerosid_core::aero::SensorSample
 
 use super::log::{read_log, LogError, COLUMNS};
@@ -54,6 +60,28 @@ pub fn csv_column(q: Quantity) -> &'static str {
         WindNorth => "wind_ned_mps_n",
         WindEast => "wind_ned_mps_e",
     }
+}
+
+/// The columns that hold an estimator's output rather than a sensor's reading: the same quantity
+/// as the plain column (`alpha_rad`, `beta_rad`, `airspeed_mps`), marked
+/// [`super::measured::Origin::Estimated`] (an autopilot's α from its inertial solution and wind
+/// estimate, a synthetic airspeed). When a log has both, the sensor's column is read and the
+/// estimate is ignored with a warning.
+pub const ESTIMATED_COLUMNS: [(Quantity, &str); 3] = [
+    (Quantity::Alpha, "alpha_est_rad"),
+    (Quantity::Beta, "beta_est_rad"),
+    (Quantity::Airspeed, "airspeed_est_mps"),
+];
+
+/// The column a quantity is read from in a log with the header `names`: its plain column, else
+/// its estimated one ([`ESTIMATED_COLUMNS`]).
+fn column_in(q: Quantity, names: &[&str]) -> Option<(usize, &'static str)> {
+    let plain = csv_column(q);
+    let est = ESTIMATED_COLUMNS.iter().find(|(e, _)| *e == q).map(|(_, n)| *n);
+    [Some(plain), est]
+        .into_iter()
+        .flatten()
+        .find_map(|c| names.iter().position(|n| *n == c).map(|j| (j, c)))
 }
 
 fn from_log_error(e: LogError) -> ReadError {
@@ -134,10 +162,29 @@ pub fn parse_project_csv(text: &str, file: &str, aircraft: Aircraft) -> Result<M
     };
     flight.validate().map_err(|inv| {
         let line = inv.sample.and_then(|i| row_lines.get(i)).copied().unwrap_or(0);
-        let col_name = inv.quantity.map_or("t_s", csv_column);
-        let column = names.iter().position(|n| *n == col_name).map_or(0, |j| j + 1);
+        let (column, col_name) = match inv.quantity {
+            Some(q) => column_in(q, &names).map_or((0, csv_column(q)), |(j, c)| (j + 1, c)),
+            None => (names.iter().position(|n| *n == "t_s").map_or(0, |j| j + 1), "t_s"),
+        };
         ReadError::new(file, line, column, format!("column '{col_name}': {}", inv.message))
     })?;
+    let mut flight = flight;
+    for (q, est) in ESTIMATED_COLUMNS {
+        if !names.contains(&est) {
+            continue;
+        }
+        if names.contains(&csv_column(q)) {
+            flight.log.warnings.push(format!(
+                "column '{est}' (an estimate of {q}) ignored: the log also has '{}', the sensor's reading, which is read",
+                csv_column(q)
+            ));
+        } else {
+            flight
+                .log
+                .set_estimated(q, &format!("column '{est}' of the log (an estimator's output)"));
+        }
+    }
+    super::held::resolve(&mut flight);
     Ok(flight)
 }
 
@@ -152,7 +199,7 @@ fn read_subset(text: &str, file: &str, names: &[&str], aircraft: Aircraft) -> Re
     };
     let cols: Vec<(Quantity, usize)> = Quantity::ALL
         .iter()
-        .filter_map(|q| names.iter().position(|n| *n == csv_column(*q)).map(|j| (*q, j)))
+        .filter_map(|q| column_in(*q, names).map(|(j, _)| (*q, j)))
         .collect();
     if cols.is_empty() {
         return Err(ReadError::new(

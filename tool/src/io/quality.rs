@@ -18,6 +18,9 @@
 //!   α's σ, the assumptions are listed in the warnings, and each coefficient's notes give the
 //!   uncertainty it inherits (β derivatives flagged weak where the sideslip excitation is under
 //!   3 σ).
+//!   Where α comes from is [`LogMeta::origin`]: a logged α that is an autopilot's estimate
+//!   (ArduPilot's `AOA`, a map's or a CSV column's statement) is reported as estimated, with its
+//!   estimator, and `channel_origin` lists each flow channel's origin.
 //! * **Whether a verdict is supported** — if not, the reasons, and the gap analysis names nothing
 //!   ([`crate::gaps::run_gaps`] clears its causes and says "no verdict").
 //!
@@ -101,6 +104,9 @@ pub struct DataQuality {
     /// The α-free mode's estimate (wind fit, pitot scale, α/β σ, assumptions) or why there is
     /// none; `None` when it was not run.
     pub flow_angles: Option<super::flow_angles::FlowAngles>,
+    /// Each flow channel present (`Alpha`, `Beta`, `Airspeed`) and where it comes from
+    /// (`sensor`, `estimated: BY`; [`LogMeta::origin`]).
+    pub channel_origin: std::collections::BTreeMap<String, String>,
     /// Warnings.
     pub warnings: Vec<String>,
     /// Per coefficient, what can be identified.
@@ -225,11 +231,21 @@ pub fn assess(flight: &MeasuredFlight) -> DataQuality {
     let live = |q: Quantity| has(q) && !constant.contains(&q);
     // Air data.
     let flow = meta.flow_angles.as_ref();
+    // Where α comes from ([`LogMeta::origin`]): an estimator's α — the α-free mode's, whose
+    // uncertainty it states, or the autopilot's, whose it does not — or a vane.
     let estimated = flow.is_some_and(|f| f.status == "estimated") && live(Alpha);
+    let other_estimate = match meta.origin_of(Alpha) {
+        super::measured::Origin::Estimated { by } if !estimated && live(Alpha) => Some(by),
+        _ => None,
+    };
     let no_vane = "no α/β vane: none. The analysis's inertial reconstruction (`--air-data reconstructed`) integrates the accelerometers and gyros with steady air assumed per 5-s segment, but anchors each segment to a measured α (`gaps::compat::velocity_problem`), so without a vane there is no α or β: C_L and C_D (wind axes) and every α or β term are not identified";
     let air_data = if estimated {
         let f = flow.map_or(String::new(), |f| f.summary.clone());
         format!("estimated (no vane used): {f}")
+    } else if let Some(by) = &other_estimate {
+        format!(
+            "estimated (no vane): α from {by}; its error, lag included, is not stated by the log: only its white noise enters the errors-in-variables model, and α̇ is not offered in C_L (the lift restated)"
+        )
     } else if live(Alpha) {
         "measured: α (and β where logged) from vanes, airspeed from the pitot".to_string()
     } else {
@@ -389,6 +405,7 @@ pub fn assess(flight: &MeasuredFlight) -> DataQuality {
         resampling: meta.resampling.clone(),
         air_data,
         flow_angles: flow.cloned(),
+        channel_origin: crate::gaps::origin::channel_origin(flight),
         warnings,
         coefficients,
         supports_verdict: why_not.is_empty(),
@@ -490,6 +507,10 @@ pub fn table(q: &DataQuality) -> String {
         s += &format!("   resampled: {r}\n");
     }
     s += &format!("   air data: {}\n", q.air_data);
+    if !q.channel_origin.is_empty() {
+        let list: Vec<String> = q.channel_origin.iter().map(|(c, o)| format!("{c} {o}")).collect();
+        s += &format!("   channel origin: {}\n", list.join("; "));
+    }
     for w in &q.warnings {
         s += &format!("   warning: {w}\n");
     }

@@ -22,10 +22,15 @@
 //! | accel x/y/z (specific force) | `vehicle_acceleration.xyz[0..2]`, else `sensor_combined.accelerometer_m_s2[0..2]` | if present |
 //! | airspeed (true) | `airspeed_validated.true_airspeed_m_s` or `airspeed.true_airspeed_m_s`, whichever has more messages | if present |
 //! | air density, altitude | `vehicle_air_data.rho`, `vehicle_air_data.baro_alt_meter` | if present |
-//! | alpha, beta | `airflow_aoa.aoa_rad`, `airflow_slip.slip_rad` | if present |
+//! | alpha, beta | `airflow_aoa.aoa_rad`, `airflow_slip.slip_rad` (vanes) | if present |
 //! | throttle | `actuator_motors.control[0]`, else `actuator_controls_0.control[3]` | if present |
 //! | vel_n, vel_e, vel_d (ground velocity, NED) | `vehicle_local_position.vx,vy,vz` (the navigation filter's), else `vehicle_gps_position` or `sensor_gps` `.vel_n_m_s, vel_e_m_s, vel_d_m_s` | optional |
 //! | wind_n, wind_e (the autopilot's wind estimate) | `wind`, else `wind_estimate` `.windspeed_north, windspeed_east` | optional |
+//!
+//! **Origin** ([`LogMeta::origin`]): `airflow_aoa`/`airflow_slip` come from vane sensors. The
+//! validated airspeed is marked estimated when its messages say it is ground speed minus the wind
+//! estimate or the synthetic airspeed (`airspeed_source` 0 or 4, `selected_airspeed_index` 0 in
+//! older logs), not a pitot; a map's `origin.QUANTITY` overrides.
 //!
 //! The optional channels (for the α-free mode, [`super::flow_angles`]) do not cut the window: a
 //! topic that does not cover it (to within two of its own intervals, held at its ends) or is not
@@ -65,7 +70,7 @@
 //! finite inside the window (a NaN is refused with its message, not interpolated over).
 
 use super::colmap::{ColumnMap, Expr, Format, Source};
-use super::measured::{LogMeta, MeasuredFlight, Quantity};
+use super::measured::{LogMeta, MeasuredFlight, Origin, Quantity};
 use super::{ReadError, ReadOptions};
 use px4_ulog::stream_parser::model::FlattenedFieldType;
 use px4_ulog::stream_parser::{DataMessage, LogParser};
@@ -465,6 +470,32 @@ struct Resolved<'a> {
     field: usize,
 }
 
+/// Where PX4's validated airspeed came from, when not (only) from a pitot: `Some(what)` if any
+/// message of `airspeed_validated` has an estimator as its source. Each message names its source:
+/// `airspeed_source` (PX4 1.15 on: −1 disabled, 0 ground speed minus the wind estimate, 1–3 an
+/// airspeed sensor, 4 synthetic, from the thrust and the attitude) or, before it,
+/// `selected_airspeed_index` (−1 invalid, 0 ground speed minus wind, 1–3 a sensor). With source 0
+/// or 4 the topic's `true_airspeed_m_s` is the estimator's value, not a pitot's, so the channel is
+/// an estimate (its errors are no pitot's scale or lag). A topic without either field says
+/// nothing: taken as the sensor's.
+fn airspeed_validated_origin(tp: &Topic) -> Option<String> {
+    let field = ["airspeed_source", "selected_airspeed_index"]
+        .into_iter()
+        .find_map(|name| tp.names.iter().position(|n| n == name).map(|i| (name, i)))?;
+    let sources = tp.values.get(field.1)?;
+    let estimated = |code: f64| code == 0.0 || (field.0 == "airspeed_source" && code == 4.0);
+    let n = sources.iter().filter(|c| estimated(**c)).count();
+    if n == 0 {
+        return None;
+    }
+    Some(format!(
+        "PX4 airspeed_validated, {n} of {} messages from ground speed minus the wind estimate or the synthetic airspeed (`{}` 0{})",
+        sources.len(),
+        field.0,
+        if field.0 == "airspeed_source" { " or 4" } else { "" }
+    ))
+}
+
 /// The median of `x` (0 when empty).
 pub(crate) fn median(x: &[f64]) -> f64 {
     let mut v: Vec<f64> = x.iter().copied().filter(|v| v.is_finite()).collect();
@@ -670,7 +701,16 @@ pub fn parse_ulog_with(
         (Some(v), _) => Some(v),
         (None, raw) => raw,
     };
+    // Where the channels come from (`LogMeta::origin`). `airflow_aoa` and `airflow_slip` are
+    // published by PX4's vane drivers (an AS5600-type angle sensor on a vane): sensors. The
+    // validated airspeed may be an estimator's (see `airspeed_validated_origin`).
+    let mut origin = BTreeMap::new();
     if let Some(r) = airspeed {
+        if r.topic == "airspeed_validated" {
+            if let Some(by) = topics.get(r.topic).and_then(airspeed_validated_origin) {
+                origin.insert(Quantity::Airspeed, Origin::Estimated { by });
+            }
+        }
         builtin.push((Quantity::Airspeed, r));
     }
     for (q, topic, name) in [
@@ -775,6 +815,9 @@ pub fn parse_ulog_with(
     }
     // A map channel replaces the built-in of the same quantity.
     builtin.retain(|(q, _)| !map_has(*q));
+    // The map's channels are its own sources, and what it says of a channel's origin holds.
+    origin.retain(|q, _| !map_has(*q));
+    origin.extend(map.origin.iter().map(|(q, o)| (*q, o.clone())));
     optional.retain(|(q, _)| !map_has(*q));
     let attitude = if map_has(Quantity::Roll) || map_has(Quantity::Pitch) || map_has(Quantity::Yaw) {
         None
@@ -1120,7 +1163,7 @@ pub fn parse_ulog_with(
             parameters: s.parameters,
             warnings,
             flow_angles: None,
-            origin: Default::default(),
+            origin,
             pieces: Vec::new(),
         },
     };
