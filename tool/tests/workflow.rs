@@ -676,3 +676,59 @@ fn saved_data_and_a_copied_map_resolve_from_any_folder() {
         ],
     );
 }
+
+#[test]
+fn a_constant_from_the_aircraft_file_and_channels_reproduce_the_hfb320_model() {
+    // GIVEN hfb320.toml rewritten to name channels (read through tool/data/maps/hfb320.map, whose
+    // units are SI already) and to take its mass from the map's aircraft file (7472 kg, as the
+    // model file states it)
+    let column = hfb320_model();
+    let text = column
+        .text
+        .replace("columns = 20\ntime_column = 1", "with = \"../data/maps/hfb320.map\"")
+        .replace("mass = 7472.0 ", "mass = \"aircraft.mass_kg\" ");
+    let mut text = text.replace("column = 2\n", "channel = \"elevator\"\n");
+    for (col, name) in [
+        (4, "thrust"),
+        (5, "airspeed"),
+        (6, "alpha"),
+        (7, "pitch"),
+        (8, "pitch_rate"),
+        (9, "pitch_accel"),
+        (10, "accel_x"),
+        (11, "accel_z"),
+    ] {
+        text = text.replace(&format!("column = {col}\n"), &format!("channel = \"{name}\"\n"));
+    }
+    assert!(
+        !text.contains("column =") && text.contains("aircraft.mass_kg"),
+        "{text}"
+    );
+    let mut named = UserModel::parse(&text, &models().join("hfb320_channels.toml")).expect("model");
+    assert!(named.uses_aircraft());
+    // WHEN both are identified (one recursive pass) on the flight
+    let data = column.default_data().expect("data");
+    let segs_named = read_segments(&named, &data, &[]).expect("segments");
+    aerosid::workflow::apply_aircraft(&mut named, &segs_named).expect("aircraft");
+    let a = identify(&named, &segs_named).expect("identify");
+    let b = identify(&column, &read_segments(&column, &data, &[]).expect("segments")).expect("identify");
+    // THEN the estimates and covariance are the same to the last bit
+    assert_eq!(a.p, b.p);
+    assert_eq!(a.covariance, b.covariance);
+    // … and a model taking a constant the aircraft file leaves `unknown` is refused with the fix
+    let text = text.replace("\"aircraft.mass_kg\"", "\"aircraft.span_m\"");
+    let mut bad = UserModel::parse(&text, Path::new("m.toml")).expect("model");
+    let e = aerosid::workflow::apply_aircraft(&mut bad, &segs_named).expect_err("span unknown");
+    assert!(
+        e.contains("no `span_m` (unknown)") && e.contains("constant `mass`"),
+        "{e}"
+    );
+    // … as is a constant naming no aircraft value
+    let text = text.replace("\"aircraft.span_m\"", "\"aircraft.weight\"");
+    let e = UserModel::parse(&text, Path::new("m.toml")).expect_err("refused");
+    assert!(
+        e.0.contains("constants.mass") && e.0.contains("aircraft.mass_kg"),
+        "{}",
+        e.0
+    );
+}

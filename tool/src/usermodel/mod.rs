@@ -25,6 +25,7 @@
 //!
 //! [constants]            # numbers, in order; each may be used by the later ones and the equations
 //! V0 = 104.67
+//! mass = "aircraft.mass_kg"  # a value of the data's aircraft file (see `AIRCRAFT_CONSTANTS`)
 //!
 //! [definitions]          # intermediate expressions, in order; each may use the earlier ones
 //! qbar = "0.5*rho*V^2"
@@ -73,7 +74,7 @@
 //! `PI`); names are letters, digits and `_`. Every error names the file, the field and the fix.
 
 use crate::io::colmap::{parse_terms, Expr, Source};
-use crate::io::measured::Quantity;
+use crate::io::measured::{Aircraft, Quantity};
 use crate::io::project_csv::csv_column;
 use aerosid_core::fem::{InputHold, Integrator, Model, Sensitivity};
 use exmex::prelude::*;
@@ -427,6 +428,9 @@ pub struct UserModel {
     /// Environment layout: `[constants | parameters (all) | states | inputs | definitions]`.
     n_const: usize,
     const_values: Vec<f64>,
+    /// Constants taken from the data's aircraft file: `(index into const_values, index into
+    /// AIRCRAFT_CONSTANTS)`; NaN until [`UserModel::set_aircraft`].
+    aircraft_constants: Vec<(usize, usize)>,
     /// Indices (into `file.parameters`) of the free parameters, in order.
     free: Vec<usize>,
     /// Current values of every parameter (fixed ones used as they are).
@@ -527,6 +531,33 @@ fn linear_row(
         });
     }
     Ok(out)
+}
+
+/// The aircraft-file values a model's `[constants]` may take (`mass = "aircraft.mass_kg"`), in SI
+/// units as the aircraft file's reader stores them; the inertia with a positive `jxz`.
+pub const AIRCRAFT_CONSTANTS: [(&str, AircraftValue); 8] = [
+    ("mass_kg", |a| a.mass_kg),
+    ("wing_area_m2", |a| a.wing_area_m2),
+    ("span_m", |a| a.span_m),
+    ("chord_m", |a| a.chord_m),
+    ("jx_kgm2", |a| a.inertia_kgm2[(0, 0)]),
+    ("jy_kgm2", |a| a.inertia_kgm2[(1, 1)]),
+    ("jz_kgm2", |a| a.inertia_kgm2[(2, 2)]),
+    ("jxz_kgm2", |a| -a.inertia_kgm2[(0, 2)]),
+];
+
+/// Reads one value of an aircraft.
+pub type AircraftValue = fn(&Aircraft) -> f64;
+
+fn aircraft_constant_help(a: &str) -> String {
+    let names: Vec<String> = AIRCRAFT_CONSTANTS
+        .iter()
+        .map(|(n, _)| format!("aircraft.{n}"))
+        .collect();
+    format!(
+        "`{a}`: a constant is a number or a value of the data's aircraft file, one of {}",
+        names.join(", ")
+    )
 }
 
 /// The measured channel a model file names: a [`Quantity::name`] (as column maps write it,
@@ -842,11 +873,22 @@ impl UserModel {
             Ok(())
         };
         let mut const_values = Vec::new();
+        let mut aircraft_constants = Vec::new();
         for (k, v) in &file.constants {
             add(k, format!("constants.{k}"), &mut slot)?;
             let x = match v {
                 toml::Value::Float(x) => *x,
                 toml::Value::Integer(i) => *i as f64,
+                toml::Value::String(a) => match AIRCRAFT_CONSTANTS
+                    .iter()
+                    .position(|(name, _)| a.strip_prefix("aircraft.") == Some(*name))
+                {
+                    Some(j) => {
+                        aircraft_constants.push((const_values.len(), j));
+                        f64::NAN
+                    }
+                    None => return err(&f, &format!("constants.{k}"), aircraft_constant_help(a)),
+                },
                 _ => return err(&f, &format!("constants.{k}"), "must be a number"),
             };
             const_values.push(x);
@@ -930,6 +972,7 @@ impl UserModel {
             sources,
             n_const,
             const_values,
+            aircraft_constants,
             free,
             values,
             defs,
@@ -952,6 +995,37 @@ impl UserModel {
     /// model file's folder.
     pub fn default_companion(&self) -> Option<PathBuf> {
         self.file.data.with.as_ref().map(|d| self.folder().join(d))
+    }
+
+    /// Whether a constant is taken from the data's aircraft file.
+    pub fn uses_aircraft(&self) -> bool {
+        !self.aircraft_constants.is_empty()
+    }
+
+    /// Sets the constants taken from the aircraft file (`source` names it in errors). Refuses a
+    /// value the file leaves `unknown`, and one that differs from a value set before (the data of
+    /// one run come from one aircraft configuration).
+    pub fn set_aircraft(&mut self, aircraft: &Aircraft, source: &str) -> Result<(), String> {
+        for &(i, j) in &self.aircraft_constants {
+            let (key, get) = AIRCRAFT_CONSTANTS[j];
+            let v = get(aircraft);
+            let name = self.file.constants.keys().nth(i).map_or("?", |k| k.as_str());
+            if !v.is_finite() {
+                return Err(format!(
+                    "{source}: the aircraft file gives no `{key}` (unknown), which {} takes for constant `{name}`; state it in the aircraft file or give the number in the model",
+                    self.path.display()
+                ));
+            }
+            let old = self.const_values[i];
+            if old.is_finite() && old != v {
+                return Err(format!(
+                    "{source}: aircraft `{key}` = {v}, other data of this run had {old} (constant `{name}` of {}); pool data of one aircraft configuration",
+                    self.path.display()
+                ));
+            }
+            self.const_values[i] = v;
+        }
+        Ok(())
     }
 
     /// Number of states, inputs, outputs.

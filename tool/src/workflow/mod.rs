@@ -24,7 +24,7 @@
 //! is zero on every line is refused (a zero-padded column is a missing channel, not data).
 
 use crate::io::colmap::{Expr, Source};
-use crate::io::measured::Quantity;
+use crate::io::measured::{Aircraft, Quantity};
 use crate::io::{read_measured_with, ReadOptions};
 use crate::plot::{Colour, Figure, Line, Panel, PlotError};
 use crate::usermodel::{
@@ -52,6 +52,9 @@ pub struct Segment {
     pub u: Vec<UVec>,
     /// Measured outputs per sample.
     pub y: Vec<YVec>,
+    /// The aircraft of data read with an aircraft file or a column map (`None`: read by column
+    /// number, or a log read without one).
+    pub aircraft: Option<Aircraft>,
 }
 
 /// Parses `FROM:TO` (seconds, `FROM < TO`).
@@ -97,6 +100,8 @@ struct Table {
     by_number: bool,
     /// The channels of a channel layout, in column order.
     channels: Vec<Quantity>,
+    /// The aircraft, if the data came with one.
+    aircraft: Option<Aircraft>,
 }
 
 impl Table {
@@ -150,6 +155,7 @@ fn numbered_table(model: &UserModel, path: &Path, columns: usize, time_column: u
         time_column,
         by_number: true,
         channels: Vec::new(),
+        aircraft: None,
     })
 }
 
@@ -182,6 +188,7 @@ fn channel_table(path: &Path, companion: Option<&Path>, channels: &[Quantity]) -
         time_column: channels.len() + 1,
         by_number: false,
         channels: channels.to_vec(),
+        aircraft: (!flight.log.aircraft_unknown).then(|| flight.aircraft.clone()),
     })
 }
 
@@ -325,6 +332,7 @@ pub fn read_segments_with(
                 t_s,
                 u,
                 y,
+                aircraft: table.aircraft.clone(),
             });
         }
         if !found {
@@ -335,6 +343,25 @@ pub fn read_segments_with(
         }
     }
     Ok(out)
+}
+
+/// Sets the model's constants taken from the aircraft file from the segments' aircraft (see
+/// [`UserModel::set_aircraft`]); a model that takes none is left as it is.
+pub fn apply_aircraft(model: &mut UserModel, segments: &[Segment]) -> Result<(), String> {
+    if !model.uses_aircraft() {
+        return Ok(());
+    }
+    for s in segments {
+        let a = s.aircraft.as_ref().ok_or_else(|| {
+            format!(
+                "{}: no aircraft file, and {} takes constants from one; give --with AIRCRAFT_OR_MAP",
+                s.file,
+                model.path.display()
+            )
+        })?;
+        model.set_aircraft(a, &s.file)?;
+    }
+    Ok(())
 }
 
 /// The sample period of the segments (median step), checked to be the same in all (0.1 %).
@@ -796,6 +823,7 @@ pub fn run_fem(args: &FemArgs) -> Result<FemRun, String> {
     };
     let companion = args.with.clone().or_else(|| model.default_companion());
     let segs = load_segments(&model, &data, companion.as_deref(), &args.segments)?;
+    apply_aircraft(&mut model, &segs)?;
     let dt = sample_period(&segs)?;
     let id = identify(&model, &segs)?;
     // The model with the estimates.
@@ -819,6 +847,7 @@ pub fn run_fem(args: &FemArgs) -> Result<FemRun, String> {
     } else {
         load_segments(&model, &val_files, companion.as_deref(), &args.validate_segments)?
     };
+    apply_aircraft(&mut model, &vsegs)?;
     let vsims: Vec<_> = vsegs.iter().map(|s| simulate(&model, s, dt)).collect();
     let validation = if vsegs.is_empty() {
         Vec::new()
@@ -1060,7 +1089,7 @@ pub fn run_predict_with(
     out: &Path,
 ) -> Result<(Prediction, String, Vec<PathBuf>), String> {
     let saved = SavedModel::read(saved_path)?;
-    let model = saved.model()?;
+    let mut model = saved.model()?;
     let files = if !data.is_empty() {
         data.to_vec()
     } else if !saved.data_files.is_empty() {
@@ -1075,6 +1104,7 @@ pub fn run_predict_with(
         .or_else(|| saved.with.as_ref().map(PathBuf::from))
         .or_else(|| model.default_companion());
     let segs = load_segments(&model, &files, companion.as_deref(), ranges)?;
+    apply_aircraft(&mut model, &segs)?;
     let dt = sample_period(&segs)?;
     if (dt / saved.dt_s - 1.0).abs() > 1e-3 {
         return Err(format!(
