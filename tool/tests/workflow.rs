@@ -424,6 +424,7 @@ fn a_model_naming_channels_reads_what_gaps_reads_and_matches_the_column_model() 
     let mat = run_fem(&FemArgs {
         model: models().join("twin_otter_lon_channels.toml"),
         data: vec![models().join("../data/flight/totter_lon_020213f1_018.mat")],
+        with: Some(models().join("../data/maps/twin_otter.map")),
         segments: vec![(0.0, 3.5)],
         out: out.join("mat"),
         ..FemArgs::default()

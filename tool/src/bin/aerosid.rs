@@ -299,7 +299,7 @@ struct FemArgs {
     #[arg(long, value_name = "FILE")]
     data: Vec<PathBuf>,
     /// The column map or aircraft file of the data and validation files, for a model that names
-    /// channels (default the model file's `[data] with`).
+    /// channels (default the model file's `[data] with` when its `[data] file` is read).
     #[arg(long = "with", value_name = "MAP_OR_AIRCRAFT")]
     with: Option<PathBuf>,
     /// A segment of each data file, seconds from its first sample (repeatable; default all).
@@ -356,7 +356,7 @@ struct PredictArgs {
     #[arg(long, value_name = "FILE")]
     data: Vec<PathBuf>,
     /// The column map or aircraft file of the --data flight (optional for .ulg and .bin; for a
-    /// `fem` model that names channels, default the one it was identified with).
+    /// `fem` model without --data, default the one it was identified with).
     #[arg(long = "with", value_name = "MAP_OR_AIRCRAFT")]
     with: Option<PathBuf>,
     /// A segment of each data file, seconds from its first sample (repeatable; default all; `fem`

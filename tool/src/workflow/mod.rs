@@ -742,7 +742,8 @@ pub struct FemArgs {
     /// Data files (default: the model's `[data] file`).
     pub data: Vec<PathBuf>,
     /// The companion of the data and validation files read by the measured-data readers: a column
-    /// map or aircraft file (default: the model's `[data] with`).
+    /// map or aircraft file (default: the model's `[data] with` when `data` is empty, the model's
+    /// own file read; none for other files, as for `gaps`).
     pub with: Option<PathBuf>,
     /// Segments of each data file (default: all of it).
     pub segments: Vec<Range>,
@@ -770,7 +771,8 @@ fn load_segments(
 }
 
 /// `path` relative to the folder `dir` (both made absolute, symbolic links resolved), or absolute
-/// when the two share no root. A dozen lines instead of a path-diffing crate: the paths are
+/// when the two share no folder but the root (a data set elsewhere on the disk stays found when
+/// the output folder moves). A dozen lines instead of a path-diffing crate: the paths are
 /// canonical, so comparing components is all it takes.
 fn relative_to(path: &Path, dir: &Path) -> String {
     let (Ok(p), Ok(d)) = (path.canonicalize(), dir.canonicalize()) else {
@@ -781,7 +783,10 @@ fn relative_to(path: &Path, dir: &Path) -> String {
     };
     let (pc, dc): (Vec<_>, Vec<_>) = (p.components().collect(), d.components().collect());
     let common = pc.iter().zip(&dc).take_while(|(a, b)| a == b).count();
-    if common == 0 {
+    if !pc[..common]
+        .iter()
+        .any(|c| matches!(c, std::path::Component::Normal(_)))
+    {
         return p.display().to_string();
     }
     let mut rel = PathBuf::new();
@@ -821,7 +826,13 @@ pub fn run_fem(args: &FemArgs) -> Result<FemRun, String> {
     } else {
         args.data.clone()
     };
-    let companion = args.with.clone().or_else(|| model.default_companion());
+    // The model's `[data] with` belongs to its `[data] file`; other files name theirs, as for
+    // `gaps` (a map describes one file layout).
+    let companion = match (&args.with, args.data.is_empty()) {
+        (Some(w), _) => Some(w.clone()),
+        (None, true) => model.default_companion(),
+        (None, false) => None,
+    };
     let segs = load_segments(&model, &data, companion.as_deref(), &args.segments)?;
     apply_aircraft(&mut model, &segs)?;
     let dt = sample_period(&segs)?;
@@ -1078,9 +1089,9 @@ pub fn run_predict(
 }
 
 /// `aerosid predict` with a companion: without `data`, the files the model was identified on
-/// (stored with it, resolved against the JSON's folder, so from any working directory); `with`
-/// (a column map or aircraft file) defaults to the companion stored with it, then the model's
-/// `[data] with`.
+/// (stored with it, resolved against the JSON's folder, so from any working directory) and,
+/// unless `with` says otherwise, their companion; `data` are read with `with` (a column map or
+/// aircraft file; none for a `.ulg`/`.bin` read without one).
 pub fn run_predict_with(
     saved_path: &Path,
     data: &[PathBuf],
@@ -1090,19 +1101,23 @@ pub fn run_predict_with(
 ) -> Result<(Prediction, String, Vec<PathBuf>), String> {
     let saved = SavedModel::read(saved_path)?;
     let mut model = saved.model()?;
-    let files = if !data.is_empty() {
-        data.to_vec()
+    let (files, companion) = if !data.is_empty() {
+        (data.to_vec(), with.map(Path::to_path_buf))
     } else if !saved.data_files.is_empty() {
-        saved.data_files.iter().map(PathBuf::from).collect()
+        (
+            saved.data_files.iter().map(PathBuf::from).collect(),
+            with.map(Path::to_path_buf)
+                .or_else(|| saved.with.as_ref().map(PathBuf::from)),
+        )
     } else {
-        vec![model
+        let file = model
             .default_data()
-            .ok_or_else(|| format!("{}: no data: give --data FILE", saved_path.display()))?]
+            .ok_or_else(|| format!("{}: no data: give --data FILE", saved_path.display()))?;
+        (
+            vec![file],
+            with.map(Path::to_path_buf).or_else(|| model.default_companion()),
+        )
     };
-    let companion = with
-        .map(Path::to_path_buf)
-        .or_else(|| saved.with.as_ref().map(PathBuf::from))
-        .or_else(|| model.default_companion());
     let segs = load_segments(&model, &files, companion.as_deref(), ranges)?;
     apply_aircraft(&mut model, &segs)?;
     let dt = sample_period(&segs)?;
