@@ -420,7 +420,8 @@ fn a_model_naming_channels_reads_what_gaps_reads_and_matches_the_column_model() 
         assert_eq!((a.r2, a.rms), (b.r2, b.rms), "{}", a.name);
     }
     // … and through the `.mat` file of the same manoeuvre, read with the same map, the estimates
-    // agree within 10⁻⁴ σ (the text export has 10 significant digits, the `.mat` full doubles)
+    // agree within 10⁻⁶ σ: the text export has 10 significant digits, the `.mat` full doubles, a
+    // 5·10⁻¹⁰ relative difference in the data (measured: 1.4·10⁻⁸ σ at most, in Z0)
     let mat = run_fem(&FemArgs {
         model: models().join("twin_otter_lon_channels.toml"),
         data: vec![models().join("../data/flight/totter_lon_020213f1_018.mat")],
@@ -433,7 +434,7 @@ fn a_model_naming_channels_reads_what_gaps_reads_and_matches_the_column_model() 
     for (a, b) in mat.saved.parameters.iter().zip(&by_column.saved.parameters) {
         if let Some(s) = b.sigma {
             assert!(
-                (a.value - b.value).abs() < 1e-4 * s,
+                (a.value - b.value).abs() < 1e-6 * s,
                 "{}: {} vs {} ± {s}",
                 a.name,
                 a.value,

@@ -695,7 +695,11 @@ impl SavedModel {
         })?;
         let dir = path.parent().unwrap_or(Path::new(""));
         let resolve = |p: &str| dir.join(p).display().to_string();
-        saved.model_file = resolve(&saved.model_file);
+        // A saved model without `data_files` holds the model path as given to `fem` (relative to
+        // where it ran), and is read as it is.
+        if !saved.data_files.is_empty() {
+            saved.model_file = resolve(&saved.model_file);
+        }
         saved.data_files = saved.data_files.iter().map(|p| resolve(p)).collect();
         saved.with = saved.with.as_deref().map(resolve);
         Ok(saved)
