@@ -371,3 +371,366 @@ fn hfb320_model_file_gauss_newton_matches_the_compiled_batch() {
     println!("{} passes; worst {worst:.2e}σ", id.iterations);
     assert!(worst < 1e-6, "worst {worst:e}σ");
 }
+
+/// Runs `aerosid` with `args` in `cwd`; its stdout, or a panic with both streams.
+fn aerosid_in(cwd: &Path, args: &[&str]) -> String {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_aerosid"))
+        .current_dir(cwd)
+        .args(args)
+        .output()
+        .expect("run aerosid");
+    let (o, e) = (
+        String::from_utf8_lossy(&out.stdout).to_string(),
+        String::from_utf8_lossy(&out.stderr),
+    );
+    assert!(out.status.success(), "aerosid {args:?} in {}:\n{o}\n{e}", cwd.display());
+    o
+}
+
+#[test]
+fn a_model_naming_channels_reads_what_gaps_reads_and_matches_the_column_model() {
+    // GIVEN the Twin Otter short-period model twice: by column numbers of the ASCII file
+    // (twin_otter_lon.toml) and by channel names, the file read through its column map
+    // (twin_otter_lon_channels.toml), which converts degrees with the same factor π/180
+    let out = scratch("channels");
+    let by_column = run_fem(&FemArgs {
+        model: models().join("twin_otter_lon.toml"),
+        segments: vec![(0.0, 3.5)],
+        validate_segments: vec![(3.5, 8.0)],
+        out: out.join("columns"),
+        ..FemArgs::default()
+    })
+    .expect("fem by column");
+    let by_name = run_fem(&FemArgs {
+        model: models().join("twin_otter_lon_channels.toml"),
+        segments: vec![(0.0, 3.5)],
+        validate_segments: vec![(3.5, 8.0)],
+        out: out.join("names"),
+        ..FemArgs::default()
+    })
+    .expect("fem by channel");
+    println!("{}", by_name.text);
+    // THEN the estimates, their σ and the validation fit are the same to the last bit: the same
+    // numbers reach the filter by either path (the map's unit factor is the model's scale, both
+    // multiply the column once)
+    for (a, b) in by_name.saved.parameters.iter().zip(&by_column.saved.parameters) {
+        assert_eq!((&a.name, a.value, a.sigma), (&b.name, b.value, b.sigma));
+    }
+    for (a, b) in by_name.saved.validation.iter().zip(&by_column.saved.validation) {
+        assert_eq!((a.r2, a.rms), (b.r2, b.rms), "{}", a.name);
+    }
+    // … and through the `.mat` file of the same manoeuvre, read with the same map, the estimates
+    // agree within 10⁻⁶ σ: the text export has 10 significant digits, the `.mat` full doubles, a
+    // 5·10⁻¹⁰ relative difference in the data (measured: 1.4·10⁻⁸ σ at most, in Z0)
+    let mat = run_fem(&FemArgs {
+        model: models().join("twin_otter_lon_channels.toml"),
+        data: vec![models().join("../data/flight/totter_lon_020213f1_018.mat")],
+        with: Some(models().join("../data/maps/twin_otter.map")),
+        segments: vec![(0.0, 3.5)],
+        out: out.join("mat"),
+        ..FemArgs::default()
+    })
+    .expect("fem on .mat");
+    for (a, b) in mat.saved.parameters.iter().zip(&by_column.saved.parameters) {
+        if let Some(s) = b.sigma {
+            assert!(
+                (a.value - b.value).abs() < 1e-6 * s,
+                "{}: {} vs {} ± {s}",
+                a.name,
+                a.value,
+                b.value
+            );
+        }
+    }
+}
+
+#[test]
+fn a_project_csv_with_more_columns_than_the_model_uses_and_csv_names() {
+    // GIVEN manoeuvre 018 written as a project CSV (header, SI units) with more columns than the
+    // model reads, and the Twin Otter's aircraft file
+    let dir = scratch("csv");
+    let flight = aerosid::io::read_measured(
+        &models().join("../data/flight/totter_lon_020213f1_018_fdata.asc"),
+        &models().join("../data/maps/twin_otter.map"),
+    )
+    .expect("read");
+    use aerosid::io::measured::Quantity::{Airspeed, Alpha, Beta, Elevator, PitchRate};
+    let qs = [Alpha, PitchRate, Elevator, Beta, Airspeed];
+    let mut csv = String::from("t_s,alpha_rad,gyro_rad_s_y,elevator_rad,beta_rad,airspeed_mps\n");
+    for k in 0..flight.len() {
+        csv.push_str(&format!("{:e}", flight.t_s[k]));
+        for q in qs {
+            csv.push_str(&format!(",{:e}", flight.get(q).expect("channel")[k]));
+        }
+        csv.push('\n');
+    }
+    let data = dir.join("to018.csv");
+    std::fs::write(&data, csv).expect("write");
+    // … and the channel model with its outputs named as the CSV's columns
+    let text = std::fs::read_to_string(models().join("twin_otter_lon_channels.toml"))
+        .expect("model")
+        .replace("channel = \"pitch_rate\"", "channel = \"gyro_rad_s_y\"")
+        .replace("channel = \"alpha\"", "channel = \"alpha_rad\"");
+    let model_path = models().join("twin_otter_lon_csv_test.toml");
+    let model = UserModel::parse(&text, &model_path).expect("model");
+    // WHEN its segments are read from the CSV with the aircraft file, and from the ASCII file
+    // through the map
+    let aircraft = models().join("../data/aircraft/twin_otter.aircraft");
+    let from_csv = aerosid::workflow::read_segments_with(&model, &data, Some(&aircraft), &[(0.0, 3.5)]).expect("csv");
+    let from_asc = read_segments(&model, &model.default_data().expect("data"), &[(0.0, 3.5)]).expect("asc");
+    // THEN they are the same numbers (the CSV holds the shortest round-trip text of each double)
+    assert_eq!(from_csv.len(), 1);
+    assert_eq!(from_csv[0].t_s, from_asc[0].t_s);
+    assert_eq!(from_csv[0].u, from_asc[0].u);
+    assert_eq!(from_csv[0].y, from_asc[0].y);
+    // … and a channel the data lack is named, with what they have and the fix
+    let text = text.replace("channel = \"elevator\"", "channel = \"rudder\"");
+    let model = UserModel::parse(&text, &model_path).expect("model");
+    let e = aerosid::workflow::read_segments_with(&model, &data, Some(&aircraft), &[]).expect_err("no rudder");
+    assert!(
+        e.contains("no `rudder` channel") && e.contains("elevator") && e.contains("to018.csv"),
+        "{e}"
+    );
+}
+
+#[test]
+fn derived_inputs_combine_channels_or_columns_as_maps_do() {
+    // GIVEN the Twin Otter through its map, where `thrust` is left + right engine and
+    // `thrust_difference` left − right (columns 38 and 39, lbf)
+    let asc = models().join("../data/flight/totter_lon_020213f1_018_fdata.asc");
+    let base = std::fs::read_to_string(models().join("twin_otter_lon_channels.toml")).expect("model");
+    // WHEN a model's input is the left engine, (thrust + thrust_difference)/2 written as a map
+    // writes it, in lbf
+    let lbf = 0.453_592_37 * 9.806_65;
+    let text = base.replace(
+        "channel = \"elevator\"",
+        &format!(
+            "channel = \"0.5*thrust + 0.5*thrust_difference\"\nscale = {:e}",
+            1.0 / lbf
+        ),
+    );
+    let model = UserModel::parse(&text, &models().join("derived.toml")).expect("model");
+    let segs = read_segments(&model, &asc, &[]).expect("segments");
+    // THEN it is column 38 to rounding (10⁻¹² relative: a sum, a halving and two unit factors)
+    let raw: Vec<f64> = std::fs::read_to_string(&asc)
+        .expect("asc")
+        .lines()
+        .filter(|l| !l.trim().is_empty())
+        .map(|l| {
+            l.split_whitespace()
+                .nth(37)
+                .expect("column 38")
+                .parse()
+                .expect("number")
+        })
+        .collect();
+    assert_eq!(segs[0].u.len(), raw.len());
+    for (u, r) in segs[0].u.iter().zip(&raw) {
+        assert!((u[0] - r).abs() <= 1e-12 * r.abs().max(1.0), "{} vs {r}", u[0]);
+    }
+    // AND in a file read by column number, δe = ($14 − $90)/2 with column 90 set to −δe is δe
+    // itself (the form of δa = (δa_R − δa_L)/2; halving and adding halves are exact in binary), so
+    // the identification is that of the column model to the last bit
+    let dir = scratch("derived");
+    let doubled: String = std::fs::read_to_string(&asc)
+        .expect("asc")
+        .lines()
+        .filter(|l| !l.trim().is_empty())
+        .map(|l| {
+            let mut c: Vec<String> = l.split_whitespace().map(String::from).collect();
+            c[89] = format!("{:e}", -c[13].parse::<f64>().expect("number"));
+            c.join(" ") + "\n"
+        })
+        .collect();
+    let data = dir.join("two_elevators.asc");
+    std::fs::write(&data, doubled).expect("write");
+    let column_text = std::fs::read_to_string(models().join("twin_otter_lon.toml"))
+        .expect("model")
+        .replace("column = 14  ", "channel = \"0.5*$14 - 0.5*$90\"  ");
+    assert!(column_text.contains("0.5*$90"), "the replacement took");
+    let derived = dir.join("derived.toml");
+    std::fs::write(&derived, column_text).expect("write");
+    let fit = |model: PathBuf, data: PathBuf, out: &str| {
+        run_fem(&FemArgs {
+            model,
+            data: vec![data],
+            segments: vec![(0.0, 3.5)],
+            out: dir.join(out),
+            ..FemArgs::default()
+        })
+        .expect("fem")
+    };
+    let a = fit(derived, data, "derived");
+    let b = fit(models().join("twin_otter_lon.toml"), asc, "plain");
+    for (p, q) in a.saved.parameters.iter().zip(&b.saved.parameters) {
+        assert_eq!((&p.name, p.value, p.sigma), (&q.name, q.value, q.sigma));
+    }
+    // … and a derived input naming something that is no channel is refused with the field
+    let bad = base.replace(
+        "channel = \"elevator\"",
+        "channel = \"0.5*elevator_left - 0.5*elevator\"",
+    );
+    let e = UserModel::parse(&bad, Path::new("m.toml")).expect_err("refused");
+    assert!(
+        e.0.contains("m.toml: inputs.de.channel") && e.0.contains("`elevator_left` is not a measured channel"),
+        "{}",
+        e.0
+    );
+    // … as is a column number in a model without [data] columns
+    let bad = base.replace("channel = \"elevator\"", "column = 14");
+    let e = UserModel::parse(&bad, Path::new("m.toml")).expect_err("refused");
+    assert!(
+        e.0.contains("inputs.de.column") && e.0.contains("name the channel"),
+        "{}",
+        e.0
+    );
+}
+
+#[test]
+fn saved_data_and_a_copied_map_resolve_from_any_folder() {
+    // GIVEN a folder tree with a copy of the Twin Otter column map beside a copy of its aircraft
+    // file (`aircraft = ../aircraft/twin_otter.aircraft`) and of the data
+    let root = scratch("paths");
+    let _ = std::fs::remove_dir_all(&root);
+    let src = models().join("../data");
+    for (from, to) in [
+        ("maps/twin_otter.map", "tree/maps/to.map"),
+        ("aircraft/twin_otter.aircraft", "tree/aircraft/twin_otter.aircraft"),
+        ("flight/totter_lon_020213f1_018_fdata.asc", "tree/flight/to018.asc"),
+    ] {
+        let dst = root.join(to);
+        std::fs::create_dir_all(dst.parent().expect("folder")).expect("folder");
+        std::fs::copy(src.join(from), &dst).expect("copy");
+    }
+    let elsewhere = root.join("elsewhere/deeper");
+    std::fs::create_dir_all(&elsewhere).expect("folder");
+    let model = models().join("twin_otter_lon_channels.toml");
+    // WHEN `fem` runs in the tree's parent with relative paths, the map given as `tree/maps/to.map`
+    let fem = aerosid_in(
+        &root,
+        &[
+            "fem",
+            "--model",
+            model.to_str().expect("utf-8"),
+            "--data",
+            "tree/flight/to018.asc",
+            "--with",
+            "tree/maps/to.map",
+            "--segment",
+            "0:3.5",
+            "--out",
+            "tree/out",
+        ],
+    );
+    // … and `predict --saved` without --data runs from another folder
+    let predict = aerosid_in(
+        &elsewhere,
+        &[
+            "predict",
+            "--saved",
+            "../../tree/out/identification.json",
+            "--segment",
+            "0:3.5",
+            "--out",
+            "pred",
+        ],
+    );
+    // THEN the map found its aircraft file beside it, the saved paths are relative to the JSON,
+    // and the prediction is the identification's fit (the same data, found from elsewhere)
+    let saved: SavedModel =
+        serde_json::from_str(&std::fs::read_to_string(root.join("tree/out/identification.json")).expect("json"))
+            .expect("parse");
+    assert_eq!(saved.data_files, vec!["../flight/to018.asc".to_string()]);
+    assert_eq!(saved.with.as_deref(), Some("../maps/to.map"));
+    let rows = |t: &str, after: &str| -> Vec<String> {
+        t.lines()
+            .skip_while(|l| !l.starts_with(after))
+            .skip(2)
+            .take(2)
+            .map(String::from)
+            .collect()
+    };
+    assert_eq!(
+        rows(&fem, "simulation on the identification data:"),
+        rows(&predict, "simulation:")
+    );
+    assert!(elsewhere.join("pred/prediction.json").exists());
+    // … and so does a saved column model (its data found through the model file, stored
+    // relative to the JSON), moved with its output folder
+    let out = root.join("tree/out_columns");
+    run_fem(&FemArgs {
+        model: models().join("twin_otter_lon.toml"),
+        segments: vec![(0.0, 3.5)],
+        out: out.clone(),
+        ..FemArgs::default()
+    })
+    .expect("fem");
+    aerosid_in(
+        &elsewhere,
+        &[
+            "predict",
+            "--saved",
+            "../../tree/out_columns/identification.json",
+            "--segment",
+            "0:3.5",
+            "--out",
+            "pred2",
+        ],
+    );
+}
+
+#[test]
+fn a_constant_from_the_aircraft_file_and_channels_reproduce_the_hfb320_model() {
+    // GIVEN hfb320.toml rewritten to name channels (read through tool/data/maps/hfb320.map, whose
+    // units are SI already) and to take its mass from the map's aircraft file (7472 kg, as the
+    // model file states it)
+    let column = hfb320_model();
+    let text = column
+        .text
+        .replace("columns = 20\ntime_column = 1", "with = \"../data/maps/hfb320.map\"")
+        .replace("mass = 7472.0 ", "mass = \"aircraft.mass_kg\" ");
+    let mut text = text.replace("column = 2\n", "channel = \"elevator\"\n");
+    for (col, name) in [
+        (4, "thrust"),
+        (5, "airspeed"),
+        (6, "alpha"),
+        (7, "pitch"),
+        (8, "pitch_rate"),
+        (9, "pitch_accel"),
+        (10, "accel_x"),
+        (11, "accel_z"),
+    ] {
+        text = text.replace(&format!("column = {col}\n"), &format!("channel = \"{name}\"\n"));
+    }
+    assert!(
+        !text.contains("column =") && text.contains("aircraft.mass_kg"),
+        "{text}"
+    );
+    let mut named = UserModel::parse(&text, &models().join("hfb320_channels.toml")).expect("model");
+    assert!(named.uses_aircraft());
+    // WHEN both are identified (one recursive pass) on the flight
+    let data = column.default_data().expect("data");
+    let segs_named = read_segments(&named, &data, &[]).expect("segments");
+    aerosid::workflow::apply_aircraft(&mut named, &segs_named).expect("aircraft");
+    let a = identify(&named, &segs_named).expect("identify");
+    let b = identify(&column, &read_segments(&column, &data, &[]).expect("segments")).expect("identify");
+    // THEN the estimates and covariance are the same to the last bit
+    assert_eq!(a.p, b.p);
+    assert_eq!(a.covariance, b.covariance);
+    // … and a model taking a constant the aircraft file leaves `unknown` is refused with the fix
+    let text = text.replace("\"aircraft.mass_kg\"", "\"aircraft.span_m\"");
+    let mut bad = UserModel::parse(&text, Path::new("m.toml")).expect("model");
+    let e = aerosid::workflow::apply_aircraft(&mut bad, &segs_named).expect_err("span unknown");
+    assert!(
+        e.contains("no `span_m` (unknown)") && e.contains("constant `mass`"),
+        "{e}"
+    );
+    // … as is a constant naming no aircraft value
+    let text = text.replace("\"aircraft.span_m\"", "\"aircraft.weight\"");
+    let e = UserModel::parse(&text, Path::new("m.toml")).expect_err("refused");
+    assert!(
+        e.0.contains("constants.mass") && e.0.contains("aircraft.mass_kg"),
+        "{}",
+        e.0
+    );
+}

@@ -353,7 +353,9 @@ impl Execute for FemHfb320Args {
 /// The filter error or output error method on a model file (states, inputs, outputs, parameters,
 /// equations; docs/workflow.md, e.g. tool/models/hfb320.toml), the files and segments pooled
 /// (each its own initial state), parameters fixed as asked, validated on other data; writes
-/// identification.json (the saved model) and measured-vs-model figures (SVG).
+/// identification.json (the saved model) and measured-vs-model figures (SVG). A model that names
+/// measured channels reads what `gaps` reads (.csv, .asc/.txt/.dat or .mat with --with, .ulg and
+/// .bin with or without it).
 #[derive(Args)]
 struct FemArgs {
     /// The model file (TOML); paths inside it resolve against its folder.
@@ -362,6 +364,10 @@ struct FemArgs {
     /// A data file (repeatable; default the model file's `[data] file`).
     #[arg(long, value_name = "FILE")]
     data: Vec<PathBuf>,
+    /// The column map or aircraft file of the data and validation files, for a model that names
+    /// channels (default the model file's `[data] with` when its `[data] file` is read).
+    #[arg(long = "with", value_name = "MAP_OR_AIRCRAFT")]
+    with: Option<PathBuf>,
     /// A segment of each data file, seconds from its first sample (repeatable; default all).
     #[arg(long, value_name = "FROM:TO", value_parser = aerosid::workflow::parse_range, allow_hyphen_values = true)]
     segment: Vec<(f64, f64)>,
@@ -384,6 +390,7 @@ impl Execute for FemArgs {
         let args = aerosid::workflow::FemArgs {
             model: self.model,
             data: self.data,
+            with: self.with,
             segments: self.segment,
             validate: self.validate,
             validate_segments: self.validate_segment,
@@ -410,12 +417,12 @@ struct PredictArgs {
     /// The saved identification (identification.json of `fem`, or report.json of `gaps`).
     #[arg(long, value_name = "FILE.json")]
     saved: PathBuf,
-    /// A data file (repeatable for `fem`; default the model file's `[data] file`; exactly one for
-    /// a gap report).
+    /// A data file (repeatable for `fem`; default the files it was identified on, wherever the
+    /// command runs; exactly one for a gap report).
     #[arg(long, value_name = "FILE")]
     data: Vec<PathBuf>,
-    /// The column map or aircraft file of the --data flight, for a gap report (optional for .ulg
-    /// and .bin).
+    /// The column map or aircraft file of the --data flight (optional for .ulg and .bin; for a
+    /// `fem` model without --data, default the one it was identified with).
     #[arg(long = "with", value_name = "MAP_OR_AIRCRAFT")]
     with: Option<PathBuf>,
     /// A segment of each data file, seconds from its first sample (repeatable; default all; `fem`
@@ -434,13 +441,17 @@ impl Execute for PredictArgs {
             Ok(true) => return self.gap_report(),
             Ok(false) => {}
         }
-        if self.with.is_some() {
-            return usage("predict", "--with is for a gap report (report.json of `aerosid gaps`)");
-        }
         finish(
             "predict",
             "written",
-            aerosid::workflow::run_predict(&self.saved, &self.data, &self.segment, &self.out).map(|(_, t, f)| (t, f)),
+            aerosid::workflow::run_predict_with(
+                &self.saved,
+                &self.data,
+                self.with.as_deref(),
+                &self.segment,
+                &self.out,
+            )
+            .map(|(_, t, f)| (t, f)),
         )
     }
 }

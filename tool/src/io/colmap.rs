@@ -290,6 +290,44 @@ fn parse_expr(
             ),
         ));
     }
+    let resolve = |factor: &str| match (format, factor.strip_prefix('$')) {
+        (Format::Ascii, Some(n)) => match n.parse::<usize>() {
+            Ok(k) if k >= 1 && k <= columns => Ok(Source::Column(k)),
+            _ => Err(format!("`{factor}`: column must be $1 … ${columns}")),
+        },
+        (Format::Ascii, None) => Err(format!("`{factor}` is neither a number nor a column `$N`")),
+        (Format::Ulog, Some(_)) => Err(format!("`{factor}`: a ULog map names `topic.field`, not columns")),
+        (Format::Ulog, None) => match factor.split_once('.') {
+            Some((topic, field)) if !topic.is_empty() && !field.is_empty() => Ok(Source::Field {
+                topic: topic.to_string(),
+                field: field.to_string(),
+            }),
+            _ => Err(format!("`{factor}` is neither a number nor `topic.field`")),
+        },
+    };
+    let (terms, constant) = parse_terms(body, file, line, col, &resolve)?;
+    Ok(Expr {
+        terms,
+        constant,
+        factor,
+        unit: unit.to_string(),
+        bias: 0.0,
+        line,
+    })
+}
+
+/// Parses the linear combination `EXPR` of a map (terms separated by ` + ` or ` - ` with spaces,
+/// each a source, a number or `number*source`) at `col` of `line`; `resolve` turns a source's text
+/// into a [`Source`] or says why it cannot. Also the reader of a model file's derived inputs
+/// ([`crate::usermodel`]), whose sources are columns or measured channels.
+pub fn parse_terms(
+    body: &str,
+    file: &str,
+    line: usize,
+    col: usize,
+    resolve: &dyn Fn(&str) -> Result<Source, String>,
+) -> Result<(Vec<Term>, f64), ReadError> {
+    let err = |c: usize, m: String| ReadError::new(file, line, c, m);
     // Terms: split at " + " / " - " (spaces required, so `1e-3` and `-$2` stay whole).
     let mut terms = Vec::new();
     let mut constant = 0.0;
@@ -331,28 +369,7 @@ fn parse_expr(
             if source.is_some() {
                 return Err(err(c, format!("`{t}`: a term has at most one source")));
             }
-            source = Some(match (format, factor.strip_prefix('$')) {
-                (Format::Ascii, Some(n)) => match n.parse::<usize>() {
-                    Ok(k) if k >= 1 && k <= columns => Source::Column(k),
-                    _ => return Err(err(c, format!("`{factor}`: column must be $1 … ${columns}"))),
-                },
-                (Format::Ascii, None) => {
-                    return Err(err(c, format!("`{factor}` is neither a number nor a column `$N`")))
-                }
-                (Format::Ulog, Some(_)) => {
-                    return Err(err(
-                        c,
-                        format!("`{factor}`: a ULog map names `topic.field`, not columns"),
-                    ))
-                }
-                (Format::Ulog, None) => match factor.split_once('.') {
-                    Some((topic, field)) if !topic.is_empty() && !field.is_empty() => Source::Field {
-                        topic: topic.to_string(),
-                        field: field.to_string(),
-                    },
-                    _ => return Err(err(c, format!("`{factor}` is neither a number nor `topic.field`"))),
-                },
-            });
+            source = Some(resolve(factor).map_err(|m| err(c, m))?);
         }
         match source {
             Some(source) => terms.push(Term { coef, source }),
@@ -366,14 +383,7 @@ fn parse_expr(
     if terms.is_empty() {
         return Err(err(col, format!("`{body}` reads no source")));
     }
-    Ok(Expr {
-        terms,
-        constant,
-        factor,
-        unit: unit.to_string(),
-        bias: 0.0,
-        line,
-    })
+    Ok((terms, constant))
 }
 
 /// Parses `VALUE UNIT` (a `constant.` key).

@@ -19,9 +19,13 @@
 //! file = "../data/flight/hfb320_1_10.asc"   # default data file, relative to this file's folder
 //! columns = 20           # numbers on every line (a line with another count is refused)
 //! time_column = 1        # 1-based
+//! # Without `columns` and `time_column` the inputs and outputs name measured channels instead,
+//! # and a data file is read as `aerosid gaps` reads it (`crate::io::read_measured_with`):
+//! # with = "../data/maps/hfb320.map"   # default companion: column map or aircraft file
 //!
 //! [constants]            # numbers, in order; each may be used by the later ones and the equations
 //! V0 = 104.67
+//! mass = "aircraft.mass_kg"  # a value of the data's aircraft file (see `AIRCRAFT_CONSTANTS`)
 //!
 //! [definitions]          # intermediate expressions, in order; each may use the earlier ones
 //! qbar = "0.5*rho*V^2"
@@ -35,13 +39,16 @@
 //!
 //! [[inputs]]
 //! name = "de"
-//! column = 2
+//! column = 2             # with [data] columns; or `channel = "$2"`, or a combination of columns
 //! scale = 1.0            # multiplies the column (e.g. 0.017453292519943295 for degrees → rad)
+//! # Named channels (no [data] columns): `channel = "elevator"` (a `Quantity` name as column
+//! # maps write it, or a project CSV column such as `elevator_rad`), or a derived input, a linear
+//! # combination as column maps write one: `channel = "0.5*thrust + 0.5*thrust_difference"`.
 //!
 //! [[outputs]]            # y = h(x, u, p)
 //! name = "V"
 //! equation = "V"
-//! column = 5
+//! column = 5             # or `channel = "airspeed"` (as for an input)
 //! noise_variance = 1.7587e-2
 //!
 //! [[parameters]]
@@ -66,6 +73,9 @@
 //! Expressions are parsed by the `exmex` crate (`+ - * / ^`, `sin cos tan exp ln sqrt abs …`,
 //! `PI`); names are letters, digits and `_`. Every error names the file, the field and the fix.
 
+use crate::io::colmap::{parse_terms, Expr, Source};
+use crate::io::measured::{Aircraft, Quantity};
+use crate::io::project_csv::csv_column;
 use aerosid_core::fem::{InputHold, Integrator, Model, Sensitivity};
 use exmex::prelude::*;
 use nalgebra::{SMatrix, SVector};
@@ -132,9 +142,14 @@ pub struct InputSpec {
     /// Unit (after scaling), for the report.
     #[serde(default)]
     pub unit: String,
-    /// 1-based column of the data file.
-    pub column: usize,
-    /// Factor applied to the column.
+    /// 1-based column of a file read by column number (`[data] columns`).
+    #[serde(default)]
+    pub column: Option<usize>,
+    /// The measured channel, or a linear combination of channels as a column map writes it
+    /// (`0.5*thrust + 0.5*thrust_difference`; `$N` for columns of a file read by number).
+    #[serde(default)]
+    pub channel: Option<String>,
+    /// Factor applied to the column or channel.
     #[serde(default = "one")]
     pub scale: f64,
 }
@@ -151,9 +166,13 @@ pub struct OutputSpec {
     /// `y` of this output (absent with `[linear]`).
     #[serde(default)]
     pub equation: Option<String>,
-    /// 1-based column of the measurement.
-    pub column: usize,
-    /// Factor applied to the column.
+    /// 1-based column of the measurement (`[data] columns`).
+    #[serde(default)]
+    pub column: Option<usize>,
+    /// The measured channel or a linear combination of channels (as for an input).
+    #[serde(default)]
+    pub channel: Option<String>,
+    /// Factor applied to the column or channel.
     #[serde(default = "one")]
     pub scale: f64,
     /// Measurement-noise variance `R` (eq. 2), in the output's (scaled) unit squared.
@@ -180,16 +199,39 @@ pub struct ParamSpec {
 }
 
 /// The `[data]` table.
-#[derive(Debug, Clone, Serialize, Deserialize)]
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct DataSpec {
     /// The default data file, relative to the model file's folder.
     #[serde(default)]
     pub file: Option<String>,
-    /// Numbers on every line.
-    pub columns: usize,
-    /// 1-based column of the time, s.
-    pub time_column: usize,
+    /// The default companion of a data file read by the measured-data readers: its column map or
+    /// aircraft file, relative to the model file's folder.
+    #[serde(default)]
+    pub with: Option<String>,
+    /// Numbers on every line of a file read by column number; absent when the inputs and outputs
+    /// name measured channels.
+    #[serde(default)]
+    pub columns: Option<usize>,
+    /// 1-based column of the time, s (with `columns`).
+    #[serde(default)]
+    pub time_column: Option<usize>,
+}
+
+/// How a model's data are read.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Layout {
+    /// Whitespace-separated numbers, no header, `columns` on every line, columns by number.
+    Columns {
+        /// Numbers on every line.
+        columns: usize,
+        /// 1-based column of the time.
+        time_column: usize,
+    },
+    /// Any file the measured-data readers read ([`crate::io::read_measured_with`]): the inputs
+    /// and outputs name channels. The sources `$k` of [`UserModel::sources`] are 1-based indices
+    /// into this list.
+    Channels(Vec<Quantity>),
 }
 
 /// Which method.
@@ -320,6 +362,7 @@ pub struct ModelFile {
     #[serde(default)]
     pub description: String,
     /// Data layout.
+    #[serde(default)]
     pub data: DataSpec,
     /// Named numbers, in order.
     #[serde(default)]
@@ -377,9 +420,17 @@ pub struct UserModel {
     pub path: PathBuf,
     /// The file's text (stored with an identification so that it can be re-applied).
     pub text: String,
+    /// How its data are read.
+    pub layout: Layout,
+    /// Where each input, then each output, comes from: a combination of the layout's columns
+    /// (`Source::Column`), its `factor` the entry's `scale`.
+    pub sources: Vec<Expr>,
     /// Environment layout: `[constants | parameters (all) | states | inputs | definitions]`.
     n_const: usize,
     const_values: Vec<f64>,
+    /// Constants taken from the data's aircraft file: `(index into const_values, index into
+    /// AIRCRAFT_CONSTANTS)`; NaN until [`UserModel::set_aircraft`].
+    aircraft_constants: Vec<(usize, usize)>,
     /// Indices (into `file.parameters`) of the free parameters, in order.
     free: Vec<usize>,
     /// Current values of every parameter (fixed ones used as they are).
@@ -482,6 +533,178 @@ fn linear_row(
     Ok(out)
 }
 
+/// The aircraft-file values a model's `[constants]` may take (`mass = "aircraft.mass_kg"`), in SI
+/// units as the aircraft file's reader stores them; the inertia with a positive `jxz`.
+pub const AIRCRAFT_CONSTANTS: [(&str, AircraftValue); 8] = [
+    ("mass_kg", |a| a.mass_kg),
+    ("wing_area_m2", |a| a.wing_area_m2),
+    ("span_m", |a| a.span_m),
+    ("chord_m", |a| a.chord_m),
+    ("jx_kgm2", |a| a.inertia_kgm2[(0, 0)]),
+    ("jy_kgm2", |a| a.inertia_kgm2[(1, 1)]),
+    ("jz_kgm2", |a| a.inertia_kgm2[(2, 2)]),
+    ("jxz_kgm2", |a| -a.inertia_kgm2[(0, 2)]),
+];
+
+/// Reads one value of an aircraft.
+pub type AircraftValue = fn(&Aircraft) -> f64;
+
+fn aircraft_constant_help(a: &str) -> String {
+    let names: Vec<String> = AIRCRAFT_CONSTANTS
+        .iter()
+        .map(|(n, _)| format!("aircraft.{n}"))
+        .collect();
+    format!(
+        "`{a}`: a constant is a number or a value of the data's aircraft file, one of {}",
+        names.join(", ")
+    )
+}
+
+/// The measured channel a model file names: a [`Quantity::name`] (as column maps write it,
+/// `pitch_rate`) or a column of the project's CSV log (`gyro_rad_s_y`).
+pub fn channel_named(name: &str) -> Option<Quantity> {
+    Quantity::from_name(name).or_else(|| Quantity::ALL.iter().copied().find(|q| csv_column(*q) == name))
+}
+
+/// The data layout of a model file and the source of each input, then each output: with
+/// `[data] columns`, columns by number (`column = N`, or `channel` as a combination of `$N`);
+/// without, measured channels by name (`channel`), numbered in the order first named.
+fn data_sources(file: &ModelFile, f: &str) -> Result<(Layout, Vec<Expr>), ModelError> {
+    let entries: Vec<(String, Option<usize>, Option<&String>, f64)> = file
+        .inputs
+        .iter()
+        .map(|i| (format!("inputs.{}", i.name), i.column, i.channel.as_ref(), i.scale))
+        .chain(
+            file.outputs
+                .iter()
+                .map(|o| (format!("outputs.{}", o.name), o.column, o.channel.as_ref(), o.scale)),
+        )
+        .collect();
+    let columns = file.data.columns;
+    let mut layout = match columns {
+        Some(columns) => {
+            let tc = file.data.time_column.unwrap_or(0);
+            if columns == 0 || tc == 0 || tc > columns {
+                return err(f, "data.time_column", format!("must be 1 to data.columns = {columns}"));
+            }
+            Layout::Columns {
+                columns,
+                time_column: tc,
+            }
+        }
+        None => {
+            if file.data.time_column.is_some() {
+                return err(
+                    f,
+                    "data.time_column",
+                    "applies to a file read by column number: give data.columns too, or name channels and leave both out",
+                );
+            }
+            Layout::Channels(Vec::new())
+        }
+    };
+    let mut sources = Vec::new();
+    for (what, column, channel, scale) in entries {
+        if !(scale.is_finite() && scale != 0.0) {
+            return err(f, &format!("{what}.scale"), "must be a finite non-zero number");
+        }
+        let terms = match (column, channel, &mut layout) {
+            (Some(_), Some(_), _) => {
+                return err(f, &what, "give `column` or `channel`, not both");
+            }
+            (None, None, Layout::Columns { .. }) => {
+                return err(f, &what, "give `column = N` (or `channel = \"$N\"`)");
+            }
+            (None, None, Layout::Channels(_)) => {
+                return err(
+                    f,
+                    &what,
+                    "give `channel` (a measured channel such as \"alpha\", \"pitch_rate\", \"elevator\")",
+                );
+            }
+            (Some(_), None, Layout::Channels(_)) => {
+                return err(
+                    f,
+                    &format!("{what}.column"),
+                    "a column number needs [data] columns and time_column (a file without a header); name the channel instead, e.g. channel = \"alpha\"",
+                );
+            }
+            (Some(col), None, Layout::Columns { columns, .. }) => {
+                if col == 0 || col > *columns {
+                    return err(
+                        f,
+                        &format!("{what}.column"),
+                        format!("{col}: must be 1 to data.columns = {columns}"),
+                    );
+                }
+                vec![crate::io::colmap::Term {
+                    coef: 1.0,
+                    source: Source::Column(col),
+                }]
+            }
+            (None, Some(text), Layout::Columns { columns, .. }) => {
+                let n = *columns;
+                let resolve = |s: &str| match s.strip_prefix('$').map(str::parse::<usize>) {
+                    Some(Ok(k)) if k >= 1 && k <= n => Ok(Source::Column(k)),
+                    _ => Err(format!("`{s}`: a file read by column number takes columns $1 … ${n}")),
+                };
+                let (terms, constant) =
+                    parse_terms(text, f, 0, 1, &resolve).map_err(|e| channel_error(f, &what, text, e))?;
+                if constant != 0.0 {
+                    return err(
+                        f,
+                        &format!("{what}.channel"),
+                        format!("`{text}`: a constant term is not a measurement; give channels only"),
+                    );
+                }
+                terms
+            }
+            (None, Some(text), Layout::Channels(used)) => {
+                let known = std::cell::RefCell::new(std::mem::take(used));
+                let resolve = |s: &str| {
+                    let q = channel_named(s).ok_or_else(|| {
+                        format!("`{s}` is not a measured channel (name it as a column map does: alpha, pitch_rate, elevator, … or as the project CSV's columns: alpha_rad, gyro_rad_s_y, …; docs/measured-data.md)")
+                    })?;
+                    let mut k = known.borrow_mut();
+                    let i = k.iter().position(|c| *c == q).unwrap_or_else(|| {
+                        k.push(q);
+                        k.len() - 1
+                    });
+                    Ok(Source::Column(i + 1))
+                };
+                let parsed = parse_terms(text, f, 0, 1, &resolve);
+                *used = known.into_inner();
+                let (terms, constant) = parsed.map_err(|e| channel_error(f, &what, text, e))?;
+                if constant != 0.0 {
+                    return err(
+                        f,
+                        &format!("{what}.channel"),
+                        format!("`{text}`: a constant term is not a measurement; give channels only"),
+                    );
+                }
+                terms
+            }
+        };
+        sources.push(Expr {
+            terms,
+            constant: 0.0,
+            factor: scale,
+            unit: String::new(),
+            bias: 0.0,
+            line: 0,
+        });
+    }
+    Ok((layout, sources))
+}
+
+/// A `channel` expression's parse error as a model-file error naming the field.
+fn channel_error(f: &str, what: &str, text: &str, e: crate::io::ReadError) -> ModelError {
+    ModelError(format!(
+        "{f}: {what}.channel: `{text}`: {} (write a channel or a combination such as `0.5*thrust + 0.5*thrust_difference`, as in column maps)",
+        e.message
+    ))
+}
+
 impl UserModel {
     /// Reads and checks a model file.
     pub fn read(path: &Path) -> Result<Self, ModelError> {
@@ -546,34 +769,7 @@ impl UserModel {
                 "only with method = \"output-error\" and iteration = \"gauss-newton\" (the filter error method takes R as given)",
             );
         }
-        if file.data.time_column == 0 || file.data.time_column > file.data.columns {
-            return err(
-                &f,
-                "data.time_column",
-                format!("must be 1 to data.columns = {}", file.data.columns),
-            );
-        }
-        for (what, col, scale) in file
-            .inputs
-            .iter()
-            .map(|i| (format!("inputs.{}", i.name), i.column, i.scale))
-            .chain(
-                file.outputs
-                    .iter()
-                    .map(|o| (format!("outputs.{}", o.name), o.column, o.scale)),
-            )
-        {
-            if col == 0 || col > file.data.columns {
-                return err(
-                    &f,
-                    &format!("{what}.column"),
-                    format!("{col}: must be 1 to data.columns = {}", file.data.columns),
-                );
-            }
-            if !(scale.is_finite() && scale != 0.0) {
-                return err(&f, &format!("{what}.scale"), "must be a finite non-zero number");
-            }
-        }
+        let (layout, sources) = data_sources(&file, &f)?;
         for o in &file.outputs {
             if !(o.noise_variance > 0.0 && o.noise_variance.is_finite()) {
                 return err(
@@ -677,11 +873,22 @@ impl UserModel {
             Ok(())
         };
         let mut const_values = Vec::new();
+        let mut aircraft_constants = Vec::new();
         for (k, v) in &file.constants {
             add(k, format!("constants.{k}"), &mut slot)?;
             let x = match v {
                 toml::Value::Float(x) => *x,
                 toml::Value::Integer(i) => *i as f64,
+                toml::Value::String(a) => match AIRCRAFT_CONSTANTS
+                    .iter()
+                    .position(|(name, _)| a.strip_prefix("aircraft.") == Some(*name))
+                {
+                    Some(j) => {
+                        aircraft_constants.push((const_values.len(), j));
+                        f64::NAN
+                    }
+                    None => return err(&f, &format!("constants.{k}"), aircraft_constant_help(a)),
+                },
                 _ => return err(&f, &format!("constants.{k}"), "must be a number"),
             };
             const_values.push(x);
@@ -761,8 +968,11 @@ impl UserModel {
             file,
             path: path.to_path_buf(),
             text: text.to_string(),
+            layout,
+            sources,
             n_const,
             const_values,
+            aircraft_constants,
             free,
             values,
             defs,
@@ -779,6 +989,43 @@ impl UserModel {
     /// The default data file of `[data] file`, resolved against the model file's folder.
     pub fn default_data(&self) -> Option<PathBuf> {
         self.file.data.file.as_ref().map(|d| self.folder().join(d))
+    }
+
+    /// The default companion (column map or aircraft file) of `[data] with`, resolved against the
+    /// model file's folder.
+    pub fn default_companion(&self) -> Option<PathBuf> {
+        self.file.data.with.as_ref().map(|d| self.folder().join(d))
+    }
+
+    /// Whether a constant is taken from the data's aircraft file.
+    pub fn uses_aircraft(&self) -> bool {
+        !self.aircraft_constants.is_empty()
+    }
+
+    /// Sets the constants taken from the aircraft file (`source` names it in errors). Refuses a
+    /// value the file leaves `unknown`, and one that differs from a value set before (the data of
+    /// one run come from one aircraft configuration).
+    pub fn set_aircraft(&mut self, aircraft: &Aircraft, source: &str) -> Result<(), String> {
+        for &(i, j) in &self.aircraft_constants {
+            let (key, get) = AIRCRAFT_CONSTANTS[j];
+            let v = get(aircraft);
+            let name = self.file.constants.keys().nth(i).map_or("?", |k| k.as_str());
+            if !v.is_finite() {
+                return Err(format!(
+                    "{source}: the aircraft file gives no `{key}` (unknown), which {} takes for constant `{name}`; state it in the aircraft file or give the number in the model",
+                    self.path.display()
+                ));
+            }
+            let old = self.const_values[i];
+            if old.is_finite() && old != v {
+                return Err(format!(
+                    "{source}: aircraft `{key}` = {v}, other data of this run had {old} (constant `{name}` of {}); pool data of one aircraft configuration",
+                    self.path.display()
+                ));
+            }
+            self.const_values[i] = v;
+        }
+        Ok(())
     }
 
     /// Number of states, inputs, outputs.

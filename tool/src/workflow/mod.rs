@@ -23,9 +23,12 @@
 //! several manoeuvres: it is split into segments there, not refused. A column the model reads that
 //! is zero on every line is refused (a zero-padded column is a missing channel, not data).
 
+use crate::io::colmap::{Expr, Source};
+use crate::io::measured::{Aircraft, Quantity};
+use crate::io::{read_measured_with, ReadOptions};
 use crate::plot::{Colour, Figure, Line, Panel, PlotError};
 use crate::usermodel::{
-    Initial, Iteration, Method, ModelError, PVec, UVec, UserModel, XVec, YVec, MAX_P, MAX_X, MAX_Y,
+    Initial, Iteration, Layout, Method, ModelError, PVec, UVec, UserModel, XVec, YVec, MAX_P, MAX_X, MAX_Y,
 };
 use aerosid_core::fem::{integrate, FemSettings, FilterError, Model};
 use nalgebra::SMatrix;
@@ -49,6 +52,9 @@ pub struct Segment {
     pub u: Vec<UVec>,
     /// Measured outputs per sample.
     pub y: Vec<YVec>,
+    /// The aircraft of data read with an aircraft file or a column map (`None`: read by column
+    /// number, or a log read without one).
+    pub aircraft: Option<Aircraft>,
 }
 
 /// Parses `FROM:TO` (seconds, `FROM < TO`).
@@ -81,75 +87,191 @@ pub fn parse_fix(s: &str) -> Result<(String, f64), String> {
     Ok((n.trim().to_string(), v))
 }
 
-/// Reads a data file laid out as the model says, splits it at time jumps, and cuts the `ranges`
-/// (all of each piece if none). Refuses lines with another number of columns, non-numbers,
-/// non-finite values in a column the model reads, columns the model reads that are zero on every
-/// line, and segments of fewer than two samples.
-pub fn read_segments(model: &UserModel, path: &Path, ranges: &[Range]) -> Result<Vec<Segment>, String> {
+/// The numbers of one record: per row its line (or sample) number and its values by column
+/// (`Source::Column(c)` is `values[c − 1]`), the time in column `time_column`.
+struct Table {
+    /// The data file.
+    file: String,
+    /// `(line or sample number, values)`.
+    rows: Vec<(usize, Vec<f64>)>,
+    /// 1-based column of the time.
+    time_column: usize,
+    /// Read by column number (`file:LINE` in errors) or from channels (`file: sample K`).
+    by_number: bool,
+    /// The channels of a channel layout, in column order.
+    channels: Vec<Quantity>,
+    /// The aircraft, if the data came with one.
+    aircraft: Option<Aircraft>,
+}
+
+impl Table {
+    fn at(&self, line: usize) -> String {
+        if self.by_number {
+            format!("{}:{line}", self.file)
+        } else {
+            format!("{}: sample {line}", self.file)
+        }
+    }
+
+    fn column(&self, c: usize) -> String {
+        if self.by_number {
+            format!("column {c}")
+        } else {
+            format!("channel `{}`", self.channels[c - 1])
+        }
+    }
+}
+
+/// A file read by column number: every line `columns` numbers.
+fn numbered_table(model: &UserModel, path: &Path, columns: usize, time_column: usize) -> Result<Table, String> {
     let f = path.display().to_string();
     let text = std::fs::read_to_string(path).map_err(|e| format!("{f}: {e}"))?;
-    let spec = &model.file.data;
     let mut rows: Vec<(usize, Vec<f64>)> = Vec::new();
     for (i, line) in text.lines().enumerate() {
         if line.trim().is_empty() {
             continue;
         }
-        let mut row = Vec::with_capacity(spec.columns);
+        let mut row = Vec::with_capacity(columns);
         for (c, tok) in line.split_whitespace().enumerate() {
             row.push(
                 tok.parse::<f64>()
                     .map_err(|e| format!("{f}:{}: column {}: `{tok}`: {e}", i + 1, c + 1))?,
             );
         }
-        if row.len() != spec.columns {
+        if row.len() != columns {
             return Err(format!(
                 "{f}:{}: {} columns, the model file {} says data.columns = {} (set it to this file's layout or give the right file)",
                 i + 1,
                 row.len(),
                 model.path.display(),
-                spec.columns
+                columns
             ));
         }
         rows.push((i + 1, row));
     }
+    Ok(Table {
+        file: f,
+        rows,
+        time_column,
+        by_number: true,
+        channels: Vec::new(),
+        aircraft: None,
+    })
+}
+
+/// Any file the measured-data readers read, with its companion: the channels the model names,
+/// then the time.
+fn channel_table(path: &Path, companion: Option<&Path>, channels: &[Quantity]) -> Result<Table, String> {
+    let f = path.display().to_string();
+    let flight = read_measured_with(path, companion, &ReadOptions::default()).map_err(|e| e.to_string())?;
+    let mut cols = Vec::with_capacity(channels.len());
+    for q in channels {
+        let v = flight.get(*q).ok_or_else(|| {
+            let have: Vec<&str> = flight.channels.keys().map(|c| c.name()).collect();
+            format!(
+                "{f}: no `{q}` channel, which the model reads; the data have {} (map it in the column map, `channel.{q} = …`, or name another channel in the model file)",
+                have.join(", ")
+            )
+        })?;
+        cols.push(v);
+    }
+    let rows = (0..flight.len())
+        .map(|k| {
+            let mut row: Vec<f64> = cols.iter().map(|c| c[k]).collect();
+            row.push(flight.t_s[k]);
+            (k + 1, row)
+        })
+        .collect();
+    Ok(Table {
+        file: f,
+        rows,
+        time_column: channels.len() + 1,
+        by_number: false,
+        channels: channels.to_vec(),
+        aircraft: (!flight.log.aircraft_unknown).then(|| flight.aircraft.clone()),
+    })
+}
+
+/// A source's value on one row.
+fn source_value(e: &Expr, row: &[f64]) -> f64 {
+    e.eval(e.terms.iter().map(|t| match t.source {
+        Source::Column(c) => row[c - 1],
+        Source::Field { .. } => f64::NAN,
+    }))
+}
+
+/// Reads a data file as the model says (its `[data] with` the companion of a channel layout),
+/// splits it at time jumps, and cuts the `ranges` (see [`read_segments_with`]).
+pub fn read_segments(model: &UserModel, path: &Path, ranges: &[Range]) -> Result<Vec<Segment>, String> {
+    read_segments_with(model, path, model.default_companion().as_deref(), ranges)
+}
+
+/// Reads a data file as the model says — by column number, or through the measured-data readers
+/// with `companion` (a column map or aircraft file) — splits it at time jumps, and cuts the
+/// `ranges` (all of each piece if none). Refuses lines with another number of columns,
+/// non-numbers, non-finite values in a column the model reads, channels the data lack, columns or
+/// channels the model reads that are zero throughout, and segments of fewer than two samples.
+pub fn read_segments_with(
+    model: &UserModel,
+    path: &Path,
+    companion: Option<&Path>,
+    ranges: &[Range],
+) -> Result<Vec<Segment>, String> {
+    let table = match &model.layout {
+        Layout::Columns { columns, time_column } => numbered_table(model, path, *columns, *time_column)?,
+        Layout::Channels(chs) => channel_table(path, companion, chs)?,
+    };
+    let f = table.file.clone();
+    let rows = &table.rows;
     if rows.len() < 2 {
         return Err(format!("{f}: {} samples; at least two are needed", rows.len()));
     }
     let (_, nu, ny) = model.dims();
-    let mut used: Vec<(String, usize)> = vec![("time".into(), spec.time_column)];
-    used.extend(
-        model
-            .file
-            .inputs
-            .iter()
-            .map(|i| (format!("input {}", i.name), i.column)),
-    );
-    used.extend(
-        model
-            .file
-            .outputs
-            .iter()
-            .map(|o| (format!("output {}", o.name), o.column)),
-    );
-    for (what, col) in &used {
-        if let Some((line, _)) = rows.iter().find(|(_, r)| !r[col - 1].is_finite()) {
-            return Err(format!("{f}:{line}: column {col} ({what}) is not finite"));
-        }
-        if rows.iter().all(|(_, r)| r[col - 1] == 0.0) {
-            return Err(format!(
-                "{f}: column {col} ({what}) is zero on every line: a missing (zero-padded) channel; map {what} to the column that holds it in {}",
-                model.path.display()
-            ));
+    let names = model
+        .file
+        .inputs
+        .iter()
+        .map(|i| format!("input {}", i.name))
+        .chain(model.file.outputs.iter().map(|o| format!("output {}", o.name)));
+    let mut used: Vec<(String, usize)> = vec![("time".into(), table.time_column)];
+    for (what, e) in names.zip(&model.sources) {
+        for t in &e.terms {
+            if let Source::Column(c) = t.source {
+                used.push((what.clone(), c));
+            }
         }
     }
-    let tc = spec.time_column - 1;
+    for (what, col) in &used {
+        if let Some((line, _)) = rows.iter().find(|(_, r)| !r[col - 1].is_finite()) {
+            return Err(format!(
+                "{}: {} ({what}) is not finite",
+                table.at(*line),
+                table.column(*col)
+            ));
+        }
+        if rows.iter().all(|(_, r)| r[col - 1] == 0.0) {
+            return Err(if table.by_number {
+                format!(
+                    "{f}: column {col} ({what}) is zero on every line: a missing (zero-padded) channel; map {what} to the column that holds it in {}",
+                    model.path.display()
+                )
+            } else {
+                format!(
+                    "{f}: {} ({what}) is zero on every sample: a missing channel; name one that holds it in {}",
+                    table.column(*col),
+                    model.path.display()
+                )
+            });
+        }
+    }
+    let tc = table.time_column - 1;
     let t0 = rows[0].1[tc];
     let diffs: Vec<f64> = rows.windows(2).map(|w| w[1].1[tc] - w[0].1[tc]).collect();
     let mut sorted: Vec<f64> = diffs.iter().copied().filter(|d| *d > 0.0).collect();
     sorted.sort_by(f64::total_cmp);
     let dt = *sorted
         .get(sorted.len() / 2)
-        .ok_or_else(|| format!("{f}: the time column {} never increases", spec.time_column))?;
+        .ok_or_else(|| format!("{f}: the time never increases"))?;
     // Contiguous pieces: a step above 1.5 dt or not forward starts a new one.
     let mut pieces: Vec<std::ops::Range<usize>> = Vec::new();
     let mut start = 0;
@@ -188,8 +310,8 @@ pub fn read_segments(model: &UserModel, path: &Path, ranges: &[Range]) -> Result
                 .iter()
                 .map(|&k| {
                     let mut v = UVec::zeros();
-                    for (j, i) in model.file.inputs.iter().enumerate().take(nu) {
-                        v[j] = rows[k].1[i.column - 1] * i.scale;
+                    for (j, e) in model.sources.iter().enumerate().take(nu) {
+                        v[j] = source_value(e, &rows[k].1);
                     }
                     v
                 })
@@ -198,8 +320,8 @@ pub fn read_segments(model: &UserModel, path: &Path, ranges: &[Range]) -> Result
                 .iter()
                 .map(|&k| {
                     let mut v = YVec::zeros();
-                    for (j, o) in model.file.outputs.iter().enumerate().take(ny) {
-                        v[j] = rows[k].1[o.column - 1] * o.scale;
+                    for (j, e) in model.sources[nu..].iter().enumerate().take(ny) {
+                        v[j] = source_value(e, &rows[k].1);
                     }
                     v
                 })
@@ -210,6 +332,7 @@ pub fn read_segments(model: &UserModel, path: &Path, ranges: &[Range]) -> Result
                 t_s,
                 u,
                 y,
+                aircraft: table.aircraft.clone(),
             });
         }
         if !found {
@@ -220,6 +343,25 @@ pub fn read_segments(model: &UserModel, path: &Path, ranges: &[Range]) -> Result
         }
     }
     Ok(out)
+}
+
+/// Sets the model's constants taken from the aircraft file from the segments' aircraft (see
+/// [`UserModel::set_aircraft`]); a model that takes none is left as it is.
+pub fn apply_aircraft(model: &mut UserModel, segments: &[Segment]) -> Result<(), String> {
+    if !model.uses_aircraft() {
+        return Ok(());
+    }
+    for s in segments {
+        let a = s.aircraft.as_ref().ok_or_else(|| {
+            format!(
+                "{}: no aircraft file, and {} takes constants from one; give --with AIRCRAFT_OR_MAP",
+                s.file,
+                model.path.display()
+            )
+        })?;
+        model.set_aircraft(a, &s.file)?;
+    }
+    Ok(())
 }
 
 /// The sample period of the segments (median step), checked to be the same in all (0.1 %).
@@ -502,7 +644,8 @@ pub struct SavedParameter {
 /// What `aerosid fem` writes (`identification.json`) and `aerosid predict` reads.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct SavedModel {
-    /// The model file as given.
+    /// The model file, relative to the folder of the saved JSON (absolute once read by
+    /// [`SavedModel::read`]).
     pub model_file: String,
     /// The model's name.
     pub model_name: String,
@@ -518,6 +661,13 @@ pub struct SavedModel {
     pub converged: bool,
     /// The segments identified on.
     pub data: Vec<String>,
+    /// The data files identified on, relative to the folder of the saved JSON (absolute once read
+    /// by [`SavedModel::read`]): `predict` without `--data` applies the model to them.
+    #[serde(default)]
+    pub data_files: Vec<String>,
+    /// Their companion (column map or aircraft file), if read through one; relative likewise.
+    #[serde(default)]
+    pub with: Option<String>,
     /// The sample period, s.
     pub dt_s: f64,
     /// Every parameter.
@@ -533,6 +683,28 @@ pub struct SavedModel {
 }
 
 impl SavedModel {
+    /// Reads a saved model (`identification.json`), its paths resolved against the JSON's folder,
+    /// so that it applies from any working directory.
+    pub fn read(path: &Path) -> Result<Self, String> {
+        let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+        let mut saved: SavedModel = serde_json::from_str(&text).map_err(|e| {
+            format!(
+                "{}: {e} (give the identification.json that `aerosid fem` wrote)",
+                path.display()
+            )
+        })?;
+        let dir = path.parent().unwrap_or(Path::new(""));
+        let resolve = |p: &str| dir.join(p).display().to_string();
+        // A saved model without `data_files` holds the model path as given to `fem` (relative to
+        // where it ran), and is read as it is.
+        if !saved.data_files.is_empty() {
+            saved.model_file = resolve(&saved.model_file);
+        }
+        saved.data_files = saved.data_files.iter().map(|p| resolve(p)).collect();
+        saved.with = saved.with.as_deref().map(resolve);
+        Ok(saved)
+    }
+
     /// The saved model ready to simulate: the stored text parsed (relative paths against the
     /// original model file's folder) and every parameter set to its saved value.
     pub fn model(&self) -> Result<UserModel, String> {
@@ -573,6 +745,10 @@ pub struct FemArgs {
     pub model: PathBuf,
     /// Data files (default: the model's `[data] file`).
     pub data: Vec<PathBuf>,
+    /// The companion of the data and validation files read by the measured-data readers: a column
+    /// map or aircraft file (default: the model's `[data] with` when `data` is empty, the model's
+    /// own file read; none for other files, as for `gaps`).
+    pub with: Option<PathBuf>,
     /// Segments of each data file (default: all of it).
     pub segments: Vec<Range>,
     /// Validation files.
@@ -585,12 +761,46 @@ pub struct FemArgs {
     pub out: PathBuf,
 }
 
-fn load_segments(model: &UserModel, files: &[PathBuf], ranges: &[Range]) -> Result<Vec<Segment>, String> {
+fn load_segments(
+    model: &UserModel,
+    files: &[PathBuf],
+    companion: Option<&Path>,
+    ranges: &[Range],
+) -> Result<Vec<Segment>, String> {
     let mut segs = Vec::new();
     for f in files {
-        segs.extend(read_segments(model, f, ranges)?);
+        segs.extend(read_segments_with(model, f, companion, ranges)?);
     }
     Ok(segs)
+}
+
+/// `path` relative to the folder `dir` (both made absolute, symbolic links resolved), or absolute
+/// when the two share no folder but the root (a data set elsewhere on the disk stays found when
+/// the output folder moves). A dozen lines instead of a path-diffing crate: the paths are
+/// canonical, so comparing components is all it takes.
+fn relative_to(path: &Path, dir: &Path) -> String {
+    let (Ok(p), Ok(d)) = (path.canonicalize(), dir.canonicalize()) else {
+        return std::path::absolute(path)
+            .unwrap_or_else(|_| path.to_path_buf())
+            .display()
+            .to_string();
+    };
+    let (pc, dc): (Vec<_>, Vec<_>) = (p.components().collect(), d.components().collect());
+    let common = pc.iter().zip(&dc).take_while(|(a, b)| a == b).count();
+    if !pc[..common]
+        .iter()
+        .any(|c| matches!(c, std::path::Component::Normal(_)))
+    {
+        return p.display().to_string();
+    }
+    let mut rel = PathBuf::new();
+    for _ in common..dc.len() {
+        rel.push("..");
+    }
+    for c in &pc[common..] {
+        rel.push(c);
+    }
+    rel.display().to_string()
 }
 
 /// The result of [`run_fem`].
@@ -620,7 +830,15 @@ pub fn run_fem(args: &FemArgs) -> Result<FemRun, String> {
     } else {
         args.data.clone()
     };
-    let segs = load_segments(&model, &data, &args.segments)?;
+    // The model's `[data] with` belongs to its `[data] file`; other files name theirs, as for
+    // `gaps` (a map describes one file layout).
+    let companion = match (&args.with, args.data.is_empty()) {
+        (Some(w), _) => Some(w.clone()),
+        (None, true) => model.default_companion(),
+        (None, false) => None,
+    };
+    let segs = load_segments(&model, &data, companion.as_deref(), &args.segments)?;
+    apply_aircraft(&mut model, &segs)?;
     let dt = sample_period(&segs)?;
     let id = identify(&model, &segs)?;
     // The model with the estimates.
@@ -642,8 +860,9 @@ pub fn run_fem(args: &FemArgs) -> Result<FemRun, String> {
     let vsegs = if val_files.is_empty() {
         Vec::new()
     } else {
-        load_segments(&model, &val_files, &args.validate_segments)?
+        load_segments(&model, &val_files, companion.as_deref(), &args.validate_segments)?
     };
+    apply_aircraft(&mut model, &vsegs)?;
     let vsims: Vec<_> = vsegs.iter().map(|s| simulate(&model, s, dt)).collect();
     let validation = if vsegs.is_empty() {
         Vec::new()
@@ -651,8 +870,9 @@ pub fn run_fem(args: &FemArgs) -> Result<FemRun, String> {
         fit_metrics(&model, &vsegs, &vsims)
     };
     let est = &model.file.estimation;
+    std::fs::create_dir_all(&args.out).map_err(|e| format!("{}: {e}", args.out.display()))?;
     let saved = SavedModel {
-        model_file: args.model.display().to_string(),
+        model_file: relative_to(&args.model, &args.out),
         model_name: model.file.name.clone(),
         model_toml: model.text.clone(),
         method: match est.method {
@@ -668,6 +888,8 @@ pub fn run_fem(args: &FemArgs) -> Result<FemRun, String> {
         iterations: id.iterations,
         converged: id.converged,
         data: segs.iter().map(|s| s.label.clone()).collect(),
+        data_files: data.iter().map(|d| relative_to(d, &args.out)).collect(),
+        with: companion.as_deref().map(|c| relative_to(c, &args.out)),
         dt_s: dt,
         parameters: model
             .file
@@ -688,7 +910,6 @@ pub fn run_fem(args: &FemArgs) -> Result<FemRun, String> {
         validation_data: vsegs.iter().map(|s| s.label.clone()).collect(),
         validation,
     };
-    std::fs::create_dir_all(&args.out).map_err(|e| format!("{}: {e}", args.out.display()))?;
     let json_path = args.out.join("identification.json");
     let json = serde_json::to_string_pretty(&saved).map_err(|e| e.to_string())?;
     std::fs::write(&json_path, json).map_err(|e| format!("{}: {e}", json_path.display()))?;
@@ -860,29 +1081,49 @@ pub struct Prediction {
 }
 
 /// `aerosid predict`: apply a saved model (`identification.json`) to other data; writes
-/// `prediction.json` and `prediction.svg` into `out`.
+/// `prediction.json` and `prediction.svg` into `out` ([`run_predict_with`] with the companion the
+/// model was identified with).
 pub fn run_predict(
     saved_path: &Path,
     data: &[PathBuf],
     ranges: &[Range],
     out: &Path,
 ) -> Result<(Prediction, String, Vec<PathBuf>), String> {
-    let text = std::fs::read_to_string(saved_path).map_err(|e| format!("{}: {e}", saved_path.display()))?;
-    let saved: SavedModel = serde_json::from_str(&text).map_err(|e| {
-        format!(
-            "{}: {e} (give the identification.json that `aerosid fem` wrote)",
-            saved_path.display()
+    run_predict_with(saved_path, data, None, ranges, out)
+}
+
+/// `aerosid predict` with a companion: without `data`, the files the model was identified on
+/// (stored with it, resolved against the JSON's folder, so from any working directory) and,
+/// unless `with` says otherwise, their companion; `data` are read with `with` (a column map or
+/// aircraft file; none for a `.ulg`/`.bin` read without one).
+pub fn run_predict_with(
+    saved_path: &Path,
+    data: &[PathBuf],
+    with: Option<&Path>,
+    ranges: &[Range],
+    out: &Path,
+) -> Result<(Prediction, String, Vec<PathBuf>), String> {
+    let saved = SavedModel::read(saved_path)?;
+    let mut model = saved.model()?;
+    let (files, companion) = if !data.is_empty() {
+        (data.to_vec(), with.map(Path::to_path_buf))
+    } else if !saved.data_files.is_empty() {
+        (
+            saved.data_files.iter().map(PathBuf::from).collect(),
+            with.map(Path::to_path_buf)
+                .or_else(|| saved.with.as_ref().map(PathBuf::from)),
         )
-    })?;
-    let model = saved.model()?;
-    let files = if data.is_empty() {
-        vec![model
-            .default_data()
-            .ok_or_else(|| format!("{}: no data: give --data FILE", saved_path.display()))?]
     } else {
-        data.to_vec()
+        let file = model
+            .default_data()
+            .ok_or_else(|| format!("{}: no data: give --data FILE", saved_path.display()))?;
+        (
+            vec![file],
+            with.map(Path::to_path_buf).or_else(|| model.default_companion()),
+        )
     };
-    let segs = load_segments(&model, &files, ranges)?;
+    let segs = load_segments(&model, &files, companion.as_deref(), ranges)?;
+    apply_aircraft(&mut model, &segs)?;
     let dt = sample_period(&segs)?;
     if (dt / saved.dt_s - 1.0).abs() > 1e-3 {
         return Err(format!(
