@@ -137,7 +137,7 @@ fn main() -> ExitCode {
     let matches = command().get_matches();
     let cli = match <Cli as clap::FromArgMatches>::from_arg_matches(&matches) {
         Ok(c) => c,
-        Err(e) => e.exit(),
+        Err(e) => e.format(&mut command()).exit(),
     };
     match cli.command {
         Some(command) => command.execute(),
