@@ -8,7 +8,7 @@
 #                                         run each (or the named) target SECONDS; prints executions,
 #                                         coverage and corpus size per target (the README's figures)
 #
-# CI fuzzes the core targets only: the five log-reader targets (read_*) link the aerosid tool and with
+# CI fuzzes the core targets only: the seven log-reader targets (read_*) link the aerosid tool and with
 # it plotters, rayon, serde…, which took 5 min 20 s to build instrumented (3 min 20 s CPU,
 # measured on a loaded 2-core machine while they also linked faer) against 1 min 20 s for the
 # core targets: beyond CI's budget.
@@ -38,7 +38,7 @@ set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/../fuzz"
 
 readonly CORE_TARGETS=(gtls pipeline drivers mavlink)
-readonly READER_TARGETS=(read_log read_project_csv read_aircraft read_colmap_ascii read_ulog)
+readonly READER_TARGETS=(read_log read_project_csv read_aircraft read_colmap_ascii read_ulog read_dataflash read_mat)
 readonly TARGETS=("${CORE_TARGETS[@]}" "${READER_TARGETS[@]}")
 readonly TRIPLE="$(rustc -vV | sed -n 's/^host: //p')"
 readonly MODE="${FUZZ_INSTRUMENT:-ours}"

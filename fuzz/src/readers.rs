@@ -6,12 +6,16 @@
 //! | `read_project_csv` | a project CSV, all or some columns ([`project_csv::parse_project_csv`]) with the `skywalker_2013_mod` aircraft | [`MeasuredFlight::validate`] passes (finite channels of the time base's length, increasing time) |
 //! | `read_aircraft` | an aircraft file ([`aircraft::parse_aircraft`]) | the required constants finite and positive, the optional ones finite or NaN (`unknown`), never ±∞, inertia definite where known |
 //! | `read_colmap_ascii` | a column map, a line `%%`, then a whitespace ASCII file ([`colmap::parse_map`] with the aircraft files of `tool/data` beside it, then [`colmap::parse_ascii`]) | the flight validates and its aircraft is as above |
-//! | `read_ulog` | a PX4 ULog ([`ulog::parse_ulog`]) with the default topic map | the flight validates |
+//! | `read_ulog` | a PX4 ULog ([`ulog::parse_ulog`]) with the default topic map | the flight validates, its time base uniform |
+//! | `read_dataflash` | an ArduPilot DataFlash log ([`dataflash::parse_dataflash`]) with the placeholder aircraft | the flight validates, its time base uniform |
+//! | `read_mat` | a MATLAB level-5 `.mat` ([`mat::parse_mat`]) through the shipped Twin Otter map | the flight validates, its time base uniform |
 //!
-//! Any panic (index out of range, slicing inside a UTF-8 character, overflow) is a failure.
+//! Any panic (index out of range, slicing inside a UTF-8 character, overflow) is a failure, and so
+//! is an abort: an allocation sized from a corrupt field that fails aborts the process, which
+//! libFuzzer reports as a crash (and one that succeeds but exceeds `-rss_limit_mb` as well).
 
 use aerosid::io::measured::{Aircraft, MeasuredFlight};
-use aerosid::io::{aircraft, colmap, log, project_csv, ulog};
+use aerosid::io::{aircraft, colmap, dataflash, log, mat, project_csv, ulog};
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
@@ -143,12 +147,49 @@ pub fn read_colmap_ascii(data: &[u8]) {
     }
 }
 
+/// A resampled log's flight: it validates and its time base is uniform (the grid is built in
+/// integer microseconds, so a step differs from the first by rounding only, 1e-9 relative).
+fn check_resampled(what: &str, f: &MeasuredFlight) {
+    check_flight(what, f);
+    if let [t0, t1, ..] = f.t_s[..] {
+        let h = t1 - t0;
+        assert!(
+            f.t_s.windows(2).all(|w| ((w[1] - w[0]) - h).abs() <= 1e-9 * h.max(1.0)),
+            "{what}: time base not uniform"
+        );
+    }
+}
+
 /// Fuzz target `read_ulog`.
 pub fn read_ulog(data: &[u8]) {
     static MAP: OnceLock<colmap::ColumnMap> = OnceLock::new();
     let map = MAP.get_or_init(|| colmap::ColumnMap::ulog_default(skywalker()));
     if let Ok(f) = ulog::parse_ulog(data, "fuzz.ulg", map) {
-        check_flight("read_ulog", &f);
+        check_resampled("read_ulog", &f);
+    }
+}
+
+/// Fuzz target `read_dataflash`.
+pub fn read_dataflash(data: &[u8]) {
+    let opts = aerosid::io::ReadOptions::default();
+    if let Ok(f) = dataflash::parse_dataflash(data, "fuzz.bin", aerosid::io::placeholder_aircraft(), &opts) {
+        check_resampled("read_dataflash", &f);
+    }
+}
+
+/// Fuzz target `read_mat`.
+pub fn read_mat(data: &[u8]) {
+    static MAP: OnceLock<colmap::ColumnMap> = OnceLock::new();
+    let map = MAP.get_or_init(|| {
+        colmap::parse_map(
+            include_str!("../../tool/data/maps/twin_otter.map"),
+            "twin_otter.map",
+            map_dir(),
+        )
+        .unwrap_or_else(|e| panic!("the shipped Twin Otter map: {e}"))
+    });
+    if let Ok(f) = mat::parse_mat(data, "fuzz.mat", map) {
+        check_flight("read_mat", &f);
     }
 }
 
@@ -169,3 +210,5 @@ target_module!(read_project_csv);
 target_module!(read_aircraft);
 target_module!(read_colmap_ascii);
 target_module!(read_ulog);
+target_module!(read_dataflash);
+target_module!(read_mat);

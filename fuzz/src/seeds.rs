@@ -12,7 +12,8 @@
 //!   columns; a subset).
 //! * `read_aircraft`: the shipped aircraft files; `read_colmap_ascii`: each shipped map with the
 //!   first lines of its vendored flight-test file (`tool/data/flight`); `read_ulog`: a ULog of 0.3 s of a simulated flight (a small writer below, from the
-//!   ULog format PX4 documents).
+//!   ULog format PX4 documents); `read_dataflash`: the first 64 KiB and 24 KiB of the two vendored
+//!   ArduPlane logs; `read_mat`: the vendored Twin Otter `.mat`.
 
 use aerosid::io::log;
 use aerosid::sim::{self, SimConfig};
@@ -84,6 +85,29 @@ pub fn all() -> Vec<(&'static str, String, Vec<u8>)> {
         out.push(("read_colmap_ascii", format!("{n}.txt"), text.into_bytes()));
     }
     out.push(("read_ulog", "flight.ulg".into(), ulog(&samples)));
+    // The two vendored ArduPlane logs, 3.8 (no FMTU) and 4.2 (FMTU/UNIT/MULT), their first bytes:
+    // the FMT definitions, the parameters and the first seconds of messages, so each run is quick.
+    let dataflash: [(&str, &[u8], usize); 2] = [
+        (
+            "pymavlink_test.bin",
+            include_bytes!("../../tool/data/logs/pymavlink_test.BIN"),
+            65_536,
+        ),
+        (
+            "pyflightcoach_center_0003.bin",
+            include_bytes!("../../tool/data/logs/pyflightcoach_center_0003.bin"),
+            24_576,
+        ),
+    ];
+    for (n, bytes, keep) in dataflash {
+        out.push(("read_dataflash", n.into(), bytes[..keep.min(bytes.len())].to_vec()));
+    }
+    // The Twin Otter's `.mat` whole (its variables are compressed: a prefix does not inflate).
+    out.push((
+        "read_mat",
+        "totter_lon_020213f1_018.mat".into(),
+        include_bytes!("../../tool/data/flight/totter_lon_020213f1_018.mat").to_vec(),
+    ));
     out
 }
 

@@ -161,57 +161,21 @@ fn read_ulog() {
     fuzz("read_ulog", readers::read_ulog::run, 5);
 }
 
-/// A real log of `tool/data/logs/` (or the `.mat` of `data/flight/`), its first `bytes`
-/// bytes: the definitions and the first messages, so each mutation parses quickly.
-fn real_seed(path: &str, bytes: usize) -> (String, Vec<u8>) {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tool/data").join(path);
-    let d = std::fs::read(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
-    (path.to_string(), d[..bytes.min(d.len())].to_vec())
-}
-
-/// The invariants of a flight a reader accepted: it validates, and its time base is uniform.
-fn check_read(what: &str, f: &aerosid::io::measured::MeasuredFlight) {
-    assert!(f.validate().is_ok(), "{what}: accepted an invalid flight");
-    let h = f.t_s[1] - f.t_s[0];
-    assert!(
-        f.t_s.windows(2).all(|w| ((w[1] - w[0]) - h).abs() <= 1e-9 * h.max(1.0)),
-        "{what}: time base not uniform"
-    );
-}
-
-fn run_dataflash(data: &[u8]) {
-    let opts = aerosid::io::ReadOptions::default();
-    if let Ok(f) = aerosid::io::dataflash::parse_dataflash(data, "fuzz.bin", aerosid::io::placeholder_aircraft(), &opts)
-    {
-        check_read("read_dataflash", &f);
-    }
-}
-
-fn run_mat(data: &[u8]) {
-    static MAP: std::sync::OnceLock<aerosid::io::colmap::ColumnMap> = std::sync::OnceLock::new();
-    let map = MAP.get_or_init(|| {
-        let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tool/data/maps/twin_otter.map");
-        aerosid::io::colmap::read_map(&p).unwrap_or_else(|e| panic!("{e}"))
-    });
-    if let Ok(f) = aerosid::io::mat::parse_mat(data, "fuzz.mat", map) {
-        check_read("read_mat", &f);
-    }
-}
-
 #[test]
 fn read_dataflash() {
-    // The two ArduPlane fixtures: 3.8 (no FMTU) and 4.2 (FMTU/UNIT/MULT).
-    let files = vec![
-        real_seed("logs/pymavlink_test.BIN", 65_536),
-        real_seed("logs/pyflightcoach_center_0003.bin", 24_576),
-    ];
-    fuzz_files("read_dataflash", files, run_dataflash, 6, 3_000);
+    // Two ArduPlane logs' first bytes; each mutation parses the whole prefix, so fewer mutations.
+    fuzz_files(
+        "read_dataflash",
+        seeds("read_dataflash"),
+        readers::read_dataflash::run,
+        6,
+        3_000,
+    );
 }
 
 #[test]
 fn read_mat() {
     // The Twin Otter's `.mat` (compressed level-5 variables); each parse inflates it, so fewer
     // mutations.
-    let files = vec![real_seed("flight/totter_lon_020213f1_018.mat", usize::MAX)];
-    fuzz_files("read_mat", files, run_mat, 7, 300);
+    fuzz_files("read_mat", seeds("read_mat"), readers::read_mat::run, 7, 300);
 }

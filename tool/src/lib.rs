@@ -22,6 +22,7 @@ pub mod io;
 pub mod longrun;
 pub mod mc;
 pub mod plot;
+pub mod progress;
 pub mod replay;
 pub mod report;
 pub mod table1;

@@ -3,6 +3,8 @@
 //! the binary's path (`CARGO_BIN_EXE_aerosid`).
 
 mod cli;
+mod corrupt_logs;
+mod exit_codes;
 mod flow_angles;
 mod pooled;
 mod origin;

@@ -13,8 +13,56 @@ use aerosid::io::flow_angles::FlowAngleChoice;
 use aerosid::report::MainJob;
 use clap::builder::{PossibleValuesParser, TypedValueParser};
 use clap::{ArgGroup, Args, CommandFactory, Parser, Subcommand, ValueEnum};
+use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+// Every report line goes through `print!`/`println!`/`eprintln!` as defined here, not std's: std's
+// panic when the reader has gone (`aerosid gaps | head -1`: "failed printing to stdout: Broken
+// pipe"). These write through the locked stream; once stdout is closed further output to it is
+// dropped and the command carries on (its files are still written) and ends with its own exit
+// code, as cargo and ripgrep end quietly. Shadowing std's names keeps every print path covered,
+// including ones added later.
+macro_rules! print {
+    ($($arg:tt)*) => { write_stdout(format_args!($($arg)*)) };
+}
+macro_rules! println {
+    () => { write_stdout(format_args!("\n")) };
+    ($($arg:tt)*) => { write_stdout(format_args!("{}\n", format_args!($($arg)*))) };
+}
+macro_rules! eprintln {
+    ($($arg:tt)*) => { write_stderr(format_args!("{}\n", format_args!($($arg)*))) };
+}
+
+/// Set once a write to stdout failed with a broken pipe: the reader is gone.
+static STDOUT_CLOSED: AtomicBool = AtomicBool::new(false);
+
+/// Writes to stdout; after a broken pipe, nothing (see the macros above). Any other write error
+/// (a full disk behind a redirection) is said once on stderr and also ends stdout output.
+fn write_stdout(args: std::fmt::Arguments) {
+    if STDOUT_CLOSED.load(Ordering::Relaxed) {
+        return;
+    }
+    let mut out = std::io::stdout().lock();
+    if let Err(e) = out.write_fmt(args).and_then(|_| out.flush()) {
+        STDOUT_CLOSED.store(true, Ordering::Relaxed);
+        if e.kind() != std::io::ErrorKind::BrokenPipe {
+            write_stderr(format_args!("aerosid: writing to stdout: {e}\n"));
+        }
+    }
+}
+
+/// Writes to stderr; a closed stderr is ignored (there is nowhere left to say so).
+fn write_stderr(args: std::fmt::Arguments) {
+    let _ = std::io::stderr().lock().write_fmt(args);
+}
+
+/// The exit codes, in every command's `--help` and docs/cli.md.
+const EXIT_CODES: &str = "Exit codes:
+  0  done: the report or files were written (a report with no verdict is a report)
+  1  the input could not be read or is invalid, an output could not be written, or a check failed
+  2  usage: an argument is missing, unknown or out of range";
 
 /// `run --seconds`: the main job keeps every sample's traces for its figures (~3 KB per sample,
 /// about 1 GB per hour), hence the hour's cap; below 30 s the manoeuvres do not all fit.
@@ -29,7 +77,7 @@ const LONG_RUN_HOURS: (f64, f64) = (0.05, 100.0);
 /// On-line aerodynamic model identification for small fixed-wing UAVs: the host tool (simulation,
 /// replay of logs through the on-board estimators, model-gap analysis, firmware checks).
 #[derive(Parser)]
-#[command(name = "aerosid", version, propagate_version = true)]
+#[command(name = "aerosid", version, propagate_version = true, after_help = EXIT_CODES)]
 struct Cli {
     #[command(subcommand)]
     command: Option<Command>,
@@ -82,14 +130,42 @@ impl Command {
     }
 }
 
+/// The command line with the exit codes under every subcommand's help too.
+fn command() -> clap::Command {
+    Cli::command().mut_subcommands(|c| c.after_help(EXIT_CODES))
+}
+
 fn main() -> ExitCode {
-    match Cli::parse().command {
+    let matches = command().get_matches();
+    let cli = match <Cli as clap::FromArgMatches>::from_arg_matches(&matches) {
+        Ok(c) => c,
+        Err(e) => e.format(&mut command()).exit(),
+    };
+    match cli.command {
         Some(command) => command.execute(),
-        None => match Cli::command().print_long_help() {
-            Ok(()) => ExitCode::SUCCESS,
-            Err(e) => fail("aerosid", e),
-        },
+        None => {
+            print!("{}", command().render_long_help());
+            ExitCode::SUCCESS
+        }
     }
+}
+
+/// Creates `dir` (an output folder) and checks a file can be written in it, before any work: a
+/// report computed for minutes and then not written is worse than an error at once.
+fn check_out_dir(cmd: &str, dir: &Path) -> Result<(), ExitCode> {
+    let probe = dir.join(".aerosid-write-test");
+    let result = std::fs::create_dir_all(dir)
+        .and_then(|_| std::fs::write(&probe, b""))
+        .and_then(|_| std::fs::remove_file(&probe));
+    result.map_err(|e| {
+        fail(
+            cmd,
+            format!(
+                "--out {}: cannot write there ({e}); give a folder you can write to",
+                dir.display()
+            ),
+        )
+    })
 }
 
 /// Prints `aerosid CMD: error` and returns failure.
@@ -153,6 +229,9 @@ struct RunArgs {
 
 impl Execute for RunArgs {
     fn execute(self) -> ExitCode {
+        if let Err(code) = check_out_dir("run", &self.out) {
+            return code;
+        }
         let job = MainJob {
             out_dir: self.out,
             seed: self.seed,
@@ -341,6 +420,9 @@ struct FemHfb320Args {
 
 impl Execute for FemHfb320Args {
     fn execute(self) -> ExitCode {
+        if let Err(code) = check_out_dir("fem-hfb320", &self.out) {
+            return code;
+        }
         let data = aerosid::fem_report::default_hfb320_path();
         finish(
             "fem-hfb320",
@@ -387,6 +469,9 @@ struct FemArgs {
 
 impl Execute for FemArgs {
     fn execute(self) -> ExitCode {
+        if let Err(code) = check_out_dir("fem", &self.out) {
+            return code;
+        }
         let args = aerosid::workflow::FemArgs {
             model: self.model,
             data: self.data,
@@ -436,6 +521,9 @@ struct PredictArgs {
 
 impl Execute for PredictArgs {
     fn execute(self) -> ExitCode {
+        if let Err(code) = check_out_dir("predict", &self.out) {
+            return code;
+        }
         match aerosid::gaps::predict::is_gap_report(&self.saved) {
             Err(e) => return fail("predict", e),
             Ok(true) => return self.gap_report(),
@@ -509,6 +597,9 @@ struct Table1Args {
 
 impl Execute for Table1Args {
     fn execute(self) -> ExitCode {
+        if let Err(code) = check_out_dir("table1", &self.out) {
+            return code;
+        }
         finish("table1", "figures", aerosid::table1::table1_report(&self.out))
     }
 }
@@ -750,6 +841,11 @@ impl Execute for GapsArgs {
         if self.list && self.data.len() > 1 {
             return usage("gaps", "--list lists one log: give one --data FILE");
         }
+        if !self.list {
+            if let Err(code) = check_out_dir("gaps", &self.out) {
+                return code;
+            }
+        }
         for data in &self.data {
             let ext = data.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
             let log = matches!(ext.as_deref(), Some("ulg") | Some("bin"));
@@ -869,31 +965,7 @@ impl Execute for GapsArgs {
 fn gaps(flight: &aerosid::io::measured::MeasuredFlight, out: &Path, settings: aerosid::gaps::GapSettings) -> ExitCode {
     let report = match aerosid::gaps::run_gaps(flight, &settings) {
         Ok(r) => r,
-        Err(e) => {
-            // What the data can and cannot support is said even when the analysis cannot run
-            // (too few samples, no coefficient): the table here, data_quality.json in `out`.
-            let prepared = aerosid::io::flow_angles::prepare(
-                flight,
-                settings.flow_angles,
-                &aerosid::io::flow_angles::WindFitSettings::default(),
-            );
-            let q = aerosid::io::quality::assess(&prepared);
-            print!("{}", aerosid::io::quality::table(&q));
-            let json = serde_json::json!({
-                "schema": "aerosid-data-quality/1",
-                "source": flight.source,
-                "analysis": e.to_string(),
-                "data_quality": q,
-            });
-            let file = out.join("data_quality.json");
-            let written = std::fs::create_dir_all(out)
-                .and_then(|_| std::fs::write(&file, serde_json::to_string_pretty(&json).unwrap_or_default()));
-            match written {
-                Ok(()) => println!("data quality written to {}", file.display()),
-                Err(w) => eprintln!("aerosid gaps: {}: {w}", file.display()),
-            }
-            return fail("gaps", format!("the analysis did not run: {e}"));
-        }
+        Err(e) => return not_analysed(flight, out, &settings, &e),
     };
     // The table first: it is printed even if the files cannot be written.
     print!("{}", aerosid::gaps::report::table(&report));
@@ -902,6 +974,50 @@ fn gaps(flight: &aerosid::io::measured::MeasuredFlight, out: &Path, settings: ae
         "files",
         aerosid::gaps::report::write(&report, out).map(|f| (String::new(), f)),
     )
+}
+
+/// A flight that was read but on which the analysis cannot run. Too short, or no coefficient to
+/// synthesise: still a report — the data-quality table here, report.json with status `no_verdict`
+/// and the reasons in `out`, exit 0 (a batch gets a report per log). A time base or channel the
+/// analysis refuses: invalid input, exit 1.
+fn not_analysed(
+    flight: &aerosid::io::measured::MeasuredFlight,
+    out: &Path,
+    settings: &aerosid::gaps::GapSettings,
+    e: &aerosid::gaps::GapError,
+) -> ExitCode {
+    use aerosid::gaps::GapError;
+    let reason = format!("the analysis did not run: {e}");
+    if matches!(e, GapError::NonUniformTime { .. } | GapError::BadChannel { .. }) {
+        return fail("gaps", reason);
+    }
+    let prepared = aerosid::io::flow_angles::prepare(
+        flight,
+        settings.flow_angles,
+        &aerosid::io::flow_angles::WindFitSettings::default(),
+    );
+    let q = aerosid::io::quality::assess(&prepared);
+    print!("{}", aerosid::io::quality::table(&q));
+    println!("\nno verdict: {reason}");
+    let reasons: Vec<String> = std::iter::once(reason).chain(q.why_not.iter().cloned()).collect();
+    let mut json = serde_json::json!({
+        "schema": "aerosid-gaps/3",
+        "source": flight.source,
+        "analysis": "not run",
+        "data_quality": q,
+    });
+    aerosid::gaps::report::add_status(&mut json, false, &reasons);
+    let file = out.join("report.json");
+    let written = serde_json::to_string_pretty(&json)
+        .map_err(std::io::Error::other)
+        .and_then(|text| std::fs::write(&file, text));
+    match written {
+        Ok(()) => {
+            println!("\nfiles:\n  {}", file.display());
+            ExitCode::SUCCESS
+        }
+        Err(w) => fail("gaps", format!("{}: {w}", file.display())),
+    }
 }
 
 /// The model-gap campaign behind scripts/bench/: simulated turbulent flights per hidden kind, clean
@@ -924,6 +1040,9 @@ struct GapsBenchArgs {
 
 impl Execute for GapsBenchArgs {
     fn execute(self) -> ExitCode {
+        if let Err(code) = check_out_dir("gaps-bench", &self.out) {
+            return code;
+        }
         let root = Path::new(env!("CARGO_MANIFEST_DIR"));
         let data = aerosid::fem_report::flight_data_dir();
         let campaign = aerosid::gaps::bench::Campaign {
@@ -967,8 +1086,12 @@ impl Execute for LongRunArgs {
         use aerosid::longrun;
         let cfg = longrun::LongRunConfig::hours(self.hours, self.seed);
         let start = std::time::Instant::now();
+        // A bar of simulated minutes on a terminal; otherwise a line per simulated hour.
+        let bar = aerosid::progress::bar((cfg.duration_s / 60.0).ceil() as u64, "simulated minutes");
         let result = longrun::run(&cfg, |t| {
-            if (t as u64).is_multiple_of(3600) && t > 0.0 {
+            if !bar.is_hidden() {
+                bar.set_position((t / 60.0) as u64);
+            } else if (t as u64).is_multiple_of(3600) && t > 0.0 {
                 eprintln!(
                     "long-run: {:.0} h simulated, {:.0} s wall",
                     t / 3600.0,
@@ -976,6 +1099,7 @@ impl Execute for LongRunArgs {
                 );
             }
         });
+        bar.finish_and_clear();
         match result {
             Ok(r) => {
                 print!("{}", longrun::format_report(&r, start.elapsed().as_secs_f64()));
@@ -1085,7 +1209,10 @@ struct CompletionsArgs {
 
 impl Execute for CompletionsArgs {
     fn execute(self) -> ExitCode {
-        clap_complete::generate(self.shell, &mut Cli::command(), "aerosid", &mut std::io::stdout());
+        // Into a buffer, then out: clap_complete panics on a write error (a closed pipe).
+        let mut script = Vec::new();
+        clap_complete::generate(self.shell, &mut command(), "aerosid", &mut script);
+        print!("{}", String::from_utf8_lossy(&script));
         ExitCode::SUCCESS
     }
 }

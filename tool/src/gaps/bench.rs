@@ -143,7 +143,16 @@ pub fn write(c: &Campaign, dir: &Path) -> Result<Vec<String>, String> {
             }));
         }
     }
-    let cases: Vec<Case> = jobs.par_iter().map(|j| j()).collect();
+    let bar = crate::progress::bar(jobs.len() as u64, "flights analysed");
+    let cases: Vec<Case> = jobs
+        .par_iter()
+        .map(|j| {
+            let case = j();
+            bar.inc(1);
+            case
+        })
+        .collect();
+    bar.finish_and_clear();
     let mut manifest = Vec::new();
     let mut lines = Vec::new();
     for case in &cases {

@@ -309,7 +309,7 @@ fn manoeuvre_table(s: &mut String, r: &GapReport) {
 pub fn json(r: &GapReport) -> Value {
     let f = |x: f64| if x.is_finite() { json!(x) } else { Value::Null };
     let compat = &r.compatibility;
-    json!({
+    let mut doc = json!({
         "schema": "aerosid-gaps/3",
         "source": r.source,
         "aircraft": r.aircraft,
@@ -373,7 +373,25 @@ pub fn json(r: &GapReport) -> Value {
         "top_cause": r.top_cause().map(|c| json!({
             "kind": c.kind, "location": c.location, "what": c.what, "t2": f(c.t2),
         })),
-    })
+    });
+    add_status(&mut doc, r.data_quality.supports_verdict, &r.data_quality.why_not);
+    doc
+}
+
+/// The machine-readable verdict status of a report.json: `"status": "verdict"` when the data
+/// support a verdict, else `"no_verdict"`, and `"reasons"` (each once; empty with a verdict). Every
+/// report.json carries it, also the one of a flight the analysis could not run on.
+pub fn add_status(doc: &mut Value, verdict: bool, reasons: &[String]) {
+    let mut once: Vec<&String> = Vec::new();
+    for r in reasons.iter().filter(|_| !verdict) {
+        if !once.contains(&r) {
+            once.push(r);
+        }
+    }
+    if let Value::Object(m) = doc {
+        m.insert("status".into(), json!(if verdict { "verdict" } else { "no_verdict" }));
+        m.insert("reasons".into(), json!(once));
+    }
 }
 
 /// A found (or rejected, with its reason) sensor error.

@@ -57,7 +57,7 @@
 //! interpolated with the yaw unwrapped, then wrapped to (−π, π].
 
 use super::measured::{Aircraft, LogMeta, MeasuredFlight, Quantity};
-use super::ulog::{gaps, hold_over_nan, longest_run, median, GAP_FACTOR};
+use super::ulog::{gaps, hold_over_nan, longest_run, median, time_grid, GAP_FACTOR};
 use super::{ReadError, ReadOptions};
 use std::collections::BTreeMap;
 use std::f64::consts::PI;
@@ -706,8 +706,7 @@ pub fn parse_dataflash(
         )));
     }
     let base_src = base.1.clone();
-    let n_out = ((hi - lo) / h_us).floor() as usize + 1;
-    let grid: Vec<f64> = (0..n_out).map(|k| lo + k as f64 * h_us).collect();
+    let grid = time_grid(lo, hi, h_us, base_t.len(), &base_src).map_err(err)?;
     let mut channels = BTreeMap::new();
     let mut logged_rate_hz = BTreeMap::new();
     for (q, src, t, v) in &raw {
@@ -825,13 +824,14 @@ pub fn parse_dataflash(
             format: "ArduPilot DataFlash".into(),
             logged_rate_hz,
             resampling: Some(format!(
-                "uniform {:.2} Hz ({h_us} µs step: {}), linear interpolation in time (yaw unwrapped), no anti-alias filter; {n_out} samples",
+                "uniform {:.2} Hz ({h_us} µs step: {}), linear interpolation in time (yaw unwrapped), no anti-alias filter; {} samples",
                 1e6 / h_us,
                 if opts.rate_hz.is_some() {
                     "the rate asked for".to_string()
                 } else {
                     format!("the median interval of `{base_src}`")
-                }
+                },
+                grid.len()
             )),
             window,
             airborne,

@@ -109,8 +109,17 @@ pub fn parse_mat(bytes: &[u8], file: &str, map: &ColumnMap) -> Result<MeasuredFl
     }
     let (rows, cols) = (array.size()[0], array.size()[1]);
     let values = real(array.data());
+    // The declared size against the data stored (a corrupt header can declare any size): every
+    // index below and the text's capacity are bounded by the values actually read.
+    if rows.checked_mul(cols) != Some(values.len()) {
+        return Err(err(format!(
+            "matrix {} declares {rows} × {cols} values but holds {} (a corrupt or truncated file)",
+            describe(array),
+            values.len()
+        )));
+    }
     // Column-major: element (i, j) at i + j·rows.
-    let mut text = String::with_capacity(rows * cols * 24);
+    let mut text = String::with_capacity(values.len() * 24);
     for i in 0..rows {
         for j in 0..cols {
             if j > 0 {

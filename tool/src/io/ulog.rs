@@ -565,6 +565,29 @@ pub(crate) fn gaps(t: &[f64], lo: f64, hi: f64) -> Option<(usize, f64, f64)> {
     out
 }
 
+/// The most output samples per sample of the base series in the window. The output grid is sized
+/// from the window's time span, which one corrupt time stamp can make astronomically long (a flipped
+/// high byte of a 64-bit `TimeUS` is years); bounding it by the samples the file actually holds
+/// keeps every allocation proportional to the file. 16 allows a gap of 15 base intervals per
+/// sample on average, or `--rate` at 16 × the logged rate, far beyond any real log.
+pub(crate) const MAX_GRID_PER_SAMPLE: f64 = 16.0;
+
+/// The uniform output grid `lo, lo + h_us, …, ≤ hi` (µs), refused when it would hold more than
+/// [`MAX_GRID_PER_SAMPLE`] × `base_samples` points (`base` names the series in the message).
+pub(crate) fn time_grid(lo: f64, hi: f64, h_us: f64, base_samples: usize, base: &str) -> Result<Vec<f64>, String> {
+    let n = ((hi - lo) / h_us).floor() + 1.0;
+    // (NaN-safe: a NaN count fails the test.)
+    if !(n >= 1.0 && n <= MAX_GRID_PER_SAMPLE * base_samples as f64) {
+        return Err(format!(
+            "the window {:.6}…{:.6} s at a {:.0} µs step would be {n:.0} samples, more than {MAX_GRID_PER_SAMPLE} × the {base_samples} samples of `{base}` in it: a time stamp is corrupt or the log has a long gap (choose a window with --from/--to), or --rate asks for more than {MAX_GRID_PER_SAMPLE} × the logged rate",
+            lo * 1e-6,
+            hi * 1e-6,
+            h_us
+        ));
+    }
+    Ok((0..n as usize).map(|k| lo + k as f64 * h_us).collect())
+}
+
 /// Reads a ULog through `map` (`format = ulog`; [`ColumnMap::ulog_default`] for the built-in
 /// topics only) with the default [`ReadOptions`] (the in-air window, instance 0 of every topic).
 pub fn read_ulog(path: &Path, map: &ColumnMap) -> Result<MeasuredFlight, ReadError> {
@@ -963,8 +986,7 @@ pub fn parse_ulog_with(
             used.keys().copied().collect::<Vec<_>>().join(", ")
         )));
     }
-    let n_out = ((hi - lo) / h_us).floor() as usize + 1;
-    let base_us: Vec<f64> = (0..n_out).map(|k| lo + k as f64 * h_us).collect();
+    let base_us = time_grid(lo, hi, h_us, base_t.len(), base_topic).map_err(err)?;
     // Every used field finite over the samples the interpolation touches.
     for (name, fields) in &used {
         let tp = &topics[*name];
