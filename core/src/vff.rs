@@ -66,10 +66,15 @@
 //! 15-sample window (`d₁ = 29`), `P(χ²₂₉/29 > 2.25) = 1.3·10⁻⁴` — measured 24 and 26 drops in
 //! 268 000 samples. So `γ₀ = 2`, the largest eq. 32 allows, and eq. 32 is tested only once `σ_ε²`
 //! has a weight `D ≥` [`VffSettings::min_noise_weight_samples`]; until then `λ_F = λ_max`:
-//! `for_dimension(3)` (`d₁ = 29`): 100 samples, `P(F(29, 100) > 4) = 1.2·10⁻⁷` (0.03 expected in
-//! 268 000; `D` tends to 585, `d₂` to 1 228, `1·10⁻¹¹`); `for_aero_coefficients(100)` (`d₁ = 199`):
-//! 50 samples, `P(F(199, 50) > 4) = 5.9·10⁻⁸`. The residuals are neither independent (`θ(t−1)`
-//! reuses them) nor exactly Gaussian, so these are a guide; the sweep counts the drops.
+//! `for_dimension(3)` (`d₁ = 29`): 50 samples, `P(F(29, 50) > 4) = 8.6·10⁻⁶` when the test starts,
+//! `1.2·10⁻⁷` at `D = 100` some 50 samples later (`D` tends to 585, `d₂` to 1 228: `1·10⁻¹¹`), of
+//! the order of 10⁻⁴ false drops per run in all; `for_aero_coefficients(100)` (`d₁ = 199`):
+//! 50 samples, `P(F(199, 50) > 4) = 5.9·10⁻⁸`. A larger weight costs the early changes: `D`
+//! reaches 100 only ≈ 125 samples after the statistics start (≈ sample 150 in the host tests),
+//! and a jump before that enters `σ_ε²` untested and may never be detected (at sample 150 with a
+//! weight of 100: the median settling time 516 samples, with 50: 486; `λ_max = 0.999`, below).
+//! The residuals are neither independent (`θ(t−1)` reuses them) nor exactly Gaussian, so these
+//! are a guide; the sweep counts the drops.
 //!
 //! ## When the statistics start
 //! The statistics start at the first sample whose `ν` (eq. 24) is formed with a solution of the
@@ -87,10 +92,39 @@
 //!
 //! Measured (host test `forgetting.rs`, `Gtls<T, 3, 0, 4>`, one parameter jumping by −1/3,
 //! 10 seeds, `f32` and `f64` alike): the estimate is within 5 % of its new value for good after a
-//! median of 166 / 130 / 210 / 182 samples (`for_dimension(3)`) and 112 / 120 / 112 / 328
+//! median of 159 / 127 / 135 / 157 samples (`for_dimension(3)`) and 112 / 120 / 112 / 328
 //! (`for_aero_coefficients(100)`) for jumps at sample 300 / 1 500 / 5 000 / 20 000
 //! (`λ = 0.999`: 1 365 / 2 403 / 2 606 / 2 656), never later than `λ = 0.999` on any seed, with
 //! no `λ_F < λ_max` in the 268 000 stationary samples before the jumps.
+//!
+//! ## The ceiling: changes below eq. 32's limit
+//! Eq. 32 forgets only when the short window's residual power exceeds `γ₀² = 4` times the noise
+//! power. A change that raises the a priori residual power by less is never detected, and with
+//! the seed's `λ_F = 1` the old data are never forgotten: the estimate then moves towards the new
+//! model as `1/N`. For errors of `σ` in every column the stationary `ν` (eq. 24, with the corrected
+//! regressor) has the power `σ²/(1 + ‖θ‖²)`, and the jump `Δθⱼ` of one parameter raises it by the
+//! ratio `R = 1 + Δθⱼ²·mean(x₀ⱼ²)/(σ²(1 + ‖θ‖²))`: a jump of a third of a parameter is invisible to
+//! eq. 32 when `‖θ‖` is large against that parameter or the regressor small against the noise.
+//! Measured (host test `forgetting.rs`, `early_jump_diagnosis`: `Gtls<f64, 3, 0, 4>`,
+//! `for_dimension(3)` with `λ_max = 1`, random sinusoidal regressors and parameters, σ = 0.05, one
+//! parameter jumping by −1/3, 100 seeds): the VFF settled later than `λ = 0.999` on 47 / 30 / 29 /
+//! 22 / 26 seeds for jumps at 150 / 300 / 600 / 1 500 / 5 000 (worst 2.2 / 2.8 / 4.5 / 3.2 / 2.9
+//! times as late, where not settled within the 6 000 samples run counts as 6 000), among them every seed
+//! with `R < 4` (29–31 of the 100): e.g. `R = 1.5`, `σ_ν²/σ_ε²` 1.3–1.8 for 300 samples after
+//! the jump and `λ_F = 1` throughout. No false drop of `λ_F` preceded any of them. The others were
+//! near the limit (`R` 4–5) or, at sample 150, jumps before eq. 32 was tested (`R` up to 39; the
+//! minimum weight above). A longer short window with a smaller `γ₀` lowers the limit but cannot
+//! remove it (60 samples and `γ₀ = 1.41`: still slower on 10–51 seeds).
+//!
+//! Ref. \[19\] bounds eq. 33 by `λ_max` (the seed by 1). We keep that bound as a setting and
+//! [`VffSettings::for_dimension`] sets `λ_max = 0.999`: a change below eq. 32's limit is then
+//! forgotten as with a constant `λ = 0.999`, a detected one faster. The price is the seed's reason
+//! for `λ_F = 1`: without excitation a constant factor below 1 lets the information fade (the
+//! seed's Fig. 2 at t = 460 s), so [`VffSettings::for_aero_coefficients`] (on board, with its
+//! 300 s cruises) keeps `λ_max = 1` and the limit above. Measured with `for_dimension` over 100
+//! seeds (host test `early_jump_sweep_*`, the same generator; dimensions 3, 5 and 6, every
+//! regressor noisy and 6 with an exact intercept, `f32` and `f64`): slower than `λ = 0.999` on no
+//! seed; no false drop; medians in `BENCHMARKS.md`.
 //!
 //! ## The floor
 //! Eq. 33 has no lower bound: right after a jump `σ_ν ≫ σ_ε` and `λ_F ≈ σ_q σ_ε/σ_ν` can fall to
@@ -130,7 +164,7 @@ pub struct VffSettings<T> {
     pub varsigma: T,
     /// Floor on `λ_F` (not in the seed; see the module doc). `0 < λ_min ≤ λ_max`.
     pub lambda_min: T,
-    /// Ceiling on `λ_F` (the seed uses 1).
+    /// Ceiling on `λ_F` (the seed uses 1, ref. \[19\] `λ_max`; module doc, "The ceiling").
     pub lambda_max: T,
     /// Initial `Π(0) = π₀·I` of eq. 30 (in squared regressor units); `P(0) = I/π₀`.
     pub pi0: T,
@@ -161,7 +195,9 @@ impl<T: Real> VffSettings<T> {
     };
 
     /// Defaults for `n` parameters: `γ₂ = 1 − 1/(5·max(n, 3))`, `γ₁ = 1 − 1/(200n)`, `γ₀ = 2`,
-    /// eq. 32 tested from a noise weight of 100 samples, `ς = 1e-9`, `λ ∈ [0.9, 1]`, `π₀ = 1e-2`.
+    /// eq. 32 tested from a noise weight of 50 samples, `ς = 1e-9`, `λ ∈ [0.9, 0.999]`, `π₀ = 1e-2`.
+    /// The ceiling `λ_max = 0.999` forgets the changes eq. 32 cannot detect (module doc, "The
+    /// ceiling"); the seed's `λ_max = 1` keeps all information where the excitation stops.
     ///
     /// Ref. \[19\] uses windows of `K·L` samples with `K_α = 2`, `K_β ≥ 5K_α` for echo cancellers with
     /// `L` in the hundreds; for the 3–7 parameters of an aerodynamic coefficient those windows are far
@@ -185,16 +221,17 @@ impl<T: Real> VffSettings<T> {
             gamma0: T::lit(2.0),
             varsigma: T::lit(1e-9),
             lambda_min: T::lit(0.9),
-            lambda_max: T::one(),
+            lambda_max: T::lit(0.999),
             pi0: T::lit(1e-2),
-            min_noise_weight_samples: T::lit(100.0),
+            min_noise_weight_samples: T::lit(50.0),
             reading: Eq28Reading::Paleologu,
         }
     }
 
     /// Settings for the aerodynamic coefficients of a pipeline sampled at `sample_rate_hz`: a 1 s
-    /// short window (`γ₂`), a 40 s long window (`γ₁`), `γ₀ = 2` (the largest eq. 32 allows) and a
-    /// floor of 0.8.
+    /// short window (`γ₂`), a 40 s long window (`γ₁`), `γ₀ = 2` (the largest eq. 32 allows), a
+    /// floor of 0.8 and the seed's ceiling `λ_max = 1` (no forgetting without a detected change, so
+    /// that a cruise without excitation keeps the information; module doc, "The ceiling").
     ///
     /// [`Self::for_dimension`] was tuned on white residuals. The synthetic moment coefficients'
     /// residuals are not white: the differentiator's noise is correlated over ±4 samples (lag
@@ -219,6 +256,7 @@ impl<T: Real> VffSettings<T> {
             gamma2: T::one() - T::one() / f,
             gamma0: T::lit(2.0),
             lambda_min: T::lit(0.8),
+            lambda_max: T::one(),
             min_noise_weight_samples: T::lit(50.0),
             ..Self::for_dimension(1)
         }

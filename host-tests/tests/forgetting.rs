@@ -18,10 +18,20 @@
 //! no code with the core's `Vff`: the powers are direct weighted sums over the kept residual
 //! history), THEN the core agrees with it at every sample (tolerances at `F32_TOL`), the statistics
 //! (re)start at the same TLS solution, and every target holds: the estimate is within 5 % of the
-//! new value for good after a median of 166 / 130 / 210 / 182 samples (`for_dimension(3)`) and
+//! new value for good after a median of 159 / 127 / 135 / 157 samples (`for_dimension(3)`) and
 //! 112 / 120 / 112 / 328 (`for_aero_coefficients(100)`) at the four jump times (`λ = 0.999`:
 //! 1 365 / 2 403 / 2 606 / 2 656; target ≤ 500), never later than `λ = 0.999` on any seed, and
 //! `λ_F < λ_max` on none of the 268 000 stationary samples before the jumps (`f32` and `f64` alike).
+//!
+//! The early-jump sweep (`early_jump_*`): GIVEN its own generator (per seed random parameters of
+//! magnitude 0.5–5 and regressors that are sums of three sinusoids of random frequency, phase and
+//! amplitude; errors of σ = 0.05 in every noisy regressor and in `z`; the first noisy parameter
+//! jumping by −1/3 at sample 150, 300, 600, 1 500 or 5 000), 100 seeds, `Gtls` of dimension 3, 5
+//! and 6 with every regressor noisy and of dimension 6 with an exact intercept, WHEN the VFF runs
+//! with `for_dimension(n)` and beside it `λ = 0.999`, THEN the VFF settles later on no seed
+//! (target: at most 1 in 100, by at most 20 %), `λ_F < λ_max` on no stationary sample, and in
+//! dimension 3 the median is at most 500 samples. `early_jump_diagnosis` (ignored) shows why the
+//! seed's ceiling `λ_max = 1` fails this (`vff` module doc, "The ceiling").
 
 use crate::common;
 
@@ -105,10 +115,13 @@ fn run(forgetting: Forgetting<f64>) -> Trace {
     tr
 }
 
+/// `for_dimension(4)` with the seed's ceiling `λ_max = 1` (the readings of eq. 28 and the floor
+/// compared without the background forgetting of `for_dimension`'s `λ_max = 0.999`).
 fn vff(reading: Eq28Reading, lambda_min: f64) -> Forgetting<f64> {
     Forgetting::Variable(VffSettings {
         reading,
         lambda_min,
+        lambda_max: 1.0,
         ..VffSettings::for_dimension(4)
     })
 }
@@ -405,13 +418,19 @@ mod sweep {
                 let v = &step.vff;
                 let rel = |a: T, b: f64, scale: f64| (a.to_f64() - b).abs() / scale.max(f64::MIN_POSITIVE);
                 // ν is compared against the residual's scale, σ·(1 + ‖θ‖) (it cancels from ~5).
-                let nu_dev = rel(step.prior_residual, rs.nu, SIGMA * 6.0);
+                // The powers of ν, weighted means p of ν², against themselves or, where that is
+                // larger, against 2·scale·√p: by Cauchy–Schwarz ν's deviation δν carries at most
+                // 2·δν·√p into p, so this measure is at most ν's (it matters on the first samples
+                // of the statistics, where p is one or two ν² that may be small).
+                let scale = SIGMA * 6.0;
+                let nu_dev = rel(step.prior_residual, rs.nu, scale);
+                let pow_dev = |a: T, p: f64| rel(a, p, p.max(2.0 * scale * p.sqrt()));
                 let dev = [
                     nu_dev,
                     rel(v.q, rs.q, rs.q.abs()),
                     rel(v.power_q, rs.pq, rs.pq),
-                    rel(v.power_nu, rs.pnu, rs.pnu),
-                    rel(v.power_eps, rs.peps, rs.peps),
+                    pow_dev(v.power_nu, rs.pnu),
+                    pow_dev(v.power_eps, rs.peps),
                 ]
                 .into_iter()
                 .filter(|d| d.is_finite())
@@ -561,7 +580,7 @@ fn startup_sweep<T: aerosid_core::Real>(
 /// measured 1.5e-13 (powers) and 1e-14 (λ_F), so 1e-10 leaves a thousandfold margin. `f32`: `ν` is
 /// a difference of terms of ≈ 5 that leaves ≈ 0.05 (cancellation ×100: ≈ 100·ε ≈ 6e-6 relative),
 /// and `q` comes from `P` after up to 26 000 rank-one updates in `f32` (≈ √N·ε ≈ 1e-5); measured
-/// 7.6e-5, so 5e-4. `λ_F` of eq. 33 carries the powers' error times `σ_ν/(σ_ν − σ_ε) ≤ 1/(1 − 1/γ₀)`
+/// 9.4e-5, so 5e-4. `λ_F` of eq. 33 carries the powers' error times `σ_ν/(σ_ν − σ_ε) ≤ 1/(1 − 1/γ₀)`
 /// (≤ 3): 2e-3. Eq. 32 may switch differently only where the powers' ratio is within twice their
 /// error of the threshold.
 const F64_TOL: (f64, f64, f64) = (1e-10, 1e-10, 1e-9);
@@ -645,4 +664,314 @@ fn startup_sweep_f64_for_aero() {
 fn startup_sweep_f32_for_aero() {
     let (p, l, f) = F32_TOL;
     check_targets(&startup_sweep::<f32>("f32", sweep::Settings::ForAero, p, l, f));
+}
+
+// ---------------------------------------------------------------------------------------------------
+// An early jump over many seeds: randomised regressors and parameters, dimensions 3, 5 and 6
+// ---------------------------------------------------------------------------------------------------
+
+/// A second sweep with its own generator: per seed, random parameters and regressors (every noisy
+/// column a sum of three sinusoids of random frequency, phase and amplitude), the intercept as an
+/// exact column or none, errors of σ = 0.05 in every noisy regressor and in `z`; the first noisy
+/// parameter jumps by −1/3 of its value.
+mod early {
+    use super::*;
+    use aerosid_core::{Real, Solution};
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+    use rand_distr::{Distribution, Normal};
+
+    pub const SIGMA: f64 = 0.05;
+    pub const AFTER_JUMP: usize = 6000;
+
+    /// One data set: rows `x = [x_e, x_n]`, `z`, and the jumping parameter's index and new value.
+    pub struct Data {
+        pub rows: Vec<(Vec<f64>, f64)>,
+        pub jump: usize,
+        pub index: usize,
+        pub after: f64,
+        /// The a priori residual's power right after the jump over its stationary power (the old
+        /// estimate applied to the new model): `1 + Δθ²·mean(x₀ⱼ²)/(σ²(1 + ‖θ‖²))` over the first
+        /// 200 samples after the jump.
+        pub power_ratio: f64,
+    }
+
+    /// `nt` parameters of which `ne` (0 or 1) are the exact intercept; the jump at sample `jump`.
+    pub fn data(nt: usize, ne: usize, jump: usize, seed: u64) -> Data {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ ((nt * 10 + ne) as u64));
+        let std = Normal::new(0.0, 1.0).unwrap();
+        let nx = nt - ne;
+        // Frequencies 0.005–0.15 rad/sample (periods of 40–1 200 samples), amplitudes 0.3–1.
+        let waves: Vec<[(f64, f64, f64); 3]> = (0..nx)
+            .map(|_| {
+                core::array::from_fn(|_| {
+                    (
+                        rng.random_range(0.005..0.15),
+                        rng.random_range(0.0..std::f64::consts::TAU),
+                        rng.random_range(0.3..1.0),
+                    )
+                })
+            })
+            .collect();
+        // Parameters of magnitude 0.5–5, random signs; the intercept 0.3.
+        let mut theta: Vec<f64> = (0..nt)
+            .map(|j| {
+                if j < ne {
+                    0.3
+                } else {
+                    let m: f64 = rng.random_range(0.5..5.0);
+                    if rng.random::<bool>() {
+                        m
+                    } else {
+                        -m
+                    }
+                }
+            })
+            .collect();
+        let index = ne;
+        let after = theta[index] * (2.0 / 3.0);
+        let n = jump + AFTER_JUMP;
+        let mut rows = Vec::with_capacity(n);
+        let norm2: f64 = theta[ne..].iter().map(|v| v * v).sum::<f64>() + 1.0;
+        let delta = theta[index] - after;
+        let mut excess = 0.0;
+        for t in 0..n {
+            if t == jump {
+                theta[index] = after;
+            }
+            let tf = t as f64;
+            let mut x0 = vec![1.0; nt];
+            for (j, w) in waves.iter().enumerate() {
+                x0[ne + j] = w.iter().map(|(f, p, a)| a * (f * tf + p).sin()).sum();
+            }
+            let y: f64 = x0.iter().zip(&theta).map(|(a, b)| a * b).sum();
+            if (jump..jump + 200).contains(&t) {
+                excess += (delta * x0[index]).powi(2) / 200.0;
+            }
+            let mut x = x0;
+            for v in x.iter_mut().skip(ne) {
+                *v += SIGMA * std.sample(&mut rng);
+            }
+            rows.push((x, y + SIGMA * std.sample(&mut rng)));
+        }
+        Data {
+            rows,
+            jump,
+            index,
+            after,
+            power_ratio: 1.0 + excess / (SIGMA * SIGMA * norm2),
+        }
+    }
+
+    /// What one run measured.
+    #[derive(Debug, Clone, Default)]
+    pub struct Run {
+        /// Samples after the jump until the jumping parameter is within 5 % of its new value for good.
+        pub settle: Option<usize>,
+        /// Samples before the jump with `λ_F < λ_max` (after the first TLS solution).
+        pub false_drops: usize,
+    }
+
+    /// Runs `Gtls<T, NT, NE, NA>` on `d`.
+    pub fn run<T: Real, const NT: usize, const NE: usize, const NA: usize>(d: &Data, forgetting: Forgetting<T>) -> Run {
+        let settings = GtlsSettings {
+            forgetting,
+            ..GtlsSettings::default()
+        };
+        let mut g = Gtls::<T, NT, NE, NA>::new(&diag_wt(&[SIGMA; NA]), &sv(&[1.0; NT]), settings).unwrap();
+        let lambda_max = match forgetting {
+            Forgetting::Variable(v) => v.lambda_max,
+            Forgetting::Constant(l) => l,
+        };
+        let mut out = Run::default();
+        let mut solved = false;
+        for (t, (x, z)) in d.rows.iter().enumerate() {
+            let step = g.update(&sv(x), T::lit(*z)).unwrap();
+            solved |= step.solution == Solution::Tls;
+            if solved && t < d.jump && step.lambda_next < lambda_max {
+                out.false_drops += 1;
+            }
+            if t >= d.jump {
+                let ok = ((g.theta()[d.index].to_f64() - d.after) / d.after).abs() < 0.05;
+                match (ok, out.settle) {
+                    (true, None) => out.settle = Some(t - d.jump),
+                    (false, Some(_)) => out.settle = None,
+                    _ => {}
+                }
+            }
+        }
+        out
+    }
+}
+
+/// One jump time of the early-jump sweep, over the seeds.
+#[derive(Debug)]
+struct EarlyRow {
+    jump: usize,
+    median_vff: usize,
+    median_constant: usize,
+    /// Seeds on which the VFF settled later than `λ = 0.999`, and the largest ratio of the two.
+    slower: usize,
+    worst_ratio: f64,
+    /// Samples with `λ_F < λ_max` before the jump, over the seeds.
+    false_drops: usize,
+    /// Seeds whose residual power right after the jump is below `γ₀²` (eq. 32 cannot fire on it),
+    /// and the VFF's median over the other seeds.
+    below_eq32: usize,
+    median_vff_above: usize,
+}
+
+const EARLY_JUMPS: [usize; 5] = [150, 300, 600, 1500, 5000];
+const EARLY_SEEDS: std::ops::RangeInclusive<u64> = 1..=100;
+
+/// The early-jump sweep for `Gtls<T, NT, NE, NA>` with the VFF settings `vs` against
+/// `λ = 0.999`; prints and returns one row per jump time ("not settled" counts as the
+/// [`early::AFTER_JUMP`] samples run after the jump).
+fn early_sweep<T: aerosid_core::Real, const NT: usize, const NE: usize, const NA: usize>(
+    name: &str,
+    vs: VffSettings<T>,
+) -> Vec<EarlyRow> {
+    use rayon::prelude::*;
+    let g0 = vs.gamma0.to_f64();
+    EARLY_JUMPS
+        .iter()
+        .map(|&jump| {
+            let runs: Vec<(usize, usize, usize, f64)> = EARLY_SEEDS
+                .into_par_iter()
+                .map(|seed| {
+                    let d = early::data(NT, NE, jump, seed);
+                    let v = early::run::<T, NT, NE, NA>(&d, Forgetting::Variable(vs));
+                    let c = early::run::<T, NT, NE, NA>(&d, Forgetting::Constant(T::lit(0.999)));
+                    let not = early::AFTER_JUMP;
+                    (v.settle.unwrap_or(not), c.settle.unwrap_or(not), v.false_drops, d.power_ratio)
+                })
+                .collect();
+            let mut v: Vec<usize> = runs.iter().map(|r| r.0).collect();
+            let mut c: Vec<usize> = runs.iter().map(|r| r.1).collect();
+            let slow: Vec<f64> = runs.iter().filter(|r| r.0 > r.1).map(|r| r.0 as f64 / r.1.max(1) as f64).collect();
+            let row = EarlyRow {
+                jump,
+                median_vff: sweep::median(&mut v),
+                median_constant: sweep::median(&mut c),
+                slower: slow.len(),
+                worst_ratio: slow.iter().copied().fold(0.0, f64::max),
+                false_drops: runs.iter().map(|r| r.2).sum(),
+                below_eq32: runs.iter().filter(|r| r.3 < g0 * g0).count(),
+                median_vff_above: sweep::median(
+                    &mut runs.iter().filter(|r| r.3 >= g0 * g0).map(|r| r.0).collect::<Vec<_>>(),
+                ),
+            };
+            println!(
+                "{name} jump at {jump:>4}: settled after (median) VFF {:>4}, λ = 0.999 {:>4}; VFF slower on {}/{} seeds \
+                 (worst ×{:.2}); false λ drops before the jump {}; jump below eq. 32's limit on {} seeds \
+                 (median VFF over the others {})",
+                row.median_vff,
+                row.median_constant,
+                row.slower,
+                runs.len(),
+                row.worst_ratio,
+                row.false_drops,
+                row.below_eq32,
+                row.median_vff_above
+            );
+            row
+        })
+        .collect()
+}
+
+/// The targets: the VFF slower than `λ = 0.999` on at most 1 seed in 100 and then by at most 20 %;
+/// no `λ_F < λ_max` on the stationary data before the jump; with `check_median`, a median of at
+/// most 500 samples to settle.
+fn check_early(name: &str, rows: &[EarlyRow], check_median: bool) {
+    for r in rows {
+        assert!(
+            !check_median || r.median_vff <= 500,
+            "{name} jump at {}: median {} > 500",
+            r.jump,
+            r.median_vff
+        );
+        assert!(
+            r.slower <= 1 && r.worst_ratio <= 1.2,
+            "{name} jump at {}: VFF slower than λ = 0.999 on {} seeds (worst ×{:.2})",
+            r.jump,
+            r.slower,
+            r.worst_ratio
+        );
+        assert_eq!(r.false_drops, 0, "{name} jump at {}: false λ drops", r.jump);
+    }
+}
+
+/// The issue's case, always run: `Gtls<f64, 3, 0, 4>`, 100 seeds, five jump times.
+#[test]
+fn early_jump_sweep_f64_dimension_3() {
+    check_early(
+        "f64 3/0",
+        &early_sweep::<f64, 3, 0, 4>("f64 3/0", VffSettings::for_dimension(3)),
+        true,
+    );
+}
+
+/// The full sweep: dimensions 3, 5 and 6 with every regressor noisy, 6 with the intercept exact,
+/// `f32` and `f64` (≈ 8 times the always-on case). The median target holds in dimension 3 only:
+/// in dimensions 5 and 6 35–43 of the 100 jumps are below eq. 32's limit (a larger `‖θ‖` for the
+/// same relative jump), which settle as with `λ = 0.999`, and the detected ones settle later
+/// (BENCHMARKS.md); not asserted there.
+#[test]
+#[ignore]
+fn early_jump_sweep_full() {
+    let sweeps = [
+        (
+            "f32 3/0",
+            early_sweep::<f32, 3, 0, 4>("f32 3/0", VffSettings::for_dimension(3)),
+        ),
+        (
+            "f64 5/0",
+            early_sweep::<f64, 5, 0, 6>("f64 5/0", VffSettings::for_dimension(5)),
+        ),
+        (
+            "f32 5/0",
+            early_sweep::<f32, 5, 0, 6>("f32 5/0", VffSettings::for_dimension(5)),
+        ),
+        (
+            "f64 6/0",
+            early_sweep::<f64, 6, 0, 7>("f64 6/0", VffSettings::for_dimension(6)),
+        ),
+        (
+            "f32 6/0",
+            early_sweep::<f32, 6, 0, 7>("f32 6/0", VffSettings::for_dimension(6)),
+        ),
+        (
+            "f64 6/1",
+            early_sweep::<f64, 6, 1, 6>("f64 6/1", VffSettings::for_dimension(6)),
+        ),
+        (
+            "f32 6/1",
+            early_sweep::<f32, 6, 1, 6>("f32 6/1", VffSettings::for_dimension(6)),
+        ),
+    ];
+    for (name, rows) in &sweeps {
+        check_early(name, rows, name.starts_with("f32 3/"));
+    }
+}
+
+/// Why `for_dimension` has the ceiling `λ_max = 0.999`: with the seed's `λ_max = 1` the issue's
+/// case (`Gtls<f64, 3, 0, 4>`, the early-jump generator) settles later than `λ = 0.999` on a fifth
+/// or more of the seeds at every jump time (measured 47 / 30 / 29 / 22 / 26 of 100), about as many
+/// as there are jumps below eq. 32's limit (29–31): `vff` module doc, "The ceiling".
+#[test]
+#[ignore]
+fn early_jump_diagnosis() {
+    let vs = VffSettings {
+        lambda_max: 1.0,
+        ..VffSettings::for_dimension(3)
+    };
+    for r in early_sweep::<f64, 3, 0, 4>("f64 3/0, λ_max = 1", vs) {
+        assert!(r.slower >= 20, "jump at {}: slower on {} seeds only", r.jump, r.slower);
+        assert!(
+            r.below_eq32 >= 20,
+            "jump at {}: {} seeds below eq. 32's limit",
+            r.jump,
+            r.below_eq32
+        );
+    }
 }
