@@ -2,6 +2,7 @@
 //! file, built as one test binary. They live in this package because only its own tests are given
 //! the binary's path (`CARGO_BIN_EXE_aerosid`).
 
+mod batch;
 mod cli;
 mod flow_angles;
 mod predict;

@@ -47,6 +47,7 @@ enum Command {
     Table1(Table1Args),
     Gaps(Box<GapsArgs>),
     GapsBench(GapsBenchArgs),
+    Batch(BatchArgs),
     LongRun(LongRunArgs),
     PanicAudit(PanicAuditArgs),
     StackBound(StackBoundArgs),
@@ -71,6 +72,7 @@ impl Command {
             Self::Table1(a) => a.execute(),
             Self::Gaps(a) => a.execute(),
             Self::GapsBench(a) => a.execute(),
+            Self::Batch(a) => a.execute(),
             Self::LongRun(a) => a.execute(),
             Self::PanicAudit(a) => a.execute(),
             Self::StackBound(a) => a.execute(),
@@ -781,43 +783,61 @@ impl Execute for GapsArgs {
     }
 }
 
-/// Analyses `flight`, prints the table, writes report.json, report.txt and the figures to `out`.
+/// Analyses `flight`, prints the table, writes report.json, report.txt and the figures to `out`
+/// ([`aerosid::batch::analyse`]).
 fn gaps(flight: &aerosid::io::measured::MeasuredFlight, out: &Path, settings: aerosid::gaps::GapSettings) -> ExitCode {
-    let report = match aerosid::gaps::run_gaps(flight, &settings) {
-        Ok(r) => r,
-        Err(e) => {
-            // What the data can and cannot support is said even when the analysis cannot run
-            // (too few samples, no coefficient): the table here, data_quality.json in `out`.
-            let prepared = aerosid::io::flow_angles::prepare(
-                flight,
-                settings.flow_angles,
-                &aerosid::io::flow_angles::WindFitSettings::default(),
-            );
-            let q = aerosid::io::quality::assess(&prepared);
-            print!("{}", aerosid::io::quality::table(&q));
-            let json = serde_json::json!({
-                "schema": "aerosid-data-quality/1",
-                "source": flight.source,
-                "analysis": e.to_string(),
-                "data_quality": q,
-            });
-            let file = out.join("data_quality.json");
-            let written = std::fs::create_dir_all(out)
-                .and_then(|_| std::fs::write(&file, serde_json::to_string_pretty(&json).unwrap_or_default()));
-            match written {
-                Ok(()) => println!("data quality written to {}", file.display()),
-                Err(w) => eprintln!("aerosid gaps: {}: {w}", file.display()),
-            }
-            return fail("gaps", format!("the analysis did not run: {e}"));
-        }
-    };
+    let analysis = aerosid::batch::analyse(flight, out, &settings);
     // The table first: it is printed even if the files cannot be written.
-    print!("{}", aerosid::gaps::report::table(&report));
-    finish(
-        "gaps",
-        "files",
-        aerosid::gaps::report::write(&report, out).map(|f| (String::new(), f)),
-    )
+    print!("{}", analysis.table);
+    finish("gaps", "files", analysis.outcome.map(|o| (String::new(), o.files)))
+}
+
+/// The model-gap analysis of many logs: one folder per log under DIR (report.json, report.txt and
+/// the figures, as `gaps --data FILE --out DIR/FOLDER` writes them; FOLDER is the file's name and a
+/// hash of its path), and DIR/summary.csv and DIR/summary.jsonl (file, folder, status `verdict`,
+/// `no_verdict` or `error`, top cause, reason, seconds). Logs run in parallel; a log that cannot be
+/// read or analysed is an `error` row and the batch carries on; a log whose report.json exists is
+/// read back, not analysed again, unless --force. Exit code 0 when every log was analysed or read
+/// back, 1 when any is an error.
+#[derive(Args)]
+struct BatchArgs {
+    /// The logs (.ulg and .bin read without --with; other formats need it).
+    #[arg(value_name = "FILES", required = true)]
+    files: Vec<PathBuf>,
+    /// Folder of the per-log folders and the summary (created if missing).
+    #[arg(long, value_name = "DIR")]
+    out: PathBuf,
+    /// Logs analysed at once (default: the number of cores).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u16).range(1..=1024))]
+    jobs: Option<u16>,
+    /// Analyse every log again, even when its report.json exists.
+    #[arg(long)]
+    force: bool,
+    /// The column map or aircraft file of every log (optional for .ulg and .bin).
+    #[arg(long = "with", value_name = "MAP_OR_AIRCRAFT")]
+    with: Option<PathBuf>,
+}
+
+impl Execute for BatchArgs {
+    fn execute(self) -> ExitCode {
+        let mut settings = aerosid::batch::BatchSettings::new(&self.out);
+        settings.with = self.with;
+        settings.force = self.force;
+        if let Some(j) = self.jobs {
+            settings.jobs = usize::from(j);
+        }
+        match aerosid::batch::run(&self.files, &settings) {
+            Ok(rows) => {
+                print!("{}", aerosid::batch::table(&rows, &self.out));
+                if rows.iter().any(|r| r.status == aerosid::batch::Status::Error) {
+                    ExitCode::FAILURE
+                } else {
+                    ExitCode::SUCCESS
+                }
+            }
+            Err(e) => fail("batch", e),
+        }
+    }
 }
 
 /// The model-gap campaign behind scripts/bench/: simulated turbulent flights per hidden kind, clean
