@@ -1,6 +1,6 @@
 """The Python call against the command on the vendored flight-test data (BENCHMARKS.md).
 
-    python python/bench.py AEROSID [REPEATS]
+    python python/benches/gaps_vs_cli.py AEROSID [REPEATS]
 
 For each flight, `aerosid.gaps(..., out=DIR)` in this process and `AEROSID gaps --data ... --out
 DIR` as a child process, interleaved, REPEATS times each (default 5); both write the same report
@@ -20,7 +20,7 @@ from pathlib import Path
 
 import aerosid
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 DATA = ROOT / "tool" / "data"
 FLIGHTS = [
     (DATA / "flight" / "hfb320_1_10.asc", DATA / "maps" / "hfb320.map"),
