@@ -333,7 +333,7 @@ fn gaps_frame(
 /// `aerosid fem`: `(text, files)`.
 #[pyfunction]
 #[pyo3(signature = (model, out, data=vec![], segments=vec![], validate=vec![], validate_segments=vec![], fix=vec![]))]
-#[allow(clippy::type_complexity)]
+#[allow(clippy::type_complexity, clippy::too_many_arguments)]
 fn fem(
     py: Python<'_>,
     model: PathBuf,
