@@ -110,6 +110,9 @@ else
     exit 1
 fi
 
+step "Python package (docs/python.md): bash scripts/python-tests.sh (the wheel built and installed in target/venv, pytest, the Dask batch)"
+bash scripts/python-tests.sh
+
 step "fuzzing (docs/reliability.md): the core libFuzzer targets of fuzz/ for ${FUZZ_SECONDS:-6} s each from their seeds"
 # Its own workspace and target directory (fuzz/target-ours); stable Rust, no cargo-fuzz needed
 # (scripts/fuzz.sh says how the build matches `cargo fuzz build -s none -a`, and why the reader

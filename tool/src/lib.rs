@@ -12,6 +12,7 @@
 // Index loops mirror the matrix formulas of the estimators.
 #![allow(clippy::needless_range_loop)]
 
+pub mod batch;
 pub mod card;
 pub mod demo;
 pub mod experiment;

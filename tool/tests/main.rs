@@ -2,12 +2,13 @@
 //! file, built as one test binary. They live in this package because only its own tests are given
 //! the binary's path (`CARGO_BIN_EXE_aerosid`).
 
+mod batch;
 mod cli;
 mod corrupt_logs;
 mod exit_codes;
 mod flow_angles;
-mod pooled;
 mod origin;
+mod pooled;
 mod predict;
 mod real_logs;
 mod workflow;

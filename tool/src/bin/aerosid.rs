@@ -96,6 +96,7 @@ enum Command {
     Table1(Table1Args),
     Gaps(Box<GapsArgs>),
     GapsBench(GapsBenchArgs),
+    Batch(BatchArgs),
     LongRun(LongRunArgs),
     PanicAudit(PanicAuditArgs),
     StackBound(StackBoundArgs),
@@ -121,6 +122,7 @@ impl Command {
             Self::Table1(a) => a.execute(),
             Self::Gaps(a) => a.execute(),
             Self::GapsBench(a) => a.execute(),
+            Self::Batch(a) => a.execute(),
             Self::LongRun(a) => a.execute(),
             Self::PanicAudit(a) => a.execute(),
             Self::StackBound(a) => a.execute(),
@@ -961,62 +963,60 @@ impl Execute for GapsArgs {
     }
 }
 
-/// Analyses `flight`, prints the table, writes report.json, report.txt and the figures to `out`.
+/// Analyses `flight`, prints the table, writes report.json, report.txt and the figures to `out`
+/// ([`aerosid::batch::analyse`]).
 fn gaps(flight: &aerosid::io::measured::MeasuredFlight, out: &Path, settings: aerosid::gaps::GapSettings) -> ExitCode {
-    let report = match aerosid::gaps::run_gaps(flight, &settings) {
-        Ok(r) => r,
-        Err(e) => return not_analysed(flight, out, &settings, &e),
-    };
+    let analysis = aerosid::batch::analyse(flight, out, &settings);
     // The table first: it is printed even if the files cannot be written.
-    print!("{}", aerosid::gaps::report::table(&report));
-    finish(
-        "gaps",
-        "files",
-        aerosid::gaps::report::write(&report, out).map(|f| (String::new(), f)),
-    )
+    print!("{}", analysis.table);
+    finish("gaps", "files", analysis.outcome.map(|o| (String::new(), o.files)))
 }
 
-/// A flight that was read but on which the analysis cannot run. Too short, or no coefficient to
-/// synthesise: still a report — the data-quality table here, report.json with status `no_verdict`
-/// and the reasons in `out`, exit 0 (a batch gets a report per log). A time base or channel the
-/// analysis refuses: invalid input, exit 1.
-fn not_analysed(
-    flight: &aerosid::io::measured::MeasuredFlight,
-    out: &Path,
-    settings: &aerosid::gaps::GapSettings,
-    e: &aerosid::gaps::GapError,
-) -> ExitCode {
-    use aerosid::gaps::GapError;
-    let reason = format!("the analysis did not run: {e}");
-    if matches!(e, GapError::NonUniformTime { .. } | GapError::BadChannel { .. }) {
-        return fail("gaps", reason);
-    }
-    let prepared = aerosid::io::flow_angles::prepare(
-        flight,
-        settings.flow_angles,
-        &aerosid::io::flow_angles::WindFitSettings::default(),
-    );
-    let q = aerosid::io::quality::assess(&prepared);
-    print!("{}", aerosid::io::quality::table(&q));
-    println!("\nno verdict: {reason}");
-    let reasons: Vec<String> = std::iter::once(reason).chain(q.why_not.iter().cloned()).collect();
-    let mut json = serde_json::json!({
-        "schema": "aerosid-gaps/3",
-        "source": flight.source,
-        "analysis": "not run",
-        "data_quality": q,
-    });
-    aerosid::gaps::report::add_status(&mut json, false, &reasons);
-    let file = out.join("report.json");
-    let written = serde_json::to_string_pretty(&json)
-        .map_err(std::io::Error::other)
-        .and_then(|text| std::fs::write(&file, text));
-    match written {
-        Ok(()) => {
-            println!("\nfiles:\n  {}", file.display());
-            ExitCode::SUCCESS
+/// The model-gap analysis of many logs: one folder per log under DIR (report.json, report.txt and
+/// the figures, as `gaps --data FILE --out DIR/FOLDER` writes them; FOLDER is the file's name and a
+/// hash of its path), and DIR/summary.csv and DIR/summary.jsonl (file, folder, status `verdict`,
+/// `no_verdict` or `error`, top cause, reason, seconds). Logs run in parallel; a log that cannot be
+/// read or analysed is an `error` row and the batch carries on; a log whose report.json exists is
+/// read back, not analysed again, unless --force. Exit code 0 when every log was analysed or read
+/// back, 1 when any is an error.
+#[derive(Args)]
+struct BatchArgs {
+    /// The logs (.ulg and .bin read without --with; other formats need it).
+    #[arg(value_name = "FILES", required = true)]
+    files: Vec<PathBuf>,
+    /// Folder of the per-log folders and the summary (created if missing).
+    #[arg(long, value_name = "DIR")]
+    out: PathBuf,
+    /// Logs analysed at once (default: the number of cores).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u16).range(1..=1024))]
+    jobs: Option<u16>,
+    /// Analyse every log again, even when its report.json exists.
+    #[arg(long)]
+    force: bool,
+    /// The column map or aircraft file of every log (optional for .ulg and .bin).
+    #[arg(long = "with", value_name = "MAP_OR_AIRCRAFT")]
+    with: Option<PathBuf>,
+}
+
+impl Execute for BatchArgs {
+    fn execute(self) -> ExitCode {
+        let mut settings = aerosid::batch::BatchSettings::new(&self.out);
+        settings.with = self.with;
+        settings.force = self.force;
+        if let Some(j) = self.jobs {
+            settings.jobs = usize::from(j);
         }
-        Err(w) => fail("gaps", format!("{}: {w}", file.display())),
+        match aerosid::batch::run(&self.files, &settings) {
+            Ok(rows) => {
+                print!("{}", aerosid::batch::table(&rows, &self.out));
+                if rows.iter().any(|r| r.status == aerosid::batch::Status::Error) {
+                    ExitCode::FAILURE
+                } else {
+                    ExitCode::SUCCESS
+                }
+            }
+            Err(e) => fail("batch", e),
+        }
     }
 }
 
