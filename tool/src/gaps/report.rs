@@ -391,7 +391,8 @@ fn sig3(x: f64, signed: bool) -> String {
     format!("{sign}{body}")
 }
 
-/// Writes `report.json`, `report.txt` and the figures into `dir`; returns the files written.
+/// Writes `report.json`, `report.txt`, the figures and `report.html` (crate::html) into `dir`;
+/// returns the files written.
 pub fn write(r: &GapReport, dir: &Path) -> Result<Vec<PathBuf>, ReportError> {
     std::fs::create_dir_all(dir).map_err(|e| ReportError::Io(dir.to_path_buf(), e))?;
     let mut files = Vec::new();
@@ -443,6 +444,7 @@ pub fn write(r: &GapReport, dir: &Path) -> Result<Vec<PathBuf>, ReportError> {
         fig.write_svg(&p).map_err(ReportError::Plot)?;
         files.push(p);
     }
+    files.push(crate::html::write_gaps(&dir.join("report.json"), &files).map_err(ReportError::Html)?);
     Ok(files)
 }
 
@@ -543,6 +545,8 @@ pub enum ReportError {
     Json(String),
     /// A figure failed.
     Plot(PlotError),
+    /// The HTML page failed.
+    Html(crate::html::HtmlError),
 }
 
 impl core::fmt::Display for ReportError {
@@ -551,6 +555,7 @@ impl core::fmt::Display for ReportError {
             Self::Io(p, e) => write!(f, "{}: {e}", p.display()),
             Self::Json(e) => write!(f, "JSON: {e}"),
             Self::Plot(e) => write!(f, "figure: {e}"),
+            Self::Html(e) => write!(f, "report.html: {e}"),
         }
     }
 }
