@@ -270,8 +270,8 @@ fn coefficients(h: &mut String, r: &Value) {
             h,
             "<tr><td><b>{}</b></td><td class=\"num\">{}</td><td class=\"num\">{}</td><td>{}</td><td>{}</td></tr>",
             esc(&text(c, &["name"]).unwrap_or_default()),
-            opt(before, 3),
-            opt(after, 3),
+            opt(before, 4),
+            opt(after, 4),
             if added.is_empty() {
                 "nothing".into()
             } else {
@@ -573,7 +573,7 @@ mod tests {
         // An undetermined σ is said, not printed as a number.
         assert!(page.contains("α² = 1.50 (σ not determined)"), "{page}");
         assert!(page.contains("1.50 ± 0.100"));
-        assert!(page.contains("0.500") && page.contains("0.900"));
+        assert!(page.contains("0.5000") && page.contains("0.9000"));
         // The figure is inline, without its XML prologue.
         assert!(page.contains("<figure><svg viewBox"));
         assert!(!page.contains("<?xml"));
