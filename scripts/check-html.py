@@ -2,7 +2,7 @@
 """Checks HTML reports in headless Chromium: the page renders, logs no console error, holds the
 elements asked for, and its screenshot is not blank.
 
-    scripts/check-html.py [--expect-svg N] [--expect-id ID]... [--shots DIR] PAGE.html...
+    scripts/check-html.py [--expect-svg N | --figures-beside] [--expect-id ID]... [--shots DIR] PAGE.html...
 
 Before the pages, the check is run on two pages of its own: a clean one (must pass) and one with a
 console error and a broken script (must fail), so a Chromium that stopped reporting console errors
@@ -175,6 +175,11 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("pages", nargs="+", metavar="PAGE.html")
     ap.add_argument("--expect-svg", type=int, help="number of inline SVG figures each page must render")
+    ap.add_argument(
+        "--figures-beside",
+        action="store_true",
+        help="each page must render as many inline SVG figures as there are .svg files in its folder",
+    )
     ap.add_argument("--expect-id", action="append", default=[], metavar="ID", help="an element id each page must have")
     ap.add_argument("--shots", metavar="DIR", help="keep the screenshots here (default: a temporary folder)")
     args = ap.parse_args()
@@ -190,7 +195,11 @@ def main():
             failed = True
             continue
         shot = os.path.join(shots, f"{n}-{os.path.splitext(os.path.basename(page))[0]}.png")
-        for p in check(browser, page, shot, args.expect_svg, args.expect_id):
+        expect_svg = args.expect_svg
+        if args.figures_beside:
+            folder = os.path.dirname(os.path.abspath(page))
+            expect_svg = sum(1 for f in os.listdir(folder) if f.endswith(".svg"))
+        for p in check(browser, page, shot, expect_svg, args.expect_id):
             print(f"check-html: {page}: {p}", file=sys.stderr)
             failed = True
     if failed:
