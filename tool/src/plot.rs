@@ -449,7 +449,7 @@ impl Panel {
     /// at least what the full band does.
     fn band_polygons_decimated(&self, band: &Band, x_range: &Range<f64>, columns: usize) -> Vec<Vec<(f64, f64)>> {
         let span = x_range.end - x_range.start;
-        if band.x.len() <= 4 * columns || columns == 0 || !(span > 0.0) {
+        if band.x.len() <= 4 * columns || columns == 0 || span.is_nan() || span <= 0.0 {
             return self.band_polygons(band);
         }
         let column = |x: f64| ((x - x_range.start) / span * columns as f64).floor() as i64;
@@ -1061,7 +1061,7 @@ pub fn robust_range(values: &mut [f64]) -> Option<(f64, f64)> {
 /// four points per column are returned as they are.
 pub fn decimate(points: &[(f64, f64)], x_range: &Range<f64>, columns: usize) -> Vec<(f64, f64)> {
     let span = x_range.end - x_range.start;
-    if points.len() <= 4 * columns || columns == 0 || !(span > 0.0) {
+    if points.len() <= 4 * columns || columns == 0 || span.is_nan() || span <= 0.0 {
         return points.to_vec();
     }
     let column = |x: f64| ((x - x_range.start) / span * columns as f64).floor() as i64;
