@@ -45,7 +45,7 @@ h1{font-size:1.5em;margin-bottom:.2em}h2{font-size:1.2em;border-bottom:1px solid
 .found{background:#e6f4ea;border-color:#1e7e34}.clean{background:#eef3fb;border-color:#0072b2}\
 .none{background:#fff4e0;border-color:#b26b00}\
 table{border-collapse:collapse;margin:.5em 0}th,td{border:1px solid #ccc;padding:.25em .6em;text-align:left;vertical-align:top}\
-th{background:#f2f2f2}td.num{text-align:right;font-variant-numeric:tabular-nums;white-space:nowrap}\
+th{background:#f2f2f2}td.num,td.terms{white-space:nowrap}td.num{text-align:right;font-variant-numeric:tabular-nums}\
 .yes{color:#1e7e34;font-weight:bold}.no{color:#b00020;font-weight:bold}\
 figure{margin:1em 0}figure svg{width:100%;height:auto;border:1px solid #ddd}figcaption{color:#555}\
 ul{padding-left:1.4em}";
@@ -185,7 +185,7 @@ fn data_quality(h: &mut String, r: &Value) {
         None => {}
     }
     h.push_str("</p>");
-    list(h, q.get("why_not"), "why not");
+    // The reasons for no verdict are listed once, in the verdict's box (`verdict`).
     list(h, q.get("warnings"), "warnings");
     if let Some(cs) = q
         .get("coefficients")
@@ -268,7 +268,7 @@ fn coefficients(h: &mut String, r: &Value) {
         });
         let _ = write!(
             h,
-            "<tr><td><b>{}</b></td><td class=\"num\">{}</td><td class=\"num\">{}</td><td>{}</td><td>{}</td></tr>",
+            "<tr><td><b>{}</b></td><td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"terms\">{}</td><td>{}</td></tr>",
             esc(&text(c, &["name"]).unwrap_or_default()),
             opt(before, 4),
             opt(after, 4),
@@ -593,7 +593,10 @@ mod tests {
         let r = json!({"verdict": "no verdict: too short", "data_quality": {"supports_verdict": false, "why_not": ["too short"]}});
         let page = gaps_page(&r, &[]);
         assert!(page.contains("class=\"verdict none\""));
-        // The reason already in the verdict is not repeated under it.
-        assert_eq!(page.matches("too short").count(), 2, "{page}");
+        // The reason already in the verdict is not repeated under it, nor in the data quality.
+        assert_eq!(page.matches("too short").count(), 1, "{page}");
+        let r = json!({"verdict": "no verdict: see below", "data_quality": {"supports_verdict": false, "why_not": ["too short"]}});
+        let page = gaps_page(&r, &[]);
+        assert_eq!(page.matches("too short").count(), 1, "{page}");
     }
 }
