@@ -55,7 +55,6 @@ use std::path::{Path, PathBuf};
 
 use plotters::coord::ranged1d::ValueFormatter;
 use plotters::coord::types::RangedCoordf64;
-use plotters::element::DashedPathElement;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
@@ -63,6 +62,9 @@ use plotters::style::text_anchor::{HPos, Pos, VPos};
 const BAND_ALPHA: f64 = 0.25;
 /// Dash length and gap of dashed lines, in pixels.
 const DASH_PX: (u32, u32) = (8, 5);
+/// The opacity that marks a dashed line's polylines in the SVG for [`dash_marked`]: no other
+/// element is drawn with it.
+const DASH_MARK_ALPHA: f64 = 0.999;
 /// Font family of all text; the SVG viewer resolves it.
 const FONT: &str = "sans-serif";
 /// Width of a character as a share of the font size: an upper estimate for sans-serif text, used to
@@ -689,7 +691,7 @@ impl Figure {
             }
             root.present().map_err(render_err)?;
         }
-        Ok(svg)
+        Ok(dash_marked(&svg))
     }
 }
 
@@ -857,7 +859,13 @@ where
         let top = layout.axis.end;
         let line = vec![(x, layout.axis.start), (x, top)];
         chart
-            .draw_series(std::iter::once(DashedPathElement::new(line, 4, 4, style)))
+            .draw_series(std::iter::once(PathElement::new(
+                line,
+                ShapeStyle {
+                    color: style.color.mix(DASH_MARK_ALPHA),
+                    ..style
+                },
+            )))
             .map_err(render_err)?;
         if labelled {
             let font = TextStyle::from((FONT, 13)).color(&RGBColor(60, 60, 60));
@@ -966,14 +974,20 @@ fn draw_path<'a, 'b: 'a, Y>(
 where
     Y: Ranged<ValueType = f64>,
 {
-    let (dash, gap) = DASH_PX;
     let drawn = !pieces.is_empty();
-    let anno = if dashed {
-        chart.draw_series(pieces.into_iter().map(|p| DashedPathElement::new(p, dash, gap, style)))
+    // A dashed line is one polyline with a dash pattern (set by `Figure::to_svg` on the polylines
+    // this alpha marks), not a polyline per dash: a noisy hour-long trace made tens of thousands.
+    let style = if dashed {
+        ShapeStyle {
+            color: style.color.mix(DASH_MARK_ALPHA),
+            ..style
+        }
     } else {
-        chart.draw_series(pieces.into_iter().map(|p| PathElement::new(p, style)))
-    }
-    .map_err(render_err)?;
+        style
+    };
+    let anno = chart
+        .draw_series(pieces.into_iter().map(|p| PathElement::new(p, style)))
+        .map_err(render_err)?;
     if label.is_empty() || !drawn {
         return Ok(false);
     }
@@ -1095,6 +1109,15 @@ pub fn decimate(points: &[(f64, f64)], x_range: &Range<f64>, columns: usize) -> 
         start = end;
     }
     out
+}
+
+/// `svg` with the polylines of dashed lines (drawn with [`DASH_MARK_ALPHA`]) made opaque and dashed.
+fn dash_marked(svg: &str) -> String {
+    let (dash, gap) = DASH_PX;
+    svg.replace(
+        &format!("opacity=\"{DASH_MARK_ALPHA}\""),
+        &format!("opacity=\"1\" stroke-dasharray=\"{dash} {gap}\""),
+    )
 }
 
 /// The lines of `text` at `pt` points that fit `width_px`, broken at spaces.
@@ -1260,7 +1283,8 @@ mod tests {
     #[test]
     fn an_hour_at_100_hz_makes_a_small_svg() {
         let t: Vec<f64> = (0..360_000).map(|i| i as f64 * 0.01).collect();
-        let y: Vec<f64> = t.iter().map(|t| (t * 0.7).sin() + 0.1 * (t * 13.0).sin()).collect();
+        // Noise on every sample (a fixed sequence), so each pixel column spans a range.
+        let y: Vec<f64> = t.iter().map(|t| (t * 0.7).sin() + 0.1 * (t * 1e4).sin()).collect();
         let z: Vec<f64> = y.iter().map(|v| v * 0.9).collect();
         let sigma = vec![0.05; t.len()];
         let fig = Figure::new("time [s]")
@@ -1275,5 +1299,14 @@ mod tests {
         let svg = fig.to_svg().unwrap_or_default();
         assert!(!svg.is_empty() && svg.len() < 1_000_000, "{} bytes", svg.len());
         assert!(svg.contains("held out"));
+        // The dashed line is one polyline dashed by SVG: tens of polylines (axes, legend keys, one per
+        // trace), not the thousands a polyline per dash of a noisy trace gave.
+        assert!(svg.contains("stroke-dasharray=\"8 5\""));
+        assert!(!svg.contains(&format!("opacity=\"{DASH_MARK_ALPHA}\"")));
+        assert!(
+            svg.matches("<polyline").count() < 100,
+            "{} polylines",
+            svg.matches("<polyline").count()
+        );
     }
 }
