@@ -120,6 +120,7 @@ fn verdict(h: &mut String, r: &Value) {
     let v = text(r, &["verdict"]).unwrap_or_else(|| "no verdict recorded in the report".into());
     let named = r.get("named").and_then(Value::as_array).is_some_and(|a| !a.is_empty());
     let no_verdict = v.starts_with("no verdict")
+        || r.get("status").and_then(Value::as_str) == Some("no_verdict")
         || r.pointer("/data_quality/supports_verdict") == Some(&Value::Bool(false))
         || r.get("no_verdict")
             .is_some_and(|x| !x.is_null() && x != &Value::Bool(false));
@@ -145,7 +146,12 @@ fn verdict(h: &mut String, r: &Value) {
             let _ = write!(h, "<br><b>Top cause:</b> {}", esc(&what));
         }
     }
-    if let Some(reasons) = r.pointer("/data_quality/why_not").and_then(Value::as_array) {
+    // The machine-readable reasons (`reasons`, beside `status`) where the report has them.
+    let reasons = r
+        .get("reasons")
+        .filter(|x| x.as_array().is_some_and(|a| !a.is_empty()))
+        .or_else(|| r.pointer("/data_quality/why_not"));
+    if let Some(reasons) = reasons.and_then(Value::as_array) {
         let reasons: Vec<String> = reasons.iter().filter_map(Value::as_str).map(esc).collect();
         if !reasons.is_empty() && !reasons.iter().all(|x| v.contains(x.as_str())) {
             let _ = write!(h, "<ul><li>{}</li></ul>", reasons.join("</li><li>"));
@@ -586,6 +592,14 @@ mod tests {
         assert!(!page.contains("id=\"coefficients\""));
         assert!(!page.contains("id=\"figures\""));
         assert!(page.ends_with("</body></html>\n"));
+    }
+
+    #[test]
+    fn status_and_reasons_are_read() {
+        let r = json!({"verdict": "none", "status": "no_verdict", "reasons": ["log too short"]});
+        let page = gaps_page(&r, &[]);
+        assert!(page.contains("class=\"verdict none\""));
+        assert!(page.contains("<li>log too short</li>"), "{page}");
     }
 
     #[test]
