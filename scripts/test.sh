@@ -2,8 +2,9 @@
 # Runs all of the project's checks and tests, in the order CI runs them (.ci/run execs this file):
 # tools (QEMU, defmt-print), formatting, host clippy, firmware clippy, the core built for the MCU,
 # host tests (among them the firmware replayed under QEMU, with and without injected faults), the
-# main job, the firmware release build, its panic audit, its static stack bound and its size, then a short run of the core
-# fuzz targets. Stops at the first failure.
+# main job, the HTML reports in headless Chromium, the firmware release build, its panic audit, its
+# static stack bound and its size, then a short run of the core fuzz targets. Stops at the first
+# failure.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 
@@ -70,6 +71,24 @@ if [ ! -x "$AEROSID" ]; then
     exit 1
 fi
 "$AEROSID" run --out target/main-job
+
+step "HTML reports in headless Chromium (docs/reports.md): scripts/check-html.py on \`aerosid gaps\` pages"
+# Chromium (Debian's package) installed if missing, as QEMU above. Two pages: the HFB-320 flight-test
+# data (no verdict: 10 Hz) and a simulated flight with a named cause; each must render every figure
+# written beside it inline, with no console error and a screenshot that is not blank.
+if ! command -v chromium >/dev/null 2>&1; then
+    if [ "$(id -u)" = 0 ]; then
+        apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium
+    else
+        sudo apt-get update -qq && sudo DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium
+    fi
+fi
+html_dir=target/html-check
+rm -rf "$html_dir"
+"$AEROSID" gaps --data tool/data/flight/hfb320_1_10.asc --with tool/data/maps/hfb320.map --out "$html_dir/hfb320" >/dev/null
+"$AEROSID" gaps --simulate alpha-dot --seed 1 --out "$html_dir/alpha-dot" >/dev/null
+python3 scripts/check-html.py --figures-beside --expect-id verdict --expect-id coefficients \
+    --shots "$html_dir/shots" "$html_dir/hfb320/report.html" "$html_dir/alpha-dot/report.html"
 
 step "firmware release build: cargo fw-build"
 cargo fw-build

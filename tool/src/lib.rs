@@ -19,6 +19,7 @@ pub mod experiment;
 pub mod fem_batch;
 pub mod fem_report;
 pub mod gaps;
+pub mod html;
 pub mod io;
 pub mod longrun;
 pub mod mc;

@@ -14,6 +14,16 @@
 //! # Data handling
 //! Non-finite points (NaN, ±∞) are skipped and split a line or band into separate pieces, so a gap in
 //! the data shows as a gap in the figure. On a log axis non-positive values are skipped the same way.
+//! A linear y axis is set by the 1st–99th percentile of the panel's data widened by a margin
+//! ([`robust_range`]), so a start-up transient does not squeeze the rest of the flight into a line;
+//! points beyond it are drawn on the edge and marked with a triangle, and the panel's caption says
+//! so. Long traces are decimated for drawing to the first, lowest, highest and last point of each
+//! pixel column ([`decimate`]): a spike stays visible and an hour at 100 Hz stays well under 1 MB.
+//! The legend goes to the corner of the panel that covers the fewest points, or above the data
+//! when every corner covers some; a band or line with nothing drawable gets no legend entry.
+//! [`Figure::split_at`] marks the identification / held-out split on every panel. A title too
+//! long for the figure is wrapped, a panel caption shrunk.
+//!
 //! A figure with no panels, or with no drawable point at all, is refused with
 //! [`PlotError::EmptyFigure`]; a series whose arrays differ in length is refused with
 //! [`PlotError::LengthMismatch`]. Nothing here panics on data.
@@ -45,15 +55,28 @@ use std::path::{Path, PathBuf};
 
 use plotters::coord::ranged1d::ValueFormatter;
 use plotters::coord::types::RangedCoordf64;
-use plotters::element::DashedPathElement;
 use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 /// Opacity of a band's fill (0 = invisible, 1 = opaque).
 const BAND_ALPHA: f64 = 0.25;
 /// Dash length and gap of dashed lines, in pixels.
 const DASH_PX: (u32, u32) = (8, 5);
+/// The opacity that marks a dashed line's polylines in the SVG for [`dash_marked`]: no other
+/// element is drawn with it.
+const DASH_MARK_ALPHA: f64 = 0.999;
 /// Font family of all text; the SVG viewer resolves it.
 const FONT: &str = "sans-serif";
+/// Width of a character as a share of the font size: an upper estimate for sans-serif text, used to
+/// fit titles and to size legends without a font loader.
+const CHAR_EM: f64 = 0.56;
+/// Quantiles of the data that set a linear y axis ([`robust_range`]).
+const ROBUST_QUANTILES: (f64, f64) = (0.01, 0.99);
+/// How far beyond the robust quantiles data are still shown unclipped, as a share of their spread.
+const ROBUST_MARGIN: f64 = 0.25;
+/// Width of the y label area and the right margin, pixels: the plot area is the rest.
+const Y_LABEL_PX: u32 = 75;
+const RIGHT_PX: u32 = 20;
 
 /// Why a figure was not written.
 #[derive(Debug)]
@@ -423,11 +446,79 @@ impl Panel {
         polys
     }
 
+    /// [`Panel::band_polygons`] of the band cut to `columns` pixel columns: per column the lowest
+    /// lower and the highest upper edge, at the column's first and last x, so the drawn band covers
+    /// at least what the full band does.
+    fn band_polygons_decimated(&self, band: &Band, x_range: &Range<f64>, columns: usize) -> Vec<Vec<(f64, f64)>> {
+        let span = x_range.end - x_range.start;
+        if band.x.len() <= 4 * columns || columns == 0 || span.is_nan() || span <= 0.0 {
+            return self.band_polygons(band);
+        }
+        let column = |x: f64| ((x - x_range.start) / span * columns as f64).floor() as i64;
+        let mut x = Vec::new();
+        let mut lower = Vec::new();
+        let mut upper = Vec::new();
+        let mut i = 0;
+        let n = band.x.len().min(band.lower.len()).min(band.upper.len());
+        let ok = |i: usize| band.x[i].is_finite() && self.usable(band.lower[i]) && self.usable(band.upper[i]);
+        while i < n {
+            if !ok(i) {
+                x.push(f64::NAN);
+                lower.push(f64::NAN);
+                upper.push(f64::NAN);
+                i += 1;
+                continue;
+            }
+            let c = column(band.x[i]);
+            let (mut lo, mut hi, mut j) = (band.lower[i], band.upper[i], i + 1);
+            while j < n && ok(j) && column(band.x[j]) == c {
+                lo = lo.min(band.lower[j]);
+                hi = hi.max(band.upper[j]);
+                j += 1;
+            }
+            x.extend([band.x[i], band.x[j - 1]]);
+            lower.extend([lo, lo]);
+            upper.extend([hi, hi]);
+            i = j;
+        }
+        self.band_polygons(&Band::new("", &x, &lower, &upper, band.colour))
+    }
+
+    /// The range of the data shown unclipped: all of it on a log axis, the [`robust_range`] of the
+    /// lines and bands (with every reference line) on a linear one.
+    fn data_range(&self) -> Option<(f64, f64)> {
+        if self.log_y {
+            return min_max(self.y_values().into_iter());
+        }
+        let mut data = Vec::new();
+        for s in &self.series {
+            match s {
+                Series::Line(l) => data.extend(l.x.iter().zip(&l.y).filter(|(x, _)| x.is_finite()).map(|(_, y)| *y)),
+                Series::Band(b) => {
+                    for ((x, lo), hi) in b.x.iter().zip(&b.lower).zip(&b.upper) {
+                        if x.is_finite() {
+                            data.extend([*lo, *hi]);
+                        }
+                    }
+                }
+                Series::HLine(_) => {}
+            }
+        }
+        data.retain(|y| y.is_finite());
+        let hlines = self.series.iter().filter_map(|s| match s {
+            Series::HLine(h) if h.y.is_finite() => Some(h.y),
+            _ => None,
+        });
+        let robust = robust_range(&mut data);
+        min_max(robust.into_iter().flat_map(|(lo, hi)| [lo, hi]).chain(hlines))
+    }
+
     /// The y range to show: the data range with 5 % margin (in log space on a log axis), or a default
     /// when the panel has nothing drawable.
     fn y_range(&self) -> Range<f64> {
-        let ys = self.y_values();
-        let (lo, hi) = min_max(ys.iter().copied()).unwrap_or(if self.log_y { (1.0, 10.0) } else { (0.0, 1.0) });
+        let (lo, hi) = self
+            .data_range()
+            .unwrap_or(if self.log_y { (1.0, 10.0) } else { (0.0, 1.0) });
         if self.log_y {
             let (llo, lhi) = pad(lo.log10(), hi.log10(), 0.5);
             10f64.powf(llo)..10f64.powf(lhi)
@@ -447,6 +538,7 @@ pub struct Figure {
     width_px: u32,
     panel_height_px: u32,
     panels: Vec<Panel>,
+    split_x: Option<f64>,
 }
 
 impl Figure {
@@ -459,7 +551,15 @@ impl Figure {
             width_px: 900,
             panel_height_px: 280,
             panels: Vec::new(),
+            split_x: None,
         }
+    }
+
+    /// Mark the end of the identification segment and the start of the held-out one at `x` on every
+    /// panel (a dashed vertical line, labelled on the top panel). A non-finite `x` marks nothing.
+    pub fn split_at(mut self, x: f64) -> Self {
+        self.split_x = x.is_finite().then_some(x);
+        self
     }
 
     /// A title over the whole figure.
@@ -524,16 +624,28 @@ impl Figure {
         };
         let x_range = x_lo..x_hi;
 
-        let title_px = if self.title.is_some() { 40 } else { 0 };
+        // A title wider than the figure is wrapped onto as many lines as it needs.
+        let title_lines = self
+            .title
+            .as_deref()
+            .map_or_else(Vec::new, |t| wrap(t, self.width_px, TITLE_PT));
+        let title_px = if title_lines.is_empty() {
+            0
+        } else {
+            12 + TITLE_LINE_PX * title_lines.len() as u32
+        };
         let height_px = title_px + self.panel_height_px * self.panels.len() as u32 + 30;
         let mut svg = String::new();
         {
             let root = SVGBackend::with_string(&mut svg, (self.width_px, height_px)).into_drawing_area();
             root.fill(&WHITE).map_err(render_err)?;
-            let body = match &self.title {
-                Some(t) => root.titled(t, (FONT, 24)).map_err(render_err)?,
-                None => root.clone(),
-            };
+            let (head, body) = root.split_vertically(title_px);
+            let style = TextStyle::from((FONT, TITLE_PT)).pos(Pos::new(HPos::Center, VPos::Top));
+            for (i, line) in title_lines.iter().enumerate() {
+                let y = 6 + TITLE_LINE_PX as i32 * i as i32;
+                head.draw(&Text::new(line.as_str(), (self.width_px as i32 / 2, y), style.clone()))
+                    .map_err(render_err)?;
+            }
             // The bottom panel gets the extra 30 px for the shared x label.
             let last = self.panels.len() - 1;
             let mut rest = body;
@@ -545,51 +657,188 @@ impl Figure {
                     rest = bottom;
                     top
                 };
-                let x_label = (i == last).then_some(self.x_label.as_str());
-                let y_range = panel.y_range();
+                let ctx = PanelContext {
+                    x_label: (i == last).then_some(self.x_label.as_str()),
+                    x_range: x_range.clone(),
+                    columns: self.width_px as usize,
+                    split: self.split_x.map(|x| (x, i == 0)),
+                };
+                let layout = panel.layout(&ctx, self.width_px, area.dim_in_pixel().1);
+                let caption = if layout.clipped {
+                    format!("{} (beyond the axis: ▲▼ on its edge)", panel.title)
+                } else {
+                    panel.title.clone()
+                };
+                let caption_pt = fit_pt(&caption, self.width_px.saturating_sub(40), CAPTION_PT);
                 let mut builder = ChartBuilder::on(&area);
                 builder
-                    .caption(&panel.title, (FONT, 18))
+                    .caption(&caption, (FONT, caption_pt))
                     .margin(8)
-                    .margin_right(20)
-                    .x_label_area_size(if x_label.is_some() { 45 } else { 25 })
-                    .y_label_area_size(75);
+                    .margin_right(RIGHT_PX)
+                    .x_label_area_size(if ctx.x_label.is_some() { 45 } else { 25 })
+                    .y_label_area_size(Y_LABEL_PX);
                 if panel.log_y {
                     let mut chart = builder
-                        .build_cartesian_2d(x_range.clone(), y_range.log_scale())
+                        .build_cartesian_2d(x_range.clone(), layout.axis.clone().log_scale())
                         .map_err(render_err)?;
-                    draw_panel(&mut chart, panel, x_label, &x_range)?;
+                    draw_panel(&mut chart, panel, &ctx, &layout)?;
                 } else {
                     let mut chart = builder
-                        .build_cartesian_2d(x_range.clone(), y_range)
+                        .build_cartesian_2d(x_range.clone(), layout.axis.clone())
                         .map_err(render_err)?;
-                    draw_panel(&mut chart, panel, x_label, &x_range)?;
+                    draw_panel(&mut chart, panel, &ctx, &layout)?;
                 }
             }
             root.present().map_err(render_err)?;
         }
-        Ok(svg)
+        Ok(dash_marked(&svg))
     }
 }
 
-/// Draw the mesh, the series and the legend of one panel on a chart whose y axis is `Y` (linear or
-/// log; the data are `f64` either way).
+/// Font sizes (pt = px in SVG) of the figure title and the panel captions, and a title line's height.
+const TITLE_PT: u32 = 22;
+const TITLE_LINE_PX: u32 = 28;
+const CAPTION_PT: u32 = 18;
+
+/// What a panel is drawn with that the figure decides.
+struct PanelContext<'s> {
+    x_label: Option<&'s str>,
+    x_range: Range<f64>,
+    /// Pixel columns to decimate the traces to (the figure's width: at least the plot area's).
+    columns: usize,
+    /// The identification / held-out split, and whether this panel labels it.
+    split: Option<(f64, bool)>,
+}
+
+/// The y axis of a panel and where its legend goes.
+struct Layout {
+    /// The range data are shown unclipped in: drawn values are clamped to it.
+    data: Range<f64>,
+    /// The axis: `data` padded, plus head room for the legend when every corner covers data.
+    axis: Range<f64>,
+    legend: SeriesLabelPosition,
+    /// Whether any drawn value lies beyond `data`.
+    clipped: bool,
+}
+
+impl Panel {
+    /// The y axis and the legend's corner of this panel in an area of `width_px` × `height_px`.
+    fn layout(&self, ctx: &PanelContext<'_>, width_px: u32, height_px: u32) -> Layout {
+        let axis = self.y_range();
+        let (dlo, dhi) = self.data_range().unwrap_or((axis.start, axis.end));
+        let data = dlo.min(dhi)..dhi.max(dlo);
+        let clipped = !self.log_y && self.y_values().iter().any(|y| *y < data.start || *y > data.end);
+        // The legend's size as a share of the plot area (13 pt labels, a 20 px key, 18 px rows).
+        let labels: Vec<&str> = self.legend_labels().collect();
+        let plot_w = f64::from(width_px.saturating_sub(Y_LABEL_PX + RIGHT_PX + 16).max(50));
+        let plot_h = f64::from(height_px.saturating_sub(80).max(50));
+        let longest = labels.iter().map(|l| l.chars().count()).max().unwrap_or(0) as f64;
+        let fx = ((longest * CHAR_EM * 13.0 + 45.0) / plot_w).min(1.0);
+        let fy = ((labels.len() as f64 * 18.0 + 20.0) / plot_h).min(0.9);
+        if labels.is_empty() {
+            return Layout {
+                data,
+                axis,
+                legend: SeriesLabelPosition::UpperRight,
+                clipped,
+            };
+        }
+        // Points (in the unit square of the plot area) under each corner's legend.
+        let to_unit = |y: f64| {
+            if self.log_y {
+                (y.log10() - axis.start.log10()) / (axis.end.log10() - axis.start.log10())
+            } else {
+                (y.clamp(data.start, data.end) - axis.start) / (axis.end - axis.start)
+            }
+        };
+        let xs = ctx.x_range.end - ctx.x_range.start;
+        let mut counts = [0usize; 4];
+        for (x, y) in self.points() {
+            let (u, v) = ((x - ctx.x_range.start) / xs, to_unit(y));
+            let right = u > 1.0 - fx;
+            let left = u < fx;
+            let top = v > 1.0 - fy;
+            let bottom = v < fy;
+            counts[0] += usize::from(top && right);
+            counts[1] += usize::from(top && left);
+            counts[2] += usize::from(bottom && right);
+            counts[3] += usize::from(bottom && left);
+        }
+        let corners = [
+            SeriesLabelPosition::UpperRight,
+            SeriesLabelPosition::UpperLeft,
+            SeriesLabelPosition::LowerRight,
+            SeriesLabelPosition::LowerLeft,
+        ];
+        let best = (0..4).min_by_key(|&i| counts[i]).unwrap_or(0);
+        if counts[best] == 0 || self.log_y {
+            return Layout {
+                data,
+                axis,
+                legend: corners[best].clone(),
+                clipped,
+            };
+        }
+        // Every corner covers data: raise the top of the axis so the legend sits above all of it.
+        let head = (axis.end - axis.start) * fy / (1.0 - fy);
+        Layout {
+            data,
+            axis: axis.start..axis.end + head,
+            legend: SeriesLabelPosition::UpperRight,
+            clipped,
+        }
+    }
+
+    /// Labels of the series that will get a legend entry (labelled and with something to draw).
+    fn legend_labels(&self) -> impl Iterator<Item = &str> + '_ {
+        self.series.iter().filter_map(|s| match s {
+            Series::Line(l) if !l.label.is_empty() && !self.line_pieces(&l.x, &l.y).is_empty() => {
+                Some(l.label.as_str())
+            }
+            Series::Band(b) if !b.label.is_empty() && !self.band_polygons(b).is_empty() => Some(b.label.as_str()),
+            Series::HLine(h) if !h.label.is_empty() && self.usable(h.y) => Some(h.label.as_str()),
+            _ => None,
+        })
+    }
+
+    /// Every drawable (x, y) of the lines and band edges.
+    fn points(&self) -> impl Iterator<Item = (f64, f64)> + '_ {
+        self.series
+            .iter()
+            .flat_map(|s| -> Box<dyn Iterator<Item = (f64, f64)> + '_> {
+                match s {
+                    Series::Line(l) => Box::new(l.x.iter().copied().zip(l.y.iter().copied())),
+                    Series::Band(b) => Box::new(
+                        b.x.iter()
+                            .zip(&b.lower)
+                            .zip(&b.upper)
+                            .flat_map(|((x, lo), hi)| [(*x, *lo), (*x, *hi)]),
+                    ),
+                    Series::HLine(_) => Box::new(std::iter::empty()),
+                }
+            })
+            .filter(|(x, y)| x.is_finite() && self.usable(*y))
+    }
+}
+
+/// Draw the mesh, the series, the split and the legend of one panel on a chart whose y axis is `Y`
+/// (linear or log; the data are `f64` either way).
 fn draw_panel<'a, 'b: 'a, Y>(
     chart: &mut ChartContext<'a, SVGBackend<'b>, Cartesian2d<RangedCoordf64, Y>>,
     panel: &Panel,
-    x_label: Option<&str>,
-    x_range: &Range<f64>,
+    ctx: &PanelContext<'_>,
+    layout: &Layout,
 ) -> Result<(), PlotError>
 where
     Y: Ranged<ValueType = f64> + ValueFormatter<f64>,
 {
+    let x_range = &ctx.x_range;
     // Tick values are computed in floating point, so the tick at zero can come out as ±1e-17.
     let x_zero = 1e-9 * (x_range.end - x_range.start).abs();
     let y_zero = if panel.log_y {
         0.0
     } else {
-        let y = panel.y_range();
-        1e-9 * y.end.abs().max(y.start.abs())
+        1e-9 * layout.axis.end.abs().max(layout.axis.start.abs())
     };
     let x_tick = |v: &f64| format_tick(*v, x_zero);
     let y_tick = |v: &f64| format_tick(*v, y_zero);
@@ -600,21 +849,59 @@ where
         .label_style((FONT, 13))
         .axis_desc_style((FONT, 15))
         .light_line_style(RGBColor(235, 235, 235));
-    if let Some(x) = x_label {
+    if let Some(x) = ctx.x_label {
         mesh.x_desc(x);
     }
     mesh.draw().map_err(render_err)?;
 
+    if let Some((x, labelled)) = ctx.split {
+        let style = RGBColor(60, 60, 60).stroke_width(1);
+        let top = layout.axis.end;
+        let line = vec![(x, layout.axis.start), (x, top)];
+        chart
+            .draw_series(std::iter::once(PathElement::new(
+                line,
+                ShapeStyle {
+                    color: style.color.mix(DASH_MARK_ALPHA),
+                    ..style
+                },
+            )))
+            .map_err(render_err)?;
+        if labelled {
+            let font = TextStyle::from((FONT, 13)).color(&RGBColor(60, 60, 60));
+            let left = font.pos(Pos::new(HPos::Right, VPos::Top));
+            let right = font.pos(Pos::new(HPos::Left, VPos::Top));
+            chart
+                .draw_series([
+                    EmptyElement::at((x, top)) + Text::new("identification ◂", (-4, 4), left),
+                    EmptyElement::at((x, top)) + Text::new("▸ held out", (4, 4), right),
+                ])
+                .map_err(render_err)?;
+        }
+    }
+
+    let clamp = |y: f64| {
+        if panel.log_y {
+            y
+        } else {
+            y.clamp(layout.data.start, layout.data.end)
+        }
+    };
     let mut labelled = false;
     for series in &panel.series {
         match series {
             Series::Band(b) => {
                 let fill = b.colour.rgb_color().mix(BAND_ALPHA).filled();
-                let polys = panel.band_polygons(b);
+                let polys: Vec<Vec<(f64, f64)>> = panel
+                    .band_polygons_decimated(b, x_range, ctx.columns)
+                    .into_iter()
+                    .map(|p| p.into_iter().map(|(x, y)| (x, clamp(y))).collect())
+                    .collect();
+                let drawn = !polys.is_empty();
                 let anno = chart
                     .draw_series(polys.into_iter().map(|p| Polygon::new(p, fill)))
                     .map_err(render_err)?;
-                if !b.label.is_empty() {
+                if !b.label.is_empty() && drawn {
                     anno.label(&b.label)
                         .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 20, y + 5)], fill));
                     labelled = true;
@@ -622,8 +909,35 @@ where
             }
             Series::Line(l) => {
                 let style = l.colour.rgb_color().stroke_width(l.width_px);
-                let pieces = panel.line_pieces(&l.x, &l.y);
+                let mut marks = Vec::new();
+                let pieces: Vec<Vec<(f64, f64)>> = panel
+                    .line_pieces(&l.x, &l.y)
+                    .iter()
+                    .map(|p| {
+                        decimate(p, x_range, ctx.columns)
+                            .into_iter()
+                            .map(|(x, y)| {
+                                let c = clamp(y);
+                                if c != y {
+                                    marks.push((x, c, y > c));
+                                }
+                                (x, c)
+                            })
+                            .collect()
+                    })
+                    .collect();
                 labelled |= draw_path(chart, pieces, style, l.dashed, &l.label)?;
+                // A clipped point: a triangle on the edge, pointing out of the axis, one per column.
+                marks.dedup_by(|a, b| {
+                    a.2 == b.2 && ((a.0 - b.0) / (x_range.end - x_range.start) * ctx.columns as f64).abs() < 6.0
+                });
+                let fill = l.colour.rgb_color().filled();
+                chart
+                    .draw_series(marks.into_iter().map(|(x, y, up)| {
+                        let tip = if up { -7 } else { 7 };
+                        EmptyElement::at((x, y)) + Polygon::new(vec![(-4, 0), (4, 0), (0, tip)], fill)
+                    }))
+                    .map_err(render_err)?;
             }
             Series::HLine(h) => {
                 let style = h.colour.rgb_color().stroke_width(1);
@@ -639,7 +953,7 @@ where
     if labelled {
         chart
             .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
+            .position(layout.legend.clone())
             .label_font((FONT, 13))
             .background_style(WHITE.mix(0.85))
             .border_style(RGBColor(160, 160, 160))
@@ -660,14 +974,21 @@ fn draw_path<'a, 'b: 'a, Y>(
 where
     Y: Ranged<ValueType = f64>,
 {
-    let (dash, gap) = DASH_PX;
-    let anno = if dashed {
-        chart.draw_series(pieces.into_iter().map(|p| DashedPathElement::new(p, dash, gap, style)))
+    let drawn = !pieces.is_empty();
+    // A dashed line is one polyline with a dash pattern (set by `Figure::to_svg` on the polylines
+    // this alpha marks), not a polyline per dash: a noisy hour-long trace made tens of thousands.
+    let style = if dashed {
+        ShapeStyle {
+            color: style.color.mix(DASH_MARK_ALPHA),
+            ..style
+        }
     } else {
-        chart.draw_series(pieces.into_iter().map(|p| PathElement::new(p, style)))
-    }
-    .map_err(render_err)?;
-    if label.is_empty() {
+        style
+    };
+    let anno = chart
+        .draw_series(pieces.into_iter().map(|p| PathElement::new(p, style)))
+        .map_err(render_err)?;
+    if label.is_empty() || !drawn {
         return Ok(false);
     }
     let legend = move |(x, y): (i32, i32)| {
@@ -724,6 +1045,108 @@ fn pad(lo: f64, hi: f64, half_width_if_flat: f64) -> (f64, f64) {
     }
 }
 
+/// The range of `values` to show unclipped: their 1st–99th percentile widened by a quarter of that
+/// spread each side, and no wider than the values themselves. A start-up transient or a divergence
+/// that takes under 1 % of the samples then lies beyond it instead of setting the axis. Non-finite
+/// values are ignored; `values` is sorted in place. `None` when none is finite.
+pub fn robust_range(values: &mut [f64]) -> Option<(f64, f64)> {
+    let mut n = 0;
+    for i in 0..values.len() {
+        if values[i].is_finite() {
+            values.swap(n, i);
+            n += 1;
+        }
+    }
+    let v = &mut values[..n];
+    if v.is_empty() {
+        return None;
+    }
+    v.sort_by(f64::total_cmp);
+    // Quantile by the nearest rank at or inside the quantile (type 1 of Hyndman and Fan).
+    let q = |p: f64| v[((p * (n - 1) as f64).round() as usize).min(n - 1)];
+    let (lo, hi) = (q(ROBUST_QUANTILES.0), q(ROBUST_QUANTILES.1));
+    let margin = ROBUST_MARGIN * (hi - lo);
+    Some(((lo - margin).max(v[0]), (hi + margin).min(v[n - 1])))
+}
+
+/// Min/max decimation of a polyline for drawing at `columns` pixel columns across `x_range`: each
+/// run of consecutive points in one column is cut to its first, lowest, highest and last point, in
+/// their order, so the drawn envelope is the same and a one-sample spike is kept. Lines of at most
+/// four points per column are returned as they are.
+pub fn decimate(points: &[(f64, f64)], x_range: &Range<f64>, columns: usize) -> Vec<(f64, f64)> {
+    let span = x_range.end - x_range.start;
+    if points.len() <= 4 * columns || columns == 0 || span.is_nan() || span <= 0.0 {
+        return points.to_vec();
+    }
+    let column = |x: f64| ((x - x_range.start) / span * columns as f64).floor() as i64;
+    let mut out = Vec::with_capacity(4 * columns + 4);
+    let mut start = 0;
+    while start < points.len() {
+        let c = column(points[start].0);
+        let mut end = start + 1;
+        while end < points.len() && column(points[end].0) == c {
+            end += 1;
+        }
+        let run = &points[start..end];
+        let (mut lo, mut hi) = (0, 0);
+        for (i, p) in run.iter().enumerate() {
+            if p.1 < run[lo].1 {
+                lo = i;
+            }
+            if p.1 > run[hi].1 {
+                hi = i;
+            }
+        }
+        let mut keep = [0, lo.min(hi), lo.max(hi), run.len() - 1];
+        keep.sort_unstable();
+        let mut last = usize::MAX;
+        for k in keep {
+            if k != last {
+                out.push(run[k]);
+                last = k;
+            }
+        }
+        start = end;
+    }
+    out
+}
+
+/// `svg` with the polylines of dashed lines (drawn with [`DASH_MARK_ALPHA`]) made opaque and dashed.
+fn dash_marked(svg: &str) -> String {
+    let (dash, gap) = DASH_PX;
+    svg.replace(
+        &format!("opacity=\"{DASH_MARK_ALPHA}\""),
+        &format!("opacity=\"1\" stroke-dasharray=\"{dash} {gap}\""),
+    )
+}
+
+/// The lines of `text` at `pt` points that fit `width_px`, broken at spaces.
+fn wrap(text: &str, width_px: u32, pt: u32) -> Vec<String> {
+    let max_chars = ((f64::from(width_px) - 20.0) / (CHAR_EM * f64::from(pt))).max(10.0) as usize;
+    let mut lines: Vec<String> = Vec::new();
+    let mut cur = String::new();
+    for word in text.split(' ') {
+        if !cur.is_empty() && cur.chars().count() + 1 + word.chars().count() > max_chars {
+            lines.push(std::mem::take(&mut cur));
+        }
+        if !cur.is_empty() {
+            cur.push(' ');
+        }
+        cur.push_str(word);
+    }
+    if !cur.is_empty() {
+        lines.push(cur);
+    }
+    lines
+}
+
+/// The largest font size up to `pt` (and at least 11) at which `text` fits `width_px`.
+fn fit_pt(text: &str, width_px: u32, pt: u32) -> u32 {
+    let chars = text.chars().count().max(1) as f64;
+    let fit = f64::from(width_px) / (CHAR_EM * chars);
+    (fit.floor() as u32).clamp(11, pt)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -762,6 +1185,128 @@ mod tests {
         assert_eq!(
             p.band_polygons(&b),
             vec![vec![(0.0, 2.0), (1.0, 3.0), (1.0, 1.0), (0.0, 0.0)]]
+        );
+    }
+
+    #[test]
+    fn decimation_keeps_spikes_and_the_envelope() {
+        // 100 000 samples of a sine with one-sample spikes, drawn on 500 columns.
+        let n = 100_000;
+        let mut pts: Vec<(f64, f64)> = (0..n).map(|i| (i as f64 * 0.01, (i as f64 * 0.001).sin())).collect();
+        pts[12_345].1 = 40.0;
+        pts[77_777].1 = -30.0;
+        let range = 0.0..(n - 1) as f64 * 0.01;
+        let d = decimate(&pts, &range, 500);
+        assert!(d.len() <= 4 * 500 + 4, "{} points kept", d.len());
+        // The spikes survive, at their own x.
+        assert!(d.contains(&pts[12_345]) && d.contains(&pts[77_777]));
+        // Every kept point is an original one, in the original order.
+        assert!(d.windows(2).all(|w| w[0].0 < w[1].0));
+        // Per column the extremes are those of the full trace.
+        let col = |x: f64| (x / range.end * 500.0).floor() as usize;
+        let mut full = vec![(f64::INFINITY, f64::NEG_INFINITY); 501];
+        let mut kept = full.clone();
+        for (m, p) in [(&mut full, &pts), (&mut kept, &d)] {
+            for &(x, y) in p.iter() {
+                let c = &mut m[col(x)];
+                *c = (c.0.min(y), c.1.max(y));
+            }
+        }
+        assert_eq!(full, kept);
+        // First and last points are kept, so the line spans the same x.
+        assert_eq!((d[0], d[d.len() - 1]), (pts[0], pts[n - 1]));
+        // A short line is left alone.
+        assert_eq!(decimate(&pts[..1000], &range, 500), pts[..1000].to_vec());
+    }
+
+    #[test]
+    fn robust_range_ignores_a_start_up_transient() {
+        // 0.5 % of the samples at −60 (a transient), the rest around 2 ± 0.1.
+        let mut v: Vec<f64> = (0..10_000)
+            .map(|i| {
+                if i < 50 {
+                    -60.0
+                } else {
+                    2.0 + 0.1 * (i as f64 * 0.37).sin()
+                }
+            })
+            .collect();
+        let (lo, hi) = robust_range(&mut v).unwrap_or_default();
+        // 1st percentile ≈ 1.9, 99th ≈ 2.1, widened by a quarter of their spread.
+        assert!((1.84..1.91).contains(&lo), "lo {lo}");
+        assert!((2.09..2.16).contains(&hi), "hi {hi}");
+        // Data all within the margin: the range is exactly theirs (nothing clipped).
+        let mut w = vec![1.0, 2.0, 3.0, f64::NAN, 4.0];
+        assert_eq!(robust_range(&mut w), Some((1.0, 4.0)));
+        assert_eq!(robust_range(&mut [f64::NAN]), None);
+    }
+
+    #[test]
+    fn transient_is_clipped_and_marked_not_set_the_axis() {
+        let t: Vec<f64> = (0..1000).map(|i| i as f64 * 0.1).collect();
+        let y: Vec<f64> = t
+            .iter()
+            .map(|&t| if t < 0.5 { -60.0 } else { 1.9 + 0.1 * (t).sin() })
+            .collect();
+        let p = Panel::new("C_D", "C_D [-]").line(Line::new("estimate", &t, &y, Colour::BLUE));
+        let r = p.y_range();
+        assert!(r.start > 1.5 && r.end < 2.3, "{r:?}");
+        let svg = Figure::new("t [s]").panel(p).to_svg().unwrap_or_default();
+        assert!(svg.contains("beyond the axis"), "clipping not said");
+    }
+
+    #[test]
+    fn empty_band_gets_no_legend_entry() {
+        let t = [0.0, 1.0, 2.0];
+        let nan = [f64::NAN; 3];
+        let p = Panel::new("p", "y [m]")
+            .band(Band::around("±2σ", &t, &[1.0, 2.0, 3.0], &nan, 2.0, Colour::BLUE))
+            .line(Line::new("estimate", &t, &[1.0, 2.0, 3.0], Colour::BLUE));
+        let svg = Figure::new("t [s]").panel(p).to_svg().unwrap_or_default();
+        assert!(svg.contains("estimate"));
+        assert!(!svg.contains("±2σ"), "legend entry for a band with nothing drawn");
+    }
+
+    #[test]
+    fn long_titles_wrap_and_captions_shrink() {
+        let title = "held-out segment simulated with the fitted models (5 s pieces, each from the measured state)";
+        let lines = wrap(title, 900, TITLE_PT);
+        assert!(lines.len() >= 2, "{lines:?}");
+        for l in &lines {
+            assert!(l.chars().count() as f64 * CHAR_EM * f64::from(TITLE_PT) <= 880.0, "{l}");
+        }
+        assert_eq!(lines.join(" "), title);
+        assert_eq!(fit_pt("short", 800, CAPTION_PT), CAPTION_PT);
+        assert!(fit_pt(&"x".repeat(120), 800, CAPTION_PT) < CAPTION_PT);
+    }
+
+    #[test]
+    fn an_hour_at_100_hz_makes_a_small_svg() {
+        let t: Vec<f64> = (0..360_000).map(|i| i as f64 * 0.01).collect();
+        // Noise on every sample (a fixed sequence), so each pixel column spans a range.
+        let y: Vec<f64> = t.iter().map(|t| (t * 0.7).sin() + 0.1 * (t * 1e4).sin()).collect();
+        let z: Vec<f64> = y.iter().map(|v| v * 0.9).collect();
+        let sigma = vec![0.05; t.len()];
+        let fig = Figure::new("time [s]")
+            .split_at(2000.0)
+            .panel(
+                Panel::new("a", "a [m]")
+                    .band(Band::around("±2σ", &t, &y, &sigma, 2.0, Colour::BLUE))
+                    .line(Line::new("measured", &t, &y, Colour::GREY))
+                    .line(Line::new("model", &t, &z, Colour::BLUE).dashed()),
+            )
+            .panel(Panel::new("b", "b [m]").line(Line::new("residual", &t, &z, Colour::VERMILLION)));
+        let svg = fig.to_svg().unwrap_or_default();
+        assert!(!svg.is_empty() && svg.len() < 1_000_000, "{} bytes", svg.len());
+        assert!(svg.contains("held out"));
+        // The dashed line is one polyline dashed by SVG: tens of polylines (axes, legend keys, one per
+        // trace), not the thousands a polyline per dash of a noisy trace gave.
+        assert!(svg.contains("stroke-dasharray=\"8 5\""));
+        assert!(!svg.contains(&format!("opacity=\"{DASH_MARK_ALPHA}\"")));
+        assert!(
+            svg.matches("<polyline").count() < 100,
+            "{} polylines",
+            svg.matches("<polyline").count()
         );
     }
 }

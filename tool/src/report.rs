@@ -17,8 +17,10 @@ use aerosid_core::aero::model::idx;
 use aerosid_core::aero::Regressor;
 use std::fmt::Write as _;
 
-/// Every how many samples a figure draws a point.
-pub const FIGURE_DECIMATION: usize = 10;
+/// Every how many samples a figure takes a point: every one, as the figures cut each trace to the
+/// extremes of each pixel column themselves ([`crate::plot::decimate`]), which keeps the one-sample
+/// spikes that taking every n-th sample would drop.
+pub const FIGURE_DECIMATION: usize = 1;
 
 /// The conventional name of a parameter: coefficient `C_X` and its regressor.
 pub fn parameter_name(coefficient: usize, r: Regressor) -> String {

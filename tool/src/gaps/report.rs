@@ -447,7 +447,8 @@ fn sig3(x: f64, signed: bool) -> String {
     format!("{sign}{body}")
 }
 
-/// Writes `report.json`, `report.txt` and the figures into `dir`; returns the files written.
+/// Writes `report.json`, `report.txt`, the figures and `report.html` (crate::html) into `dir`;
+/// returns the files written.
 pub fn write(r: &GapReport, dir: &Path) -> Result<Vec<PathBuf>, ReportError> {
     std::fs::create_dir_all(dir).map_err(|e| ReportError::Io(dir.to_path_buf(), e))?;
     let mut files = Vec::new();
@@ -472,34 +473,62 @@ pub fn write(r: &GapReport, dir: &Path) -> Result<Vec<PathBuf>, ReportError> {
     }
     if !r.compatibility.traces.is_empty() {
         let p = dir.join("compatibility.svg");
-        let mut fig = Figure::new("time [s]")
-            .title("flight-path reconstruction: measured vs reconstructed (errors found removed)");
-        let n = r.compatibility.traces[0].1.len();
-        let t: Vec<f64> = r
-            .coefficients
-            .first()
-            .map_or_else(|| (0..n).map(|i| i as f64).collect(), |c| c.traces.t_s.clone());
-        for (q, m, y) in &r.compatibility.traces {
-            let res: Vec<f64> = m.iter().zip(y).map(|(a, b)| a - b).collect();
-            fig = fig
-                .panel(
-                    Panel::new(format!("{q:?}"), format!("{q:?}"))
-                        .line(Line::new("measured", &t, m, Colour::GREY))
-                        .line(Line::new("reconstructed", &t, y, Colour::BLUE)),
-                )
-                .panel(
-                    Panel::new(format!("{q:?} residual"), "measured − reconstructed").line(Line::new(
-                        "residual",
-                        &t,
-                        &res,
-                        Colour::VERMILLION,
-                    )),
-                );
-        }
-        fig.write_svg(&p).map_err(ReportError::Plot)?;
+        compatibility_figure(r).write_svg(&p).map_err(ReportError::Plot)?;
         files.push(p);
     }
+    files.push(crate::html::write_gaps(&dir.join("report.json"), &files).map_err(ReportError::Html)?);
     Ok(files)
+}
+
+/// The flight-path reconstruction: per output, measured vs reconstructed (with the sensor errors
+/// found removed) and the residual, in the output's unit; the identification / held-out split marked.
+pub fn compatibility_figure(r: &GapReport) -> Figure {
+    let n = r.compatibility.traces.first().map_or(0, |t| t.1.len());
+    let first = r.coefficients.first().filter(|c| c.traces.t_s.len() == n);
+    let t: Vec<f64> = first.map_or_else(|| (0..n).map(|i| i as f64).collect(), |c| c.traces.t_s.clone());
+    let mut fig = Figure::new(if first.is_some() { "time [s]" } else { "sample" })
+        .title("flight-path reconstruction: measured vs reconstructed (sensor errors found removed)");
+    if let Some(c) = first {
+        fig = fig.split_at(c.traces.t_s.get(c.traces.split).copied().unwrap_or(f64::NAN));
+    }
+    for (q, m, y) in &r.compatibility.traces {
+        let unit = quantity_unit(*q);
+        let res: Vec<f64> = m.iter().zip(y).map(|(a, b)| a - b).collect();
+        fig = fig
+            .panel(
+                Panel::new(format!("{q:?}"), format!("{q:?} [{unit}]"))
+                    .line(Line::new("measured", &t, m, Colour::GREY))
+                    .line(Line::new("reconstructed", &t, y, Colour::BLUE)),
+            )
+            .panel(
+                Panel::new(format!("{q:?} residual"), format!("measured − reconstructed [{unit}]")).line(Line::new(
+                    "residual",
+                    &t,
+                    &res,
+                    Colour::VERMILLION,
+                )),
+            );
+    }
+    fig
+}
+
+/// The SI unit of a logged quantity, for axis labels.
+fn quantity_unit(q: crate::io::measured::Quantity) -> &'static str {
+    use crate::io::measured::Quantity as Q;
+    match q {
+        Q::AccelX | Q::AccelY | Q::AccelZ => "m/s²",
+        Q::RollRate | Q::PitchRate | Q::YawRate | Q::PropSpeed => "rad/s",
+        Q::RollAccel | Q::PitchAccel | Q::YawAccel => "rad/s²",
+        Q::Airspeed | Q::VelocityNorth | Q::VelocityEast | Q::VelocityDown | Q::WindNorth | Q::WindEast => "m/s",
+        Q::Alpha | Q::Beta | Q::Roll | Q::Pitch | Q::Yaw => "rad",
+        Q::Elevator | Q::Aileron | Q::Rudder | Q::Flap => "rad",
+        Q::Throttle | Q::Mach => "–",
+        Q::Thrust => "N",
+        Q::ThrustDifference => "N·m",
+        Q::DynamicPressure => "Pa",
+        Q::AirDensity => "kg/m³",
+        Q::Altitude => "m",
+    }
 }
 
 /// The held-out segment simulated with the baseline and the extended models: per output, the
@@ -531,19 +560,22 @@ pub fn simulation_figure_titled(sim: &super::simulate::Simulation, title: &str) 
                 .line(Line::new("extended", &tr.t_s, &tr.extended, Colour::VERMILLION).dashed()),
             )
             .panel(
-                Panel::new(format!("{} error", tr.channel), "measured − simulated")
-                    .line(Line::new(
-                        format!("baseline (RMS {:.2e}, R² {:.3})", o.baseline.rms, o.baseline.r2),
-                        &tr.t_s,
-                        &eb,
-                        Colour::BLUE,
-                    ))
-                    .line(Line::new(
-                        format!("extended (RMS {:.2e}, R² {:.3})", o.extended.rms, o.extended.r2),
-                        &tr.t_s,
-                        &ee,
-                        Colour::VERMILLION,
-                    )),
+                Panel::new(
+                    format!("{} error", tr.channel),
+                    format!("measured − simulated [{}]", o.unit),
+                )
+                .line(Line::new(
+                    format!("baseline (RMS {:.2e}, R² {:.3})", o.baseline.rms, o.baseline.r2),
+                    &tr.t_s,
+                    &eb,
+                    Colour::BLUE,
+                ))
+                .line(Line::new(
+                    format!("extended (RMS {:.2e}, R² {:.3})", o.extended.rms, o.extended.r2),
+                    &tr.t_s,
+                    &ee,
+                    Colour::VERMILLION,
+                )),
             );
     }
     fig
@@ -555,26 +587,26 @@ pub fn coefficient_figure(c: &CoefficientGap) -> Figure {
     let rb: Vec<f64> = tr.measured.iter().zip(&tr.baseline).map(|(a, b)| a - b).collect();
     let re: Vec<f64> = tr.measured.iter().zip(&tr.extended).map(|(a, b)| a - b).collect();
     let added: Vec<&str> = c.added.iter().map(|a| a.term.as_str()).collect();
-    let t_split = tr.t_s.get(tr.split).copied().unwrap_or(0.0);
+    let t_split = tr.t_s.get(tr.split).copied().unwrap_or(f64::NAN);
     Figure::new("time [s]")
         .title(format!(
-            "{}: identification before {:.1} s, held out after; added: {}",
+            "{}: synthesised vs predicted; added: {}",
             c.name,
-            t_split,
             if added.is_empty() {
                 "nothing".into()
             } else {
                 added.join(", ")
             }
         ))
+        .split_at(t_split)
         .panel(
-            Panel::new(format!("{} measured vs predicted", c.name), c.name.clone())
+            Panel::new(format!("{} measured vs predicted", c.name), format!("{} [–]", c.name))
                 .line(Line::new("synthesised (eq. 1–2)", &tr.t_s, &tr.measured, Colour::GREY))
                 .line(Line::new("baseline", &tr.t_s, &tr.baseline, Colour::BLUE))
                 .line(Line::new("extended", &tr.t_s, &tr.extended, Colour::VERMILLION).dashed()),
         )
         .panel(
-            Panel::new("residuals", "measured − predicted")
+            Panel::new("residuals", "measured − predicted [–]")
                 .line(Line::new(
                     format!("baseline (held-out RMS {:.2e})", c.baseline.validation.rms),
                     &tr.t_s,
@@ -599,6 +631,8 @@ pub enum ReportError {
     Json(String),
     /// A figure failed.
     Plot(PlotError),
+    /// The HTML page failed.
+    Html(crate::html::HtmlError),
 }
 
 impl core::fmt::Display for ReportError {
@@ -607,6 +641,7 @@ impl core::fmt::Display for ReportError {
             Self::Io(p, e) => write!(f, "{}: {e}", p.display()),
             Self::Json(e) => write!(f, "JSON: {e}"),
             Self::Plot(e) => write!(f, "figure: {e}"),
+            Self::Html(e) => write!(f, "report.html: {e}"),
         }
     }
 }
