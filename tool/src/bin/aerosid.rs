@@ -645,9 +645,10 @@ fn air_data_parser() -> impl TypedValueParser<Value = AirDataChoice> {
 struct GapsArgs {
     /// A measured flight or manoeuvre (read by `aerosid::io::read_measured_with`): .csv,
     /// .asc/.txt/.dat or .mat with --with; a PX4 .ulg or ArduPilot .bin log with or without it.
-    /// Repeatable: the manoeuvres are pooled, each its own piece, in a canonical order (by file,
-    /// then time), whatever the order given (docs/model-gaps.md, "Pooled manoeuvres").
-    #[arg(long, value_name = "FILE")]
+    /// Several files (`--data a.csv b.csv`, `--data card/*.csv`, or the flag repeated): the
+    /// manoeuvres are pooled, each its own piece, in a canonical order (by file, then time),
+    /// whatever the order given (docs/model-gaps.md, "Pooled manoeuvres").
+    #[arg(long, value_name = "FILE", num_args = 1..)]
     data: Vec<PathBuf>,
     /// The column map or aircraft file of every --data file (optional for .ulg and .bin).
     #[arg(long = "with", value_name = "MAP_OR_AIRCRAFT", requires = "data")]

@@ -102,7 +102,7 @@ pub fn table(r: &GapReport) -> String {
     }
     let _ = writeln!(
         s,
-        "\n2–5. coefficients (R², RMS on the held-out segment; PSE on identification)"
+        "\n2. coefficients (R², RMS on the held-out segment; PSE on identification)"
     );
     let _ = writeln!(
         s,
@@ -245,30 +245,21 @@ pub fn table(r: &GapReport) -> String {
             o.unit
         );
     }
-    let _ = writeln!(s, "\n6. verdict");
-    match r.top_cause() {
-        None if !r.data_quality.supports_verdict => {
-            let _ = writeln!(s, "   {}", r.verdict);
-        }
-        None => {
-            let _ = writeln!(s, "   nothing missing: no candidate passes the threshold");
-        }
-        Some(t) => {
-            for (k, c) in r.named.iter().enumerate() {
-                let _ = writeln!(
-                    s,
-                    "   {} {:?} in {}: {} = {:.5} ± {:.5} (t² {:.1})",
-                    if k == 0 { "TOP" } else { "   " },
-                    c.kind,
-                    c.location,
-                    c.what,
-                    c.value,
-                    c.sigma,
-                    c.t2
-                );
-            }
-            let _ = t;
-        }
+    // One verdict, the same words as the coefficients' section's `overall` line, then the named
+    // causes with their final estimates.
+    let _ = writeln!(s, "\n4. verdict\n   {}", r.verdict);
+    for (k, c) in r.named.iter().enumerate() {
+        let _ = writeln!(
+            s,
+            "   {} {:?} in {}: {} = {:.5} ± {:.5} (t² {:.1})",
+            if k == 0 { "TOP" } else { "   " },
+            c.kind,
+            c.location,
+            c.what,
+            c.value,
+            c.sigma,
+            c.t2
+        );
     }
     s
 }
