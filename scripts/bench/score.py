@@ -140,16 +140,42 @@ EFFECT_PARAM = {
     "pitch-beta2": ("coef", "β²"),
     "adverse-yaw": ("coef", "δa"),
     "sensor-bias": ("sensor", "SensorBias"),
-    "elevator-delay": ("sensor", "ControlDelay"),
+    "elevator-delay": ("delay", "C_m"),
 }
 DETECT_FACTOR = 1.5
+
+
+def effect_of(p):
+    """The effect's name (EFFECT_PARAM's key): the manifest's `effect`, or for the JSBSim cards
+    (truth.json's planted: kind, location, term) the simulated kind it corresponds to."""
+    if p.get("effect"):
+        return p["effect"]
+    if p.get("kind") == "NonlinearAlpha" and p.get("location") == "C_L" and p.get("term") == "α²":
+        return "lift-quadratic"
+    if p.get("kind") == "ControlDelay" and p.get("location") == "Elevator":
+        return "elevator-delay"
+    return None
 
 
 def planted_limit(p, report):
     """(min_detectable, t2, estimate, what) of the planted effect's own parameter in the report, or
     None when the planted size has no parameter of its unit (EFFECT_PARAM) or the report lacks it."""
-    how = EFFECT_PARAM.get(p.get("effect"))
+    how = EFFECT_PARAM.get(effect_of(p))
     if how is None or report is None:
+        return None
+    if how[0] == "delay":
+        # A surface delay τ enters as δe(t − τ) ≈ δe − τ·δė (the analysis's own first-order
+        # reading): the δė candidate's coefficient is −C_δe·τ, so τ's least detectable size is
+        # min_detectable(δė) / |C_δe| in the coefficient where the analysis converts it.
+        for c in report.get("coefficients", []):
+            if c.get("name") != how[1]:
+                continue
+            de = [q.get("value") for q in (c.get("baseline") or {}).get("parameters", []) if q.get("term") == "δe"]
+            for cand in c.get("candidates", []):
+                if cand.get("term") == "δė" and de and de[0] and cand.get("min_detectable") is not None:
+                    return (cand["min_detectable"] / abs(de[0]), cand.get("t2"),
+                            (cand.get("value") or 0.0) / -de[0] if cand.get("value") is not None else None,
+                            "%s δė / |C δe|" % how[1])
         return None
     if how[0] == "coef":
         for c in report.get("coefficients", []):
@@ -168,7 +194,7 @@ def planted_limit(p, report):
 def pooled_rows(flights, getter, base):
     """Counts of one method on a pooled suite (see the module doc)."""
     r = dict(det_hit=0, det_n=0, below_hit=0, below_n=0, nc_hit=0, nc_n=0, clean_named=0, clean_n=0,
-             cross=0, cross_n=0, order_ok=0, order_n=0, single_ok=0, single_n=0, misses=[], below=[])
+             cross=0, cross_n=0, cross_items=[], order_ok=0, order_n=0, single_ok=0, single_n=0, misses=[], below=[])
     for fl in flights:
         res = getter(fl)
         planted = fl.get("planted")
@@ -198,7 +224,10 @@ def pooled_rows(flights, getter, base):
             r[key + "_hit"] += hit
             sensor = p["kind"] in SENSOR
             r["cross_n"] += 1
-            r["cross"] += any((n["kind"] in SENSOR) != sensor and not matches_planted(n, p) for n in named)
+            other = [n for n in named if (n["kind"] in SENSOR) != sensor and not matches_planted(n, p)]
+            r["cross"] += bool(other)
+            if other:
+                r["cross_items"].append("%s: %s" % (fl["id"], "; ".join("%s %s %s" % (n["kind"], n["location"], term_of(n)) for n in other)))
             info = dict(id=fl["id"], size=size, limit=lim,
                         named=["%s %s %s" % (n["kind"], n["location"], term_of(n)) for n in named])
             if key == "det" and not hit:
@@ -253,7 +282,7 @@ def pooled_section(suite, fs, methods, base):
     for title, items in (("aerosid misses (size >= %.1fx min_detectable)" % DETECT_FACTOR, a["misses"]),
                          ("below %.1fx min_detectable" % DETECT_FACTOR, a["below"])):
         if items:
-            out.append("\n%s:\n" % title)
+            out.append("%s:\n" % title)
             for m in items:
                 lim = m["limit"]
                 f = lambda x: "%.4g" % x if isinstance(x, (int, float)) else "–"
@@ -262,6 +291,9 @@ def pooled_section(suite, fs, methods, base):
                     f(abs(m["size"]) / lim[0]) if lim[0] else "–", f(lim[1]), f(lim[2]),
                     (", named it" if m.get("hit") else (", missed" if "hit" in m else "")),
                     "; ".join(m["named"]) or "nothing"))
+    if a["cross_items"]:
+        out.append("aerosid, a cause of the other category (sensor on an aerodynamic plant or the reverse):\n")
+        out += ["* " + x for x in a["cross_items"]]
     out.append("")
     return out
 

@@ -245,9 +245,15 @@ fn card_jobs<'a>(
     }
     plan.extend(std::iter::repeat_n(None, c.clean));
     for (i, kind) in plan.into_iter().enumerate() {
-        // Card seeds from 300 on; turbulence light and moderate in turn.
+        // Card seeds from 300 on; turbulence light and moderate in turn, for every kind (each
+        // round over the kinds flips the parity, which an even number of kinds would fix).
         let seed = 300 + i as u64;
-        let turbulence = if i % 2 == 0 {
+        let round = if i < kinds.len() * c.seeds_per_kind {
+            i / kinds.len().max(1)
+        } else {
+            0
+        };
+        let turbulence = if (i + round) % 2 == 0 {
             CardTurbulence::Light
         } else {
             CardTurbulence::Moderate
