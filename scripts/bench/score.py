@@ -282,7 +282,7 @@ def pooled_section(suite, fs, methods, base):
     for title, items in (("aerosid misses (size >= %.1fx min_detectable)" % DETECT_FACTOR, a["misses"]),
                          ("below %.1fx min_detectable" % DETECT_FACTOR, a["below"])):
         if items:
-            out.append("%s:\n" % title)
+            out.append("\n%s:\n" % title)
             for m in items:
                 lim = m["limit"]
                 f = lambda x: "%.4g" % x if isinstance(x, (int, float)) else "–"
@@ -292,7 +292,7 @@ def pooled_section(suite, fs, methods, base):
                     (", named it" if m.get("hit") else (", missed" if "hit" in m else "")),
                     "; ".join(m["named"]) or "nothing"))
     if a["cross_items"]:
-        out.append("aerosid, a cause of the other category (sensor on an aerodynamic plant or the reverse):\n")
+        out.append("\naerosid, a cause of the other category (sensor on an aerodynamic plant or the reverse):\n")
         out += ["* " + x for x in a["cross_items"]]
     out.append("")
     return out
