@@ -647,3 +647,48 @@ fn table_csv(r: &GapReport) -> String {
     }
     s
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A clean simulated card through the card suite: one manifest entry with its regression
+    /// table (the split inside it), its report, the causes of the reversed files equal to the
+    /// forward run's (the analysis sorts its pieces), and the first manoeuvre alone (6 s) with no
+    /// cause and a reason — the 20 s the held-out test needs.
+    #[test]
+    fn a_clean_card_is_order_invariant_and_one_manoeuvre_gets_no_verdict() {
+        let dir = std::env::temp_dir().join(format!("aerosid-bench-card-{}", std::process::id()));
+        let campaign = Campaign {
+            draws_per_kind: 0,
+            clean: 0,
+            jsbsim: None,
+            real: None,
+            levels: Levels::default(),
+            cards: Some(Cards {
+                seeds_per_kind: 0,
+                clean: 1,
+                jsbsim: None,
+            }),
+        };
+        let lines = write(&campaign, &dir).expect("the campaign runs");
+        let text = std::fs::read_to_string(dir.join("manifest.json")).expect("a manifest");
+        let m: Vec<Value> = serde_json::from_str(&text).expect("JSON");
+        assert_eq!(m.len(), 1, "{lines:?}");
+        let e = &m[0];
+        assert_eq!(e["suite"], "card");
+        assert_eq!(e["planted"], json!([]));
+        let table = std::fs::read_to_string(dir.join(e["table"].as_str().expect("a table"))).expect("the table");
+        let rows = table.lines().count() - 1;
+        let split = e["split"].as_u64().expect("a split") as usize;
+        assert!(split > 0 && split < rows, "split {split} of {rows} rows");
+        assert!(dir.join(e["report"].as_str().expect("a report")).is_file());
+        let p = &e["pooled"];
+        assert_eq!(p["reversed"]["same_causes"], json!(true), "{p}");
+        let single = &p["single_manoeuvre"];
+        assert_eq!(single["named"], json!([]), "{single}");
+        let reason = single["error"].as_str().or(single["verdict"].as_str()).unwrap_or("");
+        assert!(reason.contains("20 s"), "{single}");
+        std::fs::remove_dir_all(&dir).ok();
+    }
+}
