@@ -458,6 +458,7 @@ fn on_the_jsbsim_flights_table_effects_are_found_and_no_sensor_error_is_invented
             jsbsim: Some(dir),
             real: None,
             levels: Default::default(),
+            cards: None,
         },
         &out,
     )

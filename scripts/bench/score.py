@@ -26,6 +26,17 @@ Matching (a named item = {kind, location, term}; aerosid's term is its "what"):
   * spurious: a named item that matches neither a planted effect nor a table effect.
   * invented sensor error: a named item of a sensor kind that matches no planted effect.
 Flights with "planted": null (unknown truth) count only in "named per flight" and time.
+
+Pooled-manoeuvre suites (entries with "pooled": the test cards of `aerosid gaps-bench --cards N`)
+get a second table (pooled_section): each planted effect is compared with the least size the
+campaign detects, `min_detectable` of the planted term's candidate in the campaign's own report
+(the aerodynamic term in its coefficient, or the sensor parameter in the compatibility check),
+where the planted size is in that parameter's unit (EFFECT_PARAM); detection is scored over the
+effects with |size| >= 1.5 min_detectable, those below and those with no comparable limit are
+counted apart; plus a sensor cause on an aerodynamic plant or the reverse, the order check (the
+same causes with the files reversed) and one manoeuvre alone (no cause, with a reason). The peers
+are compared at their operating point: of each peer's configurations, those with at most 1 clean
+campaign in 10 with a cause; the one detecting most of them is shown.
 """
 import argparse
 import json
@@ -115,6 +126,176 @@ def score_method(flights, getter):
         s["spurious"].append(len(spur))
         s["invented"].append(sum(1 for n in named if n["kind"] in SENSOR and not any(matches_planted(n, p) for p in planted)))
     return s
+
+
+# The planted size is the coefficient of this term (aerodynamic: location, term) or this sensor
+# parameter (kind, channel) — the same unit as that candidate's min_detectable. Kinds missing here
+# have no candidate in the size's unit: thrust-moment (a propeller offset in m, not C_T's
+# coefficient), missing-roll-control (the aircraft's own C_l δa, size 0 in the manifest).
+EFFECT_PARAM = {
+    "lift-quadratic": ("coef", "α²"),
+    "elevator-drag": ("coef", "|δe|"),
+    "alpha-dot": ("coef", "α̇_n"),
+    "cross-coupling": ("coef", "α·β"),
+    "pitch-beta2": ("coef", "β²"),
+    "adverse-yaw": ("coef", "δa"),
+    "sensor-bias": ("sensor", "SensorBias"),
+    "elevator-delay": ("delay", "C_m"),
+}
+DETECT_FACTOR = 1.5
+
+
+def effect_of(p):
+    """The effect's name (EFFECT_PARAM's key): the manifest's `effect`, or for the JSBSim cards
+    (truth.json's planted: kind, location, term) the simulated kind it corresponds to."""
+    if p.get("effect"):
+        return p["effect"]
+    if p.get("kind") == "NonlinearAlpha" and p.get("location") == "C_L" and p.get("term") == "α²":
+        return "lift-quadratic"
+    if p.get("kind") == "ControlDelay" and p.get("location") == "Elevator":
+        return "elevator-delay"
+    return None
+
+
+def planted_limit(p, report):
+    """(min_detectable, t2, estimate, what) of the planted effect's own parameter in the report, or
+    None when the planted size has no parameter of its unit (EFFECT_PARAM) or the report lacks it."""
+    how = EFFECT_PARAM.get(effect_of(p))
+    if how is None or report is None:
+        return None
+    if how[0] == "delay":
+        # A surface delay τ enters as δe(t − τ) ≈ δe − τ·δė (the analysis's own first-order
+        # reading): the δė candidate's coefficient is −C_δe·τ, so τ's least detectable size is
+        # min_detectable(δė) / |C_δe| in the coefficient where the analysis converts it.
+        for c in report.get("coefficients", []):
+            if c.get("name") != how[1]:
+                continue
+            de = [q.get("value") for q in (c.get("baseline") or {}).get("parameters", []) if q.get("term") == "δe"]
+            for cand in c.get("candidates", []):
+                if cand.get("term") == "δė" and de and de[0] and cand.get("min_detectable") is not None:
+                    return (cand["min_detectable"] / abs(de[0]), cand.get("t2"),
+                            (cand.get("value") or 0.0) / -de[0] if cand.get("value") is not None else None,
+                            "%s δė / |C δe|" % how[1])
+        return None
+    if how[0] == "coef":
+        for c in report.get("coefficients", []):
+            if c.get("name") != p["location"]:
+                continue
+            for cand in c.get("candidates", []):
+                if cand.get("term") == how[1]:
+                    return (cand.get("min_detectable"), cand.get("t2"), cand.get("value"), "%s %s" % (p["location"], how[1]))
+        return None
+    for t in report.get("compatibility", {}).get("tested", []):
+        if t.get("kind") == how[1] and t.get("channel") == p["location"]:
+            return (t.get("min_detectable"), t.get("t2"), t.get("value"), t.get("parameter"))
+    return None
+
+
+def pooled_rows(flights, getter, base):
+    """Counts of one method on a pooled suite (see the module doc)."""
+    r = dict(det_hit=0, det_n=0, below_hit=0, below_n=0, nc_hit=0, nc_n=0, clean_named=0, clean_n=0,
+             cross=0, cross_n=0, cross_items=[], order_ok=0, order_n=0, single_ok=0, single_n=0, misses=[], below=[])
+    for fl in flights:
+        res = getter(fl)
+        planted = fl.get("planted")
+        if res is None or planted is None:
+            continue
+        named = dedupe(res.get("named", []))
+        if not planted:
+            r["clean_n"] += 1
+            r["clean_named"] += bool(named)
+        report = None
+        if fl.get("report"):
+            path = os.path.join(base, fl["report"])
+            if os.path.exists(path):
+                report = json.load(open(path))
+        for p in planted:
+            hit = any(matches_planted(n, p) for n in named)
+            lim = planted_limit(p, report)
+            size = p.get("size")
+            md = lim[0] if lim else None
+            if md is None or size is None:
+                key = "nc"
+            elif abs(size) >= DETECT_FACTOR * md:
+                key = "det"
+            else:
+                key = "below"
+            r[key + "_n"] += 1
+            r[key + "_hit"] += hit
+            sensor = p["kind"] in SENSOR
+            r["cross_n"] += 1
+            other = [n for n in named if (n["kind"] in SENSOR) != sensor and not matches_planted(n, p)]
+            r["cross"] += bool(other)
+            if other:
+                r["cross_items"].append("%s: %s" % (fl["id"], "; ".join("%s %s %s" % (n["kind"], n["location"], term_of(n)) for n in other)))
+            info = dict(id=fl["id"], size=size, limit=lim,
+                        named=["%s %s %s" % (n["kind"], n["location"], term_of(n)) for n in named])
+            if key == "det" and not hit:
+                r["misses"].append(info)
+            if key == "below":
+                r["below"].append(dict(info, hit=hit))
+        pooled = fl.get("pooled")
+        if pooled is not None and getter(fl) is fl.get("aerosid"):
+            r["order_n"] += 1
+            r["order_ok"] += bool(pooled["reversed"].get("same_causes"))
+            single = pooled["single_manoeuvre"]
+            r["single_n"] += 1
+            r["single_ok"] += (not single.get("named")) and bool(single.get("error") or single.get("verdict"))
+    return r
+
+
+def pooled_section(suite, fs, methods, base):
+    """Markdown: the pooled suite's detection relative to min_detectable, per method, then the
+    peers at their operating point and aerosid's misses."""
+    out = ["#### `%s`: detection relative to the least detectable size\n" % suite]
+    head = ["method", "named, size >= %.1fx min_detectable" % DETECT_FACTOR, "named, below", "named, no comparable limit",
+            "clean campaigns with a cause", "cause of the other category", "same causes reversed",
+            "one manoeuvre alone: no cause, with reason"]
+    out.append("| " + " | ".join(head) + " |")
+    out.append("|" + "---|" * len(head))
+    rows = {}
+    for name, g in methods:
+        r = pooled_rows(fs, g, base)
+        rows[name] = r
+        if r["clean_n"] + r["det_n"] + r["below_n"] + r["nc_n"] == 0:
+            continue
+        out.append("| " + " | ".join([name, fmt_frac(r["det_hit"], r["det_n"]), fmt_frac(r["below_hit"], r["below_n"]),
+                                       fmt_frac(r["nc_hit"], r["nc_n"]), fmt_frac(r["clean_named"], r["clean_n"]),
+                                       fmt_frac(r["cross"], r["cross_n"]), fmt_frac(r["order_ok"], r["order_n"]),
+                                       fmt_frac(r["single_ok"], r["single_n"])]) + " |")
+    out.append("")
+    # Operating point: per peer, the configurations with <= 1 clean campaign in 10 with a cause.
+    families = {}
+    for name, _ in methods[1:]:
+        families.setdefault(name.split(" (")[0].split(" @")[0].split()[0], []).append(name)
+    for fam, names in families.items():
+        ok = [n for n in names if rows[n]["clean_n"] and rows[n]["clean_named"] <= 0.1 * rows[n]["clean_n"]]
+        if ok:
+            best = max(ok, key=lambda n: (rows[n]["det_hit"], -rows[n]["clean_named"]))
+            out.append("* %s at <= 1 clean campaign in 10 with a cause: %s — %s of the effects >= %.1fx min_detectable"
+                       % (fam, best, fmt_frac(rows[best]["det_hit"], rows[best]["det_n"]), DETECT_FACTOR))
+        elif names:
+            low = min(names, key=lambda n: rows[n]["clean_named"] / max(rows[n]["clean_n"], 1))
+            out.append("* %s: no configuration reaches <= 1 clean campaign in 10 with a cause (fewest: %s, %s)"
+                       % (fam, low, fmt_frac(rows[low]["clean_named"], rows[low]["clean_n"])))
+    a = rows[methods[0][0]]
+    for title, items in (("aerosid misses (size >= %.1fx min_detectable)" % DETECT_FACTOR, a["misses"]),
+                         ("below %.1fx min_detectable" % DETECT_FACTOR, a["below"])):
+        if items:
+            out.append("\n%s:\n" % title)
+            for m in items:
+                lim = m["limit"]
+                f = lambda x: "%.4g" % x if isinstance(x, (int, float)) else "–"
+                out.append("* %s: size %s, %s min_detectable %s (ratio %s), t² %s, estimate %s%s; named: %s" % (
+                    m["id"], f(m["size"]), lim[3], f(lim[0]),
+                    f(abs(m["size"]) / lim[0]) if lim[0] else "–", f(lim[1]), f(lim[2]),
+                    (", named it" if m.get("hit") else (", missed" if "hit" in m else "")),
+                    "; ".join(m["named"]) or "nothing"))
+    if a["cross_items"]:
+        out.append("\naerosid, a cause of the other category (sensor on an aerodynamic plant or the reverse):\n")
+        out += ["* " + x for x in a["cross_items"]]
+    out.append("")
+    return out
 
 
 def peer_label(key, settings):
@@ -207,6 +388,8 @@ def main():
                         "%.3g" % statistics.median(s["cpu"]) if s["cpu"] else "–"]
             lines.append("| " + " | ".join(row) + " |")
         lines.append("")
+        if any(f.get("pooled") is not None for f in fs):
+            lines += pooled_section(suite, fs, methods, base)
     lines.append("Versions: " + ", ".join("%s %s" % kv for kv in versions.items()))
     if notes:
         lines.append("")

@@ -1035,6 +1035,14 @@ struct GapsBenchArgs {
     /// Simulated clean flights.
     #[arg(long, value_name = "N", default_value_t = 10)]
     clean: usize,
+    /// Instead of the single flights: the pooled-manoeuvre suites — N simulated test cards per
+    /// kind a card accepts, light and moderate turbulence in turn, and the vendored JSBSim cards
+    /// (docs/benchmarks.md, "Pooled manoeuvres").
+    #[arg(long, value_name = "N")]
+    cards: Option<usize>,
+    /// Clean simulated test cards (with --cards).
+    #[arg(long, value_name = "N", default_value_t = 20, requires = "cards")]
+    card_clean: usize,
     #[command(flatten)]
     levels: LevelArgs,
 }
@@ -1046,12 +1054,22 @@ impl Execute for GapsBenchArgs {
         }
         let root = Path::new(env!("CARGO_MANIFEST_DIR"));
         let data = aerosid::fem_report::flight_data_dir();
+        let cards = self.cards.map(|n| aerosid::gaps::bench::Cards {
+            seeds_per_kind: n,
+            clean: self.card_clean,
+            jsbsim: Some(root.join("data/jsbsim_card")),
+        });
+        let flights = cards.is_none();
         let campaign = aerosid::gaps::bench::Campaign {
-            draws_per_kind: self.draws,
-            clean: self.clean,
-            jsbsim: Some(root.join("data/jsbsim")),
-            real: data.is_dir().then(|| (data, root.join("data/maps"))),
+            draws_per_kind: if flights { self.draws } else { 0 },
+            clean: if flights { self.clean } else { 0 },
+            jsbsim: flights.then(|| root.join("data/jsbsim")),
+            real: data
+                .is_dir()
+                .then(|| (data, root.join("data/maps")))
+                .filter(|_| flights),
             levels: self.levels.levels(),
+            cards,
         };
         match aerosid::gaps::bench::write(&campaign, &self.out) {
             Ok(lines) => {

@@ -45,6 +45,21 @@ pub struct Campaign {
     /// The test levels of every flight's analysis (the rest are the defaults; a simulated
     /// flight's baseline is its own).
     pub levels: Levels,
+    /// The pooled-manoeuvre suites (simulated test cards and the vendored JSBSim cards), if
+    /// wanted.
+    pub cards: Option<Cards>,
+}
+
+/// The pooled-manoeuvre suites: per campaign a test card (docs/test-card.md) analysed as one
+/// pooled flight, again with its files in reverse order, and one of its manoeuvres alone.
+#[derive(Debug, Clone)]
+pub struct Cards {
+    /// Cards per kind a card accepts ([`crate::card::check_effect`]), seeds drawn in turn.
+    pub seeds_per_kind: usize,
+    /// Clean cards.
+    pub clean: usize,
+    /// The vendored JSBSim cards (`tool/data/jsbsim_card`), if wanted.
+    pub jsbsim: Option<PathBuf>,
 }
 
 /// One flight of the campaign.
@@ -56,6 +71,8 @@ struct Case {
     /// The `aerosid gaps` command line that analyses this flight alone.
     reproduce: String,
     result: Result<(GapReport, Seconds), String>,
+    /// Pooled cards: the order and single-manoeuvre checks ([`pooled_checks`]).
+    pooled: Option<Value>,
 }
 
 /// Wall-clock and thread CPU seconds of one analysis.
@@ -120,6 +137,7 @@ pub fn write(c: &Campaign, dir: &Path) -> Result<Vec<String>, String> {
                 table_effects: effects.clone(),
                 reproduce: reproduce.clone(),
                 result: analyse(&csv, &aircraft, settings),
+                pooled: None,
             }));
         }
     }
@@ -140,8 +158,12 @@ pub fn write(c: &Campaign, dir: &Path) -> Result<Vec<String>, String> {
                 table_effects: Value::Null,
                 reproduce: reproduce.clone(),
                 result: analyse(&d, &m, settings),
+                pooled: None,
             }));
         }
+    }
+    if let Some(cards) = &c.cards {
+        card_jobs(cards, dir, settings, &level_args, &mut jobs)?;
     }
     let bar = crate::progress::bar(jobs.len() as u64, "flights analysed");
     let cases: Vec<Case> = jobs
@@ -165,7 +187,12 @@ pub fn write(c: &Campaign, dir: &Path) -> Result<Vec<String>, String> {
                 let path = reports.join(format!("{}.json", case.id.replace('/', "_")));
                 let text = serde_json::to_string_pretty(&super::report::json(r)).map_err(|e| e.to_string())?;
                 std::fs::write(&path, text).map_err(|e| format!("{}: {e}", path.display()))?;
-                manifest.push(entry(case, r, *t, &format!("tables/{name}")));
+                let mut e = entry(case, r, *t, &format!("tables/{name}"));
+                if let Some(p) = &case.pooled {
+                    e["pooled"] = p.clone();
+                    e["report"] = json!(format!("reports/{}.json", case.id.replace('/', "_")));
+                }
+                manifest.push(e);
                 lines.push(format!(
                     "{:<40} {:>6.2} s ({:.2} s CPU)  {}",
                     case.id,
@@ -199,6 +226,266 @@ pub fn write(c: &Campaign, dir: &Path) -> Result<Vec<String>, String> {
         }
     }
     Ok(lines)
+}
+
+/// A job of the campaign: one flight or card, analysed on its own thread.
+type Job<'a> = Box<dyn Fn() -> Case + Send + Sync + 'a>;
+
+/// The card suites' jobs: the simulated cards are flown and written here (into
+/// `dir/cards/<id>/`, so that each campaign's files can be analysed again by hand), analysed in
+/// the jobs.
+fn card_jobs<'a>(
+    c: &Cards,
+    dir: &Path,
+    settings: &'a GapSettings,
+    level_args: &str,
+    jobs: &mut Vec<Job<'a>>,
+) -> Result<(), String> {
+    use crate::card::{draw_effect, CardSettings, AIRCRAFT_FILE};
+    use crate::sim::test_card::CardTurbulence;
+    // The kinds a card accepts (not the α-vane kinds: a card has no vanes).
+    let kinds: Vec<HiddenKind> = HiddenKind::ALL
+        .into_iter()
+        .filter(|k| draw_effect(*k, 0, None).is_ok())
+        .collect();
+    let mut plan: Vec<Option<HiddenKind>> = Vec::new();
+    for _ in 0..c.seeds_per_kind {
+        plan.extend(kinds.iter().map(|k| Some(*k)));
+    }
+    plan.extend(std::iter::repeat_n(None, c.clean));
+    for (i, kind) in plan.into_iter().enumerate() {
+        // Card seeds from 300 on; turbulence light and moderate in turn, for every kind (each
+        // round over the kinds flips the parity, which an even number of kinds would fix).
+        let seed = 300 + i as u64;
+        let round = if i < kinds.len() * c.seeds_per_kind {
+            i / kinds.len().max(1)
+        } else {
+            0
+        };
+        let turbulence = if (i + round) % 2 == 0 {
+            CardTurbulence::Light
+        } else {
+            CardTurbulence::Moderate
+        };
+        let effect = match kind {
+            Some(k) => Some(draw_effect(k, seed, None).map_err(|e| e.to_string())?),
+            None => None,
+        };
+        let card = CardSettings {
+            effect,
+            seed,
+            turbulence,
+        };
+        let name = effect.map_or("clean", |e| e.kind.name());
+        let id = format!("card/{name}_{}_{seed}", turbulence.name());
+        let folder = dir.join("cards").join(id.replace('/', "_"));
+        let aircraft = folder.join(AIRCRAFT_FILE);
+        let baseline = HiddenEffect::baseline(effect.as_ref());
+        let planted = match &effect {
+            None => json!([]),
+            Some(e) => {
+                let (k, l) = e.expected();
+                let mut p = json!({"kind": format!("{k:?}"), "location": l, "size": e.size, "effect": e.kind.name()});
+                if let Some(t) = e.expected_terms() {
+                    p["terms"] = json!(t);
+                }
+                json!([p])
+            }
+        };
+        let effect_args = effect.map_or(String::new(), |e| {
+            let size = if e.kind == HiddenKind::MissingRollControl {
+                String::new()
+            } else {
+                format!(" --size {:?}", e.size)
+            };
+            format!(" --effect {}{size}", e.kind.name())
+        });
+        let spec = baseline_spec(&baseline);
+        let reproduce = format!(
+            "aerosid card --out {f} --seed {seed} --turbulence {t}{effect_args} && aerosid gaps --data {f}/*.csv --with {a} --baseline '{spec}'{level_args}",
+            f = folder.display(),
+            t = turbulence.name(),
+            a = aircraft.display(),
+        );
+        let s = GapSettings {
+            baseline: Some(baseline),
+            ..settings.clone()
+        };
+        jobs.push(Box::new(move || {
+            // Flown in the job (in parallel); the files in the card's order.
+            let csvs = crate::card::write_card(&folder, &card).map(|files| {
+                files
+                    .into_iter()
+                    .filter(|f| f.extension().is_some_and(|x| x == "csv"))
+                    .collect::<Vec<_>>()
+            });
+            match csvs {
+                Ok(csvs) => pooled_case(
+                    &id,
+                    "card",
+                    planted.clone(),
+                    Value::Null,
+                    reproduce.clone(),
+                    &csvs,
+                    &aircraft,
+                    &s,
+                ),
+                Err(e) => Case {
+                    id: id.clone(),
+                    suite: "card",
+                    planted: planted.clone(),
+                    table_effects: Value::Null,
+                    reproduce: reproduce.clone(),
+                    result: Err(e.to_string()),
+                    pooled: None,
+                },
+            }
+        }));
+    }
+    if let Some(j) = &c.jsbsim {
+        let truth_path = j.join("truth.json");
+        let text = std::fs::read_to_string(&truth_path).map_err(|e| format!("{}: {e}", truth_path.display()))?;
+        let truth: Value = serde_json::from_str(&text).map_err(|e| format!("{}: {e}", truth_path.display()))?;
+        let cards = truth["cards"]
+            .as_object()
+            .ok_or_else(|| format!("{}: no `cards` object", truth_path.display()))?
+            .clone();
+        let aircraft = j.join(truth["aircraft_file"].as_str().unwrap_or("c172x.aircraft"));
+        for (name, t) in cards {
+            let records = t["records"]
+                .as_array()
+                .ok_or_else(|| format!("{}: card {name} has no `records` list", truth_path.display()))?;
+            let csvs: Vec<PathBuf> = records
+                .iter()
+                .map(|r| r["file"].as_str().map(|f| j.join(f)))
+                .collect::<Option<_>>()
+                .ok_or_else(|| format!("{}: a record of card {name} has no `file`", truth_path.display()))?;
+            let planted = match &t["planted"] {
+                Value::Null => json!([]),
+                p => json!([p]),
+            };
+            let reproduce = format!(
+                "aerosid gaps{} --with {}{level_args}",
+                data_args(&csvs),
+                aircraft.display()
+            );
+            let id = format!("jsbsim_card/{name}");
+            let effects = truth["table_effects"].clone();
+            let aircraft = aircraft.clone();
+            jobs.push(Box::new(move || {
+                pooled_case(
+                    &id,
+                    "jsbsim_card",
+                    planted.clone(),
+                    effects.clone(),
+                    reproduce.clone(),
+                    &csvs,
+                    &aircraft,
+                    settings,
+                )
+            }));
+        }
+    }
+    Ok(())
+}
+
+/// ` --data F` for every file.
+fn data_args(files: &[PathBuf]) -> String {
+    files.iter().map(|f| format!(" --data {}", f.display())).collect()
+}
+
+/// A baseline as `aerosid gaps --baseline` reads it ([`super::model::parse_baseline`]).
+fn baseline_spec(b: &[Vec<super::model::Term>; 6]) -> String {
+    COEFFICIENTS
+        .iter()
+        .zip(b)
+        .map(|(c, terms)| format!("{c}={}", terms.iter().map(|t| t.name()).collect::<Vec<_>>().join(",")))
+        .collect::<Vec<_>>()
+        .join(";")
+}
+
+/// One pooled campaign: the files in the given order (timed; the manifest's answer and table),
+/// in reverse order, and the first file alone ([`pooled_checks`]).
+#[allow(clippy::too_many_arguments)]
+fn pooled_case(
+    id: &str,
+    suite: &'static str,
+    planted: Value,
+    table_effects: Value,
+    reproduce: String,
+    csvs: &[PathBuf],
+    aircraft: &Path,
+    s: &GapSettings,
+) -> Case {
+    if csvs.is_empty() {
+        return Case {
+            id: id.to_string(),
+            suite,
+            planted,
+            table_effects,
+            reproduce,
+            result: Err("the campaign has no manoeuvre file".into()),
+            pooled: None,
+        };
+    }
+    let read =
+        |files: &[PathBuf]| crate::io::read_pooled(files, Some(aircraft), &[], &crate::io::ReadOptions::default());
+    let result = read(csvs).and_then(|f| timed(&f, s));
+    let mut reversed: Vec<PathBuf> = csvs.to_vec();
+    reversed.reverse();
+    let again = read(&reversed).and_then(|f| run_gaps(&f, s).map_err(|e| e.to_string()));
+    let alone = read(&csvs[..1]).and_then(|f| run_gaps(&f, s).map_err(|e| e.to_string()));
+    let pooled = pooled_checks(result.as_ref().ok().map(|r| &r.0), &again, &alone, &csvs[0]);
+    Case {
+        id: id.to_string(),
+        suite,
+        planted,
+        table_effects,
+        reproduce,
+        result,
+        pooled: Some(pooled),
+    }
+}
+
+/// The named causes as (kind, location, term), sorted.
+fn causes(r: &GapReport) -> Vec<(String, String, String)> {
+    let mut v: Vec<_> = r
+        .named
+        .iter()
+        .map(|n| (format!("{:?}", n.kind), n.location.clone(), n.what.clone()))
+        .collect();
+    v.sort();
+    v
+}
+
+/// What the order and single-manoeuvre checks found: the causes named with the files reversed
+/// and whether they are the forward run's; what the first manoeuvre alone gives (an error of the
+/// analysis, or its verdict and any cause it names).
+fn pooled_checks(
+    forward: Option<&GapReport>,
+    reversed: &Result<GapReport, String>,
+    alone: &Result<GapReport, String>,
+    first: &Path,
+) -> Value {
+    let list = |c: &[(String, String, String)]| {
+        c.iter()
+            .map(|(k, l, w)| json!({"kind": k, "location": l, "what": w}))
+            .collect::<Vec<_>>()
+    };
+    let order = match reversed {
+        Ok(r) => json!({
+            "named": list(&causes(r)),
+            "same_causes": forward.map(|f| causes(f) == causes(r)),
+        }),
+        Err(e) => json!({"error": e, "same_causes": forward.is_none()}),
+    };
+    let single = match alone {
+        Ok(r) => json!({"verdict": r.verdict, "named": list(&causes(r)), "error": Value::Null}),
+        Err(e) => json!({"verdict": Value::Null, "named": [], "error": e}),
+    };
+    let mut single = single;
+    single["file"] = json!(first.file_name().map(|f| f.to_string_lossy().to_string()));
+    json!({"reversed": order, "single_manoeuvre": single})
 }
 
 /// The median, smallest and largest analysis time per suite of the manifest's entries.
@@ -279,6 +566,7 @@ fn sim_case(e: Option<HiddenEffect>, seed: u64, settings: &GapSettings) -> Case 
         table_effects: Value::Null,
         reproduce,
         result,
+        pooled: None,
     }
 }
 
@@ -367,4 +655,49 @@ fn table_csv(r: &GapReport) -> String {
         s.push('\n');
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A clean simulated card through the card suite: one manifest entry with its regression
+    /// table (the split inside it), its report, the causes of the reversed files equal to the
+    /// forward run's (the analysis sorts its pieces), and the first manoeuvre alone (6 s) with no
+    /// cause and a reason — the 20 s the held-out test needs.
+    #[test]
+    fn a_clean_card_is_order_invariant_and_one_manoeuvre_gets_no_verdict() {
+        let dir = std::env::temp_dir().join(format!("aerosid-bench-card-{}", std::process::id()));
+        let campaign = Campaign {
+            draws_per_kind: 0,
+            clean: 0,
+            jsbsim: None,
+            real: None,
+            levels: Levels::default(),
+            cards: Some(Cards {
+                seeds_per_kind: 0,
+                clean: 1,
+                jsbsim: None,
+            }),
+        };
+        let lines = write(&campaign, &dir).expect("the campaign runs");
+        let text = std::fs::read_to_string(dir.join("manifest.json")).expect("a manifest");
+        let m: Vec<Value> = serde_json::from_str(&text).expect("JSON");
+        assert_eq!(m.len(), 1, "{lines:?}");
+        let e = &m[0];
+        assert_eq!(e["suite"], "card");
+        assert_eq!(e["planted"], json!([]));
+        let table = std::fs::read_to_string(dir.join(e["table"].as_str().expect("a table"))).expect("the table");
+        let rows = table.lines().count() - 1;
+        let split = e["split"].as_u64().expect("a split") as usize;
+        assert!(split > 0 && split < rows, "split {split} of {rows} rows");
+        assert!(dir.join(e["report"].as_str().expect("a report")).is_file());
+        let p = &e["pooled"];
+        assert_eq!(p["reversed"]["same_causes"], json!(true), "{p}");
+        let single = &p["single_manoeuvre"];
+        assert_eq!(single["named"], json!([]), "{single}");
+        let reason = single["error"].as_str().or(single["verdict"].as_str()).unwrap_or("");
+        assert!(reason.contains("20 s"), "{single}");
+        std::fs::remove_dir_all(&dir).ok();
+    }
 }
