@@ -208,6 +208,7 @@ def fem(
     model: PathLike,
     data: Union[None, PathLike, Sequence[PathLike]] = None,
     *,
+    aircraft: Optional[PathLike] = None,
     segments: Optional[Iterable[Sequence[float]]] = None,
     validate: Union[None, PathLike, Sequence[PathLike]] = None,
     validate_segments: Optional[Iterable[Sequence[float]]] = None,
@@ -217,7 +218,9 @@ def fem(
     """The filter error / output error method on a user model file (``aerosid fem``).
 
     ``model``: the TOML model file; ``data``: one or more data files (default the model's
-    ``[data] file``); ``segments``: ``[(from_s, to_s), ...]`` of each data file; ``validate``,
+    ``[data] file``); ``aircraft``: the column map or aircraft file of the data files, as the
+    command's ``--with`` (a model that names measured channels reads any file ``gaps`` reads);
+    ``segments``: ``[(from_s, to_s), ...]`` of each data file; ``validate``,
     ``validate_segments``: validation data; ``fix``: ``{name: value}`` parameters held fixed;
     ``out``: the folder for identification.json and the figures (a temporary one when None).
 
@@ -229,6 +232,7 @@ def fem(
             os.fspath(model),
             d,
             data=_paths(data),
+            with_=_path(aircraft),
             segments=_segments(segments),
             validate=_paths(validate),
             validate_segments=_segments(validate_segments),
@@ -250,7 +254,8 @@ def predict(
     """Applies a saved model to other data (``aerosid predict``).
 
     ``saved``: the identification.json of :func:`fem`, or the report.json of :func:`gaps` (then
-    ``data`` is one flight and ``aircraft`` its ``--with``). ``segments`` are for fem models.
+    ``data`` is one flight); ``aircraft`` is the data's ``--with`` either way. ``segments`` are for
+    fem models.
     ``out``: the folder for prediction.json and the figures (a temporary one when None).
 
     Returns the prediction.json content as a dict, with the text report under ``"text"``.

@@ -19,6 +19,7 @@ def fem(
     model: _Path,
     data: _Paths = None,
     *,
+    aircraft: Optional[_Path] = None,
     segments: Optional[Iterable[Sequence[float]]] = None,
     validate: _Paths = None,
     validate_segments: Optional[Iterable[Sequence[float]]] = None,

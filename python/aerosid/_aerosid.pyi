@@ -108,6 +108,7 @@ def fem(
     model: _Path,
     out: _Path,
     data: Sequence[_Path] = ...,
+    with_: Optional[_Path] = ...,
     segments: Sequence[Tuple[float, float]] = ...,
     validate: Sequence[_Path] = ...,
     validate_segments: Sequence[Tuple[float, float]] = ...,

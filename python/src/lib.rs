@@ -331,13 +331,14 @@ fn gaps_frame(
 
 /// `aerosid fem`: `(text, files)`.
 #[pyfunction]
-#[pyo3(signature = (model, out, data=vec![], segments=vec![], validate=vec![], validate_segments=vec![], fix=vec![]))]
+#[pyo3(signature = (model, out, data=vec![], with_=None, segments=vec![], validate=vec![], validate_segments=vec![], fix=vec![]))]
 #[allow(clippy::type_complexity, clippy::too_many_arguments)]
 fn fem(
     py: Python<'_>,
     model: PathBuf,
     out: PathBuf,
     data: Vec<PathBuf>,
+    with_: Option<PathBuf>,
     segments: Vec<(f64, f64)>,
     validate: Vec<PathBuf>,
     validate_segments: Vec<(f64, f64)>,
@@ -346,6 +347,7 @@ fn fem(
     let args = aerosid::workflow::FemArgs {
         model,
         data,
+        with: with_,
         segments,
         validate,
         validate_segments,
@@ -369,11 +371,8 @@ fn predict(
     segments: Vec<(f64, f64)>,
 ) -> PyResult<(String, Vec<PathBuf>)> {
     if !aerosid::gaps::predict::is_gap_report(&saved).map_err(err)? {
-        if with_.is_some() {
-            return Err(err("aircraft is for a gap report (report.json of `aerosid gaps`)"));
-        }
         return py
-            .detach(|| aerosid::workflow::run_predict(&saved, &data, &segments, &out))
+            .detach(|| aerosid::workflow::run_predict_with(&saved, &data, with_.as_deref(), &segments, &out))
             .map(|(_, t, f)| (t, f))
             .map_err(err);
     }
