@@ -901,7 +901,7 @@ fn check_early(name: &str, rows: &[EarlyRow], check_median: bool) {
     }
 }
 
-/// The case, always run: `Gtls<f64, 3, 0, 4>`, 100 seeds, five jump times.
+/// The case of an independent harness, always run: `Gtls<f64, 3, 0, 4>`, 100 seeds, five jump times.
 #[test]
 fn early_jump_sweep_f64_dimension_3() {
     check_early(
@@ -917,7 +917,7 @@ fn early_jump_sweep_f64_dimension_3() {
 /// same relative jump), which settle as with `λ = 0.999`, and the detected ones settle later
 /// (BENCHMARKS.md); not asserted there.
 #[test]
-#[ignore]
+#[ignore = "the full sweep, about 5 min: dimensions 3, 5, 6 and an exact column, f32 and f64"]
 fn early_jump_sweep_full() {
     let sweeps = [
         (
@@ -959,7 +959,7 @@ fn early_jump_sweep_full() {
 /// or more of the seeds at every jump time (measured 47 / 30 / 29 / 22 / 26 of 100), about as many
 /// as there are jumps below eq. 32's limit (29–31): `vff` module doc, "The ceiling".
 #[test]
-#[ignore]
+#[ignore = "diagnosis with the paper's ceiling λ = 1: asserts the slow seeds the ceiling 0.999 removes"]
 fn early_jump_diagnosis() {
     let vs = VffSettings {
         lambda_max: 1.0,

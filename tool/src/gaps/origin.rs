@@ -51,39 +51,28 @@ pub fn has_sensor_errors(flight: &MeasuredFlight, q: Quantity) -> bool {
 /// two cannot be told apart from such a flight, so α̇ is offered nowhere. Likewise β̇ with an
 /// estimated β (the measured side force over `m·V` plus `p sin α − r cos α` and gravity).
 pub fn barred_terms(flight: &MeasuredFlight) -> Vec<(usize, Term, String)> {
+    // (the angle, its rate, the coefficient it restates, its name, the force it carries)
+    let rates = [
+        (Quantity::Alpha, Term::AlphaDot, 0, "α", "α̇ = q − γ̇ and γ̇ is the measured lift over m·V", "lift", "an α̇ term would restate the measured lift through that identity (size ≈ −4m/(ρSc̄)), not an aerodynamic cause"),
+        (Quantity::Beta, Term::BetaDot, 2, "β", "β̇ is the measured side force over m·V plus p sin α − r cos α and gravity", "side force", "a β̇ term would restate the measured side force, not an aerodynamic cause"),
+    ];
     let mut out = Vec::new();
-    let by = |q: Quantity| match flight.log.origin_of(q) {
-        Origin::Estimated { by } => Some(by),
-        Origin::Sensor => None,
-    };
-    if let Some(by) = by(Quantity::Alpha) {
+    for (q, term, own, angle, identity, force, restated) in rates {
+        let Origin::Estimated { by } = flight.log.origin_of(q) else {
+            continue;
+        };
         for (i, name) in COEFFICIENTS.iter().enumerate() {
-            let why = if i == 0 {
-                "an α̇ term would restate the measured lift through that identity (size ≈ −4m/(ρSc̄)), not an aerodynamic cause".to_string()
+            let why = if i == own {
+                restated.to_string()
             } else {
-                format!("in {name} it would carry the measured lift, which in turbulence holds the gust's share that the estimated α misses: its effect cannot be told from the gust's")
+                format!("in {name} it would carry the measured {force}, which in turbulence holds the gust's share that the estimated {angle} misses: its effect cannot be told from the gust's")
             };
             out.push((
                 i,
-                Term::AlphaDot,
+                term,
                 format!(
-                    "α̇ not offered in {name}: α is estimated from the inertial data ({by}), so α̇ = q − γ̇ and γ̇ is the measured lift over m·V — {why}"
-                ),
-            ));
-        }
-    }
-    if let Some(by) = by(Quantity::Beta) {
-        for (i, name) in COEFFICIENTS.iter().enumerate() {
-            let why = if i == 2 {
-                "a β̇ term would restate the measured side force, not an aerodynamic cause".to_string()
-            } else {
-                format!("in {name} it would carry the measured side force, which in turbulence holds the gust's share that the estimated β misses: its effect cannot be told from the gust's")
-            };
-            out.push((
-                i,
-                Term::BetaDot,
-                format!(
-                    "β̇ not offered in {name}: β is estimated from the inertial data ({by}), so β̇ is the measured side force over m·V plus p sin α − r cos α and gravity — {why}"
+                    "{} not offered in {name}: {angle} is estimated from the inertial data ({by}), so {identity} — {why}",
+                    term.name().trim_end_matches("_n")
                 ),
             ));
         }
