@@ -2,9 +2,9 @@
 # Runs all of the project's checks and tests, in the order CI runs them (.ci/run execs this file):
 # tools (QEMU, defmt-print), formatting, host clippy, firmware clippy, the core built for the MCU,
 # host tests (among them the firmware replayed under QEMU, with and without injected faults), the
-# main job, the HTML reports in headless Chromium, the firmware release build, its panic audit, its
-# static stack bound and its size, then a short run of the core fuzz targets. Stops at the first
-# failure.
+# main job, the docs' generated tables against the tool, the HTML reports in headless Chromium, the
+# firmware release build, its panic audit, its static stack bound and its size, then a short run of
+# the core fuzz targets. Stops at the first failure.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 
@@ -70,7 +70,14 @@ if [ ! -x "$AEROSID" ]; then
     echo "error: $AEROSID missing: \`cargo test --workspace\` builds it for the integration tests" >&2
     exit 1
 fi
-"$AEROSID" run --out target/main-job
+# Its printout is kept for the docs check below (which would otherwise fly the 180 s flight again).
+"$AEROSID" run --out target/main-job | tee target/main-job.txt
+
+step "docs tables current (docs/conventions.md): AEROSID=$AEROSID bash scripts/docs-tables.sh --check --main-job-output target/main-job.txt"
+# The result tables in the docs are generated from this tool (the main job above, `aerosid gaps` on
+# the vendored flights: a few seconds); a change in the analysis that leaves them stale fails here
+# with the diff. `bash scripts/docs-tables.sh` regenerates them.
+AEROSID="$AEROSID" bash scripts/docs-tables.sh --check --main-job-output target/main-job.txt
 
 step "HTML reports in headless Chromium (docs/reports.md): scripts/check-html.py on \`aerosid gaps\` pages"
 # Chromium (Debian's package) installed if missing, as QEMU above. Two pages: the HFB-320 flight-test

@@ -18,7 +18,7 @@
 //! no code with the core's `Vff`: the powers are direct weighted sums over the kept residual
 //! history), THEN the core agrees with it at every sample (tolerances at `F32_TOL`), the statistics
 //! (re)start at the same TLS solution, and every target holds: the estimate is within 5 % of the
-//! new value for good after a median of 159 / 127 / 135 / 157 samples (`for_dimension(3)`) and
+//! new value for good after a median of 86 / 51 / 88 / 124 samples (`for_dimension(3)`) and
 //! 112 / 120 / 112 / 328 (`for_aero_coefficients(100)`) at the four jump times (`λ = 0.999`:
 //! 1 365 / 2 403 / 2 606 / 2 656; target ≤ 500), never later than `λ = 0.999` on any seed, and
 //! `λ_F < λ_max` on none of the 268 000 stationary samples before the jumps (`f32` and `f64` alike).
@@ -29,9 +29,12 @@
 //! jumping by −1/3 at sample 150, 300, 600, 1 500 or 5 000), 100 seeds, `Gtls` of dimension 3, 5
 //! and 6 with every regressor noisy and of dimension 6 with an exact intercept, WHEN the VFF runs
 //! with `for_dimension(n)` and beside it `λ = 0.999`, THEN the VFF settles later on no seed
-//! (target: at most 1 in 100, by at most 20 %), `λ_F < λ_max` on no stationary sample, and in
-//! dimension 3 the median is at most 500 samples. `early_jump_diagnosis` (ignored) shows why the
-//! seed's ceiling `λ_max = 1` fails this (`vff` module doc, "The ceiling").
+//! (target: at most 1 in 100, by at most 20 %), `λ_F < λ_max` on no stationary sample, the median
+//! is below `λ = 0.999`'s at every jump time and at most 500 samples in dimension 3 at every jump
+//! time, in dimensions 5 and 6 from the jump at 300 on (the always-on test: dimension 3, `f64`;
+//! the rest in the ignored `early_jump_sweep_full`). `early_jump_diagnosis` (ignored) shows why the
+//! seed's ceiling `λ_max = 1` fails this (`vff` module doc, "The ceiling");
+//! `for_dimension_threshold_follows_the_short_window` checks eq. 32's threshold per dimension.
 
 use crate::common;
 
@@ -880,15 +883,22 @@ fn early_sweep<T: aerosid_core::Real, const NT: usize, const NE: usize, const NA
 }
 
 /// The targets: the VFF slower than `λ = 0.999` on at most 1 seed in 100 and then by at most 20 %;
-/// no `λ_F < λ_max` on the stationary data before the jump; with `check_median`, a median of at
-/// most 500 samples to settle.
-fn check_early(name: &str, rows: &[EarlyRow], check_median: bool) {
+/// no `λ_F < λ_max` on the stationary data before the jump; a median below `λ = 0.999`'s at every
+/// jump time, and of at most 500 samples to settle for jumps at `median_from` or later.
+fn check_early(name: &str, rows: &[EarlyRow], median_from: usize) {
     for r in rows {
         assert!(
-            !check_median || r.median_vff <= 500,
+            r.jump < median_from || r.median_vff <= 500,
             "{name} jump at {}: median {} > 500",
             r.jump,
             r.median_vff
+        );
+        assert!(
+            r.median_vff < r.median_constant,
+            "{name} jump at {}: median {} not below λ = 0.999's {}",
+            r.jump,
+            r.median_vff,
+            r.median_constant
         );
         assert!(
             r.slower <= 1 && r.worst_ratio <= 1.2,
@@ -907,15 +917,16 @@ fn early_jump_sweep_f64_dimension_3() {
     check_early(
         "f64 3/0",
         &early_sweep::<f64, 3, 0, 4>("f64 3/0", VffSettings::for_dimension(3)),
-        true,
+        EARLY_JUMPS[0],
     );
 }
 
 /// The full sweep: dimensions 3, 5 and 6 with every regressor noisy, 6 with the intercept exact,
-/// `f32` and `f64` (≈ 8 times the always-on case). The median target holds in dimension 3 only:
-/// in dimensions 5 and 6 35–43 of the 100 jumps are below eq. 32's limit (a larger `‖θ‖` for the
-/// same relative jump), which settle as with `λ = 0.999`, and the detected ones settle later
-/// (BENCHMARKS.md); not asserted there.
+/// `f32` and `f64` (≈ 8 times the always-on case). The median target (≤ 500) holds in dimension 3
+/// at every jump time, in dimensions 5 and 6 from the jump at 300 on: a jump at 150 comes before
+/// eq. 32 is tested on most seeds of dimensions 5 and 6 (the first TLS solution plus the noise
+/// weight of 50 samples), and settles about as with `λ = 0.999` (`vff` module doc, "Eq. 32: the
+/// threshold per dimension"); there the median is asserted below `λ = 0.999`'s only.
 #[test]
 #[ignore = "the full sweep, about 5 min: dimensions 3, 5, 6 and an exact column, f32 and f64"]
 fn early_jump_sweep_full() {
@@ -950,14 +961,20 @@ fn early_jump_sweep_full() {
         ),
     ];
     for (name, rows) in &sweeps {
-        check_early(name, rows, name.starts_with("f32 3/"));
+        let median_from = if name.contains(" 3/") {
+            EARLY_JUMPS[0]
+        } else {
+            EARLY_JUMPS[1]
+        };
+        check_early(name, rows, median_from);
     }
 }
 
 /// Why `for_dimension` has the ceiling `λ_max = 0.999`: with the seed's `λ_max = 1` the issue's
-/// case (`Gtls<f64, 3, 0, 4>`, the early-jump generator) settles later than `λ = 0.999` on a fifth
-/// or more of the seeds at every jump time (measured 47 / 30 / 29 / 22 / 26 of 100), about as many
-/// as there are jumps below eq. 32's limit (29–31): `vff` module doc, "The ceiling".
+/// case (`Gtls<f64, 3, 0, 4>`, the early-jump generator) settles later than `λ = 0.999` on many
+/// seeds at every jump time (measured 43 / 28 / 22 / 18 / 20 of 100), most of them jumps below
+/// eq. 32's limit (29–31): `vff` module doc, "The ceiling". Asserted: at least 10 seeds, ten times
+/// the target's one in 100.
 #[test]
 #[ignore = "diagnosis with the paper's ceiling λ = 1: asserts the slow seeds the ceiling 0.999 removes"]
 fn early_jump_diagnosis() {
@@ -966,7 +983,7 @@ fn early_jump_diagnosis() {
         ..VffSettings::for_dimension(3)
     };
     for r in early_sweep::<f64, 3, 0, 4>("f64 3/0, λ_max = 1", vs) {
-        assert!(r.slower >= 20, "jump at {}: slower on {} seeds only", r.jump, r.slower);
+        assert!(r.slower >= 10, "jump at {}: slower on {} seeds only", r.jump, r.slower);
         assert!(
             r.below_eq32 >= 20,
             "jump at {}: {} seeds below eq. 32's limit",
@@ -974,4 +991,27 @@ fn early_jump_diagnosis() {
             r.below_eq32
         );
     }
+}
+
+/// `for_dimension`'s eq. 32 threshold per dimension (`vff` module doc, "Eq. 32: the threshold per
+/// dimension"): 2 up to `n = 3` (short window of 15 samples, `d₁ = 29`), and for larger `n` the
+/// Wilson–Hilferty quantile of `χ²_d₁/d₁` at the tail probability of `γ₀ = 2`, `d₁ = 29`. The
+/// references are the exact quantiles (regularised incomplete beta, `P(χ²_d₁/d₁ > γ₀²) =
+/// P(χ²₂₉/29 > 4) = 2.3·10⁻¹²`): `γ₀` = 1.854 / 1.757 / 1.686 for `d₁` = 39 / 49 / 59; the
+/// approximation is within 0.01 of them (it errs low by 0.003–0.006, i.e. a slightly higher
+/// false-drop probability, which the sweeps measure: no drop).
+#[test]
+fn for_dimension_threshold_follows_the_short_window() {
+    for n in 1..=3 {
+        assert_eq!(VffSettings::<f64>::for_dimension(n).gamma0, 2.0, "n = {n}");
+        assert_eq!(VffSettings::<f32>::for_dimension(n).gamma0, 2.0, "n = {n}");
+    }
+    for (n, exact) in [(4, 1.854), (5, 1.757), (6, 1.686)] {
+        let g64 = VffSettings::<f64>::for_dimension(n).gamma0;
+        let g32 = VffSettings::<f32>::for_dimension(n).gamma0 as f64;
+        assert!((g64 - exact).abs() < 0.01, "n = {n}: γ₀ {g64} vs {exact}");
+        assert!((g32 - g64).abs() < 1e-5, "n = {n}: f32 {g32} vs f64 {g64}");
+    }
+    let g: Vec<f64> = (3..=40).map(|n| VffSettings::<f64>::for_dimension(n).gamma0).collect();
+    assert!(g.windows(2).all(|w| w[1] < w[0] && w[1] > 1.0), "{g:?}");
 }
