@@ -220,7 +220,7 @@ fn fem_sigma_matches_the_scatter_of_repeated_manoeuvres() {
     println!("{}", table("roll/yaw", &lat));
     let _ = std::fs::remove_dir_all(&dir);
     // THEN the scatter over the σ `fem` reports is inside the band for every parameter, and over
-    // the white-residual Cramér–Rao σ it is far above it (the 6–10×: measured 3.4–8.2)
+    // the white-residual Cramér–Rao σ it is far above it (measured 3.4–8.2 on these seeds)
     assert_band("fem roll/yaw", &lat);
     let white_low = lat.values().map(Draws::white_ratio).fold(f64::INFINITY, f64::min);
     assert!(
