@@ -484,7 +484,10 @@ fn parse_sensitivity(s: &str) -> Option<Sensitivity> {
 /// A matrix entry of `[linear]` as expression text.
 fn entry_text(v: &toml::Value) -> Option<String> {
     match v {
-        toml::Value::Float(x) => Some(format!("{x:e}")),
+        // Plain decimal (`Display` of an f64 never uses an exponent): the expression parser
+        // reads `6.54e-1` as `6.54e - 1`.
+        toml::Value::Float(x) if *x == 0.0 => Some("0".into()),
+        toml::Value::Float(x) => Some(format!("{x}")),
         toml::Value::Integer(i) => Some(format!("{i}")),
         toml::Value::String(s) => Some(s.clone()),
         _ => None,
@@ -520,7 +523,7 @@ fn linear_row(
                     j + 1
                 ))
             })?;
-            if t.trim() != "0" && t.trim() != "0e0" {
+            if t.trim() != "0" {
                 terms.push(format!("({t})*{}", names[j]));
             }
         }

@@ -550,6 +550,200 @@ pub fn identify(model: &UserModel, segments: &[Segment]) -> Result<Identified, S
     }
 }
 
+/// The prediction errors of a pass over `seg` with the model at `p` (they do not depend on the
+/// parameter prior, which only the parameter update uses).
+fn prediction_errors(
+    model: &UserModel,
+    seg: &Segment,
+    st: &FemSettings<f64, MAX_X, MAX_Y>,
+    p: &PVec,
+) -> Result<Vec<YVec>, String> {
+    let (x0, p_x0) = initial_state(model, seg);
+    let mut fem = FilterError::new_pass(model, *st, x0, p_x0, *p, *p, model.prior_covariance())
+        .map_err(|e| format!("{}: the filter refused its start ({e:?})", seg.label))?;
+    (0..seg.t_s.len() - 1)
+        .map(|k| {
+            fem.step(&seg.u[k], &seg.u[k + 1], &seg.y[k + 1])
+                .map(|s| s.prediction_error)
+                .map_err(|e| format!("{} at t = {:.3} s: step refused ({e:?})", seg.label, seg.t_s[k + 1]))
+        })
+        .collect()
+}
+
+/// The real FFT of `x` zero-padded to `m` (`m/2 + 1` bins).
+fn spectrum(
+    planner: &mut realfft::RealFftPlanner<f64>,
+    x: &[f64],
+    m: usize,
+) -> Vec<realfft::num_complex::Complex<f64>> {
+    let fft = planner.plan_fft_forward(m);
+    let mut input = vec![0.0; m];
+    input[..x.len()].copy_from_slice(x);
+    let mut out = fft.make_output_vec();
+    // The lengths are the plan's own: the transform cannot fail.
+    if fft.process(&mut input, &mut out).is_err() {
+        out.fill(realfft::num_complex::Complex::new(f64::NAN, 0.0));
+    }
+    out
+}
+
+/// `Σᵢ Σⱼ Sᵢᵀ W R_vv(j−i) W Sⱼ` over one segment ([`coloured_covariance`]): `v` the residuals,
+/// `sens[p][i]` the sensitivity of `vᵢ` to parameter `p`, `w` the diagonal of `W`,
+/// `R_vv(k) = (1/N) Σᵢ vᵢ vᵢ₊ₖᵀ` over every lag of the segment. By FFT of the series zero-padded to
+/// `M ≥ 2N` (no circular wrap): with `g_{a,p} = w_a S_{·,a,p}` and `u_p(f) = Σ_a G*_{a,p}(f) V_a(f)`,
+/// the sum is `(1/(N M)) Σ_f Re(u_p(f) u_q(f)*)` over the full spectrum (Parseval).
+fn lag_sandwich(
+    planner: &mut realfft::RealFftPlanner<f64>,
+    v: &[YVec],
+    sens: &[Vec<YVec>],
+    w: &[f64],
+) -> nalgebra::DMatrix<f64> {
+    use realfft::num_complex::Complex;
+    let (n, np) = (v.len(), sens.len());
+    let mut out = nalgebra::DMatrix::zeros(np, np);
+    if n == 0 {
+        return out;
+    }
+    let m = (2 * n).next_power_of_two();
+    let mut u = vec![vec![Complex::new(0.0, 0.0); m / 2 + 1]; np];
+    for (a, &wa) in w.iter().enumerate() {
+        let va: Vec<f64> = v.iter().map(|e| e[a]).collect();
+        let vf = spectrum(planner, &va, m);
+        for (uj, s) in u.iter_mut().zip(sens) {
+            let ga: Vec<f64> = s.iter().map(|e| wa * e[a]).collect();
+            let gf = spectrum(planner, &ga, m);
+            for (uf, (g, x)) in uj.iter_mut().zip(gf.iter().zip(&vf)) {
+                *uf += g.conj() * x;
+            }
+        }
+    }
+    let last = m / 2;
+    for i in 0..np {
+        for j in 0..=i {
+            let x: f64 = (0..=last)
+                .map(|f| {
+                    let c = if f == 0 || f == last { 1.0 } else { 2.0 };
+                    c * (u[i][f] * u[j][f].conj()).re
+                })
+                .sum::<f64>()
+                / (m as f64 * n as f64);
+            out[(i, j)] = x;
+            out[(j, i)] = x;
+        }
+    }
+    out
+}
+
+/// The parameter covariance of `id` corrected for coloured residuals (Morelli & Klein 1997,
+/// "Accuracy of aerodynamic model parameters estimated from flight test data", J. Guidance 20(1);
+/// Klein & Morelli 2006 §6.2, eq. 6.55–6.56 for output error):
+/// `Cov θ̂ = M⁻¹ [P₀⁻¹ + Σᵢ Σⱼ Sᵢᵀ W R_vv(i−j) W Sⱼ] M⁻¹`, `M = P₀⁻¹ + Σᵢ Sᵢᵀ W Sᵢ`, with `Sᵢ` the
+/// sensitivity of the prediction error `vᵢ` to the free parameters at the estimate, `W` the
+/// estimator's weighting and `R_vv(k) = (1/N) Σ vᵢ vᵢ₊ₖᵀ` the residual autocorrelation of each
+/// segment (every lag within a segment, none across segments: pooled manoeuvres are independent).
+/// With white residuals of covariance `W⁻¹` the middle term is `M` and this is the Cramér–Rao bound
+/// the filter reports; output-error residuals carry turbulence and model error, coloured over the
+/// manoeuvre, and the bound then understates the scatter several times (docs/fem.md).
+///
+/// Readings: `W = R⁻¹` for output error (the filter's `R_p` is `R` there); for the filter error
+/// method `R_p = C P Cᵀ + R` is not returned by the filter, and its steady-state value is taken as
+/// the sample covariance of the innovations (diagonal, as `R`). `Sᵢ` is the central difference of
+/// the prediction errors of passes at `θ̂ ± δ eⱼ` (`δ` 1 % of the reported σ: small against the
+/// uncertainty, large against rounding); for the filter error method it includes the gain's change.
+/// The prior `P₀` enters as pseudo-data with white errors. The lag sums are formed by FFT of the
+/// segment zero-padded to twice its length (no circular wrap): `Σₖ r_g(k) r_v(k) = (1/M) Σ_f G_f* V_f`
+/// (Parseval), `O(N log N)` per parameter and output instead of `O(N²)`.
+pub fn coloured_covariance(
+    model: &UserModel,
+    segments: &[Segment],
+    id: &Identified,
+) -> Result<SMatrix<f64, MAX_P, MAX_P>, String> {
+    use nalgebra::DMatrix;
+    let dt = sample_period(segments)?;
+    let np = model.free().len();
+    let (_, _, ny) = model.dims();
+    if np == 0 {
+        return Ok(id.covariance);
+    }
+    let st = settings(model, dt, Some(&id.noise_variance));
+    let sigma = sigma_of(&id.covariance);
+    let steps: Vec<PVec> = (0..np)
+        .map(|j| {
+            let s = 0.01 * sigma[j];
+            let d = if s.is_finite() && s > 0.0 {
+                s
+            } else {
+                1e-6 * id.p[j].abs().max(1.0)
+            };
+            PVec::from_fn(|i, _| if i == j { d } else { 0.0 })
+        })
+        .collect();
+    // Residuals and sensitivities per segment.
+    let mut per_seg = Vec::with_capacity(segments.len());
+    for seg in segments {
+        let v = prediction_errors(model, seg, &st, &id.p)?;
+        let mut sens = Vec::with_capacity(np);
+        for d in &steps {
+            let hi = prediction_errors(model, seg, &st, &(id.p + d))?;
+            let lo = prediction_errors(model, seg, &st, &(id.p - d))?;
+            let h = d.max() * 2.0;
+            // S = ∂v/∂θ (the sign does not matter in the sandwich).
+            sens.push(hi.iter().zip(&lo).map(|(a, b)| (a - b) / h).collect::<Vec<YVec>>());
+        }
+        per_seg.push((v, sens));
+    }
+    // The weighting.
+    let w: Vec<f64> = match model.file.estimation.method {
+        Method::OutputError => (0..ny).map(|i| 1.0 / st.r_x[(i, i)]).collect(),
+        Method::FilterError => {
+            let (mut s2, mut n) = (vec![0.0; ny], 0usize);
+            for (v, _) in &per_seg {
+                for e in v {
+                    for (i, s) in s2.iter_mut().enumerate() {
+                        *s += e[i] * e[i];
+                    }
+                }
+                n += v.len();
+            }
+            s2.iter().map(|s| n as f64 / s.max(f64::MIN_POSITIVE)).collect()
+        }
+    };
+    let c0 = model.prior_covariance();
+    let prior_info = DMatrix::from_fn(np, np, |i, j| if i == j { 1.0 / c0[(i, i)] } else { 0.0 });
+    let mut info = prior_info.clone();
+    let mut meat = prior_info;
+    let mut planner = realfft::RealFftPlanner::<f64>::new();
+    for (v, sens) in &per_seg {
+        let n = v.len();
+        if n == 0 {
+            continue;
+        }
+        for a in 0..ny {
+            for i in 0..np {
+                for j in 0..=i {
+                    let x: f64 = (0..n).map(|k| sens[i][k][a] * w[a] * sens[j][k][a]).sum();
+                    info[(i, j)] += x;
+                    if i != j {
+                        info[(j, i)] += x;
+                    }
+                }
+            }
+        }
+        meat += lag_sandwich(&mut planner, v, sens, &w);
+    }
+    let bread = info
+        .try_inverse()
+        .ok_or("the information matrix of the estimate is singular: a parameter has no sensitivity")?;
+    let cov = &bread * meat * &bread;
+    let mut out = id.covariance;
+    for i in 0..np {
+        for j in 0..np {
+            out[(i, j)] = cov[(i, j)];
+        }
+    }
+    Ok(out)
+}
+
 /// Fit of one output.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct OutputFit {
@@ -630,8 +824,12 @@ pub struct SavedParameter {
     pub name: String,
     /// Value.
     pub value: f64,
-    /// σ (null for a fixed parameter).
+    /// σ corrected for coloured residuals ([`coloured_covariance`]; null for a fixed parameter).
     pub sigma: Option<f64>,
+    /// The Cramér–Rao σ of white residuals, the filter's own covariance (null for a fixed
+    /// parameter, and in files saved before it was recorded).
+    #[serde(default)]
+    pub sigma_white: Option<f64>,
     /// Held, not estimated.
     pub fixed: bool,
     /// Starting value.
@@ -843,11 +1041,14 @@ pub fn run_fem(args: &FemArgs) -> Result<FemRun, String> {
     let id = identify(&model, &segs)?;
     // The model with the estimates.
     let mut values = model.values().to_vec();
-    let sig = sigma_of(&id.covariance);
+    let sig = sigma_of(&coloured_covariance(&model, &segs, &id)?);
+    let sig_white = sigma_of(&id.covariance);
     let mut sigma = vec![None; values.len()];
+    let mut sigma_white = vec![None; values.len()];
     for (k, &i) in model.free().iter().enumerate() {
         values[i] = id.p[k];
         sigma[i] = Some(sig[k]);
+        sigma_white[i] = Some(sig_white[k]);
     }
     model.set_values(&values);
     let sims: Vec<_> = segs.iter().map(|s| simulate(&model, s, dt)).collect();
@@ -900,6 +1101,7 @@ pub fn run_fem(args: &FemArgs) -> Result<FemRun, String> {
                 name: p.name.clone(),
                 value: values[i],
                 sigma: sigma[i],
+                sigma_white: sigma_white[i],
                 fixed: p.fixed,
                 start: p.start,
                 reference: p.reference,
@@ -959,11 +1161,12 @@ pub fn report_text(s: &SavedModel) -> String {
     }
     let _ = writeln!(
         out,
-        "{:>12} {:>14} {:>12} {:>14} {:>14} {:>7}",
-        "parameter", "estimate", "σ", "start", "reference", "|Δ|/σ"
+        "{:>12} {:>14} {:>12} {:>12} {:>14} {:>14} {:>7}",
+        "parameter", "estimate", "σ", "σ white", "start", "reference", "|Δ|/σ"
     );
     for p in &s.parameters {
         let sig = p.sigma.map_or("fixed".to_string(), |v| format!("{v:.5}"));
+        let white = p.sigma_white.map_or(String::new(), |v| format!("{v:.5}"));
         let (r, z) = match (p.reference, p.sigma) {
             (Some(r), Some(sg)) => (format!("{r:+.6}"), format!("{:.2}", (p.value - r).abs() / sg)),
             (Some(r), None) => (format!("{r:+.6}"), String::new()),
@@ -971,7 +1174,7 @@ pub fn report_text(s: &SavedModel) -> String {
         };
         let _ = writeln!(
             out,
-            "{:>12} {:>+14.6} {:>12} {:>+14.6} {r:>14} {z:>7}",
+            "{:>12} {:>+14.6} {:>12} {white:>12} {:>+14.6} {r:>14} {z:>7}",
             p.name, p.value, sig, p.start
         );
     }
@@ -1154,4 +1357,68 @@ pub fn run_predict_with(
     }
     fit_table(&mut txt, "simulation:", &pred.fit);
     Ok((pred, txt, vec![jp, sp]))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+
+    /// The FFT lag sums of the coloured-residual sandwich equal the direct double sum
+    /// `Σᵢ Σⱼ Sᵢᵀ W R_vv(j−i) W Sⱼ`, `R_vv(k) = (1/N) Σₜ vₜ vₜ₊ₖᵀ` (cross-output terms included).
+    #[test]
+    fn the_fft_sandwich_equals_the_direct_sums() {
+        // GIVEN seeded coloured residuals of two outputs and three parameters' sensitivities
+        let mut rng = rand::rngs::StdRng::seed_from_u64(7);
+        let (n, ny, np) = (37, 2, 3);
+        let mut v = vec![YVec::zeros(); n];
+        let mut prev = [0.0; 2];
+        for e in v.iter_mut() {
+            for a in 0..ny {
+                prev[a] = 0.8 * prev[a] + rng.random_range(-1.0..1.0);
+                e[a] = prev[a] + 0.3 * prev[1 - a];
+            }
+        }
+        let sens: Vec<Vec<YVec>> = (0..np)
+            .map(|_| {
+                (0..n)
+                    .map(|_| YVec::from_fn(|i, _| if i < ny { rng.random_range(-1.0..1.0) } else { 0.0 }))
+                    .collect()
+            })
+            .collect();
+        let w = [2.0, 0.5];
+        // WHEN both are formed
+        let fft = lag_sandwich(&mut realfft::RealFftPlanner::new(), &v, &sens, &w);
+        let r = |a: usize, b: usize, k: isize| -> f64 {
+            // R_ab(k) = (1/N) Σ_t v_{t,a} v_{t+k,b}; R_ab(−k) = R_ba(k).
+            if k < 0 {
+                return (0..n - (-k) as usize)
+                    .map(|t| v[t][b] * v[t + (-k) as usize][a])
+                    .sum::<f64>()
+                    / n as f64;
+            }
+            (0..n - k as usize).map(|t| v[t][a] * v[t + k as usize][b]).sum::<f64>() / n as f64
+        };
+        // THEN they agree to rounding
+        for p in 0..np {
+            for q in 0..np {
+                let mut direct = 0.0;
+                for i in 0..n {
+                    for j in 0..n {
+                        for a in 0..ny {
+                            for b in 0..ny {
+                                direct +=
+                                    sens[p][i][a] * w[a] * r(a, b, j as isize - i as isize) * w[b] * sens[q][j][b];
+                            }
+                        }
+                    }
+                }
+                assert!(
+                    (fft[(p, q)] - direct).abs() < 1e-10 * direct.abs().max(1.0),
+                    "{p},{q}: {} vs {direct}",
+                    fft[(p, q)]
+                );
+            }
+        }
+    }
 }

@@ -1,0 +1,261 @@
+//! Standard errors that match the scatter: the same simulated manoeuvres flown again and again with
+//! independent turbulence and sensor-noise seeds, every parameter of the short-period (`C_L`,
+//! `C_m`: α, q, δe) and roll/yaw (`C_Y`, `C_l`, `C_n`: β, p, r, δa, δr) models estimated on each,
+//! and the sample standard deviation of the estimates divided by the median standard error the
+//! analysis states. A stated σ that matches the scatter gives a ratio near 1; white-residual bounds
+//! on coloured residuals give ratios of several.
+//!
+//! * `gaps`: the pooled test card (`aerosid card`, eight records, light MIL-F-8785C turbulence),
+//!   the baseline's PCA-GTLS fit of each coefficient.
+//! * `fem`: output error on one 6 s manoeuvre at a time (`tool/models/skywalker_short_period.toml`
+//!   and `tool/models/skywalker_lateral.toml`), the gap campaign's flight with vanes in its light
+//!   turbulence (every surface excited in the same window, so both models are identifiable from
+//!   one record). (On the test card's `elevator_3211` of seed 100, α estimated from a lagged
+//!   wind, the short-period output error stopped on a refused step or did not converge with every
+//!   prior tried.)
+//!
+//! The sweeps (`fem_scatter_sweep`, `gaps_scatter_sweep`, ignored: N = 40) print the tables
+//! docs/benchmarks.md records; the always-on test uses N = 16 (roll/yaw by `fem`) and asserts the band 0.7 ≤ ratio ≤ 1.5 widened by the
+//! sampling error of a standard deviation from N draws, `≈ 1/√(2N)` relative (0.18 at N = 16):
+//! two of those, `[0.7 − 2·0.18·0.7, 1.5 + 2·0.18·1.5] ≈ [0.45, 2.0]`, so a correct σ fails
+//! with a probability of a few percent per parameter only if its true ratio sits at a band edge,
+//! and the white-residual σ (ratios 3–10) always fails.
+
+use aerosid::card::{write_card, CardSettings, AIRCRAFT_FILE};
+use aerosid::gaps::hidden;
+use aerosid::gaps::{run_gaps, GapSettings};
+use aerosid::io::log::write_log_file;
+use aerosid::io::{read_pooled, ReadOptions};
+use aerosid::sim::simulate;
+use aerosid::sim::test_card::CardTurbulence;
+use aerosid::usermodel::UserModel;
+use aerosid::workflow::{apply_aircraft, coloured_covariance, identify, read_segments_with};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// Draws of one parameter: estimates, stated σ, and (fem) the white-residual σ beside it.
+#[derive(Default)]
+struct Draws {
+    values: Vec<f64>,
+    sigmas: Vec<f64>,
+    white: Vec<f64>,
+}
+
+fn sd(v: &[f64]) -> f64 {
+    let n = v.len() as f64;
+    let m = v.iter().sum::<f64>() / n;
+    (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (n - 1.0)).sqrt()
+}
+
+fn median(v: &[f64]) -> f64 {
+    let mut s: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
+    s.sort_by(f64::total_cmp);
+    if s.is_empty() {
+        return f64::NAN;
+    }
+    let k = s.len() / 2;
+    if s.len() % 2 == 1 {
+        s[k]
+    } else {
+        0.5 * (s[k - 1] + s[k])
+    }
+}
+
+impl Draws {
+    fn ratio(&self) -> f64 {
+        sd(&self.values) / median(&self.sigmas)
+    }
+    fn white_ratio(&self) -> f64 {
+        sd(&self.values) / median(&self.white)
+    }
+}
+
+/// `n` clean cards in light turbulence, seeds `first..first + n`, written under `dir`; each card's
+/// record files.
+fn cards(dir: &Path, first: u64, n: u64) -> Vec<Vec<PathBuf>> {
+    (first..first + n)
+        .map(|seed| {
+            let folder = dir.join(format!("card_{seed}"));
+            let settings = CardSettings {
+                effect: None,
+                seed,
+                turbulence: CardTurbulence::Light,
+            };
+            write_card(&folder, &settings)
+                .expect("the card flies")
+                .into_iter()
+                .filter(|p| p.extension().is_some_and(|e| e == "csv"))
+                .collect()
+        })
+        .collect()
+}
+
+const SHORT_PERIOD: [&str; 2] = ["C_L", "C_m"];
+const ROLL_YAW: [&str; 3] = ["C_Y", "C_l", "C_n"];
+
+/// `gaps` on every pooled card: the baseline's estimates and stated σ per `coefficient:term`
+/// (the short-period and roll/yaw coefficients; the constant term left out).
+fn gaps_draws(cards: &[Vec<PathBuf>]) -> BTreeMap<String, Draws> {
+    let mut out: BTreeMap<String, Draws> = BTreeMap::new();
+    for files in cards {
+        let aircraft = files[0].parent().expect("a folder").join(AIRCRAFT_FILE);
+        let flight = read_pooled(files, Some(&aircraft), &[], &ReadOptions::default()).expect("the card reads");
+        let report = run_gaps(&flight, &GapSettings::default()).expect("the analysis runs");
+        for c in &report.coefficients {
+            if !SHORT_PERIOD.contains(&c.name.as_str()) && !ROLL_YAW.contains(&c.name.as_str()) {
+                continue;
+            }
+            for p in c.baseline.parameters.iter().filter(|p| p.term != "1") {
+                let d = out.entry(format!("{}:{}", c.name, p.term)).or_default();
+                d.values.push(p.value);
+                d.sigmas.push(p.sigma);
+            }
+        }
+    }
+    out
+}
+
+fn model_path(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("models").join(name)
+}
+
+/// One simulated manoeuvre per seed: the gap campaign's clean flight (`gaps::hidden::config`: vanes,
+/// [`hidden::CAMPAIGN_TURBULENCE`]) of 12 s, written as a project CSV. Its 2–8 s window
+/// ([`WINDOW`]) flies an elevator 3-2-1-1 and doublet, an aileron 3-2-1-1 and a rudder doublet from
+/// trim, and ends before the throttle step at 8 s (whose speed change the short-period model does
+/// not have).
+fn manoeuvres(dir: &Path, first: u64, n: u64) -> Vec<PathBuf> {
+    std::fs::create_dir_all(dir).expect("a scratch folder");
+    (first..first + n)
+        .map(|seed| {
+            let cfg = hidden::config(None, 12.0, seed, true);
+            let out = simulate(&cfg).expect("the simulator flies");
+            let f = dir.join(format!("manoeuvre_{seed}.csv"));
+            write_log_file(&f, &out.samples).expect("the log writes");
+            f
+        })
+        .collect()
+}
+
+/// The manoeuvre's window in each flight, s.
+const WINDOW: (f64, f64) = (2.0, 8.0);
+
+/// `fem` (output error, Gauss–Newton) of `model` on the [`WINDOW`] of every file: the
+/// estimates, the σ `fem` reports and the white-residual Cramér–Rao σ, per parameter.
+fn fem_draws(files: &[PathBuf], model: &str) -> BTreeMap<String, Draws> {
+    let aircraft = Path::new(env!("CARGO_MANIFEST_DIR")).join("data/aircraft/skywalker_2013_mod.aircraft");
+    let mut out: BTreeMap<String, Draws> = BTreeMap::new();
+    for f in files {
+        let mut m = UserModel::read(&model_path(model)).expect("the model reads");
+        let segs = read_segments_with(&m, f, Some(&aircraft), &[WINDOW]).expect("the record reads");
+        apply_aircraft(&mut m, &segs).expect("the aircraft applies");
+        let id = identify(&m, &segs).expect("the fit runs");
+        assert!(
+            id.converged,
+            "{model} on {}: Gauss-Newton did not converge",
+            f.display()
+        );
+        let cov = coloured_covariance(&m, &segs, &id).expect("the covariance");
+        for (k, &i) in m.free().iter().enumerate() {
+            let d = out.entry(m.file.parameters[i].name.clone()).or_default();
+            d.values.push(id.p[k]);
+            d.sigmas.push(cov[(k, k)].max(0.0).sqrt());
+            d.white.push(id.covariance[(k, k)].max(0.0).sqrt());
+        }
+    }
+    out
+}
+
+fn table(title: &str, d: &BTreeMap<String, Draws>) -> String {
+    let mut s = format!("{title}\n| parameter | mean | s.d. | median σ | s.d./σ | s.d./σ white |\n");
+    for (name, v) in d {
+        let n = v.values.len() as f64;
+        s.push_str(&format!(
+            "| {name} | {:.4} | {:.4} | {:.4} | {:.2} | {} |\n",
+            v.values.iter().sum::<f64>() / n,
+            sd(&v.values),
+            median(&v.sigmas),
+            v.ratio(),
+            if v.white.is_empty() {
+                "—".to_string()
+            } else {
+                format!("{:.2}", v.white_ratio())
+            }
+        ));
+    }
+    s
+}
+
+/// The band for `n` draws (module doc): 0.7–1.5 widened by two sampling errors of a s.d.
+fn band(n: usize) -> (f64, f64) {
+    let e = 1.0 / (2.0 * n as f64).sqrt();
+    (0.7 * (1.0 - 2.0 * e), 1.5 * (1.0 + 2.0 * e))
+}
+
+fn assert_band(what: &str, d: &BTreeMap<String, Draws>) {
+    let mut bad = Vec::new();
+    for (name, v) in d {
+        let (lo, hi) = band(v.values.len());
+        let r = v.ratio();
+        if !(lo..=hi).contains(&r) {
+            bad.push(format!("{name}: {r:.2} outside [{lo:.2}, {hi:.2}]"));
+        }
+    }
+    assert!(bad.is_empty(), "{what}: s.d./σ out of band:\n{}", bad.join("\n"));
+}
+
+fn temp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("aerosid_scatter_{name}_{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    d
+}
+
+#[test]
+fn fem_sigma_matches_the_scatter_of_repeated_manoeuvres() {
+    // GIVEN 16 simulated manoeuvres of independent seeds, WHEN `fem` fits the roll/yaw model to
+    // each (output error, one manoeuvre at a time)
+    let dir = temp("fem");
+    let f = manoeuvres(&dir, 100, 16);
+    let lat = fem_draws(&f, "skywalker_lateral.toml");
+    println!("{}", table("roll/yaw", &lat));
+    let _ = std::fs::remove_dir_all(&dir);
+    // THEN the scatter over the σ `fem` reports is inside the band for every parameter, and over
+    // the white-residual Cramér–Rao σ it is far above it (measured 3.4–8.2 on these seeds)
+    assert_band("fem roll/yaw", &lat);
+    let white_low = lat.values().map(Draws::white_ratio).fold(f64::INFINITY, f64::min);
+    assert!(
+        white_low > band(16).1,
+        "the white σ already matches the scatter ({white_low:.2})"
+    );
+}
+
+#[test]
+#[ignore = "the sweep: 40 manoeuvres through fem (minutes); prints docs/benchmarks.md's table"]
+fn fem_scatter_sweep() {
+    let dir = temp("fem_sweep");
+    let f = manoeuvres(&dir, 1000, 40);
+    let lon = fem_draws(&f, "skywalker_short_period.toml");
+    let lat = fem_draws(&f, "skywalker_lateral.toml");
+    println!(
+        "fem, N = {}\n{}\n{}",
+        f.len(),
+        table("short period", &lon),
+        table("roll/yaw", &lat)
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+    // The short period's Mα, Mq, Mδe, M0 are biased by a moment the model lacks (the model file's
+    // comment), alike on every repetition: the coloured-residual σ counts that residual, the
+    // seed-to-seed scatter does not (docs/fem.md), so only the roll/yaw band is asserted.
+    assert_band("fem roll/yaw", &lat);
+}
+
+#[test]
+#[ignore = "the sweep: 40 pooled cards through gaps (minutes); prints docs/benchmarks.md's table"]
+fn gaps_scatter_sweep() {
+    let dir = temp("gaps_sweep");
+    let c = cards(&dir, 1000, 40);
+    let g = gaps_draws(&c);
+    println!("gaps, N = {}\n{}", c.len(), table("pooled card, baseline", &g));
+    let _ = std::fs::remove_dir_all(&dir);
+    assert_band("gaps", &g);
+}
