@@ -442,6 +442,8 @@ struct Setup<'a> {
     blocks: Vec<(usize, usize)>,
     fold: Vec<usize>,
     folds: usize,
+    /// How the folds were formed, in words.
+    fold_note: String,
 }
 
 impl Setup<'_> {
@@ -658,8 +660,9 @@ pub struct Inputs<'a> {
     pub max_lag_s: f64,
 }
 
-/// The output-error analysis of `C_L`, `C_D`, `C_m` (module doc). `Err` says why it cannot run.
-pub fn analyse(inp: &Inputs) -> Result<LowRate, String> {
+/// The plant, the manoeuvres, the sandwich blocks and the folds of `inp`; `Err` says why the path
+/// cannot run on these data.
+fn setup<'a>(inp: &Inputs<'a>) -> Result<Setup<'a>, String> {
     let table = inp.table;
     let kin = table.kinematics.as_ref().ok_or("no coefficient could be synthesised")?;
     let (alpha_m, v_m) = match (table.signals.get(&Signal::Alpha), table.signals.get(&Signal::Airspeed)) {
@@ -721,7 +724,7 @@ pub fn analyse(inp: &Inputs) -> Result<LowRate, String> {
             format!("blocks of {:.1} s in {folds} folds held out", inp.cv.block_s),
         )
     };
-    let setup = Setup {
+    Ok(Setup {
         plant: Plant {
             table,
             kin,
@@ -737,7 +740,15 @@ pub fn analyse(inp: &Inputs) -> Result<LowRate, String> {
         blocks,
         fold,
         folds,
-    };
+        fold_note,
+    })
+}
+
+/// The output-error analysis of `C_L`, `C_D`, `C_m` (module doc). `Err` says why it cannot run.
+pub fn analyse(inp: &Inputs) -> Result<LowRate, String> {
+    let table = inp.table;
+    let setup = setup(inp)?;
+    let n = table.t_s.len();
     // The baseline: terms with a column, started from least squares on the synthesised
     // coefficients (the equation error at this rate: a start, not an answer).
     let mut terms = Vec::new();
@@ -770,8 +781,8 @@ pub fn analyse(inp: &Inputs) -> Result<LowRate, String> {
     let n_all = n as f64;
     let r0 = noise_of(&base.e);
     let mut notes = vec![format!(
-        "output error: α and q simulated from each manoeuvre's first sample, V, β, attitude, p, r, surfaces and thrust as measured; R relaxed to the residuals' mean square (α {:.2e} rad², q {:.2e} (rad/s)², F_x/m {:.2e}, F_z/m {:.2e} (m/s²)²); held-out: {fold_note}, the fits without a fold by one Gauss–Newton step",
-        r0[0], r0[1], r0[2], r0[3]
+        "output error: α and q simulated from each manoeuvre's first sample, V, β, attitude, p, r, surfaces and thrust as measured; R relaxed to the residuals' mean square (α {:.2e} rad², q {:.2e} (rad/s)², F_x/m {:.2e}, F_z/m {:.2e} (m/s²)²); held-out: {}, the fits without a fold by one Gauss–Newton step",
+        r0[0], r0[1], r0[2], r0[3], setup.fold_note
     )];
     if !base.converged {
         notes.push("the baseline's Gauss–Newton iterations did not converge within their limit".into());
@@ -1013,4 +1024,99 @@ pub fn analyse(inp: &Inputs) -> Result<LowRate, String> {
         });
     }
     Ok(LowRate { coefficients, notes })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::gaps::{hidden, preprocess, GapSettings};
+
+    /// The output sensitivities of the simulation (the forward sensitivity equations integrated
+    /// with the states, with the chains through `C_L²` in `C_D` and `α̇` in `C_m`) equal central
+    /// differences of the simulated outputs. RK4 applied to the states and sensitivities together
+    /// differentiates the discrete step exactly; what differs is the central differences inside
+    /// (`∂f/∂x`, the chain partials: relative steps 10⁻⁶, errors ~10⁻¹⁰) and this test's own
+    /// (relative step 10⁻⁶ of `θ`): a relative tolerance of 10⁻⁵ per column leaves room for both.
+    #[test]
+    fn the_sensitivities_match_differences_of_the_simulation() {
+        let fast = hidden::flight(None, 20.0, 7, true).expect("the simulator flies");
+        let f = fast.block_means(10);
+        let h = f.t_s[1] - f.t_s[0];
+        let s = GapSettings::default();
+        let baselines: [Vec<Term>; 6] = core::array::from_fn(Term::eq3);
+        let pre = preprocess(&f, h, &s, &baselines);
+        let refs = TermRefs {
+            alpha_break_rad: 0.1,
+            airspeed_mps: 18.0,
+            mach: 0.0,
+        };
+        let pieces = [(0, f.len())];
+        let inp = Inputs {
+            table: &pre.table,
+            aircraft: &f.aircraft,
+            refs: &refs,
+            baselines: &baselines,
+            pieces: &pieces,
+            n_id: f.len() * 6 / 10,
+            threshold_t2: 20.0,
+            cv: s.cv,
+            max_lag_s: s.max_lag_s,
+        };
+        let st = setup(&inp).expect("the path runs on this flight");
+        use Term::*;
+        let terms = vec![
+            (0, One),
+            (0, Alpha),
+            (0, Q),
+            (0, Elevator),
+            (1, One),
+            (1, Lift2),
+            (1, AlphaDot),
+            (4, One),
+            (4, Alpha),
+            (4, Q),
+            (4, Elevator),
+            (4, AlphaDot),
+        ];
+        // Least squares on the synthesised coefficients: a plausible point, coefficient by
+        // coefficient.
+        let mut th = Vec::new();
+        for c in COVERED {
+            let cols: Vec<Vec<f64>> = terms
+                .iter()
+                .filter(|(cc, _)| *cc == c)
+                .map(|(_, t)| t.column(&pre.table, &refs).expect("the column exists"))
+                .collect();
+            th.extend(ols_theta(&cols, pre.table.z[c].as_ref().expect("synthesised")).expect("regular"));
+        }
+        let spec = Spec::new(terms);
+        let run = st
+            .plant
+            .run(&spec, &th, &pieces, true)
+            .expect("the simulation stays in range");
+        for j in 0..spec.np() {
+            let step = 1e-6 * th[j].abs().max(1.0);
+            let at = |d: f64| {
+                let mut t = th.clone();
+                t[j] += d;
+                st.plant.run(&spec, &t, &pieces, false).expect("in range").yhat
+            };
+            let (up, dn) = (at(step), at(-step));
+            let (mut err, mut norm) = (0.0, 0.0);
+            for k in 0..f.len() {
+                for i in 0..NY {
+                    let fd = (up[k][i] - dn[k][i]) / (2.0 * step);
+                    err += (run.h[k][(i, j)] - fd).powi(2);
+                    norm += fd * fd;
+                }
+            }
+            assert!(
+                err.sqrt() <= 1e-5 * norm.sqrt(),
+                "{:?}: |H − FD| {:.3e}, |FD| {:.3e}",
+                spec.terms[j],
+                err.sqrt(),
+                norm.sqrt()
+            );
+        }
+    }
 }
