@@ -7,6 +7,7 @@ mod cli;
 mod corrupt_logs;
 mod exit_codes;
 mod flow_angles;
+mod low_rate;
 mod origin;
 mod pooled;
 mod predict;

@@ -45,6 +45,7 @@ pub mod hidden;
 pub mod instrumental;
 pub mod model;
 pub mod noise;
+pub mod oem;
 pub mod origin;
 pub mod predict;
 pub mod regress;
@@ -821,6 +822,20 @@ pub fn run_gaps(flight: &MeasuredFlight, settings: &GapSettings) -> Result<GapRe
             coefficients.push(g);
         }
     }
+    // Below the equation-error path's rate, `C_L`, `C_D`, `C_m` by output error ([`oem`]).
+    let low_rate = 1.0 / h < crate::io::quality::MIN_RATE_HZ;
+    let low_rate_ok = low_rate
+        && low_rate_path(&mut coefficients, &mut notes, h, || oem::Inputs {
+            table: &table,
+            aircraft: &flight.aircraft,
+            refs: &refs,
+            baselines: &baselines,
+            pieces: &piece_ranges,
+            n_id,
+            threshold_t2,
+            cv: settings.cv,
+            max_lag_s: settings.max_lag_s,
+        });
     // What the simulation gets wrong: both model sets simulate the held-out segment.
     let model_set = |ext: bool| -> simulate::ModelSet {
         core::array::from_fn(|i| {
@@ -914,6 +929,13 @@ pub fn run_gaps(flight: &MeasuredFlight, settings: &GapSettings) -> Result<GapRe
         );
     }
     let mut data_quality = crate::io::quality::assess(flight);
+    if low_rate_ok {
+        // The rate is what the low-rate path answers; every other reason stands.
+        data_quality
+            .why_not
+            .retain(|r| !(r.starts_with("the time base is") && r.contains("needs at least")));
+        data_quality.supports_verdict = data_quality.why_not.is_empty();
+    }
     crate::io::quality::after_analysis(&mut data_quality, &coefficients, &regression);
     let verdict = if data_quality.supports_verdict {
         overall_verdict(&named, &coefficients)
@@ -956,6 +978,55 @@ pub fn run_gaps(flight: &MeasuredFlight, settings: &GapSettings) -> Result<GapRe
         refs,
         manoeuvres,
     })
+}
+
+/// The low-rate path: `C_L`, `C_D`, `C_m` of `coefficients` replaced by their output-error
+/// analysis ([`oem::analyse`]); the other coefficients get no verdict and name nothing (the
+/// equation-error path differentiates over ±0.1 s, which this rate cannot resolve). False, with a
+/// note saying why, when the path cannot run.
+fn low_rate_path<'a>(
+    coefficients: &mut Vec<CoefficientGap>,
+    notes: &mut Vec<String>,
+    h: f64,
+    inputs: impl FnOnce() -> oem::Inputs<'a>,
+) -> bool {
+    let rate = 1.0 / h;
+    let min = crate::io::quality::MIN_RATE_HZ;
+    match oem::analyse(&inputs()) {
+        Ok(lr) => {
+            let covered: Vec<&str> = oem::COVERED.iter().map(|&c| COEFFICIENTS[c]).collect();
+            coefficients.retain(|c| !covered.contains(&c.name.as_str()));
+            for c in coefficients.iter_mut() {
+                c.added.clear();
+                c.extended = c.baseline.clone();
+                c.extended_model = c.baseline_model.clone();
+                c.verdict = format!(
+                    "no verdict: at {rate:.1} Hz the equation-error path (smoothing and differentiation over ±0.1 s) needs {min} Hz, and the low-rate output-error path covers {} only",
+                    covered.join(", ")
+                );
+            }
+            let mut all = lr.coefficients;
+            all.append(coefficients);
+            all.sort_by_key(|c| COEFFICIENTS.iter().position(|n| *n == c.name));
+            *coefficients = all;
+            notes.insert(
+                0,
+                format!(
+                    "method: the data are at {rate:.1} Hz, below the {min} Hz the equation-error path needs (it smooths and differentiates over ±0.1 s), so {} are fitted and their candidates tested by output error (the low-rate path, docs/model-gaps.md)",
+                    covered.join(", ")
+                ),
+            );
+            notes.extend(lr.notes);
+            true
+        }
+        Err(why) => {
+            notes.insert(
+                0,
+                format!("method: the data are at {rate:.1} Hz, below {min} Hz, and the low-rate output-error path cannot run: {why}"),
+            );
+            false
+        }
+    }
 }
 
 /// Signals whose spread over a manoeuvre the report lists: α, β, the rates and the surfaces (the

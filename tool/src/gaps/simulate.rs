@@ -112,7 +112,7 @@ fn pieces(n_id: usize, n: usize, h_s: f64) -> Vec<(usize, usize)> {
     out
 }
 
-fn lerp(x: &[f64], k: usize, frac: f64) -> f64 {
+pub(super) fn lerp(x: &[f64], k: usize, frac: f64) -> f64 {
     if frac == 0.0 || k + 1 >= x.len() {
         x[k]
     } else {
@@ -120,7 +120,7 @@ fn lerp(x: &[f64], k: usize, frac: f64) -> f64 {
     }
 }
 
-fn lerp3(x: &[Vector3<f64>], k: usize, frac: f64) -> Vector3<f64> {
+pub(super) fn lerp3(x: &[Vector3<f64>], k: usize, frac: f64) -> Vector3<f64> {
     if frac == 0.0 || k + 1 >= x.len() {
         x[k]
     } else {
@@ -171,7 +171,7 @@ fn integrate<const N: usize>(
 }
 
 /// The inertia with unknown entries as zero (as the synthesis).
-fn inertia(ac: &Aircraft) -> Matrix3<f64> {
+pub(super) fn inertia(ac: &Aircraft) -> Matrix3<f64> {
     ac.inertia_kgm2.map(|x| if x.is_finite() { x } else { 0.0 })
 }
 

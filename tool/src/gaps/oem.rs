@@ -1,0 +1,1122 @@
+//! The low-rate path of the gap analysis: the longitudinal coefficients `C_L`, `C_D`, `C_m`
+//! fitted and their candidate causes tested by **output error**, for data logged below
+//! [`crate::io::quality::MIN_RATE_HZ`], where the equation-error path (coefficients synthesised by
+//! smoothing and differentiating over ±0.1 s) cannot serve.
+//!
+//! ## The model (a partial output error; reading chosen)
+//! The short-period states `x = [α, q]` are simulated; the airspeed, `q̄`, β, the attitude, the
+//! roll and yaw rates, the surfaces and the thrust are the measured (corrected) signals of the
+//! [`Table`], interpolated linearly between samples. Taking the slow and the lateral states as
+//! measured keeps an error of the phugoid or of the lateral model out of the short-period fit (the
+//! same reading as [`super::simulate`]'s partial simulations; a full longitudinal simulation drifts
+//! on the phugoid within a manoeuvre). The equations are the rigid-body kinematics of the
+//! compatibility check with `u = V cos α cos β`, `v = V sin β`, `w = V sin α cos β`:
+//!
+//! * `α̇ = (u ẇ − w u̇)/(u² + w²)`, which with the aerodynamic force of eq. 1 (stability axes, as
+//!   the synthesis: `F_x = q̄S(−C_D cos α + C_L sin α)`, `F_z = q̄S(−C_D sin α − C_L cos α)`)
+//!   reduces to `α̇ = q + [−V sin β (p cos α + r sin α) − q̄S C_L/m + (T_z cos α − T_x sin α)/m
+//!   + g (cos α cos θ cos φ + sin α sin θ)]/(V cos β)`: `C_D` drops out of `α̇`;
+//! * `q̇ = (q̄S c̄ C_m + (r_P × F_A)_y + M_T,y − (ω × Jω)_y)/I_y` (the synthesis's `C_m`, moments
+//!   about the reference point `r_P`, the measured aerodynamic force in the transfer term);
+//! * outputs `y = [α, q, F_A,x/m, F_A,z/m]` against the measured α, `q` and the
+//!   accelerometers' aerodynamic part (`m a_cg − F_T`). No output bias: an α bias is nearly
+//!   collinear with the intercepts of `C_L` and `C_m` and, estimated beside them, moved the
+//!   α-dependent candidates (on the HFB-320, `α·q_n` in `C_m` at t² 61 with a bias of 0.07 ± 0.03
+//!   rad); sensor biases are the compatibility check's, removed before this path.
+//!
+//! The coefficients are the gap analysis's own terms ([`Term::eval`] on the table's snapshot with
+//! the simulated α, `q c̄/(2V)`, the model's `C_L` (for `C_L²` in `C_D`) and the model's `α̇`
+//! written into it), linear in the parameters `θ`.
+//!
+//! ## Estimation
+//! Gauss–Newton on `J(θ) = Σ_k e_kᵀ R⁻¹ e_k`, `e_k = y_k − ŷ_k(θ)`, with the output sensitivities
+//! `∂ŷ/∂θ` from the forward sensitivity equations `Ṡ = (∂f/∂x) S + ∂f/∂θ` integrated with the
+//! states (RK4 on the sample grid; `∂f/∂θ` analytic, `∂f/∂x` and `∂h/∂x` by central differences);
+//! each manoeuvre starts from its own measured first sample; a step that does not lower `J` is
+//! halved. `R` is the residuals' mean square per output, re-estimated after each fit (the usual
+//! relaxation of the output error method, Jategaonkar 2015 §4.4; the same as `aerosid fem`'s
+//! `estimate_noise`). The core's filter ([`aerosid_core::fem::FilterError`]) is not used here: its
+//! sensitivities of an RK4 step are central differences in every parameter (`2·NP` integrations
+//! per sample), five to ten times the cost of the sensitivity equations for the dozens of fits a
+//! candidate test makes; in turbulence (no process noise here) the price is coloured residuals,
+//! which the σ below accounts for.
+//!
+//! ## Uncertainty
+//! `σ` is the block sandwich `M⁻¹ (Σ_b s_b s_bᵀ) M⁻¹` (`M = Σ HᵀR⁻¹H`, `s_b = Σ_{k∈b} HᵀR⁻¹e_k`
+//! over blocks of [`super::GapSettings::max_lag_s`]) — a residual-colour correction in the spirit
+//! of Morelli & Klein (1997), summing the residual correlation within a block instead of lag by
+//! lag — and never below the Cramér–Rao bound `√(M⁻¹)_jj` (reported as `sigma_eq17`).
+//!
+//! ## Candidates and the held-out test
+//! Each candidate of [`Term::offered`] is added to the current model of its coefficient and the
+//! model refitted (`R` held at the baseline's so that the criteria compare). It is named when its
+//! `t² = (θ/σ)²` exceeds the analysis's threshold *and* it improves the prediction of held-out
+//! data beyond noise: the noise-referenced held-out gain `T` of [`select::noise_referenced_gain`]
+//! above the one-sided critical value, as the equation-error path. The held-out predictions are
+//! those of the fit without the fold, by one Gauss–Newton step from the full fit:
+//! `Δθ_f = (M − M_f)⁻¹(g − g_f)` and `ê_k = e_k − H_k Δθ_f` for `k` in the fold (the linearised
+//! leave-fold-out; the fit is nearly linear about its optimum). Folds are whole manoeuvres when
+//! there are [`select::MIN_PIECES_FOR_FOLDS`] or more, else time blocks of the
+//! [`select::CvSettings`]. `T` is formed per output on residuals scaled by `R^{-1/2}` and the
+//! outputs' gains and null variances summed (outputs taken as independent). The likelihood gain
+//! `N Σ_i ln(R₀,i/R₁,i)` (twice the log-likelihood ratio with `R` estimated) is listed in the
+//! notes. Up to [`MAX_ADDED`] terms per coefficient are added, the largest `t²` first; the
+//! candidates significant in the same round are listed as the alternatives the data cannot tell
+//! apart from it.
+//!
+//! Not tested here: `α̇` in `C_L` (it makes `α̇` implicit in the state equation).
+
+use super::model::{Kinematics, Signal, Snapshot, Table, Term, TermRefs, COEFFICIENTS};
+use super::regress::{metrics, ols_theta, Metrics};
+use super::select::{self, CvSettings};
+use super::signal::sin_cos;
+use super::simulate::{inertia, lerp, lerp3};
+use super::{Added, CandidateScore, CoefficientGap, ModelFit, Parameter, Traces};
+use crate::io::measured::Aircraft;
+use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
+
+/// The coefficients the low-rate path covers (indices into [`COEFFICIENTS`]).
+pub const COVERED: [usize; 3] = [0, 1, 4];
+
+/// Most terms added to one coefficient.
+pub const MAX_ADDED: usize = 3;
+
+/// Outputs: α, q, and the aerodynamic specific force along x and z.
+const NY: usize = 4;
+const OUTPUT_NAMES: [&str; NY] = ["α", "q", "F_A,x/m", "F_A,z/m"];
+
+/// The output a coefficient is judged on in the per-coefficient figures: `C_L` → `F_A,z/m`,
+/// `C_D` → `F_A,x/m`, `C_m` → `q`.
+fn primary_output(coef: usize) -> usize {
+    match coef {
+        0 => 3,
+        1 => 2,
+        _ => 1,
+    }
+}
+
+const G_MPS2: f64 = 9.806_65;
+/// Gauss–Newton iterations of a fit.
+const MAX_ITERATIONS: usize = 12;
+/// Convergence: every parameter moved by less than this many σ.
+const TOLERANCE_SIGMA: f64 = 0.01;
+/// Rounds of the noise relaxation of the baseline.
+const NOISE_ROUNDS: usize = 3;
+
+/// The terms of the model: per parameter, its coefficient and term; and per covered coefficient
+/// its `(parameter, term)` pairs.
+#[derive(Debug, Clone, PartialEq)]
+struct Spec {
+    terms: Vec<(usize, Term)>,
+    by_coef: [Vec<(usize, Term)>; 3],
+}
+
+impl Spec {
+    fn new(terms: Vec<(usize, Term)>) -> Self {
+        let by_coef = COVERED.map(|coef| {
+            terms
+                .iter()
+                .enumerate()
+                .filter(|(_, (c, _))| *c == coef)
+                .map(|(j, (_, t))| (j, *t))
+                .collect()
+        });
+        Self { terms, by_coef }
+    }
+    fn np(&self) -> usize {
+        self.terms.len()
+    }
+    fn of(&self, coef: usize) -> &[(usize, Term)] {
+        match COVERED.iter().position(|c| *c == coef) {
+            Some(i) => &self.by_coef[i],
+            None => &[],
+        }
+    }
+    /// With `t` added to `coef` (its parameter last, starting at 0).
+    fn with(&self, coef: usize, t: Term, th: &[f64]) -> (Spec, Vec<f64>) {
+        let mut terms = self.terms.clone();
+        terms.push((coef, t));
+        let mut th1 = th.to_vec();
+        th1.push(0.0);
+        (Spec::new(terms), th1)
+    }
+}
+
+/// What the model is run on.
+struct Plant<'a> {
+    table: &'a Table,
+    kin: &'a Kinematics,
+    ac: &'a Aircraft,
+    refs: &'a TermRefs,
+    j: Matrix3<f64>,
+    alpha_m: &'a [f64],
+    v_m: &'a [f64],
+    /// Measured outputs per sample.
+    y_m: Vec<[f64; NY]>,
+}
+
+/// The model at one point: state derivative, outputs, coefficients.
+#[derive(Debug, Clone, Copy)]
+struct Point {
+    xdot: [f64; 2],
+    y: [f64; NY],
+    coefs: [f64; 3],
+}
+
+fn dot(terms: &[(usize, Term)], th: &[f64], s: &Snapshot, refs: &TermRefs) -> Option<f64> {
+    terms.iter().map(|(j, t)| t.eval(s, refs).map(|v| v * th[*j])).sum()
+}
+
+impl Plant<'_> {
+    /// The model at state `x`, sample `k` plus `fr`; with `jac`, also `∂f/∂θ` (2 × NP) and
+    /// `∂h/∂θ` (NY × NP) at fixed `x`.
+    #[allow(clippy::type_complexity)]
+    fn eval(
+        &self,
+        spec: &Spec,
+        x: [f64; 2],
+        k: usize,
+        fr: f64,
+        th: &[f64],
+        jac: bool,
+    ) -> Option<(Point, Option<(DMatrix<f64>, DMatrix<f64>)>)> {
+        let (ac, kin, refs) = (self.ac, self.kin, self.refs);
+        let (area, chord, mass) = (ac.wing_area_m2, ac.chord_m, ac.mass_kg);
+        let mut s = self.table.snapshot(k, fr);
+        let v = lerp(self.v_m, k, fr).max(1.0);
+        let qbar = lerp(&kin.qbar_pa, k, fr);
+        let (al, q) = (x[0], x[1]);
+        let cn = chord / (2.0 * v);
+        s[Signal::Alpha.index()] = al;
+        s[Signal::QN.index()] = q * cn;
+        let beta = {
+            let b = s[Signal::Beta.index()];
+            if b.is_nan() {
+                0.0
+            } else {
+                b
+            }
+        };
+        let (tl, td, tm) = (spec.of(0), spec.of(1), spec.of(4));
+        let cl = dot(tl, th, &s, refs)?;
+        s[Signal::LiftCoeff.index()] = cl;
+        let (p, r) = (lerp(&kin.rates_rad_s[0], k, fr), lerp(&kin.rates_rad_s[2], k, fr));
+        let (_, cf) = sin_cos(lerp(&kin.attitude_rad[0], k, fr));
+        let (st, ct) = sin_cos(lerp(&kin.attitude_rad[1], k, fr));
+        let (sa, ca) = sin_cos(al);
+        let (sb, cb) = sin_cos(beta);
+        let ft = lerp3(&kin.thrust_force_n, k, fr);
+        let vcb = v * cb.max(0.1);
+        let k_l = -qbar * area / (mass * vcb);
+        let a0 = q
+            + (-v * sb * (p * ca + r * sa) + (ca * ft.z - sa * ft.x) / mass + G_MPS2 * (ca * ct * cf + sa * st)) / vcb;
+        let alpha_dot = a0 + k_l * cl;
+        s[Signal::AlphaDotN.index()] = alpha_dot * cn;
+        let cd = dot(td, th, &s, refs)?;
+        let cm = dot(tm, th, &s, refs)?;
+        let iy = self.j[(1, 1)];
+        let om = Vector3::new(p, q, r);
+        let fa_m = lerp3(&kin.aero_force_n, k, fr);
+        let k_m = qbar * area * chord / iy;
+        let qdot = k_m * cm
+            + (ac.moment_reference_m.cross(&fa_m).y + lerp3(&kin.thrust_moment_nm, k, fr).y
+                - om.cross(&(self.j * om)).y)
+                / iy;
+        let k_f = qbar * area / mass;
+        let y = [al, q, k_f * (-cd * ca + cl * sa), k_f * (-cd * sa - cl * ca)];
+        let pt = Point {
+            xdot: [alpha_dot, qdot],
+            y,
+            coefs: [cl, cd, cm],
+        };
+        if !jac {
+            return Some((pt, None));
+        }
+        let np = spec.np();
+        // Direct term values per parameter.
+        let mut val = DVector::<f64>::zeros(np);
+        for (j, (_, t)) in spec.terms.iter().enumerate() {
+            val[j] = t.eval(&s, refs)?;
+        }
+        // C_D and C_m may depend on C_L (through C_L²) and on α̇: their partial derivatives by
+        // central differences of the snapshot's entries.
+        let partial = |terms: &[(usize, Term)], sig: Signal, at: f64| -> Option<f64> {
+            let h = 1e-6 * at.abs().max(1.0);
+            let mut sp = s;
+            sp[sig.index()] = at + h;
+            let up = dot(terms, th, &sp, refs)?;
+            sp[sig.index()] = at - h;
+            let dn = dot(terms, th, &sp, refs)?;
+            Some((up - dn) / (2.0 * h))
+        };
+        let ad_n = alpha_dot * cn;
+        let (dcd_dcl, dcd_dad) = (
+            partial(td, Signal::LiftCoeff, cl)?,
+            partial(td, Signal::AlphaDotN, ad_n)?,
+        );
+        let (dcm_dcl, dcm_dad) = (
+            partial(tm, Signal::LiftCoeff, cl)?,
+            partial(tm, Signal::AlphaDotN, ad_n)?,
+        );
+        let mask = |coef: usize| DVector::<f64>::from_fn(np, |j, _| if spec.terms[j].0 == coef { val[j] } else { 0.0 });
+        let dcl = mask(0);
+        let dad = &dcl * k_l;
+        let dcd = mask(1) + &dcl * dcd_dcl + &dad * (dcd_dad * cn);
+        let dcm = mask(4) + &dcl * dcm_dcl + &dad * (dcm_dad * cn);
+        let mut g = DMatrix::<f64>::zeros(2, np);
+        g.set_row(0, &dad.transpose());
+        g.set_row(1, &(&dcm * k_m).transpose());
+        let mut d = DMatrix::<f64>::zeros(NY, np);
+        d.set_row(2, &((&dcd * (-ca) + &dcl * sa) * k_f).transpose());
+        d.set_row(3, &((&dcd * (-sa) - &dcl * ca) * k_f).transpose());
+        Some((pt, Some((g, d))))
+    }
+
+    /// `(∂f/∂x, ∂h/∂x)` by central differences.
+    fn dx(&self, spec: &Spec, x: [f64; 2], k: usize, fr: f64, th: &[f64]) -> Option<(DMatrix<f64>, DMatrix<f64>)> {
+        let mut a = DMatrix::<f64>::zeros(2, 2);
+        let mut c = DMatrix::<f64>::zeros(NY, 2);
+        for i in 0..2 {
+            let h = 1e-6 * x[i].abs().max(0.1);
+            let (mut xp, mut xm) = (x, x);
+            xp[i] += h;
+            xm[i] -= h;
+            let (up, _) = self.eval(spec, xp, k, fr, th, false)?;
+            let (dn, _) = self.eval(spec, xm, k, fr, th, false)?;
+            for r in 0..2 {
+                a[(r, i)] = (up.xdot[r] - dn.xdot[r]) / (2.0 * h);
+            }
+            for r in 0..NY {
+                c[(r, i)] = (up.y[r] - dn.y[r]) / (2.0 * h);
+            }
+        }
+        Some((a, c))
+    }
+
+    /// The simulation of every manoeuvre with `θ`: outputs, coefficients and (with `sens`) the
+    /// output sensitivities. `None` when the simulation leaves the plausible range (non-finite,
+    /// `|α|` above 1.2 rad, `|q|` above 20 rad/s) or a term is unavailable.
+    fn run(&self, spec: &Spec, th: &[f64], pieces: &[(usize, usize)], sens: bool) -> Option<Run> {
+        let n = self.y_m.len();
+        let np = spec.np();
+        let mut out = Run {
+            yhat: vec![[0.0; NY]; n],
+            coefs: vec![[0.0; 3]; n],
+            h: if sens {
+                vec![DMatrix::zeros(NY, np); n]
+            } else {
+                Vec::new()
+            },
+        };
+        let ok = |x: &[f64; 2]| x[0].is_finite() && x[1].is_finite() && x[0].abs() < 1.2 && x[1].abs() < 20.0;
+        for &(a, b) in pieces {
+            let mut x = [self.alpha_m[a], self.y_m[a][1]];
+            let mut sm = DMatrix::<f64>::zeros(2, np);
+            for k in a..b {
+                if !ok(&x) {
+                    return None;
+                }
+                // Stage 1 of the step shares its point with the output at k.
+                let (pt, jac) = self.eval(spec, x, k, 0.0, th, sens)?;
+                out.yhat[k] = pt.y;
+                out.coefs[k] = pt.coefs;
+                let stage1 = if sens {
+                    let (g, d) = jac?;
+                    let (a_x, c_x) = self.dx(spec, x, k, 0.0, th)?;
+                    out.h[k] = &c_x * &sm + d;
+                    Some(&a_x * &sm + g)
+                } else {
+                    None
+                };
+                if k + 1 == b {
+                    break;
+                }
+                let hs = self.table.t_s[k + 1] - self.table.t_s[k];
+                let deriv = |xs: [f64; 2], ss: &DMatrix<f64>, fr: f64| -> Option<([f64; 2], Option<DMatrix<f64>>)> {
+                    let (p, j) = self.eval(spec, xs, k, fr, th, sens)?;
+                    let sd = match j {
+                        Some((g, _)) => {
+                            let (a_x, _) = self.dx(spec, xs, k, fr, th)?;
+                            Some(&a_x * ss + g)
+                        }
+                        None => None,
+                    };
+                    Some((p.xdot, sd))
+                };
+                let add = |x: &[f64; 2], d: &[f64; 2], h: f64| [x[0] + h * d[0], x[1] + h * d[1]];
+                let adds = |s: &DMatrix<f64>, d: &Option<DMatrix<f64>>, h: f64| match d {
+                    Some(d) => s + d * h,
+                    None => s.clone(),
+                };
+                let (k1, s1) = (pt.xdot, stage1);
+                let (k2, s2) = deriv(add(&x, &k1, hs / 2.0), &adds(&sm, &s1, hs / 2.0), 0.5)?;
+                let (k3, s3) = deriv(add(&x, &k2, hs / 2.0), &adds(&sm, &s2, hs / 2.0), 0.5)?;
+                let (k4, s4) = deriv(add(&x, &k3, hs), &adds(&sm, &s3, hs), 1.0)?;
+                for i in 0..2 {
+                    x[i] += hs / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
+                }
+                if let (Some(s1), Some(s2), Some(s3), Some(s4)) = (s1, s2, s3, s4) {
+                    sm += (s1 + (s2 + s3) * 2.0 + s4) * (hs / 6.0);
+                }
+            }
+        }
+        Some(out)
+    }
+
+    fn residuals(&self, run: &Run) -> Vec<[f64; NY]> {
+        self.y_m
+            .iter()
+            .zip(&run.yhat)
+            .map(|(m, p)| core::array::from_fn(|i| m[i] - p[i]))
+            .collect()
+    }
+}
+
+/// One simulation.
+#[derive(Debug, Clone)]
+struct Run {
+    yhat: Vec<[f64; NY]>,
+    coefs: Vec<[f64; 3]>,
+    /// `∂ŷ_k/∂θ` (empty without sensitivities).
+    h: Vec<DMatrix<f64>>,
+}
+
+/// A converged fit.
+#[derive(Debug, Clone)]
+struct Fit {
+    spec: Spec,
+    th: Vec<f64>,
+    run: Run,
+    e: Vec<[f64; NY]>,
+    /// `Σ HᵀWH`.
+    m: DMatrix<f64>,
+    /// `Σ HᵀWe`.
+    g: DVector<f64>,
+    /// Output weights `1/R`.
+    w: [f64; NY],
+    /// Block-sandwich σ (never below the Cramér–Rao bound).
+    sigma: Vec<f64>,
+    /// Cramér–Rao σ.
+    sigma_crb: Vec<f64>,
+    converged: bool,
+}
+
+fn cost(e: &[[f64; NY]], w: &[f64; NY]) -> f64 {
+    e.iter().map(|r| (0..NY).map(|i| w[i] * r[i] * r[i]).sum::<f64>()).sum()
+}
+
+/// The residuals' mean square per output (floored).
+fn noise_of(e: &[[f64; NY]]) -> [f64; NY] {
+    let n = e.len().max(1) as f64;
+    core::array::from_fn(|i| (e.iter().map(|r| r[i] * r[i]).sum::<f64>() / n).max(1e-18))
+}
+
+/// `(Σ HᵀWH, Σ HᵀWe)` over the samples of `ranges`.
+fn normal(
+    run: &Run,
+    e: &[[f64; NY]],
+    w: &[f64; NY],
+    ranges: &[(usize, usize)],
+    np: usize,
+) -> (DMatrix<f64>, DVector<f64>) {
+    let mut m = DMatrix::<f64>::zeros(np, np);
+    let mut g = DVector::<f64>::zeros(np);
+    let wm = DMatrix::<f64>::from_diagonal(&DVector::from_column_slice(w));
+    for &(a, b) in ranges {
+        for k in a..b {
+            let h = &run.h[k];
+            let hw = h.transpose() * &wm;
+            m += &hw * h;
+            g += &hw * DVector::from_column_slice(&e[k]);
+        }
+    }
+    (m, g)
+}
+
+struct Setup<'a> {
+    plant: Plant<'a>,
+    pieces: Vec<(usize, usize)>,
+    /// Sandwich blocks.
+    sandwich: Vec<(usize, usize)>,
+    /// Held-out blocks and their fold.
+    blocks: Vec<(usize, usize)>,
+    fold: Vec<usize>,
+    folds: usize,
+    /// How the folds were formed, in words.
+    fold_note: String,
+}
+
+impl Setup<'_> {
+    /// Gauss–Newton from `th0` with the output weights `w`.
+    fn fit(&self, spec: &Spec, th0: Vec<f64>, w: [f64; NY]) -> Result<Fit, String> {
+        let np = spec.np();
+        let all = [(0, self.plant.y_m.len())];
+        let mut th = th0;
+        let mut run = self
+            .plant
+            .run(spec, &th, &self.pieces, true)
+            .ok_or("the simulation with the starting values leaves the plausible range")?;
+        let mut e = self.plant.residuals(&run);
+        let mut converged = false;
+        for _ in 0..MAX_ITERATIONS {
+            let (m, g) = normal(&run, &e, &w, &all, np);
+            let Some(ch) = m.clone().cholesky() else {
+                return Err(
+                    "the parameters are not identifiable from this flight (singular information matrix)".into(),
+                );
+            };
+            let delta = ch.solve(&g);
+            let inv_diag = ch.inverse().diagonal();
+            let c0 = cost(&e, &w);
+            let mut step = 1.0;
+            let mut accepted = false;
+            for _ in 0..8 {
+                let th1: Vec<f64> = th.iter().zip(delta.iter()).map(|(t, d)| t + step * d).collect();
+                if let Some(r1) = self.plant.run(spec, &th1, &self.pieces, true) {
+                    let e1 = self.plant.residuals(&r1);
+                    if cost(&e1, &w) <= c0 {
+                        th = th1;
+                        run = r1;
+                        e = e1;
+                        accepted = true;
+                        break;
+                    }
+                }
+                step *= 0.5;
+            }
+            let moved = (0..np)
+                .map(|j| (step * delta[j]).abs() / inv_diag[j].max(f64::MIN_POSITIVE).sqrt())
+                .fold(0.0, f64::max);
+            if !accepted || moved < TOLERANCE_SIGMA {
+                converged = accepted || moved < 1.0;
+                break;
+            }
+        }
+        let (m, g) = normal(&run, &e, &w, &all, np);
+        let inv = m
+            .clone()
+            .cholesky()
+            .ok_or("the parameters are not identifiable from this flight (singular information matrix)")?
+            .inverse();
+        // Block sandwich.
+        let mut meat = DMatrix::<f64>::zeros(np, np);
+        for &blk in &self.sandwich {
+            let (_, s) = normal(&run, &e, &w, &[blk], np);
+            meat += &s * s.transpose();
+        }
+        let sw = &inv * meat * &inv;
+        let sigma_crb: Vec<f64> = (0..np).map(|j| inv[(j, j)].max(0.0).sqrt()).collect();
+        let sigma = (0..np).map(|j| sw[(j, j)].max(0.0).sqrt().max(sigma_crb[j])).collect();
+        Ok(Fit {
+            spec: spec.clone(),
+            th,
+            run,
+            e,
+            m,
+            g,
+            w,
+            sigma,
+            sigma_crb,
+            converged,
+        })
+    }
+
+    /// The baseline fit with the noise relaxation.
+    fn fit_relaxed(&self, spec: &Spec, th0: Vec<f64>) -> Result<Fit, String> {
+        let run = self
+            .plant
+            .run(spec, &th0, &self.pieces, false)
+            .ok_or("the simulation with the equation-error starting values leaves the plausible range")?;
+        let mut r = noise_of(&self.plant.residuals(&run));
+        let mut fit = self.fit(spec, th0, r.map(|x| 1.0 / x))?;
+        for _ in 0..NOISE_ROUNDS {
+            let r1 = noise_of(&fit.e);
+            let change = (0..NY).map(|i| (r1[i] / r[i] - 1.0).abs()).fold(0.0, f64::max);
+            r = r1;
+            if change < 0.01 {
+                break;
+            }
+            fit = self.fit(spec, fit.th.clone(), r.map(|x| 1.0 / x))?;
+        }
+        Ok(fit)
+    }
+
+    /// Held-out residuals per block (linearised leave-fold-out), scaled by `√w`.
+    fn held_out(&self, f: &Fit) -> Option<HeldOut> {
+        let np = f.spec.np();
+        let mut out = vec![Vec::new(); self.blocks.len()];
+        for fold in 0..self.folds {
+            let ranges: Vec<(usize, usize)> = self
+                .blocks
+                .iter()
+                .zip(&self.fold)
+                .filter(|(_, &k)| k == fold)
+                .map(|(b, _)| *b)
+                .collect();
+            if ranges.is_empty() {
+                continue;
+            }
+            let (mf, gf) = normal(&f.run, &f.e, &f.w, &ranges, np);
+            let delta = (&f.m - mf).cholesky()?.solve(&(&f.g - gf));
+            for (bi, (&(a, b), &k)) in self.blocks.iter().zip(&self.fold).enumerate() {
+                if k != fold {
+                    continue;
+                }
+                out[bi] = (a..b)
+                    .map(|s| {
+                        let pred = &f.run.h[s] * &delta;
+                        core::array::from_fn(|i| (f.e[s][i] - pred[i]) * f.w[i].sqrt())
+                    })
+                    .collect();
+            }
+        }
+        Some(out)
+    }
+}
+
+/// The held-out comparison of model 1 against model 0 (both scaled by model 0's weights).
+struct Comparison {
+    /// Noise-referenced gain `T`.
+    t: f64,
+    /// Sign-flip `z` and the relative gain ([`select::gain`]).
+    z: f64,
+    rel: f64,
+}
+
+fn compare(h0: &[Vec<[f64; NY]>], h1: &[Vec<[f64; NY]>]) -> Comparison {
+    let sse = |h: &[Vec<[f64; NY]>], i: Option<usize>| -> Vec<f64> {
+        h.iter()
+            .map(|b| {
+                b.iter()
+                    .map(|r| match i {
+                        Some(i) => r[i] * r[i],
+                        None => r.iter().map(|x| x * x).sum(),
+                    })
+                    .sum()
+            })
+            .collect()
+    };
+    let (z, rel) = select::gain(&sse(h0, None), &sse(h1, None));
+    let (mut sum, mut var) = (0.0, 0.0);
+    for i in 0..NY {
+        let (s0, s1) = (sse(h0, Some(i)), sse(h1, Some(i)));
+        let delta: Vec<Vec<f64>> = h0
+            .iter()
+            .zip(h1)
+            .map(|(b0, b1)| b0.iter().zip(b1).map(|(r0, r1)| r0[i] - r1[i]).collect())
+            .collect();
+        let resid: Vec<Vec<f64>> = h1.iter().map(|b| b.iter().map(|r| r[i]).collect()).collect();
+        let t_i = select::noise_referenced_gain(&delta, &resid, &s0, &s1);
+        let s_i: f64 = s0.iter().zip(&s1).map(|(a, b)| a - b).sum();
+        if t_i != 0.0 && s_i != 0.0 {
+            sum += s_i;
+            var += (s_i / t_i).powi(2);
+        }
+    }
+    Comparison {
+        t: if var > 0.0 { sum / var.sqrt() } else { 0.0 },
+        z,
+        rel,
+    }
+}
+
+/// Held-out residuals per block, scaled by `√w`.
+type HeldOut = Vec<Vec<[f64; NY]>>;
+
+/// A candidate's score, with its fit, held-out residuals and likelihood gain when scored.
+type Scored = (CandidateScore, Option<(Fit, HeldOut, f64)>);
+
+/// Per coefficient: its first-round candidates, the terms added and notes.
+type CoefficientResult = (usize, Vec<CandidateScore>, Vec<Added>, Vec<String>);
+
+/// What the low-rate path found: the covered coefficients' analyses and the notes.
+#[derive(Debug, Clone)]
+pub struct LowRate {
+    /// `C_L`, `C_D`, `C_m` (those the data allow).
+    pub coefficients: Vec<CoefficientGap>,
+    /// What was done, in words.
+    pub notes: Vec<String>,
+}
+
+/// Everything the path needs from the analysis.
+pub struct Inputs<'a> {
+    /// The corrected, synthesised table.
+    pub table: &'a Table,
+    /// The aircraft.
+    pub aircraft: &'a Aircraft,
+    /// The terms' references.
+    pub refs: &'a TermRefs,
+    /// Baseline terms per coefficient.
+    pub baselines: &'a [Vec<Term>; 6],
+    /// The manoeuvres (sample ranges).
+    pub pieces: &'a [(usize, usize)],
+    /// Samples of the identification segment.
+    pub n_id: usize,
+    /// The `t²` threshold.
+    pub threshold_t2: f64,
+    /// Cross-validation settings.
+    pub cv: CvSettings,
+    /// Sandwich block length, s.
+    pub max_lag_s: f64,
+}
+
+/// The plant, the manoeuvres, the sandwich blocks and the folds of `inp`; `Err` says why the path
+/// cannot run on these data.
+fn setup<'a>(inp: &Inputs<'a>) -> Result<Setup<'a>, String> {
+    let table = inp.table;
+    let kin = table.kinematics.as_ref().ok_or("no coefficient could be synthesised")?;
+    let (alpha_m, v_m) = match (table.signals.get(&Signal::Alpha), table.signals.get(&Signal::Airspeed)) {
+        (Some(a), Some(v)) => (a, v),
+        _ => return Err("no α or airspeed".into()),
+    };
+    if COVERED.iter().any(|&c| table.z[c].is_none()) || !table.signals.contains_key(&Signal::QN) {
+        return Err("C_L, C_D and C_m need α, the airspeed, the pitch rate and the x and z accelerometers".into());
+    }
+    if !kin.attitude_measured {
+        return Err("no attitude for the gravity terms of α̇".into());
+    }
+    let j = inertia(inp.aircraft);
+    if j[(1, 1)] <= 0.0 {
+        return Err("no pitch inertia Iy in the aircraft file".into());
+    }
+    let n = table.t_s.len();
+    let mass = inp.aircraft.mass_kg;
+    let y_m: Vec<[f64; NY]> = (0..n)
+        .map(|k| {
+            [
+                alpha_m[k],
+                kin.rates_rad_s[1][k],
+                kin.aero_force_n[k].x / mass,
+                kin.aero_force_n[k].z / mass,
+            ]
+        })
+        .collect();
+    let h_s = (table.t_s[n - 1] - table.t_s[0]) / (n - 1).max(1) as f64;
+    let cut = |len_s: f64| -> Vec<(usize, usize)> {
+        let len = ((len_s / h_s).round() as usize).max(2);
+        let mut out = Vec::new();
+        for &(a, b) in inp.pieces {
+            let mut s = a;
+            while s < b {
+                let e = if b - s < len + len / 2 { b } else { s + len };
+                out.push((s, e));
+                s = e;
+            }
+        }
+        out
+    };
+    let (blocks, fold, folds, fold_note) = if inp.pieces.len() >= select::MIN_PIECES_FOR_FOLDS {
+        let f: Vec<usize> = (0..inp.pieces.len()).collect();
+        (
+            inp.pieces.to_vec(),
+            f,
+            inp.pieces.len(),
+            "whole manoeuvres held out (leave one out)".to_string(),
+        )
+    } else {
+        let b = cut(inp.cv.block_s);
+        let folds = inp.cv.folds.max(2);
+        let f: Vec<usize> = (0..b.len()).map(|i| i % folds).collect();
+        (
+            b,
+            f,
+            folds,
+            format!("blocks of {:.1} s in {folds} folds held out", inp.cv.block_s),
+        )
+    };
+    Ok(Setup {
+        plant: Plant {
+            table,
+            kin,
+            ac: inp.aircraft,
+            refs: inp.refs,
+            j,
+            alpha_m,
+            v_m,
+            y_m,
+        },
+        pieces: inp.pieces.to_vec(),
+        sandwich: cut(inp.max_lag_s),
+        blocks,
+        fold,
+        folds,
+        fold_note,
+    })
+}
+
+/// The output-error analysis of `C_L`, `C_D`, `C_m` (module doc). `Err` says why it cannot run.
+pub fn analyse(inp: &Inputs) -> Result<LowRate, String> {
+    let table = inp.table;
+    let setup = setup(inp)?;
+    let n = table.t_s.len();
+    // The baseline: terms with a column, started from least squares on the synthesised
+    // coefficients (the equation error at this rate: a start, not an answer).
+    let mut terms = Vec::new();
+    let mut th0 = Vec::new();
+    let mut dropped: Vec<Vec<String>> = vec![Vec::new(); 6];
+    for &c in &COVERED {
+        let mut cols = Vec::new();
+        for t in &inp.baselines[c] {
+            match t.column(table, inp.refs) {
+                Some(col) if !(c == 0 && *t == Term::AlphaDot) => {
+                    terms.push((c, *t));
+                    cols.push(col);
+                }
+                _ => dropped[c].push(t.name().to_string()),
+            }
+        }
+        let z = table.z[c].as_ref().ok_or("coefficient missing")?;
+        let start = ols_theta(&cols, z).unwrap_or_else(|| vec![0.0; cols.len()]);
+        th0.extend(start);
+    }
+    let spec = Spec::new(terms);
+    let base = setup.fit_relaxed(&spec, th0)?;
+    let w0 = base.w;
+    let h_base = setup
+        .held_out(&base)
+        .ok_or("a fold leaves the baseline's parameters unidentifiable")?;
+    let g = setup.blocks.len();
+    let gain_crit = select::student_t_upper_quantile(inp.cv.gain_alpha, (g as f64 - 1.0).max(1.0));
+    let t_detect = select::detection_factor(inp.threshold_t2, gain_crit, g as f64 - 1.0);
+    let n_all = n as f64;
+    let r0 = noise_of(&base.e);
+    let mut notes = vec![format!(
+        "output error: α and q simulated from each manoeuvre's first sample, V, β, attitude, p, r, surfaces and thrust as measured; R relaxed to the residuals' mean square (α {:.2e} rad², q {:.2e} (rad/s)², F_x/m {:.2e}, F_z/m {:.2e} (m/s²)²); held-out: {}, the fits without a fold by one Gauss–Newton step",
+        r0[0], r0[1], r0[2], r0[3], setup.fold_note
+    )];
+    if !base.converged {
+        notes.push("the baseline's Gauss–Newton iterations did not converge within their limit".into());
+    }
+    let mut current = base.clone();
+    let mut h_current = h_base.clone();
+    let mut per_coef: Vec<CoefficientResult> = Vec::new();
+    for &c in &COVERED {
+        let mut first_round: Option<Vec<CandidateScore>> = None;
+        let mut added: Vec<Added> = Vec::new();
+        let mut cnotes: Vec<String> = Vec::new();
+        for round in 0..MAX_ADDED {
+            let mut scored: Vec<Scored> = Vec::new();
+            for t in Term::offered(c, table) {
+                if current.spec.terms.contains(&(c, t)) {
+                    continue;
+                }
+                if c == 0 && t == Term::AlphaDot {
+                    scored.push((
+                        CandidateScore::unscored(
+                            t,
+                            c,
+                            "not tested by output error: α̇ in C_L makes the α equation implicit".into(),
+                        ),
+                        None,
+                    ));
+                    continue;
+                }
+                if t.column(table, inp.refs).is_none() {
+                    continue;
+                }
+                let (s1, th1) = current.spec.with(c, t, &current.th);
+                let fit1 = match setup.fit(&s1, th1, w0) {
+                    Ok(f) => f,
+                    Err(e) => {
+                        scored.push((CandidateScore::unscored(t, c, e), None));
+                        continue;
+                    }
+                };
+                let Some(h1) = setup.held_out(&fit1) else {
+                    scored.push((
+                        CandidateScore::unscored(t, c, "a fold leaves the extended model unidentifiable".into()),
+                        None,
+                    ));
+                    continue;
+                };
+                let j = s1.np() - 1;
+                let (value, sigma) = (fit1.th[j], fit1.sigma[j]);
+                let t2 = (value / sigma).powi(2);
+                let cmp = compare(&h_current, &h1);
+                let r1 = noise_of(&fit1.e);
+                let r_cur = noise_of(&current.e);
+                let lik = n_all * (0..NY).map(|i| (r_cur[i] / r1[i]).ln()).sum::<f64>();
+                let significant = t2 > inp.threshold_t2 && cmp.z > 0.0 && cmp.t > gain_crit;
+                scored.push((
+                    CandidateScore {
+                        term: t.name().into(),
+                        kind: t.kind(c),
+                        t2,
+                        cv_gain: cmp.rel,
+                        cv_gain_z: cmp.z,
+                        cv_noise_z: cmp.t,
+                        pse: f64::NAN,
+                        significant,
+                        reason: None,
+                        value,
+                        sigma,
+                        min_detectable: t_detect * sigma,
+                    },
+                    Some((fit1, h1, lik)),
+                ));
+            }
+            scored.sort_by(|a, b| b.0.t2.total_cmp(&a.0.t2));
+            for (s, f) in scored.iter().take(3) {
+                if let Some((_, _, lik)) = f {
+                    cnotes.push(format!(
+                        "{}{}: candidate {} likelihood gain 2ΔlnL {lik:.1} (t² {:.1}, held-out T {:.2})",
+                        COEFFICIENTS[c],
+                        if round == 0 {
+                            String::new()
+                        } else {
+                            format!(" (round {})", round + 1)
+                        },
+                        s.term,
+                        s.t2,
+                        s.cv_noise_z
+                    ));
+                }
+            }
+            let names_sig: Vec<String> = scored
+                .iter()
+                .filter(|(s, _)| s.significant)
+                .map(|(s, _)| s.term.clone())
+                .collect();
+            let best = scored.iter().position(|(s, _)| s.significant);
+            if first_round.is_none() {
+                first_round = Some(scored.iter().map(|(s, _)| s.clone()).collect());
+            }
+            let Some(bi) = best else { break };
+            let (score, fit) = scored.swap_remove(bi);
+            let Some((fit1, h1, _)) = fit else { break };
+            added.push(Added {
+                term: score.term.clone(),
+                kind: score.kind,
+                t2: score.t2,
+                value: score.value,
+                sigma: score.sigma,
+                cv_gain: score.cv_gain,
+                alternatives: names_sig.into_iter().filter(|n| *n != score.term).collect(),
+                rivals: Vec::new(),
+                exact_delay_s: None,
+            });
+            current = fit1;
+            h_current = h1;
+        }
+        per_coef.push((c, first_round.unwrap_or_default(), added, cnotes));
+    }
+    // The final joint model, its noise relaxed.
+    let fin = if current.spec == base.spec {
+        base.clone()
+    } else {
+        setup.fit_relaxed(&current.spec, current.th.clone())?
+    };
+    let h_fin = setup
+        .held_out(&fin)
+        .ok_or("a fold leaves the final model unidentifiable")?;
+    let n_id = inp.n_id.min(n);
+    let mut coefficients = Vec::new();
+    for (c, candidates, mut added, cnotes) in per_coef {
+        let o = primary_output(c);
+        let meas: Vec<f64> = setup.plant.y_m.iter().map(|y| y[o]).collect();
+        let mean = meas.iter().sum::<f64>() / n_all;
+        let sst: f64 = meas.iter().map(|v| (v - mean).powi(2)).sum::<f64>().max(1e-300);
+        let cv_r2 = |f: &Fit, h: &[Vec<[f64; NY]>]| -> f64 {
+            let sse: f64 = h.iter().flatten().map(|r| r[o] * r[o] / f.w[o]).sum();
+            1.0 - sse / sst
+        };
+        for a in &mut added {
+            if let Some(j) = fin.spec.terms.iter().position(|(cc, t)| *cc == c && t.name() == a.term) {
+                a.value = fin.th[j];
+                a.sigma = fin.sigma[j];
+            }
+        }
+        let model_fit = |f: &Fit, h: &[Vec<[f64; NY]>]| -> ModelFit {
+            let parameters: Vec<Parameter> = f
+                .spec
+                .of(c)
+                .iter()
+                .map(|(j, t)| Parameter {
+                    term: t.name().into(),
+                    value: f.th[*j],
+                    sigma: f.sigma[*j],
+                    sigma_eq17: f.sigma_crb[*j],
+                    exact: true,
+                    ols_value: f64::NAN,
+                })
+                .collect();
+            let p = parameters.len();
+            let pred: Vec<f64> = f.run.yhat.iter().map(|y| y[o]).collect();
+            // Held-out predictions of the validation segment: measured − held-out residual.
+            let mut ho = vec![f64::NAN; n];
+            for (bi, &(a, _)) in setup.blocks.iter().enumerate() {
+                for (s, r) in h[bi].iter().enumerate() {
+                    ho[a + s] = meas[a + s] - r[o] / f.w[o].sqrt();
+                }
+            }
+            let (zv, hv): (Vec<f64>, Vec<f64>) = (n_id..n)
+                .map(|k| (meas[k], ho[k]))
+                .filter(|(_, h)| h.is_finite())
+                .unzip();
+            ModelFit {
+                estimator: format!(
+                    "output error (Gauss–Newton; α, q simulated; judged on {})",
+                    OUTPUT_NAMES[o]
+                ),
+                solution: if f.converged { "converged" } else { "iteration limit" }.into(),
+                sigma_z2: 1.0 / f.w[o],
+                parameters,
+                identification: metrics(&meas[..n_id], &pred[..n_id], p),
+                validation: if zv.is_empty() {
+                    Metrics {
+                        r2: f64::NAN,
+                        rms: f64::NAN,
+                        pse: f64::NAN,
+                        n: 0,
+                    }
+                } else {
+                    metrics(&zv, &hv, p)
+                },
+            }
+        };
+        let ci = match c {
+            0 => 0,
+            1 => 1,
+            _ => 2,
+        };
+        let traces = Traces {
+            t_s: table.t_s.clone(),
+            measured: table.z[c].clone().unwrap_or_default(),
+            baseline: base.run.coefs.iter().map(|v| v[ci]).collect(),
+            extended: fin.run.coefs.iter().map(|v| v[ci]).collect(),
+            split: n_id,
+        };
+        let (r2b, r2e) = (cv_r2(&base, &h_base), cv_r2(&fin, &h_fin));
+        let verdict = if added.is_empty() {
+            format!(
+                "nothing missing (output error): no candidate improves the held-out prediction of {} beyond noise; held-out R² {r2b:.3}",
+                OUTPUT_NAMES[o]
+            )
+        } else {
+            format!(
+                "extended (output error): {}; held-out R² of {} {r2b:.3} → {r2e:.3}",
+                added.iter().map(|a| a.term.as_str()).collect::<Vec<_>>().join(", "),
+                OUTPUT_NAMES[o]
+            )
+        };
+        let model_of = |f: &Fit| -> Vec<(Term, f64)> { f.spec.of(c).iter().map(|(j, t)| (*t, f.th[*j])).collect() };
+        coefficients.push(CoefficientGap {
+            name: COEFFICIENTS[c].to_string(),
+            verdict,
+            cv_r2_baseline: r2b,
+            cv_r2_extended: r2e,
+            block_s: if setup.folds == inp.pieces.len() && inp.pieces.len() >= select::MIN_PIECES_FOR_FOLDS {
+                f64::NAN
+            } else {
+                inp.cv.block_s
+            },
+            threshold_t2: inp.threshold_t2,
+            dropped_terms: dropped[c].clone(),
+            baseline: model_fit(&base, &h_base),
+            candidates,
+            added,
+            notes: cnotes,
+            extended: model_fit(&fin, &h_fin),
+            homogeneity: Vec::new(),
+            traces,
+            baseline_model: model_of(&base),
+            extended_model: model_of(&fin),
+        });
+    }
+    Ok(LowRate { coefficients, notes })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::gaps::{hidden, preprocess, GapSettings};
+
+    /// The output sensitivities of the simulation (the forward sensitivity equations integrated
+    /// with the states, with the chains through `C_L²` in `C_D` and `α̇` in `C_m`) equal central
+    /// differences of the simulated outputs. RK4 applied to the states and sensitivities together
+    /// differentiates the discrete step exactly; what differs is the central differences inside
+    /// (`∂f/∂x`, the chain partials: relative steps 10⁻⁶, errors ~10⁻¹⁰) and this test's own
+    /// (relative step 10⁻⁶ of `θ`): a relative tolerance of 10⁻⁵ per column leaves room for both.
+    #[test]
+    fn the_sensitivities_match_differences_of_the_simulation() {
+        let fast = hidden::flight(None, 20.0, 7, true).expect("the simulator flies");
+        let f = fast.block_means(10);
+        let h = f.t_s[1] - f.t_s[0];
+        let s = GapSettings::default();
+        let baselines: [Vec<Term>; 6] = core::array::from_fn(Term::eq3);
+        let pre = preprocess(&f, h, &s, &baselines);
+        let refs = TermRefs {
+            alpha_break_rad: 0.1,
+            airspeed_mps: 18.0,
+            mach: 0.0,
+        };
+        let pieces = [(0, f.len())];
+        let inp = Inputs {
+            table: &pre.table,
+            aircraft: &f.aircraft,
+            refs: &refs,
+            baselines: &baselines,
+            pieces: &pieces,
+            n_id: f.len() * 6 / 10,
+            threshold_t2: 20.0,
+            cv: s.cv,
+            max_lag_s: s.max_lag_s,
+        };
+        let st = setup(&inp).expect("the path runs on this flight");
+        use Term::*;
+        let terms = vec![
+            (0, One),
+            (0, Alpha),
+            (0, Q),
+            (0, Elevator),
+            (1, One),
+            (1, Lift2),
+            (1, AlphaDot),
+            (4, One),
+            (4, Alpha),
+            (4, Q),
+            (4, Elevator),
+            (4, AlphaDot),
+        ];
+        // Least squares on the synthesised coefficients: a plausible point, coefficient by
+        // coefficient.
+        let mut th = Vec::new();
+        for c in COVERED {
+            let cols: Vec<Vec<f64>> = terms
+                .iter()
+                .filter(|(cc, _)| *cc == c)
+                .map(|(_, t)| t.column(&pre.table, &refs).expect("the column exists"))
+                .collect();
+            th.extend(ols_theta(&cols, pre.table.z[c].as_ref().expect("synthesised")).expect("regular"));
+        }
+        let spec = Spec::new(terms);
+        let run = st
+            .plant
+            .run(&spec, &th, &pieces, true)
+            .expect("the simulation stays in range");
+        for j in 0..spec.np() {
+            let step = 1e-6 * th[j].abs().max(1.0);
+            let at = |d: f64| {
+                let mut t = th.clone();
+                t[j] += d;
+                st.plant.run(&spec, &t, &pieces, false).expect("in range").yhat
+            };
+            let (up, dn) = (at(step), at(-step));
+            let (mut err, mut norm) = (0.0, 0.0);
+            for k in 0..f.len() {
+                for i in 0..NY {
+                    let fd = (up[k][i] - dn[k][i]) / (2.0 * step);
+                    err += (run.h[k][(i, j)] - fd).powi(2);
+                    norm += fd * fd;
+                }
+            }
+            assert!(
+                err.sqrt() <= 1e-5 * norm.sqrt(),
+                "{:?}: |H − FD| {:.3e}, |FD| {:.3e}",
+                spec.terms[j],
+                err.sqrt(),
+                norm.sqrt()
+            );
+        }
+    }
+}
