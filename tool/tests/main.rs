@@ -6,6 +6,7 @@ mod batch;
 mod cli;
 mod corrupt_logs;
 mod exit_codes;
+mod families;
 mod flow_angles;
 mod low_rate;
 mod origin;

@@ -41,6 +41,7 @@
 pub mod airdata;
 pub mod bench;
 pub mod compat;
+pub mod family;
 pub mod hidden;
 pub mod instrumental;
 pub mod model;
@@ -400,6 +401,9 @@ pub struct Added {
     /// ([`exact_surface_delay`]); the rate term's `τ = −θ_δ̇/θ_δ` is its first-order estimate.
     /// `None` for other terms.
     pub exact_delay_s: Option<f64>,
+    /// Its family of rival forms, the form named and the forms this flight cannot separate from
+    /// it ([`family`]); `None` for a term of no family.
+    pub family: Option<family::FamilyChoice>,
 }
 
 /// The analysis of one coefficient.
@@ -508,6 +512,9 @@ pub struct NamedCause {
     pub value: f64,
     /// Standard error.
     pub sigma: f64,
+    /// For a term of a family of rival forms: the family, the form and the forms this flight
+    /// cannot separate from it, in words ([`family::FamilyChoice::describe`]).
+    pub family: Option<String>,
 }
 
 /// Everything the analysis found.
@@ -869,11 +876,12 @@ pub fn run_gaps(flight: &MeasuredFlight, settings: &GapSettings) -> Result<GapRe
             t2: f.t2,
             value: f.value,
             sigma: f.sigma,
+            family: None,
         })
         .collect();
     let mut aero: Vec<NamedCause> = coefficients
         .iter()
-        .flat_map(|c| c.added.iter().map(move |a| named_aero(c, a)))
+        .flat_map(|c| c.added.iter().filter_map(move |a| named_aero(c, a)))
         .collect();
     // Each list by the partial t² of the cause in the final joint fit (the entry order depends on
     // the path of the selection).
@@ -1234,47 +1242,55 @@ pub(crate) fn preprocess(
     }
 }
 
-/// A term added to a coefficient, as a named cause. A surface-rate term is a time delay of that
-/// surface: `C_δ·δ(t−τ) ≈ C_δ·δ − C_δτ·δ̇`, so `τ = −θ_δ̇/θ_δ` with `θ_δ` from the same fit.
-fn named_aero(c: &CoefficientGap, a: &Added) -> NamedCause {
+/// A term added to a coefficient, as a named cause; `None` when a value it would name cannot be
+/// computed (not finite). A surface-rate term is a time delay of that surface:
+/// `C_δ·δ(t−τ) ≈ C_δ·δ − C_δτ·δ̇`, so `τ = −θ_δ̇/θ_δ` with `θ_δ` from the same fit (the selection
+/// offers the rate only with its surface in the model, [`family`]). Its σ by the delta method,
+/// `Var τ = (σ_δ̇² + τ²σ_δ² + 2τ·cov)/θ_δ²`, with the covariance bounded by `|cov| ≤ σ_δ̇σ_δ`
+/// (Cauchy–Schwarz; the fit reports standard errors, not the covariance): `σ_τ = (σ_δ̇ +
+/// |τ|σ_δ)/|θ_δ|`, an upper bound. The exact-shift delay, when found, takes the same σ.
+fn named_aero(c: &CoefficientGap, a: &Added) -> Option<NamedCause> {
     let surface = match a.term.as_str() {
         "δė" => Some(("Elevator", "δe")),
         "δȧ" => Some(("Aileron", "δa")),
         "δṙ" => Some(("Rudder", "δr")),
         _ => None,
     };
+    let family = a.family.as_ref().map(family::FamilyChoice::describe);
     if let Some((loc, sym)) = surface {
-        let theta_d = c.extended.parameters.iter().find(|p| p.term == sym).map(|p| p.value);
-        let first_order = theta_d.map_or(f64::NAN, |d| -a.value / d);
+        let d = c.extended.parameters.iter().find(|p| p.term == sym)?;
+        let first_order = -a.value / d.value;
         let tau = a.exact_delay_s.unwrap_or(first_order);
+        let sigma = (a.sigma + tau.abs() * d.sigma) / d.value.abs();
+        if !(tau.is_finite() && sigma.is_finite()) {
+            return None;
+        }
         let how = match a.exact_delay_s {
             Some(_) => format!("exact shift; first order {first_order:.3} s from"),
             None => "from".to_string(),
         };
-        return NamedCause {
+        return Some(NamedCause {
             kind: a.kind,
             location: loc.into(),
             what: format!(
-                "delay({sym}) {:.3} s ({how} {} {} = {:+.4}, {sym} = {:+.4})",
-                tau,
-                c.name,
-                a.term,
-                a.value,
-                theta_d.unwrap_or(f64::NAN)
+                "delay({sym}) {:.3} ± {:.3} s ({how} {} {} = {:+.4}, {sym} = {:+.4})",
+                tau, sigma, c.name, a.term, a.value, d.value
             ),
             t2: a.t2,
             value: tau,
-            sigma: theta_d.map_or(f64::NAN, |d| (a.sigma / d).abs()),
-        };
+            sigma,
+            family,
+        });
     }
-    NamedCause {
+    (a.value.is_finite() && a.sigma.is_finite()).then(|| NamedCause {
         kind: a.kind,
         location: c.name.clone(),
         what: a.term.clone(),
         t2: a.t2,
         value: a.value,
         sigma: a.sigma,
-    }
+        family,
+    })
 }
 
 /// The baselines fitted to the data as logged (least squares over the whole flight), for the
@@ -1341,12 +1357,13 @@ fn overall_verdict(named: &[NamedCause], coefficients: &[CoefficientGap]) -> Str
         None if tail.is_empty() => "nothing missing: the baseline predicts the held-out data within noise".to_string(),
         None => format!("no cause named{tail}"),
         Some(top) => format!(
-            "{} cause{} named, top: {:?} in {}: {}{tail}",
+            "{} cause{} named, top: {:?} in {}: {}{}{tail}",
             named.len(),
             if named.len() == 1 { "" } else { "s" },
             top.kind,
             top.location,
-            top.what
+            top.what,
+            top.family.as_ref().map(|f| format!(" — {f}")).unwrap_or_default()
         ),
     }
 }
@@ -1517,7 +1534,7 @@ fn analyse_coefficient(
     }
     let added: Vec<(Term, f64)> = added_terms.iter().map(|(t, t2, ..)| (*t, *t2)).collect();
     let p0 = terms.len() - added.len();
-    let added = added
+    let added: Vec<Added> = added
         .iter()
         .enumerate()
         .map(|(k, (t, t2))| Added {
@@ -1538,8 +1555,18 @@ fn analyse_coefficient(
                 })
                 .collect(),
             exact_delay_s: exact_delays.iter().find(|(x, _)| x == t).map(|(_, tau)| *tau),
+            family: sel.families.iter().find(|(x, _)| x == t).map(|(_, f)| f.clone()),
         })
         .collect();
+    let verdict = if verdict.starts_with("extended") {
+        let fams: Vec<String> = added
+            .iter()
+            .filter_map(|a| a.family.as_ref().map(family::FamilyChoice::describe))
+            .collect();
+        fams.iter().fold(verdict, |v, f| format!("{v}; {f}"))
+    } else {
+        verdict
+    };
     Some(CoefficientGap {
         name: COEFFICIENTS[i].into(),
         verdict,
@@ -1990,8 +2017,10 @@ struct Selection {
     cv_r2_extended: f64,
     block_s: f64,
     threshold_t2: f64,
-    /// What the selection decided beyond the tests (the effect hierarchy).
+    /// What the selection decided beyond the tests (the effect hierarchy, the families).
     notes: Vec<String>,
+    /// The family decision of each added term that has one ([`family::resolve`]).
+    families: Vec<(Term, family::FamilyChoice)>,
 }
 
 /// Forward selection with the removal step (Klein & Morelli 2006 §5.4.1), each entry decided by
@@ -2062,6 +2091,7 @@ fn stepwise(
         block_s: design.blocks.first().map_or(block_s, |(a, b)| (b - a) as f64 * h_s),
         threshold_t2,
         notes: Vec::new(),
+        families: Vec::new(),
     };
     // Excitation: a column whose variation does not clearly exceed its error is not scored.
     let excitation = |j: usize| -> Option<f64> {
@@ -2093,20 +2123,33 @@ fn stepwise(
     let mut unexcited: Vec<usize> = Vec::new();
     let mut current = base.clone();
     let mut first = true;
+    // Candidates not offered yet (their parent not in the model, [`family`]): the index of their
+    // unscored entry, replaced by their score in the first round that offers them.
+    let mut waiting: BTreeMap<usize, usize> = BTreeMap::new();
     loop {
         let mut best: Option<(usize, f64, select::SubsetFit)> = None;
+        let in_model: Vec<Term> = model.iter().map(|&c| terms[c]).collect();
         for j in nb..p {
             if model.contains(&j) || removed.contains(&j) {
                 continue;
             }
+            if let Some(why) = family::not_offered(terms[j], i, &in_model) {
+                if first {
+                    waiting.insert(j, out.candidates.len());
+                    out.candidates.push(CandidateScore::unscored(terms[j], i, why));
+                }
+                continue;
+            }
+            let first = first || waiting.contains_key(&j);
             if let Some(r) = excitation(j).filter(|r| *r < MIN_EXCITATION) {
                 if first {
                     unexcited.push(j);
-                    out.candidates.push(CandidateScore::unscored(
+                    let c = CandidateScore::unscored(
                         terms[j],
                         i,
                         format!("not enough excitation: its variation is {r:.1}× its error variance"),
-                    ));
+                    );
+                    record(&mut out.candidates, &mut waiting, j, c);
                 }
                 continue;
             }
@@ -2125,7 +2168,8 @@ fn stepwise(
                             }
                             select::Unfit::TooFewData => "too few data blocks",
                         };
-                        out.candidates.push(CandidateScore::unscored(terms[j], i, why.into()));
+                        let c = CandidateScore::unscored(terms[j], i, why.into());
+                        record(&mut out.candidates, &mut waiting, j, c);
                     }
                     continue;
                 }
@@ -2147,7 +2191,7 @@ fn stepwise(
                 h_s,
             );
             if first {
-                out.candidates.push(CandidateScore {
+                let c = CandidateScore {
                     term: terms[j].name().into(),
                     kind: terms[j].kind(i),
                     t2,
@@ -2157,15 +2201,17 @@ fn stepwise(
                     pse: f64::NAN,
                     significant: ok,
                     reason: unresolved.map(|tau| {
-                        format!(
-                            "implies a delay of {:.4} s: shorter than a sample or negative, not a delay",
-                            tau
-                        )
+                        if tau.is_nan() {
+                            "its surface's own term is within 3σ of zero here, so no delay can be computed from the pair: not a delay".to_string()
+                        } else {
+                            format!("implies a delay of {tau:.4} s: shorter than a sample or negative, not a delay")
+                        }
                     }),
                     value: f.theta[trial.len() - 1],
                     sigma: f.sigma[trial.len() - 1],
                     min_detectable: t_detect * f.sigma[trial.len() - 1],
-                });
+                };
+                record(&mut out.candidates, &mut waiting, j, c);
             }
             // The classical order of forward selection: the largest partial t² among the
             // candidates that pass both tests.
@@ -2177,7 +2223,8 @@ fn stepwise(
         let Some((j, _, f)) = best else { break };
         model.push(j);
         current = f;
-        removal_step(&design, nb, &mut model, &mut removed, &mut current, tests, &[]);
+        let parents = parents_in(&model, &terms, i);
+        removal_step(&design, nb, &mut model, &mut removed, &mut current, tests, &parents);
     }
     out.cv_r2_extended = design.cv_r2(&current);
     // A model that does not predict the held-out blocks even when extended names nothing.
@@ -2190,6 +2237,7 @@ fn stepwise(
     out.notes = prefer_main_effects(
         &design,
         &terms,
+        i,
         nb,
         &mut model,
         &excluded,
@@ -2197,6 +2245,22 @@ fn stepwise(
         (threshold_t2, gain_crit),
         h_s,
     );
+    let family_tests = family::Tests {
+        threshold_t2,
+        gain_crit,
+    };
+    let (families, family_notes) = family::resolve(
+        &design,
+        &terms,
+        i,
+        nb,
+        &mut model,
+        &excluded,
+        &mut current,
+        family_tests,
+    );
+    out.families = families.into_iter().map(|(c, f)| (terms[c], f)).collect();
+    out.notes.extend(family_notes);
     if !out.notes.is_empty() {
         // The other added terms are tested again in the model with the swap; the terms swapped
         // in stay (each passed both entry tests in place of its product).
@@ -2205,7 +2269,7 @@ fn stepwise(
         removal_step(&design, nb, &mut model, &mut removed, &mut current, tests, &swapped_in);
         for c in before.iter().filter(|c| !model.contains(c)) {
             out.notes.push(format!(
-                "{} withdrawn after that: in the model with the term of one variable it no longer passes both entry tests",
+                "{} withdrawn after that: in the model after the swap it no longer passes both entry tests",
                 terms[*c].name()
             ));
         }
@@ -2218,8 +2282,9 @@ fn stepwise(
     // And the rivals: significant in its place too, but predicting significantly worse.
     for (k, &a) in model.iter().enumerate().skip(nb) {
         let (mut alternatives, mut rivals) = (Vec::new(), Vec::new());
+        let without_terms: Vec<Term> = model.iter().filter(|&&x| x != a).map(|&c| terms[c]).collect();
         for j in nb..p {
-            if model.contains(&j) {
+            if model.contains(&j) || family::not_offered(terms[j], i, &without_terms).is_some() {
                 continue;
             }
             let swapped: Vec<usize> = model.iter().map(|&x| if x == a { j } else { x }).collect();
@@ -2264,6 +2329,26 @@ fn stepwise(
         )
     };
     out
+}
+
+/// Records a candidate's score: in place of its entry when it was waiting to be offered
+/// ([`family::not_offered`]), else appended.
+fn record(candidates: &mut Vec<CandidateScore>, waiting: &mut BTreeMap<usize, usize>, j: usize, c: CandidateScore) {
+    match waiting.remove(&j) {
+        Some(k) => candidates[k] = c,
+        None => candidates.push(c),
+    }
+}
+
+/// The columns of `model` that are the parent ([`family::parent`]) of another of its terms in
+/// coefficient `coef`: the removal step keeps them while the child stays (a delay without its
+/// surface, a curvature without its slope mean nothing).
+fn parents_in(model: &[usize], terms: &[Term], coef: usize) -> Vec<usize> {
+    model
+        .iter()
+        .copied()
+        .filter(|&c| model.iter().any(|&x| family::parent(terms[x], coef) == Some(terms[c])))
+        .collect()
 }
 
 /// The removal step of stepwise regression (Klein & Morelli 2006 §5.4.1): an added term of
@@ -2321,6 +2406,7 @@ fn removal_step(
 fn prefer_main_effects(
     design: &select::Design,
     terms: &[Term],
+    coef: usize,
     nb: usize,
     model: &mut [usize],
     removed: &[usize],
@@ -2337,9 +2423,14 @@ fn prefer_main_effects(
         }
         let without: Vec<usize> = model.iter().copied().filter(|&x| x != a).collect();
         let Ok(w) = design.fit(&without) else { continue };
+        let without_terms: Vec<Term> = without.iter().map(|&c| terms[c]).collect();
         let mut pick: Option<(usize, f64, select::SubsetFit)> = None;
         for j in nb..terms.len() {
-            if model.contains(&j) || removed.contains(&j) || terms[j].is_interaction() {
+            if model.contains(&j)
+                || removed.contains(&j)
+                || terms[j].is_interaction()
+                || family::not_offered(terms[j], coef, &without_terms).is_some()
+            {
                 continue;
             }
             let swapped: Vec<usize> = model.iter().map(|&x| if x == a { j } else { x }).collect();
@@ -2719,7 +2810,7 @@ mod tests {
         let mut current = design.fit(&model).expect("fits");
         assert!(current.t2(2) > 18.0, "α·q stands for α²: t² {}", current.t2(2));
         // WHEN the effect hierarchy is applied
-        let notes = prefer_main_effects(&design, &terms, 2, &mut model, &[], &mut current, (18.0, 2.4), 0.01);
+        let notes = prefer_main_effects(&design, &terms, 0, 2, &mut model, &[], &mut current, (18.0, 2.4), 0.01);
         // THEN α² is named in its place, with a note saying why
         assert_eq!(model, vec![0, 1, 3]);
         assert_eq!(current.cols, vec![0, 1, 3]);
@@ -2735,7 +2826,7 @@ mod tests {
         let mut current = design.fit(&model).expect("fits");
         let before = current.clone();
         // WHEN the effect hierarchy is applied
-        let notes = prefer_main_effects(&design, &terms, 2, &mut model, &[], &mut current, (18.0, 2.4), 0.01);
+        let notes = prefer_main_effects(&design, &terms, 0, 2, &mut model, &[], &mut current, (18.0, 2.4), 0.01);
         // THEN α·q stays (α² in its place predicts the held-out blocks far worse)
         assert_eq!(model, vec![0, 1, 2]);
         assert_eq!(current, before);

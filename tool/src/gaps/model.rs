@@ -858,10 +858,20 @@ impl Term {
     }
 
     /// The [`library`](Self::library) of coefficient `coef` less the terms `table` bars on its
-    /// flight ([`Table::barred`]): the candidates the analysis offers.
+    /// flight ([`Table::barred`]) and those that mean nothing on it
+    /// ([`super::family::offered_on_flight`]: Mach below compressibility, thrust unknown): the
+    /// candidates the analysis offers.
     pub fn offered(coef: usize, table: &Table) -> Vec<Term> {
+        let mach_max = table
+            .signals
+            .get(&Signal::Mach)
+            .map_or(0.0, |m| m.iter().copied().fold(0.0, f64::max));
+        let thrust_known = table.signals.contains_key(&Signal::ThrustCoeff);
         let mut lib = Self::library(coef);
-        lib.retain(|t| !table.barred.iter().any(|(i, b, _)| *i == coef && b == t));
+        lib.retain(|t| {
+            !table.barred.iter().any(|(i, b, _)| *i == coef && b == t)
+                && super::family::offered_on_flight(*t, mach_max, thrust_known)
+        });
         lib
     }
 

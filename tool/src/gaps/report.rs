@@ -359,7 +359,7 @@ pub fn json(r: &GapReport) -> Value {
         },
         "named": r.named.iter().map(|c| json!({
             "kind": c.kind, "location": c.location, "what": c.what,
-            "t2": f(c.t2), "value": f(c.value), "sigma": f(c.sigma),
+            "t2": f(c.t2), "value": f(c.value), "sigma": f(c.sigma), "family": c.family,
         })).collect::<Vec<_>>(),
         "top_cause": r.top_cause().map(|c| json!({
             "kind": c.kind, "location": c.location, "what": c.what, "t2": f(c.t2),
