@@ -881,7 +881,8 @@ pub fn analyse(inp: &Inputs) -> Result<LowRate, String> {
             if first_round.is_none() {
                 first_round = Some(scored.iter().map(|(s, _)| s.clone()).collect());
             }
-            let Some(bi) = best else { break };
+            let Some(mut bi) = best else { break };
+            let family = lowest_form(c, &scored, &mut bi);
             let (score, fit) = scored.swap_remove(bi);
             let Some((fit1, h1, _)) = fit else { break };
             added.push(Added {
@@ -894,6 +895,7 @@ pub fn analyse(inp: &Inputs) -> Result<LowRate, String> {
                 alternatives: names_sig.into_iter().filter(|n| *n != score.term).collect(),
                 rivals: Vec::new(),
                 exact_delay_s: None,
+                family,
             });
             current = fit1;
             h_current = h1;
@@ -1024,6 +1026,37 @@ pub fn analyse(inp: &Inputs) -> Result<LowRate, String> {
         });
     }
     Ok(LowRate { coefficients, notes })
+}
+
+/// The family rule of the equation-error path ([`family`](super::family)) in the form this path
+/// can afford: among the significant candidates of the best one's family of rival forms, the
+/// lowest-order form is named (`best` moved to it) and the other significant forms are listed as
+/// ones this flight cannot separate. Reading: the output-error fits are not compared form against
+/// form on held-out data, so a higher form never displaces a lower one here — the conservative
+/// side of "the lowest order wins unless another predicts better beyond noise".
+fn lowest_form<F>(c: usize, scored: &[(CandidateScore, F)], best: &mut usize) -> Option<super::family::FamilyChoice> {
+    let term_of = |name: &str| Term::library(c).into_iter().find(|t| t.name() == name);
+    let fam = super::family::Family::of(term_of(&scored[*best].0.term)?, c)?;
+    let members: Vec<(usize, usize)> = scored
+        .iter()
+        .enumerate()
+        .filter(|(_, (s, _))| s.significant)
+        .filter_map(|(i, (s, _))| {
+            let t = term_of(&s.term)?;
+            (super::family::Family::of(t, c) == Some(fam)).then(|| (fam.order(t), i))
+        })
+        .collect();
+    let (_, lowest) = *members.iter().min()?;
+    *best = lowest;
+    Some(super::family::FamilyChoice {
+        family: fam.name().to_string(),
+        form: scored[lowest].0.term.clone(),
+        cannot_separate: members
+            .iter()
+            .filter(|(_, i)| *i != lowest)
+            .map(|(_, i)| scored[*i].0.term.clone())
+            .collect(),
+    })
 }
 
 #[cfg(test)]
