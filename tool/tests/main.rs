@@ -11,4 +11,5 @@ mod origin;
 mod pooled;
 mod predict;
 mod real_logs;
+mod report_coherence;
 mod workflow;
