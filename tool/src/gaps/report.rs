@@ -300,7 +300,12 @@ pub fn table(r: &GapReport) -> String {
     );
     for c in &r.coefficients {
         let f = &c.extended;
-        let _ = writeln!(s, "   {} ({}, {}):", c.name, f.estimator, f.solution);
+        // OLS has no "solution" of eq. 21 to report.
+        if f.solution == "LeastSquares" {
+            let _ = writeln!(s, "   {} ({}):", c.name, f.estimator);
+        } else {
+            let _ = writeln!(s, "   {} ({}, {}):", c.name, f.estimator, f.solution);
+        }
         if let Some(why) = &f.not_determined {
             let _ = writeln!(s, "     not determined: {why}");
         }
