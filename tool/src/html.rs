@@ -354,19 +354,48 @@ fn simulation(h: &mut String, r: &Value) {
         "<h2 id=\"simulation\">Held-out simulation</h2><table><tr><th>output</th><th>R² baseline</th>\
          <th>R² extended</th><th>RMS baseline</th><th>RMS extended</th></tr>",
     );
+    // A model set whose simulation diverged has no R² or RMS (null): the cell says "diverged" and
+    // a line below says where.
+    let mut diverged = Vec::new();
     for o in os {
         let unit = text(o, &["unit"]).map(|u| format!(" {}", esc(&u))).unwrap_or_default();
+        let channel = esc(&text(o, &["channel"]).unwrap_or_default());
+        let cut = |w: usize| -> Option<String> {
+            let at: Vec<String> = o
+                .pointer(&format!("/diverged_at_s/{w}"))
+                .and_then(Value::as_array)?
+                .iter()
+                .filter_map(Value::as_f64)
+                .map(|t| format!("{t:.1}"))
+                .collect();
+            (!at.is_empty()).then(|| at.join(", "))
+        };
+        let cell = |w: usize, m: &str, r2: bool| match cut(w) {
+            Some(_) => "diverged".to_string(),
+            None if r2 => opt(o.pointer(&format!("/{m}/r2")).and_then(Value::as_f64), 3),
+            None => format!(
+                "{}{unit}",
+                opt_sig(o.pointer(&format!("/{m}/rms")).and_then(Value::as_f64))
+            ),
+        };
+        for (w, m) in [(0, "baseline"), (1, "extended")] {
+            if let Some(at) = cut(w) {
+                diverged.push(format!("{channel} with the {m} models diverged at t = {at} s"));
+            }
+        }
         let _ = write!(
             h,
-            "<tr><td>{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{}{unit}</td><td class=\"num\">{}{unit}</td></tr>",
-            esc(&text(o, &["channel"]).unwrap_or_default()),
-            opt(o.pointer("/baseline/r2").and_then(Value::as_f64), 3),
-            opt(o.pointer("/extended/r2").and_then(Value::as_f64), 3),
-            opt_sig(o.pointer("/baseline/rms").and_then(Value::as_f64)),
-            opt_sig(o.pointer("/extended/rms").and_then(Value::as_f64)),
+            "<tr><td>{channel}</td><td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td></tr>",
+            cell(0, "baseline", true),
+            cell(1, "extended", true),
+            cell(0, "baseline", false),
+            cell(1, "extended", false),
         );
     }
     h.push_str("</table>");
+    if !diverged.is_empty() {
+        let _ = write!(h, "<ul><li>{}</li></ul>", diverged.join("</li><li>"));
+    }
     list(h, r.pointer("/simulation/notes"), "");
 }
 
@@ -513,7 +542,9 @@ fn value_sigma(value: Option<&Value>, sigma: Option<&Value>, unit: Option<&str>)
         sigma.and_then(Value::as_f64).filter(|x| x.is_finite()),
     ) {
         (Some(v), Some(s)) => format!("{} ± {}{unit}", sig3(v), sig3(s)),
-        (Some(v), None) => format!("{}{unit} (σ not determined)", sig3(v)),
+        // A value without a finite σ is not an estimate: not shown as a number.
+        (Some(_), None) => "not determined".into(),
+        (None, _) if value.is_some_and(Value::is_null) => "not determined".into(),
         (None, _) => "—".into(),
     }
 }
@@ -577,12 +608,32 @@ mod tests {
         assert!(at("id=\"compatibility\"") < at("id=\"figures\""));
         assert!(page.contains("class=\"verdict found\""));
         // An undetermined σ is said, not printed as a number.
-        assert!(page.contains("α² = 1.50 (σ not determined)"), "{page}");
+        assert!(page.contains("α² = not determined"), "{page}");
         assert!(page.contains("1.50 ± 0.100"));
         assert!(page.contains("0.5000") && page.contains("0.9000"));
         // The figure is inline, without its XML prologue.
         assert!(page.contains("<figure><svg viewBox"));
         assert!(!page.contains("<?xml"));
+    }
+
+    #[test]
+    fn a_diverged_simulation_says_where_and_has_no_r2() {
+        let r = json!({"simulation": {"outputs": [{
+            "channel": "Airspeed", "unit": "m/s",
+            "baseline": {"r2": 0.9, "rms": 0.2, "pse": 0.1, "n": 10},
+            "extended": {"r2": null, "rms": null, "pse": null, "n": 0},
+            "diverged": [0, 1], "diverged_at_s": [[], [61.24]],
+        }]}});
+        let page = gaps_page(&r, &[]);
+        assert!(
+            page.contains("Airspeed with the extended models diverged at t = 61.2 s"),
+            "{page}"
+        );
+        assert!(
+            page.contains("<td class=\"num\">0.900</td><td class=\"num\">diverged</td>"),
+            "{page}"
+        );
+        assert!(!page.contains("NaN"), "{page}");
     }
 
     #[test]

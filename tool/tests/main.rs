@@ -13,5 +13,6 @@ mod origin;
 mod pooled;
 mod predict;
 mod real_logs;
+mod report_coherence;
 mod scatter;
 mod workflow;

@@ -352,6 +352,9 @@ pub struct ModelFit {
     pub estimator: String,
     /// How the estimator ended (eq. 21): `"Tls"` when every direction is excited.
     pub solution: String,
+    /// Why the fit does not determine every parameter (`None`: it does); its values are then not
+    /// reported as estimates.
+    pub not_determined: Option<String>,
     /// The output entry of `W_T` ([`regress::corrected_ls`]).
     pub sigma_z2: f64,
     /// Parameters.
@@ -421,6 +424,9 @@ pub struct CoefficientGap {
     pub block_s: f64,
     /// The `t²` threshold at this coefficient's number of blocks.
     pub threshold_t2: f64,
+    /// The number of blocks `G` of the block sandwich (the threshold is Student's t with `G − 1`
+    /// degrees of freedom).
+    pub blocks: usize,
     /// Baseline terms requested but not available (channel missing).
     pub dropped_terms: Vec<String>,
     /// The baseline.
@@ -506,7 +512,7 @@ pub struct NamedCause {
     pub location: String,
     /// The term or sensor parameter.
     pub what: String,
-    /// Its `t²` when it entered.
+    /// Its partial `t²` in the fit of `value` and `sigma`: `(value/sigma)²` (NaN: not determined).
     pub t2: f64,
     /// Estimate.
     pub value: f64,
@@ -532,6 +538,9 @@ pub struct GapReport {
     pub candidates_tested: usize,
     /// The `t²` threshold.
     pub threshold_t2: f64,
+    /// The number of blocks of `settings.cv.block_s` the threshold assumes (Student's t with one
+    /// degree of freedom fewer).
+    pub threshold_blocks: usize,
     /// Settings used.
     pub settings: GapSettings,
     /// The compatibility check.
@@ -721,6 +730,7 @@ pub fn run_gaps(flight: &MeasuredFlight, settings: &GapSettings) -> Result<GapRe
         n_id,
         m,
         threshold_t2,
+        threshold_blocks,
         compatibility,
         corr,
         air: air_owned,
@@ -840,6 +850,7 @@ pub fn run_gaps(flight: &MeasuredFlight, settings: &GapSettings) -> Result<GapRe
             pieces: &piece_ranges,
             n_id,
             threshold_t2,
+            threshold_blocks,
             cv: settings.cv,
             max_lag_s: settings.max_lag_s,
         });
@@ -873,7 +884,7 @@ pub fn run_gaps(flight: &MeasuredFlight, settings: &GapSettings) -> Result<GapRe
             kind: param_kind(&f.param),
             location: format!("{:?}", f.param.channel()),
             what: f.param.name(),
-            t2: f.t2,
+            t2: t2_of(f.value, f.sigma),
             value: f.value,
             sigma: f.sigma,
             family: None,
@@ -885,14 +896,7 @@ pub fn run_gaps(flight: &MeasuredFlight, settings: &GapSettings) -> Result<GapRe
         .collect();
     // Each list by the partial t² of the cause in the final joint fit (the entry order depends on
     // the path of the selection).
-    let final_t2 = |c: &NamedCause| {
-        let t = (c.value / c.sigma).powi(2);
-        if t.is_finite() {
-            t
-        } else {
-            -1.0
-        }
-    };
+    let final_t2 = |c: &NamedCause| if c.t2.is_finite() { c.t2 } else { -1.0 };
     named.sort_by(|a, b| final_t2(b).total_cmp(&final_t2(a)));
     aero.sort_by(|a, b| final_t2(b).total_cmp(&final_t2(a)));
     // A surface has one delay, though several coefficients may show it: one cause per surface,
@@ -971,6 +975,7 @@ pub fn run_gaps(flight: &MeasuredFlight, settings: &GapSettings) -> Result<GapRe
         validation_s: [t[n_id], t[n - 1]],
         candidates_tested: m,
         threshold_t2,
+        threshold_blocks,
         settings: settings.clone(),
         compatibility,
         coefficients,
@@ -1120,6 +1125,8 @@ pub(crate) struct Preprocessed {
     pub m: usize,
     /// The coefficients' `t²` threshold.
     pub threshold_t2: f64,
+    /// The blocks it assumes.
+    pub threshold_blocks: usize,
     /// The compatibility check.
     pub compatibility: Compatibility,
     /// The sensor errors removed before the synthesis.
@@ -1233,6 +1240,7 @@ pub(crate) fn preprocess(
         n_id,
         m,
         threshold_t2,
+        threshold_blocks: blocks,
         compatibility,
         corr,
         air: air_owned,
@@ -1261,6 +1269,8 @@ fn named_aero(c: &CoefficientGap, a: &Added) -> Option<NamedCause> {
         let d = c.extended.parameters.iter().find(|p| p.term == sym)?;
         let first_order = -a.value / d.value;
         let tau = a.exact_delay_s.unwrap_or(first_order);
+        // σ of τ by the delta method with the unknown covariance of the pair bounded: an upper
+        // bound, never smaller than the rate term's own relative error gives.
         let sigma = (a.sigma + tau.abs() * d.sigma) / d.value.abs();
         if !(tau.is_finite() && sigma.is_finite()) {
             return None;
@@ -1276,7 +1286,7 @@ fn named_aero(c: &CoefficientGap, a: &Added) -> Option<NamedCause> {
                 "delay({sym}) {:.3} ± {:.3} s ({how} {} {} = {:+.4}, {sym} = {:+.4})",
                 tau, sigma, c.name, a.term, a.value, d.value
             ),
-            t2: a.t2,
+            t2: t2_of(tau, sigma),
             value: tau,
             sigma,
             family,
@@ -1286,11 +1296,21 @@ fn named_aero(c: &CoefficientGap, a: &Added) -> Option<NamedCause> {
         kind: a.kind,
         location: c.name.clone(),
         what: a.term.clone(),
-        t2: a.t2,
+        t2: t2_of(a.value, a.sigma),
         value: a.value,
         sigma: a.sigma,
         family,
     })
+}
+
+/// `(value/σ)²`, the partial `t²` of an estimate in the fit it comes from; NaN when `σ` is not a
+/// finite positive number (the fit does not determine it).
+fn t2_of(value: f64, sigma: f64) -> f64 {
+    if sigma.is_finite() && sigma > 0.0 && value.is_finite() {
+        (value / sigma).powi(2)
+    } else {
+        f64::NAN
+    }
 }
 
 /// The baselines fitted to the data as logged (least squares over the whole flight), for the
@@ -1412,19 +1432,46 @@ fn analyse_coefficient(
         // GTLS when it applies; OLS (said so) when the errors-in-variables model cannot be
         // formed: XᵀX − N·W̃ not positive definite (a column whose estimated error variance is as
         // large as its own variation: not excited in the sense of eq. 21) or W_T indefinite.
+        // A minimum-norm GTLS solution (eq. 22–23: a direction not excited beyond its
+        // measurement error) is a regularised value, not an estimate, and has no σ: the fit is
+        // then OLS, which the columns determine (they are independent, or `ols` below fails),
+        // and the estimator's name says why.
+        let ols_fit = || gtls_fit(&cols, z_id, &EivModel::exact(terms.len()), n_id, max_lag, None);
         let (f, estimator) = match gtls_fit(&cols, z_id, &eiv, n_id, max_lag, None) {
-            Some(f) => (f, if all_exact { "OLS" } else { "PCA-GTLS" }),
+            Some(f) if matches!(f.solution, aerosid_core::Solution::Tls | aerosid_core::Solution::LeastSquares) => {
+                (f, if all_exact { "OLS".into() } else { "PCA-GTLS".into() })
+            }
+            Some(f) => (
+                ols_fit()?,
+                format!(
+                    "OLS (PCA-GTLS not determined: {} of {} directions excited beyond their measurement error, eq. 21; its minimum-norm solution is not an estimate)",
+                    f.excited,
+                    terms.iter().zip(&eiv.exact).filter(|(_, e)| !**e).count()
+                ),
+            ),
             None => (
-                gtls_fit(&cols, z_id, &EivModel::exact(terms.len()), n_id, max_lag, None)?,
-                "OLS (GTLS not applicable: W_T exceeds a column's variation)",
+                ols_fit()?,
+                "OLS (GTLS not applicable: W_T exceeds a column's variation)".into(),
             ),
         };
         let o = ols(&cols, z_id, n_id, 0)?;
         let pred = predict(cols_full, &f.theta);
         let p = terms.len();
+        let undetermined: Vec<&str> = terms
+            .iter()
+            .zip(f.theta.iter().zip(&f.sigma))
+            .filter(|(_, (v, s))| !(v.is_finite() && s.is_finite()))
+            .map(|(t, _)| t.name())
+            .collect();
         let mf = ModelFit {
-            estimator: estimator.into(),
+            estimator,
             solution: format!("{:?}", f.solution),
+            not_determined: (!undetermined.is_empty()).then(|| {
+                format!(
+                    "no finite standard error for {} (the coloured-residual covariance of the fit could not be formed)",
+                    undetermined.join(", ")
+                )
+            }),
             sigma_z2: f.sigma_z2,
             parameters: terms
                 .iter()
@@ -1575,6 +1622,7 @@ fn analyse_coefficient(
         cv_r2_extended: sel.cv_r2_extended,
         block_s: sel.block_s,
         threshold_t2: sel.threshold_t2,
+        blocks: sel.blocks,
         dropped_terms: dropped,
         baseline,
         candidates,
@@ -2017,6 +2065,8 @@ struct Selection {
     cv_r2_extended: f64,
     block_s: f64,
     threshold_t2: f64,
+    /// Blocks of the block sandwich.
+    blocks: usize,
     /// What the selection decided beyond the tests (the effect hierarchy, the families).
     notes: Vec<String>,
     /// The family decision of each added term that has one ([`family::resolve`]).
@@ -2090,6 +2140,7 @@ fn stepwise(
         cv_r2_extended: f64::NAN,
         block_s: design.blocks.first().map_or(block_s, |(a, b)| (b - a) as f64 * h_s),
         threshold_t2,
+        blocks: g,
         notes: Vec::new(),
         families: Vec::new(),
     };
@@ -2201,10 +2252,10 @@ fn stepwise(
                     pse: f64::NAN,
                     significant: ok,
                     reason: unresolved.map(|tau| {
-                        if tau.is_nan() {
-                            "its surface's own term is within 3σ of zero here, so no delay can be computed from the pair: not a delay".to_string()
-                        } else {
+                        if tau.is_finite() {
                             format!("implies a delay of {tau:.4} s: shorter than a sample or negative, not a delay")
+                        } else {
+                            "its surface's own term is within 3σ of zero here, so no delay can be computed from the pair: not a delay".to_string()
                         }
                     }),
                     value: f.theta[trial.len() - 1],
@@ -2306,26 +2357,28 @@ fn stepwise(
     }
     out.verdict = if !predictive {
         format!(
-            "the model does not predict this coefficient (held-out R² {:.2} baseline, {:.2} extended, < {MIN_PREDICTIVE_R2}): causes not identifiable from this flight",
-            out.cv_r2_baseline, out.cv_r2_extended
+            "the model does not predict this coefficient (held-out R² {} baseline, {} extended, < {MIN_PREDICTIVE_R2}): causes not identifiable from this flight",
+            report::r2_text(out.cv_r2_baseline),
+            report::r2_text(out.cv_r2_extended)
         )
     } else if out.added.is_empty() {
         let open = unconfirmed(&out.candidates, threshold_t2);
         if open.is_empty() {
             format!(
-                "nothing missing: no candidate predicts held-out data better than the baseline beyond noise (held-out R² {:.3})",
-                out.cv_r2_baseline
+                "nothing missing: no candidate predicts held-out data better than the baseline beyond noise (held-out R² {})",
+                report::r2_text(out.cv_r2_baseline)
             )
         } else {
             format!(
-                "not decided by this flight (held-out R² {:.3}): {open} — significant, but its held-out gain is not beyond the noise; more manoeuvres exciting it would decide",
-                out.cv_r2_baseline
+                "not decided by this flight (held-out R² {}): {open} — significant, but its held-out gain is not beyond the noise; more manoeuvres exciting it would decide",
+                report::r2_text(out.cv_r2_baseline)
             )
         }
     } else {
         format!(
-            "extended: held-out R² {:.3} → {:.3}",
-            out.cv_r2_baseline, out.cv_r2_extended
+            "extended: held-out R² {} → {}",
+            report::r2_text(out.cv_r2_baseline),
+            report::r2_text(out.cv_r2_extended)
         )
     };
     out

@@ -654,6 +654,9 @@ pub struct Inputs<'a> {
     pub n_id: usize,
     /// The `t²` threshold.
     pub threshold_t2: f64,
+    /// The number of blocks the threshold was set for (its Student's t has one fewer degrees of
+    /// freedom), reported with it.
+    pub threshold_blocks: usize,
     /// Cross-validation settings.
     pub cv: CvSettings,
     /// Sandwich block length, s.
@@ -961,6 +964,7 @@ pub fn analyse(inp: &Inputs) -> Result<LowRate, String> {
                     OUTPUT_NAMES[o]
                 ),
                 solution: if f.converged { "converged" } else { "iteration limit" }.into(),
+                not_determined: None,
                 sigma_z2: 1.0 / f.w[o],
                 parameters,
                 identification: metrics(&meas[..n_id], &pred[..n_id], p),
@@ -1013,6 +1017,7 @@ pub fn analyse(inp: &Inputs) -> Result<LowRate, String> {
                 inp.cv.block_s
             },
             threshold_t2: inp.threshold_t2,
+            blocks: inp.threshold_blocks,
             dropped_terms: dropped[c].clone(),
             baseline: model_fit(&base, &h_base),
             candidates,
@@ -1092,6 +1097,7 @@ mod tests {
             pieces: &pieces,
             n_id: f.len() * 6 / 10,
             threshold_t2: 20.0,
+            threshold_blocks: 10,
             cv: s.cv,
             max_lag_s: s.max_lag_s,
         };

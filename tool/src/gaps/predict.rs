@@ -475,14 +475,21 @@ pub fn table(p: &GapsPrediction) -> String {
             "output", "R² base", "RMS base", "R² ext", "RMS ext"
         );
         for o in &p.simulation.outputs {
+            // A diverged simulation has no R² or RMS ([`super::simulate`]): it says where it was cut.
+            let cols = |m: &super::regress::Metrics, w: usize| {
+                if o.diverged_with(w) {
+                    let at: Vec<String> = o.diverged_at_s[w].iter().map(|t| format!("{t:.1}")).collect();
+                    format!("diverged at t = {} s", at.join(", "))
+                } else {
+                    format!("{:>8.4} {:>11.4e}", m.r2, m.rms)
+                }
+            };
             let _ = writeln!(
                 s,
-                "{:<10} {:>8.4} {:>11.4e} | {:>8.4} {:>11.4e} | {}/{} ({})",
+                "{:<10} {} | {} | {}/{} ({})",
                 o.channel,
-                o.baseline.r2,
-                o.baseline.rms,
-                o.extended.r2,
-                o.extended.rms,
+                cols(&o.baseline, 0),
+                cols(&o.extended, 1),
                 o.diverged[0],
                 o.diverged[1],
                 o.unit

@@ -7,26 +7,113 @@ use serde_json::{json, Value};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
+/// The report's label: the data file's name without its extension (each file's, for pooled
+/// manoeuvres), or the source as given when it is not a file (a simulated flight).
+pub fn label(r: &GapReport) -> String {
+    let stem = |s: &str| {
+        let p = Path::new(s);
+        match p.file_stem() {
+            Some(st) if p.is_file() => st.to_string_lossy().into_owned(),
+            _ => s.to_string(),
+        }
+    };
+    if r.manoeuvres.len() > 1 {
+        let mut names: Vec<String> = Vec::new();
+        for m in &r.manoeuvres {
+            let n = stem(&m.source);
+            if !names.contains(&n) {
+                names.push(n);
+            }
+        }
+        names.join(", ")
+    } else {
+        stem(&r.source)
+    }
+}
+
+/// A held-out R² as every part of the report writes it (three decimals; "–" when not computed),
+/// so that the table and the verdicts show the same figure.
+pub fn r2_text(x: f64) -> String {
+    if x.is_finite() {
+        format!("{x:.3}")
+    } else {
+        "–".into()
+    }
+}
+
+/// `value ± σ unit` to five decimals, or "not determined" when either is not finite.
+fn estimate(value: f64, sigma: f64, unit: &str) -> String {
+    if value.is_finite() && sigma.is_finite() {
+        format!(
+            "{value:+.5} ± {sigma:.5}{}",
+            if unit.is_empty() {
+                String::new()
+            } else {
+                format!(" {unit}")
+            }
+        )
+    } else {
+        "not determined (no finite standard error)".into()
+    }
+}
+
+/// A t² to one decimal, or "–" when not computed.
+fn t2_text(t2: f64) -> String {
+    if t2.is_finite() {
+        format!("{t2:.1}")
+    } else {
+        "–".into()
+    }
+}
+
+/// Why a `t²` threshold is what it is, in words: the Bonferroni level over `m` candidates and
+/// Student's t with `blocks − 1` degrees of freedom (the block sandwich's σ is estimated from that
+/// many blocks; with few of them it is itself uncertain and only a large `t²` is significant).
+pub fn threshold_words(t2: f64, alpha: f64, m: usize, blocks: usize, block_s: f64) -> String {
+    let dof = blocks.saturating_sub(1).max(1);
+    let base = format!(
+        "t² > {}: the two-sided level α = {alpha} divided among {m} candidates (Bonferroni), Student's t with {dof} degree{} of freedom ({blocks} blocks of {block_s:.0} s)",
+        t2_text(t2),
+        if dof == 1 { "" } else { "s" }
+    );
+    if dof < 10 {
+        format!("{base}; few blocks, so the standard errors are themselves uncertain and only a very large t² is significant — a longer flight or more manoeuvres lower the threshold")
+    } else {
+        base
+    }
+}
+
 /// The terminal table.
 pub fn table(r: &GapReport) -> String {
     let mut s = String::new();
-    let _ = writeln!(s, "model-gap analysis — {}", r.source);
+    let _ = writeln!(s, "model-gap analysis — {}", label(r));
+    if label(r) != r.source {
+        let _ = writeln!(s, "data: {}", r.source);
+    }
     let _ = writeln!(
         s,
-        "aircraft {}; identification {:.1}–{:.1} s, held out {:.1}–{:.1} s; {} candidates tested, threshold t² > {:.1} (α = {} / {} two-sided), held-out gain one-sided at {}",
+        "aircraft {}; identification {:.1}–{:.1} s, held out {:.1}–{:.1} s; {} candidates tested; threshold {}; held-out gain one-sided at {}",
         r.aircraft,
         r.identification_s[0],
         r.identification_s[1],
         r.validation_s[0],
         r.validation_s[1],
         r.candidates_tested,
-        r.threshold_t2,
-        r.settings.alpha,
-        r.candidates_tested,
+        threshold_words(
+            r.threshold_t2,
+            r.settings.alpha,
+            r.candidates_tested,
+            r.threshold_blocks,
+            r.settings.cv.block_s
+        ),
         r.settings.cv.gain_alpha
     );
+    let mut seen: Vec<&String> = Vec::new();
     for n in r.notes.iter().chain(&r.compatibility.notes) {
-        let _ = writeln!(s, "note: {n}");
+        if !seen.contains(&n) {
+            seen.push(n);
+            let _ = writeln!(s, "note: {n}");
+        }
     }
     if r.manoeuvres.len() > 1 {
         manoeuvre_table(&mut s, r);
@@ -45,7 +132,9 @@ pub fn table(r: &GapReport) -> String {
     }
     let mut tested = r.compatibility.tested.clone();
     tested.sort_by(|a, b| b.t2.total_cmp(&a.t2));
-    let _ = writeln!(s, "   best candidates (first round): ");
+    if !tested.is_empty() {
+        let _ = writeln!(s, "   best candidates (first round; t² = (value/σ)²):");
+    }
     for c in tested.iter().take(5) {
         let detect = if c.min_detectable.is_finite() {
             format!("needs |·| ≥ {:.5}", c.min_detectable)
@@ -54,23 +143,19 @@ pub fn table(r: &GapReport) -> String {
         };
         let _ = writeln!(
             s,
-            "     {:<18} t² {:>10.1}   {:+.5} ± {:.5} {} ({detect})",
+            "     {:<18} t² {:>10}   {} ({detect})",
             c.param.name(),
-            c.t2,
-            c.value,
-            c.sigma,
-            c.param.unit(),
+            t2_text(c.t2),
+            estimate(c.value, c.sigma, c.param.unit()),
         );
     }
     for f in &r.compatibility.rejected {
         let _ = writeln!(
             s,
-            "   not named {:<14} {:+.5} ± {:.5} {} (t² {:.1}): {}",
+            "   not named {:<14} {} (t² {}): {}",
             f.param.name(),
-            f.value,
-            f.sigma,
-            f.param.unit(),
-            f.t2,
+            estimate(f.value, f.sigma, f.param.unit()),
+            t2_text(f.t2),
             f.why
         );
     }
@@ -80,12 +165,11 @@ pub fn table(r: &GapReport) -> String {
     for f in &r.compatibility.found {
         let _ = writeln!(
             s,
-            "   FOUND {:<18} {:+.5} ± {:.5} {} (t² {:.1}, held-out gain {:.1} σ, {} part)",
+            "   FOUND {:<18} {} (t² {} in this fit; entered at t² {}; held-out gain {:.1} σ, {} part)",
             f.param.name(),
-            f.value,
-            f.sigma,
-            f.param.unit(),
-            f.t2,
+            estimate(f.value, f.sigma, f.param.unit()),
+            t2_text(t2_of(f.value, f.sigma)),
+            t2_text(f.t2),
             f.cv_gain_z,
             f.part
         );
@@ -102,32 +186,32 @@ pub fn table(r: &GapReport) -> String {
     }
     let _ = writeln!(
         s,
-        "\n2. coefficients (R², RMS on the held-out segment; PSE on identification)"
+        "\n2. coefficients (held-out R²: blocked cross-validation over the whole flight, the figure of the verdicts; RMS and PSE of the fit on the identification segment)"
     );
     let _ = writeln!(
         s,
-        "   {:<5} {:>8} {:>10} {:>10} | {:>8} {:>10} {:>10} | {:<14} {:>9} | added",
-        "coef", "R² base", "RMS base", "PSE base", "R² ext", "RMS ext", "PSE ext", "best candidate", "t²"
+        "   {:<5} {:>8} {:>8} | {:>10} {:>10} | {:>10} {:>10} | {:<14} {:>9} | added",
+        "coef", "R² base", "R² ext", "RMS base", "RMS ext", "PSE base", "PSE ext", "best candidate", "t²"
     );
     for c in &r.coefficients {
         let best = c.candidates.first();
         let added: Vec<String> = c
             .added
             .iter()
-            .map(|a| format!("{} = {:.4} ± {:.4} ({:?})", a.term, a.value, a.sigma, a.kind))
+            .map(|a| format!("{} = {} ({:?})", a.term, estimate(a.value, a.sigma, ""), a.kind))
             .collect();
         let _ = writeln!(
             s,
-            "   {:<5} {:>8.4} {:>10.3e} {:>10.3e} | {:>8.4} {:>10.3e} {:>10.3e} | {:<14} {:>9.1} | {}",
+            "   {:<5} {:>8} {:>8} | {:>10.3e} {:>10.3e} | {:>10.3e} {:>10.3e} | {:<14} {:>9} | {}",
             c.name,
-            c.baseline.validation.r2,
-            c.baseline.validation.rms,
+            r2_text(c.cv_r2_baseline),
+            r2_text(c.cv_r2_extended),
+            c.baseline.identification.rms,
+            c.extended.identification.rms,
             c.baseline.identification.pse,
-            c.extended.validation.r2,
-            c.extended.validation.rms,
             c.extended.identification.pse,
             best.map_or("-".into(), |b| b.term.clone()),
-            best.map_or(0.0, |b| b.t2),
+            best.map_or("–".into(), |b| t2_text(b.t2)),
             if added.is_empty() {
                 "nothing".into()
             } else {
@@ -135,19 +219,37 @@ pub fn table(r: &GapReport) -> String {
             }
         );
     }
-    let _ = writeln!(
-        s,
-        "\n   verdicts (held-out R² by blocked cross-validation over the whole flight):"
-    );
-    for c in &r.coefficients {
+    let _ = writeln!(s, "\n   verdicts:");
+    // The coefficients' own thresholds (at their number of blocks) where they are not the one
+    // above: once when they share one, else per coefficient.
+    let own = |c: &CoefficientGap| {
+        (c.blocks > 0 && c.threshold_t2 != r.threshold_t2).then(|| {
+            threshold_words(
+                c.threshold_t2,
+                r.settings.alpha,
+                r.candidates_tested,
+                c.blocks,
+                c.block_s,
+            )
+        })
+    };
+    let thresholds: Vec<Option<String>> = r.coefficients.iter().map(own).collect();
+    let shared = thresholds.windows(2).all(|w| w[0] == w[1]);
+    if let (true, Some(Some(t))) = (shared, thresholds.first()) {
+        let _ = writeln!(s, "   the coefficients' tests: threshold {t}");
+    }
+    for (c, own) in r.coefficients.iter().zip(&thresholds) {
         let _ = writeln!(s, "   {:<5} {}", c.name, c.verdict);
+        if let (false, Some(t)) = (shared, own) {
+            let _ = writeln!(s, "         threshold {t}");
+        }
         // Where nothing was added, what the flight could have found: the strongest candidates
         // with the smallest effect it names with 80 % probability.
         if c.added.is_empty() {
             let reach: Vec<String> = c
                 .candidates
                 .iter()
-                .filter(|k| k.min_detectable.is_finite())
+                .filter(|k| k.min_detectable.is_finite() && k.value.is_finite() && k.sigma.is_finite())
                 .take(3)
                 .map(|k| {
                     format!(
@@ -192,22 +294,33 @@ pub fn table(r: &GapReport) -> String {
             let _ = writeln!(s, "         {n}");
         }
     }
-    let _ = writeln!(s, "   overall: {}", r.verdict);
     let _ = writeln!(
         s,
         "\n   estimates (PCA-GTLS ± coloured-residual σ [eq. 17 σ]; OLS cross-check):"
     );
     for c in &r.coefficients {
         let f = &c.extended;
-        let _ = writeln!(s, "   {} ({}, {}):", c.name, f.estimator, f.solution);
+        // OLS has no "solution" of eq. 21 to report.
+        if f.solution == "LeastSquares" {
+            let _ = writeln!(s, "   {} ({}):", c.name, f.estimator);
+        } else {
+            let _ = writeln!(s, "   {} ({}, {}):", c.name, f.estimator, f.solution);
+        }
+        if let Some(why) = &f.not_determined {
+            let _ = writeln!(s, "     not determined: {why}");
+        }
         for p in &f.parameters {
+            let eq17 = if p.sigma_eq17.is_finite() {
+                format!("[{:.5}]", p.sigma_eq17)
+            } else {
+                "[–]".into()
+            };
             let _ = writeln!(
                 s,
-                "     {:<10} {:>12.5} ± {:<9.5} [{:.5}]  OLS {:>12.5}{}",
+                "     {:<10} {:>28} {:<11} OLS {:>12.5}{}",
                 p.term,
-                p.value,
-                p.sigma,
-                p.sigma_eq17,
+                estimate(p.value, p.sigma, ""),
+                eq17,
                 p.ols_value,
                 if p.exact { "  (exact)" } else { "" }
             );
@@ -225,43 +338,68 @@ pub fn table(r: &GapReport) -> String {
     if !sim.outputs.is_empty() {
         let _ = writeln!(
             s,
-            "   {:<10} {:>8} {:>10} {:>10} | {:>8} {:>10} {:>10} | diverged",
+            "   {:<10} {:>8} {:>10} {:>10} | {:>8} {:>10} {:>10} | unit",
             "output", "R² base", "RMS base", "PSE base", "R² ext", "RMS ext", "PSE ext"
         );
     }
     for o in &sim.outputs {
+        let cols = |m: &super::regress::Metrics, diverged: bool| {
+            if diverged {
+                format!("{:>8} {:>10} {:>10}", "diverged", "–", "–")
+            } else {
+                format!("{:>8.4} {:>10.3e} {:>10.3e}", m.r2, m.rms, m.pse)
+            }
+        };
         let _ = writeln!(
             s,
-            "   {:<10} {:>8.4} {:>10.3e} {:>10.3e} | {:>8.4} {:>10.3e} {:>10.3e} | {}/{} ({})",
+            "   {:<10} {} | {} | {}",
             o.channel,
-            o.baseline.r2,
-            o.baseline.rms,
-            o.baseline.pse,
-            o.extended.r2,
-            o.extended.rms,
-            o.extended.pse,
-            o.diverged[0],
-            o.diverged[1],
+            cols(&o.baseline, o.diverged_with(0)),
+            cols(&o.extended, o.diverged_with(1)),
             o.unit
         );
     }
-    // One verdict, the same words as the coefficients' section's `overall` line, then the named
-    // causes with their final estimates.
-    let _ = writeln!(s, "\n4. verdict\n   {}", r.verdict);
+    for o in &sim.outputs {
+        for (w, name) in [(0, "baseline"), (1, "extended")] {
+            if o.diverged_with(w) {
+                let at: Vec<String> = o.diverged_at_s[w].iter().map(|t| format!("{t:.1}")).collect();
+                let _ = writeln!(
+                    s,
+                    "   {} with the {name} models diverged at t = {} s (the state left the plausible range; no R², RMS or PSE)",
+                    o.channel,
+                    at.join(", ")
+                );
+            }
+        }
+    }
+    // One verdict; where the data cannot support one, the reasons stand once, under the data
+    // quality above.
+    if r.data_quality.supports_verdict {
+        let _ = writeln!(s, "\n4. verdict\n   {}", r.verdict);
+    } else {
+        let _ = writeln!(
+            s,
+            "\n4. verdict\n   no verdict: these data cannot support one (the reasons are listed under the data quality above)"
+        );
+    }
     for (k, c) in r.named.iter().enumerate() {
         let _ = writeln!(
             s,
-            "   {} {:?} in {}: {} = {:.5} ± {:.5} (t² {:.1})",
+            "   {} {:?} in {}: {} = {} (t² {})",
             if k == 0 { "TOP" } else { "   " },
             c.kind,
             c.location,
             c.what,
-            c.value,
-            c.sigma,
-            c.t2
+            estimate(c.value, c.sigma, ""),
+            t2_text(c.t2)
         );
     }
     s
+}
+
+/// `(value/σ)²`; NaN when either is not finite.
+fn t2_of(value: f64, sigma: f64) -> f64 {
+    (value / sigma).powi(2)
 }
 
 /// The manoeuvres of a pooled analysis and, per added term, its per-manoeuvre estimates.
@@ -303,6 +441,7 @@ pub fn json(r: &GapReport) -> Value {
     let mut doc = json!({
         "schema": "aerosid-gaps/3",
         "source": r.source,
+        "label": label(r),
         "aircraft": r.aircraft,
         "segments": {
             "identification_s": [f(r.identification_s[0]), f(r.identification_s[1])],
@@ -316,6 +455,8 @@ pub fn json(r: &GapReport) -> Value {
             "gain_alpha": r.settings.cv.gain_alpha,
             "candidates_tested": r.candidates_tested,
             "threshold_t2": f(r.threshold_t2),
+            "threshold_blocks": r.threshold_blocks,
+            "threshold_why": threshold_words(r.threshold_t2, r.settings.alpha, r.candidates_tested, r.threshold_blocks, r.settings.cv.block_s),
             "pse_must_decrease": false,
         },
         "notes": r.notes.iter().chain(&compat.notes).collect::<Vec<_>>(),
@@ -357,10 +498,14 @@ pub fn json(r: &GapReport) -> Value {
             "notes": r.simulation.notes,
             "outputs": r.simulation.outputs,
         },
-        "named": r.named.iter().map(|c| json!({
-            "kind": c.kind, "location": c.location, "what": c.what,
-            "t2": f(c.t2), "value": f(c.value), "sigma": f(c.sigma), "family": c.family,
-        })).collect::<Vec<_>>(),
+        "named": r.named.iter().map(|c| {
+            let mut v = json!({
+                "kind": c.kind, "location": c.location, "what": c.what,
+                "t2": f(c.t2), "value": f(c.value), "sigma": f(c.sigma), "family": c.family,
+            });
+            undetermined_to_null(&mut v);
+            v
+        }).collect::<Vec<_>>(),
         "top_cause": r.top_cause().map(|c| json!({
             "kind": c.kind, "location": c.location, "what": c.what, "t2": f(c.t2),
         })),
@@ -401,7 +546,19 @@ fn found_json(c: &super::compat::Found, with_why: bool) -> Value {
 }
 
 fn coef_json(c: &CoefficientGap) -> Value {
-    // serde_json writes NaN as null.
+    // serde_json writes NaN as null; an estimate without a finite σ is not an estimate: its value
+    // is null too, with the reason.
+    let mut baseline = json!(c.baseline);
+    let mut extended = json!(c.extended);
+    for fit in [&mut baseline, &mut extended] {
+        if let Some(ps) = fit.get_mut("parameters").and_then(Value::as_array_mut) {
+            ps.iter_mut().for_each(undetermined_to_null);
+        }
+    }
+    let mut added = json!(c.added);
+    if let Some(a) = added.as_array_mut() {
+        a.iter_mut().for_each(undetermined_to_null);
+    }
     json!({
         "name": c.name,
         "verdict": c.verdict,
@@ -410,19 +567,32 @@ fn coef_json(c: &CoefficientGap) -> Value {
         "block_s": c.block_s,
         "threshold_t2": c.threshold_t2,
         "dropped_terms": c.dropped_terms,
-        "baseline": c.baseline,
+        "blocks": c.blocks,
+        "baseline": baseline,
         "candidates": c.candidates,
-        "added": c.added,
+        "added": added,
         "notes": c.notes,
-        "extended": c.extended,
+        "extended": extended,
         "homogeneity": c.homogeneity,
     })
+}
+
+/// An estimate (`value`, `sigma`) whose σ is not finite: `value` null and `not_determined` saying
+/// why.
+fn undetermined_to_null(v: &mut Value) {
+    if v.get("sigma").and_then(Value::as_f64).is_none() {
+        v["value"] = Value::Null;
+        v["not_determined"] = json!("no finite standard error: the fit does not determine this estimate");
+    }
 }
 
 /// `x` to three significant digits (fixed point from 0.01 to 10⁴, else an exponent).
 fn sig3(x: f64, signed: bool) -> String {
     let a = x.abs();
-    let body = if a == 0.0 || !a.is_finite() || (0.01..1e4).contains(&a) {
+    if !a.is_finite() {
+        return "–".into();
+    }
+    let body = if a == 0.0 || (0.01..1e4).contains(&a) {
         let decimals = (2.0 - a.log10().floor()).clamp(0.0, 3.0) as usize;
         format!("{a:.decimals$}")
     } else {

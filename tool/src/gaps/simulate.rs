@@ -25,8 +25,11 @@
 //! into its predecessor when shorter than half of that); each piece starts from the measured
 //! (reconstructed) state at its first sample, as the output-error method's separate manoeuvres
 //! do. Integration: RK4 on the sample grid with the inputs interpolated linearly. A piece whose
-//! state leaves the plausible range (non-finite, `V` below a third of its start, `|α|` above
-//! 1.2 rad) is cut there and counted as diverged.
+//! state leaves the plausible range (non-finite, `V` below a third or above three times its
+//! start, `|α|` above 1.2 rad, a rate above 20 rad/s) is cut there and counted as diverged: the
+//! output says where ([`SimulatedOutput::diverged_at_s`]) and carries no R², RMS or PSE for that
+//! model set (its metrics are NaN, `null` in JSON) — a figure over the part before the cut would
+//! describe a simulation that did not finish.
 //!
 //! The comparison is against the states the models were fitted on: the reconstructed air data
 //! (the "sensor fusion solution" the seed calls ground truth) or the corrected vanes, and the
@@ -53,12 +56,21 @@ pub struct SimulatedOutput {
     pub channel: String,
     /// Unit of the RMS.
     pub unit: &'static str,
-    /// With the baseline models.
+    /// With the baseline models (NaN when a piece diverged).
     pub baseline: Metrics,
-    /// With the extended models.
+    /// With the extended models (NaN when a piece diverged).
     pub extended: Metrics,
     /// Pieces cut short as diverged: baseline, extended.
     pub diverged: [usize; 2],
+    /// Where each diverged piece was cut, s (on the report's time base): baseline, extended.
+    pub diverged_at_s: [Vec<f64>; 2],
+}
+
+impl SimulatedOutput {
+    /// Whether the simulation with the model set `w` (0 baseline, 1 extended) diverged.
+    pub fn diverged_with(&self, w: usize) -> bool {
+        self.diverged[w] > 0
+    }
 }
 
 /// Time histories of one simulated output over the held-out segment.
@@ -214,6 +226,11 @@ pub fn simulate(
     out
 }
 
+/// The time at which a piece `a..b` was cut after `kept` samples.
+fn cut_time(table: &Table, a: usize, b: usize, kept: usize) -> f64 {
+    table.t_s[(a + kept).min(b - 1)]
+}
+
 fn params(models: [&ModelSet; 2], coefs: &[usize]) -> [usize; 2] {
     let count = |m: &ModelSet| coefs.iter().map(|&i| m[i].as_ref().map_or(0, |v| v.len())).sum();
     [count(models[0]), count(models[1])]
@@ -228,13 +245,21 @@ fn finish(
     unit: &'static str,
     measured: &[f64],
     sims: [Vec<f64>; 2],
-    diverged: [usize; 2],
+    diverged_at_s: &[Vec<f64>; 2],
     p: [usize; 2],
 ) {
     let a = ps[0].0;
     let b = ps[ps.len() - 1].1;
     let meas = &measured[a..b];
-    let m = |sim: &[f64], p: usize| -> Metrics {
+    let m = |sim: &[f64], p: usize, diverged: bool| -> Metrics {
+        if diverged {
+            return Metrics {
+                r2: f64::NAN,
+                rms: f64::NAN,
+                pse: f64::NAN,
+                n: 0,
+            };
+        }
         let (z, zh): (Vec<f64>, Vec<f64>) = meas
             .iter()
             .zip(sim)
@@ -246,9 +271,10 @@ fn finish(
     out.outputs.push(SimulatedOutput {
         channel: channel.into(),
         unit,
-        baseline: m(&sims[0], p[0]),
-        extended: m(&sims[1], p[1]),
-        diverged,
+        baseline: m(&sims[0], p[0], !diverged_at_s[0].is_empty()),
+        extended: m(&sims[1], p[1], !diverged_at_s[1].is_empty()),
+        diverged: [diverged_at_s[0].len(), diverged_at_s[1].len()],
+        diverged_at_s: diverged_at_s.clone(),
     });
     let [sb, se] = sims;
     out.traces.push(SimulatedTrace {
@@ -291,7 +317,7 @@ fn force_group(
     let beta_m = beta.unwrap_or(&zeros);
     let s_area = ac.wing_area_m2;
     let mut sims: [[Vec<f64>; 3]; 2] = Default::default();
-    let mut diverged = [0usize; 2];
+    let mut diverged: [Vec<f64>; 2] = Default::default();
     for (w, m) in models.iter().enumerate() {
         for &(a, b) in ps {
             let (v0, a0, b0) = (v_m[a], alpha[a], beta_m[a]);
@@ -338,10 +364,12 @@ fn force_group(
             };
             let ok = |x: &[f64; 3]| {
                 let vv = (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]).sqrt();
-                x.iter().all(|v| v.is_finite()) && vv > v0 / 3.0 && x[2].atan2(x[0]).abs() < 1.2
+                x.iter().all(|v| v.is_finite()) && vv > v0 / 3.0 && vv < 3.0 * v0 && x[2].atan2(x[0]).abs() < 1.2
             };
             let (xs, div) = integrate(x0, a, b, h_s, f, ok);
-            diverged[w] += div as usize;
+            if div {
+                diverged[w].push(cut_time(table, a, b, xs.len()));
+            }
             for k in 0..(b - a) {
                 let (vv, al, be) = match xs.get(k) {
                     Some(x) => {
@@ -359,10 +387,10 @@ fn force_group(
     }
     let p = params(models, &[0, 1, 2]);
     let [[vb, ab, bb], [ve, ae, be]] = sims;
-    finish(out, table, ps, "Airspeed", "m/s", v_m, [vb, ve], diverged, p);
-    finish(out, table, ps, "Alpha", "rad", alpha, [ab, ae], diverged, p);
+    finish(out, table, ps, "Airspeed", "m/s", v_m, [vb, ve], &diverged, p);
+    finish(out, table, ps, "Alpha", "rad", alpha, [ab, ae], &diverged, p);
     if lateral {
-        finish(out, table, ps, "Beta", "rad", beta_m, [bb, be], diverged, p);
+        finish(out, table, ps, "Beta", "rad", beta_m, [bb, be], &diverged, p);
     }
 }
 
@@ -402,7 +430,7 @@ fn moment_group(
     let (s_area, b_m, c_m) = (ac.wing_area_m2, ac.span_m, ac.chord_m);
     let r_ref = ac.moment_reference_m;
     let mut sims: [[Vec<f64>; 3]; 2] = Default::default();
-    let mut diverged = [0usize; 2];
+    let mut diverged: [Vec<f64>; 2] = Default::default();
     for (w, m) in models.iter().enumerate() {
         for &(a, b) in ps {
             let x0 = [kin.rates_rad_s[0][a], kin.rates_rad_s[1][a], kin.rates_rad_s[2][a]];
@@ -427,7 +455,9 @@ fn moment_group(
             };
             let ok = |x: &[f64; 3]| x.iter().all(|v| v.is_finite() && v.abs() < 20.0);
             let (xs, div) = integrate(x0, a, b, h_s, f, ok);
-            diverged[w] += div as usize;
+            if div {
+                diverged[w].push(cut_time(table, a, b, xs.len()));
+            }
             for k in 0..(b - a) {
                 for c in 0..3 {
                     sims[w][c].push(xs.get(k).map_or(f64::NAN, |x| x[c]));
@@ -445,7 +475,7 @@ fn moment_group(
         "rad/s",
         &kin.rates_rad_s[0],
         [pb, pe],
-        diverged,
+        &diverged,
         p,
     );
     finish(
@@ -456,7 +486,7 @@ fn moment_group(
         "rad/s",
         &kin.rates_rad_s[1],
         [qb, qe],
-        diverged,
+        &diverged,
         p,
     );
     finish(
@@ -467,7 +497,7 @@ fn moment_group(
         "rad/s",
         &kin.rates_rad_s[2],
         [rb, re],
-        diverged,
+        &diverged,
         p,
     );
 }
@@ -491,7 +521,7 @@ fn moment_group_q(
     let iy = j[(1, 1)];
     let (s_area, c_m) = (ac.wing_area_m2, ac.chord_m);
     let mut sims: [Vec<f64>; 2] = Default::default();
-    let mut diverged = [0usize; 2];
+    let mut diverged: [Vec<f64>; 2] = Default::default();
     for (w, m) in models.iter().enumerate() {
         for &(a, b) in ps {
             let f = |x: &[f64; 1], k: usize, fr: f64| -> Option<[f64; 1]> {
@@ -509,7 +539,9 @@ fn moment_group_q(
             };
             let ok = |x: &[f64; 1]| x[0].is_finite() && x[0].abs() < 20.0;
             let (xs, div) = integrate([kin.rates_rad_s[1][a]], a, b, h_s, f, ok);
-            diverged[w] += div as usize;
+            if div {
+                diverged[w].push(cut_time(table, a, b, xs.len()));
+            }
             for k in 0..(b - a) {
                 sims[w].push(xs.get(k).map_or(f64::NAN, |x| x[0]));
             }
@@ -525,7 +557,7 @@ fn moment_group_q(
         "rad/s",
         &kin.rates_rad_s[1],
         [qb, qe],
-        diverged,
+        &diverged,
         p,
     );
 }
