@@ -29,14 +29,20 @@ Flights with "planted": null (unknown truth) count only in "named per flight" an
 
 Pooled-manoeuvre suites (entries with "pooled": the test cards of `aerosid gaps-bench --cards N`)
 get a second table (pooled_section): each planted effect is compared with the least size the
-campaign detects, `min_detectable` of the planted term's candidate in the campaign's own report
-(the aerodynamic term in its coefficient, or the sensor parameter in the compatibility check),
-where the planted size is in that parameter's unit (EFFECT_PARAM); detection is scored over the
-effects with |size| >= 1.5 min_detectable, those below and those with no comparable limit are
+campaign detects: the oracle's `oracle_min_detectable` of the planted term's candidate in the
+campaign's own report when the report has it, else the tool's `min_detectable` (the aerodynamic
+term in its coefficient, or the sensor parameter in the compatibility check), where the planted
+size is in that parameter's unit (EFFECT_PARAM); detection is scored over the effects with
+|size| >= 1.5 times that limit, those below and those with no comparable limit are
 counted apart; plus a sensor cause on an aerodynamic plant or the reverse, the order check (the
 same causes with the files reversed) and one manoeuvre alone (no cause, with a reason). The peers
 are compared at their operating point: of each peer's configurations, those with at most 1 clean
 campaign in 10 with a cause; the one detecting most of them is shown.
+
+Every suite whose reports carry the oracle gets a third table (se_ratio_section): per candidate
+family (an aerodynamic candidate's kind in its coefficient; a sensor parameter's kind and the part
+that scored it) the distribution of `se_ratio` = the tool's σ over the oracle's standard error,
+over every scored candidate of every report (goal: <= 1.5).
 """
 import argparse
 import json
@@ -143,6 +149,15 @@ EFFECT_PARAM = {
     "elevator-delay": ("delay", "C_m"),
 }
 DETECT_FACTOR = 1.5
+SE_RATIO_GOAL = 1.5
+
+
+def limit_of(d):
+    """(least detectable size, which) of a candidate entry of report.json: the oracle's when the
+    report has it, else the tool's own."""
+    if d.get("oracle_min_detectable") is not None:
+        return d["oracle_min_detectable"], "oracle"
+    return d.get("min_detectable"), "tool"
 
 
 def effect_of(p):
@@ -158,8 +173,9 @@ def effect_of(p):
 
 
 def planted_limit(p, report):
-    """(min_detectable, t2, estimate, what) of the planted effect's own parameter in the report, or
-    None when the planted size has no parameter of its unit (EFFECT_PARAM) or the report lacks it."""
+    """(least detectable size, t2, estimate, what) of the planted effect's own parameter in the
+    report (limit_of: the oracle's when present, else min_detectable; `what` says which), or None
+    when the planted size has no parameter of its unit (EFFECT_PARAM) or the report lacks it."""
     how = EFFECT_PARAM.get(effect_of(p))
     if how is None or report is None:
         return None
@@ -172,10 +188,11 @@ def planted_limit(p, report):
                 continue
             de = [q.get("value") for q in (c.get("baseline") or {}).get("parameters", []) if q.get("term") == "δe"]
             for cand in c.get("candidates", []):
-                if cand.get("term") == "δė" and de and de[0] and cand.get("min_detectable") is not None:
-                    return (cand["min_detectable"] / abs(de[0]), cand.get("t2"),
+                md, which = limit_of(cand)
+                if cand.get("term") == "δė" and de and de[0] and md is not None:
+                    return (md / abs(de[0]), cand.get("t2"),
                             (cand.get("value") or 0.0) / -de[0] if cand.get("value") is not None else None,
-                            "%s δė / |C δe|" % how[1])
+                            "%s δė / |C δe| (%s)" % (how[1], which))
         return None
     if how[0] == "coef":
         for c in report.get("coefficients", []):
@@ -183,12 +200,51 @@ def planted_limit(p, report):
                 continue
             for cand in c.get("candidates", []):
                 if cand.get("term") == how[1]:
-                    return (cand.get("min_detectable"), cand.get("t2"), cand.get("value"), "%s %s" % (p["location"], how[1]))
+                    md, which = limit_of(cand)
+                    return (md, cand.get("t2"), cand.get("value"), "%s %s (%s)" % (p["location"], how[1], which))
         return None
     for t in report.get("compatibility", {}).get("tested", []):
         if t.get("kind") == how[1] and t.get("channel") == p["location"]:
-            return (t.get("min_detectable"), t.get("t2"), t.get("value"), t.get("parameter"))
+            md, which = limit_of(t)
+            return (md, t.get("t2"), t.get("value"), "%s (%s)" % (t.get("parameter"), which))
     return None
+
+
+def se_ratios(report):
+    """{family: [se_ratio, ...]} over the scored candidates of one report.json."""
+    out = {}
+    for c in report.get("coefficients", []):
+        for cand in c.get("candidates", []):
+            if cand.get("se_ratio") is not None:
+                out.setdefault("%s %s" % (c.get("name"), cand.get("kind")), []).append(cand["se_ratio"])
+    for t in report.get("compatibility", {}).get("tested", []):
+        if t.get("se_ratio") is not None:
+            out.setdefault("%s (%s)" % (t.get("kind"), t.get("part")), []).append(t["se_ratio"])
+    return out
+
+
+def se_ratio_section(suite, fs, base):
+    """Markdown: the distribution of se_ratio per candidate family over the suite's reports."""
+    fam = {}
+    for fl in fs:
+        path = os.path.join(base, fl["report"]) if fl.get("report") else None
+        if not path or not os.path.exists(path):
+            continue
+        for k, v in se_ratios(json.load(open(path))).items():
+            fam.setdefault(k, []).extend(v)
+    if not fam:
+        return []
+    out = ["#### `%s`: the tool's σ over the oracle's standard error (se_ratio), per candidate family\n" % suite]
+    head = ["family", "candidates", "median", "90th percentile", "max", "share <= %.1f" % SE_RATIO_GOAL]
+    out.append("| " + " | ".join(head) + " |")
+    out.append("|" + "---|" * len(head))
+    for k in sorted(fam):
+        v = sorted(fam[k])
+        p90 = v[min(len(v) - 1, int(0.9 * len(v)))]
+        share = sum(1 for x in v if x <= SE_RATIO_GOAL) / len(v)
+        out.append("| %s | %d | %.2f | %.2f | %.2f | %.0f %% |" % (k, len(v), statistics.median(v), p90, v[-1], 100 * share))
+    out.append("")
+    return out
 
 
 def pooled_rows(flights, getter, base):
@@ -248,7 +304,7 @@ def pooled_section(suite, fs, methods, base):
     """Markdown: the pooled suite's detection relative to min_detectable, per method, then the
     peers at their operating point and aerosid's misses."""
     out = ["#### `%s`: detection relative to the least detectable size\n" % suite]
-    head = ["method", "named, size >= %.1fx min_detectable" % DETECT_FACTOR, "named, below", "named, no comparable limit",
+    head = ["method", "named, size >= %.1fx the least detectable size" % DETECT_FACTOR, "named, below", "named, no comparable limit",
             "clean campaigns with a cause", "cause of the other category", "same causes reversed",
             "one manoeuvre alone: no cause, with reason"]
     out.append("| " + " | ".join(head) + " |")
@@ -390,6 +446,7 @@ def main():
         lines.append("")
         if any(f.get("pooled") is not None for f in fs):
             lines += pooled_section(suite, fs, methods, base)
+        lines += se_ratio_section(suite, fs, base)
     lines.append("Versions: " + ", ".join("%s %s" % kv for kv in versions.items()))
     if notes:
         lines.append("")
