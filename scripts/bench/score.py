@@ -39,6 +39,10 @@ same causes with the files reversed) and one manoeuvre alone (no cause, with a r
 are compared at their operating point: of each peer's configurations, those with at most 1 clean
 campaign in 10 with a cause; the one detecting most of them is shown.
 
+With --truth, campaigns whose logs carry the true flow angles (truth_alpha_rad, truth_beta_rad)
+get a fourth: the oracle's reliability ratio of α² (C_L), α·β (C_l), β² (C_m) against the one
+measured from the truth (reliability_section).
+
 Every suite whose reports carry the oracle gets a third table (se_ratio_section): per candidate
 family (an aerodynamic candidate's kind in its coefficient; a sensor parameter's kind and the part
 that scored it) the distribution of `se_ratio` = the tool's σ over the oracle's standard error,
@@ -223,6 +227,96 @@ def se_ratios(report):
     return out
 
 
+# The flow-angle terms whose attenuation the truth columns of a simulated campaign measure:
+# (report coefficient, term, the measured term from a log row, the true one, the baseline's columns).
+ANGLE_TERMS = [
+    ("C_L", "α²", lambda r: r["alpha_est_rad"] ** 2, lambda r: r["truth_alpha_rad"] ** 2, "lon"),
+    ("C_l", "α·β", lambda r: r["alpha_est_rad"] * r["beta_est_rad"],
+     lambda r: r["truth_alpha_rad"] * r["truth_beta_rad"], "lat"),
+    ("C_m", "β²", lambda r: r["beta_est_rad"] ** 2, lambda r: r["truth_beta_rad"] ** 2, "lon"),
+]
+BASELINE_COLUMNS = {
+    "lon": ["alpha_est_rad", "gyro_rad_s_y", "elevator_rad"],
+    "lat": ["beta_est_rad", "gyro_rad_s_x", "gyro_rad_s_z", "aileron_rad", "rudder_rad"],
+}
+
+
+def residual_on(cols, y):
+    """y less its least-squares fit on an intercept and `cols` (normal equations, Gauss-Jordan with
+    partial pivoting: at most 6 columns)."""
+    xs = [[1.0] * len(y)] + cols
+    k = len(xs)
+    a = [[sum(p * q for p, q in zip(xs[i], xs[j])) for j in range(k)] + [sum(p * q for p, q in zip(xs[i], y))]
+         for i in range(k)]
+    for c in range(k):
+        piv = max(range(c, k), key=lambda r: abs(a[r][c]))
+        a[c], a[piv] = a[piv], a[c]
+        if a[c][c] == 0:
+            return None
+        for r in range(k):
+            if r != c:
+                f = a[r][c] / a[c][c]
+                a[r] = [x - f * z for x, z in zip(a[r], a[c])]
+    th = [a[i][k] / a[i][i] for i in range(k)]
+    return [y[n] - sum(th[j] * xs[j][n] for j in range(k)) for n in range(len(y))]
+
+
+def truth_reliability(fl):
+    """{(coefficient, term): λ} measured from a campaign's logs that carry the true flow angles: the
+    slope of the true term's part not explained by the baseline's columns on the measured term's
+    (regression calibration, Fuller 1987 §1.1: the factor by which a fit on the measured term
+    attenuates the true coefficient). Terms needing a truth column the logs lack are left out."""
+    import csv
+    import glob
+    toks = (fl.get("reproduce") or "").split()
+    files = sorted(f for i, t in enumerate(toks[:-1]) if t == "--data" for f in glob.glob(toks[i + 1]))
+    rows = []
+    for f in files:
+        if not os.path.exists(f):
+            return {}
+        rows += [{k: float(v) for k, v in r.items() if v not in ("", None)} for r in csv.DictReader(open(f))]
+    out = {}
+    for coef, term, meas, true, side in ANGLE_TERMS:
+        if not rows or any("truth_" + t not in rows[0] for t in term_truth(term)):
+            continue
+        try:
+            cols = [[r[c] for r in rows] for c in BASELINE_COLUMNS[side]]
+            um = residual_on(cols, [meas(r) for r in rows])
+            ut = residual_on(cols, [true(r) for r in rows])
+        except KeyError:
+            continue
+        if um and ut:
+            ss = sum(x * x for x in um)
+            if ss > 0:
+                out[(coef, term)] = sum(x * y for x, y in zip(um, ut)) / ss
+    return out
+
+
+def term_truth(term):
+    """The truth columns' suffixes a term needs."""
+    return [n for n, sym in (("alpha_rad", "α"), ("beta_rad", "β")) if sym in term]
+
+
+def reliability_section(suite, fs, base):
+    """Markdown: the oracle's reliability ratio of each flow-angle term against the one measured
+    from the logs' true angles (campaigns whose logs carry them)."""
+    rows = []
+    for fl in fs:
+        meas = truth_reliability(fl)
+        if not meas or not fl.get("report") or not os.path.exists(os.path.join(base, fl["report"])):
+            continue
+        report = json.load(open(os.path.join(base, fl["report"])))
+        for (coef, term), lam in sorted(meas.items()):
+            cand = [k for c in report.get("coefficients", []) if c.get("name") == coef
+                    for k in c.get("candidates", []) if k.get("term") == term]
+            lo = cand[0].get("oracle_reliability") if cand else None
+            rows.append("| %s | %s %s | %s | %.3f |" % (fl["id"], coef, term, "%.3f" % lo if lo is not None else "–", lam))
+    if not rows:
+        return []
+    return ["#### `%s`: reliability of the flow-angle terms, the oracle's λ against the logs' truth\n" % suite,
+            "| campaign | term | oracle λ | measured λ (true angles) |", "|---|---|---|---|"] + rows + [""]
+
+
 def se_ratio_section(suite, fs, base):
     """Markdown: the distribution of se_ratio per candidate family over the suite's reports."""
     fam = {}
@@ -328,21 +422,21 @@ def pooled_section(suite, fs, methods, base):
         ok = [n for n in names if rows[n]["clean_n"] and rows[n]["clean_named"] <= 0.1 * rows[n]["clean_n"]]
         if ok:
             best = max(ok, key=lambda n: (rows[n]["det_hit"], -rows[n]["clean_named"]))
-            out.append("* %s at <= 1 clean campaign in 10 with a cause: %s — %s of the effects >= %.1fx min_detectable"
+            out.append("* %s at <= 1 clean campaign in 10 with a cause: %s — %s of the effects >= %.1fx the least detectable size"
                        % (fam, best, fmt_frac(rows[best]["det_hit"], rows[best]["det_n"]), DETECT_FACTOR))
         elif names:
             low = min(names, key=lambda n: rows[n]["clean_named"] / max(rows[n]["clean_n"], 1))
             out.append("* %s: no configuration reaches <= 1 clean campaign in 10 with a cause (fewest: %s, %s)"
                        % (fam, low, fmt_frac(rows[low]["clean_named"], rows[low]["clean_n"])))
     a = rows[methods[0][0]]
-    for title, items in (("aerosid misses (size >= %.1fx min_detectable)" % DETECT_FACTOR, a["misses"]),
-                         ("below %.1fx min_detectable" % DETECT_FACTOR, a["below"])):
+    for title, items in (("aerosid misses (size >= %.1fx the least detectable size)" % DETECT_FACTOR, a["misses"]),
+                         ("below %.1fx the least detectable size" % DETECT_FACTOR, a["below"])):
         if items:
             out.append("\n%s:\n" % title)
             for m in items:
                 lim = m["limit"]
                 f = lambda x: "%.4g" % x if isinstance(x, (int, float)) else "–"
-                out.append("* %s: size %s, %s min_detectable %s (ratio %s), t² %s, estimate %s%s; named: %s" % (
+                out.append("* %s: size %s, %s limit %s (ratio %s), t² %s, estimate %s%s; named: %s" % (
                     m["id"], f(m["size"]), lim[3], f(lim[0]),
                     f(abs(m["size"]) / lim[0]) if lim[0] else "–", f(lim[1]), f(lim[2]),
                     (", named it" if m.get("hit") else (", missed" if "hit" in m else "")),
@@ -389,6 +483,8 @@ def main():
     ap.add_argument("manifest")
     ap.add_argument("peers", nargs="*", help="peers files (default: peers.json next to the manifest)")
     ap.add_argument("-o", "--out")
+    ap.add_argument("--truth", action="store_true",
+                    help="also measure the flow-angle terms' reliability from the logs' true angles (slow)")
     a = ap.parse_args()
     base = os.path.dirname(os.path.abspath(a.manifest))
     flights = json.load(open(a.manifest))
@@ -447,6 +543,8 @@ def main():
         if any(f.get("pooled") is not None for f in fs):
             lines += pooled_section(suite, fs, methods, base)
         lines += se_ratio_section(suite, fs, base)
+        if a.truth:
+            lines += reliability_section(suite, fs, base)
     lines.append("Versions: " + ", ".join("%s %s" % kv for kv in versions.items()))
     if notes:
         lines.append("")

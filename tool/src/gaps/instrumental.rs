@@ -265,8 +265,8 @@ pub fn check_channel(
     let lag = ((s.cv.block_s / h_s).round() as usize).max(1);
     for (j, (f, col)) in singles.iter().zip([&yh, &ydot]).enumerate() {
         if let Some(f) = f {
-            let oracle_se =
-                super::regress::ols_sigma(&[col.clone()], &d, n, lag, Some(0)).map_or(f64::NAN, |o| o.sigma[0]);
+            let oracle_se = super::regress::ols_sigma(std::slice::from_ref(col), &d, n, lag, Some(0))
+                .map_or(f64::NAN, |o| o.sigma[0]);
             out.tested.push(ParamScore {
                 param: params[j],
                 value: f.theta[0],

@@ -828,6 +828,7 @@ pub fn run_gaps(flight: &MeasuredFlight, settings: &GapSettings) -> Result<GapRe
     }
     let piece_ranges: Vec<(usize, usize)> = flight.pieces().iter().map(|p| (p.start, p.end)).collect();
     let flight_oracle = oracle::FlightOracle::new(flight, &table, &refs, &baselines, &errors, &all_terms);
+    notes.extend(flight_oracle.note());
     let mut coefficients = Vec::new();
     for i in 0..6 {
         let Some(zc) = &table.z[i] else { continue };

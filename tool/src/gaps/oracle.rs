@@ -166,6 +166,22 @@ impl FlightOracle {
         }
     }
 
+    /// The report's note on the estimated angles' error, when one was taken.
+    pub fn note(&self) -> Option<String> {
+        let named: Vec<String> = ["α (from C_L)", "β (from C_Y)"]
+            .iter()
+            .zip(self.angle_sd)
+            .filter(|(_, sd)| *sd > 0.0)
+            .map(|(n, sd)| format!("{n} {sd:.4} rad"))
+            .collect();
+        (!named.is_empty()).then(|| {
+            format!(
+                "oracle: the estimated flow angles' error taken as {} (the force's residual above its noise, an upper bound); the oracle's limits of the columns built from them are divided by their reliability ratio",
+                named.join(", ")
+            )
+        })
+    }
+
     /// The oracle of `candidate` (term and column) beside the baseline `terms`/`cols` in the fit
     /// of `z` (the selection's samples), the [`detection_factor`] `factor`.
     #[allow(clippy::too_many_arguments)]
@@ -236,10 +252,10 @@ pub fn partial_variance(base: &[Vec<f64>], x: &[f64]) -> Option<f64> {
 /// The reliability ratio `1 − var(u)/v` of a column with error variance `error_var` and partial
 /// variance `v` (1 without an error).
 pub fn reliability(error_var: f64, partial_var: f64) -> f64 {
-    if !(error_var > 0.0) {
+    if error_var.is_nan() || error_var <= 0.0 {
         return 1.0;
     }
-    if !(partial_var > 0.0) {
+    if partial_var.is_nan() || partial_var <= 0.0 {
         return MIN_RELIABILITY;
     }
     (1.0 - error_var / partial_var).clamp(MIN_RELIABILITY, 1.0)
@@ -267,7 +283,7 @@ pub fn angle_error_variance(base: &[Vec<f64>], k: usize, z: &[f64], noise_var: f
         .collect();
     let v = partial_variance(&others, &base[k])?;
     let explained = th[k] * th[k] * v;
-    if !(explained + excess > 0.0) {
+    if (explained + excess).is_nan() || explained + excess <= 0.0 {
         return None;
     }
     Some(excess * v / (explained + excess))
