@@ -40,8 +40,8 @@ are compared at their operating point: of each peer's configurations, those with
 campaign in 10 with a cause; the one detecting most of them is shown.
 
 With --truth, campaigns whose logs carry the true flow angles (truth_alpha_rad, truth_beta_rad)
-get a fourth: the oracle's reliability ratio of α² (C_L), α·β (C_l), β² (C_m) against the one
-measured from the truth (reliability_section).
+get a fourth: the oracle's reliability ratio of α² (C_L), α·β (C_l), β² (C_m) and the angles'
+error it took (the report's note) against those measured from the truth (reliability_section).
 
 Every suite whose reports carry the oracle gets a third table (se_ratio_section): per candidate
 family (an aerodynamic candidate's kind in its coefficient; a sensor parameter's kind and the part
@@ -51,6 +51,7 @@ over every scored candidate of every report (goal: <= 1.5).
 import argparse
 import json
 import os
+import re
 import statistics
 import sys
 
@@ -262,7 +263,8 @@ def residual_on(cols, y):
 
 
 def truth_reliability(fl):
-    """{(coefficient, term): λ} measured from a campaign's logs that carry the true flow angles: the
+    """{(coefficient, term): λ} measured from a campaign's logs that carry the true flow angles, and
+    {("σ", angle): the standard deviation of estimate − truth over all the samples}: λ is the
     slope of the true term's part not explained by the baseline's columns on the measured term's
     (regression calibration, Fuller 1987 §1.1: the factor by which a fit on the measured term
     attenuates the true coefficient). Terms needing a truth column the logs lack are left out."""
@@ -276,6 +278,10 @@ def truth_reliability(fl):
             return {}
         rows += [{k: float(v) for k, v in r.items() if v not in ("", None)} for r in csv.DictReader(open(f))]
     out = {}
+    for q, sym in (("alpha", "α"), ("beta", "β")):
+        e = [r[q + "_est_rad"] - r["truth_%s_rad" % q] for r in rows if "truth_%s_rad" % q in r]
+        if len(e) > 1:
+            out[("σ", sym)] = statistics.pstdev(e)
     for coef, term, meas, true, side in ANGLE_TERMS:
         if not rows or any("truth_" + t not in rows[0] for t in term_truth(term)):
             continue
@@ -306,6 +312,15 @@ def reliability_section(suite, fs, base):
         if not meas or not fl.get("report") or not os.path.exists(os.path.join(base, fl["report"])):
             continue
         report = json.load(open(os.path.join(base, fl["report"])))
+        taken = {}
+        for note in report.get("notes", []):
+            m = re.search(r"error taken as (.*?) \(the force", note)
+            for sym, v in re.findall(r"(α|β) \(from C_[LY]\) ([0-9.eE+-]+) rad", m.group(1)) if m else []:
+                taken[sym] = float(v)
+        for sym in ("α", "β"):
+            if ("σ", sym) in meas:
+                rows.append("| %s | σ of the estimated %s, rad | %s | %.4f |" % (
+                    fl["id"], sym, "%.4f" % taken[sym] if sym in taken else "–", meas.pop(("σ", sym))))
         for (coef, term), lam in sorted(meas.items()):
             cand = [k for c in report.get("coefficients", []) if c.get("name") == coef
                     for k in c.get("candidates", []) if k.get("term") == term]
@@ -314,7 +329,7 @@ def reliability_section(suite, fs, base):
     if not rows:
         return []
     return ["#### `%s`: reliability of the flow-angle terms, the oracle's λ against the logs' truth\n" % suite,
-            "| campaign | term | oracle λ | measured λ (true angles) |", "|---|---|---|---|"] + rows + [""]
+            "| campaign | term | the oracle's | measured (true angles) |", "|---|---|---|---|"] + rows + [""]
 
 
 def se_ratio_section(suite, fs, base):
