@@ -1410,7 +1410,7 @@ fn analyse_coefficient(
             .iter()
             .find(|(t, _)| c.sigma.is_finite() && t.name() == c.term)
             .map_or(oracle::Oracle::NONE, |(t, col)| {
-                flight_oracle.of_candidate(&terms, &cols_full, (*t, col), zc, errors, max_lag, factor)
+                flight_oracle.of_candidate(&terms, &cols_full, (*t, col), zc, errors, (max_lag, pieces), factor)
             });
         c.with_oracle(o)
     }));
