@@ -274,16 +274,23 @@ def truth_reliability(fl):
     files = sorted(f for i, t in enumerate(toks[:-1]) if t == "--data" for f in glob.glob(toks[i + 1]))
     rows = []
     for f in files:
-        if not os.path.exists(f):
+        if not f.endswith(".csv") or not os.path.exists(f):
             return {}
-        rows += [{k: float(v) for k, v in r.items() if v not in ("", None)} for r in csv.DictReader(open(f))]
+        reader = csv.DictReader(open(f))
+        if not any(k.startswith("truth_") for k in reader.fieldnames or []):
+            return {}
+        try:
+            rows += [{k: float(v) for k, v in r.items() if v not in ("", None)} for r in reader]
+        except ValueError:
+            return {}
     out = {}
     for q, sym in (("alpha", "α"), ("beta", "β")):
-        e = [r[q + "_est_rad"] - r["truth_%s_rad" % q] for r in rows if "truth_%s_rad" % q in r]
+        e = [r[q + "_est_rad"] - r["truth_%s_rad" % q] for r in rows if "truth_%s_rad" % q in r and q + "_est_rad" in r]
         if len(e) > 1:
             out[("σ", sym)] = statistics.pstdev(e)
     for coef, term, meas, true, side in ANGLE_TERMS:
-        if not rows or any("truth_" + t not in rows[0] for t in term_truth(term)):
+        if not rows or any("truth_" + t not in rows[0] or t.replace("_rad", "_est_rad") not in rows[0]
+                           for t in term_truth(term)):
             continue
         try:
             cols = [[r[c] for r in rows] for c in BASELINE_COLUMNS[side]]
@@ -309,9 +316,10 @@ def reliability_section(suite, fs, base):
     rows = []
     for fl in fs:
         meas = truth_reliability(fl)
-        if not meas or not fl.get("report") or not os.path.exists(os.path.join(base, fl["report"])):
+        path = report_path(fl, base)
+        if not meas or not path:
             continue
-        report = json.load(open(os.path.join(base, fl["report"])))
+        report = json.load(open(path))
         taken = {}
         for note in report.get("notes", []):
             m = re.search(r"error taken as (.*?) \(the force", note)
@@ -332,12 +340,20 @@ def reliability_section(suite, fs, base):
             "| campaign | term | the oracle's | measured (true angles) |", "|---|---|---|---|"] + rows + [""]
 
 
+def report_path(fl, base):
+    """The flight's report.json: the manifest's "report", else reports/<id>.json (the single
+    flights' reports, written under their id with "/" as "_"), or None."""
+    rel = fl.get("report") or os.path.join("reports", fl["id"].replace("/", "_") + ".json")
+    path = os.path.join(base, rel)
+    return path if os.path.exists(path) else None
+
+
 def se_ratio_section(suite, fs, base):
     """Markdown: the distribution of se_ratio per candidate family over the suite's reports."""
     fam = {}
     for fl in fs:
-        path = os.path.join(base, fl["report"]) if fl.get("report") else None
-        if not path or not os.path.exists(path):
+        path = report_path(fl, base)
+        if not path:
             continue
         for k, v in se_ratios(json.load(open(path))).items():
             fam.setdefault(k, []).extend(v)
