@@ -29,18 +29,29 @@ Flights with "planted": null (unknown truth) count only in "named per flight" an
 
 Pooled-manoeuvre suites (entries with "pooled": the test cards of `aerosid gaps-bench --cards N`)
 get a second table (pooled_section): each planted effect is compared with the least size the
-campaign detects, `min_detectable` of the planted term's candidate in the campaign's own report
-(the aerodynamic term in its coefficient, or the sensor parameter in the compatibility check),
-where the planted size is in that parameter's unit (EFFECT_PARAM); detection is scored over the
-effects with |size| >= 1.5 min_detectable, those below and those with no comparable limit are
+campaign detects: the oracle's `oracle_min_detectable` of the planted term's candidate in the
+campaign's own report when the report has it, else the tool's `min_detectable` (the aerodynamic
+term in its coefficient, or the sensor parameter in the compatibility check), where the planted
+size is in that parameter's unit (EFFECT_PARAM); detection is scored over the effects with
+|size| >= 1.5 times that limit, those below and those with no comparable limit are
 counted apart; plus a sensor cause on an aerodynamic plant or the reverse, the order check (the
 same causes with the files reversed) and one manoeuvre alone (no cause, with a reason). The peers
 are compared at their operating point: of each peer's configurations, those with at most 1 clean
 campaign in 10 with a cause; the one detecting most of them is shown.
+
+With --truth, campaigns whose logs carry the true flow angles (truth_alpha_rad, truth_beta_rad)
+get a fourth: the oracle's reliability ratio of α² (C_L), α·β (C_l), β² (C_m) and the angles'
+error it took (the report's note) against those measured from the truth (reliability_section).
+
+Every suite whose reports carry the oracle gets a third table (se_ratio_section): per candidate
+family (an aerodynamic candidate's kind in its coefficient; a sensor parameter's kind and the part
+that scored it) the distribution of `se_ratio` = the tool's σ over the oracle's standard error,
+over every scored candidate of every report (goal: <= 1.5).
 """
 import argparse
 import json
 import os
+import re
 import statistics
 import sys
 
@@ -143,6 +154,15 @@ EFFECT_PARAM = {
     "elevator-delay": ("delay", "C_m"),
 }
 DETECT_FACTOR = 1.5
+SE_RATIO_GOAL = 1.5
+
+
+def limit_of(d):
+    """(least detectable size, which) of a candidate entry of report.json: the oracle's when the
+    report has it, else the tool's own."""
+    if d.get("oracle_min_detectable") is not None:
+        return d["oracle_min_detectable"], "oracle"
+    return d.get("min_detectable"), "tool"
 
 
 def effect_of(p):
@@ -158,8 +178,9 @@ def effect_of(p):
 
 
 def planted_limit(p, report):
-    """(min_detectable, t2, estimate, what) of the planted effect's own parameter in the report, or
-    None when the planted size has no parameter of its unit (EFFECT_PARAM) or the report lacks it."""
+    """(least detectable size, t2, estimate, what) of the planted effect's own parameter in the
+    report (limit_of: the oracle's when present, else min_detectable; `what` says which), or None
+    when the planted size has no parameter of its unit (EFFECT_PARAM) or the report lacks it."""
     how = EFFECT_PARAM.get(effect_of(p))
     if how is None or report is None:
         return None
@@ -172,10 +193,11 @@ def planted_limit(p, report):
                 continue
             de = [q.get("value") for q in (c.get("baseline") or {}).get("parameters", []) if q.get("term") == "δe"]
             for cand in c.get("candidates", []):
-                if cand.get("term") == "δė" and de and de[0] and cand.get("min_detectable") is not None:
-                    return (cand["min_detectable"] / abs(de[0]), cand.get("t2"),
+                md, which = limit_of(cand)
+                if cand.get("term") == "δė" and de and de[0] and md is not None:
+                    return (md / abs(de[0]), cand.get("t2"),
                             (cand.get("value") or 0.0) / -de[0] if cand.get("value") is not None else None,
-                            "%s δė / |C δe|" % how[1])
+                            "%s δė / |C δe| (%s)" % (how[1], which))
         return None
     if how[0] == "coef":
         for c in report.get("coefficients", []):
@@ -183,12 +205,171 @@ def planted_limit(p, report):
                 continue
             for cand in c.get("candidates", []):
                 if cand.get("term") == how[1]:
-                    return (cand.get("min_detectable"), cand.get("t2"), cand.get("value"), "%s %s" % (p["location"], how[1]))
+                    md, which = limit_of(cand)
+                    return (md, cand.get("t2"), cand.get("value"), "%s %s (%s)" % (p["location"], how[1], which))
         return None
     for t in report.get("compatibility", {}).get("tested", []):
         if t.get("kind") == how[1] and t.get("channel") == p["location"]:
-            return (t.get("min_detectable"), t.get("t2"), t.get("value"), t.get("parameter"))
+            md, which = limit_of(t)
+            return (md, t.get("t2"), t.get("value"), "%s (%s)" % (t.get("parameter"), which))
     return None
+
+
+def se_ratios(report):
+    """{family: [se_ratio, ...]} over the scored candidates of one report.json."""
+    out = {}
+    for c in report.get("coefficients", []):
+        for cand in c.get("candidates", []):
+            if cand.get("se_ratio") is not None:
+                out.setdefault("%s %s" % (c.get("name"), cand.get("kind")), []).append(cand["se_ratio"])
+    for t in report.get("compatibility", {}).get("tested", []):
+        if t.get("se_ratio") is not None:
+            out.setdefault("%s (%s)" % (t.get("kind"), t.get("part")), []).append(t["se_ratio"])
+    return out
+
+
+# The flow-angle terms whose attenuation the truth columns of a simulated campaign measure:
+# (report coefficient, term, the measured term from a log row, the true one, the baseline's columns).
+ANGLE_TERMS = [
+    ("C_L", "α²", lambda r: r["alpha_est_rad"] ** 2, lambda r: r["truth_alpha_rad"] ** 2, "lon"),
+    ("C_l", "α·β", lambda r: r["alpha_est_rad"] * r["beta_est_rad"],
+     lambda r: r["truth_alpha_rad"] * r["truth_beta_rad"], "lat"),
+    ("C_m", "β²", lambda r: r["beta_est_rad"] ** 2, lambda r: r["truth_beta_rad"] ** 2, "lon"),
+]
+BASELINE_COLUMNS = {
+    "lon": ["alpha_est_rad", "gyro_rad_s_y", "elevator_rad"],
+    "lat": ["beta_est_rad", "gyro_rad_s_x", "gyro_rad_s_z", "aileron_rad", "rudder_rad"],
+}
+
+
+def residual_on(cols, y):
+    """y less its least-squares fit on an intercept and `cols` (normal equations, Gauss-Jordan with
+    partial pivoting: at most 6 columns)."""
+    xs = [[1.0] * len(y)] + cols
+    k = len(xs)
+    a = [[sum(p * q for p, q in zip(xs[i], xs[j])) for j in range(k)] + [sum(p * q for p, q in zip(xs[i], y))]
+         for i in range(k)]
+    for c in range(k):
+        piv = max(range(c, k), key=lambda r: abs(a[r][c]))
+        a[c], a[piv] = a[piv], a[c]
+        if a[c][c] == 0:
+            return None
+        for r in range(k):
+            if r != c:
+                f = a[r][c] / a[c][c]
+                a[r] = [x - f * z for x, z in zip(a[r], a[c])]
+    th = [a[i][k] / a[i][i] for i in range(k)]
+    return [y[n] - sum(th[j] * xs[j][n] for j in range(k)) for n in range(len(y))]
+
+
+def truth_reliability(fl):
+    """{(coefficient, term): λ} measured from a campaign's logs that carry the true flow angles, and
+    {("σ", angle): the standard deviation of estimate − truth over all the samples}: λ is the
+    slope of the true term's part not explained by the baseline's columns on the measured term's
+    (regression calibration, Fuller 1987 §1.1: the factor by which a fit on the measured term
+    attenuates the true coefficient). Terms needing a truth column the logs lack are left out."""
+    import csv
+    import glob
+    toks = (fl.get("reproduce") or "").split()
+    files = sorted(f for i, t in enumerate(toks[:-1]) if t == "--data" for f in glob.glob(toks[i + 1]))
+    rows = []
+    for f in files:
+        if not f.endswith(".csv") or not os.path.exists(f):
+            return {}
+        reader = csv.DictReader(open(f))
+        if not any(k.startswith("truth_") for k in reader.fieldnames or []):
+            return {}
+        try:
+            rows += [{k: float(v) for k, v in r.items() if v not in ("", None)} for r in reader]
+        except ValueError:
+            return {}
+    out = {}
+    for q, sym in (("alpha", "α"), ("beta", "β")):
+        e = [r[q + "_est_rad"] - r["truth_%s_rad" % q] for r in rows if "truth_%s_rad" % q in r and q + "_est_rad" in r]
+        if len(e) > 1:
+            out[("σ", sym)] = statistics.pstdev(e)
+    for coef, term, meas, true, side in ANGLE_TERMS:
+        if not rows or any("truth_" + t not in rows[0] or t.replace("_rad", "_est_rad") not in rows[0]
+                           for t in term_truth(term)):
+            continue
+        try:
+            cols = [[r[c] for r in rows] for c in BASELINE_COLUMNS[side]]
+            um = residual_on(cols, [meas(r) for r in rows])
+            ut = residual_on(cols, [true(r) for r in rows])
+        except KeyError:
+            continue
+        if um and ut:
+            ss = sum(x * x for x in um)
+            if ss > 0:
+                out[(coef, term)] = sum(x * y for x, y in zip(um, ut)) / ss
+    return out
+
+
+def term_truth(term):
+    """The truth columns' suffixes a term needs."""
+    return [n for n, sym in (("alpha_rad", "α"), ("beta_rad", "β")) if sym in term]
+
+
+def reliability_section(suite, fs, base):
+    """Markdown: the oracle's reliability ratio of each flow-angle term against the one measured
+    from the logs' true angles (campaigns whose logs carry them)."""
+    rows = []
+    for fl in fs:
+        meas = truth_reliability(fl)
+        path = report_path(fl, base)
+        if not meas or not path:
+            continue
+        report = json.load(open(path))
+        taken = {}
+        for note in report.get("notes", []):
+            m = re.search(r"error taken as (.*?) \(the force", note)
+            for sym, v in re.findall(r"(α|β) \(from C_[LY]\) ([0-9.eE+-]+) rad", m.group(1)) if m else []:
+                taken[sym] = float(v)
+        for sym in ("α", "β"):
+            if ("σ", sym) in meas:
+                rows.append("| %s | σ of the estimated %s, rad | %s | %.4f |" % (
+                    fl["id"], sym, "%.4f" % taken[sym] if sym in taken else "–", meas.pop(("σ", sym))))
+        for (coef, term), lam in sorted(meas.items()):
+            cand = [k for c in report.get("coefficients", []) if c.get("name") == coef
+                    for k in c.get("candidates", []) if k.get("term") == term]
+            lo = cand[0].get("oracle_reliability") if cand else None
+            rows.append("| %s | %s %s | %s | %.3f |" % (fl["id"], coef, term, "%.3f" % lo if lo is not None else "–", lam))
+    if not rows:
+        return []
+    return ["#### `%s`: reliability of the flow-angle terms, the oracle's λ against the logs' truth\n" % suite,
+            "| campaign | term | the oracle's | measured (true angles) |", "|---|---|---|---|"] + rows + [""]
+
+
+def report_path(fl, base):
+    """The flight's report.json: the manifest's "report", else reports/<id>.json (the single
+    flights' reports, written under their id with "/" as "_"), or None."""
+    rel = fl.get("report") or os.path.join("reports", fl["id"].replace("/", "_") + ".json")
+    path = os.path.join(base, rel)
+    return path if os.path.exists(path) else None
+
+
+def se_ratio_section(suite, fs, base):
+    """Markdown: the distribution of se_ratio per candidate family over the suite's reports."""
+    fam = {}
+    for fl in fs:
+        path = report_path(fl, base)
+        if not path:
+            continue
+        for k, v in se_ratios(json.load(open(path))).items():
+            fam.setdefault(k, []).extend(v)
+    if not fam:
+        return []
+    out = ["#### `%s`: the tool's σ over the oracle's standard error (se_ratio), per candidate family\n" % suite]
+    head = ["family", "candidates", "median", "90th percentile", "max", "share <= %.1f" % SE_RATIO_GOAL]
+    out.append("| " + " | ".join(head) + " |")
+    out.append("|" + "---|" * len(head))
+    for k in sorted(fam):
+        v = sorted(fam[k])
+        p90 = v[min(len(v) - 1, int(0.9 * len(v)))]
+        share = sum(1 for x in v if x <= SE_RATIO_GOAL) / len(v)
+        out.append("| %s | %d | %.2f | %.2f | %.2f | %.0f %% |" % (k, len(v), statistics.median(v), p90, v[-1], 100 * share))
+    out.append("")
+    return out
 
 
 def pooled_rows(flights, getter, base):
@@ -248,7 +429,7 @@ def pooled_section(suite, fs, methods, base):
     """Markdown: the pooled suite's detection relative to min_detectable, per method, then the
     peers at their operating point and aerosid's misses."""
     out = ["#### `%s`: detection relative to the least detectable size\n" % suite]
-    head = ["method", "named, size >= %.1fx min_detectable" % DETECT_FACTOR, "named, below", "named, no comparable limit",
+    head = ["method", "named, size >= %.1fx the least detectable size" % DETECT_FACTOR, "named, below", "named, no comparable limit",
             "clean campaigns with a cause", "cause of the other category", "same causes reversed",
             "one manoeuvre alone: no cause, with reason"]
     out.append("| " + " | ".join(head) + " |")
@@ -272,21 +453,21 @@ def pooled_section(suite, fs, methods, base):
         ok = [n for n in names if rows[n]["clean_n"] and rows[n]["clean_named"] <= 0.1 * rows[n]["clean_n"]]
         if ok:
             best = max(ok, key=lambda n: (rows[n]["det_hit"], -rows[n]["clean_named"]))
-            out.append("* %s at <= 1 clean campaign in 10 with a cause: %s — %s of the effects >= %.1fx min_detectable"
+            out.append("* %s at <= 1 clean campaign in 10 with a cause: %s — %s of the effects >= %.1fx the least detectable size"
                        % (fam, best, fmt_frac(rows[best]["det_hit"], rows[best]["det_n"]), DETECT_FACTOR))
         elif names:
             low = min(names, key=lambda n: rows[n]["clean_named"] / max(rows[n]["clean_n"], 1))
             out.append("* %s: no configuration reaches <= 1 clean campaign in 10 with a cause (fewest: %s, %s)"
                        % (fam, low, fmt_frac(rows[low]["clean_named"], rows[low]["clean_n"])))
     a = rows[methods[0][0]]
-    for title, items in (("aerosid misses (size >= %.1fx min_detectable)" % DETECT_FACTOR, a["misses"]),
-                         ("below %.1fx min_detectable" % DETECT_FACTOR, a["below"])):
+    for title, items in (("aerosid misses (size >= %.1fx the least detectable size)" % DETECT_FACTOR, a["misses"]),
+                         ("below %.1fx the least detectable size" % DETECT_FACTOR, a["below"])):
         if items:
             out.append("\n%s:\n" % title)
             for m in items:
                 lim = m["limit"]
                 f = lambda x: "%.4g" % x if isinstance(x, (int, float)) else "–"
-                out.append("* %s: size %s, %s min_detectable %s (ratio %s), t² %s, estimate %s%s; named: %s" % (
+                out.append("* %s: size %s, %s limit %s (ratio %s), t² %s, estimate %s%s; named: %s" % (
                     m["id"], f(m["size"]), lim[3], f(lim[0]),
                     f(abs(m["size"]) / lim[0]) if lim[0] else "–", f(lim[1]), f(lim[2]),
                     (", named it" if m.get("hit") else (", missed" if "hit" in m else "")),
@@ -333,6 +514,8 @@ def main():
     ap.add_argument("manifest")
     ap.add_argument("peers", nargs="*", help="peers files (default: peers.json next to the manifest)")
     ap.add_argument("-o", "--out")
+    ap.add_argument("--truth", action="store_true",
+                    help="also measure the flow-angle terms' reliability from the logs' true angles (slow)")
     a = ap.parse_args()
     base = os.path.dirname(os.path.abspath(a.manifest))
     flights = json.load(open(a.manifest))
@@ -390,6 +573,9 @@ def main():
         lines.append("")
         if any(f.get("pooled") is not None for f in fs):
             lines += pooled_section(suite, fs, methods, base)
+        lines += se_ratio_section(suite, fs, base)
+        if a.truth:
+            lines += reliability_section(suite, fs, base)
     lines.append("Versions: " + ", ".join("%s %s" % kv for kv in versions.items()))
     if notes:
         lines.append("")

@@ -137,6 +137,13 @@ pub struct ParamScore {
     /// `(max(√t²_threshold, 2·T_crit) + t₀.₂)·σ`, as for the aerodynamic candidates
     /// (docs/model-gaps.md, "What the flight could detect"); NaN when not computed.
     pub min_detectable: f64,
+    /// The oracle's standard error (docs/model-gaps.md, "The oracle"): the model-based σ of the
+    /// candidate alone beside the baseline — for the compatibility check the first round's
+    /// `sigma` itself, for the instrumental variables the coloured-residual σ of its regression.
+    pub oracle_se: f64,
+    /// `(max(z_entry, 2·z_gain) + z₀.₂)·oracle_se`, normal quantiles at the tests' levels; NaN
+    /// when not computed.
+    pub oracle_min_detectable: f64,
 }
 
 /// A sensor error found, with its final estimate.
@@ -645,6 +652,8 @@ impl Problem<'_> {
                     t2: t.t2,
                     part: "",
                     min_detectable: f64::NAN,
+                    oracle_se: f64::NAN,
+                    oracle_min_detectable: f64::NAN,
                 });
             }
         }
@@ -839,19 +848,23 @@ fn run(
         if first.is_none() {
             let dof = prob.segments.len() as f64 - 1.0;
             let factor = super::select::detection_factor(s.threshold_t2, crit, dof);
+            let oracle_factor =
+                super::oracle::detection_factor(super::oracle::level_of_normal_threshold(s.threshold_t2), s.gain_alpha);
             first = Some(
                 scores
                     .iter()
-                    .map(|c| ParamScore {
-                        part,
+                    .map(|c| {
                         // A candidate barred from output error here (an air-data channel's scale,
                         // delay or position in turbulence) cannot be named by it, whatever its size.
-                        min_detectable: if excluded.contains(&c.param) {
-                            f64::NAN
-                        } else {
-                            factor * c.sigma
-                        },
-                        ..c.clone()
+                        let barred = excluded.contains(&c.param);
+                        let or_nan = |x: f64| if barred { f64::NAN } else { x };
+                        ParamScore {
+                            part,
+                            min_detectable: or_nan(factor * c.sigma),
+                            oracle_se: or_nan(c.sigma),
+                            oracle_min_detectable: or_nan(oracle_factor * c.sigma),
+                            ..c.clone()
+                        }
                     })
                     .collect::<Vec<_>>(),
             );

@@ -259,8 +259,14 @@ pub fn check_channel(
     let factor = super::select::detection_factor(threshold, crit, dof);
     let empty = empty_fit(&design, &d);
     let singles: Vec<Option<SubsetFit>> = (0..2).map(|j| design.fit(&[j]).ok()).collect();
-    for (j, f) in singles.iter().enumerate() {
+    // The oracle (docs/model-gaps.md): the same single-column regression's model-based σ,
+    // coloured residuals up to a block's length.
+    let oracle_factor = super::oracle::detection_factor(s.level / 2.0, s.cv.gain_alpha);
+    let lag = ((s.cv.block_s / h_s).round() as usize).max(1);
+    for (j, (f, col)) in singles.iter().zip([&yh, &ydot]).enumerate() {
         if let Some(f) = f {
+            let oracle_se = super::regress::ols_sigma(std::slice::from_ref(col), &d, n, lag, Some(0))
+                .map_or(f64::NAN, |o| o.sigma[0]);
             out.tested.push(ParamScore {
                 param: params[j],
                 value: f.theta[0],
@@ -268,6 +274,8 @@ pub fn check_channel(
                 t2: f.t2(0),
                 part: "instrumental",
                 min_detectable: factor * f.sigma[0],
+                oracle_se,
+                oracle_min_detectable: oracle_factor * oracle_se,
             });
         }
     }

@@ -47,6 +47,7 @@ pub mod instrumental;
 pub mod model;
 pub mod noise;
 pub mod oem;
+pub mod oracle;
 pub mod origin;
 pub mod predict;
 pub mod regress;
@@ -304,6 +305,16 @@ pub struct CandidateScore {
     /// 80 % quantile at the blocks' degrees of freedom. An effect the flight carries, smaller
     /// than this, is more likely missed than found: not identifiable from this flight.
     pub min_detectable: f64,
+    /// The oracle's standard error of the estimate: model-based, the candidate alone beside the
+    /// baseline ([`oracle`]); NaN when not scored.
+    pub oracle_se: f64,
+    /// The least |value| a test with the selection's levels names with 80 % probability at
+    /// `oracle_se`, divided by the column's reliability ratio ([`oracle`]).
+    pub oracle_min_detectable: f64,
+    /// `sigma / oracle_se`.
+    pub se_ratio: f64,
+    /// The reliability ratio `λ` of the column (1 unless built from an estimated flow angle).
+    pub oracle_reliability: f64,
 }
 
 impl CandidateScore {
@@ -322,6 +333,21 @@ impl CandidateScore {
             value: f64::NAN,
             sigma: f64::NAN,
             min_detectable: f64::NAN,
+            oracle_se: f64::NAN,
+            oracle_min_detectable: f64::NAN,
+            se_ratio: f64::NAN,
+            oracle_reliability: f64::NAN,
+        }
+    }
+
+    /// With the oracle's fields.
+    fn with_oracle(self, o: oracle::Oracle) -> Self {
+        Self {
+            oracle_se: o.se,
+            oracle_min_detectable: o.min_detectable,
+            se_ratio: o.se_ratio(self.sigma),
+            oracle_reliability: o.reliability,
+            ..self
         }
     }
 }
@@ -819,6 +845,8 @@ pub fn run_gaps(flight: &MeasuredFlight, settings: &GapSettings) -> Result<GapRe
             .push((COEFFICIENTS[i].to_string(), zc.clone(), base, lib));
     }
     let piece_ranges: Vec<(usize, usize)> = flight.pieces().iter().map(|p| (p.start, p.end)).collect();
+    let flight_oracle = oracle::FlightOracle::new(flight, &table, &refs, &baselines, &errors, &all_terms);
+    notes.extend(flight_oracle.note());
     let mut coefficients = Vec::new();
     for i in 0..6 {
         let Some(zc) = &table.z[i] else { continue };
@@ -835,6 +863,7 @@ pub fn run_gaps(flight: &MeasuredFlight, settings: &GapSettings) -> Result<GapRe
             settings,
             errors[i].as_ref(),
             &piece_ranges,
+            &flight_oracle,
         ) {
             coefficients.push(g);
         }
@@ -1407,6 +1436,7 @@ fn analyse_coefficient(
     settings: &GapSettings,
     errors: Option<&ColumnErrors>,
     pieces: &[(usize, usize)],
+    flight_oracle: &oracle::FlightOracle,
 ) -> Option<CoefficientGap> {
     let n = zc.len();
     let mut dropped = Vec::new();
@@ -1508,7 +1538,17 @@ fn analyse_coefficient(
     let sel = stepwise(
         i, zc, h_s, &terms, &cols_full, &library, errors, p_test, settings, pieces,
     );
-    candidates.extend(sel.candidates);
+    // Each scored candidate's oracle: alone beside the baseline, at the selection's levels.
+    let factor = oracle::detection_factor(p_test, settings.cv.gain_alpha);
+    candidates.extend(sel.candidates.into_iter().map(|c| {
+        let o = library
+            .iter()
+            .find(|(t, _)| c.sigma.is_finite() && t.name() == c.term)
+            .map_or(oracle::Oracle::NONE, |(t, col)| {
+                flight_oracle.of_candidate(&terms, &cols_full, (*t, col), zc, errors, (max_lag, pieces), factor)
+            });
+        c.with_oracle(o)
+    }));
     let mut added_terms: Vec<AddedTerm> = sel.added;
     let (exact_delays, delay_notes) = refine_surface_delays(
         &mut added_terms,
@@ -2261,6 +2301,10 @@ fn stepwise(
                     value: f.theta[trial.len() - 1],
                     sigma: f.sigma[trial.len() - 1],
                     min_detectable: t_detect * f.sigma[trial.len() - 1],
+                    oracle_se: f64::NAN,
+                    oracle_min_detectable: f64::NAN,
+                    se_ratio: f64::NAN,
+                    oracle_reliability: f64::NAN,
                 };
                 record(&mut out.candidates, &mut waiting, j, c);
             }

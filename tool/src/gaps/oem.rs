@@ -854,6 +854,12 @@ pub fn analyse(inp: &Inputs) -> Result<LowRate, String> {
                         value,
                         sigma,
                         min_detectable: t_detect * sigma,
+                        // The oracle ([`super::oracle`]) is an equation-error construction; this
+                        // path reports none.
+                        oracle_se: f64::NAN,
+                        oracle_min_detectable: f64::NAN,
+                        se_ratio: f64::NAN,
+                        oracle_reliability: f64::NAN,
                     },
                     Some((fit1, h1, lik)),
                 ));

@@ -137,7 +137,10 @@ pub fn table(r: &GapReport) -> String {
     }
     for c in tested.iter().take(5) {
         let detect = if c.min_detectable.is_finite() {
-            format!("needs |·| ≥ {:.5}", c.min_detectable)
+            format!(
+                "needs |·| ≥ {:.5}, oracle {:.5}",
+                c.min_detectable, c.oracle_min_detectable
+            )
         } else {
             "not testable by output error in turbulence".to_string()
         };
@@ -481,6 +484,8 @@ pub fn json(r: &GapReport) -> Value {
                 "value": f(c.value), "sigma": f(c.sigma), "t2": f(c.t2), "part": c.part,
                 "significant": c.t2 > r.threshold_t2,
                 "min_detectable": f(c.min_detectable),
+                "oracle_se": f(c.oracle_se), "oracle_min_detectable": f(c.oracle_min_detectable),
+                "se_ratio": f(c.sigma / c.oracle_se),
             })).collect::<Vec<_>>(),
             "found": compat.found.iter().map(|c| found_json(c, false)).collect::<Vec<_>>(),
             "rejected": compat.rejected.iter().map(|c| found_json(c, true)).collect::<Vec<_>>(),
