@@ -20,7 +20,6 @@ pub mod fem_batch;
 pub mod fem_report;
 pub mod gaps;
 pub mod html;
-pub mod io;
 pub mod longrun;
 pub mod mc;
 pub mod plot;
@@ -31,6 +30,9 @@ pub mod table1;
 pub mod usermodel;
 pub mod workflow;
 
+/// The reading layer (`aerosid-read`): every log format to one measured flight, under the name
+/// the analyses use for it.
+pub use aerosid_read as io;
 /// The simulator, under the name the analyses use for it.
 pub use aerosid_sim as sim;
 /// The main job's and the seed's flights.

@@ -47,6 +47,7 @@ pub mod model;
 pub mod noise;
 pub mod origin;
 pub mod predict;
+pub mod quality;
 pub mod regress;
 pub mod report;
 pub mod select;
@@ -913,8 +914,8 @@ pub fn run_gaps(flight: &MeasuredFlight, settings: &GapSettings) -> Result<GapRe
             ),
         );
     }
-    let mut data_quality = crate::io::quality::assess(flight);
-    crate::io::quality::after_analysis(&mut data_quality, &coefficients, &regression);
+    let mut data_quality = quality::assess(flight);
+    quality::after_analysis(&mut data_quality, &coefficients, &regression);
     let verdict = if data_quality.supports_verdict {
         overall_verdict(&named, &coefficients)
     } else {

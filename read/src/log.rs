@@ -8,8 +8,8 @@
 //! number, a row with the wrong number of cells and a time that does not increase strictly, each
 //! with an error naming the file, the line (1-based, the header is line 1) and the column.
 
-use crate::sim::TruthSample;
 use aerosid_core::aero::SensorSample;
+use aerosid_sim::TruthSample;
 use std::fmt;
 use std::io::{BufRead, BufReader, Write};
 use std::path::Path;

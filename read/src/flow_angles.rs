@@ -641,7 +641,7 @@ pub fn estimate(flight: &MeasuredFlight, s: &WindFitSettings) -> Result<Estimate
     if wind_cov.is_some() {
         // The gusts: the airspeed residual less the pitot's own white noise (third differences),
         // which is no error of α or β.
-        let pitot_white = flight.get(Airspeed).map_or(0.0, crate::gaps::signal::white_noise_sd)
+        let pitot_white = flight.get(Airspeed).map_or(0.0, crate::signal::white_noise_sd)
             * info.fit.as_ref().map_or(1.0, |f| f.pitot_scale);
         let gust = (turbulence_mps * turbulence_mps - pitot_white * pitot_white)
             .max(0.0)
@@ -649,8 +649,8 @@ pub fn estimate(flight: &MeasuredFlight, s: &WindFitSettings) -> Result<Estimate
         let turb = gust / v_mean.max(1.0);
         // The attitude's white noise passes one for one (pitch into α, yaw into β); estimated
         // from its third differences.
-        let theta_noise = crate::gaps::signal::white_noise_sd(pitch);
-        let psi_noise = crate::gaps::signal::white_noise_sd(yaw);
+        let theta_noise = crate::signal::white_noise_sd(pitch);
+        let psi_noise = crate::signal::white_noise_sd(yaw);
         let (wa, wb) = (var_a / n as f64, var_b / n as f64);
         info.alpha_sigma_rad = (wa + turb * turb + theta_noise * theta_noise).sqrt();
         info.beta_sigma_rad = (wb + turb * turb + psi_noise * psi_noise).sqrt();
@@ -743,8 +743,8 @@ pub fn prepare(flight: &MeasuredFlight, choice: FlowAngleChoice, s: &WindFitSett
     let vanes = flight.get(Quantity::Alpha).is_some();
     // A logged α that is itself an estimate (the autopilot's) is used as logged, and said so.
     let logged = match flight.log.origin_of(Quantity::Alpha) {
-        crate::io::measured::Origin::Estimated { by } => format!("α, β as logged: estimated by {by}, not vanes"),
-        crate::io::measured::Origin::Sensor => "α, β from the vanes".to_string(),
+        crate::measured::Origin::Estimated { by } => format!("α, β as logged: estimated by {by}, not vanes"),
+        crate::measured::Origin::Sensor => "α, β from the vanes".to_string(),
     };
     let off = |why: &str| FlowAngles {
         status: "off".into(),

@@ -261,6 +261,19 @@ impl Origin {
     }
 }
 
+/// The flow channels whose origin the reports show.
+pub const FLOW_CHANNELS: [Quantity; 3] = [Quantity::Alpha, Quantity::Beta, Quantity::Airspeed];
+
+/// Each flow channel present and where it comes from, for the report (`Alpha` →
+/// `estimated: ArduPilot AOA.AOA …`, `Airspeed` → `sensor`).
+pub fn channel_origin(flight: &MeasuredFlight) -> BTreeMap<String, String> {
+    FLOW_CHANNELS
+        .iter()
+        .filter(|q| flight.get(**q).is_some())
+        .map(|q| (format!("{q:?}"), flight.log.origin_of(*q).describe()))
+        .collect()
+}
+
 impl LogMeta {
     /// Marks channel `q` as an estimator's output, `by` saying which estimator.
     pub fn set_estimated(&mut self, q: Quantity, by: &str) {

@@ -33,6 +33,7 @@ pub mod mat;
 pub mod measured;
 pub mod project_csv;
 pub mod quality;
+pub mod signal;
 pub mod ulog;
 
 use measured::{Aircraft, MeasuredFlight, ThrustSource};
