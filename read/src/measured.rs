@@ -77,7 +77,7 @@ pub enum Quantity {
     VelocityDown,
     /// The autopilot's own wind estimate, north component (velocity of the air), m/s; logged for
     /// comparison and as the wind of last resort when no airspeed is logged
-    /// ([`crate::io::flow_angles`]).
+    /// ([`crate::flow_angles`]).
     WindNorth,
     /// The autopilot's wind estimate, east component, m/s.
     WindEast,
@@ -203,7 +203,7 @@ pub struct LogMeta {
     /// Where α and β come from when the α-free mode ([`super::flow_angles::prepare`]) was run:
     /// the vanes, an estimate (with its wind fit and uncertainty) or why there is none
     /// (`None`: not run; the vanes as logged).
-    pub flow_angles: Option<super::flow_angles::FlowAngles>,
+    pub flow_angles: Option<super::flow_estimate::FlowAngles>,
     /// Where a channel's values come from, for the channels that are not a sensor's own reading
     /// (absent: measured by a sensor — a vane, a pitot, the IMU). Readers set it where the
     /// format says so (ArduPilot's `AOA`/`SSA`, a PX4 wind-based estimate), a column map or a

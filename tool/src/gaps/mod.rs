@@ -51,6 +51,7 @@ pub mod quality;
 pub mod regress;
 pub mod report;
 pub mod select;
+pub mod sensor_error;
 pub mod signal;
 pub mod simulate;
 
