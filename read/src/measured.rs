@@ -304,7 +304,7 @@ impl MeasuredFlight {
     ///
     /// Why block means (and not a sharper low-pass, then every `k`-th sample): white sensor noise
     /// stays white, with its variance divided by `k` — the noise model of the analysis
-    /// ([`crate::gaps::noise`]) and its noise estimates assume white noise; every channel gets
+    /// (`aerosid::gaps::noise`) and its noise estimates assume white noise; every channel gets
     /// the same treatment, so no channel moves against another; a `k`-mean passes `cos`-shaped
     /// `sin(πfk h)/(k sin(πf h))`, 1 at 0, ≥ 0.97 up to a tenth of the new rate and 0 at the
     /// new rate itself, folding back only what lies between half the new rate and it.

@@ -134,6 +134,24 @@ fn name(q: Quantity) -> &'static str {
 }
 
 /// The assessment of a flight before the analysis, against what the analysis `needs`.
+///
+/// The vendored HFB-320 record judged for the longitudinal coefficients:
+///
+/// ```
+/// use aerosid_read::quality::{assess, table, Needs};
+/// use std::path::Path;
+///
+/// let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tool/data");
+/// let flight = aerosid_read::read_measured(
+///     &data.join("flight/hfb320_1_10.asc"),
+///     &data.join("maps/hfb320.map"),
+/// )?;
+/// let needs = Needs { coefficients: &["C_L", "C_D", "C_m"], folds: 5, block_s: 2.0 };
+/// let q = assess(&flight, &needs);
+/// assert_eq!(q.coefficients.len(), 3);
+/// assert!(q.coefficients.iter().all(|c| c.identifiable), "{}", table(&q));
+/// # Ok::<(), aerosid_read::ReadError>(())
+/// ```
 pub fn assess(flight: &MeasuredFlight, needs: &Needs) -> DataQuality {
     use Quantity::*;
     let meta: &LogMeta = &flight.log;
