@@ -1,10 +1,11 @@
 //! # aerosid
 //!
-//! The `aerosid` command and the analyses it runs for a user: reading flight logs, the model-gap
-//! analysis, user models, the filter error method, Monte Carlo and the main job's report.
+//! The `aerosid` command and the analyses it runs for a user: the model-gap analysis, user models,
+//! the filter error method, Monte Carlo and the main job's report.
 //!
-//! It sits on top of the other crates: the simulator (`aerosid-sim`, re-exported below as [`sim`]
-//! and [`flights`], because the log writer, the gap analysis and the main job use its types), the
+//! It sits on top of the other crates: the reading layer (`aerosid-read`, re-exported below as
+//! [`io`]: every log format to one measured flight), the simulator (`aerosid-sim`, re-exported as
+//! [`sim`] and [`flights`], because the gap analysis and the main job use its types), the
 //! QEMU harness (`aerosid-qemu`, for `aerosid replay --qemu`) and the ELF checks
 //! (`aerosid-elf-check`, for `aerosid panic-audit` and `aerosid stack-bound`). Nothing here depends
 //! on the test crate, so `cargo install --path tool` builds neither faer nor the test suites.
