@@ -15,7 +15,7 @@ for a in "$@"; do
     prev="$a"
 done
 case "$crate" in
-    aerosid_core | aerosid | aerosid_sim | aerosid_fuzz | px4_ulog | gtls | pipeline | drivers | mavlink | read_*)
+    aerosid_core | aerosid_read | aerosid_sim | aerosid_fuzz | px4_ulog | gtls | pipeline | drivers | mavlink | read_*)
         # shellcheck disable=SC2086 # the flags are a space-separated list on purpose
         exec "$rustc" "$@" $FUZZ_RUSTC_FLAGS
         ;;

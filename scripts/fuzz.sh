@@ -8,10 +8,10 @@
 #                                         run each (or the named) target SECONDS; prints executions,
 #                                         coverage and corpus size per target (the README's figures)
 #
-# CI fuzzes the core targets only: the seven log-reader targets (read_*) link the aerosid tool and with
-# it plotters, rayon, serde…, which took 5 min 20 s to build instrumented (3 min 20 s CPU,
-# measured on a loaded 2-core machine while they also linked faer) against 1 min 20 s for the
-# core targets: beyond CI's budget.
+# CI fuzzes the core targets only: the seven log-reader targets (read_*) link the reading crate
+# (aerosid-read, with px4-ulog, matfile and serde); built with the whole aerosid tool they took
+# 5 min 20 s instrumented (3 min 20 s CPU, a loaded 2-core machine while it also linked faer)
+# against 1 min 20 s for the core targets: beyond CI's budget.
 # In CI the reader targets' invariants run instead over their seed corpus and seeded mutations of
 # it as a host test (host-tests/tests/fuzz_readers.rs, no coverage guidance); `long` fuzzes them.
 #
@@ -25,12 +25,12 @@
 #
 # FUZZ_INSTRUMENT selects what is instrumented:
 #   all  — every crate, as cargo-fuzz does (fuzz/target/); used for the README's long runs;
-#   ours — (default) only aerosid-core, aerosid, aerosid-sim, px4-ulog and the fuzz crate get the flags above
+#   ours — (default) only aerosid-core, aerosid-read, aerosid-sim, px4-ulog and the fuzz crate get the flags above
 #          (through scripts/fuzz-rustc.sh as RUSTC_WRAPPER, in fuzz/target-ours/); the other
 #          dependencies are plain release builds. Generic code (nalgebra's matrices) is instantiated,
 #          hence instrumented, in our crates either way; what is lost is coverage guidance inside
-#          rayon, plotters, serde (which the targets barely call) — and the build is minutes
-#          shorter (CI).
+#          the other dependencies (serde, which the targets barely call; matfile and nom under
+#          read_mat) — and the build is minutes shorter (CI).
 #
 # Corpora: libFuzzer reads fuzz/seeds/TARGET (committed) and writes what it finds to
 # fuzz/corpus/TARGET (git-ignored); crashes go to fuzz/artifacts/TARGET/ and fail the run.

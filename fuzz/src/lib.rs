@@ -8,7 +8,7 @@
 //! | [`pipeline`] | the six-coefficient [`aerosid_core::aero::Pipeline`] on [`aerosid_core::aero::SensorSample`]s (`f32` on-board config, and `f64`) | every refused coefficient's estimator bit-identical; every updated one as for `gtls`; the whole pipeline state finite; the health counters add up |
 //! | [`drivers`] | ICM-42688-P, MS4525DO, AS5600 on fake buses that return fuzz bytes and fuzz bus errors | each outcome equals an independent decoding of the bytes (datasheet rules re-typed here); readings finite and in range; health counters equal the outcomes counted here |
 //! | [`mavlink`] | the MAVLink parser and [`aerosid_core::mavlink::MavlinkSurfaces`] | every delivered frame is a CRC-valid frame present in the input; counters consistent; surfaces/throttle/RPM/attitude finite and within their calibration |
-//! | [`read_log`], [`read_project_csv`], [`read_aircraft`], [`read_colmap_ascii`], [`read_ulog`], [`read_dataflash`], [`read_mat`] | every log reader of `aerosid::io` | an `Ok` result holds only finite values, increasing time, and passes its own `validate` |
+//! | [`read_log`], [`read_project_csv`], [`read_aircraft`], [`read_colmap_ascii`], [`read_ulog`], [`read_dataflash`], [`read_mat`] | every log reader of `aerosid-read` | an `Ok` result holds only finite values, increasing time, and passes its own `validate` |
 //!
 //! ## The whole-state snapshot
 //! The estimators keep private state (`G₁₁`, `B`, the VFF's `P`, …) that no accessor shows. The

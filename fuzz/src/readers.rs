@@ -1,4 +1,4 @@
-//! Fuzz targets of the log readers (`aerosid::io`), through their public API only.
+//! Fuzz targets of the log readers (`aerosid-read`), through their public API only.
 //!
 //! | target | input | invariants of an `Ok` |
 //! |---|---|---|
@@ -14,8 +14,8 @@
 //! is an abort: an allocation sized from a corrupt field that fails aborts the process, which
 //! libFuzzer reports as a crash (and one that succeeds but exceeds `-rss_limit_mb` as well).
 
-use aerosid::io::measured::{Aircraft, MeasuredFlight};
-use aerosid::io::{aircraft, colmap, dataflash, log, mat, project_csv, ulog};
+use aerosid_read::measured::{Aircraft, MeasuredFlight};
+use aerosid_read::{aircraft, colmap, dataflash, log, mat, project_csv, ulog};
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
@@ -171,8 +171,8 @@ pub fn read_ulog(data: &[u8]) {
 
 /// Fuzz target `read_dataflash`.
 pub fn read_dataflash(data: &[u8]) {
-    let opts = aerosid::io::ReadOptions::default();
-    if let Ok(f) = dataflash::parse_dataflash(data, "fuzz.bin", aerosid::io::placeholder_aircraft(), &opts) {
+    let opts = aerosid_read::ReadOptions::default();
+    if let Ok(f) = dataflash::parse_dataflash(data, "fuzz.bin", aerosid_read::placeholder_aircraft(), &opts) {
         check_resampled("read_dataflash", &f);
     }
 }

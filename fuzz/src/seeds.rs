@@ -15,10 +15,10 @@
 //!   ULog format PX4 documents); `read_dataflash`: the first 64 KiB and 24 KiB of the two vendored
 //!   ArduPlane logs; `read_mat`: the vendored Twin Otter `.mat`.
 
-use aerosid::io::log;
-use aerosid::sim::{self, SimConfig};
 use aerosid_core::mavlink::messages::{Attitude, EscStatus, Heartbeat, Rpm, ServoOutputRaw};
 use aerosid_core::mavlink::Encoder;
+use aerosid_read::log;
+use aerosid_sim::{self as sim, SimConfig};
 
 /// `(target, file name, bytes)` of every seed.
 pub fn all() -> Vec<(&'static str, String, Vec<u8>)> {
@@ -115,7 +115,7 @@ fn flight(seconds: f64) -> Vec<aerosid_core::aero::SensorSample<f64>> {
     let cfg = SimConfig {
         duration_s: seconds,
         seed: 7,
-        ..aerosid::flights::main_flight(seconds, 7)
+        ..aerosid_sim::flights::main_flight(seconds, 7)
     };
     sim::simulate(&cfg).map(|o| o.samples).unwrap_or_default()
 }

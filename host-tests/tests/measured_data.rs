@@ -1088,7 +1088,7 @@ fn bad_ulogs_are_refused_naming_the_message() {
     std::fs::write(&no_air, write_ulog(&samples, &o)).expect("write");
     let f = read_measured(&no_air, &map).unwrap_or_else(|e| panic!("{e}"));
     assert!(f.get(Quantity::Airspeed).is_none() && f.get(Quantity::PitchRate).is_some());
-    let q = aerosid::io::quality::assess(&f);
+    let q = aerosid::gaps::quality::assess(&f);
     assert!(!q.supports_verdict, "{q:?}");
     assert!(q
         .coefficients

@@ -149,26 +149,31 @@ def gaps(
 ) -> Dict[str, Any]:
     """The model-gap analysis (``aerosid gaps``): what the identified model gets wrong and why.
 
-    ``data``: a flight file (with ``aircraft`` as ``--with`` takes it), a list holding one, or a
-    DataFrame / dict of arrays in the layout :func:`read` returns (then ``aircraft`` is an
-    ``.aircraft`` file, or None for no verdict). Pooling several flights is not supported yet: a
-    list of more than one raises ValueError.
+    ``data``: a flight file (with ``aircraft`` as ``--with`` takes it); a list of the files of one
+    flight test, whose manoeuvres are pooled into one analysis as the command's repeated
+    ``--data`` pools them (every file read with the same ``aircraft``; each one's manoeuvres held
+    out whole in the cross-validation; docs/model-gaps.md, "Pooled manoeuvres"); or a DataFrame /
+    dict of arrays in the layout :func:`read` returns (then ``aircraft`` is an ``.aircraft`` file,
+    or None for no verdict).
 
     ``options``: ``air_data`` (auto, measured, reconstructed, fused), ``flow_angles`` (auto, vanes,
     estimated, none), ``corrections`` (False keeps the named sensor errors), ``compatibility``,
     ``baseline`` (e.g. ``"CL=1,alpha,dV"``), ``max_rate_hz`` (None: as logged), ``alpha``,
-    ``gain_alpha``; and for ``.ulg`` / ``.bin`` files the options of :func:`read`.
+    ``gain_alpha``; for files ``segments`` (``[(from_s, to_s), ...]`` seconds from each file's
+    first sample, each its own manoeuvre: ``--segment``), and for ``.ulg`` / ``.bin`` files the
+    options of :func:`read`.
     ``out``: a folder for report.json, report.txt and the figures (none written without it).
 
     Returns the report.json content (schema ``aerosid-gaps/3``, docs/model-gaps.md) as a dict.
     """
     if isinstance(data, (list, tuple)):
-        if len(data) != 1:
+        if any(_is_frame(d) for d in data):
             raise ValueError(
-                f"{len(data)} flights given: pooling several flights in one analysis is not "
-                "supported yet; analyse them one at a time (or with aerosid batch)"
+                "a list given to gaps holds the flight files to pool; a DataFrame or dict of "
+                "arrays is analysed on its own (aerosid.gaps(frame))"
             )
-        data = data[0]
+        if not data:
+            raise ValueError("no flight given: data is an empty list")
     if _is_frame(data):
         g = _split(options, GAPS_OPTIONS, "gaps")
         t_s, chans = _frame_parts(data)
@@ -178,9 +183,10 @@ def gaps(
             source = f"DataFrame of {attrs['source']}"
         text = _aerosid.gaps_frame(source, t_s, chans, _path(aircraft), _path(out), **g)
     else:
-        g = _split(options, {**GAPS_OPTIONS, **READ_OPTIONS}, "gaps")
+        g = _split(options, {**GAPS_OPTIONS, **READ_OPTIONS, "segments": None}, "gaps")
         r = _read_kwargs({k: g.pop(k) for k in READ_OPTIONS})
-        text = _aerosid.gaps_file(os.fspath(data), _path(aircraft), _path(out), **r, **g)
+        segments = _segments(g.pop("segments"))
+        text = _aerosid.gaps_file(_paths(data), _path(aircraft), _path(out), segments, **r, **g)
     return json.loads(text)
 
 

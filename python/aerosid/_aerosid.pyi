@@ -72,9 +72,10 @@ def read(
     instances: Sequence[str] = ...,
 ) -> Tuple[str, _F64, List[Tuple[str, _F64]], Dict[str, Any]]: ...
 def gaps_file(
-    data: _Path,
+    data: Sequence[_Path],
     with_: Optional[_Path] = None,
     out: Optional[_Path] = None,
+    segments: Sequence[Tuple[float, float]] = ...,
     from_s: Optional[float] = None,
     to_s: Optional[float] = None,
     whole_log: bool = False,

@@ -7,10 +7,10 @@
 use aerosid::batch::{BatchSettings, Row, Status};
 use aerosid::gaps::airdata::AirDataChoice;
 use aerosid::gaps::{GapSettings, Levels};
-use aerosid::io::flow_angles::FlowAngleChoice;
-use aerosid::io::measured::{LogMeta, MeasuredFlight, Quantity};
-use aerosid::io::ReadOptions;
 use aerosid_core::{Estimator, Gtls as CoreGtls, GtlsSettings};
+use aerosid_read::flow_angles::FlowAngleChoice;
+use aerosid_read::measured::{LogMeta, MeasuredFlight, Quantity};
+use aerosid_read::ReadOptions;
 use nalgebra::{SMatrix, SVector};
 use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2};
 use pyo3::create_exception;
@@ -94,9 +94,9 @@ fn read_options(
     Ok(o)
 }
 
-/// Reads one flight file (`aerosid::io::read_measured_with`).
+/// Reads one flight file (`aerosid_read::read_measured_with`).
 fn read_flight(py: Python<'_>, data: PathBuf, with: Option<PathBuf>, opts: ReadOptions) -> PyResult<MeasuredFlight> {
-    py.detach(|| aerosid::io::read_measured_with(&data, with.as_deref(), &opts))
+    py.detach(|| aerosid_read::read_measured_with(&data, with.as_deref(), &opts))
         .map_err(err)
 }
 
@@ -206,15 +206,18 @@ fn analyse(py: Python<'_>, flight: &MeasuredFlight, s: &GapSettings, out: Option
     result.map(|v| v.to_string()).map_err(err)
 }
 
-/// The gap analysis of a flight file; report.json's content as JSON text.
+/// The gap analysis of one flight file, or of several pooled as the manoeuvres of one flight
+/// (as the command's repeated `--data`, each cut to every `--segment`); report.json's content as
+/// JSON text.
 #[pyfunction]
-#[pyo3(signature = (data, with_=None, out=None, from_s=None, to_s=None, whole_log=false, rate_hz=None, instances=vec![], air_data="auto", flow_angles="auto", corrections=true, compatibility=true, baseline=None, max_rate_hz=Some(aerosid::gaps::MAX_ANALYSIS_RATE_HZ), alpha=0.01, gain_alpha=0.01))]
+#[pyo3(signature = (data, with_=None, out=None, segments=vec![], from_s=None, to_s=None, whole_log=false, rate_hz=None, instances=vec![], air_data="auto", flow_angles="auto", corrections=true, compatibility=true, baseline=None, max_rate_hz=Some(aerosid::gaps::MAX_ANALYSIS_RATE_HZ), alpha=0.01, gain_alpha=0.01))]
 #[allow(clippy::too_many_arguments)]
 fn gaps_file(
     py: Python<'_>,
-    data: PathBuf,
+    data: Vec<PathBuf>,
     with_: Option<PathBuf>,
     out: Option<PathBuf>,
+    segments: Vec<(f64, f64)>,
     from_s: Option<f64>,
     to_s: Option<f64>,
     whole_log: bool,
@@ -240,14 +243,23 @@ fn gaps_file(
         gain_alpha,
     )?;
     let opts = read_options(from_s, to_s, whole_log, rate_hz, instances)?;
-    let ext = data.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
-    if with_.is_none() && !matches!(ext.as_deref(), Some("ulg") | Some("bin")) {
-        return Err(err(format!(
-            "data {} needs aircraft=MAP_OR_AIRCRAFT (only .ulg and .bin logs read without one)",
-            data.display()
-        )));
+    if data.is_empty() {
+        return Err(err(
+            "data: give a flight file, or a list of the files of one flight test to pool",
+        ));
     }
-    let flight = read_flight(py, data, with_, opts)?;
+    for file in &data {
+        let ext = file.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+        if with_.is_none() && !matches!(ext.as_deref(), Some("ulg") | Some("bin")) {
+            return Err(err(format!(
+                "data {} needs aircraft=MAP_OR_AIRCRAFT (only .ulg and .bin logs read without one)",
+                file.display()
+            )));
+        }
+    }
+    let flight = py
+        .detach(|| aerosid_read::read_pooled(&data, with_.as_deref(), &segments, &opts))
+        .map_err(err)?;
     analyse(py, &flight, &s, out)
 }
 
@@ -276,9 +288,9 @@ fn frame_flight(
                     p.display()
                 )));
             }
-            (aerosid::io::aircraft::read_aircraft(&p).map_err(err)?, false)
+            (aerosid_read::aircraft::read_aircraft(&p).map_err(err)?, false)
         }
-        None => (aerosid::io::placeholder_aircraft(), true),
+        None => (aerosid_read::placeholder_aircraft(), true),
     };
     let f = MeasuredFlight {
         source,

@@ -1,4 +1,4 @@
-"""aerosid.gaps: the report.json of `aerosid gaps`, from a file, a list of one, or a frame."""
+"""aerosid.gaps: the report.json of `aerosid gaps`, from a file, a list of files pooled, or a frame."""
 
 import json
 import subprocess
@@ -13,7 +13,8 @@ ATTAS_MAP = MAPS / "attas.map"
 
 
 def cli_report(exe, tmp_path, data, with_=None):
-    args = [exe, "gaps", "--data", str(data), "--out", str(tmp_path / "cli")]
+    files = data if isinstance(data, list) else [data]
+    args = [exe, "gaps", "--data", *map(str, files), "--out", str(tmp_path / "cli")]
     if with_ is not None:
         args += ["--with", str(with_)]
     subprocess.run(args, check=True, capture_output=True)
@@ -33,11 +34,33 @@ def test_the_report_is_the_commands(aerosid_exe, tmp_path):
     assert list((tmp_path / "py").glob("gap_*.svg"))
 
 
-def test_a_list_of_one_flight_is_that_flight_and_more_are_refused():
-    r = aerosid.gaps([LOGS / "log_52_2021-5-22-12-42-56.ulg"])
+def test_a_list_of_one_flight_is_that_flight():
+    log = LOGS / "log_52_2021-5-22-12-42-56.ulg"
+    r = aerosid.gaps([log])
     assert r["data_quality"]["supports_verdict"] is False
-    with pytest.raises(ValueError, match="pooling several flights"):
-        aerosid.gaps(ATTAS[:2], aircraft=ATTAS_MAP)
+    assert r == aerosid.gaps(log)
+
+
+def test_a_list_pools_its_manoeuvres_as_the_commands_repeated_data(aerosid_exe, tmp_path):
+    # The three ATTAS manoeuvres (aileron, elevator, rudder) in one analysis, given in an order
+    # other than the canonical one: the command pools them whatever the order.
+    files = [ATTAS[2], ATTAS[0], ATTAS[1]]
+    r = aerosid.gaps(files, aircraft=ATTAS_MAP)
+    c = cli_report(aerosid_exe, tmp_path, files, ATTAS_MAP)
+    assert len(r["manoeuvres"]) == 3
+    for key in ("verdict", "named", "top_cause", "data_quality", "coefficients", "manoeuvres"):
+        assert r[key] == c[key], key
+    # A manoeuvre cut to a segment is the command's --segment.
+    seg = aerosid.gaps(ATTAS[:2], aircraft=ATTAS_MAP, segments=[(0.0, 20.0)])
+    assert [m["span_s"][1] - m["span_s"][0] <= 20.0 for m in seg["manoeuvres"]] == [True, True]
+
+
+def test_a_list_with_a_frame_or_no_file_is_refused():
+    df = aerosid.read(ELV, aircraft=ATTAS_MAP)
+    with pytest.raises(ValueError, match="files to pool"):
+        aerosid.gaps([ELV, df], aircraft=ATTAS_MAP)
+    with pytest.raises(ValueError, match="empty list"):
+        aerosid.gaps([], aircraft=ATTAS_MAP)
 
 
 def test_a_frame_of_read_is_analysed(tmp_path):

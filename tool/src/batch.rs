@@ -129,7 +129,7 @@ pub fn not_run_report(
         settings.flow_angles,
         &crate::io::flow_angles::WindFitSettings::default(),
     );
-    let q = crate::io::quality::assess(&prepared);
+    let q = crate::gaps::quality::assess(&prepared);
     let mut table = crate::io::quality::table(&q);
     table.push_str(&format!("\nno verdict: {reason}\n"));
     let reasons: Vec<String> = std::iter::once(reason).chain(q.why_not.iter().cloned()).collect();

@@ -1,10 +1,11 @@
 //! # aerosid
 //!
-//! The `aerosid` command and the analyses it runs for a user: reading flight logs, the model-gap
-//! analysis, user models, the filter error method, Monte Carlo and the main job's report.
+//! The `aerosid` command and the analyses it runs for a user: the model-gap analysis, user models,
+//! the filter error method, Monte Carlo and the main job's report.
 //!
-//! It sits on top of the other crates: the simulator (`aerosid-sim`, re-exported below as [`sim`]
-//! and [`flights`], because the log writer, the gap analysis and the main job use its types), the
+//! It sits on top of the other crates: the reading layer (`aerosid-read`, re-exported below as
+//! [`io`]: every log format to one measured flight), the simulator (`aerosid-sim`, re-exported as
+//! [`sim`] and [`flights`], because the gap analysis and the main job use its types), the
 //! QEMU harness (`aerosid-qemu`, for `aerosid replay --qemu`) and the ELF checks
 //! (`aerosid-elf-check`, for `aerosid panic-audit` and `aerosid stack-bound`). Nothing here depends
 //! on the test crate, so `cargo install --path tool` builds neither faer nor the test suites.
@@ -20,7 +21,6 @@ pub mod fem_batch;
 pub mod fem_report;
 pub mod gaps;
 pub mod html;
-pub mod io;
 pub mod longrun;
 pub mod mc;
 pub mod plot;
@@ -31,6 +31,9 @@ pub mod table1;
 pub mod usermodel;
 pub mod workflow;
 
+/// The reading layer (`aerosid-read`): every log format to one measured flight, under the name
+/// the analyses use for it.
+pub use aerosid_read as io;
 /// The simulator, under the name the analyses use for it.
 pub use aerosid_sim as sim;
 /// The main job's and the seed's flights.

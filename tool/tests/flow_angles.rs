@@ -3,10 +3,10 @@
 //! (the project's simulator, Dryden turbulence on, a constant wind), and refused when the heading
 //! does not change enough to separate the wind from the pitot scale.
 
+use aerosid::gaps::quality::assess;
 use aerosid::gaps::{run_gaps, GapSettings};
 use aerosid::io::flow_angles::{alpha_beta, estimate, heading_span, prepare, FlowAngleChoice, WindFitSettings};
 use aerosid::io::measured::{Aircraft, MeasuredFlight, Quantity};
-use aerosid::io::quality::assess;
 use aerosid::sim::{simulate, Channel, Manoeuvre, Shape, SimAirframe, SimOutput};
 use nalgebra::Vector3;
 use rand::SeedableRng;

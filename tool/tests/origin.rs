@@ -279,7 +279,7 @@ fn csv_held_channel_is_read_at_its_true_rate() {
     assert!(a[..295].windows(2).all(|w| w[0] != w[1]), "still held");
     assert!(f.log.warnings.iter().any(|w| w.contains("`alpha` is held")));
     // The data quality judges the channel by its true rate.
-    let q = aerosid::io::quality::assess(&f);
+    let q = aerosid::gaps::quality::assess(&f);
     assert!(
         q.warnings.iter().any(|w| w.contains("`alpha` logged at 10.0 Hz")),
         "{:?}",

@@ -5,10 +5,11 @@
 //! 1 Hz) and ground or bench parser fixtures. The Twin Otter `.mat` is
 //! `tool/data/flight/totter_lon_020213f1_018.mat` with its text export `_fdata.asc`.
 
+use aerosid::gaps::quality::assess;
 use aerosid::gaps::{run_gaps, GapSettings};
 use aerosid::io::flow_angles::{prepare, FlowAngleChoice, WindFitSettings};
 use aerosid::io::measured::{MeasuredFlight, Quantity};
-use aerosid::io::quality::{assess, table};
+use aerosid::io::quality::table;
 use aerosid::io::{read_measured, read_measured_with, ReadOptions};
 use std::path::{Path, PathBuf};
 

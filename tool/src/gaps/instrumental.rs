@@ -55,8 +55,8 @@
 //! is not tested and the note says so: weak instruments make the estimator fall back towards least
 //! squares, with its bias. A value outside its kind's physical range is refused, with the reason.
 
-use super::compat::{Found, ParamScore, SensorParam};
 use super::select::{self, CvSettings, Design, SubsetFit};
+use super::sensor_error::{Found, ParamScore, SensorParam};
 use super::signal::derivative;
 use crate::io::measured::{MeasuredFlight, Quantity};
 

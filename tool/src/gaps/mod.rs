@@ -50,9 +50,11 @@ pub mod oem;
 pub mod oracle;
 pub mod origin;
 pub mod predict;
+pub mod quality;
 pub mod regress;
 pub mod report;
 pub mod select;
+pub mod sensor_error;
 pub mod signal;
 pub mod simulate;
 
@@ -969,7 +971,7 @@ pub fn run_gaps(flight: &MeasuredFlight, settings: &GapSettings) -> Result<GapRe
             ),
         );
     }
-    let mut data_quality = crate::io::quality::assess(flight);
+    let mut data_quality = quality::assess(flight);
     if low_rate_ok {
         // The rate is what the low-rate path answers; every other reason stands.
         data_quality
@@ -977,7 +979,7 @@ pub fn run_gaps(flight: &MeasuredFlight, settings: &GapSettings) -> Result<GapRe
             .retain(|r| !(r.starts_with("the time base is") && r.contains("needs at least")));
         data_quality.supports_verdict = data_quality.why_not.is_empty();
     }
-    crate::io::quality::after_analysis(&mut data_quality, &coefficients, &regression);
+    quality::after_analysis(&mut data_quality, &coefficients, &regression);
     let verdict = if data_quality.supports_verdict {
         overall_verdict(&named, &coefficients)
     } else {

@@ -28,10 +28,10 @@
 
 use super::model::{Term, COEFFICIENTS};
 use crate::io::measured::{MeasuredFlight, Origin, Quantity};
-use std::collections::BTreeMap;
 
-/// The flow channels whose origin the report shows.
-pub const FLOW_CHANNELS: [Quantity; 3] = [Quantity::Alpha, Quantity::Beta, Quantity::Airspeed];
+/// The flow channels whose origin the report shows, and each one's origin for the report (kept
+/// with the reader's [`Origin`], which the data-quality assessment reports too).
+pub use crate::io::measured::{channel_origin, FLOW_CHANNELS};
 
 /// Whether the compatibility check may offer sensor errors (bias, scale, delay, vane position)
 /// of channel `q`: not when `q` is an estimate.
@@ -93,15 +93,5 @@ pub fn notes(flight: &MeasuredFlight) -> Vec<String> {
             )),
             Origin::Sensor => None,
         })
-        .collect()
-}
-
-/// Each flow channel present and where it comes from, for the report (`Alpha` →
-/// `estimated: ArduPilot AOA.AOA …`, `Airspeed` → `sensor`).
-pub fn channel_origin(flight: &MeasuredFlight) -> BTreeMap<String, String> {
-    FLOW_CHANNELS
-        .iter()
-        .filter(|q| flight.get(**q).is_some())
-        .map(|q| (format!("{q:?}"), flight.log.origin_of(*q).describe()))
         .collect()
 }

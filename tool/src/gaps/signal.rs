@@ -172,23 +172,9 @@ pub fn normal_upper_quantile(p: f64) -> f64 {
     0.5 * (lo + hi)
 }
 
-/// The standard deviation of the white noise on `x`, from its third differences: for white noise
-/// `e` of variance `σ²`, `Δ³e = e₃ − 3e₂ + 3e₁ − e₀` has variance `20σ²`, while a signal smooth at
-/// the sampling rate contributes little to `Δ³`. A robust scale (median absolute value / 0.6745)
-/// keeps the steps of a control input and the 2π wraps of a heading out of the estimate. 0 for a
-/// series shorter than 8 samples or one that is piecewise constant (a commanded throttle).
-pub fn white_noise_sd(x: &[f64]) -> f64 {
-    if x.len() < 8 {
-        return 0.0;
-    }
-    let mut d: Vec<f64> = x
-        .windows(4)
-        .map(|w| (w[3] - 3.0 * w[2] + 3.0 * w[1] - w[0]).abs())
-        .collect();
-    let mid = d.len() / 2;
-    let (_, m, _) = d.select_nth_unstable_by(mid, f64::total_cmp);
-    *m / 0.674_489_75 / 20f64.sqrt()
-}
+/// The white-noise standard deviation of a series (third differences, robust scale), shared
+/// with the reading layer's α-free mode.
+pub use crate::io::signal::white_noise_sd;
 
 /// The variance gain `Σ wₖ²` of the linear operation `op` (applied to a unit impulse in the middle
 /// of a zero series of `len` samples): white noise of variance `σ²` comes out with `σ² Σ wₖ²`.

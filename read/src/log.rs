@@ -8,8 +8,8 @@
 //! number, a row with the wrong number of cells and a time that does not increase strictly, each
 //! with an error naming the file, the line (1-based, the header is line 1) and the column.
 
-use crate::sim::TruthSample;
 use aerosid_core::aero::SensorSample;
+use aerosid_sim::TruthSample;
 use std::fmt;
 use std::io::{BufRead, BufReader, Write};
 use std::path::Path;
@@ -312,6 +312,21 @@ pub fn write_log_file(path: &Path, samples: &[SensorSample<f64>]) -> Result<(), 
 }
 
 /// Reads a sensor log from `r` (`file` names it in errors).
+///
+/// A log written with [`write_log`] reads back exactly:
+///
+/// ```
+/// use aerosid_core::aero::SensorSample;
+/// use aerosid_read::log::{read_log, write_log};
+///
+/// let samples: Vec<SensorSample<f64>> = (0..3)
+///     .map(|i| SensorSample { t_s: 0.01 * i as f64, dt_s: 0.01, airspeed_mps: 18.5, ..Default::default() })
+///     .collect();
+/// let mut csv = Vec::new();
+/// write_log(&mut csv, "flight.csv", &samples)?;
+/// assert_eq!(read_log(csv.as_slice(), "flight.csv")?, samples);
+/// # Ok::<(), aerosid_read::log::LogError>(())
+/// ```
 pub fn read_log<R: std::io::Read>(r: R, file: &str) -> Result<Vec<SensorSample<f64>>, LogError> {
     let mut lines = BufReader::new(r).lines();
     let header = match lines.next() {

@@ -22,11 +22,11 @@
 //!   (ArduPilot's `AOA`, a map's or a CSV column's statement) is reported as estimated, with its
 //!   estimator, and `channel_origin` lists each flow channel's origin.
 //! * **Whether a verdict is supported** — if not, the reasons, and the gap analysis names nothing
-//!   ([`crate::gaps::run_gaps`] clears its causes and says "no verdict").
+//!   (the model-gap analysis, `aerosid::gaps::run_gaps`, clears its causes and says "no verdict").
 //!
 //! ## The thresholds, and why
 //! * **Time-base rate ≥ 20 Hz.** The analysis smooths and differentiates over ±0.1 s
-//!   ([`crate::gaps::GapSettings::smoothing_half_width_s`]); below 20 Hz that window holds fewer
+//!   (`aerosid::gaps::GapSettings::smoothing_half_width_s`); below 20 Hz that window holds fewer
 //!   than 2 samples a side.
 //! * **Motion channels logged at ≥ 5 Hz** (rates, accelerations, attitude, α, β, surfaces). The
 //!   short-period and roll modes of small UAVs lie near 1–2.5 Hz; a channel sampled below twice
@@ -34,8 +34,8 @@
 //!   Below 25 Hz a warning (10 samples per period of a 2.5 Hz mode).
 //! * **Airspeed logged at ≥ 2 Hz.** It scales every coefficient (q̄ ∝ V²); at 1 Hz a climb or a
 //!   dive changes it by several m/s between samples.
-//! * **Duration ≥ 2 × folds × block** (20 s with the defaults, [`crate::gaps::select::CvSettings`]):
-//!   the held-out test needs at least two blocks per fold.
+//! * **Duration ≥ 2 × folds × block** (20 s with the gap analysis's defaults, 5 folds of 2-s
+//!   blocks; [`Needs`]): the held-out test needs at least two blocks per fold.
 //! * **In the air.** A log whose land detector (or airspeed) says the vehicle never flew supports
 //!   nothing aerodynamic.
 //! * **The baseline predicts something.** If no coefficient's baseline has a held-out R² above
@@ -49,8 +49,6 @@
 //!   of the samples.
 
 use super::measured::{LogMeta, MeasuredFlight, Quantity, ThrustSource};
-use crate::gaps::select::CvSettings;
-use crate::gaps::{CoefficientGap, Regression};
 use nalgebra::DMatrix;
 use serde::Serialize;
 
@@ -72,6 +70,20 @@ pub const MAX_ESTIMATED_ALPHA_SIGMA_RAD: f64 = 0.035;
 /// An estimated α or β must vary by at least this many times its σ (RMS) for its derivatives to
 /// be told from the estimate's error.
 pub const MIN_EXCITATION_OVER_SIGMA: f64 = 3.0;
+
+/// What the analysis that will use a flight needs of it, for the assessment to judge against: the
+/// coefficients it forms and the shape of its held-out test. The model-gap analysis states its
+/// own (`aerosid::gaps::quality::needs`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Needs<'a> {
+    /// The aerodynamic coefficients to judge, by name: `C_L`, `C_D`, `C_Y` (forces), `C_l`, `C_m`,
+    /// `C_n` (moments).
+    pub coefficients: &'a [&'a str],
+    /// Folds of the held-out test.
+    pub folds: usize,
+    /// Block length of the held-out test, s.
+    pub block_s: f64,
+}
 
 /// Whether one coefficient can be identified from what is logged.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -121,8 +133,26 @@ fn name(q: Quantity) -> &'static str {
     q.name()
 }
 
-/// The assessment of a flight before the analysis.
-pub fn assess(flight: &MeasuredFlight) -> DataQuality {
+/// The assessment of a flight before the analysis, against what the analysis `needs`.
+///
+/// The vendored HFB-320 record judged for the longitudinal coefficients:
+///
+/// ```
+/// use aerosid_read::quality::{assess, table, Needs};
+/// use std::path::Path;
+///
+/// let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tool/data");
+/// let flight = aerosid_read::read_measured(
+///     &data.join("flight/hfb320_1_10.asc"),
+///     &data.join("maps/hfb320.map"),
+/// )?;
+/// let needs = Needs { coefficients: &["C_L", "C_D", "C_m"], folds: 5, block_s: 2.0 };
+/// let q = assess(&flight, &needs);
+/// assert_eq!(q.coefficients.len(), 3);
+/// assert!(q.coefficients.iter().all(|c| c.identifiable), "{}", table(&q));
+/// # Ok::<(), aerosid_read::ReadError>(())
+/// ```
+pub fn assess(flight: &MeasuredFlight, needs: &Needs) -> DataQuality {
     use Quantity::*;
     let meta: &LogMeta = &flight.log;
     let n = flight.len();
@@ -179,12 +209,11 @@ pub fn assess(flight: &MeasuredFlight) -> DataQuality {
             }
         }
     }
-    let cv = CvSettings::default();
-    let min_duration = 2.0 * cv.folds as f64 * cv.block_s;
+    let min_duration = 2.0 * needs.folds as f64 * needs.block_s;
     if duration_s < min_duration {
         why_not.push(format!(
             "{duration_s:.1} s of data: the held-out test needs at least two {}-s blocks per fold ({min_duration:.0} s)",
-            cv.block_s
+            needs.block_s
         ));
     }
     if meta.airborne == Some(false) {
@@ -284,7 +313,7 @@ pub fn assess(flight: &MeasuredFlight) -> DataQuality {
     let lateral_inertia = inertia[(0, 0)].is_finite() && inertia[(2, 2)].is_finite() && inertia[(0, 2)].is_finite();
     let thrust_known = has(Thrust) || (matches!(flight.aircraft.thrust, ThrustSource::Propeller(_)) && live(PropSpeed));
     let mut coefficients = Vec::new();
-    for coef in crate::gaps::model::COEFFICIENTS {
+    for &coef in needs.coefficients {
         let mut notes = Vec::new();
         let mut ok = true;
         if !live(Airspeed) {
@@ -405,7 +434,7 @@ pub fn assess(flight: &MeasuredFlight) -> DataQuality {
         resampling: meta.resampling.clone(),
         air_data,
         flow_angles: flow.cloned(),
-        channel_origin: crate::gaps::origin::channel_origin(flight),
+        channel_origin: super::measured::channel_origin(flight),
         warnings,
         coefficients,
         supports_verdict: why_not.is_empty(),
@@ -438,52 +467,6 @@ pub fn condition_number(cols: &[&[f64]], n: usize) -> f64 {
     } else {
         f64::INFINITY
     }
-}
-
-/// Completes the assessment from the analysis: the regressors' condition numbers, parameters the
-/// data do not determine, and whether the baseline predicts anything on held-out data.
-pub fn after_analysis(q: &mut DataQuality, coefficients: &[CoefficientGap], regression: &Regression) {
-    for (name, _, base, _) in &regression.coefficients {
-        let cols: Vec<&[f64]> = base
-            .iter()
-            .filter_map(|t| regression.columns.get(t).map(|c| c.as_slice()))
-            .collect();
-        let k = condition_number(&cols, regression.n_id);
-        if k > WARN_CONDITION {
-            q.warnings.push(format!(
-                "{name}: the baseline's regressors (scaled to unit length) have condition number {k:.0} on the identification segment: nearly collinear, so the estimates trade off against each other (poor excitation)"
-            ));
-        }
-    }
-    for c in coefficients {
-        let weak: Vec<String> = c
-            .baseline
-            .parameters
-            .iter()
-            // NaN σ or value counts as undetermined.
-            .filter(|p| p.value.abs() < 2.0 * p.sigma || p.value.is_nan() || p.sigma.is_nan())
-            .map(|p| p.term.clone())
-            .collect();
-        if !weak.is_empty() {
-            q.warnings.push(format!(
-                "{}: {} not determined by this flight (|estimate| < 2σ)",
-                c.name,
-                weak.join(", ")
-            ));
-        }
-    }
-    let best = coefficients
-        .iter()
-        .map(|c| c.baseline.validation.r2)
-        .filter(|r| r.is_finite())
-        .fold(f64::NEG_INFINITY, f64::max);
-    let predicts = best > 0.0;
-    if !coefficients.is_empty() && !predicts {
-        q.why_not.push(format!(
-            "the baseline predicts no coefficient on held-out data (best held-out R² {best:.2}): a missing term cannot be told from noise"
-        ));
-    }
-    q.supports_verdict = q.why_not.is_empty();
 }
 
 /// The assessment as text, one item a line.

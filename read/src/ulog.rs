@@ -6,7 +6,7 @@
 //! CLI's dependencies in the library). `px4-ulog` checks every data message against its format's
 //! size and classifies a cut file, but indexes the payload of a Parameter or AddLogged message
 //! before checking its length; so this module first walks the message framing itself
-//! ([`scan`], every length checked) and refuses a truncated or malformed file with the message
+//! (`scan`, every length checked) and refuses a truncated or malformed file with the message
 //! index and byte offset before the crate sees it. The same walk reads the logged parameters
 //! (`P` messages: `float NAME` or `int32_t NAME`, the first value of each), which the crate's
 //! data callback does not deliver. Only the primary data section is read (the appended

@@ -1,5 +1,34 @@
-//! Flight-log input and output.
+//! # aerosid-read — reading a flight
 //!
+//! Every flight-log format aerosid takes, read to one [`MeasuredFlight`]: named channels in SI
+//! units and radians on one uniform time base, the aircraft's constants, and what the reader
+//! learned about the log (rates, window, warnings, where each flow channel comes from). The
+//! analyses (the model-gap analysis, user models, the filter error method, the Python package)
+//! start from a `MeasuredFlight` and know nothing of file formats; this crate knows nothing of
+//! them. It depends on `aerosid-core` (the log row, [`aerosid_core::aero::SensorSample`]) and
+//! `aerosid-sim` (the truth columns of a simulated log) only; the `aerosid` crate re-exports it
+//! as `aerosid::io`.
+//!
+//! Reading the vendored HFB-320 flight-test record through its column map:
+//!
+//! ```
+//! use aerosid_read::measured::Quantity;
+//! use std::path::Path;
+//!
+//! let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tool/data");
+//! let flight = aerosid_read::read_measured(
+//!     &data.join("flight/hfb320_1_10.asc"),
+//!     &data.join("maps/hfb320.map"),
+//! )?;
+//! // 60 s at 0.1 s: 601 samples (tool/data/flight/README.md).
+//! assert_eq!(flight.len(), 601);
+//! assert!((flight.t_s[1] - flight.t_s[0] - 0.1).abs() < 1e-9);
+//! let alpha_rad = flight.get(Quantity::Alpha).expect("the HFB-320 record logs α");
+//! assert!(alpha_rad.iter().all(|a| a.abs() < 0.5));
+//! # Ok::<(), aerosid_read::ReadError>(())
+//! ```
+//!
+//! The modules:
 //! * [`log`] — the project's CSV flight-log layout: one row per
 //!   [`aerosid_core::aero::SensorSample`], named columns, SI units, radians.
 //! * [`measured`] — measured flight data as the model-gap analysis reads it (named SI channels and
@@ -14,9 +43,13 @@
 //! * [`mat`] — MATLAB `.mat` (level 5) through the `matfile` crate, a matrix read through a
 //!   column map as an ASCII file is.
 //! * [`flow_angles`] — the α-free mode: α and β estimated from the ground velocity, the attitude
-//!   and a wind fitted with the pitot scale (wind triangle), when no vane is logged.
+//!   and a wind fitted with the pitot scale (wind triangle), when no vane is logged; what it did
+//!   is the record of [`flow_estimate`], which a flight's log carries.
+//! * [`held`] — channels held by sample-and-hold, found and interpolated.
 //! * [`quality`] — what a flight can and cannot support: rates, duration, gaps, saturation,
-//!   constant columns, excitation, which coefficients are identifiable from what is logged.
+//!   constant columns, excitation, which coefficients are identifiable from what is logged,
+//!   judged against what the analysis needs ([`quality::Needs`]).
+//! * [`signal`] — a channel's white-noise level.
 //!
 //! [`read_measured`] is the single entry point; every reader validates its result with
 //! [`MeasuredFlight::validate`], and every error is a [`ReadError`] naming the file and, where it
@@ -27,12 +60,14 @@ pub mod aircraft;
 pub mod colmap;
 pub mod dataflash;
 pub mod flow_angles;
+pub mod flow_estimate;
 pub mod held;
 pub mod log;
 pub mod mat;
 pub mod measured;
 pub mod project_csv;
 pub mod quality;
+pub mod signal;
 pub mod ulog;
 
 use measured::{Aircraft, MeasuredFlight, ThrustSource};
@@ -245,6 +280,25 @@ pub fn placeholder_aircraft() -> Aircraft {
 /// sample; none: the whole file), each part split where its time jumps
 /// ([`MeasuredFlight::split_at_jumps`]), the pieces sorted canonically. One file without
 /// segments or jumps is returned as read.
+///
+/// The three ATTAS manoeuvres (aileron, elevator, rudder inputs) pooled into one flight, as
+/// `aerosid gaps --data A --data B --data C --with attas.map` reads them:
+///
+/// ```
+/// use aerosid_read::{read_pooled, ReadOptions};
+/// use std::path::Path;
+///
+/// let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tool/data");
+/// let files: Vec<_> = ["fAttasAil1_pqrDot.asc", "fAttasElv1_pqrDot.asc", "fAttasRud1_pqrDot.asc"]
+///     .iter()
+///     .map(|f| data.join("flight").join(f))
+///     .collect();
+/// let map = data.join("maps/attas.map");
+/// let pooled = read_pooled(&files, Some(&map), &[], &ReadOptions::default())?;
+/// assert_eq!(pooled.log.pieces.len(), 3);
+/// assert_eq!(pooled.log.pieces.last().map(|p| p.end), Some(pooled.len()));
+/// # Ok::<(), String>(())
+/// ```
 pub fn read_pooled(
     data: &[std::path::PathBuf],
     companion: Option<&Path>,
@@ -306,6 +360,21 @@ pub fn read_measured(data: &Path, companion: &Path) -> Result<MeasuredFlight, Re
 /// The companion's kind is told by its extension: `.aircraft` or `.map`. An autopilot log (`.ulg`,
 /// `.bin`) may come without one: its channels are read with a placeholder aircraft
 /// ([`placeholder_aircraft`]), which the quality assessment reports.
+///
+/// A PX4 ULog read without a companion file, its whole log instead of the in-air window:
+///
+/// ```
+/// use aerosid_read::{read_measured_with, ReadOptions};
+/// use aerosid_read::measured::Quantity;
+/// use std::path::Path;
+///
+/// let log = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tool/data/logs/pyulog_sample_log_small.ulg");
+/// let opts = ReadOptions { whole_log: true, ..ReadOptions::default() };
+/// let flight = read_measured_with(&log, None, &opts)?;
+/// assert!(flight.log.aircraft_unknown);
+/// assert!(flight.get(Quantity::PitchRate).is_some());
+/// # Ok::<(), aerosid_read::ReadError>(())
+/// ```
 pub fn read_measured_with(
     data: &Path,
     companion: Option<&Path>,

@@ -319,7 +319,7 @@ fn parse_expr(
 /// Parses the linear combination `EXPR` of a map (terms separated by ` + ` or ` - ` with spaces,
 /// each a source, a number or `number*source`) at `col` of `line`; `resolve` turns a source's text
 /// into a [`Source`] or says why it cannot. Also the reader of a model file's derived inputs
-/// ([`crate::usermodel`]), whose sources are columns or measured channels.
+/// (`aerosid::usermodel`), whose sources are columns or measured channels.
 pub fn parse_terms(
     body: &str,
     file: &str,

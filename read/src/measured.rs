@@ -77,7 +77,7 @@ pub enum Quantity {
     VelocityDown,
     /// The autopilot's own wind estimate, north component (velocity of the air), m/s; logged for
     /// comparison and as the wind of last resort when no airspeed is logged
-    /// ([`crate::io::flow_angles`]).
+    /// ([`crate::flow_angles`]).
     WindNorth,
     /// The autopilot's wind estimate, east component, m/s.
     WindEast,
@@ -203,7 +203,7 @@ pub struct LogMeta {
     /// Where α and β come from when the α-free mode ([`super::flow_angles::prepare`]) was run:
     /// the vanes, an estimate (with its wind fit and uncertainty) or why there is none
     /// (`None`: not run; the vanes as logged).
-    pub flow_angles: Option<super::flow_angles::FlowAngles>,
+    pub flow_angles: Option<super::flow_estimate::FlowAngles>,
     /// Where a channel's values come from, for the channels that are not a sensor's own reading
     /// (absent: measured by a sensor — a vane, a pitot, the IMU). Readers set it where the
     /// format says so (ArduPilot's `AOA`/`SSA`, a PX4 wind-based estimate), a column map or a
@@ -261,6 +261,19 @@ impl Origin {
     }
 }
 
+/// The flow channels whose origin the reports show.
+pub const FLOW_CHANNELS: [Quantity; 3] = [Quantity::Alpha, Quantity::Beta, Quantity::Airspeed];
+
+/// Each flow channel present and where it comes from, for the report (`Alpha` →
+/// `estimated: ArduPilot AOA.AOA …`, `Airspeed` → `sensor`).
+pub fn channel_origin(flight: &MeasuredFlight) -> BTreeMap<String, String> {
+    FLOW_CHANNELS
+        .iter()
+        .filter(|q| flight.get(**q).is_some())
+        .map(|q| (format!("{q:?}"), flight.log.origin_of(*q).describe()))
+        .collect()
+}
+
 impl LogMeta {
     /// Marks channel `q` as an estimator's output, `by` saying which estimator.
     pub fn set_estimated(&mut self, q: Quantity, by: &str) {
@@ -291,7 +304,7 @@ impl MeasuredFlight {
     ///
     /// Why block means (and not a sharper low-pass, then every `k`-th sample): white sensor noise
     /// stays white, with its variance divided by `k` — the noise model of the analysis
-    /// ([`crate::gaps::noise`]) and its noise estimates assume white noise; every channel gets
+    /// (`aerosid::gaps::noise`) and its noise estimates assume white noise; every channel gets
     /// the same treatment, so no channel moves against another; a `k`-mean passes `cos`-shaped
     /// `sin(πfk h)/(k sin(πf h))`, 1 at 0, ≥ 0.97 up to a tenth of the new rate and 0 at the
     /// new rate itself, folding back only what lies between half the new rate and it.

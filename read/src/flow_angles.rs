@@ -50,7 +50,6 @@
 
 use super::measured::{MeasuredFlight, Quantity};
 use nalgebra::{DMatrix, DVector};
-use serde::Serialize;
 use std::f64::consts::PI;
 
 /// The share of a white noise's σ that the gap analysis's smoothing passes: a quadratic
@@ -128,98 +127,9 @@ impl Default for WindFitSettings {
     }
 }
 
-/// The wind of one block.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct WindBlock {
-    /// Block start and end, s.
-    pub t_s: [f64; 2],
-    /// Wind north, east (velocity of the air), m/s.
-    pub wind_ne_mps: [f64; 2],
-    /// Their 1-σ, m/s.
-    pub sigma_ne_mps: [f64; 2],
-    /// The heading span flown in the block, degrees.
-    pub heading_span_deg: f64,
-}
-
-/// The result of [`fit_wind`].
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct WindFit {
-    /// Per block.
-    pub blocks: Vec<WindBlock>,
-    /// Pitot scale `k` (true airspeed = `k` × logged).
-    pub pitot_scale: f64,
-    /// Its 1-σ.
-    pub pitot_scale_sigma: f64,
-    /// RMS of the airspeed residual `k·V_m − |v_g − w|`, m/s (gusts and pitot noise).
-    pub residual_rms_mps: f64,
-    /// Samples used.
-    pub samples: usize,
-    /// Independent samples (residual autocorrelation).
-    pub effective_samples: f64,
-    /// Condition number of the scaled Jacobian.
-    pub condition: f64,
-    /// The covariance of `[k, w_N1, w_E1, …]`, row-major (the blocks in order).
-    #[serde(skip)]
-    pub covariance: Vec<f64>,
-    /// Why the fit cannot be trusted (empty: it can); a non-empty list means α/β are not
-    /// estimated from it.
-    pub refused: Vec<String>,
-}
-
-/// What the α-free mode did, for the data-quality assessment and the report
-/// ([`super::measured::LogMeta::flow_angles`]).
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct FlowAngles {
-    /// `vanes`, `estimated`, `not estimated` or `off`.
-    pub status: String,
-    /// Where the wind came from: `wind-triangle fit`, `autopilot wind estimate` or empty.
-    pub wind_source: String,
-    /// The fit (when one was made, refused or not).
-    pub fit: Option<WindFit>,
-    /// The autopilot's logged wind, mean north and east, m/s (for comparison).
-    pub autopilot_wind_ne_mps: Option<[f64; 2]>,
-    /// 1-σ of the estimated α, rad (NaN: unknown).
-    pub alpha_sigma_rad: f64,
-    /// 1-σ of the estimated β, rad (NaN: unknown).
-    pub beta_sigma_rad: f64,
-    /// 1-σ of α as the gap analysis sees it, after its ±0.1-s smoothing (which passes
-    /// [`SMOOTHED_WHITE_SHARE`] of the attitude's white noise; the wind's and the gusts' slow
-    /// errors pass whole), rad: what the α terms' excitation is judged against.
-    pub alpha_sigma_smoothed_rad: f64,
-    /// The same for β, rad.
-    pub beta_sigma_smoothed_rad: f64,
-    /// Standard deviation of the estimated α over the flight, rad (the α excitation).
-    pub alpha_excitation_rad: f64,
-    /// Standard deviation of the estimated β, rad (the sideslip excitation).
-    pub beta_excitation_rad: f64,
-    /// The assumptions, each a sentence.
-    pub assumptions: Vec<String>,
-    /// Why α/β were not estimated (empty when they were).
-    pub why_not: Vec<String>,
-    /// One sentence for the data-quality table.
-    pub summary: String,
-}
-
-impl Default for FlowAngles {
-    /// Nothing estimated: the σ's and excitations unknown (NaN), the texts empty.
-    fn default() -> Self {
-        Self {
-            status: String::new(),
-            wind_source: String::new(),
-            fit: None,
-            autopilot_wind_ne_mps: None,
-            alpha_sigma_rad: f64::NAN,
-            beta_sigma_rad: f64::NAN,
-            alpha_sigma_smoothed_rad: f64::NAN,
-            beta_sigma_smoothed_rad: f64::NAN,
-            alpha_excitation_rad: f64::NAN,
-            beta_excitation_rad: f64::NAN,
-            assumptions: Vec::new(),
-            why_not: Vec::new(),
-            summary: String::new(),
-        }
-    }
-}
+/// The α-free mode's record (kept apart so that [`MeasuredFlight`]'s log can hold it without
+/// depending on the estimator).
+pub use super::flow_estimate::{FlowAngles, WindBlock, WindFit};
 
 /// The circular span of a set of angles, rad: 2π less the largest gap between neighbours.
 pub fn heading_span(psi: &[f64]) -> f64 {
@@ -641,7 +551,7 @@ pub fn estimate(flight: &MeasuredFlight, s: &WindFitSettings) -> Result<Estimate
     if wind_cov.is_some() {
         // The gusts: the airspeed residual less the pitot's own white noise (third differences),
         // which is no error of α or β.
-        let pitot_white = flight.get(Airspeed).map_or(0.0, crate::gaps::signal::white_noise_sd)
+        let pitot_white = flight.get(Airspeed).map_or(0.0, crate::signal::white_noise_sd)
             * info.fit.as_ref().map_or(1.0, |f| f.pitot_scale);
         let gust = (turbulence_mps * turbulence_mps - pitot_white * pitot_white)
             .max(0.0)
@@ -649,8 +559,8 @@ pub fn estimate(flight: &MeasuredFlight, s: &WindFitSettings) -> Result<Estimate
         let turb = gust / v_mean.max(1.0);
         // The attitude's white noise passes one for one (pitch into α, yaw into β); estimated
         // from its third differences.
-        let theta_noise = crate::gaps::signal::white_noise_sd(pitch);
-        let psi_noise = crate::gaps::signal::white_noise_sd(yaw);
+        let theta_noise = crate::signal::white_noise_sd(pitch);
+        let psi_noise = crate::signal::white_noise_sd(yaw);
         let (wa, wb) = (var_a / n as f64, var_b / n as f64);
         info.alpha_sigma_rad = (wa + turb * turb + theta_noise * theta_noise).sqrt();
         info.beta_sigma_rad = (wb + turb * turb + psi_noise * psi_noise).sqrt();
@@ -743,8 +653,8 @@ pub fn prepare(flight: &MeasuredFlight, choice: FlowAngleChoice, s: &WindFitSett
     let vanes = flight.get(Quantity::Alpha).is_some();
     // A logged α that is itself an estimate (the autopilot's) is used as logged, and said so.
     let logged = match flight.log.origin_of(Quantity::Alpha) {
-        crate::io::measured::Origin::Estimated { by } => format!("α, β as logged: estimated by {by}, not vanes"),
-        crate::io::measured::Origin::Sensor => "α, β from the vanes".to_string(),
+        crate::measured::Origin::Estimated { by } => format!("α, β as logged: estimated by {by}, not vanes"),
+        crate::measured::Origin::Sensor => "α, β from the vanes".to_string(),
     };
     let off = |why: &str| FlowAngles {
         status: "off".into(),

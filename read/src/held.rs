@@ -6,7 +6,7 @@
 //! derivative is zero between them and a spike at each, and the data-quality assessment would
 //! judge it by the grid's rate. So the readers that take a time base as given (the project CSV,
 //! column-mapped ASCII and `.mat`) look for held channels, record their true rate in
-//! [`LogMeta::logged_rate_hz`] (which [`super::quality`] judges) and replace each staircase by the
+//! [`crate::measured::LogMeta::logged_rate_hz`] (which [`super::quality`] judges) and replace each staircase by the
 //! straight lines between its sample instants — the same linear interpolation the ULog and
 //! DataFlash readers use between a topic's own messages — with a warning naming the channel.
 //!
