@@ -549,6 +549,11 @@ pub struct NamedCause {
     /// For a term of a family of rival forms: the family, the form and the forms this flight
     /// cannot separate from it, in words ([`family::FamilyChoice::describe`]).
     pub family: Option<String>,
+    /// The test it passed: its `t²` when it entered and the threshold, `(entry_t2, threshold)`.
+    /// The entry test is the selection's (least squares, block sandwich); `t2` is the final fit's,
+    /// whose σ also carries the regressors' errors, so it can be the smaller — the report then
+    /// shows both rather than a named cause below its own threshold with no word why.
+    pub entry: Option<(f64, f64)>,
 }
 
 /// Everything the analysis found.
@@ -919,6 +924,7 @@ pub fn run_gaps(flight: &MeasuredFlight, settings: &GapSettings) -> Result<GapRe
             value: f.value,
             sigma: f.sigma,
             family: None,
+            entry: None,
         })
         .collect();
     let mut aero: Vec<NamedCause> = coefficients
@@ -1321,6 +1327,7 @@ fn named_aero(c: &CoefficientGap, a: &Added) -> Option<NamedCause> {
             value: tau,
             sigma,
             family,
+            entry: Some((a.t2, c.threshold_t2)),
         });
     }
     (a.value.is_finite() && a.sigma.is_finite()).then(|| NamedCause {
@@ -1331,6 +1338,7 @@ fn named_aero(c: &CoefficientGap, a: &Added) -> Option<NamedCause> {
         value: a.value,
         sigma: a.sigma,
         family,
+        entry: Some((a.t2, c.threshold_t2)),
     })
 }
 

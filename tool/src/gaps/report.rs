@@ -388,16 +388,30 @@ pub fn table(r: &GapReport) -> String {
     for (k, c) in r.named.iter().enumerate() {
         let _ = writeln!(
             s,
-            "   {} {:?} in {}: {} = {} (t² {})",
+            "   {} {:?} in {}: {} = {} (t² {}{})",
             if k == 0 { "TOP" } else { "   " },
             c.kind,
             c.location,
             c.what,
             estimate(c.value, c.sigma, ""),
-            t2_text(c.t2)
+            t2_text(c.t2),
+            entry_text(c)
         );
     }
     s
+}
+
+/// Where a named cause's final `t²` is below the threshold it passed at entry, both tests in
+/// words; empty otherwise.
+fn entry_text(c: &super::NamedCause) -> String {
+    match c.entry {
+        Some((entry, threshold)) if entry.is_finite() && !(c.t2 >= threshold) => format!(
+            " in the final fit, whose σ carries the regressors' errors too; it entered at t² {} > {} in the selection's least-squares fit",
+            t2_text(entry),
+            t2_text(threshold)
+        ),
+        _ => String::new(),
+    }
 }
 
 /// `(value/σ)²`; NaN when either is not finite.
@@ -507,6 +521,7 @@ pub fn json(r: &GapReport) -> Value {
             let mut v = json!({
                 "kind": c.kind, "location": c.location, "what": c.what,
                 "t2": f(c.t2), "value": f(c.value), "sigma": f(c.sigma), "family": c.family,
+                "entry_t2": c.entry.map(|e| f(e.0)), "threshold_t2": c.entry.map(|e| f(e.1)),
             });
             undetermined_to_null(&mut v);
             v
