@@ -41,6 +41,7 @@
 pub mod airdata;
 pub mod bench;
 pub mod compat;
+pub mod held_noise;
 pub mod hidden;
 pub mod instrumental;
 pub mod model;
