@@ -12,10 +12,10 @@ use aerosid::sim::test_card::CardTurbulence;
 ///
 /// Tolerance: the target is at most one clean campaign in 20 with a cause; at that rate, two or
 /// more of six happen with probability 1 − 0.95⁶ − 6·0.05·0.95⁵ = 3.3 %, so the test allows one.
-/// The seeds are fixed, so the outcome is reproducible. Before the slow channels' noise was
-/// modelled at their own sample instants, four of these six named `ΔV/V` or `C_T` in `C_D` — the
-/// pitot's and the propeller speed's error, shared by a candidate and by the coefficient, taken
-/// for an effect.
+/// The seeds are fixed, so the outcome is reproducible. With the slow channels' noise read on the
+/// grid (where it comes out as zero), four of these six name `ΔV/V` or `C_T` in `C_D`: the pitot's
+/// and the propeller speed's error, shared by a candidate and by the coefficient, taken for an
+/// effect (`aerosid::gaps::held_noise`).
 #[test]
 fn at_most_one_of_six_clean_cards_names_a_cause() {
     let root = std::env::temp_dir().join(format!("aerosid-clean-cards-{}", std::process::id()));
