@@ -405,7 +405,10 @@ def pooled_rows(flights, getter, base):
             r[key + "_hit"] += hit
             sensor = p["kind"] in SENSOR
             r["cross_n"] += 1
-            other = [n for n in named if (n["kind"] in SENSOR) != sensor and not matches_planted(n, p)]
+            # A known table effect of the aircraft (JSBSim's CDbeta in C_D) is its truth, not a
+            # cause of the other category.
+            other = [n for n in named if (n["kind"] in SENSOR) != sensor and not matches_planted(n, p)
+                     and not matches_table(n, fl.get("table_effects"))]
             r["cross"] += bool(other)
             if other:
                 r["cross_items"].append("%s: %s" % (fl["id"], "; ".join("%s %s %s" % (n["kind"], n["location"], term_of(n)) for n in other)))

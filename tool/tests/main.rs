@@ -3,6 +3,7 @@
 //! the binary's path (`CARGO_BIN_EXE_aerosid`).
 
 mod batch;
+mod clean_cards;
 mod cli;
 mod corrupt_logs;
 mod exit_codes;

@@ -42,6 +42,7 @@ pub mod airdata;
 pub mod bench;
 pub mod compat;
 pub mod family;
+pub mod held_noise;
 pub mod hidden;
 pub mod instrumental;
 pub mod model;

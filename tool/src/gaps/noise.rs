@@ -18,7 +18,9 @@
 //!
 //! ## Method
 //! 1. The white-noise level of every measured channel, from its third differences
-//!    ([`super::signal::white_noise_sd`]).
+//!    ([`super::signal::white_noise_sd`]); for a channel logged slower than the grid and
+//!    interpolated by the reader, from its values at its own sample instants, where the replicas
+//!    draw its noise and interpolate it as the reader did ([`super::held_noise`]).
 //! 2. `R` replicas of the flight with independent white noise of those levels added to every
 //!    channel (seeded ChaCha8, so the result is reproducible). For each replica the flight-path
 //!    reconstruction is repeated with the sensor errors found held fixed
@@ -38,6 +40,7 @@
 //! throttle) is exact.
 
 use super::compat::{reconstruct_air_data, Compatibility};
+use super::held_noise;
 use super::model::{synthesise, Corrections, Table, Term, TermRefs};
 use super::regress::EivModel;
 use super::signal::white_noise_sd;
@@ -47,9 +50,32 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 use std::collections::BTreeMap;
 
-/// The white-noise standard deviation of every channel (SI units).
+/// The white-noise standard deviation of every channel (SI units), on the grid's samples.
 pub fn channel_noise(flight: &MeasuredFlight) -> BTreeMap<Quantity, f64> {
     flight.channels.iter().map(|(q, v)| (*q, white_noise_sd(v))).collect()
+}
+
+/// The white noise of every channel as the Monte Carlo draws it: its standard deviation and, for a
+/// channel logged slower than the grid (`h_s`) and interpolated by the reader, its sample
+/// instants, where the noise is estimated and drawn ([`super::held_noise`]); `None` for a channel
+/// at the grid's rate, whose noise is white on the grid.
+pub fn channel_noise_model(flight: &MeasuredFlight, h_s: f64) -> BTreeMap<Quantity, (f64, Option<Vec<usize>>)> {
+    flight
+        .channels
+        .iter()
+        .map(|(q, v)| {
+            let instants = flight
+                .log
+                .logged_rate_hz
+                .get(q)
+                .and_then(|r| held_noise::sample_instants(v, *r, h_s));
+            let sd = match &instants {
+                Some(k) => held_noise::white_noise_sd_at(v, k),
+                None => white_noise_sd(v),
+            };
+            (*q, (sd, instants))
+        })
+        .collect()
 }
 
 /// The error second moments of one coefficient's columns.
@@ -204,7 +230,7 @@ pub fn column_errors(
     mc: &MonteCarlo,
 ) -> [Option<ColumnErrors>; 6] {
     let n_id = s.n_id.min(table.t_s.len());
-    let noise = channel_noise(s.flight);
+    let noise = channel_noise_model(s.flight, s.h_s);
     // The coefficients present, in groups that share most of their terms (the longitudinal and
     // the lateral ones): one Gram matrix per group instead of one per coefficient.
     let present = |i: usize| table.z[i].is_some();
@@ -274,10 +300,18 @@ pub fn column_errors(
         pert.t_s.truncate(n_keep);
         pert.log.pieces.retain(|p| p.end <= n_keep);
         for (q, v) in pert.channels.iter_mut() {
-            let sd = noise.get(q).copied().unwrap_or(0.0);
+            let (sd, instants) = noise.get(q).map_or((0.0, None), |(sd, k)| (*sd, k.as_deref()));
             // The whole flight's draws, so that a replica's noise does not depend on the margin.
             let draws = if sd > 0.0 { v.len() } else { 0 };
+            let slow = (sd > 0.0)
+                .then_some(instants)
+                .flatten()
+                .map(|k| held_noise::interpolated_noise(v.len(), k, sd, &mut rng));
             v.truncate(n_keep);
+            if let Some(e) = slow {
+                v.iter_mut().zip(e).for_each(|(x, e)| *x += e);
+                continue;
+            }
             for j in 0..draws {
                 let e: f64 = StandardNormal.sample(&mut rng);
                 if let Some(x) = v.get_mut(j) {
