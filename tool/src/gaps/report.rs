@@ -299,7 +299,7 @@ pub fn table(r: &GapReport) -> String {
     }
     let _ = writeln!(
         s,
-        "\n   estimates (PCA-GTLS ± coloured-residual σ [eq. 17 σ]; OLS cross-check):"
+        "\n   estimates (the estimator named ± coloured-residual σ [PCA-GTLS: eq. 17 σ; output error: the Cramér–Rao bound]; OLS cross-check beside PCA-GTLS):"
     );
     for c in &r.coefficients {
         let f = &c.extended;
@@ -318,14 +318,19 @@ pub fn table(r: &GapReport) -> String {
             } else {
                 "[–]".into()
             };
+            // Output error has no least-squares cross-check (and no exact columns).
+            let ols = if p.ols_value.is_finite() {
+                format!("OLS {:>12.5}{}", p.ols_value, if p.exact { "  (exact)" } else { "" })
+            } else {
+                String::new()
+            };
             let _ = writeln!(
                 s,
-                "     {:<10} {:>28} {:<11} OLS {:>12.5}{}",
+                "     {:<10} {:>28} {:<11} {}",
                 p.term,
                 estimate(p.value, p.sigma, ""),
                 eq17,
-                p.ols_value,
-                if p.exact { "  (exact)" } else { "" }
+                ols
             );
         }
     }
