@@ -141,8 +141,9 @@ def summary_block(reports):
             continue
         rep = reports[key]
         dq = rep["data_quality"]
+        # Sensor errors have their own column; a coefficient's location starts with "C_".
         causes = "; ".join(
-            f"{c['location']}: {c['what']}" for c in rep.get("named", [])
+            f"{c['location']}: {c['what']}" for c in rep.get("named", []) if c["location"].startswith("C_")
         ) or "none"
         gains = "; ".join(
             f"{c['name']} {r2(c.get('cv_r2_baseline'))} → {r2(c.get('cv_r2_extended'))}"
