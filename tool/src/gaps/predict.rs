@@ -442,6 +442,7 @@ pub fn table(p: &GapsPrediction) -> String {
         "{:<5} {:<9} {:>7} {:>11} {:>8} {:>8}  extension",
         "coef", "model", "samples", "RMS", "R²", "Theil U"
     );
+    let _ = writeln!(s, "{}", crate::workflow::THEIL_LEGEND);
     for c in &p.coefficients {
         match (&c.baseline, &c.extended) {
             (Some(b), Some(e)) => {

@@ -1202,7 +1202,12 @@ pub fn fit_table(out: &mut String, title: &str, fits: &[OutputFit]) {
             f.name, f.samples, f.rms, f.r2, f.theil_u
         );
     }
+    let _ = writeln!(out, "{THEIL_LEGEND}");
 }
+
+/// What R² and Theil's U each measure, printed under every table that shows both: they can
+/// disagree (a U of 0.03 beside an R² of −23 on an output whose level is large and matched).
+pub const THEIL_LEGEND: &str = "    (R² scores the variation about the measured mean; Theil's U the signals themselves, level included, Jategaonkar 2015 §10: a small U beside a low R² means the level is matched and the variation is not)";
 
 /// Measured vs simulated and the residual, per output, all segments one after the other.
 fn fit_figure(model: &UserModel, title: &str, segs: &[Segment], sims: &[Vec<YVec>]) -> Figure {
