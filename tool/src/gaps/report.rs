@@ -410,7 +410,7 @@ pub fn table(r: &GapReport) -> String {
 /// words; empty otherwise.
 fn entry_text(c: &super::NamedCause) -> String {
     match c.entry {
-        Some((entry, threshold)) if entry.is_finite() && !(c.t2 >= threshold) => format!(
+        Some((entry, threshold)) if entry.is_finite() && c.t2.partial_cmp(&threshold) != Some(std::cmp::Ordering::Greater) => format!(
             " in the final fit, whose σ carries the regressors' errors too; it entered at t² {} > {} in the selection's least-squares fit",
             t2_text(entry),
             t2_text(threshold)
