@@ -386,10 +386,9 @@ def pooled_rows(flights, getter, base):
             r["clean_n"] += 1
             r["clean_named"] += bool(named)
         report = None
-        if fl.get("report"):
-            path = os.path.join(base, fl["report"])
-            if os.path.exists(path):
-                report = json.load(open(path))
+        path = report_path(fl, base)
+        if path and os.path.exists(path):
+            report = json.load(open(path))
         for p in planted:
             hit = any(matches_planted(n, p) for n in named)
             lim = planted_limit(p, report)
@@ -574,7 +573,9 @@ def main():
                         "%.3g" % statistics.median(s["cpu"]) if s["cpu"] else "–"]
             lines.append("| " + " | ".join(row) + " |")
         lines.append("")
-        if any(f.get("pooled") is not None for f in fs):
+        # Detection relative to the least detectable size: every suite whose planted effects
+        # carry their size (the pooled cards and the single simulated and JSBSim flights).
+        if any(f.get("pooled") is not None or any("size" in p for p in f.get("planted") or []) for f in fs):
             lines += pooled_section(suite, fs, methods, base)
         lines += se_ratio_section(suite, fs, base)
         if a.truth:
