@@ -391,6 +391,9 @@ def pooled_rows(flights, getter, base):
             report = json.load(open(path))
         for p in planted:
             hit = any(matches_planted(n, p) for n in named)
+            # A single simulated flight's id names its kind ("sim/lift-quadratic_20001").
+            if not p.get("effect") and fl.get("suite") == "sim":
+                p = dict(p, effect=fl["id"].split("/", 1)[-1].rsplit("_", 1)[0])
             lim = planted_limit(p, report)
             size = p.get("size")
             md = lim[0] if lim else None
