@@ -77,11 +77,11 @@ step "docs tables current (docs/conventions.md): AEROSID=$AEROSID bash scripts/d
 # The result tables in the docs are generated from this tool (the main job above, `aerosid gaps` on
 # the vendored flights: a few seconds); a change in the analysis that leaves them stale fails here
 # with the diff. `bash scripts/docs-tables.sh` regenerates them.
-AEROSID="$AEROSID" bash scripts/docs-tables.sh --check --main-job-output target/main-job.txt
+env AEROSID="$AEROSID" bash scripts/docs-tables.sh --check --main-job-output target/main-job.txt
 
 step "HTML reports in headless Chromium (docs/reports.md): scripts/check-html.py on \`aerosid gaps\` pages"
 # Chromium (Debian's package) installed if missing, as QEMU above. Two pages: the HFB-320 flight-test
-# data (no verdict: 10 Hz) and a simulated flight with a named cause; each must render every figure
+# data (10 Hz, the low-rate output-error path) and a simulated flight with a named cause; each must render every figure
 # written beside it inline, with no console error and a screenshot that is not blank.
 if ! command -v chromium >/dev/null 2>&1; then
     if [ "$(id -u)" = 0 ]; then
