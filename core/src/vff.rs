@@ -163,11 +163,11 @@
 //! [`VffSettings::for_dimension`] and [`VffSettings::for_aero_coefficients`] (a memory of ~5 samples
 //! while the change is being detected; the information matrix keeps about a third of its weight per
 //! 5 rejected samples) and document the effect in the host tests. Measured in the early-jump sweep
-//! (`γ₀ = 2`, dimension 3): with 0.9 the median to settle was 486 / 339 / 340 / 287 / 272 samples
-//! for jumps at 150 / 300 / 600 / 1 500 / 5 000, with 0.8 266 / 173 / 179 / 150 / 138 (no seed
-//! slower than `λ = 0.999`, no false drop, no loss of excitation); in dimension 5 with `γ₀ = 1.7`,
-//! 0.7 settled a little faster again (651 / 273 against 690 / 336 with 0.8, jumps at 150 / 300) but
-//! was not measured in every dimension.
+//! (`γ₀ = 2`, dimension 3), the median to settle for jumps at 150 / 300 / 600 / 1 500 / 5 000 is
+//! 266 / 173 / 179 / 150 / 138 samples with the floor 0.8 and 486 / 339 / 340 / 287 / 272 with 0.9
+//! (no seed slower than `λ = 0.999`, no false drop, no loss of excitation); in dimension 5 with
+//! `γ₀ = 1.7` a floor of 0.7 settles a little faster again (651 / 273 against 690 / 336 with 0.8,
+//! jumps at 150 / 300) but is not measured in every dimension, so 0.8 stays.
 //!
 //! ## Π and q (eq. 29–30)
 //! Eq. 30 prints `x̂₀ᵀx̂₀`; it is the outer product `x̂₀ x̂₀ᵀ` (`Π` is the information matrix of the

@@ -241,13 +241,7 @@ pub fn single_candidate_se(
         ),
     };
     // H = XᵀX − N·W̃ (W̃ over the noisy columns), on RMS-scaled columns for conditioning.
-    let scale: Vec<f64> = cols
-        .iter()
-        .map(|c| (c.iter().map(|v| v * v).sum::<f64>() / n as f64).sqrt())
-        .collect();
-    if scale.iter().any(|s| !(s.is_finite() && *s > 0.0)) {
-        return None;
-    }
+    let scale = regress::column_scales(&cols, n)?;
     let mut h = DMatrix::<f64>::zeros(p, p);
     for a in 0..p {
         for b in a..p {

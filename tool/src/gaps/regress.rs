@@ -291,7 +291,7 @@ pub fn ols_theta(cols: &[Vec<f64>], z: &[f64]) -> Option<Vec<f64>> {
 
 /// The column scales (RMS) of `cols`, each of length `n`; `None` if one is zero or not finite.
 /// Every fit scales its columns by them for conditioning.
-fn column_scales(cols: &[Vec<f64>], n: usize) -> Option<Vec<f64>> {
+pub(super) fn column_scales(cols: &[Vec<f64>], n: usize) -> Option<Vec<f64>> {
     let scale: Vec<f64> = cols
         .iter()
         .map(|c| (c.iter().map(|v| v * v).sum::<f64>() / n as f64).sqrt())
