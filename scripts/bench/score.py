@@ -375,6 +375,7 @@ def se_ratio_section(suite, fs, base):
 def pooled_rows(flights, getter, base):
     """Counts of one method on a pooled suite (see the module doc)."""
     r = dict(det_hit=0, det_n=0, below_hit=0, below_n=0, nc_hit=0, nc_n=0, clean_named=0, clean_n=0,
+             det_aero_hit=0, det_aero_n=0, det_sens_hit=0, det_sens_n=0,
              cross=0, cross_n=0, cross_items=[], order_ok=0, order_n=0, single_ok=0, single_n=0, misses=[], below=[])
     for fl in flights:
         res = getter(fl)
@@ -406,6 +407,9 @@ def pooled_rows(flights, getter, base):
             r[key + "_n"] += 1
             r[key + "_hit"] += hit
             sensor = p["kind"] in SENSOR
+            if key == "det":
+                r["det_%s_n" % ("sens" if sensor else "aero")] += 1
+                r["det_%s_hit" % ("sens" if sensor else "aero")] += hit
             r["cross_n"] += 1
             # A known table effect of the aircraft (JSBSim's CDbeta in C_D) is its truth, not a
             # cause of the other category.
@@ -453,6 +457,8 @@ def pooled_section(suite, fs, methods, base):
     # Operating point: per peer, the configurations with <= 1 clean campaign in 10 with a cause.
     families = {}
     for name, _ in methods[1:]:
+        if name in SWEEP_LABELS:
+            continue
         families.setdefault(name.split(" (")[0].split(" @")[0].split()[0], []).append(name)
     for fam, names in families.items():
         ok = [n for n in names if rows[n]["clean_n"] and rows[n]["clean_named"] <= 0.1 * rows[n]["clean_n"]]
@@ -482,6 +488,115 @@ def pooled_section(suite, fs, methods, base):
         out += ["* " + x for x in a["cross_items"]]
     out.append("")
     return out
+
+
+# Peers at an equal false-alarm rate (peers.py --sweep): per suite and sweep, the most permissive
+# knob value at which at most FA_RATE of the clean flights have a false alarm.
+FA_RATE = 0.1
+SWEEP_LABELS = set()
+
+
+def false_alarm(fl, named):
+    """A clean flight (planted []) with an item named that is not one of its aircraft's listed
+    table effects (JSBSim: the table effects are truth, not alarms); elsewhere any item."""
+    return any(not matches_table(n, fl.get("table_effects")) for n in named)
+
+
+def sweep_named_at(rec, i):
+    """The items a sweep's record (peers.json flight -> sweeps -> key) names at grid index i."""
+    return [{"location": rec["items"][j][0], "term": rec["items"][j][1], "kind": rec["items"][j][2]}
+            for j in rec["path"][i]]
+
+
+def operating_point(fs, recs, grid):
+    """(index, reached, false alarms, clean flights) of a sweep on one suite: the first (most
+    permissive) grid index with at most FA_RATE of the clean flights with a false alarm; when none
+    reaches it, the index with the fewest (the least permissive on a tie) and reached False.
+    None when the suite has no clean flight or no sweep record."""
+    clean = [f for f in fs if f.get("planted") == [] and f["id"] in recs]
+    if not clean:
+        return None
+    counts = [sum(false_alarm(f, sweep_named_at(recs[f["id"]], i)) for f in clean) for i in range(len(grid))]
+    for i, c in enumerate(counts):
+        if c <= FA_RATE * len(clean):
+            return i, True, c, len(clean)
+    i = min(range(len(grid)), key=lambda i: (counts[i], -i))
+    return i, False, counts[i], len(clean)
+
+
+def equal_fa_section(suite, fs, aerosid, sweeps, base):
+    """Markdown: aerosid at its defaults and every swept peer at its equal-false-alarm point, one row
+    per figure. sweeps: [(label, settings, {id: record}, point)]."""
+    cols = [("aerosid gaps (defaults)", aerosid)]
+    for label, st, recs, pt in sweeps:
+        if pt is None:
+            continue
+        cols.append((label, (lambda recs, i: lambda fl: None if fl["id"] not in recs else dict(
+            named=sweep_named_at(recs[fl["id"]], i), seconds=recs[fl["id"]].get("seconds"),
+            cpu_seconds=recs[fl["id"]].get("cpu_seconds")))(recs, pt[0])))
+    if len(cols) == 1:
+        return []
+    sc = [score_method(fs, g) for _, g in cols]
+    pr = [pooled_rows(fs, g, base) for _, g in cols]
+    clean = [f for f in fs if f.get("planted") == []]
+    fa = [sum(false_alarm(f, dedupe((g(f) or {}).get("named", []))) for f in clean) for _, g in cols]
+    table = any(s["has_table"] for s in sc)
+    sized = any(any("size" in p for p in f.get("planted") or []) or f.get("pooled") is not None for f in fs)
+    point = ["default (`--alpha 0.01 --gain-alpha 0.01`)"]
+    for label, st, recs, pt in sweeps:
+        if pt is None:
+            continue
+        v = "%s %.3g" % (st["knob"], st["grid"][pt[0]])
+        point.append(v if pt[1] else "not reached: sweep's end %s %.3g of %.3g–%.3g" % (
+            st["knob"], st["grid"][pt[0]], st["grid"][0], st["grid"][-1]))
+    rows = [("operating point", point),
+            ("clean flights with a false alarm%s (the rate compared: ≤ 1 in 10)" % (
+                " (an item not among the aircraft's table effects)" if table else " (any cause)"),
+             [fmt_frac(a, len(clean)) for a in fa]),
+            ("planted aerodynamic effects named with the right cause", [fmt_frac(s["aero_hit"], s["aero_n"]) for s in sc])]
+    if sized:
+        rows += [("planted aerodynamic effects ≥ %.1f× the oracle's limit named" % DETECT_FACTOR,
+                  [fmt_frac(r["det_aero_hit"], r["det_aero_n"]) for r in pr]),
+                 ("planted sensor effects ≥ %.1f× the oracle's limit named" % DETECT_FACTOR,
+                  [fmt_frac(r["det_sens_hit"], r["det_sens_n"]) for r in pr]),
+                 ("planted effects below %.1f× the limit named" % DETECT_FACTOR, [fmt_frac(r["below_hit"], r["below_n"]) for r in pr]),
+                 ("planted effects with no limit in the size's unit named", [fmt_frac(r["nc_hit"], r["nc_n"]) for r in pr])]
+    rows += [("planted sensor effects named", [fmt_frac(s["sens_hit"], s["sens_n"]) for s in sc]),
+             ("a cause of the other category (sensor on an aerodynamic plant or the reverse)",
+              [fmt_frac(r["cross"], r["cross_n"]) for r in pr]),
+             ("items named per clean flight", ["%.1f" % statistics.mean(s["clean_items"]) if s["clean_items"] else "–" for s in sc])]
+    if table:
+        rows += [("table effects named", [fmt_frac(s["table_named"], s["table_total"]) for s in sc]),
+                 ("spurious items per flight", ["%.1f" % statistics.mean(s["spurious"]) if s["spurious"] else "–" for s in sc])]
+    rows.append(("CPU s per flight, median (the peers: the whole sweep)",
+                 ["%.3g" % statistics.median(s["cpu"]) if s["cpu"] else "–" for s in sc]))
+    out = ["#### `%s`: at an equal false-alarm rate (each peer's knob at its most permissive value with ≤ 1 clean "
+           "flight in 10 with a false alarm, chosen on these clean flights)\n" % suite,
+           "| figure | " + " | ".join(n for n, _ in cols) + " |", "|---|" + "---:|" * len(cols)]
+    out += ["| %s | %s |" % (name, " | ".join(v)) for name, v in rows]
+    out.append("")
+    return out
+
+
+def sweep_curve(suite, fs, sweeps):
+    """Markdown lines: each sweep's false alarms along its grid on this suite (the choice shown)."""
+    out = []
+    for label, st, recs, pt in sweeps:
+        clean = [f for f in fs if f.get("planted") == [] and f["id"] in recs]
+        if not clean or pt is None:
+            continue
+        counts = [sum(false_alarm(f, sweep_named_at(recs[f["id"]], i)) for f in clean) for i in range(len(st["grid"]))]
+        pts, i = [], 0
+        while i < len(counts):  # runs of equal counts: "from–to: count"
+            j = i
+            while j + 1 < len(counts) and counts[j + 1] == counts[i]:
+                j += 1
+            g = st["grid"]
+            pts.append(("%.3g" % g[i] if i == j else "%.3g–%.3g" % (g[i], g[j])) + ": %d" % counts[i])
+            i = j + 1
+        out.append("* %s, clean %s with a false alarm (of %d) by %s: %s" % (
+            label, "flights", len(clean), st["knob"], ", ".join(pts)))
+    return out + ([""] if out else [])
 
 
 def peer_label(key, settings):
@@ -527,12 +642,18 @@ def main():
     paths = a.peers or [os.path.join(base, "peers.json")]
     methods = [("aerosid gaps", lambda fl: fl.get("aerosid"))]
     notes, versions = [], {}
+    sweeps = []  # (label, settings, {flight id: sweep record})
     for path in paths:
         if not os.path.exists(path):
             print("no peers file", path, file=sys.stderr)
             continue
         peers = json.load(open(path))
         versions.update(peers.get("versions", {}))
+        for k, st in peers.get("sweeps", {}).items():
+            recs = {f["id"]: f["sweeps"][k] for f in peers["flights"] if k in f.get("sweeps", {})}
+            sweeps.append((st["label"], st, recs))
+            notes.append("%s: %s; grid %.3g–%.3g (%d values)" % (st["label"], st["rule"], st["grid"][0], st["grid"][-1],
+                                                               len(st["grid"])))
         by_id = {f["id"]: f["peers"] for f in peers["flights"]}
         keys = []
         for f in peers["flights"]:
@@ -580,6 +701,9 @@ def main():
         # carry their size (the pooled cards and the single simulated and JSBSim flights).
         if any(f.get("pooled") is not None or any("size" in p for p in f.get("planted") or []) for f in fs):
             lines += pooled_section(suite, fs, methods, base)
+        sw = [(label, st, recs, operating_point(fs, recs, st["grid"])) for label, st, recs in sweeps]
+        lines += equal_fa_section(suite, fs, methods[0][1], sw, base)
+        lines += sweep_curve(suite, fs, sw)
         lines += se_ratio_section(suite, fs, base)
         if a.truth:
             lines += reliability_section(suite, fs, base)
