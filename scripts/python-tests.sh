@@ -2,7 +2,8 @@
 # The Python package's tests: a venv under target/, maturin, pytest, pandas, numpy and
 # dask[distributed] from pip, the wheel of python/ built and installed (`pip install ./python`),
 # then pytest on python/tests (among them the Dask batch on a two-worker LocalCluster against
-# `aerosid batch`). pytest's exit code 5 ("no tests collected") fails like any other.
+# `aerosid batch`) and scripts/bench (the benchmark's scoring; its pysindy/sysidentpy tests skip
+# here). pytest's exit code 5 ("no tests collected") fails like any other.
 #
 # The `aerosid` command the tests compare with: $AEROSID, else target/debug/aerosid (built here
 # if `cargo test --workspace` has not built it). The extension's own build goes to
@@ -28,7 +29,7 @@ fi
 PATH="$VENV/bin:$PATH" CARGO_TARGET_DIR="$TARGET/python" "$VENV/bin/pip" install --quiet --no-build-isolation --force-reinstall --no-deps ./python
 
 set +e
-"$VENV/bin/python" -m pytest -q python/tests
+"$VENV/bin/python" -m pytest -q python/tests scripts/bench
 code=$?
 set -e
 if [ "$code" -eq 5 ]; then
