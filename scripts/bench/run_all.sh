@@ -6,7 +6,9 @@
 #     bash scripts/bench/run_all.sh [DIR]          # default DIR: target/bench-eqfa
 #
 # Writes DIR/single/ and DIR/cards/ (manifest.json, tables, reports, peers_sweep.json, score.md).
-# AEROSID: the command (default target/debug/aerosid: `nice cargo build -p aerosid` first);
+# AEROSID: the command (default target/debug/aerosid, built optimised: `nice cargo build -p aerosid
+# --bin aerosid --profile test` — the dev profile leaves the workspace crates unoptimised, many times
+# slower here);
 # PY: a Python with pysindy 2.1.0 and sysidentpy 0.9.0 (default target/bench-venv/bin/python:
 # `python3 -m venv target/bench-venv && target/bench-venv/bin/python -m pip install pysindy==2.1.0
 # sysidentpy==0.9.0`); JOBS: the peers' parallel processes (default 2). Method: docs/benchmarks.md,
@@ -19,7 +21,7 @@ AEROSID="${AEROSID:-target/debug/aerosid}"
 PY="${PY:-target/bench-venv/bin/python}"
 JOBS="${JOBS:-2}"
 if [ ! -x "$AEROSID" ]; then
-    echo "run_all.sh: $AEROSID not found: build it with \`nice cargo build -p aerosid\` or set AEROSID" >&2
+    echo "run_all.sh: $AEROSID not found: build it with \`nice cargo build -p aerosid --bin aerosid --profile test\` or set AEROSID" >&2
     exit 1
 fi
 if ! "$PY" -c 'import pysindy, sysidentpy' 2>/dev/null; then
