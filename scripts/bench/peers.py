@@ -106,6 +106,20 @@ def run_stlsq(X, y, n_ident, terms, threshold="cv"):
     return sel, float(chosen[0])
 
 
+def frols_inputs(X, y, n_ident):
+    """(FROLS model as a static regression, max_lag = 0; the identification rows of X with columns
+    scaled to unit RMS - ERR is scale-invariant, this only helps the conditioning; y's)."""
+    from sysidentpy.model_structure_selection import FROLS
+    from sysidentpy.parameter_estimation import LeastSquares
+    Xi = X[:n_ident]
+    sc = np.sqrt(np.mean(Xi**2, axis=0))
+    sc[sc == 0] = 1.0
+    m = FROLS(order_selection=True, info_criteria="aic", n_info_values=max(Xi.shape[1], 1), estimator=LeastSquares(),
+              ylag=1, xlag=1)
+    m.max_lag = 0
+    return m, Xi / sc, y[:n_ident].reshape(-1, 1)
+
+
 def frols_prepare(X, y, n_ident):
     """The library's routines on the given matrix as a static regression (max_lag = 0).
     Returns (model, Xi, yi, e_var, err, piv): e_var[k-1] the residual variance of the size-k model.
@@ -115,17 +129,8 @@ def frols_prepare(X, y, n_ident):
     pass over all n columns gives every size's terms, and each size's residual variance is computed
     exactly as information_criterion() does it (LeastSquares on those terms, np.var(ddof=1) of the
     residual) - equal to the library's to rounding, n times faster."""
-    from sysidentpy.model_structure_selection import FROLS
     from sysidentpy.parameter_estimation import LeastSquares
-    Xi = X[:n_ident]
-    yi = y[:n_ident].reshape(-1, 1)
-    # Scale columns to unit RMS (ERR is scale-invariant; this only helps the conditioning).
-    sc = np.sqrt(np.mean(Xi**2, axis=0))
-    sc[sc == 0] = 1.0
-    Xi = Xi / sc
-    m = FROLS(order_selection=True, info_criteria="aic", n_info_values=Xi.shape[1], estimator=LeastSquares(),
-              ylag=1, xlag=1)
-    m.max_lag = 0
+    m, Xi, yi = frols_inputs(X, y, n_ident)
     n = Xi.shape[1]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -246,21 +251,14 @@ def frols_forced(X, y, n_ident, nb):
     residuals: every later step orthogonalises against the block anyway). Returns (order of the
     candidate columns as indices of X, e_var[k] of baseline + the first k candidates, k = 0..n),
     e_var as the library's information_criterion() computes it (LeastSquares, np.var ddof=1)."""
-    from sysidentpy.model_structure_selection import FROLS
     from sysidentpy.parameter_estimation import LeastSquares
-    Xi = X[:n_ident]
-    yi = y[:n_ident].reshape(-1, 1)
-    sc = np.sqrt(np.mean(Xi**2, axis=0))
-    sc[sc == 0] = 1.0
-    Xi = Xi / sc
+    m, Xi, yi = frols_inputs(X, y, n_ident)
     B, C = Xi[:, :nb], Xi[:, nb:]
     if nb:
         P = np.linalg.lstsq(B, np.hstack([C, yi]), rcond=None)[0]
         R = np.hstack([C, yi]) - B @ P
     else:
         R = np.hstack([C, yi])
-    m = FROLS(order_selection=True, n_info_values=max(C.shape[1], 1), estimator=LeastSquares(), ylag=1, xlag=1)
-    m.max_lag = 0
     n = C.shape[1]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
