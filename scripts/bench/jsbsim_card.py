@@ -31,14 +31,14 @@ LEAD_S = 1.5   # steady lead-in from trim before each manoeuvre
 
 # (record, surface, shape, amplitude in normalised FCS command, base period s, record length s).
 # Periods around c172x's modes at 95 kt (short period ≈ 1.3 s, Dutch roll ≈ 3 s); every record
-# 5–7 s. Flown in MANUAL (no stabiliser, as the project's card: docs/test-card.md), amplitudes sized
-# so that α moves by 2–5° on the elevator records and the bank by 15–30° on the aileron records
-# (the `excursions` in truth.json).
+# 5–7 s. Flown with the light stabiliser on (an assisted mode, as the project's card:
+# docs/test-card.md), amplitudes sized so that α moves by 2–5° on the elevator records and the bank
+# by 15–30° on the aileron records against it (the `excursions` in truth.json).
 CARD = [
-    ("elevator_doublet", "de", "doublet", 0.32, 0.7, 5.5),
-    ("elevator_3211", "de", "3211", 0.30, 0.4, 6.0),
-    ("aileron_doublet", "da", "doublet", 0.45, 0.7, 5.5),
-    ("aileron_3211", "da", "3211", 0.35, 0.4, 6.0),
+    ("elevator_doublet", "de", "doublet", 0.28, 0.7, 5.5),
+    ("elevator_3211", "de", "3211", 0.25, 0.4, 6.0),
+    ("aileron_doublet", "da", "doublet", 0.70, 0.7, 5.5),
+    ("aileron_3211", "da", "3211", 0.60, 0.4, 6.0),
     ("rudder_doublet", "dr", "doublet", 0.30, 1.0, 6.5),
     ("rudder_3211", "dr", "3211", 0.25, 0.5, 7.0),
 ]
@@ -230,8 +230,7 @@ def main():
             name, _, _, _, _, duration = rec_def
             seed = 100 * card["seed"] + i
             sign = 1 if i % 2 == 0 else -1
-            _, rec, _ = jf.simulate(build, ac, seed, sign, duration=duration, inputs_fn=card_inputs(rec_def),
-                                    stabilise=False)
+            _, rec, _ = jf.simulate(build, ac, seed, sign, duration=duration, inputs_fn=card_inputs(rec_def))
             rng = np.random.default_rng(seed)
             cols = log_record(rec, duration, lead, rng)
             n = jf.write_csv(os.path.join(folder, name + ".csv"), cols, FMTS)

@@ -198,9 +198,8 @@ def axis_functions(build, acname):
     return out
 
 
-def simulate(build, acname, seed, sign, duration=DURATION, inputs_fn=inputs, stabilise=True):
-    """Trim, then fly `duration` s of `inputs_fn(t, sign)` under the stabiliser (`stabilise=False`:
-    none, the controls held at trim plus the inputs); the 200 Hz record."""
+def simulate(build, acname, seed, sign, duration=DURATION, inputs_fn=inputs):
+    """Trim, then fly `duration` s of `inputs_fn(t, sign)` under the stabiliser; the 200 Hz record."""
     fdm = jsbsim.FGFDMExec(build)
     fdm.set_debug_level(0)
     fdm.disable_output()
@@ -240,9 +239,8 @@ def simulate(build, acname, seed, sign, duration=DURATION, inputs_fn=inputs, sta
         # an autopilot flying the manoeuvre would; it acts on the true attitude.
         phi, theta = fdm["attitude/phi-rad"], fdm["attitude/theta-rad"]
         dpsi = (fdm["attitude/psi-rad"] - psi0 + math.pi) % (2 * math.pi) - math.pi
-        k = 1.0 if stabilise else 0.0
-        fdm["fcs/elevator-cmd-norm"] = trim["fcs/elevator-cmd-norm"] + de + k * (0.6 * (theta - theta0) + 0.15 * fdm["velocities/q-rad_sec"])
-        fdm["fcs/aileron-cmd-norm"] = trim["fcs/aileron-cmd-norm"] + da - k * (0.8 * phi + 0.3 * dpsi + 0.2 * fdm["velocities/p-rad_sec"])
+        fdm["fcs/elevator-cmd-norm"] = trim["fcs/elevator-cmd-norm"] + de + 0.6 * (theta - theta0) + 0.15 * fdm["velocities/q-rad_sec"]
+        fdm["fcs/aileron-cmd-norm"] = trim["fcs/aileron-cmd-norm"] + da - 0.8 * phi - 0.3 * dpsi - 0.2 * fdm["velocities/p-rad_sec"]
         fdm["fcs/rudder-cmd-norm"] = trim["fcs/rudder-cmd-norm"] + dr
         fdm["fcs/throttle-cmd-norm"] = trim["fcs/throttle-cmd-norm"] + dth
         fdm.run()

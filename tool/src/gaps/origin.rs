@@ -32,10 +32,11 @@
 //!   follows the manoeuvre (its lag on `α̇ ≈ q`, the gust share it misses), so that error has a
 //!   part in `α·q_n`: `α·q_n` in `C_D` fits with a systematic value whatever the airframe. Measured
 //!   on the simulated test cards, whose truth has no `α·q_n` in drag (the induced drag `C_L²` of
-//!   a lift without a `q` term): its estimate over the 50 cards of the benchmark is +12.5 ± 3.4
+//!   a lift without a `q` term): its estimate over the 50 cards of the benchmark (the card with its
+//!   earlier, smaller inputs) is +12.5 ± 3.4
 //!   (mean ± its standard error; +23 in light turbulence, +2 in moderate, where the estimate's
-//!   larger error attenuates it), and on one card +21 ± 7 with the estimated α against +3 ± 11
-//!   with the true α in its place (docs/test-card.md). So with an estimated α, `α·q_n` is not
+//!   larger error attenuates it), and on one card (seed 7, light, flown in MANUAL) +21 ± 7 with
+//!   the estimated α against +3 ± 11 with the true α in its place (docs/model-gaps.md). So with an estimated α, `α·q_n` is not
 //!   offered in `C_D`: a real one (a pitch-rate lift `C_Lq` in the induced drag) is missed, not
 //!   invented; with a vane it is offered.
 
