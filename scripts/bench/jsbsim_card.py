@@ -30,13 +30,15 @@ import jsbsim_flights as jf  # noqa: E402
 LEAD_S = 1.5   # steady lead-in from trim before each manoeuvre
 
 # (record, surface, shape, amplitude in normalised FCS command, base period s, record length s).
-# Periods around c172x's modes at 95 kt (short period ≈ 1.3 s, Dutch roll ≈ 3 s), amplitudes as the
-# long flights use; every record 5–7 s.
+# Periods around c172x's modes at 95 kt (short period ≈ 1.3 s, Dutch roll ≈ 3 s); every record
+# 5–7 s. Flown with the light stabiliser on (an assisted mode, as the project's card:
+# docs/test-card.md), amplitudes sized so that α moves by 2–5° on the elevator records and the bank
+# by 15–30° on the aileron records against it (the `excursions` in truth.json).
 CARD = [
-    ("elevator_doublet", "de", "doublet", 0.15, 0.7, 5.5),
-    ("elevator_3211", "de", "3211", 0.12, 0.4, 6.0),
-    ("aileron_doublet", "da", "doublet", 0.20, 0.7, 5.5),
-    ("aileron_3211", "da", "3211", 0.20, 0.4, 6.0),
+    ("elevator_doublet", "de", "doublet", 0.28, 0.7, 5.5),
+    ("elevator_3211", "de", "3211", 0.25, 0.4, 6.0),
+    ("aileron_doublet", "da", "doublet", 0.70, 0.7, 5.5),
+    ("aileron_3211", "da", "3211", 0.60, 0.4, 6.0),
     ("rudder_doublet", "dr", "doublet", 0.30, 1.0, 6.5),
     ("rudder_3211", "dr", "3211", 0.25, 0.5, 7.0),
 ]
@@ -178,6 +180,18 @@ FMTS = {"t_s": "%.2f", "accel_mps2_x": "%.3f", "accel_mps2_y": "%.3f", "accel_mp
         "air_density_kgpm3": "%.4f", "thrust_n": "%.0f", "truth_alpha_rad": "%.4f"}
 
 
+def excursions(rec):
+    """RMS and peak deviation of the true α, β and bank from their lead-in means, rad."""
+    t = rec["t"]
+    keep = t >= -1e-9
+    lead = keep & (t < LEAD_S)
+    out = {}
+    for key, name in (("alpha", "alpha_rad"), ("beta", "beta_rad"), ("phi", "bank_rad")):
+        d = rec[key][keep] - rec[key][lead].mean()
+        out[name] = [round(float(np.sqrt(np.mean(d ** 2))), 5), round(float(np.abs(d).max()), 5)]
+    return out
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--out", default="tool/data/jsbsim_card")
@@ -228,7 +242,10 @@ def main():
             err.append(cols["alpha_est_rad"] - cols["truth_alpha_rad"])
             records.append({"file": "%s/%s.csv" % (card["card"], name), "manoeuvre": name, "surface": rec_def[1],
                             "shape": rec_def[2], "amplitude_norm": rec_def[3] * sign, "period_s": rec_def[4],
-                            "lead_in_s": LEAD_S, "duration_s": duration, "samples": n, "seed": seed})
+                            "lead_in_s": LEAD_S, "duration_s": duration, "samples": n, "seed": seed,
+                            "excursions": excursions(rec)})
+            print("  %-17s %s" % (name, " ".join("%s %.1f/%.1f" % (k[:-4], *np.degrees(v))
+                                                  for k, v in records[-1]["excursions"].items())))
         if contrib:
             coef = spec["location"]
             pooled = {k: np.concatenate([d[k] for d in coef_all]) for k in coef_all[0]}

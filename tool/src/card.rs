@@ -4,9 +4,9 @@
 //! manoeuvre plus the aircraft file and a `truth.json` (docs/test-card.md).
 //!
 //! The flight is the campaign's ([`hidden::config`]: the skywalker at 15 m/s, white-noise sensors
-//! without biases, stabiliser and servos, the effect planted in the plant, the sensors or the log)
-//! with the card's manoeuvres and MIL-F-8785C turbulence instead of the campaign's long schedule
-//! and light Dryden gusts. The card has no vanes, so the hidden kinds that act on the α vane
+//! without biases, servos, the effect planted in the plant, the sensors or the log) with the card's
+//! manoeuvres, flown in MANUAL (no stabiliser, [`fly_card`]), and MIL-F-8785C turbulence instead
+//! of the campaign's long schedule and light Dryden gusts. The card has no vanes, so the hidden kinds that act on the α vane
 //! (`vane-scale`, `time-delay`, a sensor bias on α) are refused; a drawn `sensor-bias` is drawn
 //! again until it sits on the pitch gyro or the z accelerometer.
 
@@ -258,8 +258,24 @@ pub fn truth_json(s: &CardSettings, records: &[CardRecord]) -> serde_json::Value
                 "duration_s": r.manoeuvre.duration_s,
                 "samples": r.log.t_s.len(),
                 "seed": r.seed,
+                "excursions": excursions_json(&r.excursions),
             })
         }).collect::<Vec<_>>(),
+    })
+}
+
+/// A record's excursions (truth, from the lead-in's mean) as `[RMS, peak]` pairs in SI units.
+fn excursions_json(e: &crate::sim::test_card::Excursions) -> serde_json::Value {
+    let pair = |(rms, peak): (f64, f64)| serde_json::json!([rms, peak]);
+    serde_json::json!({
+        "alpha_rad": pair(e.alpha_rad),
+        "beta_rad": pair(e.beta_rad),
+        "bank_rad": pair(e.bank_rad),
+        "p_rad_s": pair(e.rates_rad_s[0]),
+        "q_rad_s": pair(e.rates_rad_s[1]),
+        "r_rad_s": pair(e.rates_rad_s[2]),
+        "airspeed_mps": pair(e.airspeed_mps),
+        "surface_rad": pair(e.surface_rad),
     })
 }
 
