@@ -245,8 +245,10 @@ fn attas_lateral_records_at_low_rate_get_a_verdict_or_a_reason() {
 /// The low-rate path's σ against the scatter of its estimates: 20 seeded 60 s flights in moderate
 /// turbulence (Dryden, σ 1.0 m/s, L 50 m: gusts of about 4° in α and β at 15 m/s), averaged to
 /// 10 Hz, clean; per baseline parameter of `C_L`, `C_m`, `C_Y`, `C_l`, `C_n` the standard
-/// deviation of the 20 estimates over the root mean square of their stated σ. Minutes of CPU, so
-/// run on demand: `cargo test -p aerosid --test cli low_rate::sigma -- --ignored --nocapture`.
+/// deviation of the 20 estimates over the root mean square of their stated σ, held to the
+/// issue's 0.7–1.5. Minutes of CPU, so run on demand:
+/// `cargo test -p aerosid --test cli low_rate::sigma -- --ignored --nocapture`. It fails today on
+/// `C_m`'s intercept, α and `q_n` (0.50–0.63: σ conservative; docs/model-gaps.md).
 #[test]
 #[ignore = "a measurement of 20 flights (minutes)"]
 fn sigma_against_the_scatter_in_moderate_turbulence() {
