@@ -1,10 +1,13 @@
-//! The low-rate path of `aerosid gaps` (below 20 Hz: `C_L`, `C_D`, `C_m` by output error): the
-//! HFB-320 (10 Hz) gets a verdict, a lift-curve curvature planted in a simulated flight averaged
-//! down to 10 Hz is named in `C_L`, and the same flight without it names nothing.
+//! The low-rate path of `aerosid gaps` (below 20 Hz: the six coefficients by output error): the
+//! HFB-320 (10 Hz) gets a verdict, a lift-curve curvature and a missing roll control planted in a
+//! simulated flight averaged down to 10 Hz are named in `C_L` and `C_l`, the same flight without
+//! them names nothing, pooled manoeuvres report each added term's agreement across them, and the
+//! ATTAS lateral records at 12.5 Hz get a verdict or the reason.
 
 use aerosid::gaps::hidden::{self, HiddenEffect, HiddenKind};
 use aerosid::gaps::model::CauseKind;
 use aerosid::gaps::{run_gaps, GapReport, GapSettings};
+use aerosid::io::measured::MeasuredFlight;
 use std::path::Path;
 
 /// A simulated flight of 60 s in the campaign's light turbulence, logged at 100 Hz and averaged
@@ -73,6 +76,15 @@ fn the_ten_hertz_hfb320_gets_a_verdict_by_output_error() {
         );
         assert!(c.baseline.estimator.starts_with("output error"), "{name}");
     }
+    // The record has no lateral channels: the lateral coefficients are absent or say why.
+    assert!(
+        r.coefficients
+            .iter()
+            .all(|c| !["C_Y", "C_l", "C_n"].contains(&c.name.as_str()))
+            || r.notes.iter().any(|n| n.contains("lateral output error cannot run")),
+        "{:?}",
+        r.notes
+    );
 }
 
 #[test]
@@ -104,4 +116,190 @@ fn a_clean_flight_at_ten_hertz_names_nothing() {
     assert!(low_rate_method(&r), "{:?}", r.notes);
     assert!(r.data_quality.supports_verdict, "{:?}\n{s}", r.data_quality.why_not);
     assert!(r.named.is_empty(), "{s}");
+    for name in ["C_Y", "C_l", "C_n"] {
+        let c = r.coefficients.iter().find(|c| c.name == name).expect(name);
+        assert!(c.verdict.contains("(output error)"), "{name}: {}", c.verdict);
+    }
+}
+
+fn detail(r: &GapReport) -> String {
+    let mut s = summary(r);
+    for c in &r.coefficients {
+        for k in c.candidates.iter().filter(|k| k.reason.is_some()) {
+            s.push_str(&format!("   {} {} unscored: {:?}\n", c.name, k.term, k.reason));
+        }
+        for h in &c.homogeneity {
+            s.push_str(&format!("   {} {} homogeneity: {}\n", c.name, h.term, h.reason));
+        }
+        for n in &c.notes {
+            s.push_str(&format!("   {} note: {n}\n", c.name));
+        }
+    }
+    s
+}
+
+/// The lateral coefficients at 10 Hz: a roll control left out of the baseline (the campaign's
+/// `missing-roll-control`: the user's `C_l` has no `δa`) is named in `C_l` by output error, on the
+/// flight and seed of the longitudinal cases.
+#[test]
+fn a_missing_roll_control_at_ten_hertz_is_named_in_c_l() {
+    let effect = HiddenEffect {
+        kind: HiddenKind::MissingRollControl,
+        size: 0.0,
+        channel: None,
+    };
+    let r = ten_hz(Some(&effect), 41_004);
+    let s = detail(&r);
+    println!("{s}");
+    assert!(low_rate_method(&r), "{:?}", r.notes);
+    let (kind, location) = effect.expected();
+    assert!(
+        r.named
+            .iter()
+            .any(|c| c.kind == kind && c.location == location && c.what.contains("δa")),
+        "{s}"
+    );
+}
+
+/// Six manoeuvres of 10 s at 10 Hz, pooled: the held-out data are whole manoeuvres and every term
+/// the output error would add carries its per-manoeuvre estimates and Cochran's Q; a term whose
+/// estimates disagree is not named and its coefficient's verdict says so.
+#[test]
+fn pooled_manoeuvres_at_ten_hertz_report_the_homogeneity_of_an_added_term() {
+    let effect = HiddenEffect {
+        kind: HiddenKind::AdverseYaw,
+        size: -0.05,
+        channel: None,
+    };
+    let flight = hidden::flight(Some(&effect), 66.0, 41_005, true).expect("the simulator flies");
+    let parts: Vec<_> = (0..6)
+        .map(|k| {
+            let from = k as f64 * 11.0;
+            let mut m = flight
+                .window(from, from + 10.0)
+                .expect("inside the flight")
+                .block_means(10);
+            m.source = format!("manoeuvre_{k:02}.csv");
+            (m, "the file's start".to_string())
+        })
+        .collect();
+    let pooled = MeasuredFlight::pool(parts).expect("the manoeuvres pool");
+    let s = GapSettings {
+        baseline: Some(HiddenEffect::baseline(Some(&effect))),
+        ..GapSettings::default()
+    };
+    let r = run_gaps(&pooled, &s).expect("the analysis runs");
+    let text = detail(&r);
+    println!("{text}");
+    assert!(low_rate_method(&r), "{:?}", r.notes);
+    let tested: Vec<_> = r
+        .coefficients
+        .iter()
+        .flat_map(|c| c.homogeneity.iter().map(move |h| (c, h)))
+        .collect();
+    assert!(!tested.is_empty(), "{text}");
+    for (c, h) in tested {
+        assert!(c.verdict.contains("(output error)"), "{}: {}", c.name, c.verdict);
+        assert!(!h.per_manoeuvre.is_empty() && !h.reason.is_empty(), "{text}");
+        assert!(
+            h.per_manoeuvre.iter().all(|e| e.manoeuvre < 6 && e.sigma > 0.0),
+            "{text}"
+        );
+        if !h.agrees {
+            assert!(c.verdict.contains("not confirmed"), "{}: {}", c.name, c.verdict);
+            assert!(
+                !r.named.iter().any(|n| n.location == c.name && n.what.contains(&h.term)),
+                "{text}"
+            );
+        }
+    }
+}
+
+/// The ATTAS aileron and rudder records (25 Hz) averaged in pairs to 12.5 Hz, below the
+/// equation-error path's rate: the lateral coefficients get an output-error verdict or the
+/// report says why not.
+#[test]
+fn attas_lateral_records_at_low_rate_get_a_verdict_or_a_reason() {
+    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("data");
+    let parts: Vec<_> = ["fAttasAil1_pqrDot.asc", "fAttasRud1_pqrDot.asc"]
+        .iter()
+        .map(|f| {
+            let m = aerosid::io::read_measured(&data.join("flight").join(f), &data.join("maps").join("attas.map"))
+                .unwrap_or_else(|e| panic!("{e}"));
+            (m.block_means(2), String::new())
+        })
+        .collect();
+    let pooled = MeasuredFlight::pool(parts).expect("the records pool");
+    let r = run_gaps(&pooled, &GapSettings::default()).expect("the analysis runs");
+    let s = detail(&r);
+    println!("{s}");
+    assert!(low_rate_method(&r), "{:?}", r.notes);
+    for name in ["C_Y", "C_l", "C_n"] {
+        let c = r.coefficients.iter().find(|c| c.name == name).expect(name);
+        let lateral_ran = c.verdict.contains("(output error)");
+        let why = r.notes.iter().any(|n| n.contains("lateral output error cannot run"));
+        assert!(lateral_ran || why, "{name}: {}\n{:?}", c.verdict, r.notes);
+    }
+}
+
+/// The low-rate path's σ against the scatter of its estimates: 20 seeded 60 s flights in moderate
+/// turbulence (Dryden, σ 1.0 m/s, L 50 m: gusts of about 4° in α and β at 15 m/s), averaged to
+/// 10 Hz, clean; per baseline parameter of `C_L`, `C_m`, `C_Y`, `C_l`, `C_n` the standard
+/// deviation of the 20 estimates over the root mean square of their stated σ, held to the
+/// issue's 0.7–1.5. Minutes of CPU, so run on demand:
+/// `cargo test -p aerosid --test cli low_rate::sigma -- --ignored --nocapture`. It fails today on
+/// `C_m`'s intercept, α and `q_n` (0.50–0.63: σ conservative; docs/model-gaps.md).
+#[test]
+#[ignore = "a measurement of 20 flights (minutes)"]
+fn sigma_against_the_scatter_in_moderate_turbulence() {
+    use aerosid::sim::{simulate, SimAirframe, Turbulence};
+    let mut est: std::collections::BTreeMap<(String, String), Vec<(f64, f64)>> = Default::default();
+    let mut colour = Vec::new();
+    for seed in 0..20u64 {
+        let mut cfg = hidden::config(None, 60.0, 41_100 + seed, true);
+        cfg.turbulence = Some(Turbulence {
+            lengths_m: [50.0; 3],
+            sigma_mps: [1.0; 3],
+        });
+        let out = simulate(&cfg).expect("the simulator flies");
+        let ac = aerosid::io::measured::Aircraft::from_airframe(
+            "skywalker_2013_mod",
+            &SimAirframe::skywalker_2013_mod().frame,
+        );
+        let f = aerosid::io::measured::MeasuredFlight::from_samples("moderate", &out.samples, ac).block_means(10);
+        let s = GapSettings {
+            baseline: Some(HiddenEffect::baseline(None)),
+            ..GapSettings::default()
+        };
+        let r = run_gaps(&f, &s).expect("the analysis runs");
+        assert!(low_rate_method(&r), "{:?}", r.notes);
+        colour.extend(r.notes.iter().filter(|n| n.starts_with("output error (")).cloned());
+        for c in &r.coefficients {
+            if !c.baseline.estimator.starts_with("output error") || c.name == "C_D" {
+                continue;
+            }
+            for p in &c.baseline.parameters {
+                est.entry((c.name.clone(), p.term.clone()))
+                    .or_default()
+                    .push((p.value, p.sigma));
+            }
+        }
+    }
+    for n in colour.iter().take(2) {
+        println!("{n}");
+    }
+    let mut worst: Vec<String> = Vec::new();
+    println!("| coefficient | term | mean | scatter | rms σ | scatter/σ |");
+    for ((c, t), v) in &est {
+        let n = v.len() as f64;
+        let mean = v.iter().map(|x| x.0).sum::<f64>() / n;
+        let sd = (v.iter().map(|x| (x.0 - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
+        let rms = (v.iter().map(|x| x.1 * x.1).sum::<f64>() / n).sqrt();
+        let ratio = sd / rms;
+        println!("| {c} | {t} | {mean:+.4} | {sd:.4} | {rms:.4} | {ratio:.2} |");
+        if !(0.7..=1.5).contains(&ratio) {
+            worst.push(format!("{c} {t} {ratio:.2}"));
+        }
+    }
+    assert!(worst.is_empty(), "scatter/σ outside 0.7–1.5: {worst:?}");
 }

@@ -44,10 +44,12 @@ pub mod compat;
 pub mod family;
 pub mod held_noise;
 pub mod hidden;
+mod homogeneity;
 pub mod instrumental;
 pub mod model;
 pub mod noise;
 pub mod oem;
+mod oem_lateral;
 pub mod oracle;
 pub mod origin;
 pub mod predict;
@@ -1045,7 +1047,7 @@ fn low_rate_path<'a>(
     let min = crate::io::quality::MIN_RATE_HZ;
     match oem::analyse(&inputs()) {
         Ok(lr) => {
-            let covered: Vec<&str> = oem::COVERED.iter().map(|&c| COEFFICIENTS[c]).collect();
+            let covered: Vec<&str> = lr.covered.iter().map(|&c| COEFFICIENTS[c]).collect();
             coefficients.retain(|c| !covered.contains(&c.name.as_str()));
             for c in coefficients.iter_mut() {
                 c.added.clear();
@@ -1777,49 +1779,7 @@ fn homogeneity_of(
             sigma: num.sqrt() / sxx,
         });
     }
-    let est: Vec<(f64, f64)> = per.iter().map(|e| (e.value, e.sigma)).collect();
-    let term = terms[k].name().to_string();
-    match select::cochran_q(&est) {
-        Some((q, mean, p)) => {
-            let agrees = p >= level;
-            let reason = if agrees {
-                format!(
-                    "the estimates of {} manoeuvres agree (Cochran's Q = {q:.2}, {} dof, p = {p:.3} ≥ {level})",
-                    est.len(),
-                    est.len() - 1
-                )
-            } else {
-                format!(
-                    "its estimates disagree across the {} manoeuvres that excite it (Cochran's Q = {q:.2}, {} dof, p = {p:.2e} < {level}): the gain is not one effect the manoeuvres share",
-                    est.len(),
-                    est.len() - 1
-                )
-            };
-            Homogeneity {
-                term,
-                per_manoeuvre: per,
-                q,
-                dof: est.len() - 1,
-                p,
-                mean,
-                agrees,
-                reason,
-            }
-        }
-        None => Homogeneity {
-            term,
-            q: f64::NAN,
-            dof: 0,
-            p: f64::NAN,
-            mean: per.first().map_or(f64::NAN, |e| e.value),
-            agrees: false,
-            reason: format!(
-                "excited in {} manoeuvre(s) only: its agreement across manoeuvres cannot be tested; more manoeuvres exciting it would decide",
-                per.len()
-            ),
-            per_manoeuvre: per,
-        },
-    }
+    homogeneity::judge(terms[k].name().to_string(), per, level)
 }
 
 /// A named surface delay's model made exact, and what it leaves. The rate term stands for the

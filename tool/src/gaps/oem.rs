@@ -71,7 +71,7 @@ use super::regress::{metrics, ols_theta, Metrics};
 use super::select::{self, CvSettings};
 use super::signal::sin_cos;
 use super::simulate::{inertia, lerp, lerp3};
-use super::{Added, CandidateScore, CoefficientGap, ModelFit, Parameter, Traces};
+use super::{Added, CandidateScore, CoefficientGap, Homogeneity, ManoeuvreEstimate, ModelFit, Parameter, Traces};
 use crate::io::measured::Aircraft;
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
@@ -82,7 +82,7 @@ pub const COVERED: [usize; 3] = [0, 1, 4];
 pub const MAX_ADDED: usize = 3;
 
 /// Outputs: α, q, and the aerodynamic specific force along x and z.
-const NY: usize = 4;
+pub(super) const NY: usize = 4;
 const OUTPUT_NAMES: [&str; NY] = ["α", "q", "F_A,x/m", "F_A,z/m"];
 
 /// The output a coefficient is judged on in the per-coefficient figures: `C_L` → `F_A,z/m`,
@@ -106,14 +106,15 @@ const NOISE_ROUNDS: usize = 3;
 /// The terms of the model: per parameter, its coefficient and term; and per covered coefficient
 /// its `(parameter, term)` pairs.
 #[derive(Debug, Clone, PartialEq)]
-struct Spec {
+pub(super) struct Spec {
     terms: Vec<(usize, Term)>,
+    covered: [usize; 3],
     by_coef: [Vec<(usize, Term)>; 3],
 }
 
 impl Spec {
-    fn new(terms: Vec<(usize, Term)>) -> Self {
-        let by_coef = COVERED.map(|coef| {
+    fn new(covered: [usize; 3], terms: Vec<(usize, Term)>) -> Self {
+        let by_coef = covered.map(|coef| {
             terms
                 .iter()
                 .enumerate()
@@ -121,13 +122,22 @@ impl Spec {
                 .map(|(j, (_, t))| (j, *t))
                 .collect()
         });
-        Self { terms, by_coef }
+        Self {
+            terms,
+            covered,
+            by_coef,
+        }
     }
-    fn np(&self) -> usize {
+    pub(super) fn np(&self) -> usize {
         self.terms.len()
     }
-    fn of(&self, coef: usize) -> &[(usize, Term)] {
-        match COVERED.iter().position(|c| *c == coef) {
+    /// The parameters and terms of each parameter.
+    pub(super) fn terms(&self) -> &[(usize, Term)] {
+        &self.terms
+    }
+    /// The `(parameter, term)` pairs of coefficient `coef`.
+    pub(super) fn of(&self, coef: usize) -> &[(usize, Term)] {
+        match self.covered.iter().position(|c| *c == coef) {
             Some(i) => &self.by_coef[i],
             None => &[],
         }
@@ -138,39 +148,265 @@ impl Spec {
         terms.push((coef, t));
         let mut th1 = th.to_vec();
         th1.push(0.0);
-        (Spec::new(terms), th1)
+        (Spec::new(self.covered, terms), th1)
     }
 }
 
 /// What the model is run on.
 struct Plant<'a> {
-    table: &'a Table,
-    kin: &'a Kinematics,
-    ac: &'a Aircraft,
-    refs: &'a TermRefs,
-    j: Matrix3<f64>,
+    m: Measured<'a>,
     alpha_m: &'a [f64],
-    v_m: &'a [f64],
-    /// Measured outputs per sample.
-    y_m: Vec<[f64; NY]>,
 }
 
-/// The model at one point: state derivative, outputs, coefficients.
+/// What the plants of both axes run on: the table, the aircraft and the measured outputs.
+pub(super) struct Measured<'a> {
+    pub(super) table: &'a Table,
+    pub(super) kin: &'a Kinematics,
+    pub(super) ac: &'a Aircraft,
+    pub(super) refs: &'a TermRefs,
+    pub(super) j: Matrix3<f64>,
+    pub(super) v_m: &'a [f64],
+    /// Measured outputs per sample.
+    pub(super) y_m: Vec<[f64; NY]>,
+}
+
+impl Measured<'_> {
+    /// The table's snapshot, the airspeed (at least 1 m/s) and `q̄` at sample `k` plus `fr`.
+    pub(super) fn at(&self, k: usize, fr: f64) -> (Snapshot, f64, f64) {
+        (
+            self.table.snapshot(k, fr),
+            lerp(self.v_m, k, fr).max(1.0),
+            lerp(&self.kin.qbar_pa, k, fr),
+        )
+    }
+}
+
+/// The model at one point: state derivative, outputs, the three coefficients.
 #[derive(Debug, Clone, Copy)]
-struct Point {
-    xdot: [f64; 2],
-    y: [f64; NY],
-    coefs: [f64; 3],
+pub(super) struct Point<S> {
+    pub(super) xdot: S,
+    pub(super) y: [f64; NY],
+    pub(super) coefs: [f64; 3],
+}
+
+/// `(∂f/∂θ, ∂h/∂θ)` at a fixed state: `NX × NP` and `NY × NP`.
+pub(super) type ParamJacobian = (DMatrix<f64>, DMatrix<f64>);
+
+/// One axis's equations for the output error: its states, its [`NY`] outputs and the three
+/// coefficients it covers. The estimation, the σ, the held-out test and the candidate search are
+/// the same for every axis ([`analyse_axis`]).
+pub(super) trait Dynamics {
+    /// The state vector.
+    type State: Copy + AsRef<[f64]> + AsMut<[f64]>;
+    /// The coefficients covered (indices into [`COEFFICIENTS`]).
+    const COVERED: [usize; 3];
+    /// The outputs' names.
+    const OUTPUTS: [&'static str; NY];
+    /// The outputs' units (for the noise note).
+    const UNITS: [&'static str; NY];
+    /// What is simulated and what is taken as measured, in words.
+    const READING: &'static str;
+    /// The simulated states, in words.
+    const STATES: &'static str;
+    /// When set, the simulation restarts from the measured state every this many seconds
+    /// within a manoeuvre (`None`: once per manoeuvre).
+    const RESTART_S: Option<f64>;
+    /// The longest integration step, s: a sample interval is cut into equal RK4 sub-steps no
+    /// longer than this (`f64::INFINITY`: one step per sample).
+    const MAX_STEP_S: f64;
+    /// The output a coefficient is judged on in the per-coefficient figures.
+    fn primary_output(coef: usize) -> usize;
+    /// Why a candidate cannot be tested by this path (`None`: it can).
+    fn untestable(coef: usize, t: Term) -> Option<&'static str>;
+    /// The model at state `x`, sample `k` plus `fr`; with `jac`, also `∂f/∂θ` and `∂h/∂θ` at
+    /// fixed `x`.
+    fn eval(
+        &self,
+        spec: &Spec,
+        x: Self::State,
+        k: usize,
+        fr: f64,
+        th: &[f64],
+        jac: bool,
+    ) -> Option<(Point<Self::State>, Option<ParamJacobian>)>;
+    /// The measured state at sample `k` (a manoeuvre's start).
+    fn x0(&self, k: usize) -> Self::State;
+    /// Whether the simulated state is in the plausible range.
+    fn plausible(&self, x: &Self::State) -> bool;
+    /// What the plant runs on.
+    fn measured(&self) -> &Measured<'_>;
+
+    /// Measured outputs per sample.
+    fn y_m(&self) -> &[[f64; NY]] {
+        &self.measured().y_m
+    }
+
+    /// The time base, s.
+    fn t_s(&self) -> &[f64] {
+        &self.measured().table.t_s
+    }
+
+    /// `(∂f/∂x, ∂h/∂x)` by central differences.
+    fn dx(&self, spec: &Spec, x: Self::State, k: usize, fr: f64, th: &[f64]) -> Option<(DMatrix<f64>, DMatrix<f64>)> {
+        let nx = x.as_ref().len();
+        let mut a = DMatrix::<f64>::zeros(nx, nx);
+        let mut c = DMatrix::<f64>::zeros(NY, nx);
+        for i in 0..nx {
+            let h = 1e-6 * x.as_ref()[i].abs().max(0.1);
+            let (mut xp, mut xm) = (x, x);
+            xp.as_mut()[i] += h;
+            xm.as_mut()[i] -= h;
+            let (up, _) = self.eval(spec, xp, k, fr, th, false)?;
+            let (dn, _) = self.eval(spec, xm, k, fr, th, false)?;
+            for r in 0..nx {
+                a[(r, i)] = (up.xdot.as_ref()[r] - dn.xdot.as_ref()[r]) / (2.0 * h);
+            }
+            for r in 0..NY {
+                c[(r, i)] = (up.y[r] - dn.y[r]) / (2.0 * h);
+            }
+        }
+        Some((a, c))
+    }
+
+    /// The simulation of every manoeuvre with `θ`: outputs, coefficients and (with `sens`) the
+    /// output sensitivities. `None` when the simulation leaves the plausible range or a term is
+    /// unavailable.
+    fn run(&self, spec: &Spec, th: &[f64], pieces: &[(usize, usize)], sens: bool) -> Option<Run> {
+        let n = self.y_m().len();
+        let np = spec.np();
+        let mut out = Run {
+            yhat: vec![[0.0; NY]; n],
+            coefs: vec![[0.0; 3]; n],
+            h: if sens {
+                vec![DMatrix::zeros(NY, np); n]
+            } else {
+                Vec::new()
+            },
+        };
+        let t_s = self.t_s();
+        for &(a, b) in pieces {
+            let mut x = self.x0(a);
+            let nx = x.as_ref().len();
+            let mut sm = DMatrix::<f64>::zeros(nx, np);
+            for k in a..b {
+                if !self.plausible(&x) {
+                    return None;
+                }
+                // Stage 1 of the step shares its point with the output at k.
+                let (pt, jac) = self.eval(spec, x, k, 0.0, th, sens)?;
+                out.yhat[k] = pt.y;
+                out.coefs[k] = pt.coefs;
+                let stage1 = if sens {
+                    let (g, d) = jac?;
+                    let (a_x, c_x) = self.dx(spec, x, k, 0.0, th)?;
+                    out.h[k] = &c_x * &sm + d;
+                    Some(&a_x * &sm + g)
+                } else {
+                    None
+                };
+                if k + 1 == b {
+                    break;
+                }
+                let hs = t_s[k + 1] - t_s[k];
+                let deriv =
+                    |xs: Self::State, ss: &DMatrix<f64>, fr: f64| -> Option<(Self::State, Option<DMatrix<f64>>)> {
+                        let (p, j) = self.eval(spec, xs, k, fr, th, sens)?;
+                        let sd = match j {
+                            Some((g, _)) => {
+                                let (a_x, _) = self.dx(spec, xs, k, fr, th)?;
+                                Some(&a_x * ss + g)
+                            }
+                            None => None,
+                        };
+                        Some((p.xdot, sd))
+                    };
+                let add = |x: &Self::State, d: &Self::State, h: f64| {
+                    let mut o = *x;
+                    for (o, d) in o.as_mut().iter_mut().zip(d.as_ref()) {
+                        *o += h * d;
+                    }
+                    o
+                };
+                let adds = |s: &DMatrix<f64>, d: &Option<DMatrix<f64>>, h: f64| match d {
+                    Some(d) => s + d * h,
+                    None => s.clone(),
+                };
+                // Sub-steps of at most MAX_STEP_S (the inputs interpolated at their fractions).
+                let m = ((hs / Self::MAX_STEP_S).ceil() as usize).max(1);
+                let hm = hs / m as f64;
+                let mut first = Some((pt.xdot, stage1));
+                for j in 0..m {
+                    let f0 = j as f64 / m as f64;
+                    let (k1, s1) = match first.take() {
+                        Some(st) => st,
+                        None => deriv(x, &sm, f0)?,
+                    };
+                    let fh = f0 + 0.5 / m as f64;
+                    let f1 = (j + 1) as f64 / m as f64;
+                    let (k2, s2) = deriv(add(&x, &k1, hm / 2.0), &adds(&sm, &s1, hm / 2.0), fh)?;
+                    let (k3, s3) = deriv(add(&x, &k2, hm / 2.0), &adds(&sm, &s2, hm / 2.0), fh)?;
+                    let (k4, s4) = deriv(add(&x, &k3, hm), &adds(&sm, &s3, hm), f1)?;
+                    for i in 0..nx {
+                        x.as_mut()[i] +=
+                            hm / 6.0 * (k1.as_ref()[i] + 2.0 * k2.as_ref()[i] + 2.0 * k3.as_ref()[i] + k4.as_ref()[i]);
+                    }
+                    if let (Some(s1), Some(s2), Some(s3), Some(s4)) = (s1, s2, s3, s4) {
+                        sm += (s1 + (s2 + s3) * 2.0 + s4) * (hm / 6.0);
+                    }
+                }
+            }
+        }
+        Some(out)
+    }
+
+    /// Measured minus simulated outputs.
+    fn residuals(&self, run: &Run) -> Vec<[f64; NY]> {
+        self.y_m()
+            .iter()
+            .zip(&run.yhat)
+            .map(|(m, p)| core::array::from_fn(|i| m[i] - p[i]))
+            .collect()
+    }
 }
 
 fn dot(terms: &[(usize, Term)], th: &[f64], s: &Snapshot, refs: &TermRefs) -> Option<f64> {
     terms.iter().map(|(j, t)| t.eval(s, refs).map(|v| v * th[*j])).sum()
 }
 
-impl Plant<'_> {
+impl Dynamics for Plant<'_> {
+    type State = [f64; 2];
+    const COVERED: [usize; 3] = COVERED;
+    const OUTPUTS: [&'static str; NY] = OUTPUT_NAMES;
+    const UNITS: [&'static str; NY] = ["rad", "rad/s", "m/s²", "m/s²"];
+    const STATES: &'static str = "α, q";
+    const RESTART_S: Option<f64> = None;
+    const MAX_STEP_S: f64 = f64::INFINITY;
+    const READING: &'static str =
+        "α and q simulated from each manoeuvre's first sample, V, β, attitude, p, r, surfaces and thrust as measured";
+
+    fn primary_output(coef: usize) -> usize {
+        primary_output(coef)
+    }
+
+    fn untestable(coef: usize, t: Term) -> Option<&'static str> {
+        (coef == 0 && t == Term::AlphaDot)
+            .then_some("not tested by output error: α̇ in C_L makes the α equation implicit")
+    }
+
+    fn x0(&self, k: usize) -> [f64; 2] {
+        [self.alpha_m[k], self.m.y_m[k][1]]
+    }
+
+    fn plausible(&self, x: &[f64; 2]) -> bool {
+        x[0].is_finite() && x[1].is_finite() && x[0].abs() < 1.2 && x[1].abs() < 20.0
+    }
+
+    fn measured(&self) -> &Measured<'_> {
+        &self.m
+    }
+
     /// The model at state `x`, sample `k` plus `fr`; with `jac`, also `∂f/∂θ` (2 × NP) and
     /// `∂h/∂θ` (NY × NP) at fixed `x`.
-    #[allow(clippy::type_complexity)]
     fn eval(
         &self,
         spec: &Spec,
@@ -179,12 +415,10 @@ impl Plant<'_> {
         fr: f64,
         th: &[f64],
         jac: bool,
-    ) -> Option<(Point, Option<(DMatrix<f64>, DMatrix<f64>)>)> {
-        let (ac, kin, refs) = (self.ac, self.kin, self.refs);
+    ) -> Option<(Point<[f64; 2]>, Option<ParamJacobian>)> {
+        let (ac, kin, refs) = (self.m.ac, self.m.kin, self.m.refs);
         let (area, chord, mass) = (ac.wing_area_m2, ac.chord_m, ac.mass_kg);
-        let mut s = self.table.snapshot(k, fr);
-        let v = lerp(self.v_m, k, fr).max(1.0);
-        let qbar = lerp(&kin.qbar_pa, k, fr);
+        let (mut s, v, qbar) = self.m.at(k, fr);
         let (al, q) = (x[0], x[1]);
         let cn = chord / (2.0 * v);
         s[Signal::Alpha.index()] = al;
@@ -214,13 +448,13 @@ impl Plant<'_> {
         s[Signal::AlphaDotN.index()] = alpha_dot * cn;
         let cd = dot(td, th, &s, refs)?;
         let cm = dot(tm, th, &s, refs)?;
-        let iy = self.j[(1, 1)];
+        let iy = self.m.j[(1, 1)];
         let om = Vector3::new(p, q, r);
         let fa_m = lerp3(&kin.aero_force_n, k, fr);
         let k_m = qbar * area * chord / iy;
         let qdot = k_m * cm
             + (ac.moment_reference_m.cross(&fa_m).y + lerp3(&kin.thrust_moment_nm, k, fr).y
-                - om.cross(&(self.j * om)).y)
+                - om.cross(&(self.m.j * om)).y)
                 / iy;
         let k_f = qbar * area / mass;
         let y = [al, q, k_f * (-cd * ca + cl * sa), k_f * (-cd * sa - cl * ca)];
@@ -271,110 +505,11 @@ impl Plant<'_> {
         d.set_row(3, &((&dcd * (-sa) - &dcl * ca) * k_f).transpose());
         Some((pt, Some((g, d))))
     }
-
-    /// `(∂f/∂x, ∂h/∂x)` by central differences.
-    fn dx(&self, spec: &Spec, x: [f64; 2], k: usize, fr: f64, th: &[f64]) -> Option<(DMatrix<f64>, DMatrix<f64>)> {
-        let mut a = DMatrix::<f64>::zeros(2, 2);
-        let mut c = DMatrix::<f64>::zeros(NY, 2);
-        for i in 0..2 {
-            let h = 1e-6 * x[i].abs().max(0.1);
-            let (mut xp, mut xm) = (x, x);
-            xp[i] += h;
-            xm[i] -= h;
-            let (up, _) = self.eval(spec, xp, k, fr, th, false)?;
-            let (dn, _) = self.eval(spec, xm, k, fr, th, false)?;
-            for r in 0..2 {
-                a[(r, i)] = (up.xdot[r] - dn.xdot[r]) / (2.0 * h);
-            }
-            for r in 0..NY {
-                c[(r, i)] = (up.y[r] - dn.y[r]) / (2.0 * h);
-            }
-        }
-        Some((a, c))
-    }
-
-    /// The simulation of every manoeuvre with `θ`: outputs, coefficients and (with `sens`) the
-    /// output sensitivities. `None` when the simulation leaves the plausible range (non-finite,
-    /// `|α|` above 1.2 rad, `|q|` above 20 rad/s) or a term is unavailable.
-    fn run(&self, spec: &Spec, th: &[f64], pieces: &[(usize, usize)], sens: bool) -> Option<Run> {
-        let n = self.y_m.len();
-        let np = spec.np();
-        let mut out = Run {
-            yhat: vec![[0.0; NY]; n],
-            coefs: vec![[0.0; 3]; n],
-            h: if sens {
-                vec![DMatrix::zeros(NY, np); n]
-            } else {
-                Vec::new()
-            },
-        };
-        let ok = |x: &[f64; 2]| x[0].is_finite() && x[1].is_finite() && x[0].abs() < 1.2 && x[1].abs() < 20.0;
-        for &(a, b) in pieces {
-            let mut x = [self.alpha_m[a], self.y_m[a][1]];
-            let mut sm = DMatrix::<f64>::zeros(2, np);
-            for k in a..b {
-                if !ok(&x) {
-                    return None;
-                }
-                // Stage 1 of the step shares its point with the output at k.
-                let (pt, jac) = self.eval(spec, x, k, 0.0, th, sens)?;
-                out.yhat[k] = pt.y;
-                out.coefs[k] = pt.coefs;
-                let stage1 = if sens {
-                    let (g, d) = jac?;
-                    let (a_x, c_x) = self.dx(spec, x, k, 0.0, th)?;
-                    out.h[k] = &c_x * &sm + d;
-                    Some(&a_x * &sm + g)
-                } else {
-                    None
-                };
-                if k + 1 == b {
-                    break;
-                }
-                let hs = self.table.t_s[k + 1] - self.table.t_s[k];
-                let deriv = |xs: [f64; 2], ss: &DMatrix<f64>, fr: f64| -> Option<([f64; 2], Option<DMatrix<f64>>)> {
-                    let (p, j) = self.eval(spec, xs, k, fr, th, sens)?;
-                    let sd = match j {
-                        Some((g, _)) => {
-                            let (a_x, _) = self.dx(spec, xs, k, fr, th)?;
-                            Some(&a_x * ss + g)
-                        }
-                        None => None,
-                    };
-                    Some((p.xdot, sd))
-                };
-                let add = |x: &[f64; 2], d: &[f64; 2], h: f64| [x[0] + h * d[0], x[1] + h * d[1]];
-                let adds = |s: &DMatrix<f64>, d: &Option<DMatrix<f64>>, h: f64| match d {
-                    Some(d) => s + d * h,
-                    None => s.clone(),
-                };
-                let (k1, s1) = (pt.xdot, stage1);
-                let (k2, s2) = deriv(add(&x, &k1, hs / 2.0), &adds(&sm, &s1, hs / 2.0), 0.5)?;
-                let (k3, s3) = deriv(add(&x, &k2, hs / 2.0), &adds(&sm, &s2, hs / 2.0), 0.5)?;
-                let (k4, s4) = deriv(add(&x, &k3, hs), &adds(&sm, &s3, hs), 1.0)?;
-                for i in 0..2 {
-                    x[i] += hs / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
-                }
-                if let (Some(s1), Some(s2), Some(s3), Some(s4)) = (s1, s2, s3, s4) {
-                    sm += (s1 + (s2 + s3) * 2.0 + s4) * (hs / 6.0);
-                }
-            }
-        }
-        Some(out)
-    }
-
-    fn residuals(&self, run: &Run) -> Vec<[f64; NY]> {
-        self.y_m
-            .iter()
-            .zip(&run.yhat)
-            .map(|(m, p)| core::array::from_fn(|i| m[i] - p[i]))
-            .collect()
-    }
 }
 
 /// One simulation.
 #[derive(Debug, Clone)]
-struct Run {
+pub(super) struct Run {
     yhat: Vec<[f64; NY]>,
     coefs: Vec<[f64; 3]>,
     /// `∂ŷ_k/∂θ` (empty without sensitivities).
@@ -433,8 +568,10 @@ fn normal(
     (m, g)
 }
 
-struct Setup<'a> {
-    plant: Plant<'a>,
+/// An axis's plant with the manoeuvres, the sandwich blocks and the held-out folds.
+pub(super) struct Setup<D> {
+    pub(super) plant: D,
+    /// The simulated pieces (each starting from the measured state).
     pieces: Vec<(usize, usize)>,
     /// Sandwich blocks.
     sandwich: Vec<(usize, usize)>,
@@ -446,11 +583,11 @@ struct Setup<'a> {
     fold_note: String,
 }
 
-impl Setup<'_> {
+impl<D: Dynamics> Setup<D> {
     /// Gauss–Newton from `th0` with the output weights `w`.
     fn fit(&self, spec: &Spec, th0: Vec<f64>, w: [f64; NY]) -> Result<Fit, String> {
         let np = spec.np();
-        let all = [(0, self.plant.y_m.len())];
+        let all = [(0, self.plant.y_m().len())];
         let mut th = th0;
         let mut run = self
             .plant
@@ -632,8 +769,10 @@ type CoefficientResult = (usize, Vec<CandidateScore>, Vec<Added>, Vec<String>);
 /// What the low-rate path found: the covered coefficients' analyses and the notes.
 #[derive(Debug, Clone)]
 pub struct LowRate {
-    /// `C_L`, `C_D`, `C_m` (those the data allow).
+    /// The coefficients analysed (`C_L`, `C_D`, `C_m`, `C_Y`, `C_l`, `C_n`: those the data allow).
     pub coefficients: Vec<CoefficientGap>,
+    /// Their indices into [`COEFFICIENTS`].
+    pub covered: Vec<usize>,
     /// What was done, in words.
     pub notes: Vec<String>,
 }
@@ -665,7 +804,7 @@ pub struct Inputs<'a> {
 
 /// The plant, the manoeuvres, the sandwich blocks and the folds of `inp`; `Err` says why the path
 /// cannot run on these data.
-fn setup<'a>(inp: &Inputs<'a>) -> Result<Setup<'a>, String> {
+fn setup<'a>(inp: &Inputs<'a>) -> Result<Setup<Plant<'a>>, String> {
     let table = inp.table;
     let kin = table.kinematics.as_ref().ok_or("no coefficient could be synthesised")?;
     let (alpha_m, v_m) = match (table.signals.get(&Signal::Alpha), table.signals.get(&Signal::Airspeed)) {
@@ -694,74 +833,121 @@ fn setup<'a>(inp: &Inputs<'a>) -> Result<Setup<'a>, String> {
             ]
         })
         .collect();
-    let h_s = (table.t_s[n - 1] - table.t_s[0]) / (n - 1).max(1) as f64;
-    let cut = |len_s: f64| -> Vec<(usize, usize)> {
-        let len = ((len_s / h_s).round() as usize).max(2);
-        let mut out = Vec::new();
-        for &(a, b) in inp.pieces {
-            let mut s = a;
-            while s < b {
-                let e = if b - s < len + len / 2 { b } else { s + len };
-                out.push((s, e));
-                s = e;
-            }
-        }
-        out
-    };
-    let (blocks, fold, folds, fold_note) = if inp.pieces.len() >= select::MIN_PIECES_FOR_FOLDS {
-        let f: Vec<usize> = (0..inp.pieces.len()).collect();
-        (
-            inp.pieces.to_vec(),
-            f,
-            inp.pieces.len(),
-            "whole manoeuvres held out (leave one out)".to_string(),
-        )
-    } else {
-        let b = cut(inp.cv.block_s);
-        let folds = inp.cv.folds.max(2);
-        let f: Vec<usize> = (0..b.len()).map(|i| i % folds).collect();
-        (
-            b,
-            f,
-            folds,
-            format!("blocks of {:.1} s in {folds} folds held out", inp.cv.block_s),
-        )
-    };
-    Ok(Setup {
-        plant: Plant {
-            table,
-            kin,
-            ac: inp.aircraft,
-            refs: inp.refs,
-            j,
+    Ok(Setup::new(
+        Plant {
+            m: Measured {
+                table,
+                kin,
+                ac: inp.aircraft,
+                refs: inp.refs,
+                j,
+                v_m,
+                y_m,
+            },
             alpha_m,
-            v_m,
-            y_m,
         },
-        pieces: inp.pieces.to_vec(),
-        sandwich: cut(inp.max_lag_s),
-        blocks,
-        fold,
-        folds,
-        fold_note,
-    })
+        inp,
+    ))
 }
 
-/// The output-error analysis of `C_L`, `C_D`, `C_m` (module doc). `Err` says why it cannot run.
+impl<D: Dynamics> Setup<D> {
+    /// The plant with the manoeuvres of `inp`, the sandwich blocks and the held-out folds.
+    pub(super) fn new(plant: D, inp: &Inputs) -> Self {
+        let t_s = &inp.table.t_s;
+        let n = t_s.len();
+        let h_s = (t_s[n - 1] - t_s[0]) / (n - 1).max(1) as f64;
+        let cut = |len_s: f64| -> Vec<(usize, usize)> {
+            let len = ((len_s / h_s).round() as usize).max(2);
+            let mut out = Vec::new();
+            for &(a, b) in inp.pieces {
+                let mut s = a;
+                while s < b {
+                    let e = if b - s < len + len / 2 { b } else { s + len };
+                    out.push((s, e));
+                    s = e;
+                }
+            }
+            out
+        };
+        let (blocks, fold, folds, fold_note) = if inp.pieces.len() >= select::MIN_PIECES_FOR_FOLDS {
+            let f: Vec<usize> = (0..inp.pieces.len()).collect();
+            (
+                inp.pieces.to_vec(),
+                f,
+                inp.pieces.len(),
+                "whole manoeuvres held out (leave one out)".to_string(),
+            )
+        } else {
+            let b = cut(inp.cv.block_s);
+            let folds = inp.cv.folds.max(2);
+            let f: Vec<usize> = (0..b.len()).map(|i| i % folds).collect();
+            (
+                b,
+                f,
+                folds,
+                format!("blocks of {:.1} s in {folds} folds held out", inp.cv.block_s),
+            )
+        };
+        Setup {
+            plant,
+            pieces: match D::RESTART_S {
+                Some(len_s) => cut(len_s),
+                None => inp.pieces.to_vec(),
+            },
+            sandwich: cut(inp.max_lag_s),
+            blocks,
+            fold,
+            folds,
+            fold_note,
+        }
+    }
+}
+
+/// The output-error analysis of the low-rate path: `C_L`, `C_D`, `C_m` (module doc) and `C_Y`,
+/// `C_l`, `C_n` ([`super::oem_lateral`]), each axis where the data allow it. `Err` says why
+/// neither can run.
 pub fn analyse(inp: &Inputs) -> Result<LowRate, String> {
+    let lon = setup(inp).and_then(|s| analyse_axis(inp, s));
+    let lat = super::oem_lateral::setup(inp).and_then(|s| analyse_axis(inp, s));
+    match (lon, lat) {
+        (Err(a), Err(b)) => Err(format!("longitudinal: {a}; lateral: {b}")),
+        (Ok(mut lr), Err(b)) => {
+            lr.notes.push(format!(
+                "C_Y, C_l, C_n not covered: the lateral output error cannot run: {b}"
+            ));
+            Ok(lr)
+        }
+        (Err(a), Ok(mut lr)) => {
+            lr.notes.insert(
+                0,
+                format!("C_L, C_D, C_m not covered: the longitudinal output error cannot run: {a}"),
+            );
+            Ok(lr)
+        }
+        (Ok(mut lr), Ok(lat)) => {
+            lr.coefficients.extend(lat.coefficients);
+            lr.covered.extend(lat.covered);
+            lr.notes.extend(lat.notes);
+            Ok(lr)
+        }
+    }
+}
+
+/// The output-error analysis of one axis's three coefficients: the baseline, the candidates, the
+/// final joint fit and, with pooled manoeuvres, the homogeneity of every added term.
+fn analyse_axis<D: Dynamics>(inp: &Inputs, setup: Setup<D>) -> Result<LowRate, String> {
     let table = inp.table;
-    let setup = setup(inp)?;
     let n = table.t_s.len();
     // The baseline: terms with a column, started from least squares on the synthesised
     // coefficients (the equation error at this rate: a start, not an answer).
     let mut terms = Vec::new();
     let mut th0 = Vec::new();
     let mut dropped: Vec<Vec<String>> = vec![Vec::new(); 6];
-    for &c in &COVERED {
+    for c in D::COVERED {
         let mut cols = Vec::new();
         for t in &inp.baselines[c] {
             match t.column(table, inp.refs) {
-                Some(col) if !(c == 0 && *t == Term::AlphaDot) => {
+                Some(col) if D::untestable(c, *t).is_none() => {
                     terms.push((c, *t));
                     cols.push(col);
                 }
@@ -772,7 +958,7 @@ pub fn analyse(inp: &Inputs) -> Result<LowRate, String> {
         let start = ols_theta(&cols, z).unwrap_or_else(|| vec![0.0; cols.len()]);
         th0.extend(start);
     }
-    let spec = Spec::new(terms);
+    let spec = Spec::new(D::COVERED, terms);
     let base = setup.fit_relaxed(&spec, th0)?;
     let w0 = base.w;
     let h_base = setup
@@ -783,9 +969,26 @@ pub fn analyse(inp: &Inputs) -> Result<LowRate, String> {
     let t_detect = select::detection_factor(inp.threshold_t2, gain_crit, g as f64 - 1.0);
     let n_all = n as f64;
     let r0 = noise_of(&base.e);
+    let h_s = (table.t_s[n - 1] - table.t_s[0]) / (n - 1).max(1) as f64;
+    let one_s = ((1.0 / h_s).round() as usize).max(1);
+    let noise: Vec<String> = (0..NY)
+        .map(|i| {
+            format!(
+                "{} {:.2e} ({})², autocorrelation {:.2} at one sample, {:.2} at 1 s",
+                D::OUTPUTS[i],
+                r0[i],
+                D::UNITS[i],
+                autocorrelation(&base.e, i, 1, inp.pieces),
+                autocorrelation(&base.e, i, one_s, inp.pieces)
+            )
+        })
+        .collect();
     let mut notes = vec![format!(
-        "output error: α and q simulated from each manoeuvre's first sample, V, β, attitude, p, r, surfaces and thrust as measured; R relaxed to the residuals' mean square (α {:.2e} rad², q {:.2e} (rad/s)², F_x/m {:.2e}, F_z/m {:.2e} (m/s²)²); held-out: {}, the fits without a fold by one Gauss–Newton step",
-        r0[0], r0[1], r0[2], r0[3], setup.fold_note
+        "output error ({}): {}; R relaxed to the residuals' mean square ({}); held-out: {}, the fits without a fold by one Gauss–Newton step",
+        D::COVERED.map(|c| COEFFICIENTS[c]).join(", "),
+        D::READING,
+        noise.join(", "),
+        setup.fold_note
     )];
     if !base.converged {
         notes.push("the baseline's Gauss–Newton iterations did not converge within their limit".into());
@@ -793,7 +996,7 @@ pub fn analyse(inp: &Inputs) -> Result<LowRate, String> {
     let mut current = base.clone();
     let mut h_current = h_base.clone();
     let mut per_coef: Vec<CoefficientResult> = Vec::new();
-    for &c in &COVERED {
+    for c in D::COVERED {
         let mut first_round: Option<Vec<CandidateScore>> = None;
         let mut added: Vec<Added> = Vec::new();
         let mut cnotes: Vec<String> = Vec::new();
@@ -803,15 +1006,8 @@ pub fn analyse(inp: &Inputs) -> Result<LowRate, String> {
                 if current.spec.terms.contains(&(c, t)) {
                     continue;
                 }
-                if c == 0 && t == Term::AlphaDot {
-                    scored.push((
-                        CandidateScore::unscored(
-                            t,
-                            c,
-                            "not tested by output error: α̇ in C_L makes the α equation implicit".into(),
-                        ),
-                        None,
-                    ));
+                if let Some(why) = D::untestable(c, t) {
+                    scored.push((CandidateScore::unscored(t, c, why.into()), None));
                     continue;
                 }
                 if t.column(table, inp.refs).is_none() {
@@ -912,19 +1108,66 @@ pub fn analyse(inp: &Inputs) -> Result<LowRate, String> {
         per_coef.push((c, first_round.unwrap_or_default(), added, cnotes));
     }
     // The final joint model, its noise relaxed.
-    let fin = if current.spec == base.spec {
+    let mut fin = if current.spec == base.spec {
         base.clone()
     } else {
         setup.fit_relaxed(&current.spec, current.th.clone())?
     };
+    // Pooled manoeuvres: an added term stays only when its per-manoeuvre estimates agree.
+    let mut homogeneity: Vec<(usize, Homogeneity)> = Vec::new();
+    if inp.pieces.len() >= select::MIN_PIECES_FOR_FOLDS && fin.spec != base.spec {
+        let max_lag = (inp.max_lag_s / h_s).round() as usize;
+        for (j, (c, t)) in fin.spec.terms.iter().enumerate().skip(base.spec.np()) {
+            let per = per_manoeuvre(&fin, j, inp.pieces, max_lag);
+            homogeneity.push((
+                *c,
+                super::homogeneity::judge(t.name().to_string(), per, inp.cv.gain_alpha),
+            ));
+        }
+        let refused: Vec<(usize, Term)> = fin
+            .spec
+            .terms
+            .iter()
+            .skip(base.spec.np())
+            .zip(&homogeneity)
+            .filter(|(_, (_, h))| !h.agrees)
+            .map(|(ct, _)| *ct)
+            .collect();
+        if !refused.is_empty() {
+            let (terms, th): (Vec<(usize, Term)>, Vec<f64>) = fin
+                .spec
+                .terms
+                .iter()
+                .zip(&fin.th)
+                .filter(|(ct, _)| !refused.contains(ct))
+                .map(|(ct, t)| (*ct, *t))
+                .unzip();
+            let spec = Spec::new(D::COVERED, terms);
+            fin = if spec == base.spec {
+                base.clone()
+            } else {
+                setup.fit_relaxed(&spec, th)?
+            };
+        }
+    }
     let h_fin = setup
         .held_out(&fin)
         .ok_or("a fold leaves the final model unidentifiable")?;
     let n_id = inp.n_id.min(n);
     let mut coefficients = Vec::new();
-    for (c, candidates, mut added, cnotes) in per_coef {
-        let o = primary_output(c);
-        let meas: Vec<f64> = setup.plant.y_m.iter().map(|y| y[o]).collect();
+    for (c, candidates, mut added, mut cnotes) in per_coef {
+        let homogeneity: Vec<Homogeneity> = homogeneity
+            .iter()
+            .filter(|(cc, _)| *cc == c)
+            .map(|(_, h)| h.clone())
+            .collect();
+        let refused: Vec<&Homogeneity> = homogeneity.iter().filter(|h| !h.agrees).collect();
+        for h in &refused {
+            cnotes.push(format!("{} not confirmed: {}", h.term, h.reason));
+        }
+        added.retain(|a| !refused.iter().any(|h| h.term == a.term));
+        let o = D::primary_output(c);
+        let meas: Vec<f64> = setup.plant.y_m().iter().map(|y| y[o]).collect();
         let mean = meas.iter().sum::<f64>() / n_all;
         let sst: f64 = meas.iter().map(|v| (v - mean).powi(2)).sum::<f64>().max(1e-300);
         let cv_r2 = |f: &Fit, h: &[Vec<[f64; NY]>]| -> f64 {
@@ -966,8 +1209,9 @@ pub fn analyse(inp: &Inputs) -> Result<LowRate, String> {
                 .unzip();
             ModelFit {
                 estimator: format!(
-                    "output error (Gauss–Newton; α, q simulated; judged on {})",
-                    OUTPUT_NAMES[o]
+                    "output error (Gauss–Newton; {} simulated; judged on {})",
+                    D::STATES,
+                    D::OUTPUTS[o]
                 ),
                 solution: if f.converged { "converged" } else { "iteration limit" }.into(),
                 not_determined: None,
@@ -986,11 +1230,7 @@ pub fn analyse(inp: &Inputs) -> Result<LowRate, String> {
                 },
             }
         };
-        let ci = match c {
-            0 => 0,
-            1 => 1,
-            _ => 2,
-        };
+        let ci = D::COVERED.iter().position(|x| *x == c).unwrap_or(0);
         let traces = Traces {
             t_s: table.t_s.clone(),
             measured: table.z[c].clone().unwrap_or_default(),
@@ -999,16 +1239,28 @@ pub fn analyse(inp: &Inputs) -> Result<LowRate, String> {
             split: n_id,
         };
         let (r2b, r2e) = (cv_r2(&base, &h_base), cv_r2(&fin, &h_fin));
-        let verdict = if added.is_empty() {
+        let not_confirmed = refused.iter().map(|h| h.term.as_str()).collect::<Vec<_>>().join(", ");
+        let verdict = if added.is_empty() && !refused.is_empty() {
+            format!(
+                "not confirmed (output error): {not_confirmed} predicted held-out manoeuvres better, but its estimates do not agree across the manoeuvres (see `homogeneity`); held-out R² of {} {r2b:.3}",
+                D::OUTPUTS[o]
+            )
+        } else if added.is_empty() {
             format!(
                 "nothing missing (output error): no candidate improves the held-out prediction of {} beyond noise; held-out R² {r2b:.3}",
-                OUTPUT_NAMES[o]
+                D::OUTPUTS[o]
+            )
+        } else if !refused.is_empty() {
+            format!(
+                "extended (output error): {}; held-out R² of {} {r2b:.3} → {r2e:.3}; not confirmed (estimates do not agree across manoeuvres): {not_confirmed}",
+                added.iter().map(|a| a.term.as_str()).collect::<Vec<_>>().join(", "),
+                D::OUTPUTS[o]
             )
         } else {
             format!(
                 "extended (output error): {}; held-out R² of {} {r2b:.3} → {r2e:.3}",
                 added.iter().map(|a| a.term.as_str()).collect::<Vec<_>>().join(", "),
-                OUTPUT_NAMES[o]
+                D::OUTPUTS[o]
             )
         };
         let model_of = |f: &Fit| -> Vec<(Term, f64)> { f.spec.of(c).iter().map(|(j, t)| (*t, f.th[*j])).collect() };
@@ -1030,13 +1282,90 @@ pub fn analyse(inp: &Inputs) -> Result<LowRate, String> {
             added,
             notes: cnotes,
             extended: model_fit(&fin, &h_fin),
-            homogeneity: Vec::new(),
+            homogeneity,
             traces,
             baseline_model: model_of(&base),
             extended_model: model_of(&fin),
         });
     }
-    Ok(LowRate { coefficients, notes })
+    Ok(LowRate {
+        coefficients,
+        covered: D::COVERED.to_vec(),
+        notes,
+    })
+}
+
+/// The autocorrelation of output `i`'s residuals at `lag` samples, lags within each piece: how
+/// coloured the output error's residuals are (white: near 0 at every lag).
+fn autocorrelation(e: &[[f64; NY]], i: usize, lag: usize, pieces: &[(usize, usize)]) -> f64 {
+    let (mut num, mut den) = (0.0, 0.0);
+    for &(a, b) in pieces {
+        num += (a..b.saturating_sub(lag)).map(|k| e[k][i] * e[k + lag][i]).sum::<f64>();
+        den += (a..b).map(|k| e[k][i] * e[k][i]).sum::<f64>();
+    }
+    if den > 0.0 {
+        num / den
+    } else {
+        f64::NAN
+    }
+}
+
+/// The estimates of parameter `j` of the fit `f` on each manoeuvre of `pieces` where it is
+/// excited: one Gauss–Newton step in that parameter alone from the pooled fit, the others held at
+/// their pooled estimates (as the equation-error path's [`super::homogeneity_of`] holds them: one
+/// manoeuvre seldom excites every baseline term), `θ_m = θ_j + Σ xᵀe / Σ xᵀx` with `x` the
+/// parameter's output sensitivities and `e` the residuals, both scaled by `R^{-1/2}`. Its σ is
+/// Morelli & Klein's (1997) coloured-residual correction per output with the residual
+/// autocovariance pooled over the manoeuvres (lags within each, up to `max_lag`, Bartlett
+/// weights), the same reading as the equation-error path's. A manoeuvre excites the parameter
+/// when its mean `xᵀx` per sample is at least 10 % of the pooled mean.
+fn per_manoeuvre(f: &Fit, j: usize, pieces: &[(usize, usize)], max_lag: usize) -> Vec<ManoeuvreEstimate> {
+    let sw = f.w.map(f64::sqrt);
+    let x = |k: usize, i: usize| f.run.h[k][(i, j)] * sw[i];
+    let e = |k: usize, i: usize| f.e[k][i] * sw[i];
+    let n: usize = pieces.iter().map(|(a, b)| b - a).sum();
+    let mut r = vec![[0.0; NY]; max_lag + 1];
+    for &(a, b) in pieces {
+        for (l, rl) in r.iter_mut().enumerate() {
+            for k in a..b.saturating_sub(l) {
+                for (i, v) in rl.iter_mut().enumerate() {
+                    *v += e(k, i) * e(k + l, i) / n.max(1) as f64;
+                }
+            }
+        }
+    }
+    let sxx_of = |a: usize, b: usize| -> f64 { (a..b).map(|k| (0..NY).map(|i| x(k, i).powi(2)).sum::<f64>()).sum() };
+    let pooled = pieces.iter().map(|&(a, b)| sxx_of(a, b)).sum::<f64>() / n.max(1) as f64;
+    let mut out = Vec::new();
+    for (m, &(a, b)) in pieces.iter().enumerate() {
+        let sxx = sxx_of(a, b);
+        if b <= a || sxx / ((b - a) as f64) < 0.1 * pooled || sxx <= 0.0 {
+            continue;
+        }
+        let sxe: f64 = (a..b).map(|k| (0..NY).map(|i| x(k, i) * e(k, i)).sum::<f64>()).sum();
+        let mut num = 0.0;
+        for (l, rl) in r.iter().enumerate().take(b - a) {
+            let w = if l == 0 {
+                1.0
+            } else {
+                2.0 * (1.0 - l as f64 / (max_lag + 1) as f64)
+            };
+            for (i, ri) in rl.iter().enumerate() {
+                num += w * ri * (a..b - l).map(|k| x(k, i) * x(k + l, i)).sum::<f64>();
+            }
+        }
+        if num <= 0.0 {
+            num = (0..NY)
+                .map(|i| r[0][i] * (a..b).map(|k| x(k, i).powi(2)).sum::<f64>())
+                .sum();
+        }
+        out.push(ManoeuvreEstimate {
+            manoeuvre: m,
+            value: f.th[j] + sxe / sxx,
+            sigma: num.sqrt() / sxx,
+        });
+    }
+    out
 }
 
 /// The family rule of the equation-error path ([`family`](super::family)) in the form this path
@@ -1075,12 +1404,61 @@ mod tests {
     use super::*;
     use crate::gaps::{hidden, preprocess, GapSettings};
 
+    /// `θ` of `terms` by least squares on the synthesised coefficients: a plausible point,
+    /// coefficient by coefficient.
+    fn ls_start(table: &Table, refs: &TermRefs, covered: [usize; 3], terms: &[(usize, Term)]) -> Vec<f64> {
+        let mut th = Vec::new();
+        for c in covered {
+            let cols: Vec<Vec<f64>> = terms
+                .iter()
+                .filter(|(cc, _)| *cc == c)
+                .map(|(_, t)| t.column(table, refs).expect("the column exists"))
+                .collect();
+            th.extend(ols_theta(&cols, table.z[c].as_ref().expect("synthesised")).expect("regular"));
+        }
+        th
+    }
+
+    /// Every column of the output sensitivities equals central differences of the simulated
+    /// outputs (relative tolerance per column, see the tests).
+    fn assert_sensitivities<D: Dynamics>(plant: &D, spec: &Spec, th: &[f64], pieces: &[(usize, usize)], tol: f64) {
+        let run = plant
+            .run(spec, th, pieces, true)
+            .expect("the simulation stays in range");
+        let n = plant.y_m().len();
+        for j in 0..spec.np() {
+            let step = 1e-6 * th[j].abs().max(1.0);
+            let at = |d: f64| {
+                let mut t = th.to_vec();
+                t[j] += d;
+                plant.run(spec, &t, pieces, false).expect("in range").yhat
+            };
+            let (up, dn) = (at(step), at(-step));
+            let (mut err, mut norm) = (0.0, 0.0);
+            for k in 0..n {
+                for i in 0..NY {
+                    let fd = (up[k][i] - dn[k][i]) / (2.0 * step);
+                    err += (run.h[k][(i, j)] - fd).powi(2);
+                    norm += fd * fd;
+                }
+            }
+            assert!(
+                err.sqrt() <= tol * norm.sqrt(),
+                "{:?}: |H − FD| {:.3e}, |FD| {:.3e}",
+                spec.terms[j],
+                err.sqrt(),
+                norm.sqrt()
+            );
+        }
+    }
+
     /// The output sensitivities of the simulation (the forward sensitivity equations integrated
-    /// with the states, with the chains through `C_L²` in `C_D` and `α̇` in `C_m`) equal central
-    /// differences of the simulated outputs. RK4 applied to the states and sensitivities together
-    /// differentiates the discrete step exactly; what differs is the central differences inside
-    /// (`∂f/∂x`, the chain partials: relative steps 10⁻⁶, errors ~10⁻¹⁰) and this test's own
-    /// (relative step 10⁻⁶ of `θ`): a relative tolerance of 10⁻⁵ per column leaves room for both.
+    /// with the states, with the chains through `C_L²` in `C_D` and `α̇` in `C_m`, and through
+    /// `β̇` in `C_l`, `C_n`) equal central differences of the simulated outputs, on both axes.
+    /// RK4 applied to the states and sensitivities together differentiates the discrete step
+    /// exactly; what differs is the central differences inside (`∂f/∂x`, the chain partials:
+    /// relative steps 10⁻⁶, errors ~10⁻¹⁰) and this test's own (relative step 10⁻⁶ of `θ`): a
+    /// relative tolerance of 10⁻⁵ per column leaves room for both.
     #[test]
     fn the_sensitivities_match_differences_of_the_simulation() {
         let fast = hidden::flight(None, 20.0, 7, true).expect("the simulator flies");
@@ -1107,9 +1485,8 @@ mod tests {
             cv: s.cv,
             max_lag_s: s.max_lag_s,
         };
-        let st = setup(&inp).expect("the path runs on this flight");
         use Term::*;
-        let terms = vec![
+        let lon = vec![
             (0, One),
             (0, Alpha),
             (0, Q),
@@ -1123,45 +1500,34 @@ mod tests {
             (4, Elevator),
             (4, AlphaDot),
         ];
-        // Least squares on the synthesised coefficients: a plausible point, coefficient by
-        // coefficient.
-        let mut th = Vec::new();
-        for c in COVERED {
-            let cols: Vec<Vec<f64>> = terms
-                .iter()
-                .filter(|(cc, _)| *cc == c)
-                .map(|(_, t)| t.column(&pre.table, &refs).expect("the column exists"))
-                .collect();
-            th.extend(ols_theta(&cols, pre.table.z[c].as_ref().expect("synthesised")).expect("regular"));
-        }
-        let spec = Spec::new(terms);
-        let run = st
-            .plant
-            .run(&spec, &th, &pieces, true)
-            .expect("the simulation stays in range");
-        for j in 0..spec.np() {
-            let step = 1e-6 * th[j].abs().max(1.0);
-            let at = |d: f64| {
-                let mut t = th.clone();
-                t[j] += d;
-                st.plant.run(&spec, &t, &pieces, false).expect("in range").yhat
-            };
-            let (up, dn) = (at(step), at(-step));
-            let (mut err, mut norm) = (0.0, 0.0);
-            for k in 0..f.len() {
-                for i in 0..NY {
-                    let fd = (up[k][i] - dn[k][i]) / (2.0 * step);
-                    err += (run.h[k][(i, j)] - fd).powi(2);
-                    norm += fd * fd;
-                }
-            }
-            assert!(
-                err.sqrt() <= 1e-5 * norm.sqrt(),
-                "{:?}: |H − FD| {:.3e}, |FD| {:.3e}",
-                spec.terms[j],
-                err.sqrt(),
-                norm.sqrt()
-            );
-        }
+        let th = ls_start(&pre.table, &refs, COVERED, &lon);
+        let st = setup(&inp).expect("the longitudinal path runs on this flight");
+        assert_sensitivities(&st.plant, &Spec::new(COVERED, lon), &th, &pieces, 1e-5);
+        // The lateral point: the simulator's airframe (`SimAirframe::skywalker_2013_mod`), with
+        // small β̇ and α·β terms (least squares on the synthesised lateral coefficients at 10 Hz
+        // can start with an unstable roll mode).
+        let lat_at = [
+            (2, One, 0.0),
+            (2, Beta, -0.98),
+            (2, Rudder, -0.2),
+            (3, One, 0.0),
+            (3, Beta, -0.12),
+            (3, P, -1.0),
+            (3, R, 0.14),
+            (3, Aileron, 0.25),
+            (3, Rudder, -0.037),
+            (3, BetaDot, 0.05),
+            (5, One, 0.0),
+            (5, Beta, 0.25),
+            (5, P, 0.022),
+            (5, R, -1.0),
+            (5, Rudder, 0.1),
+            (5, BetaDot, -0.05),
+            (5, AlphaBeta, 0.5),
+        ];
+        let lat: Vec<(usize, Term)> = lat_at.iter().map(|(c, t, _)| (*c, *t)).collect();
+        let th: Vec<f64> = lat_at.iter().map(|x| x.2).collect();
+        let st = super::super::oem_lateral::setup(&inp).expect("the lateral path runs on this flight");
+        assert_sensitivities(&st.plant, &Spec::new([2, 3, 5], lat), &th, &st.pieces, 1e-5);
     }
 }
