@@ -6,7 +6,11 @@
 //! on coloured residuals give ratios of several.
 //!
 //! * `gaps`: the pooled test card (`aerosid card`, eight records, light MIL-F-8785C turbulence),
-//!   the baseline's PCA-GTLS fit of each coefficient.
+//!   the baseline's fit of each coefficient, σ by leaving one manoeuvre out
+//!   (`regress::manoeuvre_jackknife`). The draws are kept apart by estimator: where PCA-GTLS is
+//!   not determined the fit is OLS (said so in the report), and the two estimate different
+//!   things with an estimated flow angle (attenuated or not), so a mixture's scatter is not any
+//!   σ's. The band is asserted on an estimator's draws when it fitted at least 3/4 of the cards.
 //! * `fem`: output error on one 6 s manoeuvre at a time (`tool/models/skywalker_short_period.toml`
 //!   and `tool/models/skywalker_lateral.toml`), the gap campaign's flight with vanes in its light
 //!   turbulence (every surface excited in the same window, so both models are identifiable from
@@ -105,8 +109,13 @@ fn gaps_draws(cards: &[Vec<PathBuf>]) -> BTreeMap<String, Draws> {
             if !SHORT_PERIOD.contains(&c.name.as_str()) && !ROLL_YAW.contains(&c.name.as_str()) {
                 continue;
             }
+            let estimator = if c.baseline.estimator.starts_with("OLS") {
+                "OLS"
+            } else {
+                "GTLS"
+            };
             for p in c.baseline.parameters.iter().filter(|p| p.term != "1") {
-                let d = out.entry(format!("{}:{}", c.name, p.term)).or_default();
+                let d = out.entry(format!("{}:{} ({estimator})", c.name, p.term)).or_default();
                 d.values.push(p.value);
                 d.sigmas.push(p.sigma);
             }
@@ -257,5 +266,9 @@ fn gaps_scatter_sweep() {
     let g = gaps_draws(&c);
     println!("gaps, N = {}\n{}", c.len(), table("pooled card, baseline", &g));
     let _ = std::fs::remove_dir_all(&dir);
-    assert_band("gaps", &g);
+    let most: BTreeMap<String, Draws> = g
+        .into_iter()
+        .filter(|(_, d)| 4 * d.values.len() >= 3 * c.len())
+        .collect();
+    assert_band("gaps", &most);
 }

@@ -1480,7 +1480,7 @@ fn analyse_coefficient(
         // then OLS, which the columns determine (they are independent, or `ols` below fails),
         // and the estimator's name says why.
         let ols_fit = || gtls_fit(&cols, z_id, &EivModel::exact(terms.len()), n_id, max_lag, None);
-        let (f, estimator) = match gtls_fit(&cols, z_id, &eiv, n_id, max_lag, None) {
+        let (mut f, estimator) = match gtls_fit(&cols, z_id, &eiv, n_id, max_lag, None) {
             Some(f) if matches!(f.solution, aerosid_core::Solution::Tls | aerosid_core::Solution::LeastSquares) => {
                 (f, if all_exact { "OLS".into() } else { "PCA-GTLS".into() })
             }
@@ -1497,6 +1497,16 @@ fn analyse_coefficient(
                 "OLS (GTLS not applicable: W_T exceeds a column's variation)".into(),
             ),
         };
+        // Pooled manoeuvres: σ by leaving one manoeuvre out (`regress::manoeuvre_jackknife`).
+        let fitted_eiv = if estimator == "PCA-GTLS" {
+            eiv.clone()
+        } else {
+            EivModel::exact(terms.len())
+        };
+        let id_pieces: Vec<(usize, usize)> = pieces.iter().copied().filter(|&(_, b)| b <= n_id).collect();
+        if let Some(s) = regress::manoeuvre_jackknife(&cols, z_id, &fitted_eiv, &id_pieces) {
+            f.sigma = s;
+        }
         let o = ols(&cols, z_id, n_id, 0)?;
         let pred = predict(cols_full, &f.theta);
         let p = terms.len();
