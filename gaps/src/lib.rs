@@ -38,8 +38,11 @@
 //! sensors are cleared before the aerodynamics is blamed), so the **top cause** is the sensor error with the largest
 //! final `t²`, else the aerodynamic term with the largest final `t²` over all coefficients.
 
+#![forbid(unsafe_code)]
+// Index loops mirror the matrix formulas of the estimators.
+#![allow(clippy::needless_range_loop)]
+
 pub mod airdata;
-pub mod bench;
 pub mod compat;
 pub mod family;
 pub mod held_noise;
@@ -59,8 +62,16 @@ pub mod sensor_error;
 pub mod signal;
 pub mod simulate;
 
+// The crates below the analysis under the names its modules use for them (`crate::io::…`,
+// `crate::sim::…`, `crate::plot::…`), as in the `aerosid` crate; `crate::gaps::…` is this crate.
+#[allow(unused_imports)]
+use crate as gaps;
 use crate::io::flow_angles::{FlowAngleChoice, WindFitSettings};
 use crate::io::measured::{MeasuredFlight, Quantity};
+use aerosid_read as io;
+use aerosid_report::{html, plot};
+use aerosid_sim as sim;
+use aerosid_sim::flights;
 use airdata::AirDataChoice;
 use compat::{CompatSettings, Compatibility, SensorParam};
 use model::{CauseKind, Corrections, Signal, Table, Term, TermRefs, COEFFICIENTS};
