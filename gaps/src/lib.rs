@@ -24,7 +24,7 @@
 //!
 //! The code runs these as one straight pass of stages, each a module of [`pass`] with a typed
 //! hand-off (prepare, compatibility, air data, synthesis, selection, validation, report).
-//! [`predict`] applies a saved report to another flight (`aerosid predict --gaps`).
+//! [`predict`](mod@predict) applies a saved report to another flight (`aerosid predict --gaps`).
 //!
 //! ```
 //! use aerosid_gaps::{run_gaps, GapSettings};

@@ -1,5 +1,5 @@
 //! Stage 5: each coefficient's baseline fitted by the core's PCA-GTLS and extended by stepwise
-//! regression over the candidate library ([`crate::analyse_coefficient`]); below the
+//! regression over the candidate library (`analyse_coefficient` in the crate root); below the
 //! equation-error path's rate, `C_L`, `C_D`, `C_m` by output error instead ([`crate::oem`]).
 
 use super::prepare::Prepared;
