@@ -1,7 +1,10 @@
 //! # aerosid
 //!
-//! The `aerosid` command and the analyses it runs for a user: the model-gap analysis, user models,
-//! the filter error method, Monte Carlo and the main job's report.
+//! The `aerosid` command and the analyses it runs for a user: the model-gap analysis
+//! (`aerosid-gaps`, re-exported as [`gaps`]), user models and the filter error method
+//! (`aerosid-fem`, re-exported as [`usermodel`], [`workflow`], [`fem_batch`], [`fem_report`]),
+//! figures and HTML reports (`aerosid-report`, as [`plot`] and [`html`]), Monte Carlo, batches of
+//! logs and the main job's report.
 //!
 //! It sits on top of the other crates: the reading layer (`aerosid-read`, re-exported below as
 //! [`io`]: every log format to one measured flight), the simulator (`aerosid-sim`, re-exported as
@@ -17,23 +20,28 @@ pub mod batch;
 pub mod card;
 pub mod demo;
 pub mod experiment;
-pub mod fem_batch;
-pub mod fem_report;
-pub mod gaps;
-pub mod html;
 pub mod longrun;
 pub mod mc;
-pub mod plot;
 pub mod progress;
 pub mod replay;
 pub mod report;
 pub mod table1;
-pub mod usermodel;
-pub mod workflow;
 
+/// The model-gap analysis (`aerosid-gaps`), with the benchmark campaign that drives it over
+/// simulated flights, test cards and the vendored real flights (`aerosid gaps-bench`).
+pub mod gaps {
+    pub use aerosid_gaps::*;
+    pub mod bench;
+}
+
+/// The user-model fitting (`aerosid-fem`): model files, the identify/validate/predict workflow,
+/// the batch filter error method and the HFB-320 report.
+pub use aerosid_fem::{fem_batch, fem_report, usermodel, workflow};
 /// The reading layer (`aerosid-read`): every log format to one measured flight, under the name
 /// the analyses use for it.
 pub use aerosid_read as io;
+/// SVG figures and report.html (`aerosid-report`).
+pub use aerosid_report::{html, plot};
 /// The simulator, under the name the analyses use for it.
 pub use aerosid_sim as sim;
 /// The main job's and the seed's flights.

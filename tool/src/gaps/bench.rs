@@ -13,7 +13,8 @@
 //! and the number of threads.
 
 use super::hidden::{flight, HiddenEffect, HiddenKind};
-use super::{run_gaps, GapReport, GapSettings, Levels, COEFFICIENTS};
+use super::model::COEFFICIENTS;
+use super::{run_gaps, GapReport, GapSettings, Levels};
 use crate::io::read_measured;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;

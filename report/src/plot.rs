@@ -35,7 +35,7 @@
 //! font loader); convert the SVG if a bitmap is wanted.
 //!
 //! ```no_run
-//! use aerosid::plot::{Band, Colour, Figure, HLine, Line, Panel};
+//! use aerosid_report::plot::{Band, Colour, Figure, HLine, Line, Panel};
 //! let t = [0.0, 0.1, 0.2];
 //! let est = [0.9, 1.0, 1.05];
 //! let sigma = [0.2, 0.1, 0.05];
@@ -46,7 +46,7 @@
 //!         .hline(HLine::new("truth", 1.0, Colour::BLACK).dashed()),
 //! );
 //! fig.write_svg("figures/cla.svg")?;
-//! # Ok::<(), aerosid::plot::PlotError>(())
+//! # Ok::<(), aerosid_report::plot::PlotError>(())
 //! ```
 
 use std::fmt;

@@ -71,7 +71,7 @@ pub const FLIGHT_DATA_ENV: &str = "AEROSID_FLIGHT_DATA";
 
 /// The vendored flight-test data (HFB-320, ATTAS, Twin Otter; provenance and licence in its
 /// `README.md`), inside this crate so that a bare clone runs every test.
-pub const VENDORED_FLIGHT_DATA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/data/flight");
+pub const VENDORED_FLIGHT_DATA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../tool/data/flight");
 
 /// The directory of the flight-test data: `$AEROSID_FLIGHT_DATA` when set (and not empty), else
 /// the vendored copy [`VENDORED_FLIGHT_DATA`].

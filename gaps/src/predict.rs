@@ -7,7 +7,7 @@
 //! [`Term::column`] with the report's reference values (`term_refs`; a report without them takes
 //! the new flight's, and says so). The baseline and extended models are evaluated with their saved
 //! parameters and scored against the synthesised coefficient with the workflow's metrics
-//! ([`crate::workflow::output_fit`]: RMS, R², Theil's U). A coefficient the new flight cannot
+//! ([`aerosid_report::fit::output_fit`]: RMS, R², Theil's U). A coefficient the new flight cannot
 //! synthesise, or a term it cannot form, is listed as not predicted with the reason.
 //! Schema of `prediction.json`: `docs/model-gaps.md`.
 
@@ -18,7 +18,7 @@ use super::{check_input, percentile, preprocess, signal, GapSettings, Levels};
 use crate::io::flow_angles::WindFitSettings;
 use crate::io::measured::MeasuredFlight;
 use crate::plot::{Colour, Figure, Line, Panel};
-use crate::workflow::{output_fit, OutputFit};
+use aerosid_report::fit::{output_fit, OutputFit};
 use serde::Serialize;
 use serde_json::Value;
 use std::fmt::Write as _;
@@ -442,7 +442,7 @@ pub fn table(p: &GapsPrediction) -> String {
         "{:<5} {:<9} {:>7} {:>11} {:>8} {:>8}  extension",
         "coef", "model", "samples", "RMS", "R²", "Theil U"
     );
-    let _ = writeln!(s, "{}", crate::workflow::THEIL_LEGEND);
+    let _ = writeln!(s, "{}", aerosid_report::fit::THEIL_LEGEND);
     for c in &p.coefficients {
         match (&c.baseline, &c.extended) {
             (Some(b), Some(e)) => {

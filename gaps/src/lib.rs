@@ -22,6 +22,28 @@
 //!    ± σ.
 //! 6. The [`report`] (terminal table, SVG figures, JSON; schema in `docs/model-gaps.md`).
 //!
+//! The code runs these as one straight pass of stages, each a module of [`pass`] with a typed
+//! hand-off (prepare, compatibility, air data, synthesis, selection, validation, report).
+//! [`predict`](mod@predict) applies a saved report to another flight (`aerosid predict --gaps`).
+//!
+//! ```
+//! use aerosid_gaps::{run_gaps, GapSettings};
+//! use std::path::Path;
+//! // The HFB-320 flight-test record vendored with the tool, read through its column map.
+//! let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tool/data");
+//! let flight = aerosid_read::read_measured(
+//!     &data.join("flight/hfb320_1_10.asc"),
+//!     &data.join("maps/hfb320.map"),
+//! )?;
+//! let report = run_gaps(&flight, &GapSettings::default())?;
+//! assert!(report.data_quality.supports_verdict);
+//! println!("{}", report.verdict);
+//! // The document `aerosid gaps` writes as report.json.
+//! let json = aerosid_gaps::report::json(&report);
+//! assert!(json["coefficients"].is_array());
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+//!
 //! ## The criterion and its threshold
 //! A candidate is named when its partial `t²` (the partial F of stepwise regression, Klein &
 //! Morelli 2006 §5.4.1, with a coloured-residual σ after Morelli & Klein 1997) exceeds the
@@ -38,8 +60,11 @@
 //! sensors are cleared before the aerodynamics is blamed), so the **top cause** is the sensor error with the largest
 //! final `t²`, else the aerodynamic term with the largest final `t²` over all coefficients.
 
+#![forbid(unsafe_code)]
+// Index loops mirror the matrix formulas of the estimators.
+#![allow(clippy::needless_range_loop)]
+
 pub mod airdata;
-pub mod bench;
 pub mod compat;
 pub mod family;
 pub mod held_noise;
@@ -52,6 +77,7 @@ pub mod oem;
 mod oem_lateral;
 pub mod oracle;
 pub mod origin;
+pub mod pass;
 pub mod predict;
 pub mod quality;
 pub mod regress;
@@ -61,11 +87,19 @@ pub mod sensor_error;
 pub mod signal;
 pub mod simulate;
 
-use crate::io::flow_angles::{FlowAngleChoice, WindFitSettings};
-use crate::io::measured::{MeasuredFlight, Quantity};
+// The crates below the analysis under the names its modules use for them (`crate::io::…`,
+// `crate::sim::…`, `crate::plot::…`), as in the `aerosid` crate; `crate::gaps::…` is this crate.
+#[allow(unused_imports)]
+use crate as gaps;
+use crate::io::flow_angles::FlowAngleChoice;
+use crate::io::measured::MeasuredFlight;
+use aerosid_read as io;
+use aerosid_report::{html, plot};
+use aerosid_sim as sim;
+use aerosid_sim::flights;
 use airdata::AirDataChoice;
-use compat::{CompatSettings, Compatibility, SensorParam};
-use model::{CauseKind, Corrections, Signal, Table, Term, TermRefs, COEFFICIENTS};
+use compat::{Compatibility, SensorParam};
+use model::{CauseKind, Signal, Table, Term, TermRefs, COEFFICIENTS};
 use noise::{ColumnErrors, MonteCarlo};
 use regress::{gtls_fit, metrics, ols, predict, EivModel, Metrics};
 use std::collections::BTreeMap;
@@ -745,341 +779,26 @@ fn percentile(x: &[f64], p: f64) -> f64 {
 }
 
 /// The analysis of a measured flight (the hook every front end calls: simulated flights, and file
-/// readers producing [`MeasuredFlight`]).
+/// readers producing [`MeasuredFlight`]): the stages of [`pass`] in order, each handing the next
+/// its result; the notes, in the report's order, go along.
 pub fn run_gaps(flight: &MeasuredFlight, settings: &GapSettings) -> Result<GapReport, GapError> {
-    // The input's errors name its own samples: checked before the rate changes.
-    check_input(flight)?;
-    let (decimated, rate_note) = at_analysis_rate(flight, settings.max_rate_hz).unzip();
-    let flight = decimated.as_ref().unwrap_or(flight);
-    // α and β: the vanes, or the α-free estimate, as `flow_angles` asks (the data-quality
-    // assessment below reads what was done from the flight's metadata).
-    let prepared = crate::io::flow_angles::prepare(flight, settings.flow_angles, &WindFitSettings::default());
-    let flight = &prepared;
-    let h = check_input(flight)?;
-    let baselines: [Vec<Term>; 6] = core::array::from_fn(|i| match &settings.baseline {
-        Some(b) => b[i].clone(),
-        None => Term::eq3(i),
-    });
-    let Preprocessed {
-        max_lag,
-        sg_half,
-        n_id,
-        m,
-        threshold_t2,
-        threshold_blocks,
-        compatibility,
-        corr,
-        air: air_owned,
-        fuse_cutoffs,
-        table,
-        mut notes,
-    } = preprocess(flight, h, settings, &baselines);
-    if let Some(note) = rate_note {
-        notes.insert(0, note);
-    }
-    let air = air_owned.as_ref();
-    let n = flight.len();
-    if table.z.iter().all(|z| z.is_none()) {
-        return Err(GapError::NothingToAnalyse {
-            source: flight.source.clone(),
-            notes,
-        });
-    }
-    let id_mean = |s: Signal| table.signals.get(&s).map(|v| signal::mean(&v[..n_id]));
-    let refs = TermRefs {
-        alpha_break_rad: table
-            .signals
-            .get(&Signal::Alpha)
-            .map_or(0.0, |a| percentile(&a[..n_id], 0.85)),
-        airspeed_mps: id_mean(Signal::Airspeed).unwrap_or(1.0).max(1.0),
-        mach: id_mean(Signal::Mach).unwrap_or(0.0),
-    };
-    // The errors-in-variables model of every column the analysis may fit.
-    let all_terms: [Vec<Term>; 6] = core::array::from_fn(|i| {
-        let mut v = baselines[i].clone();
-        for t in Term::offered(i, &table) {
-            if !v.contains(&t) {
-                v.push(t);
-            }
-        }
-        v
-    });
-    let errors: [Option<ColumnErrors>; 6] = match &settings.errors_in_variables {
-        Some(mc) => {
-            let syn = noise::Synthesis {
-                flight,
-                h_s: h,
-                corrections: &corr,
-                sg_half,
-                compat: air.map(|_| &compatibility),
-                fuse_cutoffs: fuse_cutoffs.as_ref(),
-                refs: &refs,
-                n_id,
-            };
-            notes.push(format!(
-                "fits by PCA-GTLS (aerosid_core::gtls::Gtls) with W_T from a {}-replica Monte Carlo of the sensors' white noise{}",
-                syn.replicas(&table, mc),
-                match syn.compat {
-                    Some(_) => String::new(),
-                    None => format!(
-                        " (measured air data: enough for {} smoothing windows of draws, docs/model-gaps.md)",
-                        noise::WINDOW_DRAWS
-                    ),
-                }
-            ));
-            noise::column_errors(&syn, &table, &all_terms, mc)
-        }
-        None => Default::default(),
-    };
-    let mut regression = Regression {
-        t_s: table.t_s.clone(),
-        n_id,
-        ..Regression::default()
-    };
-    for i in 0..6 {
-        let Some(zc) = &table.z[i] else { continue };
-        let mut base = Vec::new();
-        let mut lib = Vec::new();
-        for t in all_terms[i].iter() {
-            if let Some(c) = t.column(&table, &refs) {
-                if baselines[i].contains(t) {
-                    base.push(*t);
-                } else {
-                    lib.push(*t);
-                }
-                regression.columns.entry(*t).or_insert(c);
-            }
-        }
-        regression
-            .coefficients
-            .push((COEFFICIENTS[i].to_string(), zc.clone(), base, lib));
-    }
-    let piece_ranges: Vec<(usize, usize)> = flight.pieces().iter().map(|p| (p.start, p.end)).collect();
-    let flight_oracle = oracle::FlightOracle::new(flight, &table, &refs, &baselines, &errors, &all_terms);
-    notes.extend(flight_oracle.note());
-    let mut coefficients = Vec::new();
-    for i in 0..6 {
-        let Some(zc) = &table.z[i] else { continue };
-        if let Some(g) = analyse_coefficient(
-            i,
-            zc,
-            &table,
-            &refs,
-            &baselines[i],
-            n_id,
-            settings.alpha / (2.0 * m as f64),
-            max_lag,
-            h,
-            settings,
-            errors[i].as_ref(),
-            &piece_ranges,
-            &flight_oracle,
-        ) {
-            coefficients.push(g);
-        }
-    }
-    // Below the equation-error path's rate, `C_L`, `C_D`, `C_m` by output error ([`oem`]).
-    let low_rate = 1.0 / h < crate::io::quality::MIN_RATE_HZ;
-    let low_rate_ok = low_rate
-        && low_rate_path(&mut coefficients, &mut notes, h, || oem::Inputs {
-            table: &table,
-            aircraft: &flight.aircraft,
-            refs: &refs,
-            baselines: &baselines,
-            pieces: &piece_ranges,
-            n_id,
-            threshold_t2,
-            threshold_blocks,
-            cv: settings.cv,
-            max_lag_s: settings.max_lag_s,
-        });
-    // What the simulation gets wrong: both model sets simulate the held-out segment.
-    let model_set = |ext: bool| -> simulate::ModelSet {
-        core::array::from_fn(|i| {
-            coefficients.iter().find(|c| c.name == COEFFICIENTS[i]).map(|c| {
-                if ext {
-                    c.extended_model.clone()
-                } else {
-                    c.baseline_model.clone()
-                }
-            })
-        })
-    };
-    let (set_b, set_e) = (model_set(false), model_set(true));
-    let simulation = simulate::simulate(
-        &table,
-        &flight.aircraft,
-        h,
-        &refs,
-        n_id,
-        &piece_ranges,
-        [&set_b, &set_e],
-    );
-    // Verdict.
-    let mut named: Vec<NamedCause> = compatibility
-        .found
-        .iter()
-        .map(|f| NamedCause {
-            kind: param_kind(&f.param),
-            location: format!("{:?}", f.param.channel()),
-            what: f.param.name(),
-            t2: t2_of(f.value, f.sigma),
-            value: f.value,
-            sigma: f.sigma,
-            family: None,
-            entry: None,
-        })
-        .collect();
-    let mut aero: Vec<NamedCause> = coefficients
-        .iter()
-        .flat_map(|c| c.added.iter().filter_map(move |a| named_aero(c, a)))
-        .collect();
-    // Each list by the partial t² of the cause in the final joint fit (the entry order depends on
-    // the path of the selection).
-    let final_t2 = |c: &NamedCause| if c.t2.is_finite() { c.t2 } else { -1.0 };
-    named.sort_by(|a, b| final_t2(b).total_cmp(&final_t2(a)));
-    aero.sort_by(|a, b| final_t2(b).total_cmp(&final_t2(a)));
-    // A surface has one delay, though several coefficients may show it: one cause per surface,
-    // the strongest, with what the others found.
-    for c in aero {
-        if c.kind == CauseKind::ControlDelay {
-            if let Some(first) = named
-                .iter_mut()
-                .find(|m| m.kind == CauseKind::ControlDelay && m.location == c.location)
-            {
-                first.what.push_str(&format!("; also {}", c.what));
-                continue;
-            }
-        }
-        named.push(c);
-    }
-    let corrections_applied = settings.apply_corrections && !compatibility.found.is_empty();
-    let as_logged = if corrections_applied {
-        baselines_as_logged(flight, h, sg_half, air, &refs, &baselines, settings)
-    } else {
-        Vec::new()
-    };
-    // An estimated channel has no sensor errors: the compatibility check offers none
-    // (`origin::has_sensor_errors`); the notes say so.
-    notes.extend(origin::notes(flight));
-    let manoeuvres = manoeuvres_of(flight, &table, &refs, &baselines, &errors, n_id);
-    if manoeuvres.len() > 1 {
-        let folds = if manoeuvres.len() >= select::MIN_PIECES_FOR_FOLDS {
-            "the held-out data are whole manoeuvres (leave one manoeuvre out; the first fits of the baselines on the manoeuvres before the identification split, the rest held out), and an added term must agree across the manoeuvres that excite it (Cochran's Q at the held-out gain level)".to_string()
-        } else {
-            format!(
-                "fewer than {} manoeuvres: a whole manoeuvre cannot be held out, so the held-out data are time blocks within each manoeuvre as for one record",
-                select::MIN_PIECES_FOR_FOLDS
-            )
-        };
-        notes.insert(
-            0,
-            format!(
-                "{} manoeuvres pooled, each its own piece (smoothing, derivatives and the flight-path reconstruction's initial states per manoeuvre, never across a join); {folds}",
-                manoeuvres.len()
-            ),
-        );
-    }
-    let mut data_quality = quality::assess(flight);
-    if low_rate_ok {
-        // The rate is what the low-rate path answers; every other reason stands.
-        data_quality
-            .why_not
-            .retain(|r| !(r.starts_with("the time base is") && r.contains("needs at least")));
-        data_quality.supports_verdict = data_quality.why_not.is_empty();
-    }
-    quality::after_analysis(&mut data_quality, &coefficients, &regression);
-    let verdict = if data_quality.supports_verdict {
-        overall_verdict(&named, &coefficients)
-    } else {
-        named.clear();
-        // The coefficients' own verdicts rest on the same data: none of them stands either.
-        for c in &mut coefficients {
-            c.verdict = format!(
-                "no verdict (the data cannot support one: see the data quality); as computed: {}",
-                c.verdict
-            );
-        }
-        format!("no verdict: {}", data_quality.why_not.join("; "))
-    };
-    let air_data = notes
-        .iter()
-        .find(|n| n.starts_with("air data:"))
-        .cloned()
-        .unwrap_or_default();
-    let t = &flight.t_s;
-    Ok(GapReport {
-        source: flight.source.clone(),
-        aircraft: flight.aircraft.name.clone(),
-        identification_s: [t[0], t[n_id - 1]],
-        validation_s: [t[n_id], t[n - 1]],
-        candidates_tested: m,
-        threshold_t2,
-        threshold_blocks,
-        settings: settings.clone(),
-        compatibility,
-        coefficients,
-        simulation,
-        named,
+    let prepared = pass::prepare::prepare(flight, settings)?;
+    let (flight, h) = (&prepared.flight, prepared.h);
+    let mut notes: Vec<String> = prepared.rate_note.iter().cloned().collect();
+    let compatible = pass::compatibility::check(flight, h, settings, &prepared.plan, &mut notes);
+    let air = pass::air_data::choose(flight, h, settings.air_data, &compatible.compatibility, &mut notes);
+    let synthesised = pass::synthesis::synthesise(&prepared, &compatible, &air, settings, &mut notes)?;
+    let selected = pass::selection::select(&prepared, &synthesised, settings, &mut notes);
+    let validated = pass::validation::validate(&prepared, &compatible, &air, &synthesised, &selected, settings);
+    Ok(pass::report::assemble(
+        prepared,
+        compatible,
+        synthesised,
+        selected,
+        validated,
+        settings,
         notes,
-        air_data,
-        corrections_applied,
-        as_logged,
-        verdict,
-        regression,
-        data_quality,
-        refs,
-        manoeuvres,
-    })
-}
-
-/// The low-rate path: `C_L`, `C_D`, `C_m` of `coefficients` replaced by their output-error
-/// analysis ([`oem::analyse`]); the other coefficients get no verdict and name nothing (the
-/// equation-error path differentiates over ±0.1 s, which this rate cannot resolve). False, with a
-/// note saying why, when the path cannot run.
-fn low_rate_path<'a>(
-    coefficients: &mut Vec<CoefficientGap>,
-    notes: &mut Vec<String>,
-    h: f64,
-    inputs: impl FnOnce() -> oem::Inputs<'a>,
-) -> bool {
-    let rate = 1.0 / h;
-    let min = crate::io::quality::MIN_RATE_HZ;
-    match oem::analyse(&inputs()) {
-        Ok(lr) => {
-            let covered: Vec<&str> = lr.covered.iter().map(|&c| COEFFICIENTS[c]).collect();
-            coefficients.retain(|c| !covered.contains(&c.name.as_str()));
-            for c in coefficients.iter_mut() {
-                c.added.clear();
-                c.extended = c.baseline.clone();
-                c.extended_model = c.baseline_model.clone();
-                c.verdict = format!(
-                    "no verdict: at {rate:.1} Hz the equation-error path (smoothing and differentiation over ±0.1 s) needs {min} Hz, and the low-rate output-error path covers {} only",
-                    covered.join(", ")
-                );
-            }
-            let mut all = lr.coefficients;
-            all.append(coefficients);
-            all.sort_by_key(|c| COEFFICIENTS.iter().position(|n| *n == c.name));
-            *coefficients = all;
-            notes.insert(
-                0,
-                format!(
-                    "method: the data are at {rate:.1} Hz, below the {min} Hz the equation-error path needs (it smooths and differentiates over ±0.1 s), so {} are fitted and their candidates tested by output error (the low-rate path, docs/model-gaps.md)",
-                    covered.join(", ")
-                ),
-            );
-            notes.extend(lr.notes);
-            true
-        }
-        Err(why) => {
-            notes.insert(
-                0,
-                format!("method: the data are at {rate:.1} Hz, below {min} Hz, and the low-rate output-error path cannot run: {why}"),
-            );
-            false
-        }
-    }
+    ))
 }
 
 /// Signals whose spread over a manoeuvre the report lists: α, β, the rates and the surfaces (the
@@ -1151,288 +870,37 @@ fn manoeuvres_of(
         .collect()
 }
 
-/// The analysis's pre-processing of a flight up to the coefficients' table: step sizes, the
-/// candidate count and thresholds, the compatibility check, the sensor corrections and the air
-/// data ([`run_gaps`]; [`predict`] applies the same to another flight).
+/// The analysis's pre-processing of a flight up to the coefficients' table — the compatibility
+/// check, the sensor corrections, the air data and the synthesis, as [`run_gaps`] does them
+/// ([`predict`] applies the same to another flight).
 pub(crate) struct Preprocessed {
-    /// Largest residual-autocorrelation lag, samples.
-    pub max_lag: usize,
-    /// Savitzky–Golay half-width, samples.
-    pub sg_half: usize,
-    /// Samples of the identification segment.
-    pub n_id: usize,
-    /// Candidates tested (the Bonferroni divisor).
-    pub m: usize,
-    /// The coefficients' `t²` threshold.
-    pub threshold_t2: f64,
-    /// The blocks it assumes.
-    pub threshold_blocks: usize,
     /// The compatibility check.
     pub compatibility: Compatibility,
-    /// The sensor errors removed before the synthesis.
-    pub corr: Corrections,
-    /// The air data replacing the sensors' (`None`: as logged).
-    pub air: Option<BTreeMap<Quantity, Vec<f64>>>,
-    /// The fusion's crossovers.
-    pub fuse_cutoffs: Option<BTreeMap<Quantity, f64>>,
     /// The synthesised coefficients and signals.
     pub table: Table,
     /// What was done, in words.
     pub notes: Vec<String>,
 }
 
-/// The end of the identification segment: the first `fraction` of the samples, clamped to leave
-/// 100 and 50; on a flight of [`select::MIN_PIECES_FOR_FOLDS`] manoeuvres or more, the join
-/// nearest to it (whole manoeuvres held out; at least one on each side).
-fn identification_end(flight: &MeasuredFlight, fraction: f64) -> usize {
-    let n = flight.len();
-    let at = ((n as f64 * fraction).round() as usize).clamp(100, n - 50);
-    let pieces = flight.pieces();
-    if pieces.len() < select::MIN_PIECES_FOR_FOLDS {
-        return at;
-    }
-    pieces[1..]
-        .iter()
-        .map(|p| p.start)
-        .min_by_key(|s| s.abs_diff(at))
-        .unwrap_or(at)
-}
-
-/// [`Preprocessed`] of a checked flight with time step `h`.
+/// [`Preprocessed`] of a checked flight with time step `h`: the stages of [`pass`] up to the
+/// table.
 pub(crate) fn preprocess(
     flight: &MeasuredFlight,
     h: f64,
     settings: &GapSettings,
     baselines: &[Vec<Term>; 6],
 ) -> Preprocessed {
-    let n = flight.len();
-    let max_lag = ((settings.max_lag_s / h).round() as usize).max(1);
-    let sg_half = (settings.smoothing_half_width_s / h).round() as usize;
-    let n_id = identification_end(flight, settings.identification_fraction);
-    // The candidate count (Bonferroni divisor) needs the table; synthesise once uncorrected to
-    // learn which signals exist (the corrected table has the same signals).
-    let probe = model::synthesise(flight, h, &Corrections::default(), sg_half, None);
-    let refs_probe = TermRefs {
-        alpha_break_rad: 0.0,
-        airspeed_mps: 1.0,
-        mach: 0.0,
-    };
-    let mut n_aero = 0usize;
-    for i in 0..6 {
-        if probe.z[i].is_none() {
-            continue;
-        }
-        let base = &baselines[i];
-        n_aero += Term::offered(i, &probe)
-            .iter()
-            .filter(|t| !base.contains(t) && t.column(&probe, &refs_probe).is_some())
-            .count();
-    }
-    let n_compat_est = if settings.compatibility {
-        compat_candidate_count(flight)
-    } else {
-        0
-    };
-    let m = (n_aero + n_compat_est).max(1);
-    let z = signal::normal_upper_quantile(settings.alpha / (2.0 * m as f64));
-    // The compatibility check's statistic is normal (many segments); the coefficients' block
-    // sandwich has G − 1 degrees of freedom (G blocks of `cv.block_s`).
-    let compat_threshold_t2 = z * z;
-    let blocks = (n / ((settings.cv.block_s / h).round() as usize).max(10)).max(2);
-    let threshold_t2 = select::student_t_upper_quantile(settings.alpha / (2.0 * m as f64), blocks as f64 - 1.0).powi(2);
+    let plan = pass::prepare::plan(flight, h, settings, baselines);
     let mut notes = Vec::new();
-    // 1. Compatibility.
-    let cs = CompatSettings {
-        threshold_t2: compat_threshold_t2,
-        max_lag,
-        max_added: 3,
-        gain_alpha: settings.cv.gain_alpha,
-        iv: instrumental::IvSettings {
-            level: settings.alpha / m as f64,
-            cv: settings.cv,
-        },
-    };
-    let compatibility = if settings.compatibility {
-        compat::check(flight, h, &cs)
-    } else {
-        Compatibility {
-            notes: vec!["compatibility check switched off".into()],
-            ..Compatibility::default()
-        }
-    };
-    let found_corr = corrections_of(&compatibility);
-    let corr = if settings.apply_corrections {
-        if !compatibility.found.is_empty() {
-            notes.push("the sensor errors named are removed from the data before the aerodynamics; the baselines as logged are listed beside (`as_logged`)".into());
-        }
-        found_corr.clone()
-    } else {
-        Corrections::default()
-    };
-    // 2–5. Aerodynamics.
-    let (air_owned, fuse_cutoffs, air_note) = choose_air_data(flight, h, settings.air_data, &compatibility);
-    notes.push(air_note);
-    let table = model::synthesise(flight, h, &corr, sg_half, air_owned.as_ref());
+    let compatible = pass::compatibility::check(flight, h, settings, &plan, &mut notes);
+    let air = pass::air_data::choose(flight, h, settings.air_data, &compatible.compatibility, &mut notes);
+    let table = pass::synthesis::table(flight, h, &plan, &compatible, &air);
     notes.extend(table.notes.iter().cloned());
     Preprocessed {
-        max_lag,
-        sg_half,
-        n_id,
-        m,
-        threshold_t2,
-        threshold_blocks: blocks,
-        compatibility,
-        corr,
-        air: air_owned,
-        fuse_cutoffs,
+        compatibility: compatible.compatibility,
         table,
         notes,
     }
-}
-
-/// A term added to a coefficient, as a named cause; `None` when a value it would name cannot be
-/// computed (not finite). A surface-rate term is a time delay of that surface:
-/// `C_δ·δ(t−τ) ≈ C_δ·δ − C_δτ·δ̇`, so `τ = −θ_δ̇/θ_δ` with `θ_δ` from the same fit (the selection
-/// offers the rate only with its surface in the model, [`family`]). Its σ by the delta method,
-/// `Var τ = (σ_δ̇² + τ²σ_δ² + 2τ·cov)/θ_δ²`, with the covariance bounded by `|cov| ≤ σ_δ̇σ_δ`
-/// (Cauchy–Schwarz; the fit reports standard errors, not the covariance): `σ_τ = (σ_δ̇ +
-/// |τ|σ_δ)/|θ_δ|`, an upper bound. The exact-shift delay, when found, takes the same σ.
-fn named_aero(c: &CoefficientGap, a: &Added) -> Option<NamedCause> {
-    let surface = match a.term.as_str() {
-        "δė" => Some(("Elevator", "δe")),
-        "δȧ" => Some(("Aileron", "δa")),
-        "δṙ" => Some(("Rudder", "δr")),
-        _ => None,
-    };
-    let family = a.family.as_ref().map(family::FamilyChoice::describe);
-    if let Some((loc, sym)) = surface {
-        let d = c.extended.parameters.iter().find(|p| p.term == sym)?;
-        let first_order = -a.value / d.value;
-        let tau = a.exact_delay_s.unwrap_or(first_order);
-        // σ of τ by the delta method with the unknown covariance of the pair bounded: an upper
-        // bound, never smaller than the rate term's own relative error gives.
-        let sigma = (a.sigma + tau.abs() * d.sigma) / d.value.abs();
-        if !(tau.is_finite() && sigma.is_finite()) {
-            return None;
-        }
-        let how = match a.exact_delay_s {
-            Some(_) => format!("exact shift; first order {first_order:.3} s from"),
-            None => "from".to_string(),
-        };
-        return Some(NamedCause {
-            kind: a.kind,
-            location: loc.into(),
-            what: format!(
-                "delay({sym}) {:.3} ± {:.3} s ({how} {} {} = {:+.4}, {sym} = {:+.4})",
-                tau, sigma, c.name, a.term, a.value, d.value
-            ),
-            t2: t2_of(tau, sigma),
-            value: tau,
-            sigma,
-            family,
-            entry: Some((a.t2, c.threshold_t2)),
-        });
-    }
-    (a.value.is_finite() && a.sigma.is_finite()).then(|| NamedCause {
-        kind: a.kind,
-        location: c.name.clone(),
-        what: a.term.clone(),
-        t2: t2_of(a.value, a.sigma),
-        value: a.value,
-        sigma: a.sigma,
-        family,
-        entry: Some((a.t2, c.threshold_t2)),
-    })
-}
-
-/// `(value/σ)²`, the partial `t²` of an estimate in the fit it comes from; NaN when `σ` is not a
-/// finite positive number (the fit does not determine it).
-fn t2_of(value: f64, sigma: f64) -> f64 {
-    if sigma.is_finite() && sigma > 0.0 && value.is_finite() {
-        (value / sigma).powi(2)
-    } else {
-        f64::NAN
-    }
-}
-
-/// The baselines fitted to the data as logged (least squares over the whole flight), for the
-/// report's before-and-after of the sensor corrections.
-fn baselines_as_logged(
-    flight: &MeasuredFlight,
-    h: f64,
-    sg_half: usize,
-    air: Option<&BTreeMap<Quantity, Vec<f64>>>,
-    refs: &TermRefs,
-    baselines: &[Vec<Term>; 6],
-    settings: &GapSettings,
-) -> Vec<(String, Vec<(String, f64)>)> {
-    let table = model::synthesise(flight, h, &Corrections::default(), sg_half, air);
-    let mut out = Vec::new();
-    for i in 0..6 {
-        let Some(z) = &table.z[i] else { continue };
-        let cols: Vec<(Term, Vec<f64>)> = baselines[i]
-            .iter()
-            .filter_map(|t| t.column(&table, refs).map(|c| (*t, c)))
-            .collect();
-        let refs_c: Vec<&[f64]> = cols.iter().map(|(_, c)| c.as_slice()).collect();
-        let d = select::Design::new(&refs_c, z, h, &settings.cv, None);
-        let idx: Vec<usize> = (0..cols.len()).collect();
-        if let Ok(f) = d.fit(&idx) {
-            out.push((
-                COEFFICIENTS[i].to_string(),
-                cols.iter()
-                    .zip(&f.theta)
-                    .map(|((t, _), v)| (t.name().to_string(), *v))
-                    .collect(),
-            ));
-        }
-    }
-    out
-}
-
-/// The report's conclusion in one sentence.
-fn overall_verdict(named: &[NamedCause], coefficients: &[CoefficientGap]) -> String {
-    let unpredicted: Vec<&str> = coefficients
-        .iter()
-        .filter(|c| c.verdict.starts_with("the model does not predict"))
-        .map(|c| c.name.as_str())
-        .collect();
-    let undecided: Vec<&str> = coefficients
-        .iter()
-        .filter(|c| c.verdict.starts_with("not decided"))
-        .map(|c| c.name.as_str())
-        .collect();
-    let mut tail = String::new();
-    if !unpredicted.is_empty() {
-        tail += &format!(
-            "; {} not predicted by the model, so their causes are not identifiable from this flight",
-            unpredicted.join(", ")
-        );
-    }
-    if !undecided.is_empty() {
-        tail += &format!(
-            "; {}: a candidate is significant but this flight cannot confirm it on held-out data (see the verdicts)",
-            undecided.join(", ")
-        );
-    }
-    match named.first() {
-        None if tail.is_empty() => "nothing missing: the baseline predicts the held-out data within noise".to_string(),
-        None => format!("no cause named{tail}"),
-        Some(top) => format!(
-            "{} cause{} named, top: {:?} in {}: {}{}{tail}",
-            named.len(),
-            if named.len() == 1 { "" } else { "s" },
-            top.kind,
-            top.location,
-            top.what,
-            top.family.as_ref().map(|f| format!(" — {f}")).unwrap_or_default()
-        ),
-    }
-}
-
-/// How many sensor-error candidates the compatibility check will test on this flight.
-fn compat_candidate_count(flight: &MeasuredFlight) -> usize {
-    compat::attitude_candidates(flight).len() + compat::velocity_candidates(flight).len()
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -2533,105 +2001,10 @@ fn prefer_main_effects(
     notes
 }
 
-/// The corrections of the sensor errors the compatibility check named.
-fn corrections_of(c: &Compatibility) -> Corrections {
-    let mut corr = Corrections::default();
-    for f in &c.found {
-        match f.param {
-            SensorParam::Bias(q) => {
-                corr.bias.insert(q, f.value);
-            }
-            SensorParam::Scale(q) => {
-                corr.scale.insert(q, f.value);
-            }
-            SensorParam::Delay(q) => {
-                corr.delay_s.insert(q, f.value);
-            }
-            SensorParam::VaneX(q) => {
-                corr.vane_dx_m.insert(q, f.value);
-            }
-        }
-    }
-    corr
-}
-
-/// The air data the analysis uses (`None`: the sensors as logged), the fusion's crossovers, and
-/// the report's sentence saying which and why.
-#[allow(clippy::type_complexity)]
-fn choose_air_data(
-    flight: &MeasuredFlight,
-    h_s: f64,
-    choice: AirDataChoice,
-    compat: &Compatibility,
-) -> (
-    Option<BTreeMap<Quantity, Vec<f64>>>,
-    Option<BTreeMap<Quantity, f64>>,
-    String,
-) {
-    let vanes = flight.get(Quantity::Alpha).is_some() && flight.get(Quantity::Airspeed).is_some();
-    let rec = !compat.air_data.is_empty();
-    let turbulent = !compat.turbulent.is_empty();
-    let resolved = match choice {
-        AirDataChoice::Auto if vanes && rec && !turbulent => AirDataChoice::Fused,
-        AirDataChoice::Auto if vanes => AirDataChoice::Measured,
-        AirDataChoice::Auto if rec => AirDataChoice::Reconstructed,
-        AirDataChoice::Fused if !rec || !vanes => {
-            if vanes {
-                AirDataChoice::Measured
-            } else {
-                AirDataChoice::Reconstructed
-            }
-        }
-        AirDataChoice::Reconstructed if !rec => AirDataChoice::Measured,
-        c => c,
-    };
-    let asked = if resolved == choice || choice == AirDataChoice::Auto {
-        String::new()
-    } else {
-        format!(" ({} asked for, not available)", choice.name())
-    };
-    match resolved {
-        AirDataChoice::Fused => {
-            let (air, fcs) = airdata::fuse_all(flight, &compat.air_data, h_s, None);
-            let list: Vec<String> = fcs.iter().map(|(q, f)| format!("{q:?} {f} Hz")).collect();
-            (
-                Some(air),
-                Some(fcs),
-                format!(
-                    "air data: fused{asked} — the vanes/pitot below and the inertial reconstruction above a crossover chosen from the data ({}); both are logged",
-                    list.join(", ")
-                ),
-            )
-        }
-        AirDataChoice::Reconstructed if rec => (
-            Some(compat.air_data.clone()),
-            None,
-            format!(
-                "air data: reconstructed{asked} from the accelerometers, gyros and attitude (steady air assumed: gusts are model errors here){}",
-                if vanes { "" } else { "; no α vane or airspeed in the log" }
-            ),
-        ),
-        AirDataChoice::Measured if vanes => (
-            None,
-            None,
-            format!(
-                "air data: measured{asked} (vanes and pitot as logged){}",
-                if !rec {
-                    "; no inertial reconstruction possible"
-                } else if turbulent {
-                    "; turbulence detected, so the reconstruction (which misses the gusts) is not used, nor fused (the gusts it misses would bias the fits)"
-                } else {
-                    ""
-                }
-            ),
-        ),
-        _ => (None, None, "air data: none usable (no vanes and no inertial reconstruction)".into()),
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::io::measured::Quantity;
     use rand::SeedableRng;
     use rand_distr::{Distribution, Normal};
 
