@@ -210,6 +210,11 @@ pub struct VffSettings<T> {
     /// `0 < value < 1/(1 − γ₁) − 1/(1 − γ₂)`, the weight `σ_ε²` tends to (positive: the first
     /// sample has no noise before it).
     pub min_noise_weight_samples: T,
+    /// The clip of what the old-noise power `σ_ε²` takes in while eq. 32 holds (not in the seed;
+    /// module doc, "28c while eq. 32 holds"): once eq. 32 is tested and while `λ_F = λ_max`,
+    /// `σ_ε²` takes in `min(σ_ν²(t−1), κ·σ_ε²(t−1))`. `κ > 1`, or 0 for no clip. Our reading of
+    /// eq. 28 only.
+    pub noise_clip: T,
     /// The reading of the damaged eq. 28.
     pub reading: Eq28Reading,
 }
@@ -228,6 +233,7 @@ impl<T: Real> VffSettings<T> {
         lambda_max: T::ZERO,
         pi0: T::ZERO,
         min_noise_weight_samples: T::ZERO,
+        noise_clip: T::ZERO,
         reading: Eq28Reading::Paleologu,
     };
 
@@ -268,6 +274,7 @@ impl<T: Real> VffSettings<T> {
             lambda_max: T::lit(0.999),
             pi0: T::lit(1e-2),
             min_noise_weight_samples: T::lit(50.0),
+            noise_clip: T::lit(1.1),
             reading: Eq28Reading::Paleologu,
         }
     }
@@ -302,6 +309,7 @@ impl<T: Real> VffSettings<T> {
             lambda_min: T::lit(0.8),
             lambda_max: T::one(),
             min_noise_weight_samples: T::lit(50.0),
+            noise_clip: T::zero(),
             ..Self::for_dimension(1)
         }
     }
@@ -324,7 +332,8 @@ impl<T: Real> VffSettings<T> {
             && self.pi0 > z
             && self.pi0.finite()
             && self.min_noise_weight_samples > z
-            && self.min_noise_weight_samples < one / (one - self.gamma1) - one / (one - self.gamma2);
+            && self.min_noise_weight_samples < one / (one - self.gamma1) - one / (one - self.gamma2)
+            && (self.noise_clip == z || (self.noise_clip > one && self.noise_clip.finite()));
         if ok {
             Ok(())
         } else {
@@ -475,7 +484,11 @@ impl<T: Real, const N: usize> Vff<T, N> {
                     // the first sample). 28c: the old-noise mean, its weight D(t) = γ₁D(t−1) +
                     // (γ₁ − γ₂)W₂(t−1) taking in σ_ν²(t−1) (module doc).
                     let inflow = (s.gamma1 - s.gamma2) * w_nu;
-                    let snu2_prev = snu2;
+                    // While eq. 32 is tested and holds, what σ_ε² takes in is clipped at κσ_ε²
+                    // (module doc, "28c while eq. 32 holds").
+                    let calm =
+                        s.noise_clip > T::zero() && w_eps >= s.min_noise_weight_samples && self.lambda >= s.lambda_max;
+                    let snu2_prev = if calm { snu2.minr(s.noise_clip * seps2) } else { snu2 };
                     w_nu = s.gamma2 * w_nu + one;
                     let g = one / w_nu;
                     sq2 = (one - g) * sq2 + g * (q * q); // 28a
