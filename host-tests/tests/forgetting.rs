@@ -1155,7 +1155,7 @@ fn early_jump_sweep_full() {
 
 /// Why `for_dimension` has the ceiling `λ_max = 0.999`: with the seed's `λ_max = 1` the issue's
 /// case (`Gtls<f64, 3, 0, 4>`, the early-jump generator) settles later than `λ = 0.999` on many
-/// seeds at every jump time (measured 43 / 28 / 22 / 18 / 20 of 100), most of them jumps below
+/// seeds at every jump time (measured 30 / 18 / 15 / 13 / 12 of 100), most of them jumps below
 /// eq. 32's limit (29–31): `vff` module doc, "The ceiling". Asserted: at least 10 seeds, ten times
 /// the target's one in 100.
 #[test]
