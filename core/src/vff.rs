@@ -272,7 +272,8 @@ impl<T: Real> VffSettings<T> {
     /// Defaults for `n` parameters: `γ₂ = 1 − 1/(5·max(n, 3))`, `γ₁ = 1 − 1/(200n)`, `γ₀` from the
     /// short window's degrees of freedom (2 for `n ≤ 3`, 1.85 / 1.75 / 1.68 for `n` = 4 / 5 / 6;
     /// module doc, "Eq. 32: the threshold per dimension"), eq. 32 tested from a noise weight of 50
-    /// samples, `ς = 1e-9`, `λ ∈ [0.8, 0.999]`, `π₀ = 1e-2`. The ceiling `λ_max = 0.999` forgets the
+    /// samples, the noise power's input clipped at `1.1·σ_ε²` while eq. 32 holds (module doc, "28c
+    /// while eq. 32 holds"), `ς = 1e-9`, `λ ∈ [0.8, 0.999]`, `π₀ = 1e-2`. The ceiling `λ_max = 0.999` forgets the
     /// changes eq. 32 cannot detect (module doc, "The ceiling"); the seed's `λ_max = 1` keeps all
     /// information where the excitation stops.
     ///
