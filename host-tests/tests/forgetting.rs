@@ -18,7 +18,7 @@
 //! no code with the core's `Vff`: the powers are direct weighted sums over the kept residual
 //! history), THEN the core agrees with it at every sample (tolerances at `F32_TOL`), the statistics
 //! (re)start at the same TLS solution, and every target holds: the estimate is within 5 % of the
-//! new value for good after a median of 86 / 51 / 88 / 124 samples (`for_dimension(3)`) and
+//! new value for good after a median of 86 / 50 / 83 / 119 samples (`for_dimension(3)`) and
 //! 112 / 120 / 112 / 328 (`for_aero_coefficients(100)`) at the four jump times (`λ = 0.999`:
 //! 1 365 / 2 403 / 2 606 / 2 656; target ≤ 500), never later than `λ = 0.999` on any seed, and
 //! `λ_F < λ_max` on none of the 268 000 stationary samples before the jumps (`f32` and `f64` alike).
@@ -31,8 +31,10 @@
 //! with `for_dimension(n)` and beside it `λ = 0.999`, THEN the VFF settles later on no seed
 //! (target: at most 1 in 100, by at most 20 %), `λ_F < λ_max` on no stationary sample, the median
 //! is below `λ = 0.999`'s at every jump time and at most 500 samples in dimension 3 at every jump
-//! time, in dimensions 5 and 6 from the jump at 300 on (the always-on test: dimension 3, `f64`;
-//! the rest in the ignored `early_jump_sweep_full`). `early_jump_diagnosis` (ignored) shows why the
+//! time, in dimensions 5 and 6 from the jump at 300 on (the always-on tests: dimension 3, `f64`,
+//! and the jump at 150 in dimension 5, where the clip of `σ_ε²`'s input must cut the median by at
+//! least 20 %; the rest in the ignored `early_jump_sweep_full`, the seed-by-seed reading of the
+//! jump at 150 in the ignored `early_jump_at_150_arming_diagnosis`). `early_jump_diagnosis` (ignored) shows why the
 //! seed's ceiling `λ_max = 1` fails this (`vff` module doc, "The ceiling");
 //! `for_dimension_threshold_follows_the_short_window` checks eq. 32's threshold per dimension.
 
@@ -230,7 +232,11 @@ mod sweep {
     /// An independent implementation of eq. 24 and 28–33 in our reading (`vff` module doc), in
     /// `f64` on plain arrays; it shares no code with the core's `Vff`. It keeps every `q²` and `ν²`
     /// since the statistics started and forms the powers as direct weighted sums over that history
-    /// (no recursion): `σ_q²`, `σ_ν²` with weights `γ₂ᵏ`, `σ_ε²` with `γ₁ᵏ − γ₂ᵏ` (`k` samples ago).
+    /// (no recursion): `σ_q²`, `σ_ν²` with weights `γ₂ᵏ`, `σ_ε²` over what it took in: at each
+    /// sample after the first, `σ_ν²` of the sample before (clipped at `κσ_ε²` of the sample
+    /// before while eq. 32 is tested and holds) with the weight `(γ₁ − γ₂)·Σⱼ γ₂ʲ` (`j` over the
+    /// samples before), each weight decaying as `γ₁ᵏ` (`k` samples ago); unclipped this is the
+    /// mean of `ν²` with weights `γ₁ᵏ − γ₂ᵏ`, whose sum is the noise weight.
     /// Fed the samples, the core's `θ(t−1)` and whether that was a TLS solution, and the `λ_F` the
     /// core applied to the sample.
     pub struct RefVff {
@@ -243,6 +249,12 @@ mod sweep {
         /// `γ₁ᵏ`, `γ₂ᵏ` for `k = 0, 1, …` (`powi`, extended as the history grows).
         pow1: Vec<f64>,
         pow2: Vec<f64>,
+        /// What `σ_ε²` took in, oldest first: (weight when taken in, value).
+        eps_in: Vec<(f64, f64)>,
+        /// `σ_ν²` and `σ_ε²` after the previous sample of the statistics.
+        last: Option<(f64, f64)>,
+        /// Whether a clip has changed what `σ_ε²` took in since the start.
+        clipped: bool,
         pub started_at: Option<usize>,
     }
 
@@ -270,6 +282,9 @@ mod sweep {
                 nu2: Vec::new(),
                 pow1: Vec::new(),
                 pow2: Vec::new(),
+                eps_in: Vec::new(),
+                last: None,
+                clipped: false,
                 started_at: None,
             }
         }
@@ -313,6 +328,9 @@ mod sweep {
                 self.started_at = None;
                 self.q2.clear();
                 self.nu2.clear();
+                self.eps_in.clear();
+                self.last = None;
+                self.clipped = false;
             } else if tls && self.started_at.is_none() {
                 self.started_at = Some(t);
             }
@@ -328,6 +346,7 @@ mod sweep {
             if self.started_at.is_none() {
                 return out;
             }
+            let n_before = self.nu2.len();
             self.q2.push(q * q);
             self.nu2.push(nu * nu);
             let n = self.nu2.len();
@@ -335,6 +354,14 @@ mod sweep {
                 let k = self.pow1.len() as i32;
                 self.pow1.push(self.s.gamma1.powi(k));
                 self.pow2.push(self.s.gamma2.powi(k));
+            }
+            if let Some((pnu, peps)) = self.last {
+                let clip = self.s.noise_clip;
+                let calm = clip > 0.0 && weight_old(n_before) >= wmin && lam >= self.s.lambda_max;
+                let value = if calm { pnu.min(clip * peps) } else { pnu };
+                self.clipped |= value < pnu;
+                let w2_before: f64 = self.pow2[..n_before].iter().sum();
+                self.eps_in.push(((g1 - g2) * w2_before, value));
             }
             // Direct weighted sums over the history, newest first (k = 0 is this sample).
             let (mut w2, mut sq, mut snu, mut wold, mut sold) = (0.0, 0.0, 0.0, 0.0, 0.0);
@@ -348,7 +375,22 @@ mod sweep {
             }
             out.pq = sq / w2;
             out.pnu = snu / w2;
-            out.peps = if wold > 0.0 { sold / wold } else { 0.0 };
+            let (mut w_in, mut s_in) = (0.0, 0.0);
+            for (k, (w, v)) in self.eps_in.iter().rev().enumerate() {
+                w_in += self.pow1[k] * w;
+                s_in += self.pow1[k] * w * v;
+            }
+            // The two forms of σ_ε²'s weight agree, and of σ_ε² while nothing was clipped.
+            assert!(
+                (w_in - wold).abs() <= 1e-9 * wold.max(1.0),
+                "noise weight {w_in} vs {wold}"
+            );
+            assert!(
+                self.clipped || (s_in - sold).abs() <= 1e-9 * sold,
+                "σ_ε² {s_in} vs {sold}"
+            );
+            out.peps = if w_in > 0.0 { s_in / w_in } else { 0.0 };
+            self.last = Some((out.pnu, out.peps));
             out.margin = ((wold - wmin) / wmin.max(1.0))
                 .abs()
                 .min((out.pnu / (g0 * g0 * out.peps) - 1.0).abs());
@@ -399,6 +441,7 @@ mod sweep {
                 lambda_max: v.lambda_max.to_f64(),
                 pi0: v.pi0.to_f64(),
                 min_noise_weight_samples: v.min_noise_weight_samples.to_f64(),
+                noise_clip: v.noise_clip.to_f64(),
                 reading: v.reading,
             })),
             Forgetting::Constant(_) => None,
@@ -773,6 +816,12 @@ mod early {
         pub settle: Option<usize>,
         /// Samples before the jump with `λ_F < λ_max` (after the first TLS solution).
         pub false_drops: usize,
+        /// The sample at which eq. 28's statistics (last) started, the one at which eq. 32 was
+        /// first tested (`σ_ε²`'s weight `D` reached `min_noise_weight_samples`), and the first
+        /// sample at or after the jump with `λ_F < λ_max` (VFF only).
+        pub started: Option<usize>,
+        pub armed: Option<usize>,
+        pub detected: Option<usize>,
     }
 
     /// Runs `Gtls<T, NT, NE, NA>` on `d`.
@@ -788,11 +837,30 @@ mod early {
         };
         let mut out = Run::default();
         let mut solved = false;
+        // W₂ and D of the `vff` module doc, followed from the samples with statistics (those
+        // with σ_ν² > 0; σ_ν² = 0 before the start and on a restart).
+        let (mut w2, mut w_eps) = (0.0, 0.0);
         for (t, (x, z)) in d.rows.iter().enumerate() {
             let step = g.update(&sv(x), T::lit(*z)).unwrap();
             solved |= step.solution == Solution::Tls;
             if solved && t < d.jump && step.lambda_next < lambda_max {
                 out.false_drops += 1;
+            }
+            if let Forgetting::Variable(v) = forgetting {
+                let (g1, g2) = (v.gamma1.to_f64(), v.gamma2.to_f64());
+                if step.vff.power_nu == T::zero() {
+                    (w2, w_eps, out.started, out.armed) = (0.0, 0.0, None, None);
+                } else {
+                    out.started.get_or_insert(t);
+                    w_eps = g1 * w_eps + (g1 - g2) * w2;
+                    w2 = g2 * w2 + 1.0;
+                    if out.armed.is_none() && w_eps >= v.min_noise_weight_samples.to_f64() {
+                        out.armed = Some(t);
+                    }
+                }
+                if t >= d.jump && out.detected.is_none() && step.lambda_next < lambda_max {
+                    out.detected = Some(t);
+                }
             }
             if t >= d.jump {
                 let ok = ((g.theta()[d.index].to_f64() - d.after) / d.after).abs() < 0.05;
@@ -827,27 +895,40 @@ struct EarlyRow {
 const EARLY_JUMPS: [usize; 5] = [150, 300, 600, 1500, 5000];
 const EARLY_SEEDS: std::ops::RangeInclusive<u64> = 1..=100;
 
+/// The early-jump runs at one jump time for `Gtls<T, NT, NE, NA>`, one per seed in seed order: the
+/// VFF with the settings `vs`, `λ = 0.999`, and the residual power ratio of the jump.
+fn early_runs<T: aerosid_core::Real, const NT: usize, const NE: usize, const NA: usize>(
+    jump: usize,
+    vs: VffSettings<T>,
+) -> Vec<(early::Run, early::Run, f64)> {
+    use rayon::prelude::*;
+    EARLY_SEEDS
+        .into_par_iter()
+        .map(|seed| {
+            let d = early::data(NT, NE, jump, seed);
+            let v = early::run::<T, NT, NE, NA>(&d, Forgetting::Variable(vs));
+            let c = early::run::<T, NT, NE, NA>(&d, Forgetting::Constant(T::lit(0.999)));
+            (v, c, d.power_ratio)
+        })
+        .collect()
+}
+
 /// The early-jump sweep for `Gtls<T, NT, NE, NA>` with the VFF settings `vs` against
 /// `λ = 0.999`; prints and returns one row per jump time ("not settled" counts as the
 /// [`early::AFTER_JUMP`] samples run after the jump).
 fn early_sweep<T: aerosid_core::Real, const NT: usize, const NE: usize, const NA: usize>(
     name: &str,
     vs: VffSettings<T>,
+    jumps: &[usize],
 ) -> Vec<EarlyRow> {
-    use rayon::prelude::*;
     let g0 = vs.gamma0.to_f64();
-    EARLY_JUMPS
+    jumps
         .iter()
         .map(|&jump| {
-            let runs: Vec<(usize, usize, usize, f64)> = EARLY_SEEDS
-                .into_par_iter()
-                .map(|seed| {
-                    let d = early::data(NT, NE, jump, seed);
-                    let v = early::run::<T, NT, NE, NA>(&d, Forgetting::Variable(vs));
-                    let c = early::run::<T, NT, NE, NA>(&d, Forgetting::Constant(T::lit(0.999)));
-                    let not = early::AFTER_JUMP;
-                    (v.settle.unwrap_or(not), c.settle.unwrap_or(not), v.false_drops, d.power_ratio)
-                })
+            let not = early::AFTER_JUMP;
+            let runs: Vec<(usize, usize, usize, f64)> = early_runs::<T, NT, NE, NA>(jump, vs)
+                .iter()
+                .map(|(v, c, ratio)| (v.settle.unwrap_or(not), c.settle.unwrap_or(not), v.false_drops, *ratio))
                 .collect();
             let mut v: Vec<usize> = runs.iter().map(|r| r.0).collect();
             let mut c: Vec<usize> = runs.iter().map(|r| r.1).collect();
@@ -916,48 +997,152 @@ fn check_early(name: &str, rows: &[EarlyRow], median_from: usize) {
 fn early_jump_sweep_f64_dimension_3() {
     check_early(
         "f64 3/0",
-        &early_sweep::<f64, 3, 0, 4>("f64 3/0", VffSettings::for_dimension(3)),
+        &early_sweep::<f64, 3, 0, 4>("f64 3/0", VffSettings::for_dimension(3), &EARLY_JUMPS),
         EARLY_JUMPS[0],
     );
+}
+
+/// The jump at sample 150 in dimension 5, always run (`Gtls<f64, 5, 0, 6>`, 100 seeds): the clip of
+/// what `σ_ε²` takes in while eq. 32 holds (`vff` module doc, "28c while eq. 32 holds") settles it
+/// at least 20 % sooner on the median than the same settings without it (measured 525 against
+/// 697 samples; `λ = 0.999`: 915), with the targets of `check_early` but the median ≤ 500, which
+/// it misses (module doc, "What is left").
+#[test]
+fn early_jump_at_150_dimension_5_clip() {
+    let jump = &EARLY_JUMPS[..1];
+    let with = VffSettings::<f64>::for_dimension(5);
+    let without = VffSettings {
+        noise_clip: 0.0,
+        ..with
+    };
+    let clip = early_sweep::<f64, 5, 0, 6>("f64 5/0", with, jump);
+    let none = early_sweep::<f64, 5, 0, 6>("f64 5/0 without the clip", without, jump);
+    check_early("f64 5/0", &clip, EARLY_JUMPS[1]);
+    let (a, b) = (clip[0].median_vff, none[0].median_vff);
+    assert!(a * 5 <= b * 4, "median {a} with the clip, {b} without");
+}
+
+/// Why a jump at sample 150 settles late in dimensions 5 and 6 (`vff` module doc, "What is
+/// left"), seed by seed: when eq. 28's statistics start (the first TLS solution) and when eq. 32
+/// is first tested (`σ_ε²`'s weight reaches 50 samples), and for the jumps above eq. 32's limit
+/// (`R ≥ γ₀²`) how many come before that test and how they settle, with and without the clip.
+/// Asserted: the reading, i.e. at least two thirds of the jumps above the limit that settle
+/// later than 500 samples with the clip came before eq. 32 was tested.
+#[test]
+#[ignore = "diagnosis of the jump at sample 150 in dimensions 5 and 6, seed by seed"]
+fn early_jump_at_150_arming_diagnosis() {
+    fn diagnose<const NT: usize, const NA: usize>(name: &str) {
+        let jump = EARLY_JUMPS[0];
+        let with = VffSettings::<f64>::for_dimension(NT);
+        let g02 = with.gamma0 * with.gamma0;
+        let not = early::AFTER_JUMP;
+        let mut late_before = (0, 0);
+        for (what, vs) in [
+            ("with the clip", with),
+            (
+                "without",
+                VffSettings {
+                    noise_clip: 0.0,
+                    ..with
+                },
+            ),
+        ] {
+            let runs = early_runs::<f64, NT, 0, NA>(jump, vs);
+            let mut start: Vec<usize> = runs.iter().filter_map(|r| r.0.started).collect();
+            let mut armed: Vec<usize> = runs.iter().filter_map(|r| r.0.armed).collect();
+            println!(
+                "{name} {what}: statistics started at sample {} (median; range {:?}–{:?}), eq. 32 tested from {} (median)",
+                sweep::median(&mut start),
+                start.first(),
+                start.last(),
+                sweep::median(&mut armed)
+            );
+            let above: Vec<_> = runs.iter().enumerate().filter(|(_, r)| r.2 >= g02).collect();
+            for before in [true, false] {
+                let group: Vec<_> = above
+                    .iter()
+                    .filter(|(_, r)| r.0.armed.is_none_or(|a| a > jump) == before)
+                    .collect();
+                let mut settle: Vec<usize> = group.iter().map(|(_, r)| r.0.settle.unwrap_or(not)).collect();
+                println!(
+                    "  {} jumps above the limit {} eq. 32 was tested: {} detected, median to settle {}",
+                    group.len(),
+                    if before { "before" } else { "after" },
+                    group.iter().filter(|(_, r)| r.0.detected.is_some()).count(),
+                    if settle.is_empty() {
+                        0
+                    } else {
+                        sweep::median(&mut settle)
+                    }
+                );
+            }
+            for (i, (v, c, ratio)) in above.iter().filter(|(_, r)| r.0.settle.unwrap_or(not) > 500) {
+                println!(
+                    "    seed {:3}: R {ratio:5.2}, started {:?}, tested from {:?}, detected {:?}, settled {} (λ = 0.999: {})",
+                    *i as u64 + EARLY_SEEDS.start(),
+                    v.started,
+                    v.armed,
+                    v.detected,
+                    v.settle.unwrap_or(not),
+                    c.settle.unwrap_or(not)
+                );
+            }
+            if vs.noise_clip > 0.0 {
+                let late: Vec<_> = above.iter().filter(|(_, r)| r.0.settle.unwrap_or(not) > 500).collect();
+                late_before = (
+                    late.iter().filter(|(_, r)| r.0.armed.is_none_or(|a| a > jump)).count(),
+                    late.len(),
+                );
+            }
+        }
+        let (b, n) = late_before;
+        assert!(
+            3 * b >= 2 * n,
+            "{name}: {b} of {n} late jumps above the limit came before eq. 32 was tested"
+        );
+    }
+    diagnose::<5, 6>("f64 5/0");
+    diagnose::<6, 7>("f64 6/0");
 }
 
 /// The full sweep: dimensions 3, 5 and 6 with every regressor noisy, 6 with the intercept exact,
 /// `f32` and `f64` (≈ 8 times the always-on case). The median target (≤ 500) holds in dimension 3
 /// at every jump time, in dimensions 5 and 6 from the jump at 300 on: a jump at 150 comes before
-/// eq. 32 is tested on most seeds of dimensions 5 and 6 (the first TLS solution plus the noise
-/// weight of 50 samples), and settles about as with `λ = 0.999` (`vff` module doc, "Eq. 32: the
-/// threshold per dimension"); there the median is asserted below `λ = 0.999`'s only.
+/// eq. 32 is tested on half the seeds of dimension 5 and on almost all of dimension 6 (the first
+/// TLS solution plus the noise weight of 50 samples; `early_jump_at_150_arming_diagnosis`), and
+/// settles after a median of 525 / 712 / 624 samples (`vff` module doc, "What is left"); there the
+/// median is asserted below `λ = 0.999`'s only.
 #[test]
 #[ignore = "the full sweep, about 5 min: dimensions 3, 5, 6 and an exact column, f32 and f64"]
 fn early_jump_sweep_full() {
     let sweeps = [
         (
             "f32 3/0",
-            early_sweep::<f32, 3, 0, 4>("f32 3/0", VffSettings::for_dimension(3)),
+            early_sweep::<f32, 3, 0, 4>("f32 3/0", VffSettings::for_dimension(3), &EARLY_JUMPS),
         ),
         (
             "f64 5/0",
-            early_sweep::<f64, 5, 0, 6>("f64 5/0", VffSettings::for_dimension(5)),
+            early_sweep::<f64, 5, 0, 6>("f64 5/0", VffSettings::for_dimension(5), &EARLY_JUMPS),
         ),
         (
             "f32 5/0",
-            early_sweep::<f32, 5, 0, 6>("f32 5/0", VffSettings::for_dimension(5)),
+            early_sweep::<f32, 5, 0, 6>("f32 5/0", VffSettings::for_dimension(5), &EARLY_JUMPS),
         ),
         (
             "f64 6/0",
-            early_sweep::<f64, 6, 0, 7>("f64 6/0", VffSettings::for_dimension(6)),
+            early_sweep::<f64, 6, 0, 7>("f64 6/0", VffSettings::for_dimension(6), &EARLY_JUMPS),
         ),
         (
             "f32 6/0",
-            early_sweep::<f32, 6, 0, 7>("f32 6/0", VffSettings::for_dimension(6)),
+            early_sweep::<f32, 6, 0, 7>("f32 6/0", VffSettings::for_dimension(6), &EARLY_JUMPS),
         ),
         (
             "f64 6/1",
-            early_sweep::<f64, 6, 1, 6>("f64 6/1", VffSettings::for_dimension(6)),
+            early_sweep::<f64, 6, 1, 6>("f64 6/1", VffSettings::for_dimension(6), &EARLY_JUMPS),
         ),
         (
             "f32 6/1",
-            early_sweep::<f32, 6, 1, 6>("f32 6/1", VffSettings::for_dimension(6)),
+            early_sweep::<f32, 6, 1, 6>("f32 6/1", VffSettings::for_dimension(6), &EARLY_JUMPS),
         ),
     ];
     for (name, rows) in &sweeps {
@@ -972,7 +1157,7 @@ fn early_jump_sweep_full() {
 
 /// Why `for_dimension` has the ceiling `λ_max = 0.999`: with the seed's `λ_max = 1` the issue's
 /// case (`Gtls<f64, 3, 0, 4>`, the early-jump generator) settles later than `λ = 0.999` on many
-/// seeds at every jump time (measured 43 / 28 / 22 / 18 / 20 of 100), most of them jumps below
+/// seeds at every jump time (measured 30 / 18 / 15 / 13 / 12 of 100), most of them jumps below
 /// eq. 32's limit (29–31): `vff` module doc, "The ceiling". Asserted: at least 10 seeds, ten times
 /// the target's one in 100.
 #[test]
@@ -982,7 +1167,7 @@ fn early_jump_diagnosis() {
         lambda_max: 1.0,
         ..VffSettings::for_dimension(3)
     };
-    for r in early_sweep::<f64, 3, 0, 4>("f64 3/0, λ_max = 1", vs) {
+    for r in early_sweep::<f64, 3, 0, 4>("f64 3/0, λ_max = 1", vs, &EARLY_JUMPS) {
         assert!(r.slower >= 10, "jump at {}: slower on {} seeds only", r.jump, r.slower);
         assert!(
             r.below_eq32 >= 20,
