@@ -41,6 +41,7 @@
 pub mod airdata;
 pub mod bench;
 pub mod compat;
+pub mod eks;
 pub mod family;
 pub mod held_noise;
 pub mod hidden;
