@@ -360,9 +360,7 @@ fn predict(inp: &Inputs, k: usize, x: &mut [f64; N], p: &mut Mat, wind_q: f64) {
             *out = (0..3).map(|j| m[(r, j)] * p[j][c]).sum::<f64>() - bias_gain[r] * p[6 + r][c];
         }
     }
-    for r in 0..3 {
-        p[r] = rows[r];
-    }
+    p[..3].copy_from_slice(&rows);
     // P' = A·Fᵀ: the velocity columns change.
     for row in p.iter_mut() {
         let old = [row[0], row[1], row[2], row[6], row[7], row[8]];
