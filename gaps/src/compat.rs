@@ -1673,7 +1673,8 @@ pub fn check(flight: &MeasuredFlight, h_s: f64, s: &CompatSettings) -> Compatibi
         *turbulent.borrow_mut() = found;
         banned
     };
-    let (tested, found, rms, g_b, y, (w_b, x0_b)) = run(&prob_b, x0, s, "velocity", &screen);
+    let (mut tested, found, rms, g_b, y, (w_b, x0_b)) = run(&prob_b, x0, s, "velocity", &screen);
+    eks_oracle(&mut out, &mut tested, flight, h_s, gyro_bias, s);
     out.turbulent = turbulent.into_inner();
     out.air_data = air_data_of(&prob_b, &states_c, &g_b, &x0_b, lat_v);
     out.velocity_fit = Some((w_b, x0_b));
@@ -1687,6 +1688,34 @@ pub fn check(flight: &MeasuredFlight, h_s: f64, s: &CompatSettings) -> Compatibi
     turbulence_note(&mut out);
     instrumental_check(&mut out, flight, h_s, &s.iv);
     out
+}
+
+/// The oracle of the air-data and accelerometer errors from the reconstruction with wind and
+/// sensor-error states ([`super::eks`]): its σ replaces the output-error fit's own as `oracle_se`
+/// of those candidates (docs/model-gaps.md, "The oracle"), and the note says so.
+fn eks_oracle(
+    out: &mut Compatibility,
+    tested: &mut [ParamScore],
+    flight: &MeasuredFlight,
+    h_s: f64,
+    gyro_bias: [f64; 3],
+    s: &CompatSettings,
+) {
+    let Some(r) = super::eks::reconstruct(flight, h_s, gyro_bias) else {
+        return;
+    };
+    let factor =
+        super::oracle::detection_factor(super::oracle::level_of_normal_threshold(s.threshold_t2), s.gain_alpha);
+    for c in tested.iter_mut() {
+        if let Some((_, sd)) = r.get(c.param).filter(|(_, sd)| sd.is_finite() && *sd > 0.0) {
+            c.oracle_se = sd;
+            c.oracle_min_detectable = factor * sd;
+        }
+    }
+    out.notes.push(format!(
+        "oracle of the air-data and accelerometer errors: a Kalman reconstruction with the wind (random walk, {:.0e} m²/s³ by maximum likelihood) and the sensor errors as states",
+        r.wind_q
+    ));
 }
 
 /// On each turbulent vane channel, the test of its scale and delay by instrumental variables

@@ -66,6 +66,7 @@
 
 pub mod airdata;
 pub mod compat;
+pub mod eks;
 pub mod family;
 pub mod held_noise;
 pub mod hidden;
