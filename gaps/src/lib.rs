@@ -1579,284 +1579,436 @@ fn stepwise(
     settings: &GapSettings,
     pieces: &[(usize, usize)],
 ) -> Selection {
-    let nb = base_terms.len();
-    let terms: Vec<Term> = base_terms
-        .iter()
-        .copied()
-        .chain(library.iter().map(|(t, _)| *t))
-        .collect();
-    let cols: Vec<&[f64]> = base_cols
-        .iter()
-        .map(Vec::as_slice)
-        .chain(library.iter().map(|(_, c)| c.as_slice()))
-        .collect();
-    let p = terms.len();
-    // The per-sample error covariance of [X z] from the Monte Carlo (exact columns: zero).
-    let w: Option<Vec<f64>> = errors.map(|e| {
-        let k = e.terms.len() + 1;
-        let idx = |j: usize| {
-            if j < p {
-                e.terms.iter().position(|t| *t == terms[j] && !e.is_exact(t))
-            } else {
-                Some(k - 1)
-            }
-        };
-        let mut w = vec![0.0; (p + 1) * (p + 1)];
-        for r in 0..=p {
-            for c in 0..=p {
-                if let (Some(a), Some(b)) = (idx(r), idx(c)) {
-                    w[r * (p + 1) + c] = e.cov[a * k + b];
-                }
-            }
-        }
-        w
-    });
-    let block_s = settings.cv.block_s;
-    let cv = settings.cv;
-    let mut design = select::Design::in_pieces(&cols, zc, h_s, &cv, w.as_deref(), pieces);
-    if let Some(j) = terms.iter().position(|t| *t == Term::One) {
-        design = design.with_ones(j);
-    }
-    let g = design.n_blocks();
-    let threshold_t2 = select::student_t_upper_quantile(p_test, (g as f64 - 1.0).max(1.0)).powi(2);
-    let gain_crit = select::student_t_upper_quantile(settings.cv.gain_alpha, (g as f64 - 1.0).max(1.0));
-    let tests = (threshold_t2, gain_crit);
-    let t_detect = select::detection_factor(threshold_t2, gain_crit, g as f64 - 1.0);
+    let pb = Problem::new(
+        i, zc, h_s, base_terms, base_cols, library, errors, p_test, settings, pieces,
+    );
     let mut out = Selection {
         candidates: Vec::new(),
         added: Vec::new(),
         verdict: String::new(),
         cv_r2_baseline: f64::NAN,
         cv_r2_extended: f64::NAN,
-        block_s: design.blocks.first().map_or(block_s, |(a, b)| (b - a) as f64 * h_s),
-        threshold_t2,
-        blocks: g,
+        block_s: pb
+            .design
+            .blocks
+            .first()
+            .map_or(settings.cv.block_s, |(a, b)| (b - a) as f64 * h_s),
+        threshold_t2: pb.tests.0,
+        blocks: pb.design.n_blocks(),
         notes: Vec::new(),
         families: Vec::new(),
     };
-    // Excitation: a column whose variation does not clearly exceed its error is not scored.
-    let excitation = |j: usize| -> Option<f64> {
-        let e = errors?;
-        let var_err = e.variance(&terms[j]);
-        if var_err <= 0.0 {
-            return None;
-        }
-        let c = cols[j];
-        let m = c.iter().sum::<f64>() / c.len() as f64;
-        let var = c.iter().map(|x| (x - m).powi(2)).sum::<f64>() / c.len() as f64;
-        Some(var / var_err)
-    };
-    let mut model: Vec<usize> = (0..nb).collect();
-    let base = match design.fit(&model) {
+    let baseline: Vec<usize> = (0..pb.nb).collect();
+    let base = match pb.design.fit(&baseline) {
         Ok(f) => f,
-        Err(e) => {
-            let why = baseline_unfit_reason(e, (0..nb).map(|j| (terms[j], excitation(j))));
-            out.verdict = format!("the baseline cannot be fitted: {why}; no candidate scored");
-            out.candidates = library
-                .iter()
-                .map(|(t, _)| CandidateScore::unscored(*t, i, format!("the baseline cannot be fitted: {why}")))
-                .collect();
-            return out;
-        }
+        Err(e) => return pb.unfit_baseline(e, library, out),
     };
-    out.cv_r2_baseline = design.cv_r2(&base);
-    let mut removed: Vec<usize> = Vec::new();
-    let mut unexcited: Vec<usize> = Vec::new();
-    let mut current = base.clone();
-    let mut first = true;
-    // Candidates not offered yet (their parent not in the model, [`family`]): the index of their
-    // unscored entry, replaced by their score in the first round that offers them.
-    let mut waiting: BTreeMap<usize, usize> = BTreeMap::new();
-    loop {
-        let mut best: Option<(usize, f64, select::SubsetFit)> = None;
-        let in_model: Vec<Term> = model.iter().map(|&c| terms[c]).collect();
-        for j in nb..p {
-            if model.contains(&j) || removed.contains(&j) {
-                continue;
-            }
-            if let Some(why) = family::not_offered(terms[j], i, &in_model) {
-                if first {
-                    waiting.insert(j, out.candidates.len());
-                    out.candidates.push(CandidateScore::unscored(terms[j], i, why));
-                }
-                continue;
-            }
-            let first = first || waiting.contains_key(&j);
-            if let Some(r) = excitation(j).filter(|r| *r < MIN_EXCITATION) {
-                if first {
-                    unexcited.push(j);
-                    let c = CandidateScore::unscored(
-                        terms[j],
-                        i,
-                        format!("not enough excitation: its variation is {r:.1}× its error variance"),
-                    );
-                    record(&mut out.candidates, &mut waiting, j, c);
-                }
-                continue;
-            }
-            let mut trial = model.clone();
-            trial.push(j);
-            let f = match design.fit(&trial) {
-                Ok(f) => f,
-                Err(e) => {
-                    if first {
-                        let why = match e {
-                            select::Unfit::NotPositiveDefinite if design.regular_without_errors(&trial) => {
-                                "not excited beyond its measurement error given the model: the errors-in-variables correction leaves singular normal equations"
-                            }
-                            select::Unfit::NotPositiveDefinite => {
-                                "collinear with the model or not excited (singular normal equations)"
-                            }
-                            select::Unfit::TooFewData => "too few data blocks",
-                        };
-                        let c = CandidateScore::unscored(terms[j], i, why.into());
-                        record(&mut out.candidates, &mut waiting, j, c);
-                    }
-                    continue;
-                }
-            };
-            let EntryTest {
-                t2,
-                z,
-                rel,
-                noise_z,
-                unresolved,
-                ok,
-            } = entry_test(
-                &design,
-                &terms,
-                &current,
-                &f,
-                trial.len() - 1,
-                (threshold_t2, gain_crit),
-                h_s,
-            );
-            if first {
-                let c = CandidateScore {
-                    term: terms[j].name().into(),
-                    kind: terms[j].kind(i),
-                    t2,
-                    cv_gain: rel,
-                    cv_gain_z: z,
-                    cv_noise_z: noise_z,
-                    pse: f64::NAN,
-                    significant: ok,
-                    reason: unresolved.map(|tau| {
-                        if tau.is_finite() {
-                            format!("implies a delay of {tau:.4} s: shorter than a sample or negative, not a delay")
-                        } else {
-                            "its surface's own term is within 3σ of zero here, so no delay can be computed from the pair: not a delay".to_string()
-                        }
-                    }),
-                    value: f.theta[trial.len() - 1],
-                    sigma: f.sigma[trial.len() - 1],
-                    min_detectable: t_detect * f.sigma[trial.len() - 1],
-                    oracle_se: f64::NAN,
-                    oracle_min_detectable: f64::NAN,
-                    se_ratio: f64::NAN,
-                    oracle_reliability: f64::NAN,
-                };
-                record(&mut out.candidates, &mut waiting, j, c);
-            }
-            // The classical order of forward selection: the largest partial t² among the
-            // candidates that pass both tests.
-            if ok && best.as_ref().is_none_or(|b| t2 > b.1) {
-                best = Some((j, t2, f));
-            }
-        }
-        first = false;
-        let Some((j, _, f)) = best else { break };
-        model.push(j);
-        current = f;
-        let parents = parents_in(&model, &terms, i);
-        removal_step(&design, nb, &mut model, &mut removed, &mut current, tests, &parents);
-    }
-    out.cv_r2_extended = design.cv_r2(&current);
+    out.cv_r2_baseline = pb.design.cv_r2(&base);
+    let mut fwd = pb.forward(base, &mut out.candidates);
+    out.cv_r2_extended = pb.design.cv_r2(&fwd.current);
     // A model that does not predict the held-out blocks even when extended names nothing.
     let predictive = out.cv_r2_extended >= MIN_PREDICTIVE_R2;
     if !predictive {
-        model.truncate(nb);
+        fwd.model.truncate(pb.nb);
     }
-    let excluded: Vec<usize> = removed.iter().chain(&unexcited).copied().collect();
-    let before_swap = model.clone();
-    out.notes = prefer_main_effects(
-        &design,
-        &terms,
-        i,
-        nb,
-        &mut model,
-        &excluded,
-        &mut current,
-        (threshold_t2, gain_crit),
-        h_s,
-    );
-    let family_tests = family::Tests {
-        threshold_t2,
-        gain_crit,
+    pb.conventions(&mut fwd, predictive, &mut out);
+    out.added = pb.added_terms(&fwd.model, &fwd.current);
+    out.verdict = selection_verdict(&out, predictive);
+    out
+}
+
+/// What every step of [`stepwise`] reads: the terms (the baseline's first, then the library's),
+/// the design of their columns, and the thresholds of the two tests.
+struct Problem<'a> {
+    /// Index of the coefficient.
+    coef: usize,
+    /// Sample period, s.
+    h_s: f64,
+    /// Number of baseline terms: the first `nb` of `terms`.
+    nb: usize,
+    terms: Vec<Term>,
+    cols: Vec<&'a [f64]>,
+    errors: Option<&'a ColumnErrors>,
+    design: select::Design,
+    /// The `t²` threshold and the held-out critical value.
+    tests: (f64, f64),
+    /// Factor of a candidate's σ that gives the smallest size the tests detect.
+    t_detect: f64,
+}
+
+/// The state of forward selection: the model's columns, its fit, and the candidates that left
+/// (removal step) or were never scored for want of excitation.
+struct Forward {
+    model: Vec<usize>,
+    current: select::SubsetFit,
+    removed: Vec<usize>,
+    unexcited: Vec<usize>,
+}
+
+/// A candidate offered to the model in one round of forward selection.
+enum Offer {
+    /// Its variation does not clearly exceed its error: not scored.
+    Unexcited(CandidateScore),
+    /// The model with it cannot be fitted: not scored.
+    Unfit(CandidateScore),
+    /// Scored: its entry tests and the fit of the model with it.
+    Scored {
+        score: CandidateScore,
+        entry: EntryTest,
+        fit: select::SubsetFit,
+    },
+}
+
+/// The per-sample error covariance of `[X z]` from the Monte Carlo of `e`, in the order of
+/// `terms` then the output (exact columns: zero).
+fn error_covariance(e: &ColumnErrors, terms: &[Term]) -> Vec<f64> {
+    let p = terms.len();
+    let k = e.terms.len() + 1;
+    let idx = |j: usize| {
+        if j < p {
+            e.terms.iter().position(|t| *t == terms[j] && !e.is_exact(t))
+        } else {
+            Some(k - 1)
+        }
     };
-    let (families, family_notes) = family::resolve(
-        &design,
-        &terms,
-        i,
-        nb,
-        &mut model,
-        &excluded,
-        &mut current,
-        family_tests,
-    );
-    out.families = families.into_iter().map(|(c, f)| (terms[c], f)).collect();
-    out.notes.extend(family_notes);
-    if !out.notes.is_empty() {
-        // The other added terms are tested again in the model with the swap; the terms swapped
-        // in stay (each passed both entry tests in place of its product).
-        let swapped_in: Vec<usize> = model.iter().copied().filter(|c| !before_swap.contains(c)).collect();
-        let before = model.clone();
-        removal_step(&design, nb, &mut model, &mut removed, &mut current, tests, &swapped_in);
-        for c in before.iter().filter(|c| !model.contains(c)) {
-            out.notes.push(format!(
-                "{} withdrawn after that: in the model after the swap it no longer passes both entry tests",
-                terms[*c].name()
-            ));
-        }
-        if predictive {
-            out.cv_r2_extended = design.cv_r2(&current);
+    let mut w = vec![0.0; (p + 1) * (p + 1)];
+    for r in 0..=p {
+        for c in 0..=p {
+            if let (Some(a), Some(b)) = (idx(r), idx(c)) {
+                w[r * (p + 1) + c] = e.cov[a * k + b];
+            }
         }
     }
-    // What the data cannot tell apart: a candidate that, in place of an added term, predicts
-    // the held-out blocks not significantly worse and is itself significant.
-    // And the rivals: significant in its place too, but predicting significantly worse.
-    for (k, &a) in model.iter().enumerate().skip(nb) {
-        let (mut alternatives, mut rivals) = (Vec::new(), Vec::new());
-        let without_terms: Vec<Term> = model.iter().filter(|&&x| x != a).map(|&c| terms[c]).collect();
-        for j in nb..p {
-            if model.contains(&j) || family::not_offered(terms[j], i, &without_terms).is_some() {
+    w
+}
+
+impl<'a> Problem<'a> {
+    /// The terms, columns, design and test thresholds of one coefficient ([`stepwise`]'s
+    /// arguments).
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        coef: usize,
+        zc: &[f64],
+        h_s: f64,
+        base_terms: &[Term],
+        base_cols: &'a [Vec<f64>],
+        library: &'a [(Term, Vec<f64>)],
+        errors: Option<&'a ColumnErrors>,
+        p_test: f64,
+        settings: &GapSettings,
+        pieces: &[(usize, usize)],
+    ) -> Self {
+        let terms: Vec<Term> = base_terms
+            .iter()
+            .copied()
+            .chain(library.iter().map(|(t, _)| *t))
+            .collect();
+        let cols: Vec<&[f64]> = base_cols
+            .iter()
+            .map(Vec::as_slice)
+            .chain(library.iter().map(|(_, c)| c.as_slice()))
+            .collect();
+        let w: Option<Vec<f64>> = errors.map(|e| error_covariance(e, &terms));
+        let cv = settings.cv;
+        let mut design = select::Design::in_pieces(&cols, zc, h_s, &cv, w.as_deref(), pieces);
+        if let Some(j) = terms.iter().position(|t| *t == Term::One) {
+            design = design.with_ones(j);
+        }
+        let g = design.n_blocks();
+        let threshold_t2 = select::student_t_upper_quantile(p_test, (g as f64 - 1.0).max(1.0)).powi(2);
+        let gain_crit = select::student_t_upper_quantile(settings.cv.gain_alpha, (g as f64 - 1.0).max(1.0));
+        let t_detect = select::detection_factor(threshold_t2, gain_crit, g as f64 - 1.0);
+        Self {
+            coef,
+            h_s,
+            nb: base_terms.len(),
+            terms,
+            cols,
+            errors,
+            design,
+            tests: (threshold_t2, gain_crit),
+            t_detect,
+        }
+    }
+
+    /// A column's variance over its error variance (`None` when its error is unknown or zero):
+    /// a column whose variation does not clearly exceed its error is not scored.
+    fn excitation(&self, j: usize) -> Option<f64> {
+        let e = self.errors?;
+        let var_err = e.variance(&self.terms[j]);
+        if var_err <= 0.0 {
+            return None;
+        }
+        let c = self.cols[j];
+        let m = c.iter().sum::<f64>() / c.len() as f64;
+        let var = c.iter().map(|x| (x - m).powi(2)).sum::<f64>() / c.len() as f64;
+        Some(var / var_err)
+    }
+
+    /// The selection when the baseline cannot be fitted: why, and every candidate unscored.
+    fn unfit_baseline(&self, e: select::Unfit, library: &[(Term, Vec<f64>)], mut out: Selection) -> Selection {
+        let why = baseline_unfit_reason(e, (0..self.nb).map(|j| (self.terms[j], self.excitation(j))));
+        out.verdict = format!("the baseline cannot be fitted: {why}; no candidate scored");
+        out.candidates = library
+            .iter()
+            .map(|(t, _)| CandidateScore::unscored(*t, self.coef, format!("the baseline cannot be fitted: {why}")))
+            .collect();
+        out
+    }
+
+    /// Forward selection from the baseline fit `base`: each round adds the candidate with the
+    /// largest `t²` among those passing both tests, then runs the removal step. Every candidate's
+    /// score in the first round that offers it goes to `candidates`.
+    fn forward(&self, base: select::SubsetFit, candidates: &mut Vec<CandidateScore>) -> Forward {
+        let mut fwd = Forward {
+            model: (0..self.nb).collect(),
+            current: base,
+            removed: Vec::new(),
+            unexcited: Vec::new(),
+        };
+        let mut first = true;
+        // Candidates not offered yet (their parent not in the model, [`family`]): the index of
+        // their unscored entry, replaced by their score in the first round that offers them.
+        let mut waiting: BTreeMap<usize, usize> = BTreeMap::new();
+        loop {
+            let best = self.forward_round(&mut fwd, first, &mut waiting, candidates);
+            first = false;
+            let Some((j, f)) = best else { break };
+            fwd.model.push(j);
+            fwd.current = f;
+            let parents = parents_in(&fwd.model, &self.terms, self.coef);
+            let (model, removed, current) = (&mut fwd.model, &mut fwd.removed, &mut fwd.current);
+            removal_step(&self.design, self.nb, model, removed, current, self.tests, &parents);
+        }
+        fwd
+    }
+
+    /// One round of forward selection: offers every candidate not in the model nor removed,
+    /// records the scores of those offered for the first time, and returns the one to add.
+    fn forward_round(
+        &self,
+        fwd: &mut Forward,
+        first_round: bool,
+        waiting: &mut BTreeMap<usize, usize>,
+        candidates: &mut Vec<CandidateScore>,
+    ) -> Option<(usize, select::SubsetFit)> {
+        let mut best: Option<(usize, f64, select::SubsetFit)> = None;
+        let in_model: Vec<Term> = fwd.model.iter().map(|&c| self.terms[c]).collect();
+        for j in self.nb..self.terms.len() {
+            if fwd.model.contains(&j) || fwd.removed.contains(&j) {
                 continue;
             }
-            let swapped: Vec<usize> = model.iter().map(|&x| if x == a { j } else { x }).collect();
-            let Ok(f) = design.fit(&swapped) else { continue };
-            let (z, _) = select::gain(&current.cv_sse, &f.cv_sse);
-            if f.t2(k) > threshold_t2 {
-                if z > -gain_crit {
-                    alternatives.push(terms[j]);
-                } else {
-                    rivals.push((terms[j], f.t2(k), z));
+            if let Some(why) = family::not_offered(self.terms[j], self.coef, &in_model) {
+                if first_round {
+                    waiting.insert(j, candidates.len());
+                    candidates.push(CandidateScore::unscored(self.terms[j], self.coef, why));
+                }
+                continue;
+            }
+            let first = first_round || waiting.contains_key(&j);
+            match self.offer(j, fwd) {
+                Offer::Unexcited(c) if first => {
+                    fwd.unexcited.push(j);
+                    record(candidates, waiting, j, c);
+                }
+                Offer::Unexcited(_) => {}
+                Offer::Unfit(c) => {
+                    if first {
+                        record(candidates, waiting, j, c);
+                    }
+                }
+                Offer::Scored { score, entry, fit } => {
+                    if first {
+                        record(candidates, waiting, j, score);
+                    }
+                    // The classical order of forward selection: the largest partial t² among
+                    // the candidates that pass both tests.
+                    if entry.ok && best.as_ref().is_none_or(|b| entry.t2 > b.1) {
+                        best = Some((j, entry.t2, fit));
+                    }
                 }
             }
         }
-        let without: Vec<usize> = model.iter().copied().filter(|&x| x != a).collect();
-        let rel = design
-            .fit(&without)
-            .map_or(f64::NAN, |w| select::gain(&w.cv_sse, &current.cv_sse).1);
-        out.added.push((terms[a], current.t2(k), rel, alternatives, rivals));
+        best.map(|(j, _, f)| (j, f))
     }
-    out.verdict = if !predictive {
+
+    /// Candidate `j` offered to the model of `fwd`: its excitation, the fit with it, and its
+    /// entry tests against the model without it.
+    fn offer(&self, j: usize, fwd: &Forward) -> Offer {
+        let t = self.terms[j];
+        if let Some(r) = self.excitation(j).filter(|r| *r < MIN_EXCITATION) {
+            let why = format!("not enough excitation: its variation is {r:.1}× its error variance");
+            return Offer::Unexcited(CandidateScore::unscored(t, self.coef, why));
+        }
+        let mut trial = fwd.model.clone();
+        trial.push(j);
+        let fit = match self.design.fit(&trial) {
+            Ok(f) => f,
+            Err(e) => {
+                let why = match e {
+                    select::Unfit::NotPositiveDefinite if self.design.regular_without_errors(&trial) => {
+                        "not excited beyond its measurement error given the model: the errors-in-variables correction leaves singular normal equations"
+                    }
+                    select::Unfit::NotPositiveDefinite => {
+                        "collinear with the model or not excited (singular normal equations)"
+                    }
+                    select::Unfit::TooFewData => "too few data blocks",
+                };
+                return Offer::Unfit(CandidateScore::unscored(t, self.coef, why.into()));
+            }
+        };
+        let k = trial.len() - 1;
+        let entry = entry_test(&self.design, &self.terms, &fwd.current, &fit, k, self.tests, self.h_s);
+        let score = self.score(t, &entry, &fit, k);
+        Offer::Scored { score, entry, fit }
+    }
+
+    /// The score of term `t` at position `k` of `fit` with its entry tests `e`.
+    fn score(&self, t: Term, e: &EntryTest, fit: &select::SubsetFit, k: usize) -> CandidateScore {
+        CandidateScore {
+            term: t.name().into(),
+            kind: t.kind(self.coef),
+            t2: e.t2,
+            cv_gain: e.rel,
+            cv_gain_z: e.z,
+            cv_noise_z: e.noise_z,
+            pse: f64::NAN,
+            significant: e.ok,
+            reason: e.unresolved.map(|tau| {
+                if tau.is_finite() {
+                    format!("implies a delay of {tau:.4} s: shorter than a sample or negative, not a delay")
+                } else {
+                    "its surface's own term is within 3σ of zero here, so no delay can be computed from the pair: not a delay".to_string()
+                }
+            }),
+            value: fit.theta[k],
+            sigma: fit.sigma[k],
+            min_detectable: self.t_detect * fit.sigma[k],
+            oracle_se: f64::NAN,
+            oracle_min_detectable: f64::NAN,
+            se_ratio: f64::NAN,
+            oracle_reliability: f64::NAN,
+        }
+    }
+
+    /// The conventions among terms the data cannot tell apart, after forward selection: a main
+    /// effect in place of a tied interaction ([`prefer_main_effects`]), the families
+    /// ([`family::resolve`]), and, when either changed the model, the removal step again.
+    fn conventions(&self, fwd: &mut Forward, predictive: bool, out: &mut Selection) {
+        let excluded: Vec<usize> = fwd.removed.iter().chain(&fwd.unexcited).copied().collect();
+        let before_swap = fwd.model.clone();
+        let (nb, coef) = (self.nb, self.coef);
+        let (model, current) = (&mut fwd.model, &mut fwd.current);
+        out.notes = prefer_main_effects(
+            &self.design,
+            &self.terms,
+            coef,
+            nb,
+            model,
+            &excluded,
+            current,
+            self.tests,
+            self.h_s,
+        );
+        let family_tests = family::Tests {
+            threshold_t2: self.tests.0,
+            gain_crit: self.tests.1,
+        };
+        let (families, family_notes) = family::resolve(
+            &self.design,
+            &self.terms,
+            coef,
+            nb,
+            model,
+            &excluded,
+            current,
+            family_tests,
+        );
+        out.families = families.into_iter().map(|(c, f)| (self.terms[c], f)).collect();
+        out.notes.extend(family_notes);
+        if !out.notes.is_empty() {
+            self.retest_after_swaps(fwd, &before_swap, &mut out.notes);
+            if predictive {
+                out.cv_r2_extended = self.design.cv_r2(&fwd.current);
+            }
+        }
+    }
+
+    /// The other added terms tested again in the model with the swaps (`before_swap`: the model
+    /// before them); the terms swapped in stay (each passed both entry tests in place of its
+    /// product). A note per term withdrawn.
+    fn retest_after_swaps(&self, fwd: &mut Forward, before_swap: &[usize], notes: &mut Vec<String>) {
+        let swapped_in: Vec<usize> = fwd.model.iter().copied().filter(|c| !before_swap.contains(c)).collect();
+        let before = fwd.model.clone();
+        let (model, removed, current) = (&mut fwd.model, &mut fwd.removed, &mut fwd.current);
+        removal_step(&self.design, self.nb, model, removed, current, self.tests, &swapped_in);
+        for c in before.iter().filter(|c| !model.contains(c)) {
+            notes.push(format!(
+                "{} withdrawn after that: in the model after the swap it no longer passes both entry tests",
+                self.terms[*c].name()
+            ));
+        }
+    }
+
+    /// The added terms of `model` (fit `current`) with their `t²`, held-out gain, and the
+    /// candidates that stand in for them ([`Problem::stand_ins`]).
+    fn added_terms(&self, model: &[usize], current: &select::SubsetFit) -> Vec<AddedTerm> {
+        let mut added = Vec::new();
+        for (k, &a) in model.iter().enumerate().skip(self.nb) {
+            let (alternatives, rivals) = self.stand_ins(model, current, k, a);
+            let without: Vec<usize> = model.iter().copied().filter(|&x| x != a).collect();
+            let rel = self
+                .design
+                .fit(&without)
+                .map_or(f64::NAN, |w| select::gain(&w.cv_sse, &current.cv_sse).1);
+            added.push((self.terms[a], current.t2(k), rel, alternatives, rivals));
+        }
+        added
+    }
+
+    /// What the data cannot tell apart from the added term `a` at position `k`: a candidate
+    /// that, in its place, predicts the held-out blocks not significantly worse and is itself
+    /// significant. And its rivals: significant in its place too, but predicting significantly
+    /// worse, as `(term, t², held-out z)`.
+    fn stand_ins(
+        &self,
+        model: &[usize],
+        current: &select::SubsetFit,
+        k: usize,
+        a: usize,
+    ) -> (Vec<Term>, Vec<(Term, f64, f64)>) {
+        let (threshold_t2, gain_crit) = self.tests;
+        let (mut alternatives, mut rivals) = (Vec::new(), Vec::new());
+        let without_terms: Vec<Term> = model.iter().filter(|&&x| x != a).map(|&c| self.terms[c]).collect();
+        for j in self.nb..self.terms.len() {
+            if model.contains(&j) || family::not_offered(self.terms[j], self.coef, &without_terms).is_some() {
+                continue;
+            }
+            let swapped: Vec<usize> = model.iter().map(|&x| if x == a { j } else { x }).collect();
+            let Ok(f) = self.design.fit(&swapped) else { continue };
+            let (z, _) = select::gain(&current.cv_sse, &f.cv_sse);
+            if f.t2(k) > threshold_t2 {
+                if z > -gain_crit {
+                    alternatives.push(self.terms[j]);
+                } else {
+                    rivals.push((self.terms[j], f.t2(k), z));
+                }
+            }
+        }
+        (alternatives, rivals)
+    }
+}
+
+/// The verdict of a selection `out` whose added terms and held-out R² are set.
+fn selection_verdict(out: &Selection, predictive: bool) -> String {
+    if !predictive {
         format!(
             "the model does not predict this coefficient (held-out R² {} baseline, {} extended, < {MIN_PREDICTIVE_R2}): causes not identifiable from this flight",
             report::r2_text(out.cv_r2_baseline),
             report::r2_text(out.cv_r2_extended)
         )
     } else if out.added.is_empty() {
-        let open = unconfirmed(&out.candidates, threshold_t2);
+        let open = unconfirmed(&out.candidates, out.threshold_t2);
         if open.is_empty() {
             format!(
                 "nothing missing: no candidate predicts held-out data better than the baseline beyond noise (held-out R² {})",
@@ -1874,8 +2026,7 @@ fn stepwise(
             report::r2_text(out.cv_r2_baseline),
             report::r2_text(out.cv_r2_extended)
         )
-    };
-    out
+    }
 }
 
 /// Records a candidate's score: in place of its entry when it was waiting to be offered
