@@ -13,6 +13,11 @@ use crate::{
 };
 use std::collections::BTreeMap;
 
+/// One coefficient's gap: its baseline `base` fitted on the identification samples (the first
+/// `n_id` of `zc`), extended by [`stepwise`] selection over the candidate library, surface delays
+/// made exact ([`refine_surface_delays`]) and, for pooled manoeuvres, each added term confirmed
+/// across them ([`homogeneity_of`]). `None` when the baseline or the extended model cannot be
+/// fitted.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn analyse_coefficient(
     i: usize,
@@ -29,36 +34,301 @@ pub(crate) fn analyse_coefficient(
     pieces: &[(usize, usize)],
     flight_oracle: &oracle::FlightOracle,
 ) -> Option<CoefficientGap> {
-    let n = zc.len();
-    let mut dropped = Vec::new();
-    let mut terms = Vec::new();
-    let mut cols_full = Vec::new();
-    for t in base {
-        match t.column(table, refs) {
-            Some(c) => {
-                terms.push(*t);
-                cols_full.push(c);
-            }
-            None => dropped.push(t.name().to_string()),
-        }
+    let c = Coefficient {
+        i,
+        zc,
+        table,
+        refs,
+        n_id,
+        p_test,
+        max_lag,
+        h_s,
+        settings,
+        errors,
+        pieces,
+        flight_oracle,
+    };
+    c.analyse(base)
+}
+
+/// What every step of [`analyse_coefficient`] reads (its arguments but the baseline).
+struct Coefficient<'a> {
+    /// Index of the coefficient in [`COEFFICIENTS`].
+    i: usize,
+    /// The coefficient, every sample.
+    zc: &'a [f64],
+    table: &'a Table,
+    refs: &'a TermRefs,
+    /// Identification samples: the first `n_id`; the rest are held out.
+    n_id: usize,
+    /// Level of each significance test (after the Bonferroni division).
+    p_test: f64,
+    /// Largest lag of the coloured-residual covariance, samples.
+    max_lag: usize,
+    /// Sample period, s.
+    h_s: f64,
+    settings: &'a GapSettings,
+    errors: Option<&'a ColumnErrors>,
+    /// The manoeuvres' sample ranges.
+    pieces: &'a [(usize, usize)],
+    flight_oracle: &'a oracle::FlightOracle,
+}
+
+/// A model's terms and their columns over every sample.
+struct Columns {
+    terms: Vec<Term>,
+    cols: Vec<Vec<f64>>,
+}
+
+/// A model fitted on the identification samples: the report's view, the prediction over every
+/// sample, and the estimator's output.
+struct Fitted {
+    model: ModelFit,
+    pred: Vec<f64>,
+    fit: regress::GtlsFit,
+}
+
+/// The extended model after the selection, the exact delays and the check across manoeuvres.
+struct Extension {
+    /// Baseline terms first, then the added ones.
+    columns: Columns,
+    added_terms: Vec<AddedTerm>,
+    /// Exact delay per surface-rate term ([`refine_surface_delays`]).
+    exact_delays: Vec<(Term, f64)>,
+    verdict: String,
+    notes: Vec<String>,
+    homogeneity: Vec<Homogeneity>,
+    fitted: Fitted,
+}
+
+impl Coefficient<'_> {
+    /// The whole analysis of the coefficient with baseline `base`.
+    fn analyse(&self, base: &[Term]) -> Option<CoefficientGap> {
+        let (baseline_columns, dropped) = self.baseline_columns(base);
+        let baseline = self.fit_model(&baseline_columns)?;
+        let Columns { terms, cols } = &baseline_columns;
+        let baseline_model: Vec<(Term, f64)> = terms.iter().copied().zip(baseline.fit.theta.iter().copied()).collect();
+        let (library, mut candidates) = self.library(terms);
+        let sel = stepwise(
+            self.i,
+            self.zc,
+            self.h_s,
+            terms,
+            cols,
+            &library,
+            self.errors,
+            self.p_test,
+            self.settings,
+            self.pieces,
+        );
+        candidates.extend(self.with_oracles(sel.candidates.clone(), &baseline_columns, &library));
+        candidates.sort_by(|a, b| b.t2.total_cmp(&a.t2));
+        let ext = self.extend(baseline_columns, &library, &sel)?;
+        let p0 = ext.columns.terms.len() - ext.added_terms.len();
+        let added = self.added(&ext, p0, &sel.families);
+        let verdict = with_families(ext.verdict, &added);
+        Some(CoefficientGap {
+            name: COEFFICIENTS[self.i].into(),
+            verdict,
+            homogeneity: ext.homogeneity,
+            cv_r2_baseline: sel.cv_r2_baseline,
+            cv_r2_extended: sel.cv_r2_extended,
+            block_s: sel.block_s,
+            threshold_t2: sel.threshold_t2,
+            blocks: sel.blocks,
+            dropped_terms: dropped,
+            baseline: baseline.model,
+            candidates,
+            added,
+            notes: ext.notes,
+            extended: ext.fitted.model,
+            traces: Traces {
+                t_s: self.table.t_s.clone(),
+                measured: self.zc.to_vec(),
+                baseline: baseline.pred,
+                extended: ext.fitted.pred,
+                split: self.n_id.min(self.zc.len()),
+            },
+            baseline_model,
+            extended_model: ext
+                .columns
+                .terms
+                .iter()
+                .copied()
+                .zip(ext.fitted.fit.theta.iter().copied())
+                .collect(),
+        })
     }
-    let eiv_of = |terms: &[Term]| errors.map_or_else(|| EivModel::exact(terms.len()), |e| e.eiv(terms));
-    let id = |c: &Vec<f64>| c[..n_id].to_vec();
-    let z_id = &zc[..n_id];
-    let z_val = &zc[n_id..];
-    let fit_model = |cols_full: &[Vec<f64>], terms: &[Term]| -> Option<(ModelFit, Vec<f64>, regress::GtlsFit)> {
-        let cols: Vec<Vec<f64>> = cols_full.iter().map(id).collect();
-        let eiv = eiv_of(terms);
+
+    /// The columns of the baseline terms `base`, and the names of those whose signals the log
+    /// lacks (dropped).
+    fn baseline_columns(&self, base: &[Term]) -> (Columns, Vec<String>) {
+        let mut dropped = Vec::new();
+        let mut terms = Vec::new();
+        let mut cols = Vec::new();
+        for t in base {
+            match t.column(self.table, self.refs) {
+                Some(c) => {
+                    terms.push(*t);
+                    cols.push(c);
+                }
+                None => dropped.push(t.name().to_string()),
+            }
+        }
+        (Columns { terms, cols }, dropped)
+    }
+
+    /// Every candidate of the library not in `terms`, with its column, and an unscored entry for
+    /// each whose signals the log lacks.
+    fn library(&self, terms: &[Term]) -> (Vec<(Term, Vec<f64>)>, Vec<CandidateScore>) {
+        let mut candidates = Vec::new();
+        let mut library: Vec<(Term, Vec<f64>)> = Vec::new();
+        for t in Term::offered(self.i, self.table)
+            .into_iter()
+            .filter(|t| !terms.contains(t))
+        {
+            match t.column(self.table, self.refs) {
+                Some(c) => library.push((t, c)),
+                None => candidates.push(CandidateScore::unscored(
+                    t,
+                    self.i,
+                    "a signal it needs is not in the log".into(),
+                )),
+            }
+        }
+        (library, candidates)
+    }
+
+    /// Each scored candidate's oracle: alone beside the baseline, at the selection's levels.
+    fn with_oracles(
+        &self,
+        scored: Vec<CandidateScore>,
+        baseline: &Columns,
+        library: &[(Term, Vec<f64>)],
+    ) -> Vec<CandidateScore> {
+        let factor = oracle::detection_factor(self.p_test, self.settings.cv.gain_alpha);
+        let (terms, cols) = (&baseline.terms, &baseline.cols);
+        let limits = (self.max_lag, self.pieces);
+        scored
+            .into_iter()
+            .map(|c| {
+                let o = library
+                    .iter()
+                    .find(|(t, _)| c.sigma.is_finite() && t.name() == c.term)
+                    .map_or(oracle::Oracle::NONE, |(t, col)| {
+                        self.flight_oracle
+                            .of_candidate(terms, cols, (*t, col), self.zc, self.errors, limits, factor)
+                    });
+                c.with_oracle(o)
+            })
+            .collect()
+    }
+
+    /// The extended model: the selection's added terms after the exact surface delays, fitted,
+    /// then confirmed across pooled manoeuvres.
+    fn extend(&self, mut columns: Columns, library: &[(Term, Vec<f64>)], sel: &Selection) -> Option<Extension> {
+        let mut added_terms: Vec<AddedTerm> = sel.added.clone();
+        let (exact_delays, delay_notes) = refine_surface_delays(
+            &mut added_terms,
+            &columns.terms,
+            &columns.cols,
+            library,
+            &self.zc[..self.n_id],
+            self.n_id,
+            self.h_s,
+            self.max_lag,
+            sel.threshold_t2,
+        );
+        let notes: Vec<String> = sel.notes.iter().cloned().chain(delay_notes).collect();
+        for (t, ..) in &added_terms {
+            if let Some((_, c)) = library.iter().find(|(x, _)| x == t) {
+                columns.terms.push(*t);
+                columns.cols.push(c.clone());
+            }
+        }
+        let fitted = self.fit_model(&columns)?;
+        let ext = Extension {
+            columns,
+            added_terms,
+            exact_delays,
+            verdict: sel.verdict.clone(),
+            notes,
+            homogeneity: Vec::new(),
+            fitted,
+        };
+        self.confirm_across_manoeuvres(ext)
+    }
+
+    /// Pooled manoeuvres: an added term stays only when its per-manoeuvre estimates agree
+    /// ([`homogeneity_of`]); the others leave with a note and the model is refitted.
+    fn confirm_across_manoeuvres(&self, mut ext: Extension) -> Option<Extension> {
+        if self.pieces.len() < select::MIN_PIECES_FOR_FOLDS || ext.added_terms.is_empty() {
+            return Some(ext);
+        }
+        let Columns { terms, cols } = &ext.columns;
+        let p0 = terms.len() - ext.added_terms.len();
+        for k in 0..ext.added_terms.len() {
+            ext.homogeneity.push(homogeneity_of(
+                p0 + k,
+                cols,
+                terms,
+                &ext.fitted.fit.theta,
+                self.zc,
+                self.pieces,
+                self.max_lag,
+                self.errors,
+                self.settings.cv.gain_alpha,
+            ));
+        }
+        let refused: Vec<Homogeneity> = ext.homogeneity.iter().filter(|h| !h.agrees).cloned().collect();
+        if !refused.is_empty() {
+            drop_refused(&mut ext, p0, &refused);
+            ext.fitted = self.fit_model(&ext.columns)?;
+        }
+        Some(ext)
+    }
+
+    /// `columns` fitted on the identification samples: PCA-GTLS when it applies, else OLS
+    /// ([`Coefficient::estimate`]); σ by leaving one manoeuvre out when manoeuvres are pooled.
+    fn fit_model(&self, columns: &Columns) -> Option<Fitted> {
+        let Columns { terms, cols: cols_full } = columns;
+        let n_id = self.n_id;
+        let z_id = &self.zc[..n_id];
+        let cols: Vec<Vec<f64>> = cols_full.iter().map(|c| c[..n_id].to_vec()).collect();
+        let eiv = self
+            .errors
+            .map_or_else(|| EivModel::exact(terms.len()), |e| e.eiv(terms));
+        let (mut f, estimator) = self.estimate(&cols, terms, &eiv)?;
+        // Pooled manoeuvres: σ by leaving one manoeuvre out (`regress::manoeuvre_jackknife`).
+        let fitted_eiv = if estimator == "PCA-GTLS" {
+            eiv.clone()
+        } else {
+            EivModel::exact(terms.len())
+        };
+        let id_pieces: Vec<(usize, usize)> = self.pieces.iter().copied().filter(|&(_, b)| b <= n_id).collect();
+        if let Some(s) = regress::manoeuvre_jackknife(&cols, z_id, &fitted_eiv, &id_pieces) {
+            f.sigma = s;
+        }
+        let o = ols(&cols, z_id, n_id, 0)?;
+        let pred = predict(cols_full, &f.theta);
+        let model = self.model_fit(terms, &f, estimator, &eiv, &o.theta, &pred);
+        Some(Fitted { model, pred, fit: f })
+    }
+
+    /// The estimate of `cols` (identification samples) with the estimator's name.
+    ///
+    /// GTLS when it applies; OLS (said so) when the errors-in-variables model cannot be formed:
+    /// XᵀX − N·W̃ not positive definite (a column whose estimated error variance is as large as
+    /// its own variation: not excited in the sense of eq. 21) or W_T indefinite. A minimum-norm
+    /// GTLS solution (eq. 22–23: a direction not excited beyond its measurement error) is a
+    /// regularised value, not an estimate, and has no σ: the fit is then OLS, which the columns
+    /// determine (they are independent, or `ols` in [`Coefficient::fit_model`] fails), and the
+    /// estimator's name says why.
+    fn estimate(&self, cols: &[Vec<f64>], terms: &[Term], eiv: &EivModel) -> Option<(regress::GtlsFit, String)> {
+        let (z_id, n_id, max_lag) = (&self.zc[..self.n_id], self.n_id, self.max_lag);
         let all_exact = eiv.exact.iter().all(|e| *e);
-        // GTLS when it applies; OLS (said so) when the errors-in-variables model cannot be
-        // formed: XᵀX − N·W̃ not positive definite (a column whose estimated error variance is as
-        // large as its own variation: not excited in the sense of eq. 21) or W_T indefinite.
-        // A minimum-norm GTLS solution (eq. 22–23: a direction not excited beyond its
-        // measurement error) is a regularised value, not an estimate, and has no σ: the fit is
-        // then OLS, which the columns determine (they are independent, or `ols` below fails),
-        // and the estimator's name says why.
-        let ols_fit = || gtls_fit(&cols, z_id, &EivModel::exact(terms.len()), n_id, max_lag, None);
-        let (mut f, estimator) = match gtls_fit(&cols, z_id, &eiv, n_id, max_lag, None) {
+        let ols_fit = || gtls_fit(cols, z_id, &EivModel::exact(terms.len()), n_id, max_lag, None);
+        Some(match gtls_fit(cols, z_id, eiv, n_id, max_lag, None) {
             Some(f) if matches!(f.solution, aerosid_core::Solution::Tls | aerosid_core::Solution::LeastSquares) => {
                 (f, if all_exact { "OLS".into() } else { "PCA-GTLS".into() })
             }
@@ -74,27 +344,28 @@ pub(crate) fn analyse_coefficient(
                 ols_fit()?,
                 "OLS (GTLS not applicable: W_T exceeds a column's variation)".into(),
             ),
-        };
-        // Pooled manoeuvres: σ by leaving one manoeuvre out (`regress::manoeuvre_jackknife`).
-        let fitted_eiv = if estimator == "PCA-GTLS" {
-            eiv.clone()
-        } else {
-            EivModel::exact(terms.len())
-        };
-        let id_pieces: Vec<(usize, usize)> = pieces.iter().copied().filter(|&(_, b)| b <= n_id).collect();
-        if let Some(s) = regress::manoeuvre_jackknife(&cols, z_id, &fitted_eiv, &id_pieces) {
-            f.sigma = s;
-        }
-        let o = ols(&cols, z_id, n_id, 0)?;
-        let pred = predict(cols_full, &f.theta);
-        let p = terms.len();
+        })
+    }
+
+    /// The report's view of the fit `f` of `terms` (`ols_theta`: the OLS estimates beside it;
+    /// `pred`: the prediction over every sample).
+    fn model_fit(
+        &self,
+        terms: &[Term],
+        f: &regress::GtlsFit,
+        estimator: String,
+        eiv: &EivModel,
+        ols_theta: &[f64],
+        pred: &[f64],
+    ) -> ModelFit {
+        let (n_id, p) = (self.n_id, terms.len());
         let undetermined: Vec<&str> = terms
             .iter()
             .zip(f.theta.iter().zip(&f.sigma))
             .filter(|(_, (v, s))| !(v.is_finite() && s.is_finite()))
             .map(|(t, _)| t.name())
             .collect();
-        let mf = ModelFit {
+        ModelFit {
             estimator,
             solution: format!("{:?}", f.solution),
             not_determined: (!undetermined.is_empty()).then(|| {
@@ -113,140 +384,82 @@ pub(crate) fn analyse_coefficient(
                     sigma: f.sigma[k],
                     sigma_eq17: f.sigma_eq17[k],
                     exact: eiv.exact[k],
-                    ols_value: o.theta[k],
+                    ols_value: ols_theta[k],
                 })
                 .collect(),
-            identification: metrics(z_id, &pred[..n_id], p),
-            validation: metrics(z_val, &pred[n_id..], p),
-        };
-        Some((mf, pred, f))
-    };
-    let (baseline, base_pred, base_fit) = fit_model(&cols_full, &terms)?;
-    let baseline_model: Vec<(Term, f64)> = terms.iter().copied().zip(base_fit.theta.iter().copied()).collect();
-    // Every candidate of the library, with its column or the reason it has none.
-    let mut candidates = Vec::new();
-    let mut library: Vec<(Term, Vec<f64>)> = Vec::new();
-    for t in Term::offered(i, table).into_iter().filter(|t| !terms.contains(t)) {
-        match t.column(table, refs) {
-            Some(c) => library.push((t, c)),
-            None => candidates.push(CandidateScore::unscored(
-                t,
-                i,
-                "a signal it needs is not in the log".into(),
-            )),
+            identification: metrics(&self.zc[..n_id], &pred[..n_id], p),
+            validation: metrics(&self.zc[n_id..], &pred[n_id..], p),
         }
     }
-    let sel = stepwise(
-        i, zc, h_s, &terms, &cols_full, &library, errors, p_test, settings, pieces,
-    );
-    // Each scored candidate's oracle: alone beside the baseline, at the selection's levels.
-    let factor = oracle::detection_factor(p_test, settings.cv.gain_alpha);
-    candidates.extend(sel.candidates.into_iter().map(|c| {
-        let o = library
+
+    /// The report's added terms of `ext` (after its first `p0` terms), with their family
+    /// decisions `families`.
+    fn added(&self, ext: &Extension, p0: usize, families: &[(Term, family::FamilyChoice)]) -> Vec<Added> {
+        let theta = &ext.fitted.fit.theta;
+        let sigma = &ext.fitted.fit.sigma;
+        ext.added_terms
             .iter()
-            .find(|(t, _)| c.sigma.is_finite() && t.name() == c.term)
-            .map_or(oracle::Oracle::NONE, |(t, col)| {
-                flight_oracle.of_candidate(&terms, &cols_full, (*t, col), zc, errors, (max_lag, pieces), factor)
-            });
-        c.with_oracle(o)
-    }));
-    let mut added_terms: Vec<AddedTerm> = sel.added;
-    let (exact_delays, delay_notes) = refine_surface_delays(
-        &mut added_terms,
-        &terms,
-        &cols_full,
-        &library,
-        z_id,
-        n_id,
-        h_s,
-        max_lag,
-        sel.threshold_t2,
-    );
-    let notes: Vec<String> = sel.notes.iter().cloned().chain(delay_notes).collect();
-    for (t, ..) in &added_terms {
-        if let Some((_, c)) = library.iter().find(|(x, _)| x == t) {
-            terms.push(*t);
-            cols_full.push(c.clone());
-        }
+            .enumerate()
+            .map(|(k, (t, t2, cv_gain, alternatives, rivals))| Added {
+                term: t.name().into(),
+                kind: t.kind(self.i),
+                t2: *t2,
+                value: theta[p0 + k],
+                sigma: sigma[p0 + k],
+                cv_gain: *cv_gain,
+                alternatives: alternatives.iter().map(|a| a.name().to_string()).collect(),
+                rivals: rivals
+                    .iter()
+                    .map(|(r, t2, z)| Rival {
+                        term: r.name().into(),
+                        t2: *t2,
+                        cv_z: *z,
+                    })
+                    .collect(),
+                exact_delay_s: ext.exact_delays.iter().find(|(x, _)| x == t).map(|(_, tau)| *tau),
+                family: families.iter().find(|(x, _)| x == t).map(|(_, f)| f.clone()),
+            })
+            .collect()
     }
-    candidates.sort_by(|a, b| b.t2.total_cmp(&a.t2));
-    let (mut extended, mut ext_pred, mut ext_fit) = fit_model(&cols_full, &terms)?;
-    // Pooled manoeuvres: an added term stays only when its per-manoeuvre estimates agree.
-    let mut homogeneity = Vec::new();
-    let mut verdict = sel.verdict;
-    let mut notes = notes;
-    if pieces.len() >= select::MIN_PIECES_FOR_FOLDS && !added_terms.is_empty() {
-        let p0 = terms.len() - added_terms.len();
-        for k in 0..added_terms.len() {
-            homogeneity.push(homogeneity_of(
-                p0 + k,
-                &cols_full,
-                &terms,
-                &ext_fit.theta,
-                zc,
-                pieces,
-                max_lag,
-                errors,
-                settings.cv.gain_alpha,
-            ));
-        }
-        let refused: Vec<&Homogeneity> = homogeneity.iter().filter(|h| !h.agrees).collect();
-        if !refused.is_empty() {
-            for h in &refused {
-                notes.push(format!("{} not confirmed: {}", h.term, h.reason));
-            }
-            let keep: Vec<bool> = terms
-                .iter()
-                .enumerate()
-                .map(|(j, t)| j < p0 || !refused.iter().any(|h| h.term == t.name()))
-                .collect();
-            let mut it = keep.iter();
-            terms.retain(|_| *it.next().unwrap_or(&true));
-            let mut it = keep.iter();
-            cols_full.retain(|_| *it.next().unwrap_or(&true));
-            added_terms.retain(|a| !refused.iter().any(|h| h.term == a.0.name()));
-            let names: Vec<&str> = refused.iter().map(|h| h.term.as_str()).collect();
-            verdict = if added_terms.is_empty() {
-                format!(
-                    "not confirmed: {} predicted held-out manoeuvres better, but its estimates do not agree across the manoeuvres (see `homogeneity`)",
-                    names.join(", ")
-                )
-            } else {
-                format!(
-                    "{verdict}; not confirmed (estimates do not agree across manoeuvres): {}",
-                    names.join(", ")
-                )
-            };
-            (extended, ext_pred, ext_fit) = fit_model(&cols_full, &terms)?;
-        }
+}
+
+/// The added terms whose estimates do not agree across manoeuvres (`refused`) leave `ext` (its
+/// first `p0` terms, the baseline, stay), each with a note; the verdict says so.
+fn drop_refused(ext: &mut Extension, p0: usize, refused: &[Homogeneity]) {
+    for h in refused {
+        ext.notes.push(format!("{} not confirmed: {}", h.term, h.reason));
     }
-    let added: Vec<(Term, f64)> = added_terms.iter().map(|(t, t2, ..)| (*t, *t2)).collect();
-    let p0 = terms.len() - added.len();
-    let added: Vec<Added> = added
+    let keep: Vec<bool> = ext
+        .columns
+        .terms
         .iter()
         .enumerate()
-        .map(|(k, (t, t2))| Added {
-            term: t.name().into(),
-            kind: t.kind(i),
-            t2: *t2,
-            value: ext_fit.theta[p0 + k],
-            sigma: ext_fit.sigma[p0 + k],
-            cv_gain: added_terms[k].2,
-            alternatives: added_terms[k].3.iter().map(|a| a.name().to_string()).collect(),
-            rivals: added_terms[k]
-                .4
-                .iter()
-                .map(|(r, t2, z)| Rival {
-                    term: r.name().into(),
-                    t2: *t2,
-                    cv_z: *z,
-                })
-                .collect(),
-            exact_delay_s: exact_delays.iter().find(|(x, _)| x == t).map(|(_, tau)| *tau),
-            family: sel.families.iter().find(|(x, _)| x == t).map(|(_, f)| f.clone()),
-        })
+        .map(|(j, t)| j < p0 || !refused.iter().any(|h| h.term == t.name()))
         .collect();
-    let verdict = if verdict.starts_with("extended") {
+    let mut it = keep.iter();
+    ext.columns.terms.retain(|_| *it.next().unwrap_or(&true));
+    let mut it = keep.iter();
+    ext.columns.cols.retain(|_| *it.next().unwrap_or(&true));
+    ext.added_terms
+        .retain(|a| !refused.iter().any(|h| h.term == a.0.name()));
+    let names: Vec<&str> = refused.iter().map(|h| h.term.as_str()).collect();
+    ext.verdict = if ext.added_terms.is_empty() {
+        format!(
+            "not confirmed: {} predicted held-out manoeuvres better, but its estimates do not agree across the manoeuvres (see `homogeneity`)",
+            names.join(", ")
+        )
+    } else {
+        format!(
+            "{}; not confirmed (estimates do not agree across manoeuvres): {}",
+            ext.verdict,
+            names.join(", ")
+        )
+    };
+}
+
+/// An extended verdict followed by the family decision of each added term that has one.
+fn with_families(verdict: String, added: &[Added]) -> String {
+    if verdict.starts_with("extended") {
         let fams: Vec<String> = added
             .iter()
             .filter_map(|a| a.family.as_ref().map(family::FamilyChoice::describe))
@@ -254,32 +467,7 @@ pub(crate) fn analyse_coefficient(
         fams.iter().fold(verdict, |v, f| format!("{v}; {f}"))
     } else {
         verdict
-    };
-    Some(CoefficientGap {
-        name: COEFFICIENTS[i].into(),
-        verdict,
-        homogeneity,
-        cv_r2_baseline: sel.cv_r2_baseline,
-        cv_r2_extended: sel.cv_r2_extended,
-        block_s: sel.block_s,
-        threshold_t2: sel.threshold_t2,
-        blocks: sel.blocks,
-        dropped_terms: dropped,
-        baseline,
-        candidates,
-        added,
-        notes,
-        extended,
-        traces: Traces {
-            t_s: table.t_s.clone(),
-            measured: zc.to_vec(),
-            baseline: base_pred,
-            extended: ext_pred,
-            split: n_id.min(n),
-        },
-        baseline_model,
-        extended_model: terms.iter().copied().zip(ext_fit.theta.iter().copied()).collect(),
-    })
+    }
 }
 
 /// The homogeneity test of the term in column `k` of a pooled fit (`cols`, `terms`, estimates
