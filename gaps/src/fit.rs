@@ -501,18 +501,7 @@ fn homogeneity_of(
     let resid: Vec<f64> = (0..n)
         .map(|i| z[i] - cols.iter().zip(theta).map(|(c, t)| c[i] * t).sum::<f64>())
         .collect();
-    let lags = max_lag.min(n.saturating_sub(1));
-    let mut r = vec![0.0; lags + 1];
-    for &(a, b) in pieces {
-        for (l, rl) in r.iter_mut().enumerate() {
-            if b > a + l {
-                *rl += signal::dot(&resid[a..b - l], &resid[a + l..b]);
-            }
-        }
-    }
-    for rl in &mut r {
-        *rl /= n.max(1) as f64;
-    }
+    let r = pooled_autocovariance(&resid, pieces, max_lag);
     let centred = terms.contains(&Term::One);
     let x_all = &cols[k];
     let var = |x: &[f64]| {
@@ -539,23 +528,50 @@ fn homogeneity_of(
         if !excited {
             continue;
         }
-        let sxx = signal::dot(&x, &x);
-        let value = signal::dot(&x, &y) / sxx;
-        let mut num = r[0] * sxx;
-        for (l, rl) in r.iter().enumerate().take(x.len()).skip(1) {
-            let w = 1.0 - l as f64 / (lags + 1) as f64;
-            num += 2.0 * w * rl * signal::dot(&x[..x.len() - l], &x[l..]);
-        }
-        if num <= 0.0 {
-            num = r[0] * sxx;
-        }
+        let (value, sigma) = alone(&x, &y, &r);
         per.push(ManoeuvreEstimate {
             manoeuvre: m,
             value,
-            sigma: num.sqrt() / sxx,
+            sigma,
         });
     }
     homogeneity::judge(terms[k].name().to_string(), per, level)
+}
+
+/// The residual autocovariance `R(l)`, `l = 0…L` with `L` = `max_lag` (at most one less than
+/// the samples), pooled over the manoeuvres `pieces` with lags within each, over all samples.
+fn pooled_autocovariance(resid: &[f64], pieces: &[(usize, usize)], max_lag: usize) -> Vec<f64> {
+    let n = resid.len();
+    let lags = max_lag.min(n.saturating_sub(1));
+    let mut r = vec![0.0; lags + 1];
+    for &(a, b) in pieces {
+        for (l, rl) in r.iter_mut().enumerate() {
+            if b > a + l {
+                *rl += signal::dot(&resid[a..b - l], &resid[a + l..b]);
+            }
+        }
+    }
+    for rl in &mut r {
+        *rl /= n.max(1) as f64;
+    }
+    r
+}
+
+/// The estimate of `y = θx` alone and its σ with the residual autocovariance `r` and Bartlett
+/// weights over its `r.len() − 1` lags ([`homogeneity_of`]).
+fn alone(x: &[f64], y: &[f64], r: &[f64]) -> (f64, f64) {
+    let lags = r.len() - 1;
+    let sxx = signal::dot(x, x);
+    let value = signal::dot(x, y) / sxx;
+    let mut num = r[0] * sxx;
+    for (l, rl) in r.iter().enumerate().take(x.len()).skip(1) {
+        let w = 1.0 - l as f64 / (lags + 1) as f64;
+        num += 2.0 * w * rl * signal::dot(&x[..x.len() - l], &x[l..]);
+    }
+    if num <= 0.0 {
+        num = r[0] * sxx;
+    }
+    (value, num.sqrt() / sxx)
 }
 
 /// A named surface delay's model made exact, and what it leaves. The rate term stands for the
