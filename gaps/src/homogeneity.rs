@@ -1,5 +1,5 @@
 //! Whether an added term's estimate agrees across manoeuvres: the judgement shared by the
-//! equation-error path ([`super::homogeneity_of`]) and the output-error path ([`super::oem`]),
+//! equation-error path ([`super::fit::homogeneity_of`]) and the output-error path ([`super::oem`]),
 //! each of which forms its own per-manoeuvre estimates.
 
 use super::{select, Homogeneity, ManoeuvreEstimate};

@@ -244,19 +244,24 @@ pub fn synthesise(
 }
 
 impl Table {
+    /// A table of no coefficient and no signal at times `t_s`, with `notes` saying why.
+    fn empty(t_s: Vec<f64>, notes: Vec<String>) -> Table {
+        Table {
+            t_s,
+            z: Default::default(),
+            signals: BTreeMap::new(),
+            notes,
+            kinematics: None,
+            barred: Vec::new(),
+        }
+    }
+
     /// Tables of consecutive pieces end to end: a coefficient or signal is kept when every piece
     /// has it (the pieces log the same channels, so they all do); the notes of every piece, once.
     fn concat(tables: Vec<Table>) -> Table {
         let mut it = tables.into_iter();
         let Some(mut out) = it.next() else {
-            return Table {
-                t_s: Vec::new(),
-                z: Default::default(),
-                signals: BTreeMap::new(),
-                notes: Vec::new(),
-                kinematics: None,
-                barred: Vec::new(),
-            };
+            return Table::empty(Vec::new(), Vec::new());
         };
         for t in it {
             for b in t.barred {
@@ -307,7 +312,10 @@ impl Table {
     }
 }
 
-#[allow(non_snake_case)]
+/// The coefficients and signals of one piece of a flight: the channels corrected
+/// ([`Corrected`]), the body rates and air data at the CG smoothed, the dynamic pressure, thrust
+/// and accelerations at the CG, then the force and moment coefficients and the regressors'
+/// signals.
 fn synthesise_piece(
     flight: &MeasuredFlight,
     h_s: f64,
@@ -317,388 +325,52 @@ fn synthesise_piece(
 ) -> Table {
     use Quantity::*;
     let n = flight.len();
-    let ac = &flight.aircraft;
     let mut notes = Vec::new();
-    // Corrected raw channels.
-    let raw = |q: Quantity| -> Option<Vec<f64>> {
-        if let Some(x) = air_data.and_then(|a| a.get(&q)) {
-            return Some(x.clone());
-        }
-        let x = flight.get(q)?;
-        let b = corr.bias.get(&q).copied().unwrap_or(0.0);
-        let k = corr.scale.get(&q).copied().unwrap_or(0.0);
-        let v: Vec<f64> = x.iter().map(|m| (m - b) / (1.0 + k)).collect();
-        Some(match corr.delay_s.get(&q) {
-            Some(&tau) => shift(&v, h_s, tau),
-            None => v,
-        })
+    let raw = Corrected {
+        flight,
+        h_s,
+        corr,
+        air_data,
+    };
+    let rates = body_rates(&raw, sg_half);
+    let air = air_data_at_cg(&raw, &rates.raw, sg_half);
+    let sm = |x: Option<Vec<f64>>| x.map(|v| sg_smooth(&v, sg_half));
+    let surfaces = [sm(raw.get(Elevator)), sm(raw.get(Aileron)), sm(raw.get(Rudder))];
+    // Surface rates: differentiated before smoothing, as α̇ (the signal module's doc says why).
+    let rate = |q: Quantity| raw.get(q).map(|x| sg_smooth(&derivative(&x, h_s), sg_half));
+    let surface_rates = [rate(Elevator), rate(Aileron), rate(Rudder)];
+    let accels = [sm(raw.get(AccelX)), sm(raw.get(AccelY)), sm(raw.get(AccelZ))];
+    let qbar = dynamic_pressure(flight, &air.v, sg_half, &mut notes);
+    let (Some(v), Some(qbar)) = (air.v.clone(), qbar) else {
+        notes.push("no airspeed or dynamic pressure: no coefficient can be synthesised".into());
+        return Table::empty(flight.t_s.clone(), notes);
     };
     let zeros = vec![0.0; n];
-    let (p, q, r) = (raw(RollRate), raw(PitchRate), raw(YawRate));
-    let rate_dot = |acc: Quantity, w: &Option<Vec<f64>>| -> Option<Vec<f64>> {
-        match flight.get(acc) {
-            Some(x) => Some(x.to_vec()),
-            None => w.as_ref().map(|w| derivative(w, h_s)),
-        }
-    };
-    let (pd, qd, rd) = (
-        rate_dot(RollAccel, &p),
-        rate_dot(PitchAccel, &q),
-        rate_dot(YawAccel, &r),
-    );
-    let sm = |x: Option<Vec<f64>>| x.map(|v| sg_smooth(&v, sg_half));
     let wz = |x: &Option<Vec<f64>>| x.clone().unwrap_or_else(|| zeros.clone());
-    let (p_s, q_s, r_s) = (sm(p.clone()), sm(q.clone()), sm(r.clone()));
-    let (pd_s, qd_s, rd_s) = (sm(pd), sm(qd), sm(rd));
-    let lateral_rates = p.is_some() && r.is_some();
-    // Air data moved to the CG (before smoothing), exactly as the book's pre-processing of the
-    // ATTAS noseboom data (README s.2): the measured V, α, β give the air-relative velocity at
-    // each sensor, `v_s = V (cos α cos β, sin β, sin α cos β)`; the velocity its rotation about the
-    // CG induces, `ω × r_s`, is removed, `v_cg = v_s − ω × r_s`, and α, β, V are recomputed from
-    // `v_cg`. Each angle uses its own vane's position (plus the `x` offset the compatibility check
-    // found), the airspeed the pitot's (`airspeed_*` keys). (Reading chosen: the angle a vane
-    // measures is taken with the airspeed and the other angle as measured, i.e. both vanes see the
-    // same local velocity apart from the rotation term.) Reconstructed air data are CG values
-    // already.
-    let reconstructed = |q: Quantity| air_data.is_some_and(|a| a.contains_key(&q));
-    let (v_raw, a_raw, b_raw) = (raw(Airspeed), raw(Alpha), raw(Beta));
-    let rate = |x: &Option<Vec<f64>>, i: usize| x.as_ref().map_or(0.0, |x| x[i]);
-    let omega = |i: usize| Vector3::new(rate(&p, i), rate(&q, i), rate(&r, i));
-    let sensor_velocity = |i: usize| -> Option<Vector3<f64>> {
-        let vv = v_raw.as_ref()?[i];
-        let al = a_raw.as_ref().map_or(0.0, |a| a[i]);
-        let be = b_raw.as_ref().map_or(0.0, |b| b[i]);
-        let ((sa, ca), (sb, cb)) = (sin_cos(al), sin_cos(be));
-        Some(Vector3::new(ca * cb, sb, sa * cb) * vv)
-    };
-    let dx = |ch: Quantity| Vector3::new(corr.vane_dx_m.get(&ch).copied().unwrap_or(0.0), 0.0, 0.0);
-    let r_alpha = ac.alpha_vane_position_m + dx(Alpha);
-    let r_beta = ac.beta_vane_position_m + dx(Beta);
-    let r_pitot = ac.airspeed_position_m;
-    let moved = |r_s: Vector3<f64>| r_s != Vector3::zeros();
-    let alpha_raw = a_raw.clone().map(|a| {
-        if reconstructed(Alpha) || !moved(r_alpha) {
-            return a;
-        }
-        (0..n)
-            .map(|i| match sensor_velocity(i) {
-                Some(vs) => {
-                    let v = vs - omega(i).cross(&r_alpha);
-                    v.z.atan2(v.x)
-                }
-                None => a[i],
-            })
-            .collect::<Vec<f64>>()
-    });
-    let beta_raw = b_raw.clone().map(|b| {
-        if reconstructed(Beta) || !moved(r_beta) {
-            return b;
-        }
-        (0..n)
-            .map(|i| match sensor_velocity(i) {
-                Some(vs) => {
-                    let v = vs - omega(i).cross(&r_beta);
-                    (v.y / v.norm().max(1e-6)).clamp(-1.0, 1.0).asin()
-                }
-                None => b[i],
-            })
-            .collect::<Vec<f64>>()
-    });
-    let v = sm(v_raw.clone().map(|vm| {
-        if reconstructed(Airspeed) || !moved(r_pitot) {
-            return vm;
-        }
-        (0..n)
-            .map(|i| sensor_velocity(i).map_or(vm[i], |vs| (vs - omega(i).cross(&r_pitot)).norm()))
-            .collect::<Vec<f64>>()
-    }));
-    let alpha_dot = alpha_raw.as_ref().map(|a| sg_smooth(&derivative(a, h_s), sg_half));
-    let beta_dot = beta_raw.as_ref().map(|b| sg_smooth(&derivative(b, h_s), sg_half));
-    let alpha = sm(alpha_raw);
-    let beta = sm(beta_raw);
-    let (de, da, dr) = (sm(raw(Elevator)), sm(raw(Aileron)), sm(raw(Rudder)));
-    // Surface rates: differentiated before smoothing, as α̇ (the signal module's doc says why).
-    let rate = |q: Quantity| raw(q).map(|x| sg_smooth(&derivative(&x, h_s), sg_half));
-    let surface_rates = [
-        (Signal::ElevatorRate, rate(Elevator)),
-        (Signal::AileronRate, rate(Aileron)),
-        (Signal::RudderRate, rate(Rudder)),
-    ];
-    let (axs, ays, azs) = (sm(raw(AccelX)), sm(raw(AccelY)), sm(raw(AccelZ)));
-    // Density and dynamic pressure.
-    let rho: Option<Vec<f64>> = match (flight.get(AirDensity), flight.get(Altitude)) {
-        (Some(x), _) => Some(sg_smooth(x, sg_half)),
-        (None, Some(h)) => {
-            notes.push("air density from the ISA at the pressure altitude".into());
-            Some(h.iter().map(|&h| isa_density(h)).collect())
-        }
-        _ => None,
-    };
-    let qbar: Option<Vec<f64>> = match (flight.get(DynamicPressure), &rho, &v) {
-        (Some(x), _, _) => Some(sg_smooth(x, sg_half)),
-        (None, Some(rho), Some(v)) => Some(rho.iter().zip(v).map(|(r, v)| 0.5 * r * v * v).collect()),
-        (None, None, Some(v)) => {
-            notes.push("no density, dynamic pressure or altitude: ISA sea-level density assumed".into());
-            Some(v.iter().map(|v| 0.5 * 1.225 * v * v).collect())
-        }
-        _ => None,
-    };
-    let mut signals = BTreeMap::new();
-    let mut z: [Option<Vec<f64>>; 6] = Default::default();
-    let (S, b, c) = (ac.wing_area_m2, ac.span_m, ac.chord_m);
-    let J = ac.inertia_kgm2;
-    let (Some(v), Some(qbar)) = (v, qbar) else {
-        notes.push("no airspeed or dynamic pressure: no coefficient can be synthesised".into());
-        return Table {
-            t_s: flight.t_s.clone(),
-            z,
-            signals,
-            notes,
-            kinematics: None,
-            barred: Vec::new(),
-        };
-    };
     let vv: Vec<f64> = v.iter().map(|x| x.max(1.0)).collect();
-    let rho_v: Vec<f64> = (0..n).map(|i| 2.0 * qbar[i] / (vv[i] * vv[i])).collect();
-    let al = alpha.clone().unwrap_or_else(|| zeros.clone());
-    let be = beta.clone().unwrap_or_else(|| zeros.clone());
-    let (pw, qw, rw) = (wz(&p_s), wz(&q_s), wz(&r_s));
-    let (pdw, qdw, rdw) = (wz(&pd_s), wz(&qd_s), wz(&rd_s));
-    // Thrust force and moment.
-    let mut thrust_n = vec![0.0; n];
-    let mut f_t = vec![Vector3::zeros(); n];
-    let mut m_t = vec![Vector3::zeros(); n];
-    let mut thrust_known = true;
-    match &ac.thrust {
-        // One engine on the thrust line, or a twin whose left engine mirrors the right one (the
-        // single engine is a twin with both at `position_m` and no thrust difference).
-        ThrustSource::Measured {
-            position_m: r_r,
-            pitch_rad,
-        }
-        | ThrustSource::MeasuredTwin {
-            right_engine_position_m: r_r,
-            pitch_rad,
-        } => match flight.get(Thrust) {
-            Some(tt) => {
-                let twin = matches!(ac.thrust, ThrustSource::MeasuredTwin { .. });
-                let r_l = if twin { Vector3::new(r_r.x, -r_r.y, r_r.z) } else { *r_r };
-                // F_L − F_R, when measured (0: a symmetric split).
-                let dt = flight
-                    .get(ThrustDifference)
-                    .filter(|_| twin)
-                    .map(|d| sg_smooth(d, sg_half));
-                let tt = sg_smooth(tt, sg_half);
-                let u = Vector3::new(pitch_rad.cos(), 0.0, -pitch_rad.sin());
-                for i in 0..n {
-                    thrust_n[i] = tt[i];
-                    f_t[i] = u * tt[i];
-                    m_t[i] = if twin {
-                        let d = dt.as_ref().map_or(0.0, |d| d[i]);
-                        r_r.cross(&(u * (0.5 * (tt[i] - d)))) + r_l.cross(&(u * (0.5 * (tt[i] + d))))
-                    } else {
-                        r_r.cross(&f_t[i])
-                    };
-                }
-            }
-            None => {
-                thrust_known = false;
-                notes.push("thrust declared measured but no Thrust channel: thrust taken as zero".into());
-            }
-        },
-        ThrustSource::Propeller(prop) => match sm(raw(PropSpeed)) {
-            Some(w) => {
-                let (sp, cp) = sin_cos(prop.pitch_rad);
-                // An estimated β (the inertial velocity less a lagged wind) misses the lateral
-                // gust; its error would enter the thrust through cos β̂ — an error of the size of
-                // β̂² − β² that follows |β̂| — so the axial speed then takes β as zero (its true
-                // share, 1 − cos β, is 0.1 % at 2.5°).
-                let beta_axial = !flight.log.is_estimated(Quantity::Beta);
-                for i in 0..n {
-                    let (sa, ca) = sin_cos(al[i]);
-                    let cb = if beta_axial { be[i].cos() } else { 1.0 };
-                    let axial = vv[i] * cb * (ca * cp - sa * sp);
-                    let o = propeller_output(prop, rho_v[i], axial, w[i]);
-                    let (f, m) = propulsion_force_moment(prop, &o, -1.0);
-                    thrust_n[i] = o.thrust_n;
-                    f_t[i] = f;
-                    m_t[i] = m;
-                }
-            }
-            None => {
-                thrust_known = false;
-                notes.push("propeller model but no PropSpeed channel: thrust taken as zero".into());
-            }
-        },
-        ThrustSource::Unknown => {
-            thrust_known = false;
-            notes.push("thrust unknown: it is part of C_D and no thrust candidate is tested".into());
-        }
-    }
-    // Accelerometer to the CG.
-    let ra = ac.accel_position_m;
-    let accel = |i: usize, x: &Option<Vec<f64>>, k: usize| -> Option<f64> {
-        let a = x.as_ref()?[i];
-        if ra == Vector3::zeros() {
-            return Some(a);
-        }
-        let w = Vector3::new(pw[i], qw[i], rw[i]);
-        let wd = Vector3::new(pdw[i], qdw[i], rdw[i]);
-        let corr = wd.cross(&ra) + w.cross(&w.cross(&ra));
-        Some(a - corr[k])
+    let flow = Flow {
+        rho_v: (0..n).map(|i| 2.0 * qbar[i] / (vv[i] * vv[i])).collect(),
+        qs: qbar.iter().map(|q| q * flight.aircraft.wing_area_m2).collect(),
+        vv,
+        al: wz(&air.alpha),
+        be: wz(&air.beta),
     };
-    let qs: Vec<f64> = qbar.iter().map(|q| q * S).collect();
-    if let (Some(_), Some(_), Some(_)) = (&axs, &azs, &alpha) {
-        let mut cl = vec![0.0; n];
-        let mut cd = vec![0.0; n];
-        for i in 0..n {
-            let (Some(ax), Some(az)) = (accel(i, &axs, 0), accel(i, &azs, 2)) else {
-                continue;
-            };
-            let fx = ac.mass_kg * ax - f_t[i].x;
-            let fz = ac.mass_kg * az - f_t[i].z;
-            let (sa, ca) = sin_cos(al[i]);
-            cd[i] = -(fx * ca + fz * sa) / qs[i];
-            cl[i] = (fx * sa - fz * ca) / qs[i];
-        }
-        z[0] = Some(cl);
-        z[1] = Some(cd);
-    }
-    if ays.is_some() {
-        z[2] = Some(
-            (0..n)
-                .map(|i| (ac.mass_kg * accel(i, &ays, 1).unwrap_or(0.0) - f_t[i].y) / qs[i])
-                .collect(),
-        );
-    }
-    // An inertia the aircraft file gives as unknown (the longitudinal HFB-320 test has only Iy)
-    // enters as zero in the gyroscopic term `ω × Jω` (reading chosen: for a longitudinal
-    // manoeuvre the `(Ix − Iz) p r` and `Ixz (p² − r²)` parts of the pitching moment are second
-    // order, and the book's HFB-320 model leaves them out); `C_l`, `C_n` then need the span and
-    // Ix, Iz and are not synthesised.
-    let lateral_inertia = [J[(0, 0)], J[(2, 2)], J[(0, 2)]].iter().all(|x| x.is_finite()) && b.is_finite();
-    let j_known = J.map(|x| if x.is_finite() { x } else { 0.0 });
-    if !lateral_inertia && lateral_rates {
-        notes.push(
-            "Ix, Iz, Ixz or the span unknown: C_l, C_n not synthesised; the unknown inertias taken as zero in ω × Jω of C_m"
-                .into(),
-        );
-    }
-    let lateral_rates = lateral_rates && lateral_inertia;
-    if q_s.is_some() || lateral_rates {
-        let mut mom = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
-        for i in 0..n {
-            let w = Vector3::new(pw[i], qw[i], rw[i]);
-            let wd = Vector3::new(pdw[i], qdw[i], rdw[i]);
-            let mut m = j_known * wd + w.cross(&(j_known * w)) - m_t[i];
-            // About the moment reference point `r_P` (README s.2 for the ATTAS):
-            // `M_P = M_CG − r_P × F_A` with the aerodynamic force `F_A = m a_cg − F_T`.
-            if ac.moment_reference_m != Vector3::zeros() {
-                let fa = Vector3::new(
-                    accel(i, &axs, 0).map_or(0.0, |a| ac.mass_kg * a - f_t[i].x),
-                    accel(i, &ays, 1).map_or(0.0, |a| ac.mass_kg * a - f_t[i].y),
-                    accel(i, &azs, 2).map_or(0.0, |a| ac.mass_kg * a - f_t[i].z),
-                );
-                m -= ac.moment_reference_m.cross(&fa);
-            }
-            mom[0][i] = m.x / (qs[i] * b);
-            mom[1][i] = m.y / (qs[i] * c);
-            mom[2][i] = m.z / (qs[i] * b);
-        }
-        let [ml, mm, mn] = mom;
-        if q_s.is_some() {
-            z[4] = Some(mm);
-        }
-        if lateral_rates {
-            z[3] = Some(ml);
-            z[5] = Some(mn);
-        }
-    }
-    if let Some(a) = alpha {
-        signals.insert(Signal::Alpha, a);
-    }
-    if let Some(bb) = beta {
-        signals.insert(Signal::Beta, bb);
-    }
-    // The lateral normalisations need the span (unknown for the longitudinal HFB-320 test).
-    if let (Some(x), true) = (&p_s, b.is_finite()) {
-        signals.insert(Signal::PN, (0..n).map(|i| x[i] * b / (2.0 * vv[i])).collect());
-    }
-    if let Some(x) = &q_s {
-        signals.insert(Signal::QN, (0..n).map(|i| x[i] * c / (2.0 * vv[i])).collect());
-    }
-    if let (Some(x), true) = (&r_s, b.is_finite()) {
-        signals.insert(Signal::RN, (0..n).map(|i| x[i] * b / (2.0 * vv[i])).collect());
-    }
-    for (sig, x) in [(Signal::Elevator, de), (Signal::Aileron, da), (Signal::Rudder, dr)] {
-        if let Some(x) = x {
-            signals.insert(sig, x);
-        }
-    }
-    for (sig, x) in surface_rates {
-        if let Some(x) = x {
-            signals.insert(sig, x);
-        }
-    }
-    if let Some(cl) = &z[0] {
-        signals.insert(Signal::LiftCoeff, cl.clone());
-    }
-    if let Some(m) = flight.get(Mach) {
-        signals.insert(Signal::Mach, sg_smooth(m, sg_half));
-    }
-    if thrust_known {
-        signals.insert(Signal::ThrustCoeff, (0..n).map(|i| thrust_n[i] / qs[i]).collect());
-    }
-    // α̇ and β̇ from the kinematics when the accelerations, rates and attitude are measured
-    // (Klein & Morelli 2006 §10.1: the flow-angle rates from `u̇, v̇, ẇ` of the rigid-body
-    // equations, with `u, v, w` from the measured air data): differentiating a vane amplifies its
-    // noise by about `1/h` — on the campaign's flights the differentiated α̇ column was half noise
-    // (variance 2× its error variance), the kinematic one is not.
-    let kinematic_rates = (|| {
-        let (th, ph) = (
-            sg_smooth(flight.get(Pitch)?, sg_half),
-            sg_smooth(flight.get(Roll)?, sg_half),
-        );
-        let (_, _) = (axs.as_ref()?, azs.as_ref()?);
-        let (mut ad, mut bd) = (vec![0.0; n], vec![0.0; n]);
-        for i in 0..n {
-            let (ax, az) = (accel(i, &axs, 0)?, accel(i, &azs, 2)?);
-            let ay = accel(i, &ays, 1).unwrap_or(0.0);
-            let (p, q, r) = (pw[i], qw[i], rw[i]);
-            let vt = vv[i];
-            let (sa, ca) = sin_cos(al[i]);
-            let (sb, cb) = sin_cos(be[i]);
-            let (u, v, w) = (vt * ca * cb, vt * sb, vt * sa * cb);
-            let g = 9.806_65;
-            let ((st, ct), (sp, cp)) = (sin_cos(th[i]), sin_cos(ph[i]));
-            let udot = ax - g * st + r * v - q * w;
-            let vdot = ay + g * ct * sp + p * w - r * u;
-            let wdot = az + g * ct * cp + q * u - p * v;
-            ad[i] = (u * wdot - w * udot) / (u * u + w * w);
-            let vtdot = (u * udot + v * vdot + w * wdot) / vt;
-            bd[i] = (vdot * vt - v * vtdot) / (vt * vt * cb.max(0.1));
-        }
-        Some((ad, bd))
-    })();
-    let (alpha_dot, beta_dot) = match kinematic_rates {
-        Some((ad, bd)) if alpha_dot.is_some() => (Some(ad), beta_dot.map(|_| bd)),
-        _ => (alpha_dot, beta_dot),
+    let thrust = thrust_of(&raw, sg_half, &flow, &mut notes);
+    let cg = CgAccel {
+        ra: flight.aircraft.accel_position_m,
+        accels,
+        w: rates.smooth.each_ref().map(wz),
+        wd: rates.accel.each_ref().map(wz),
     };
-    if let Some(x) = alpha_dot {
-        signals.insert(Signal::AlphaDotN, (0..n).map(|i| x[i] * c / (2.0 * vv[i])).collect());
-    }
-    if let (Some(x), true) = (beta_dot, b.is_finite()) {
-        signals.insert(Signal::BetaDotN, (0..n).map(|i| x[i] * b / (2.0 * vv[i])).collect());
-    }
-    let aero_force_n: Vec<Vector3<f64>> = (0..n)
-        .map(|i| {
-            Vector3::new(
-                accel(i, &axs, 0).map_or(0.0, |a| ac.mass_kg * a - f_t[i].x),
-                accel(i, &ays, 1).map_or(0.0, |a| ac.mass_kg * a - f_t[i].y),
-                accel(i, &azs, 2).map_or(0.0, |a| ac.mass_kg * a - f_t[i].z),
-            )
-        })
-        .collect();
+    let mut z = force_coefficients(flight, &cg, &thrust, air.alpha.is_some(), &flow);
+    moment_coefficients(flight, &cg, &thrust, &flow, &rates, &mut z, &mut notes);
+    let parts = SignalParts {
+        air,
+        rates: rates.smooth,
+        surfaces,
+        surface_rates,
+    };
+    let mut signals = signals_of(flight, sg_half, parts, &z, &cg, &thrust, &flow);
     signals.insert(Signal::Airspeed, v);
     let attitude_measured = flight.get(Pitch).is_some();
     let att = |q: Quantity| sm(flight.get(q).map(|x| x.to_vec())).unwrap_or_else(|| zeros.clone());
@@ -716,16 +388,535 @@ fn synthesise_piece(
         notes,
         barred,
         kinematics: Some(Kinematics {
-            rates_rad_s: [pw, qw, rw],
+            // The aerodynamic force first: it reads the rates and the thrust moved below.
+            aero_force_n: (0..n)
+                .map(|i| cg.aero_force(i, flight.aircraft.mass_kg, &thrust.f_t[i]))
+                .collect(),
             attitude_rad: [att(Roll), att(Pitch)],
+            rates_rad_s: cg.w,
             qbar_pa: qbar,
-            density_kgpm3: rho_v,
-            thrust_force_n: f_t,
-            thrust_moment_nm: m_t,
-            aero_force_n,
+            density_kgpm3: flow.rho_v,
+            thrust_force_n: thrust.f_t,
+            thrust_moment_nm: thrust.m_t,
             attitude_measured,
         }),
     }
+}
+
+/// The measured channels with the named sensor errors removed (bias, scale factor, delay), or
+/// the reconstructed air data in their place.
+struct Corrected<'a> {
+    flight: &'a MeasuredFlight,
+    h_s: f64,
+    corr: &'a Corrections,
+    air_data: Option<&'a BTreeMap<Quantity, Vec<f64>>>,
+}
+
+impl Corrected<'_> {
+    /// Channel `q` corrected, or its reconstruction; `None` when neither exists.
+    fn get(&self, q: Quantity) -> Option<Vec<f64>> {
+        if let Some(x) = self.air_data.and_then(|a| a.get(&q)) {
+            return Some(x.clone());
+        }
+        let x = self.flight.get(q)?;
+        let b = self.corr.bias.get(&q).copied().unwrap_or(0.0);
+        let k = self.corr.scale.get(&q).copied().unwrap_or(0.0);
+        let v: Vec<f64> = x.iter().map(|m| (m - b) / (1.0 + k)).collect();
+        Some(match self.corr.delay_s.get(&q) {
+            Some(&tau) => shift(&v, self.h_s, tau),
+            None => v,
+        })
+    }
+
+    /// Whether channel `q` is reconstructed (a CG value already).
+    fn reconstructed(&self, q: Quantity) -> bool {
+        self.air_data.is_some_and(|a| a.contains_key(&q))
+    }
+}
+
+/// The body rates `p, q, r`: corrected, smoothed, and their smoothed derivatives (the measured
+/// angular accelerations when logged).
+struct BodyRates {
+    raw: [Option<Vec<f64>>; 3],
+    smooth: [Option<Vec<f64>>; 3],
+    accel: [Option<Vec<f64>>; 3],
+}
+
+fn body_rates(raw: &Corrected, sg_half: usize) -> BodyRates {
+    use Quantity::*;
+    let sm = |x: Option<Vec<f64>>| x.map(|v| sg_smooth(&v, sg_half));
+    let rates = [raw.get(RollRate), raw.get(PitchRate), raw.get(YawRate)];
+    let rate_dot = |acc: Quantity, w: &Option<Vec<f64>>| -> Option<Vec<f64>> {
+        match raw.flight.get(acc) {
+            Some(x) => Some(x.to_vec()),
+            None => w.as_ref().map(|w| derivative(w, raw.h_s)),
+        }
+    };
+    let accel = [
+        sm(rate_dot(RollAccel, &rates[0])),
+        sm(rate_dot(PitchAccel, &rates[1])),
+        sm(rate_dot(YawAccel, &rates[2])),
+    ];
+    BodyRates {
+        smooth: rates.clone().map(sm),
+        raw: rates,
+        accel,
+    }
+}
+
+/// Airspeed, α and β at the CG, smoothed, and the flow angles' rates.
+struct AirAtCg {
+    v: Option<Vec<f64>>,
+    alpha: Option<Vec<f64>>,
+    beta: Option<Vec<f64>>,
+    alpha_dot: Option<Vec<f64>>,
+    beta_dot: Option<Vec<f64>>,
+}
+
+/// Air data moved to the CG (before smoothing), exactly as the book's pre-processing of the
+/// ATTAS noseboom data (README s.2): the measured V, α, β give the air-relative velocity at each
+/// sensor, `v_s = V (cos α cos β, sin β, sin α cos β)`; the velocity its rotation about the CG
+/// induces, `ω × r_s`, is removed, `v_cg = v_s − ω × r_s`, and α, β, V are recomputed from
+/// `v_cg`. Each angle uses its own vane's position (plus the `x` offset the compatibility check
+/// found), the airspeed the pitot's (`airspeed_*` keys). (Reading chosen: the angle a vane
+/// measures is taken with the airspeed and the other angle as measured, i.e. both vanes see the
+/// same local velocity apart from the rotation term.) Reconstructed air data are CG values
+/// already.
+fn air_data_at_cg(raw: &Corrected, rates: &[Option<Vec<f64>>; 3], sg_half: usize) -> AirAtCg {
+    use Quantity::*;
+    let (ac, n, h_s) = (&raw.flight.aircraft, raw.flight.len(), raw.h_s);
+    let sm = |x: Option<Vec<f64>>| x.map(|v| sg_smooth(&v, sg_half));
+    let (v_raw, a_raw, b_raw) = (raw.get(Airspeed), raw.get(Alpha), raw.get(Beta));
+    let rate = |x: &Option<Vec<f64>>, i: usize| x.as_ref().map_or(0.0, |x| x[i]);
+    let omega = |i: usize| Vector3::new(rate(&rates[0], i), rate(&rates[1], i), rate(&rates[2], i));
+    let sensor_velocity = |i: usize| -> Option<Vector3<f64>> {
+        let vv = v_raw.as_ref()?[i];
+        let al = a_raw.as_ref().map_or(0.0, |a| a[i]);
+        let be = b_raw.as_ref().map_or(0.0, |b| b[i]);
+        let ((sa, ca), (sb, cb)) = (sin_cos(al), sin_cos(be));
+        Some(Vector3::new(ca * cb, sb, sa * cb) * vv)
+    };
+    let dx = |ch: Quantity| Vector3::new(raw.corr.vane_dx_m.get(&ch).copied().unwrap_or(0.0), 0.0, 0.0);
+    // The channel `x` of sensor position `r_s` at the CG by `at(v_cg)`, unless reconstructed or
+    // at the CG already.
+    let at_cg = |x: Option<Vec<f64>>, q: Quantity, r_s: Vector3<f64>, at: &dyn Fn(Vector3<f64>) -> f64| {
+        x.map(|x| {
+            if raw.reconstructed(q) || r_s == Vector3::zeros() {
+                return x;
+            }
+            (0..n)
+                .map(|i| sensor_velocity(i).map_or(x[i], |vs| at(vs - omega(i).cross(&r_s))))
+                .collect::<Vec<f64>>()
+        })
+    };
+    let alpha_raw = at_cg(a_raw.clone(), Alpha, ac.alpha_vane_position_m + dx(Alpha), &|v| {
+        v.z.atan2(v.x)
+    });
+    let beta_raw = at_cg(b_raw.clone(), Beta, ac.beta_vane_position_m + dx(Beta), &|v| {
+        (v.y / v.norm().max(1e-6)).clamp(-1.0, 1.0).asin()
+    });
+    let v = sm(at_cg(v_raw.clone(), Airspeed, ac.airspeed_position_m, &|v| v.norm()));
+    AirAtCg {
+        v,
+        alpha_dot: alpha_raw.as_ref().map(|a| sg_smooth(&derivative(a, h_s), sg_half)),
+        beta_dot: beta_raw.as_ref().map(|b| sg_smooth(&derivative(b, h_s), sg_half)),
+        alpha: sm(alpha_raw),
+        beta: sm(beta_raw),
+    }
+}
+
+/// The dynamic pressure: measured, or from the density (measured, or the ISA at the pressure
+/// altitude, else at sea level, said in `notes`) and the airspeed `v`.
+fn dynamic_pressure(
+    flight: &MeasuredFlight,
+    v: &Option<Vec<f64>>,
+    sg_half: usize,
+    notes: &mut Vec<String>,
+) -> Option<Vec<f64>> {
+    use Quantity::*;
+    let rho: Option<Vec<f64>> = match (flight.get(AirDensity), flight.get(Altitude)) {
+        (Some(x), _) => Some(sg_smooth(x, sg_half)),
+        (None, Some(h)) => {
+            notes.push("air density from the ISA at the pressure altitude".into());
+            Some(h.iter().map(|&h| isa_density(h)).collect())
+        }
+        _ => None,
+    };
+    match (flight.get(DynamicPressure), &rho, v) {
+        (Some(x), _, _) => Some(sg_smooth(x, sg_half)),
+        (None, Some(rho), Some(v)) => Some(rho.iter().zip(v).map(|(r, v)| 0.5 * r * v * v).collect()),
+        (None, None, Some(v)) => {
+            notes.push("no density, dynamic pressure or altitude: ISA sea-level density assumed".into());
+            Some(v.iter().map(|v| 0.5 * 1.225 * v * v).collect())
+        }
+        _ => None,
+    }
+}
+
+/// The flow at each sample: airspeed (at least 1 m/s), density from the dynamic pressure,
+/// `q̄S`, and α, β (zero when not known).
+struct Flow {
+    vv: Vec<f64>,
+    rho_v: Vec<f64>,
+    qs: Vec<f64>,
+    al: Vec<f64>,
+    be: Vec<f64>,
+}
+
+/// Thrust at each sample: its size, force and moment about the CG; `known` false when the
+/// aircraft's thrust source gives none (then zero).
+struct ThrustForces {
+    thrust_n: Vec<f64>,
+    f_t: Vec<Vector3<f64>>,
+    m_t: Vec<Vector3<f64>>,
+    known: bool,
+}
+
+fn thrust_of(raw: &Corrected, sg_half: usize, flow: &Flow, notes: &mut Vec<String>) -> ThrustForces {
+    let (flight, n) = (raw.flight, raw.flight.len());
+    let mut t = ThrustForces {
+        thrust_n: vec![0.0; n],
+        f_t: vec![Vector3::zeros(); n],
+        m_t: vec![Vector3::zeros(); n],
+        known: true,
+    };
+    let missing = match &flight.aircraft.thrust {
+        // One engine on the thrust line, or a twin whose left engine mirrors the right one (the
+        // single engine is a twin with both at `position_m` and no thrust difference).
+        ThrustSource::Measured {
+            position_m: r_r,
+            pitch_rad,
+        }
+        | ThrustSource::MeasuredTwin {
+            right_engine_position_m: r_r,
+            pitch_rad,
+        } => measured_thrust(flight, sg_half, *r_r, *pitch_rad, &mut t)
+            .then_some("thrust declared measured but no Thrust channel: thrust taken as zero"),
+        ThrustSource::Propeller(prop) => match raw.get(Quantity::PropSpeed).map(|v| sg_smooth(&v, sg_half)) {
+            Some(w) => {
+                propeller_thrust(flight, prop, &w, flow, &mut t);
+                None
+            }
+            None => Some("propeller model but no PropSpeed channel: thrust taken as zero"),
+        },
+        ThrustSource::Unknown => Some("thrust unknown: it is part of C_D and no thrust candidate is tested"),
+    };
+    if let Some(why) = missing {
+        t.known = false;
+        notes.push(why.into());
+    }
+    t
+}
+
+/// Measured thrust along the thrust line of pitch `pitch_rad` at `r_r` (a twin: the right
+/// engine, the left mirrored, split by the thrust difference when logged). `true` when the
+/// Thrust channel is missing.
+fn measured_thrust(
+    flight: &MeasuredFlight,
+    sg_half: usize,
+    r_r: Vector3<f64>,
+    pitch_rad: f64,
+    t: &mut ThrustForces,
+) -> bool {
+    let Some(tt) = flight.get(Quantity::Thrust) else {
+        return true;
+    };
+    let twin = matches!(flight.aircraft.thrust, ThrustSource::MeasuredTwin { .. });
+    let r_l = if twin { Vector3::new(r_r.x, -r_r.y, r_r.z) } else { r_r };
+    // F_L − F_R, when measured (0: a symmetric split).
+    let dt = flight
+        .get(Quantity::ThrustDifference)
+        .filter(|_| twin)
+        .map(|d| sg_smooth(d, sg_half));
+    let tt = sg_smooth(tt, sg_half);
+    let u = Vector3::new(pitch_rad.cos(), 0.0, -pitch_rad.sin());
+    for i in 0..flight.len() {
+        t.thrust_n[i] = tt[i];
+        t.f_t[i] = u * tt[i];
+        t.m_t[i] = if twin {
+            let d = dt.as_ref().map_or(0.0, |d| d[i]);
+            r_r.cross(&(u * (0.5 * (tt[i] - d)))) + r_l.cross(&(u * (0.5 * (tt[i] + d))))
+        } else {
+            r_r.cross(&t.f_t[i])
+        };
+    }
+    false
+}
+
+/// Thrust of the propeller model at the measured propeller speed `w`.
+fn propeller_thrust(
+    flight: &MeasuredFlight,
+    prop: &aerosid_core::aero::Propeller<f64>,
+    w: &[f64],
+    flow: &Flow,
+    t: &mut ThrustForces,
+) {
+    let (sp, cp) = sin_cos(prop.pitch_rad);
+    // An estimated β (the inertial velocity less a lagged wind) misses the lateral gust; its
+    // error would enter the thrust through cos β̂ — an error of the size of β̂² − β² that follows
+    // |β̂| — so the axial speed then takes β as zero (its true share, 1 − cos β, is 0.1 % at
+    // 2.5°).
+    let beta_axial = !flight.log.is_estimated(Quantity::Beta);
+    for i in 0..flight.len() {
+        let (sa, ca) = sin_cos(flow.al[i]);
+        let cb = if beta_axial { flow.be[i].cos() } else { 1.0 };
+        let axial = flow.vv[i] * cb * (ca * cp - sa * sp);
+        let o = propeller_output(prop, flow.rho_v[i], axial, w[i]);
+        let (f, m) = propulsion_force_moment(prop, &o, -1.0);
+        t.thrust_n[i] = o.thrust_n;
+        t.f_t[i] = f;
+        t.m_t[i] = m;
+    }
+}
+
+/// The accelerometers moved to the CG: the smoothed specific forces at `ra`, less the rotation's
+/// share `ω̇ × r_a + ω × (ω × r_a)` (rates and their derivatives `w`, `wd`, zero when unknown).
+struct CgAccel {
+    ra: Vector3<f64>,
+    accels: [Option<Vec<f64>>; 3],
+    w: [Vec<f64>; 3],
+    wd: [Vec<f64>; 3],
+}
+
+impl CgAccel {
+    /// Axis `k` of the specific force at the CG at sample `i`.
+    fn at(&self, i: usize, k: usize) -> Option<f64> {
+        let a = self.accels[k].as_ref()?[i];
+        if self.ra == Vector3::zeros() {
+            return Some(a);
+        }
+        let w = Vector3::new(self.w[0][i], self.w[1][i], self.w[2][i]);
+        let wd = Vector3::new(self.wd[0][i], self.wd[1][i], self.wd[2][i]);
+        let corr = wd.cross(&self.ra) + w.cross(&w.cross(&self.ra));
+        Some(a - corr[k])
+    }
+
+    /// The aerodynamic force `m a_cg − F_T` at sample `i` (an axis without its accelerometer:
+    /// zero).
+    fn aero_force(&self, i: usize, mass_kg: f64, f_t: &Vector3<f64>) -> Vector3<f64> {
+        Vector3::new(
+            self.at(i, 0).map_or(0.0, |a| mass_kg * a - f_t.x),
+            self.at(i, 1).map_or(0.0, |a| mass_kg * a - f_t.y),
+            self.at(i, 2).map_or(0.0, |a| mass_kg * a - f_t.z),
+        )
+    }
+}
+
+/// `C_L`, `C_D` (with α and the x, z accelerometers) and `C_Y` (with the y one); the moment
+/// coefficients stay `None`.
+fn force_coefficients(
+    flight: &MeasuredFlight,
+    cg: &CgAccel,
+    thrust: &ThrustForces,
+    alpha_known: bool,
+    flow: &Flow,
+) -> [Option<Vec<f64>>; 6] {
+    let (n, mass_kg, qs, f_t) = (flight.len(), flight.aircraft.mass_kg, &flow.qs, &thrust.f_t);
+    let mut z: [Option<Vec<f64>>; 6] = Default::default();
+    if cg.accels[0].is_some() && cg.accels[2].is_some() && alpha_known {
+        let mut cl = vec![0.0; n];
+        let mut cd = vec![0.0; n];
+        for i in 0..n {
+            let (Some(ax), Some(az)) = (cg.at(i, 0), cg.at(i, 2)) else {
+                continue;
+            };
+            let fx = mass_kg * ax - f_t[i].x;
+            let fz = mass_kg * az - f_t[i].z;
+            let (sa, ca) = sin_cos(flow.al[i]);
+            cd[i] = -(fx * ca + fz * sa) / qs[i];
+            cl[i] = (fx * sa - fz * ca) / qs[i];
+        }
+        z[0] = Some(cl);
+        z[1] = Some(cd);
+    }
+    if cg.accels[1].is_some() {
+        z[2] = Some(
+            (0..n)
+                .map(|i| (mass_kg * cg.at(i, 1).unwrap_or(0.0) - f_t[i].y) / qs[i])
+                .collect(),
+        );
+    }
+    z
+}
+
+/// `C_m` (with q) and `C_l`, `C_n` (with p, r, the span and the lateral inertias) into `z`.
+///
+/// An inertia the aircraft file gives as unknown (the longitudinal HFB-320 test has only Iy)
+/// enters as zero in the gyroscopic term `ω × Jω` (reading chosen: for a longitudinal manoeuvre
+/// the `(Ix − Iz) p r` and `Ixz (p² − r²)` parts of the pitching moment are second order, and the
+/// book's HFB-320 model leaves them out); `C_l`, `C_n` then need the span and Ix, Iz and are not
+/// synthesised.
+fn moment_coefficients(
+    flight: &MeasuredFlight,
+    cg: &CgAccel,
+    thrust: &ThrustForces,
+    flow: &Flow,
+    rates: &BodyRates,
+    z: &mut [Option<Vec<f64>>; 6],
+    notes: &mut Vec<String>,
+) {
+    let (ac, n) = (&flight.aircraft, flight.len());
+    let (b, c, j) = (ac.span_m, ac.chord_m, ac.inertia_kgm2);
+    let lateral_rates = rates.raw[0].is_some() && rates.raw[2].is_some();
+    let lateral_inertia = [j[(0, 0)], j[(2, 2)], j[(0, 2)]].iter().all(|x| x.is_finite()) && b.is_finite();
+    let j_known = j.map(|x| if x.is_finite() { x } else { 0.0 });
+    if !lateral_inertia && lateral_rates {
+        notes.push(
+            "Ix, Iz, Ixz or the span unknown: C_l, C_n not synthesised; the unknown inertias taken as zero in ω × Jω of C_m"
+                .into(),
+        );
+    }
+    let lateral_rates = lateral_rates && lateral_inertia;
+    let pitch = rates.smooth[1].is_some();
+    if !(pitch || lateral_rates) {
+        return;
+    }
+    let mut mom = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
+    for i in 0..n {
+        let w = Vector3::new(cg.w[0][i], cg.w[1][i], cg.w[2][i]);
+        let wd = Vector3::new(cg.wd[0][i], cg.wd[1][i], cg.wd[2][i]);
+        let mut m = j_known * wd + w.cross(&(j_known * w)) - thrust.m_t[i];
+        // About the moment reference point `r_P` (README s.2 for the ATTAS):
+        // `M_P = M_CG − r_P × F_A` with the aerodynamic force `F_A = m a_cg − F_T`.
+        if ac.moment_reference_m != Vector3::zeros() {
+            m -= ac
+                .moment_reference_m
+                .cross(&cg.aero_force(i, ac.mass_kg, &thrust.f_t[i]));
+        }
+        mom[0][i] = m.x / (flow.qs[i] * b);
+        mom[1][i] = m.y / (flow.qs[i] * c);
+        mom[2][i] = m.z / (flow.qs[i] * b);
+    }
+    let [ml, mm, mn] = mom;
+    if pitch {
+        z[4] = Some(mm);
+    }
+    if lateral_rates {
+        z[3] = Some(ml);
+        z[5] = Some(mn);
+    }
+}
+
+/// What the regressors' signals are made of besides the flow: the air data at the CG, the
+/// smoothed body rates, the surfaces (elevator, aileron, rudder) and their rates.
+struct SignalParts {
+    air: AirAtCg,
+    rates: [Option<Vec<f64>>; 3],
+    surfaces: [Option<Vec<f64>>; 3],
+    surface_rates: [Option<Vec<f64>>; 3],
+}
+
+/// The signals of the regressors (all but the airspeed): flow angles, normalised rates,
+/// surfaces and their rates, `C_L`, Mach, the thrust coefficient and the normalised flow-angle
+/// rates ([`kinematic_flow_rates`] when they can be had).
+fn signals_of(
+    flight: &MeasuredFlight,
+    sg_half: usize,
+    parts: SignalParts,
+    z: &[Option<Vec<f64>>; 6],
+    cg: &CgAccel,
+    thrust: &ThrustForces,
+    flow: &Flow,
+) -> BTreeMap<Signal, Vec<f64>> {
+    let (n, vv) = (flight.len(), &flow.vv);
+    let (b, c) = (flight.aircraft.span_m, flight.aircraft.chord_m);
+    let SignalParts {
+        air,
+        rates: [p_s, q_s, r_s],
+        surfaces,
+        surface_rates,
+    } = parts;
+    let mut signals = BTreeMap::new();
+    if let Some(a) = air.alpha {
+        signals.insert(Signal::Alpha, a);
+    }
+    if let Some(bb) = air.beta {
+        signals.insert(Signal::Beta, bb);
+    }
+    // The lateral normalisations need the span (unknown for the longitudinal HFB-320 test).
+    if let (Some(x), true) = (&p_s, b.is_finite()) {
+        signals.insert(Signal::PN, (0..n).map(|i| x[i] * b / (2.0 * vv[i])).collect());
+    }
+    if let Some(x) = &q_s {
+        signals.insert(Signal::QN, (0..n).map(|i| x[i] * c / (2.0 * vv[i])).collect());
+    }
+    if let (Some(x), true) = (&r_s, b.is_finite()) {
+        signals.insert(Signal::RN, (0..n).map(|i| x[i] * b / (2.0 * vv[i])).collect());
+    }
+    let named = [Signal::Elevator, Signal::Aileron, Signal::Rudder]
+        .into_iter()
+        .zip(surfaces)
+        .chain(
+            [Signal::ElevatorRate, Signal::AileronRate, Signal::RudderRate]
+                .into_iter()
+                .zip(surface_rates),
+        );
+    for (sig, x) in named {
+        if let Some(x) = x {
+            signals.insert(sig, x);
+        }
+    }
+    if let Some(cl) = &z[0] {
+        signals.insert(Signal::LiftCoeff, cl.clone());
+    }
+    if let Some(m) = flight.get(Quantity::Mach) {
+        signals.insert(Signal::Mach, sg_smooth(m, sg_half));
+    }
+    if thrust.known {
+        signals.insert(
+            Signal::ThrustCoeff,
+            (0..n).map(|i| thrust.thrust_n[i] / flow.qs[i]).collect(),
+        );
+    }
+    let (alpha_dot, beta_dot) = match kinematic_flow_rates(flight, sg_half, cg, flow) {
+        Some((ad, bd)) if air.alpha_dot.is_some() => (Some(ad), air.beta_dot.map(|_| bd)),
+        _ => (air.alpha_dot, air.beta_dot),
+    };
+    if let Some(x) = alpha_dot {
+        signals.insert(Signal::AlphaDotN, (0..n).map(|i| x[i] * c / (2.0 * vv[i])).collect());
+    }
+    if let (Some(x), true) = (beta_dot, b.is_finite()) {
+        signals.insert(Signal::BetaDotN, (0..n).map(|i| x[i] * b / (2.0 * vv[i])).collect());
+    }
+    signals
+}
+
+/// α̇ and β̇ from the kinematics when the accelerations, rates and attitude are measured (Klein &
+/// Morelli 2006 §10.1: the flow-angle rates from `u̇, v̇, ẇ` of the rigid-body equations, with
+/// `u, v, w` from the measured air data): differentiating a vane amplifies its noise by about
+/// `1/h` — on the campaign's flights the differentiated α̇ column was half noise (variance 2× its
+/// error variance), the kinematic one is not.
+fn kinematic_flow_rates(
+    flight: &MeasuredFlight,
+    sg_half: usize,
+    cg: &CgAccel,
+    flow: &Flow,
+) -> Option<(Vec<f64>, Vec<f64>)> {
+    let n = flight.len();
+    let (th, ph) = (
+        sg_smooth(flight.get(Quantity::Pitch)?, sg_half),
+        sg_smooth(flight.get(Quantity::Roll)?, sg_half),
+    );
+    let (_, _) = (cg.accels[0].as_ref()?, cg.accels[2].as_ref()?);
+    let (mut ad, mut bd) = (vec![0.0; n], vec![0.0; n]);
+    for i in 0..n {
+        let (ax, az) = (cg.at(i, 0)?, cg.at(i, 2)?);
+        let ay = cg.at(i, 1).unwrap_or(0.0);
+        let (p, q, r) = (cg.w[0][i], cg.w[1][i], cg.w[2][i]);
+        let vt = flow.vv[i];
+        let (sa, ca) = sin_cos(flow.al[i]);
+        let (sb, cb) = sin_cos(flow.be[i]);
+        let (u, v, w) = (vt * ca * cb, vt * sb, vt * sa * cb);
+        let g = 9.806_65;
+        let ((st, ct), (sp, cp)) = (sin_cos(th[i]), sin_cos(ph[i]));
+        let udot = ax - g * st + r * v - q * w;
+        let vdot = ay + g * ct * sp + p * w - r * u;
+        let wdot = az + g * ct * cp + q * u - p * v;
+        ad[i] = (u * wdot - w * udot) / (u * u + w * w);
+        let vtdot = (u * udot + v * vdot + w * wdot) / vt;
+        bd[i] = (vdot * vt - v * vtdot) / (vt * vt * cb.max(0.1));
+    }
+    Some((ad, bd))
 }
 
 /// What kind of cause a term or sensor error stands for.

@@ -1312,7 +1312,7 @@ fn autocorrelation(e: &[[f64; NY]], i: usize, lag: usize, pieces: &[(usize, usiz
 
 /// The estimates of parameter `j` of the fit `f` on each manoeuvre of `pieces` where it is
 /// excited: one Gauss–Newton step in that parameter alone from the pooled fit, the others held at
-/// their pooled estimates (as the equation-error path's [`super::homogeneity_of`] holds them: one
+/// their pooled estimates (as the equation-error path's [`super::fit::homogeneity_of`] holds them: one
 /// manoeuvre seldom excites every baseline term), `θ_m = θ_j + Σ xᵀe / Σ xᵀx` with `x` the
 /// parameter's output sensitivities and `e` the residuals, both scaled by `R^{-1/2}`. Its σ is
 /// Morelli & Klein's (1997) coloured-residual correction per output with the residual

@@ -83,9 +83,25 @@ pub fn threshold_words(t2: f64, alpha: f64, m: usize, blocks: usize, block_s: f6
     }
 }
 
-/// The terminal table.
+/// The terminal table: the header and notes, then its sections.
 pub fn table(r: &GapReport) -> String {
     let mut s = String::new();
+    header(&mut s, r);
+    if r.manoeuvres.len() > 1 {
+        manoeuvre_table(&mut s, r);
+    }
+    s.push_str(&crate::io::quality::table(&r.data_quality));
+    compatibility_section(&mut s, r);
+    coefficient_table(&mut s, r);
+    verdicts(&mut s, r);
+    estimates(&mut s, r);
+    simulation_section(&mut s, r);
+    verdict_section(&mut s, r);
+    s
+}
+
+/// The table's first lines: the source, aircraft, segments, tests, and the notes, once each.
+fn header(s: &mut String, r: &GapReport) {
     let _ = writeln!(s, "model-gap analysis — {}", label(r));
     if label(r) != r.source {
         let _ = writeln!(s, "data: {}", r.source);
@@ -115,10 +131,10 @@ pub fn table(r: &GapReport) -> String {
             let _ = writeln!(s, "note: {n}");
         }
     }
-    if r.manoeuvres.len() > 1 {
-        manoeuvre_table(&mut s, r);
-    }
-    s.push_str(&crate::io::quality::table(&r.data_quality));
+}
+
+/// Section 1: the data compatibility, the best sensor-error candidates and those found.
+fn compatibility_section(s: &mut String, r: &GapReport) {
     let _ = writeln!(s, "\n1. data compatibility (flight-path reconstruction)");
     let _ = writeln!(s, "   {:<10} {:>12} {:>12}", "output", "RMS before", "RMS after");
     for o in &r.compatibility.rms {
@@ -152,6 +168,11 @@ pub fn table(r: &GapReport) -> String {
             estimate(c.value, c.sigma, c.param.unit()),
         );
     }
+    sensor_errors(s, r);
+}
+
+/// The sensor errors of section 1 not named, found, and the baselines as logged.
+fn sensor_errors(s: &mut String, r: &GapReport) {
     for f in &r.compatibility.rejected {
         let _ = writeln!(
             s,
@@ -187,6 +208,11 @@ pub fn table(r: &GapReport) -> String {
             let _ = writeln!(s, "     {name}: {}", ps.join(", "));
         }
     }
+}
+
+/// Section 2's table: per coefficient, held-out R², RMS, PSE, the best candidate and the terms
+/// added.
+fn coefficient_table(s: &mut String, r: &GapReport) {
     let _ = writeln!(
         s,
         "\n2. coefficients (held-out R²: blocked cross-validation over the whole flight, the figure of the verdicts; RMS and PSE of the fit on the identification segment)"
@@ -222,6 +248,10 @@ pub fn table(r: &GapReport) -> String {
             }
         );
     }
+}
+
+/// Section 2's verdicts, each with its threshold where it is not the report's.
+fn verdicts(s: &mut String, r: &GapReport) {
     let _ = writeln!(s, "\n   verdicts:");
     // The coefficients' own thresholds (at their number of blocks) where they are not the one
     // above: once when they share one, else per coefficient.
@@ -242,61 +272,75 @@ pub fn table(r: &GapReport) -> String {
         let _ = writeln!(s, "   the coefficients' tests: threshold {t}");
     }
     for (c, own) in r.coefficients.iter().zip(&thresholds) {
-        let _ = writeln!(s, "   {:<5} {}", c.name, c.verdict);
-        if let (false, Some(t)) = (shared, own) {
-            let _ = writeln!(s, "         threshold {t}");
-        }
-        // Where nothing was added, what the flight could have found: the strongest candidates
-        // with the smallest effect it names with 80 % probability.
-        if c.added.is_empty() {
-            let reach: Vec<String> = c
-                .candidates
-                .iter()
-                .filter(|k| k.min_detectable.is_finite() && k.value.is_finite() && k.sigma.is_finite())
-                .take(3)
-                .map(|k| {
-                    format!(
-                        "{} {} ± {} (needs |·| ≥ {})",
-                        k.term,
-                        sig3(k.value, true),
-                        sig3(k.sigma, false),
-                        sig3(k.min_detectable, false)
-                    )
-                })
-                .collect();
-            if !reach.is_empty() {
-                let _ = writeln!(
-                    s,
-                    "         strongest candidates and the least this flight detects: {}",
-                    reach.join(", ")
-                );
-            }
-        }
-        for a in c.added.iter().filter(|a| !a.alternatives.is_empty()) {
+        coefficient_verdict(s, c, own.as_ref().filter(|_| !shared));
+    }
+}
+
+/// One coefficient's verdict (`own`: its threshold, when said per coefficient), what the flight
+/// could have found, the terms it cannot tell apart, the rivals and the notes.
+fn coefficient_verdict(s: &mut String, c: &CoefficientGap, own: Option<&String>) {
+    let _ = writeln!(s, "   {:<5} {}", c.name, c.verdict);
+    if let Some(t) = own {
+        let _ = writeln!(s, "         threshold {t}");
+    }
+    reach(s, c);
+    for a in c.added.iter().filter(|a| !a.alternatives.is_empty()) {
+        let _ = writeln!(
+            s,
+            "         {} cannot be told apart on this flight from: {}",
+            a.term,
+            a.alternatives.join(", ")
+        );
+    }
+    for a in c.added.iter().filter(|a| !a.rivals.is_empty()) {
+        let r: Vec<String> = a
+            .rivals
+            .iter()
+            .map(|r| format!("{} (t² {:.0}, held-out z {:.1})", r.term, r.t2, r.cv_z))
+            .collect();
+        let _ = writeln!(
+            s,
+            "         {} predicts the held-out blocks better than (each significant in its place): {}",
+            a.term,
+            r.join(", ")
+        );
+    }
+    for n in &c.notes {
+        let _ = writeln!(s, "         {n}");
+    }
+}
+
+/// Where nothing was added to `c`, what the flight could have found: the strongest candidates
+/// with the smallest effect it names with 80 % probability.
+fn reach(s: &mut String, c: &CoefficientGap) {
+    if c.added.is_empty() {
+        let reach: Vec<String> = c
+            .candidates
+            .iter()
+            .filter(|k| k.min_detectable.is_finite() && k.value.is_finite() && k.sigma.is_finite())
+            .take(3)
+            .map(|k| {
+                format!(
+                    "{} {} ± {} (needs |·| ≥ {})",
+                    k.term,
+                    sig3(k.value, true),
+                    sig3(k.sigma, false),
+                    sig3(k.min_detectable, false)
+                )
+            })
+            .collect();
+        if !reach.is_empty() {
             let _ = writeln!(
                 s,
-                "         {} cannot be told apart on this flight from: {}",
-                a.term,
-                a.alternatives.join(", ")
+                "         strongest candidates and the least this flight detects: {}",
+                reach.join(", ")
             );
-        }
-        for a in c.added.iter().filter(|a| !a.rivals.is_empty()) {
-            let r: Vec<String> = a
-                .rivals
-                .iter()
-                .map(|r| format!("{} (t² {:.0}, held-out z {:.1})", r.term, r.t2, r.cv_z))
-                .collect();
-            let _ = writeln!(
-                s,
-                "         {} predicts the held-out blocks better than (each significant in its place): {}",
-                a.term,
-                r.join(", ")
-            );
-        }
-        for n in &c.notes {
-            let _ = writeln!(s, "         {n}");
         }
     }
+}
+
+/// Section 2's estimates of each extended model.
+fn estimates(s: &mut String, r: &GapReport) {
     let _ = writeln!(
         s,
         "\n   estimates (the estimator named ± coloured-residual σ [PCA-GTLS: eq. 17 σ; output error: the Cramér–Rao bound]; OLS cross-check beside PCA-GTLS):"
@@ -334,6 +378,10 @@ pub fn table(r: &GapReport) -> String {
             );
         }
     }
+}
+
+/// Section 3: the simulation of the held-out segment.
+fn simulation_section(s: &mut String, r: &GapReport) {
     let sim = &r.simulation;
     let _ = writeln!(
         s,
@@ -380,6 +428,10 @@ pub fn table(r: &GapReport) -> String {
             }
         }
     }
+}
+
+/// Section 4: the verdict and the causes named.
+fn verdict_section(s: &mut String, r: &GapReport) {
     // One verdict; where the data cannot support one, the reasons stand once, under the data
     // quality above.
     if r.data_quality.supports_verdict {
@@ -403,7 +455,6 @@ pub fn table(r: &GapReport) -> String {
             entry_text(c)
         );
     }
-    s
 }
 
 /// Where a named cause's final `t²` is below the threshold it passed at entry, both tests in

@@ -1,11 +1,11 @@
 //! Stage 5: each coefficient's baseline fitted by the core's PCA-GTLS and extended by stepwise
-//! regression over the candidate library (`analyse_coefficient` in the crate root); below the
+//! regression over the candidate library (`analyse_coefficient` in `fit.rs`); below the
 //! equation-error path's rate, `C_L`, `C_D`, `C_m` by output error instead ([`crate::oem`]).
 
 use super::prepare::Prepared;
 use super::synthesis::Synthesised;
 use crate::model::COEFFICIENTS;
-use crate::{analyse_coefficient, oem, CoefficientGap, GapSettings};
+use crate::{fit::analyse_coefficient, oem, CoefficientGap, GapSettings};
 
 /// Every coefficient's fit, extension and verdict.
 pub struct Selected {
