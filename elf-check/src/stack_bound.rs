@@ -454,14 +454,19 @@ fn target(ops: &str) -> Option<u64> {
     u64::from_str_radix(t.trim_start_matches("0x").trim_end_matches(','), 16).ok()
 }
 
-/// The entries of the jump table after the `tbb`/`tbh` at `f.insns[at]`: target addresses. Trailing
-/// zero bytes are padding; any other entry must name an instruction.
+/// The entries of the jump table after the `tbb`/`tbh` at `f.insns[at]`: target addresses. The
+/// data after the instruction may hold more than the table (its padding, a constant island the
+/// compiler placed behind it), and the index bound is not always beside it. The table ends before
+/// the first entry whose target lies inside the entries read so far: a case's code follows the
+/// table, so no real entry points into it (a zero entry, padding, among them), and the table is
+/// contiguous. Every entry before that must name an instruction.
 fn table_targets(f: &Function, at: usize, index: &HashMap<u64, usize>) -> Result<Vec<u64>, String> {
     let insn = &f.insns[at];
     let table = insn.addr + 4;
     let bytes = table_bytes(&f.insns[at + 1..]);
     let (base, _) = split_mnemonic(&insn.mnemonic);
-    let mut entries: Vec<u64> = if base == "tbb" {
+    let width: u64 = if base == "tbb" { 1 } else { 2 };
+    let all: Vec<u64> = if base == "tbb" {
         bytes.iter().map(|&b| u64::from(b)).collect()
     } else {
         bytes
@@ -469,6 +474,12 @@ fn table_targets(f: &Function, at: usize, index: &HashMap<u64, usize>) -> Result
             .map(|c| u64::from(u16::from_le_bytes([c[0], c[1]])))
             .collect()
     };
+    let end = all
+        .iter()
+        .enumerate()
+        .position(|(i, &e)| 2 * e < (i as u64 + 1) * width)
+        .unwrap_or(all.len());
+    let mut entries: Vec<u64> = all[..end].to_vec();
     while entries.last() == Some(&0) && entries.len() > 1 {
         entries.pop();
     }
@@ -1629,6 +1640,14 @@ indirect | main | callback | the only callback
         );
         let e = analyse(&table, "", VECTOR, 0, &config).expect_err("bad table");
         assert!(e.contains("jump-table entry"), "{e}");
+        // A table followed by its padding and a constant island (no index bound beside the
+        // `tbb`): the zero entry points into the table, so the table ends before it and the
+        // island's bytes are not taken as entries.
+        let island = DIS.replace(
+            " 8000802:      \tb\t0x8000802 <Fault+0x2> @ imm = #-0x4\n",
+            " 8000802:      \ttbb\t[pc, r0]\n 8000806: 02 00  \t.short\t0x0002\n 8000808: bf 05  \t.short\t0x05bf\n 800080a:      \tb\t0x800080a <Fault+0xa>\n",
+        );
+        analyse(&island, "", VECTOR, 0, &config).expect("the table's one entry resolves");
         let rec = DIS.replace("bl\t0x8000300 <leaf> @ imm = #-0x406", "bl\t0x8000700 <HandlerB>");
         let e = analyse(&rec, "", VECTOR, 0, &config).expect_err("recursion");
         assert!(e.contains("recursion"), "{e}");
