@@ -8,7 +8,7 @@ use crate::model::{Table, Term, TermRefs, COEFFICIENTS};
 use crate::noise::ColumnErrors;
 use crate::regress::{self, gtls_fit, metrics, ols, predict, EivModel};
 use crate::{
-    family, homogeneity, oracle, report, select, signal, Added, CandidateScore, CoefficientGap, GapSettings,
+    family, gust, homogeneity, oracle, report, select, signal, Added, CandidateScore, CoefficientGap, GapSettings,
     Homogeneity, ManoeuvreEstimate, ModelFit, Parameter, Rival, Traces,
 };
 use std::collections::BTreeMap;
@@ -109,7 +109,7 @@ impl Coefficient<'_> {
         let Columns { terms, cols } = &baseline_columns;
         let baseline_model: Vec<(Term, f64)> = terms.iter().copied().zip(baseline.fit.theta.iter().copied()).collect();
         let (library, mut candidates) = self.library(terms);
-        let sel = stepwise(
+        let mut sel = stepwise(
             self.i,
             self.zc,
             self.h_s,
@@ -121,6 +121,7 @@ impl Coefficient<'_> {
             self.settings,
             self.pieces,
         );
+        self.untested_under_gust(&mut sel, &baseline_columns);
         candidates.extend(self.with_oracles(sel.candidates.clone(), &baseline_columns, &library));
         candidates.sort_by(|a, b| b.t2.total_cmp(&a.t2));
         let ext = self.extend(baseline_columns, &library, &sel)?;
@@ -158,6 +159,17 @@ impl Coefficient<'_> {
                 .zip(ext.fitted.fit.theta.iter().copied())
                 .collect(),
         })
+    }
+
+    /// An estimated angle's error exceeding the manoeuvres' variation in the coefficient it
+    /// drives ([`gust::AngleError`]): nothing of `sel` is added, and its verdict says why.
+    fn untested_under_gust(&self, sel: &mut Selection, base: &Columns) {
+        let error = gust::AngleError::of(self.i, &base.terms, &base.cols, self.flight_oracle);
+        if let Some(e) = error.filter(gust::AngleError::dominates) {
+            sel.added.clear();
+            sel.families.clear();
+            sel.verdict = e.verdict(self.i);
+        }
     }
 
     /// The columns of the baseline terms `base`, and the names of those whose signals the log

@@ -70,6 +70,7 @@ pub mod eks;
 pub mod family;
 mod fit;
 pub use fit::MIN_PREDICTIVE_R2;
+pub mod gust;
 pub mod held_noise;
 pub mod hidden;
 mod homogeneity;

@@ -214,7 +214,9 @@ fn t2_of(value: f64, sigma: f64) -> f64 {
 fn overall_verdict(named: &[NamedCause], coefficients: &[CoefficientGap]) -> String {
     let unpredicted: Vec<&str> = coefficients
         .iter()
-        .filter(|c| c.verdict.starts_with("the model does not predict"))
+        .filter(|c| {
+            c.verdict.starts_with("the model does not predict") || c.verdict.starts_with("not identifiable from these")
+        })
         .map(|c| c.name.as_str())
         .collect();
     let undecided: Vec<&str> = coefficients
