@@ -73,6 +73,20 @@ def test_table_effects_are_not_false_alarms():
     assert score.operating_point(fl, recs, [1, 2]) == (1, True, 0, 4)
 
 
+def test_vendored_jsbsim_lists_carry_the_side_force_of_the_beta_drag():
+    """The drag's |β| term reaches the body side force as −C_D·sin β (odd in β): a β³ in C_Y on a
+    clean c172x flight is a table effect, a β³ elsewhere or an α² in C_Y is not; the single
+    flights' lists and the cards' agree."""
+    root = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "tool", "data")
+    flights = json.load(open(os.path.join(root, "jsbsim", "truth.json"), encoding="utf-8"))["flights"]
+    cards = json.load(open(os.path.join(root, "jsbsim_card", "truth.json"), encoding="utf-8"))["table_effects"]
+    for effects in [f["table_effects"] for f in flights.values()] + [cards]:
+        assert effects == cards
+        assert score.matches_table({"kind": "NonlinearBeta", "location": "C_Y", "what": "β³"}, effects)
+        assert not score.matches_table({"kind": "NonlinearBeta", "location": "C_n", "what": "β³"}, effects)
+        assert not score.matches_table({"kind": "NonlinearAlpha", "location": "C_Y", "what": "α²"}, effects)
+
+
 def test_equal_fa_table_scores_the_chosen_point(tmp_path):
     """A suite of 20 clean flights and 4 planted ones: the peer's sweep names the plant on 4/4 at
     index 0 (with 6 clean flights alarmed), 2/4 at index 1 (1 clean flight alarmed: the rate is
