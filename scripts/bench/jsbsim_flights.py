@@ -410,6 +410,9 @@ TABLE_EFFECTS = [
     {"location": "C_D", "term": "α³ (CDwbh table in α, not a parabola)", "kind": "NonlinearAlpha"},
     {"location": "C_D", "term": "|δe| (CDDe = 0.06·|δe|)", "kind": "ControlTerm", "terms": ["|δe|", "δe²"]},
     {"location": "C_D", "term": "|β| (CDbeta = 0.17·|β|)", "kind": "NonlinearBeta", "terms": ["|β|", "β²"]},
+    {"location": "C_Y", "term": "β·|β| (the drag acts along the wind axis: the body side force carries −C_D·sin β, and CDbeta = "
+                                "0.17·|β| makes that −0.17·β·|β|, odd in β; over these flights' β its projection on β³ beside β is "
+                                "−1.5…−1.8)", "kind": "NonlinearBeta", "terms": ["β³"]},
     {"location": "C_l", "term": "α·r̂ (Clr table: 0.08 at α = 0, 0.19 at α = 0.094 rad)", "kind": "CrossCoupling",
      "terms": ["α·r_n"]},
     {"location": "C_l", "term": "C_T (propeller torque reacts on the airframe as a rolling moment; sense −1)", "kind": "Thrust"},

@@ -73,6 +73,38 @@ def test_table_effects_are_not_false_alarms():
     assert score.operating_point(fl, recs, [1, 2]) == (1, True, 0, 4)
 
 
+def test_vendored_jsbsim_lists_carry_the_side_force_of_the_beta_drag():
+    """The drag's |β| term reaches the body side force as −C_D·sin β (odd in β): a β³ in C_Y on a
+    clean c172x flight is a table effect, a β³ elsewhere or an α² in C_Y is not; the single
+    flights' lists and the cards' agree."""
+    root = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "tool", "data")
+    flights = json.load(open(os.path.join(root, "jsbsim", "truth.json"), encoding="utf-8"))["flights"]
+    cards = json.load(open(os.path.join(root, "jsbsim_card", "truth.json"), encoding="utf-8"))["table_effects"]
+    for effects in [f["table_effects"] for f in flights.values()] + [cards]:
+        assert effects == cards
+        assert score.matches_table({"kind": "NonlinearBeta", "location": "C_Y", "what": "β³"}, effects)
+        assert not score.matches_table({"kind": "NonlinearBeta", "location": "C_n", "what": "β³"}, effects)
+        assert not score.matches_table({"kind": "NonlinearAlpha", "location": "C_Y", "what": "α²"}, effects)
+
+
+def test_se_ratio_section_names_the_families_above_the_goal(tmp_path):
+    """Two reports: C_L ΔV/V with ratios 1.0 and 2.0 (median 1.5, 90th percentile 2.0: above the
+    goal), C_m α² with 0.9 and 1.1 (below); the summary names the first alone."""
+    def cand(term, kind, r):
+        return {"term": term, "kind": kind, "se_ratio": r}
+    os.makedirs(tmp_path / "reports")
+    fs = []
+    for i, (a, b) in enumerate([(1.0, 0.9), (2.0, 1.1)]):
+        rep = {"coefficients": [{"name": "C_L", "candidates": [cand("ΔV/V", "SpeedDependence", a)]},
+                                {"name": "C_m", "candidates": [cand("α²", "NonlinearAlpha", b)]}],
+               "compatibility": {"tested": []}}
+        json.dump(rep, open(tmp_path / "reports" / ("sim_%d.json" % i), "w"))
+        fs.append({"id": "sim/%d" % i})
+    text = "\n".join(score.se_ratio_section("sim", fs, str(tmp_path)))
+    assert "| C_L SpeedDependence | 2 | 1.50 | 2.00 | 2.00 | 50 % |" in text
+    assert "above 1.5: 1 of 2: C_L SpeedDependence (2)" in text
+
+
 def test_equal_fa_table_scores_the_chosen_point(tmp_path):
     """A suite of 20 clean flights and 4 planted ones: the peer's sweep names the plant on 4/4 at
     index 0 (with 6 clean flights alarmed), 2/4 at index 1 (1 clean flight alarmed: the rate is
