@@ -323,8 +323,6 @@ fn synthesise_piece(
     sg_half: usize,
     air_data: Option<&BTreeMap<Quantity, Vec<f64>>>,
 ) -> Table {
-    use Quantity::*;
-    let n = flight.len();
     let mut notes = Vec::new();
     let raw = Corrected {
         flight,
@@ -334,46 +332,30 @@ fn synthesise_piece(
     };
     let rates = body_rates(&raw, sg_half);
     let air = air_data_at_cg(&raw, &rates.raw, sg_half);
-    let sm = |x: Option<Vec<f64>>| x.map(|v| sg_smooth(&v, sg_half));
-    let surfaces = [sm(raw.get(Elevator)), sm(raw.get(Aileron)), sm(raw.get(Rudder))];
-    // Surface rates: differentiated before smoothing, as α̇ (the signal module's doc says why).
-    let rate = |q: Quantity| raw.get(q).map(|x| sg_smooth(&derivative(&x, h_s), sg_half));
-    let surface_rates = [rate(Elevator), rate(Aileron), rate(Rudder)];
-    let accels = [sm(raw.get(AccelX)), sm(raw.get(AccelY)), sm(raw.get(AccelZ))];
+    let controls = controls_of(&raw, sg_half);
     let qbar = dynamic_pressure(flight, &air.v, sg_half, &mut notes);
     let (Some(v), Some(qbar)) = (air.v.clone(), qbar) else {
         notes.push("no airspeed or dynamic pressure: no coefficient can be synthesised".into());
         return Table::empty(flight.t_s.clone(), notes);
     };
-    let zeros = vec![0.0; n];
-    let wz = |x: &Option<Vec<f64>>| x.clone().unwrap_or_else(|| zeros.clone());
-    let vv: Vec<f64> = v.iter().map(|x| x.max(1.0)).collect();
-    let flow = Flow {
-        rho_v: (0..n).map(|i| 2.0 * qbar[i] / (vv[i] * vv[i])).collect(),
-        qs: qbar.iter().map(|q| q * flight.aircraft.wing_area_m2).collect(),
-        vv,
-        al: wz(&air.alpha),
-        be: wz(&air.beta),
-    };
+    let flow = flow_of(flight, &v, &qbar, &air);
     let thrust = thrust_of(&raw, sg_half, &flow, &mut notes);
     let cg = CgAccel {
         ra: flight.aircraft.accel_position_m,
-        accels,
-        w: rates.smooth.each_ref().map(wz),
-        wd: rates.accel.each_ref().map(wz),
+        accels: controls.accels,
+        w: rates.smooth.each_ref().map(|x| or_zeros(x, flight.len())),
+        wd: rates.accel.each_ref().map(|x| or_zeros(x, flight.len())),
     };
     let mut z = force_coefficients(flight, &cg, &thrust, air.alpha.is_some(), &flow);
     moment_coefficients(flight, &cg, &thrust, &flow, &rates, &mut z, &mut notes);
     let parts = SignalParts {
         air,
         rates: rates.smooth,
-        surfaces,
-        surface_rates,
+        surfaces: controls.surfaces,
+        surface_rates: controls.surface_rates,
     };
     let mut signals = signals_of(flight, sg_half, parts, &z, &cg, &thrust, &flow);
     signals.insert(Signal::Airspeed, v);
-    let attitude_measured = flight.get(Pitch).is_some();
-    let att = |q: Quantity| sm(flight.get(q).map(|x| x.to_vec())).unwrap_or_else(|| zeros.clone());
     let barred = super::origin::barred_terms(flight);
     notes.extend(
         barred
@@ -387,19 +369,73 @@ fn synthesise_piece(
         signals,
         notes,
         barred,
-        kinematics: Some(Kinematics {
-            // The aerodynamic force first: it reads the rates and the thrust moved below.
-            aero_force_n: (0..n)
-                .map(|i| cg.aero_force(i, flight.aircraft.mass_kg, &thrust.f_t[i]))
-                .collect(),
-            attitude_rad: [att(Roll), att(Pitch)],
-            rates_rad_s: cg.w,
-            qbar_pa: qbar,
-            density_kgpm3: flow.rho_v,
-            thrust_force_n: thrust.f_t,
-            thrust_moment_nm: thrust.m_t,
-            attitude_measured,
-        }),
+        kinematics: Some(kinematics_of(flight, sg_half, qbar, cg, thrust, flow)),
+    }
+}
+
+/// `x`, or `n` zeros when absent.
+fn or_zeros(x: &Option<Vec<f64>>, n: usize) -> Vec<f64> {
+    x.clone().unwrap_or_else(|| vec![0.0; n])
+}
+
+/// The surfaces and accelerometers, corrected and smoothed, and the surfaces' rates.
+struct Controls {
+    /// Elevator, aileron, rudder.
+    surfaces: [Option<Vec<f64>>; 3],
+    /// Their rates: differentiated before smoothing, as α̇ (the signal module's doc says why).
+    surface_rates: [Option<Vec<f64>>; 3],
+    /// Specific force at the accelerometer, x, y, z.
+    accels: [Option<Vec<f64>>; 3],
+}
+
+fn controls_of(raw: &Corrected, sg_half: usize) -> Controls {
+    use Quantity::*;
+    let sm = |x: Option<Vec<f64>>| x.map(|v| sg_smooth(&v, sg_half));
+    let rate = |q: Quantity| raw.get(q).map(|x| sg_smooth(&derivative(&x, raw.h_s), sg_half));
+    Controls {
+        surfaces: [sm(raw.get(Elevator)), sm(raw.get(Aileron)), sm(raw.get(Rudder))],
+        surface_rates: [rate(Elevator), rate(Aileron), rate(Rudder)],
+        accels: [sm(raw.get(AccelX)), sm(raw.get(AccelY)), sm(raw.get(AccelZ))],
+    }
+}
+
+/// The flow of airspeed `v` and dynamic pressure `qbar`, with the flow angles at the CG.
+fn flow_of(flight: &MeasuredFlight, v: &[f64], qbar: &[f64], air: &AirAtCg) -> Flow {
+    let n = flight.len();
+    let vv: Vec<f64> = v.iter().map(|x| x.max(1.0)).collect();
+    Flow {
+        rho_v: (0..n).map(|i| 2.0 * qbar[i] / (vv[i] * vv[i])).collect(),
+        qs: qbar.iter().map(|q| q * flight.aircraft.wing_area_m2).collect(),
+        vv,
+        al: or_zeros(&air.alpha, n),
+        be: or_zeros(&air.beta, n),
+    }
+}
+
+/// The quantities eq. 1–2 used besides the coefficients, for the held-out simulation.
+fn kinematics_of(
+    flight: &MeasuredFlight,
+    sg_half: usize,
+    qbar: Vec<f64>,
+    cg: CgAccel,
+    thrust: ThrustForces,
+    flow: Flow,
+) -> Kinematics {
+    use Quantity::*;
+    let n = flight.len();
+    let att = |q: Quantity| or_zeros(&flight.get(q).map(|x| sg_smooth(x, sg_half)), n);
+    Kinematics {
+        // The aerodynamic force first: it reads the rates and the thrust moved below.
+        aero_force_n: (0..n)
+            .map(|i| cg.aero_force(i, flight.aircraft.mass_kg, &thrust.f_t[i]))
+            .collect(),
+        attitude_rad: [att(Roll), att(Pitch)],
+        rates_rad_s: cg.w,
+        qbar_pa: qbar,
+        density_kgpm3: flow.rho_v,
+        thrust_force_n: thrust.f_t,
+        thrust_moment_nm: thrust.m_t,
+        attitude_measured: flight.get(Pitch).is_some(),
     }
 }
 
