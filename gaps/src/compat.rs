@@ -725,8 +725,10 @@ fn run(
         if first.is_none() {
             let dof = prob.segments.len() as f64 - 1.0;
             let factor = super::select::detection_factor(s.threshold_t2, crit, dof);
-            let oracle_factor =
-                super::oracle::detection_factor(super::oracle::level_of_normal_threshold(s.threshold_t2), s.gain_alpha);
+            let oracle_factor = super::detection::detection_factor(
+                super::detection::level_of_normal_threshold(s.threshold_t2),
+                s.gain_alpha,
+            );
             first = Some(
                 scores
                     .iter()
@@ -1704,8 +1706,10 @@ fn eks_oracle(
     let Some(r) = super::eks::reconstruct(flight, h_s, gyro_bias) else {
         return;
     };
-    let factor =
-        super::oracle::detection_factor(super::oracle::level_of_normal_threshold(s.threshold_t2), s.gain_alpha);
+    let factor = super::detection::detection_factor(
+        super::detection::level_of_normal_threshold(s.threshold_t2),
+        s.gain_alpha,
+    );
     for c in tested.iter_mut() {
         if let Some((_, sd)) = r.get(c.param).filter(|(_, sd)| sd.is_finite() && *sd > 0.0) {
             c.oracle_se = sd;

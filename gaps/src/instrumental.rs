@@ -261,7 +261,7 @@ pub fn check_channel(
     let singles: Vec<Option<SubsetFit>> = (0..2).map(|j| design.fit(&[j]).ok()).collect();
     // The oracle (docs/model-gaps.md): the same single-column regression's model-based σ,
     // coloured residuals up to a block's length.
-    let oracle_factor = super::oracle::detection_factor(s.level / 2.0, s.cv.gain_alpha);
+    let oracle_factor = super::detection::detection_factor(s.level / 2.0, s.cv.gain_alpha);
     let lag = ((s.cv.block_s / h_s).round() as usize).max(1);
     for (j, (f, col)) in singles.iter().zip([&yh, &ydot]).enumerate() {
         if let Some(f) = f {

@@ -66,6 +66,7 @@
 
 pub mod airdata;
 pub mod compat;
+pub mod detection;
 pub mod eks;
 pub mod family;
 mod fit;
