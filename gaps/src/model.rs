@@ -1068,6 +1068,20 @@ pub enum Term {
     RudderRate,
 }
 
+/// Lowest Mach number at which a Mach term is offered.
+pub const MIN_MACH: f64 = 0.3;
+
+/// Whether a term is offered on a flight whose largest Mach number is `mach_max` and whose thrust
+/// is known (`thrust_known`), whatever the model ([`super::family`]'s module docs).
+pub fn offered_on_flight(t: Term, mach_max: f64, thrust_known: bool) -> bool {
+    use Term::*;
+    match t {
+        Mach => mach_max >= MIN_MACH,
+        Thrust | ThrustElevator | ThrustAlpha | ThrustBeta => thrust_known,
+        _ => true,
+    }
+}
+
 /// Reference values of the terms that need them, from the identification segment.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TermRefs {
@@ -1092,7 +1106,7 @@ impl Term {
 
     /// The [`library`](Self::library) of coefficient `coef` less the terms `table` bars on its
     /// flight ([`Table::barred`]) and those that mean nothing on it
-    /// ([`super::family::offered_on_flight`]: Mach below compressibility, thrust unknown): the
+    /// ([`offered_on_flight`]: Mach below compressibility, thrust unknown): the
     /// candidates the analysis offers.
     pub fn offered(coef: usize, table: &Table) -> Vec<Term> {
         let mach_max = table
@@ -1102,8 +1116,7 @@ impl Term {
         let thrust_known = table.signals.contains_key(&Signal::ThrustCoeff);
         let mut lib = Self::library(coef);
         lib.retain(|t| {
-            !table.barred.iter().any(|(i, b, _)| *i == coef && b == t)
-                && super::family::offered_on_flight(*t, mach_max, thrust_known)
+            !table.barred.iter().any(|(i, b, _)| *i == coef && b == t) && offered_on_flight(*t, mach_max, thrust_known)
         });
         lib
     }
