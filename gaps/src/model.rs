@@ -23,7 +23,7 @@
 //! `V`, `α`; `C_m` needs `q`, `V`; `C_Y` needs `a_y`; `C_l`, `C_n` need `p`, `r` (plus `q`).
 
 use super::signal::{derivative, sg_smooth, shift, sin_cos};
-use crate::io::measured::{MeasuredFlight, Quantity, ThrustSource};
+use crate::io::measured::{MeasuredFlight, Origin, Quantity, ThrustSource};
 use crate::sim::atmosphere::isa_density;
 use aerosid_core::aero::synthesis::{propeller_output, propulsion_force_moment};
 use nalgebra::Vector3;
@@ -170,7 +170,7 @@ pub struct Table {
     /// [`super::simulate`]); `None` when no coefficient could be synthesised.
     pub kinematics: Option<Kinematics>,
     /// Library terms not offered to a coefficient (index into [`COEFFICIENTS`]) on this flight,
-    /// with the reason ([`super::origin::barred_terms`]).
+    /// with the reason ([`barred_terms`]).
     pub barred: Vec<(usize, Term, String)>,
 }
 
@@ -356,7 +356,7 @@ fn synthesise_piece(
     };
     let mut signals = signals_of(flight, sg_half, parts, &z, &cg, &thrust, &flow);
     signals.insert(Signal::Airspeed, v);
-    let barred = super::origin::barred_terms(flight);
+    let barred = barred_terms(flight);
     notes.extend(
         barred
             .iter()
@@ -1080,6 +1080,58 @@ pub fn offered_on_flight(t: Term, mach_max: f64, thrust_known: bool) -> bool {
         Thrust | ThrustElevator | ThrustAlpha | ThrustBeta => thrust_known,
         _ => true,
     }
+}
+
+/// The library terms not offered to a coefficient (its index into
+/// [`COEFFICIENTS`]) because, with this flight's estimated flow angles, they
+/// restate the measured force through a kinematic identity or, `α·q_n` in `C_D`, the drag's
+/// rotation error ([`super::origin`]'s module doc); each with the reason in words.
+///
+/// An α estimated from the inertial data (the ground velocity less a slowly updated wind) gives
+/// `α̇ = q − γ̇`, and `γ̇` is the measured lift over `m·V`: in C_L the term restates the lift. In
+/// the other coefficients it carries the same measured lift, and in turbulence that lift holds
+/// the gust's share, which the estimated α does not see — so a fit takes α̇ for the gust's
+/// effect on the coefficient (a pitching moment that follows the lift, not a downwash lag). The
+/// two cannot be told apart from such a flight, so α̇ is offered nowhere. Likewise β̇ with an
+/// estimated β (the measured side force over `m·V` plus `p sin α − r cos α` and gravity).
+pub fn barred_terms(flight: &MeasuredFlight) -> Vec<(usize, Term, String)> {
+    // (the angle, its rate, the coefficient it restates, its name, the force it carries)
+    let rates = [
+        (Quantity::Alpha, Term::AlphaDot, 0, "α", "α̇ = q − γ̇ and γ̇ is the measured lift over m·V", "lift", "an α̇ term would restate the measured lift through that identity (size ≈ −4m/(ρSc̄)), not an aerodynamic cause"),
+        (Quantity::Beta, Term::BetaDot, 2, "β", "β̇ is the measured side force over m·V plus p sin α − r cos α and gravity", "side force", "a β̇ term would restate the measured side force, not an aerodynamic cause"),
+    ];
+    const C_D: usize = 1;
+    let mut out = Vec::new();
+    for (q, term, own, angle, identity, force, restated) in rates {
+        let Origin::Estimated { by } = flight.log.origin_of(q) else {
+            continue;
+        };
+        for (i, name) in COEFFICIENTS.iter().enumerate() {
+            let why = if i == own {
+                restated.to_string()
+            } else {
+                format!("in {name} it would carry the measured {force}, which in turbulence holds the gust's share that the estimated {angle} misses: its effect cannot be told from the gust's")
+            };
+            out.push((
+                i,
+                term,
+                format!(
+                    "{} not offered in {name}: {angle} is estimated from the inertial data ({by}), so {identity} — {why}",
+                    term.name().trim_end_matches("_n")
+                ),
+            ));
+        }
+    }
+    if let Origin::Estimated { by } = flight.log.origin_of(Quantity::Alpha) {
+        out.push((
+            C_D,
+            Term::AlphaQ,
+            format!(
+                "α·q not offered in C_D: α is estimated ({by}), and drag is the measured force rotated by α, so C_D carries C_L·(α̂ − α); with C_L linear in α and the estimate's error following the manoeuvre (its lag, the gust share it misses), that error fits α·q_n with a systematic value (module doc of gaps::origin), not an aerodynamic cause"
+            ),
+        ));
+    }
+    out
 }
 
 /// Reference values of the terms that need them, from the identification segment.
