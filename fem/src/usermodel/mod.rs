@@ -583,113 +583,14 @@ fn data_sources(file: &ModelFile, f: &str) -> Result<(Layout, Vec<Expr>), ModelE
                 .map(|o| (format!("outputs.{}", o.name), o.column, o.channel.as_ref(), o.scale)),
         )
         .collect();
-    let columns = file.data.columns;
-    let mut layout = match columns {
-        Some(columns) => {
-            let tc = file.data.time_column.unwrap_or(0);
-            if columns == 0 || tc == 0 || tc > columns {
-                return err(f, "data.time_column", format!("must be 1 to data.columns = {columns}"));
-            }
-            Layout::Columns {
-                columns,
-                time_column: tc,
-            }
-        }
-        None => {
-            if file.data.time_column.is_some() {
-                return err(
-                    f,
-                    "data.time_column",
-                    "applies to a file read by column number: give data.columns too, or name channels and leave both out",
-                );
-            }
-            Layout::Channels(Vec::new())
-        }
-    };
+    let mut layout = layout_of(&file.data, f)?;
     let mut sources = Vec::new();
     for (what, column, channel, scale) in entries {
         if !(scale.is_finite() && scale != 0.0) {
             return err(f, &format!("{what}.scale"), "must be a finite non-zero number");
         }
-        let terms = match (column, channel, &mut layout) {
-            (Some(_), Some(_), _) => {
-                return err(f, &what, "give `column` or `channel`, not both");
-            }
-            (None, None, Layout::Columns { .. }) => {
-                return err(f, &what, "give `column = N` (or `channel = \"$N\"`)");
-            }
-            (None, None, Layout::Channels(_)) => {
-                return err(
-                    f,
-                    &what,
-                    "give `channel` (a measured channel such as \"alpha\", \"pitch_rate\", \"elevator\")",
-                );
-            }
-            (Some(_), None, Layout::Channels(_)) => {
-                return err(
-                    f,
-                    &format!("{what}.column"),
-                    "a column number needs [data] columns and time_column (a file without a header); name the channel instead, e.g. channel = \"alpha\"",
-                );
-            }
-            (Some(col), None, Layout::Columns { columns, .. }) => {
-                if col == 0 || col > *columns {
-                    return err(
-                        f,
-                        &format!("{what}.column"),
-                        format!("{col}: must be 1 to data.columns = {columns}"),
-                    );
-                }
-                vec![crate::io::colmap::Term {
-                    coef: 1.0,
-                    source: Source::Column(col),
-                }]
-            }
-            (None, Some(text), Layout::Columns { columns, .. }) => {
-                let n = *columns;
-                let resolve = |s: &str| match s.strip_prefix('$').map(str::parse::<usize>) {
-                    Some(Ok(k)) if k >= 1 && k <= n => Ok(Source::Column(k)),
-                    _ => Err(format!("`{s}`: a file read by column number takes columns $1 … ${n}")),
-                };
-                let (terms, constant) =
-                    parse_terms(text, f, 0, 1, &resolve).map_err(|e| channel_error(f, &what, text, e))?;
-                if constant != 0.0 {
-                    return err(
-                        f,
-                        &format!("{what}.channel"),
-                        format!("`{text}`: a constant term is not a measurement; give channels only"),
-                    );
-                }
-                terms
-            }
-            (None, Some(text), Layout::Channels(used)) => {
-                let known = std::cell::RefCell::new(std::mem::take(used));
-                let resolve = |s: &str| {
-                    let q = channel_named(s).ok_or_else(|| {
-                        format!("`{s}` is not a measured channel (name it as a column map does: alpha, pitch_rate, elevator, … or as the project CSV's columns: alpha_rad, gyro_rad_s_y, …; docs/measured-data.md)")
-                    })?;
-                    let mut k = known.borrow_mut();
-                    let i = k.iter().position(|c| *c == q).unwrap_or_else(|| {
-                        k.push(q);
-                        k.len() - 1
-                    });
-                    Ok(Source::Column(i + 1))
-                };
-                let parsed = parse_terms(text, f, 0, 1, &resolve);
-                *used = known.into_inner();
-                let (terms, constant) = parsed.map_err(|e| channel_error(f, &what, text, e))?;
-                if constant != 0.0 {
-                    return err(
-                        f,
-                        &format!("{what}.channel"),
-                        format!("`{text}`: a constant term is not a measurement; give channels only"),
-                    );
-                }
-                terms
-            }
-        };
         sources.push(Expr {
-            terms,
+            terms: source_terms(f, &what, column, channel, &mut layout)?,
             constant: 0.0,
             factor: scale,
             unit: String::new(),
@@ -698,6 +599,113 @@ fn data_sources(file: &ModelFile, f: &str) -> Result<(Layout, Vec<Expr>), ModelE
         });
     }
     Ok((layout, sources))
+}
+
+/// The layout `[data]` gives: columns by number (`columns`, `time_column`), else channels by name.
+fn layout_of(data: &DataSpec, f: &str) -> Result<Layout, ModelError> {
+    match data.columns {
+        Some(columns) => {
+            let tc = data.time_column.unwrap_or(0);
+            if columns == 0 || tc == 0 || tc > columns {
+                return err(f, "data.time_column", format!("must be 1 to data.columns = {columns}"));
+            }
+            Ok(Layout::Columns {
+                columns,
+                time_column: tc,
+            })
+        }
+        None => {
+            if data.time_column.is_some() {
+                return err(
+                    f,
+                    "data.time_column",
+                    "applies to a file read by column number: give data.columns too, or name channels and leave both out",
+                );
+            }
+            Ok(Layout::Channels(Vec::new()))
+        }
+    }
+}
+
+/// The columns entry `what` (an input or output) reads, by its `column` or `channel` in
+/// `layout`; a channel named for the first time is added to a layout of channels.
+fn source_terms(
+    f: &str,
+    what: &str,
+    column: Option<usize>,
+    channel: Option<&String>,
+    layout: &mut Layout,
+) -> Result<Vec<crate::io::colmap::Term>, ModelError> {
+    match (column, channel, layout) {
+        (Some(_), Some(_), _) => err(f, what, "give `column` or `channel`, not both"),
+        (None, None, Layout::Columns { .. }) => err(f, what, "give `column = N` (or `channel = \"$N\"`)"),
+        (None, None, Layout::Channels(_)) => err(
+            f,
+            what,
+            "give `channel` (a measured channel such as \"alpha\", \"pitch_rate\", \"elevator\")",
+        ),
+        (Some(_), None, Layout::Channels(_)) => err(
+            f,
+            &format!("{what}.column"),
+            "a column number needs [data] columns and time_column (a file without a header); name the channel instead, e.g. channel = \"alpha\"",
+        ),
+        (Some(col), None, Layout::Columns { columns, .. }) => {
+            if col == 0 || col > *columns {
+                return err(
+                    f,
+                    &format!("{what}.column"),
+                    format!("{col}: must be 1 to data.columns = {columns}"),
+                );
+            }
+            Ok(vec![crate::io::colmap::Term {
+                coef: 1.0,
+                source: Source::Column(col),
+            }])
+        }
+        (None, Some(text), Layout::Columns { columns, .. }) => {
+            let n = *columns;
+            let resolve = |s: &str| match s.strip_prefix('$').map(str::parse::<usize>) {
+                Some(Ok(k)) if k >= 1 && k <= n => Ok(Source::Column(k)),
+                _ => Err(format!("`{s}`: a file read by column number takes columns $1 … ${n}")),
+            };
+            measurement_only(f, what, text, parse_terms(text, f, 0, 1, &resolve))
+        }
+        (None, Some(text), Layout::Channels(used)) => {
+            let known = std::cell::RefCell::new(std::mem::take(used));
+            let resolve = |s: &str| {
+                let q = channel_named(s).ok_or_else(|| {
+                    format!("`{s}` is not a measured channel (name it as a column map does: alpha, pitch_rate, elevator, … or as the project CSV's columns: alpha_rad, gyro_rad_s_y, …; docs/measured-data.md)")
+                })?;
+                let mut k = known.borrow_mut();
+                let i = k.iter().position(|c| *c == q).unwrap_or_else(|| {
+                    k.push(q);
+                    k.len() - 1
+                });
+                Ok(Source::Column(i + 1))
+            };
+            let parsed = parse_terms(text, f, 0, 1, &resolve);
+            *used = known.into_inner();
+            measurement_only(f, what, text, parsed)
+        }
+    }
+}
+
+/// A parsed `channel` expression's terms; refused when it does not parse or adds a constant.
+fn measurement_only(
+    f: &str,
+    what: &str,
+    text: &str,
+    parsed: Result<(Vec<crate::io::colmap::Term>, f64), crate::io::ReadError>,
+) -> Result<Vec<crate::io::colmap::Term>, ModelError> {
+    let (terms, constant) = parsed.map_err(|e| channel_error(f, what, text, e))?;
+    if constant != 0.0 {
+        return err(
+            f,
+            &format!("{what}.channel"),
+            format!("`{text}`: a constant term is not a measurement; give channels only"),
+        );
+    }
+    Ok(terms)
 }
 
 /// A `channel` expression's parse error as a model-file error naming the field.
