@@ -199,7 +199,7 @@ const MIN_DURATION_S: f64 = 20.0;
 ///
 /// The steps: the data usable, the first stage (the controls as instruments of the band's
 /// reconstruction), the second-stage regression of the vane's error on the fitted angle and its
-/// rate ([`Iv`]), each candidate scored alone, the forward selection with the removal step, the
+/// rate, each candidate scored alone, the forward selection with the removal step, the
 /// verdicts.
 pub fn check_channel(
     flight: &MeasuredFlight,

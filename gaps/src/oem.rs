@@ -904,7 +904,7 @@ impl<D: Dynamics> Setup<D> {
 }
 
 /// The output-error analysis of the low-rate path: `C_L`, `C_D`, `C_m` (module doc) and `C_Y`,
-/// `C_l`, `C_n` ([`super::oem_lateral`]), each axis where the data allow it. `Err` says why
+/// `C_l`, `C_n` (`oem_lateral.rs`), each axis where the data allow it. `Err` says why
 /// neither can run.
 pub fn analyse(inp: &Inputs) -> Result<LowRate, String> {
     let lon = setup(inp).and_then(|s| analyse_axis(inp, s));
