@@ -36,6 +36,28 @@
 //! The estimator of one eq. 3 coefficient is [`GtlsWithIntercept`] (`Gtls<T, N, 1, N>`), named
 //! per model as [`GtlsLongitudinal`], [`GtlsDrag`] and [`GtlsLateral`].
 //!
+//! ## Example
+//! One coefficient `z = θ₀ + θ₁ x₁ + θ₂ x₂` identified sample by sample, the intercept exact and
+//! `x₁, x₂, z` taken as noisy: the on-board estimator's use, in `f64` here. The data below carry
+//! no noise, so the estimate is the true `θ` to rounding.
+//!
+//! ```
+//! use aerosid_core::{Estimator, GtlsSettings, GtlsWithIntercept};
+//! use nalgebra::{SMatrix, SVector};
+//! // W_T: the error covariance of the noisy block [x₁, x₂, z] (eq. 9); W: the parameters' weights.
+//! let w_t = SMatrix::<f64, 3, 3>::from_diagonal_element(1e-4);
+//! let weights = SVector::<f64, 3>::repeat(1.0);
+//! let mut gtls = GtlsWithIntercept::<f64, 3>::new(&w_t, &weights, GtlsSettings::default())?;
+//! for k in 0..200 {
+//!     let (x1, x2) = ((0.1 * k as f64).sin(), (0.37 * k as f64).cos());
+//!     let z = 0.5 + 2.0 * x1 - 1.0 * x2;
+//!     gtls.update(&SVector::from([1.0, x1, x2]), z)?;
+//! }
+//! let theta = gtls.theta();
+//! assert!((theta[0] - 0.5).abs() < 1e-6 && (theta[1] - 2.0).abs() < 1e-6 && (theta[2] + 1.0).abs() < 1e-6);
+//! # Ok::<(), aerosid_core::Error>(())
+//! ```
+//!
 //! ## References
 //! * Seed 000: Vaiopoulos, Zogopoulos-Papaliakos, Kyriakopoulos, *On-line Aerodynamic Model
 //!   Identification on Small Fixed-Wing UAVs with Uncertain Flight Data* (NTUA).

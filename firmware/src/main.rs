@@ -4,10 +4,10 @@
 //!
 //! | task | priority | does |
 //! |---|---|---|
-//! | `sample` | 3 (highest) | every 10 ms (100 Hz): reads the sensors ([`board::SensorSource`]), timestamps, queues; never blocks |
-//! | `estimate` | 2 | runs the six-coefficient pipeline on each queued sample where it lies ([`estimate`]), timed stage by stage |
-//! | `telemetry` | 1 | every 500 ms: MAVLink coefficient reports, counters, heartbeat ([`telemetry`]) |
-//! | `usart2` | 4 (hardware, flight computer only) | each byte from the autopilot into the board's ring ([`board`]) |
+//! | `sample` | 3 (highest) | every 10 ms (100 Hz): reads the sensors (`board::SensorSource`), timestamps, queues; never blocks |
+//! | `estimate` | 2 | runs the six-coefficient pipeline on each queued sample where it lies (`estimate.rs`), timed stage by stage |
+//! | `telemetry` | 1 | every 500 ms: MAVLink coefficient reports, counters, heartbeat (`telemetry.rs`) |
+//! | `usart2` | 4 (hardware, flight computer only) | each byte from the autopilot into the board's ring (`board/`) |
 //! | `idle` | — | sleeps in WFI |
 //!
 //! The samples wait in a lock-free single-producer single-consumer queue (`heapless::spsc`) that
@@ -20,7 +20,7 @@
 //! sample being processed. If the estimator falls behind, the channel fills and `sample` drops (and
 //! counts) samples instead of waiting: the sampling period never slips. Under the `qemu` feature
 //! the board replays a log
-//! instead of reading sensors ([`board`]): `sample` then waits for room in the channel (a replay
+//! instead of reading sensors (`board/`): `sample` then waits for room in the channel (a replay
 //! must not drop samples) and does not wait for the period, and the end of the log ends the run
 //! with a final report and QEMU's exit status. This file is wiring only.
 //!

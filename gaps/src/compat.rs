@@ -710,115 +710,15 @@ fn run(
     let excluded = exclude(prob, &st);
     // The held-out test's critical value (G − 1 degrees of freedom, G the segments).
     let crit = super::select::student_t_upper_quantile(s.gain_alpha, (prob.segments.len() as f64 - 1.0).max(1.0));
-    let mut first = None;
-    let mut entered: Vec<(usize, f64)> = Vec::new();
-    // Excluded candidates are scored but may not enter, as if removed.
-    let mut removed: Vec<usize> = (0..nc).filter(|&c| excluded.contains(&prob.candidates[c])).collect();
-    for _ in 0..s.max_added {
-        let (scores, _) = prob.scores(&st, s.max_lag);
-        let best = scores
-            .iter()
-            .filter(|c| c.t2.is_finite() && c.param.plausible(c.value))
-            .filter(|c| !removed.iter().any(|&r| prob.candidates[r] == c.param))
-            .max_by(|a, b| a.t2.total_cmp(&b.t2))
-            .cloned();
-        if first.is_none() {
-            let dof = prob.segments.len() as f64 - 1.0;
-            let factor = super::select::detection_factor(s.threshold_t2, crit, dof);
-            let oracle_factor =
-                super::oracle::detection_factor(super::oracle::level_of_normal_threshold(s.threshold_t2), s.gain_alpha);
-            first = Some(
-                scores
-                    .iter()
-                    .map(|c| {
-                        // A candidate barred from output error here (an air-data channel's scale,
-                        // delay or position in turbulence) cannot be named by it, whatever its size.
-                        let barred = excluded.contains(&c.param);
-                        let or_nan = |x: f64| if barred { f64::NAN } else { x };
-                        ParamScore {
-                            part,
-                            min_detectable: or_nan(factor * c.sigma),
-                            oracle_se: or_nan(c.sigma),
-                            oracle_min_detectable: or_nan(oracle_factor * c.sigma),
-                            ..c.clone()
-                        }
-                    })
-                    .collect::<Vec<_>>(),
-            );
-        }
-        match best {
-            Some(b) if b.t2 > s.threshold_t2 => {
-                let Some(c) = prob.candidates.iter().position(|c| *c == b.param) else {
-                    break;
-                };
-                st.active[c] = true;
-                st.g[c] = b.value;
-                prob.fit(&mut st);
-                entered.push((c, b.t2));
-            }
-            _ => break,
-        }
-        // The removal step of stepwise regression (Klein & Morelli 2006 §5.4.1): an entered
-        // parameter whose partial t² in the joint fit has fallen below the threshold (another
-        // parameter now explains what it explained) leaves the model and may not re-enter. The
-        // same threshold in and out; the weakest leaves first.
-        while entered.len() > 1 {
-            let sig = prob.active_sigma(&st, s.max_lag);
-            let weakest = entered
-                .iter()
-                .enumerate()
-                .map(|(k, &(c, _))| {
-                    let sd = sig.iter().find(|(j, _)| *j == c).map_or(f64::NAN, |x| x.1);
-                    (k, c, (st.g[c] / sd).powi(2))
-                })
-                .min_by(|a, b| a.2.total_cmp(&b.2));
-            match weakest {
-                Some((k, c, t2)) if t2.is_nan() || t2 <= s.threshold_t2 => {
-                    st.active[c] = false;
-                    st.g[c] = 0.0;
-                    entered.remove(k);
-                    removed.push(c);
-                    prob.fit(&mut st);
-                }
-                _ => break,
-            }
-        }
-    }
-    let sig = prob.active_sigma(&st, s.max_lag);
-    let held = prob.held_out(&st);
-    // A bias of an air-data channel in turbulence is judged by the sign-flip `z`, not by `T`: a
-    // mean wind over the flight moves that channel like a bias, and the gusts' correlation across
-    // segments (longer than the 5 s segments for the along-track gust) is not in `T`'s noise (on
-    // a simulated flight with 0.34 m/s of low-frequency airspeed residual, `bias(Airspeed)`
-    // 0.99 m/s — ten times the sensor's bias σ — had `t²` 33 and `T` 3.1, `z` below the critical).
-    let wind_like =
-        |p: &SensorParam| matches!(p, SensorParam::Bias(_)) && excluded.iter().any(|e| e.channel() == p.channel());
-    let (found, rejected): (Vec<Found>, Vec<Found>) = entered
-        .iter()
-        .map(|&(c, t2)| {
-            let param = prob.candidates[c];
-            let (z, t, rel) = held.iter().find(|h| h.0 == c).map_or((0.0, 0.0, 0.0), |h| (h.1, h.2, h.3));
-            let stat = if wind_like(&param) { z } else { t };
-            Found {
-                param,
-                value: st.g[c],
-                sigma: sig.iter().find(|(k, _)| *k == c).map_or(f64::NAN, |x| x.1),
-                t2,
-                part,
-                cv_gain_z: stat,
-                cv_gain: rel,
-                why: if stat > crit {
-                    String::new()
-                } else if wind_like(&param) {
-                    format!("in turbulence a mean wind moves this channel like a bias: judged by the sign-flip test of its held-out gain, which it does not pass (z {z:.1} ≤ {crit:.1})")
-                } else if stat.is_nan() {
-                    "its held-out gain is not positive".to_string()
-                } else {
-                    format!("does not improve the held-out reconstruction beyond noise (gain T {stat:.1} ≤ {crit:.1})")
-                },
-            }
-        })
-        .partition(|f| f.cv_gain_z > crit);
+    let selection = Selection {
+        prob,
+        s,
+        excluded: &excluded,
+        crit,
+        part,
+    };
+    let (first, entered) = selection.forward(&mut st);
+    let (found, mut rejected) = selection.judge(&st, &entered);
     // The reconstruction keeps only the confirmed errors.
     for f in &rejected {
         if let Some(c) = prob.candidates.iter().position(|c| *c == f.param) {
@@ -829,22 +729,7 @@ fn run(
     if !rejected.is_empty() {
         prob.fit(&mut st);
     }
-    // The excluded candidates that would have passed the first round, with the reason.
-    let mut rejected = rejected;
-    for c in first.iter().flatten() {
-        if excluded.contains(&c.param) && c.t2 > s.threshold_t2 && c.param.plausible(c.value) {
-            rejected.push(Found {
-                param: c.param,
-                value: c.value,
-                sigma: c.sigma,
-                t2: c.t2,
-                part,
-                cv_gain_z: f64::NAN,
-                cv_gain: f64::NAN,
-                why: turbulence_why(&c.param),
-            });
-        }
-    }
+    rejected.extend(selection.barred_passes(first.iter().flatten()));
     let after = prob.rms(&st);
     let rms = prob
         .outputs
@@ -865,6 +750,173 @@ fn run(
         y,
         (st.weights, st.x0),
     )
+}
+
+/// The selection of sensor errors on one problem: its settings, the candidates barred from
+/// output error (`excluded`), the held-out test's critical value and the part's name.
+struct Selection<'a> {
+    prob: &'a Problem<'a>,
+    s: &'a CompatSettings,
+    excluded: &'a [SensorParam],
+    crit: f64,
+    part: &'static str,
+}
+
+impl Selection<'_> {
+    /// Forward selection with the removal step, from the baseline fit `st`: the first round's
+    /// scores and the candidates entered, each with its `t²` on entry.
+    fn forward(&self, st: &mut State) -> (Option<Vec<ParamScore>>, Vec<(usize, f64)>) {
+        let (prob, s) = (self.prob, self.s);
+        let nc = prob.candidates.len();
+        let mut first = None;
+        let mut entered: Vec<(usize, f64)> = Vec::new();
+        // Excluded candidates are scored but may not enter, as if removed.
+        let mut removed: Vec<usize> = (0..nc)
+            .filter(|&c| self.excluded.contains(&prob.candidates[c]))
+            .collect();
+        for _ in 0..s.max_added {
+            let (scores, _) = prob.scores(st, s.max_lag);
+            let best = scores
+                .iter()
+                .filter(|c| c.t2.is_finite() && c.param.plausible(c.value))
+                .filter(|c| !removed.iter().any(|&r| prob.candidates[r] == c.param))
+                .max_by(|a, b| a.t2.total_cmp(&b.t2))
+                .cloned();
+            if first.is_none() {
+                first = Some(self.first_round(&scores));
+            }
+            match best {
+                Some(b) if b.t2 > s.threshold_t2 => {
+                    let Some(c) = prob.candidates.iter().position(|c| *c == b.param) else {
+                        break;
+                    };
+                    st.active[c] = true;
+                    st.g[c] = b.value;
+                    prob.fit(st);
+                    entered.push((c, b.t2));
+                }
+                _ => break,
+            }
+            self.remove_weakest(st, &mut entered, &mut removed);
+        }
+        (first, entered)
+    }
+
+    /// The first round's scores with the tool's and the oracle's least detectable sizes.
+    fn first_round(&self, scores: &[ParamScore]) -> Vec<ParamScore> {
+        let s = self.s;
+        let dof = self.prob.segments.len() as f64 - 1.0;
+        let factor = super::select::detection_factor(s.threshold_t2, self.crit, dof);
+        let oracle_factor = super::detection::detection_factor(
+            super::detection::level_of_normal_threshold(s.threshold_t2),
+            s.gain_alpha,
+        );
+        scores
+            .iter()
+            .map(|c| {
+                // A candidate barred from output error here (an air-data channel's scale,
+                // delay or position in turbulence) cannot be named by it, whatever its size.
+                let barred = self.excluded.contains(&c.param);
+                let or_nan = |x: f64| if barred { f64::NAN } else { x };
+                ParamScore {
+                    part: self.part,
+                    min_detectable: or_nan(factor * c.sigma),
+                    oracle_se: or_nan(c.sigma),
+                    oracle_min_detectable: or_nan(oracle_factor * c.sigma),
+                    ..c.clone()
+                }
+            })
+            .collect()
+    }
+
+    /// The removal step of stepwise regression (Klein & Morelli 2006 §5.4.1): an entered
+    /// parameter whose partial t² in the joint fit has fallen below the threshold (another
+    /// parameter now explains what it explained) leaves the model and may not re-enter. The
+    /// same threshold in and out; the weakest leaves first.
+    fn remove_weakest(&self, st: &mut State, entered: &mut Vec<(usize, f64)>, removed: &mut Vec<usize>) {
+        let (prob, s) = (self.prob, self.s);
+        while entered.len() > 1 {
+            let sig = prob.active_sigma(st, s.max_lag);
+            let weakest = entered
+                .iter()
+                .enumerate()
+                .map(|(k, &(c, _))| {
+                    let sd = sig.iter().find(|(j, _)| *j == c).map_or(f64::NAN, |x| x.1);
+                    (k, c, (st.g[c] / sd).powi(2))
+                })
+                .min_by(|a, b| a.2.total_cmp(&b.2));
+            match weakest {
+                Some((k, c, t2)) if t2.is_nan() || t2 <= s.threshold_t2 => {
+                    st.active[c] = false;
+                    st.g[c] = 0.0;
+                    entered.remove(k);
+                    removed.push(c);
+                    prob.fit(st);
+                }
+                _ => break,
+            }
+        }
+    }
+
+    /// The entered candidates judged by their held-out gain: (confirmed, rejected with the
+    /// reason).
+    fn judge(&self, st: &State, entered: &[(usize, f64)]) -> (Vec<Found>, Vec<Found>) {
+        let (prob, crit) = (self.prob, self.crit);
+        let sig = prob.active_sigma(st, self.s.max_lag);
+        let held = prob.held_out(st);
+        // A bias of an air-data channel in turbulence is judged by the sign-flip `z`, not by `T`: a
+        // mean wind over the flight moves that channel like a bias, and the gusts' correlation across
+        // segments (longer than the 5 s segments for the along-track gust) is not in `T`'s noise (on
+        // a simulated flight with 0.34 m/s of low-frequency airspeed residual, `bias(Airspeed)`
+        // 0.99 m/s — ten times the sensor's bias σ — had `t²` 33 and `T` 3.1, `z` below the critical).
+        let wind_like = |p: &SensorParam| {
+            matches!(p, SensorParam::Bias(_)) && self.excluded.iter().any(|e| e.channel() == p.channel())
+        };
+        entered
+            .iter()
+            .map(|&(c, t2)| {
+                let param = prob.candidates[c];
+                let (z, t, rel) = held.iter().find(|h| h.0 == c).map_or((0.0, 0.0, 0.0), |h| (h.1, h.2, h.3));
+                let stat = if wind_like(&param) { z } else { t };
+                Found {
+                    param,
+                    value: st.g[c],
+                    sigma: sig.iter().find(|(k, _)| *k == c).map_or(f64::NAN, |x| x.1),
+                    t2,
+                    part: self.part,
+                    cv_gain_z: stat,
+                    cv_gain: rel,
+                    why: if stat > crit {
+                        String::new()
+                    } else if wind_like(&param) {
+                        format!("in turbulence a mean wind moves this channel like a bias: judged by the sign-flip test of its held-out gain, which it does not pass (z {z:.1} ≤ {crit:.1})")
+                    } else if stat.is_nan() {
+                        "its held-out gain is not positive".to_string()
+                    } else {
+                        format!("does not improve the held-out reconstruction beyond noise (gain T {stat:.1} ≤ {crit:.1})")
+                    },
+                }
+            })
+            .partition(|f| f.cv_gain_z > crit)
+    }
+
+    /// The excluded candidates that would have passed the first round, with the reason.
+    fn barred_passes<'b>(&self, first: impl Iterator<Item = &'b ParamScore>) -> Vec<Found> {
+        let s = self.s;
+        first
+            .filter(|c| self.excluded.contains(&c.param) && c.t2 > s.threshold_t2 && c.param.plausible(c.value))
+            .map(|c| Found {
+                param: c.param,
+                value: c.value,
+                sigma: c.sigma,
+                t2: c.t2,
+                part: self.part,
+                cv_gain_z: f64::NAN,
+                cv_gain: f64::NAN,
+                why: turbulence_why(&c.param),
+            })
+            .collect()
+    }
 }
 
 /// RK4 over the sample grid with the inputs linearly interpolated; `f(x, k, frac)` is the state
@@ -1704,8 +1756,10 @@ fn eks_oracle(
     let Some(r) = super::eks::reconstruct(flight, h_s, gyro_bias) else {
         return;
     };
-    let factor =
-        super::oracle::detection_factor(super::oracle::level_of_normal_threshold(s.threshold_t2), s.gain_alpha);
+    let factor = super::detection::detection_factor(
+        super::detection::level_of_normal_threshold(s.threshold_t2),
+        s.gain_alpha,
+    );
     for c in tested.iter_mut() {
         if let Some((_, sd)) = r.get(c.param).filter(|(_, sd)| sd.is_finite() && *sd > 0.0) {
             c.oracle_se = sd;

@@ -44,10 +44,8 @@
 //! separate.
 
 use super::model::{is_longitudinal, Term};
+pub use super::model::{offered_on_flight, MIN_MACH};
 use super::select::{Design, SubsetFit};
-
-/// Lowest Mach number at which a Mach term is offered.
-pub const MIN_MACH: f64 = 0.3;
 
 /// The term that must be in a coefficient's current model for `t` to be offered to it (`coef`
 /// an index into [`super::model::COEFFICIENTS`]); `None`: no condition on the model.
@@ -91,17 +89,6 @@ pub fn not_offered(t: Term, coef: usize, model: &[Term]) -> Option<String> {
         p.name(),
         p.name()
     ))
-}
-
-/// Whether a term is offered on a flight whose largest Mach number is `mach_max` and whose thrust
-/// is known (`thrust_known`), whatever the model ([`module docs`](self)).
-pub fn offered_on_flight(t: Term, mach_max: f64, thrust_known: bool) -> bool {
-    use Term::*;
-    match t {
-        Mach => mach_max >= MIN_MACH,
-        Thrust | ThrustElevator | ThrustAlpha | ThrustBeta => thrust_known,
-        _ => true,
-    }
 }
 
 /// A family of rival forms of one effect.

@@ -196,6 +196,11 @@ const MIN_DURATION_S: f64 = 20.0;
 /// Checks the scale factor and delay of `channel` (`Alpha` or `Beta`): `measured` the vane,
 /// `kinematic` the flight-path reconstruction's flow angle at the vane (biases found removed, no
 /// scale or delay of the vane in it).
+///
+/// The steps: the data usable, the first stage (the controls as instruments of the band's
+/// reconstruction), the second-stage regression of the vane's error on the fitted angle and its
+/// rate, each candidate scored alone, the forward selection with the removal step, the
+/// verdicts.
 pub fn check_channel(
     flight: &MeasuredFlight,
     h_s: f64,
@@ -205,6 +210,36 @@ pub fn check_channel(
     s: &IvSettings,
 ) -> ChannelCheck {
     let mut out = ChannelCheck::default();
+    let stage =
+        match usable(h_s, channel, measured, kinematic).and_then(|()| first_stage(flight, h_s, channel, kinematic)) {
+            Ok(stage) => stage,
+            Err(note) => {
+                out.note = note;
+                return out;
+            }
+        };
+    let iv = Iv::new(stage.yh, measured, kinematic, h_s, s);
+    let params = [SensorParam::Scale(channel), SensorParam::Delay(channel)];
+    let singles: Vec<Option<SubsetFit>> = (0..2).map(|j| iv.design.fit(&[j]).ok()).collect();
+    out.tested.extend(iv.tested(&singles, params));
+    let (Some(f_scale), Some(f_delay)) = (&singles[0], &singles[1]) else {
+        out.note = format!("{channel:?}: the instrumental regression cannot be fitted on this flight (too few blocks, or a column without variance)");
+        return out;
+    };
+    let selected = iv.select(f_scale, f_delay);
+    iv.verdicts(&mut out, &selected, params);
+    out.note = format!(
+        "{channel:?}: scale and delay tested by instrumental variables (instruments: {} through {ORDERS} Laguerre filters of {LAGUERRE_T_S} s; first stage R² {:.2} above {BAND_HZ} Hz; t² threshold {:.1}, held-out T > {:.2})",
+        stage.names.join(", "),
+        stage.r2,
+        iv.threshold,
+        iv.crit
+    );
+    out
+}
+
+/// Whether the data can be tested at all: the note saying why not otherwise.
+fn usable(h_s: f64, channel: Quantity, measured: &[f64], kinematic: &[f64]) -> Result<(), String> {
     let n = measured.len();
     let finite = |x: &[f64]| x.iter().all(|v| v.is_finite());
     if kinematic.len() != n
@@ -213,18 +248,34 @@ pub fn check_channel(
         || !finite(measured)
         || !finite(kinematic)
     {
-        out.note = format!(
+        return Err(format!(
             "{channel:?}: scale and delay not tested by instrumental variables (needs {MIN_DURATION_S} s of finite vane and reconstruction)"
-        );
-        return out;
+        ));
     }
+    Ok(())
+}
+
+/// The first stage: the band's reconstruction fitted by the band's instruments.
+struct FirstStage {
+    /// The fitted (instrumented) flow angle in the band.
+    yh: Vec<f64>,
+    /// The share of the band's reconstruction the instruments explain.
+    r2: f64,
+    /// The controls used as instruments.
+    names: Vec<String>,
+}
+
+/// First stage in the band: the band's reconstruction projected on the band's instruments
+/// (two-stage least squares on the high-passed signals); the note when the controls are missing
+/// or too weak.
+fn first_stage(flight: &MeasuredFlight, h_s: f64, channel: Quantity, kinematic: &[f64]) -> Result<FirstStage, String> {
+    let n = kinematic.len();
     let (z, used) = instruments(flight, n, h_s, controls_of(channel));
     if used.is_empty() {
-        out.note = format!("{channel:?}: scale and delay not tested by instrumental variables (needs logged controls)");
-        return out;
+        return Err(format!(
+            "{channel:?}: scale and delay not tested by instrumental variables (needs logged controls)"
+        ));
     }
-    // First stage in the band: the band's reconstruction projected on the band's instruments
-    // (two-stage least squares on the high-passed signals).
     let zh = high_pass_all(&z, h_s);
     let kh = high_pass(kinematic, h_s);
     let kk: f64 = kh.iter().map(|v| v * v).sum();
@@ -238,200 +289,271 @@ pub fn check_channel(
         1.0 - kh.iter().zip(f).map(|(a, b)| (a - b).powi(2)).sum::<f64>() / kk
     });
     let (Some(yh), true) = (fitted, kk > 0.0 && r2 >= MIN_FIRST_STAGE_R2) else {
-        out.note = format!(
+        return Err(format!(
             "{channel:?}: the controls ({}) explain {:.0} % of the reconstructed flow angle above {BAND_HZ} Hz (< {:.0} %): too weak as instruments, scale and delay not identifiable from this flight",
             names.join(", "),
             100.0 * if r2.is_finite() { r2 } else { 0.0 },
             100.0 * MIN_FIRST_STAGE_R2
-        );
-        return out;
+        ));
     };
-    let d = high_pass(
-        &measured.iter().zip(kinematic).map(|(m, k)| m - k).collect::<Vec<_>>(),
-        h_s,
-    );
-    let ydot: Vec<f64> = derivative(&yh, h_s).iter().map(|v| -v).collect();
-    let design = Design::new(&[&yh, &ydot], &d, h_s, &s.cv, None);
-    let dof = (design.n_blocks() as f64 - 1.0).max(1.0);
-    let threshold = select::student_t_upper_quantile(s.level / 2.0, dof).powi(2);
-    let crit = select::student_t_upper_quantile(s.cv.gain_alpha, dof);
-    let params = [SensorParam::Scale(channel), SensorParam::Delay(channel)];
-    let factor = super::select::detection_factor(threshold, crit, dof);
-    let empty = empty_fit(&design, &d);
-    let singles: Vec<Option<SubsetFit>> = (0..2).map(|j| design.fit(&[j]).ok()).collect();
-    // The oracle (docs/model-gaps.md): the same single-column regression's model-based σ,
-    // coloured residuals up to a block's length.
-    let oracle_factor = super::oracle::detection_factor(s.level / 2.0, s.cv.gain_alpha);
-    let lag = ((s.cv.block_s / h_s).round() as usize).max(1);
-    for (j, (f, col)) in singles.iter().zip([&yh, &ydot]).enumerate() {
-        if let Some(f) = f {
-            let oracle_se = super::regress::ols_sigma(std::slice::from_ref(col), &d, n, lag, Some(0))
-                .map_or(f64::NAN, |o| o.sigma[0]);
-            out.tested.push(ParamScore {
-                param: params[j],
-                value: f.theta[0],
-                sigma: f.sigma[0],
-                t2: f.t2(0),
-                part: "instrumental",
-                min_detectable: factor * f.sigma[0],
-                oracle_se,
-                oracle_min_detectable: oracle_factor * oracle_se,
-            });
+    Ok(FirstStage { yh, r2, names })
+}
+
+/// The second stage: the band's vane error `d` regressed on the fitted angle `ŷ` (a scale) and
+/// `−ŷ̇` (a delay), with its thresholds.
+struct Iv<'a> {
+    yh: Vec<f64>,
+    d: Vec<f64>,
+    design: Design,
+    h_s: f64,
+    s: &'a IvSettings,
+    /// Degrees of freedom of the block statistics.
+    dof: f64,
+    /// The partial `t²` threshold.
+    threshold: f64,
+    /// The held-out test's critical value.
+    crit: f64,
+}
+
+/// The entries of the forward selection: entered, refused, and the exact delay when one was
+/// fitted (`Some(None)`: no minimum inside the range).
+struct Selected {
+    entered: Vec<Entry>,
+    refused: Vec<Entry>,
+    tau: Option<Option<f64>>,
+}
+
+impl<'a> Iv<'a> {
+    fn new(yh: Vec<f64>, measured: &[f64], kinematic: &[f64], h_s: f64, s: &'a IvSettings) -> Self {
+        let d = high_pass(
+            &measured.iter().zip(kinematic).map(|(m, k)| m - k).collect::<Vec<_>>(),
+            h_s,
+        );
+        let ydot: Vec<f64> = derivative(&yh, h_s).iter().map(|v| -v).collect();
+        let design = Design::new(&[&yh, &ydot], &d, h_s, &s.cv, None);
+        let dof = (design.n_blocks() as f64 - 1.0).max(1.0);
+        let threshold = select::student_t_upper_quantile(s.level / 2.0, dof).powi(2);
+        let crit = select::student_t_upper_quantile(s.cv.gain_alpha, dof);
+        Self {
+            yh,
+            d,
+            design,
+            h_s,
+            s,
+            dof,
+            threshold,
+            crit,
         }
     }
-    let (Some(f_scale), Some(f_delay)) = (&singles[0], &singles[1]) else {
-        out.note = format!("{channel:?}: the instrumental regression cannot be fitted on this flight (too few blocks, or a column without variance)");
-        return out;
-    };
-    // A candidate's entry: its partial t², the sign-flip direction of its held-out gain, the gain
-    // relative to the smaller model, and the gain against the held-out noise (T).
-    let judge = |design: &Design, f0: &SubsetFit, f1: &SubsetFit, k: usize| -> Score {
+
+    /// Each candidate's first-round score alone, with the tool's and the oracle's least
+    /// detectable sizes.
+    fn tested(&self, singles: &[Option<SubsetFit>], params: [SensorParam; 2]) -> Vec<ParamScore> {
+        let (s, h_s, n) = (self.s, self.h_s, self.d.len());
+        let factor = super::select::detection_factor(self.threshold, self.crit, self.dof);
+        // The oracle (docs/model-gaps.md): the same single-column regression's model-based σ,
+        // coloured residuals up to a block's length.
+        let oracle_factor = super::detection::detection_factor(s.level / 2.0, s.cv.gain_alpha);
+        let lag = ((s.cv.block_s / h_s).round() as usize).max(1);
+        let ydot: Vec<f64> = derivative(&self.yh, h_s).iter().map(|v| -v).collect();
+        let mut out = Vec::new();
+        for (j, (f, col)) in singles.iter().zip([&self.yh, &ydot]).enumerate() {
+            if let Some(f) = f {
+                let oracle_se = super::regress::ols_sigma(std::slice::from_ref(col), &self.d, n, lag, Some(0))
+                    .map_or(f64::NAN, |o| o.sigma[0]);
+                out.push(ParamScore {
+                    param: params[j],
+                    value: f.theta[0],
+                    sigma: f.sigma[0],
+                    t2: f.t2(0),
+                    part: "instrumental",
+                    min_detectable: factor * f.sigma[0],
+                    oracle_se,
+                    oracle_min_detectable: oracle_factor * oracle_se,
+                });
+            }
+        }
+        out
+    }
+
+    /// A candidate's entry: its partial t², the sign-flip direction of its held-out gain, the gain
+    /// relative to the smaller model, and the gain against the held-out noise (T).
+    fn judge(&self, design: &Design, f0: &SubsetFit, f1: &SubsetFit, k: usize) -> Score {
         let t2 = f1.t2(k);
         let (z, rel) = select::gain(&f0.cv_sse, &f1.cv_sse);
-        let noise = if t2 > threshold && z > 0.0 {
+        let noise = if t2 > self.threshold && z > 0.0 {
             design.noise_gain(f0, f1)
         } else {
             f64::NAN
         };
         (t2, z, rel, noise)
-    };
-    let passes = |(t2, z, _, noise): Score| t2 > threshold && z > 0.0 && noise > crit;
-    let alone = |j: usize, f: &SubsetFit| Entry {
-        j,
-        score: judge(&design, &empty, f, 0),
-        value: f.theta[0],
-        sigma: f.sigma[0],
-    };
-    // The scale given an exact delay τ: `d + ŷ − ŷ(t−τ) = k·ŷ(t−τ) + noise` (the first-order
-    // delay column leaves a spurious scale beside a real delay: on a 0.10 s delay, t² 36).
-    let scale_given = |tau: Option<f64>| -> Option<Entry> {
-        let shifted = super::signal::shift(&yh, h_s, -tau?);
-        let rest: Vec<f64> = (0..n).map(|i| d[i] + yh[i] - shifted[i]).collect();
-        let d2 = Design::new(&[&shifted], &rest, h_s, &s.cv, None);
+    }
+
+    fn passes(&self, (t2, z, _, noise): Score) -> bool {
+        t2 > self.threshold && z > 0.0 && noise > self.crit
+    }
+
+    /// Candidate `j` fitted alone (`f`) against the empty model.
+    fn alone(&self, j: usize, f: &SubsetFit) -> Entry {
+        Entry {
+            j,
+            score: self.judge(&self.design, &empty_fit(&self.design, &self.d), f, 0),
+            value: f.theta[0],
+            sigma: f.sigma[0],
+        }
+    }
+
+    /// The scale given an exact delay τ: `d + ŷ − ŷ(t−τ) = k·ŷ(t−τ) + noise` (the first-order
+    /// delay column leaves a spurious scale beside a real delay: on a 0.10 s delay, t² 36).
+    fn scale_given(&self, tau: Option<f64>) -> Option<Entry> {
+        let (yh, d, h_s) = (&self.yh, &self.d, self.h_s);
+        let shifted = super::signal::shift(yh, h_s, -tau?);
+        let rest: Vec<f64> = (0..d.len()).map(|i| d[i] + yh[i] - shifted[i]).collect();
+        let d2 = Design::new(&[&shifted], &rest, h_s, &self.s.cv, None);
         let f = d2.fit(&[0]).ok()?;
         Some(Entry {
             j: 0,
-            score: judge(&d2, &empty_fit(&d2, &rest), &f, 0),
+            score: self.judge(&d2, &empty_fit(&d2, &rest), &f, 0),
             value: f.theta[0],
             sigma: f.sigma[0],
         })
-    };
-    // Forward selection in the order of the candidates' t² alone, then the removal step.
-    let (mut entered, mut refused): (Vec<Entry>, Vec<Entry>) = (Vec::new(), Vec::new());
-    // Files a candidate tested on its own: entered if it passes, else refused.
-    let file = |e: Entry, entered: &mut Vec<Entry>, refused: &mut Vec<Entry>| -> bool {
-        let ok = passes(e.score);
+    }
+
+    /// The exact delay of the vane error, with or without a scale beside it.
+    fn exact_delay(&self, with_scale: bool) -> Option<f64> {
+        exact_delay(&self.d, &self.yh, self.h_s, with_scale)
+    }
+
+    /// Files a candidate tested on its own: entered if it passes, else refused.
+    fn file(&self, e: Entry, sel: &mut Selected) -> bool {
+        let ok = self.passes(e.score);
         if ok {
-            entered.push(e)
+            sel.entered.push(e)
         } else {
-            refused.push(e)
+            sel.refused.push(e)
         }
         ok
-    };
-    let mut tau = None;
-    if f_delay.t2(0) >= f_scale.t2(0) {
-        let e = alone(1, f_delay);
-        if passes(e.score) {
-            let t = exact_delay(&d, &yh, h_s, false);
-            tau = Some(t);
-            entered.push(e);
-            if let Some(sc) = scale_given(t) {
-                file(sc, &mut entered, &mut refused);
-            }
-        } else {
-            refused.push(e);
-            file(alone(0, f_scale), &mut entered, &mut refused);
-        }
-    } else {
-        let e = alone(0, f_scale);
-        if passes(e.score) {
-            entered.push(e);
-            if let Ok(joint) = design.fit(&[0, 1]) {
-                let ed = Entry {
-                    j: 1,
-                    score: judge(&design, f_scale, &joint, 1),
-                    value: joint.theta[1],
-                    sigma: joint.sigma[1],
-                };
-                if passes(ed.score) {
-                    let t = exact_delay(&d, &yh, h_s, true);
-                    tau = Some(t);
-                    entered.push(ed);
-                    // Removal: the scale stays only if it passes given the exact delay (kept as
-                    // it is when the delay has no minimum inside the range: then the delay is
-                    // refused below).
-                    match scale_given(t) {
-                        Some(sc) if passes(sc.score) => entered[0] = sc,
-                        Some(sc) => {
-                            // Without the scale, the delay is the one fitted alone.
-                            entered.remove(0);
-                            refused.push(sc);
-                            tau = Some(exact_delay(&d, &yh, h_s, false));
-                        }
-                        None => {}
-                    }
-                } else {
-                    refused.push(ed);
-                }
-            }
-        } else {
-            refused.push(e);
-            if file(alone(1, f_delay), &mut entered, &mut refused) {
-                tau = Some(exact_delay(&d, &yh, h_s, false));
-            }
-        }
     }
-    let to_found = |e: &Entry, why: String| Found {
-        param: params[e.j],
-        value: e.value,
-        sigma: e.sigma,
-        t2: e.score.0,
-        part: "instrumental",
-        cv_gain_z: e.score.3,
-        cv_gain: e.score.2,
-        why,
-    };
-    for e in &entered {
-        let mut f = to_found(e, String::new());
-        if e.j == 1 {
-            match tau {
-                Some(Some(t)) => f.value = t,
-                _ => {
-                    f.why = format!(
-                        "the delay's best fit lies at the edge of the ±{DELAY_RANGE_S} s searched: not a sensor delay (the reconstruction of this channel fails)"
-                    )
-                }
-            }
-        }
-        if f.why.is_empty() && !f.param.plausible(f.value) {
-            f.why = format!(
-                "{} = {:.3} is outside the physical range of its kind: the reconstruction of this channel fails, not this sensor",
-                f.param.name(),
-                f.value
-            );
-        }
-        if f.why.is_empty() {
-            out.found.push(f);
-        } else {
-            out.rejected.push(f);
-        }
-    }
-    for e in refused.iter().filter(|e| e.score.0 > threshold) {
-        let why = if e.score.1 > 0.0 {
-            format!(
-                "significant with the control instruments but does not improve the held-out fit beyond noise (gain T {:.1} ≤ {crit:.1})",
-                e.score.3
-            )
-        } else {
-            "significant with the control instruments but its held-out gain is not positive".to_string()
+
+    /// Forward selection in the order of the candidates' t² alone, then the removal step.
+    fn select(&self, f_scale: &SubsetFit, f_delay: &SubsetFit) -> Selected {
+        let mut sel = Selected {
+            entered: Vec::new(),
+            refused: Vec::new(),
+            tau: None,
         };
-        out.rejected.push(to_found(e, why));
+        if f_delay.t2(0) >= f_scale.t2(0) {
+            let e = self.alone(1, f_delay);
+            if self.passes(e.score) {
+                let t = self.exact_delay(false);
+                sel.tau = Some(t);
+                sel.entered.push(e);
+                if let Some(sc) = self.scale_given(t) {
+                    self.file(sc, &mut sel);
+                }
+            } else {
+                sel.refused.push(e);
+                self.file(self.alone(0, f_scale), &mut sel);
+            }
+        } else {
+            let e = self.alone(0, f_scale);
+            if self.passes(e.score) {
+                sel.entered.push(e);
+                self.delay_beside_scale(f_scale, &mut sel);
+            } else {
+                sel.refused.push(e);
+                if self.file(self.alone(1, f_delay), &mut sel) {
+                    sel.tau = Some(self.exact_delay(false));
+                }
+            }
+        }
+        sel
     }
-    out.note = format!(
-        "{channel:?}: scale and delay tested by instrumental variables (instruments: {} through {ORDERS} Laguerre filters of {LAGUERRE_T_S} s; first stage R² {r2:.2} above {BAND_HZ} Hz; t² threshold {threshold:.1}, held-out T > {crit:.2})",
-        names.join(", ")
-    );
-    out
+
+    /// The delay tested beside an entered scale (`f_scale`), and the removal step on the scale.
+    fn delay_beside_scale(&self, f_scale: &SubsetFit, sel: &mut Selected) {
+        let Ok(joint) = self.design.fit(&[0, 1]) else {
+            return;
+        };
+        let ed = Entry {
+            j: 1,
+            score: self.judge(&self.design, f_scale, &joint, 1),
+            value: joint.theta[1],
+            sigma: joint.sigma[1],
+        };
+        if !self.passes(ed.score) {
+            sel.refused.push(ed);
+            return;
+        }
+        let t = self.exact_delay(true);
+        sel.tau = Some(t);
+        sel.entered.push(ed);
+        // Removal: the scale stays only if it passes given the exact delay (kept as
+        // it is when the delay has no minimum inside the range: then the delay is
+        // refused below).
+        match self.scale_given(t) {
+            Some(sc) if self.passes(sc.score) => sel.entered[0] = sc,
+            Some(sc) => {
+                // Without the scale, the delay is the one fitted alone.
+                sel.entered.remove(0);
+                sel.refused.push(sc);
+                sel.tau = Some(self.exact_delay(false));
+            }
+            None => {}
+        }
+    }
+
+    /// The entered candidates as found or rejected (a delay at the range's edge, a value outside
+    /// its kind's range), and the refused ones that were significant, with the reason.
+    fn verdicts(&self, out: &mut ChannelCheck, sel: &Selected, params: [SensorParam; 2]) {
+        let to_found = |e: &Entry, why: String| Found {
+            param: params[e.j],
+            value: e.value,
+            sigma: e.sigma,
+            t2: e.score.0,
+            part: "instrumental",
+            cv_gain_z: e.score.3,
+            cv_gain: e.score.2,
+            why,
+        };
+        for e in &sel.entered {
+            let mut f = to_found(e, String::new());
+            if e.j == 1 {
+                match sel.tau {
+                    Some(Some(t)) => f.value = t,
+                    _ => {
+                        f.why = format!(
+                            "the delay's best fit lies at the edge of the ±{DELAY_RANGE_S} s searched: not a sensor delay (the reconstruction of this channel fails)"
+                        )
+                    }
+                }
+            }
+            if f.why.is_empty() && !f.param.plausible(f.value) {
+                f.why = format!(
+                    "{} = {:.3} is outside the physical range of its kind: the reconstruction of this channel fails, not this sensor",
+                    f.param.name(),
+                    f.value
+                );
+            }
+            if f.why.is_empty() {
+                out.found.push(f);
+            } else {
+                out.rejected.push(f);
+            }
+        }
+        let crit = self.crit;
+        for e in sel.refused.iter().filter(|e| e.score.0 > self.threshold) {
+            let why = if e.score.1 > 0.0 {
+                format!(
+                    "significant with the control instruments but does not improve the held-out fit beyond noise (gain T {:.1} ≤ {crit:.1})",
+                    e.score.3
+                )
+            } else {
+                "significant with the control instruments but its held-out gain is not positive".to_string()
+            };
+            out.rejected.push(to_found(e, why));
+        }
+    }
 }
 
 /// The exact delay `τ` minimising `‖d − ((1+k)ŷ(t−τ) − ŷ(t))‖²` (`k` fitted when `with_scale`,

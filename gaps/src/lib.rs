@@ -66,6 +66,7 @@
 
 pub mod airdata;
 pub mod compat;
+pub mod detection;
 pub mod eks;
 pub mod family;
 mod fit;
@@ -470,7 +471,7 @@ pub struct Added {
     pub rivals: Vec<Rival>,
     /// For a surface-rate term (a delay of that surface): the delay by an exact shift, s — the
     /// model with `δ(t−τ)` in place of `δ` and its rate term, `τ` of least identification error
-    /// ([`fit::exact_surface_delay`]); the rate term's `τ = −θ_δ̇/θ_δ` is its first-order estimate.
+    /// (`fit::exact_surface_delay`); the rate term's `τ = −θ_δ̇/θ_δ` is its first-order estimate.
     /// `None` for other terms.
     pub exact_delay_s: Option<f64>,
     /// Its family of rival forms, the form named and the forms this flight cannot separate from
@@ -536,7 +537,7 @@ pub struct ManoeuvreEstimate {
 }
 
 /// Whether an added term's estimate agrees across manoeuvres: Cochran's Q of the per-manoeuvre
-/// estimates ([`fit::homogeneity_of`]).
+/// estimates (`fit::homogeneity_of`).
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct Homogeneity {
     /// The term.
@@ -667,7 +668,7 @@ pub struct Manoeuvre {
     /// surfaces and the thrust coefficient (by `Signal` name; rad or dimensionless).
     pub std: BTreeMap<String, f64>,
     /// The baseline regressors it excites (`C_m: q`…): variation within the manoeuvre at least
-    /// [`fit::MIN_EXCITATION`]× the column's error variance (every column exact: 10 % of its variation
+    /// `fit::MIN_EXCITATION`× the column's error variance (every column exact: 10 % of its variation
     /// over all manoeuvres).
     pub excites: Vec<String>,
     /// Whether its samples are in the identification segment (else held out).

@@ -23,7 +23,7 @@
 //! `V`, `α`; `C_m` needs `q`, `V`; `C_Y` needs `a_y`; `C_l`, `C_n` need `p`, `r` (plus `q`).
 
 use super::signal::{derivative, sg_smooth, shift, sin_cos};
-use crate::io::measured::{MeasuredFlight, Quantity, ThrustSource};
+use crate::io::measured::{MeasuredFlight, Origin, Quantity, ThrustSource};
 use crate::sim::atmosphere::isa_density;
 use aerosid_core::aero::synthesis::{propeller_output, propulsion_force_moment};
 use nalgebra::Vector3;
@@ -170,7 +170,7 @@ pub struct Table {
     /// [`super::simulate`]); `None` when no coefficient could be synthesised.
     pub kinematics: Option<Kinematics>,
     /// Library terms not offered to a coefficient (index into [`COEFFICIENTS`]) on this flight,
-    /// with the reason ([`super::origin::barred_terms`]).
+    /// with the reason ([`barred_terms`]).
     pub barred: Vec<(usize, Term, String)>,
 }
 
@@ -323,8 +323,6 @@ fn synthesise_piece(
     sg_half: usize,
     air_data: Option<&BTreeMap<Quantity, Vec<f64>>>,
 ) -> Table {
-    use Quantity::*;
-    let n = flight.len();
     let mut notes = Vec::new();
     let raw = Corrected {
         flight,
@@ -334,47 +332,31 @@ fn synthesise_piece(
     };
     let rates = body_rates(&raw, sg_half);
     let air = air_data_at_cg(&raw, &rates.raw, sg_half);
-    let sm = |x: Option<Vec<f64>>| x.map(|v| sg_smooth(&v, sg_half));
-    let surfaces = [sm(raw.get(Elevator)), sm(raw.get(Aileron)), sm(raw.get(Rudder))];
-    // Surface rates: differentiated before smoothing, as α̇ (the signal module's doc says why).
-    let rate = |q: Quantity| raw.get(q).map(|x| sg_smooth(&derivative(&x, h_s), sg_half));
-    let surface_rates = [rate(Elevator), rate(Aileron), rate(Rudder)];
-    let accels = [sm(raw.get(AccelX)), sm(raw.get(AccelY)), sm(raw.get(AccelZ))];
+    let controls = controls_of(&raw, sg_half);
     let qbar = dynamic_pressure(flight, &air.v, sg_half, &mut notes);
     let (Some(v), Some(qbar)) = (air.v.clone(), qbar) else {
         notes.push("no airspeed or dynamic pressure: no coefficient can be synthesised".into());
         return Table::empty(flight.t_s.clone(), notes);
     };
-    let zeros = vec![0.0; n];
-    let wz = |x: &Option<Vec<f64>>| x.clone().unwrap_or_else(|| zeros.clone());
-    let vv: Vec<f64> = v.iter().map(|x| x.max(1.0)).collect();
-    let flow = Flow {
-        rho_v: (0..n).map(|i| 2.0 * qbar[i] / (vv[i] * vv[i])).collect(),
-        qs: qbar.iter().map(|q| q * flight.aircraft.wing_area_m2).collect(),
-        vv,
-        al: wz(&air.alpha),
-        be: wz(&air.beta),
-    };
+    let flow = flow_of(flight, &v, &qbar, &air);
     let thrust = thrust_of(&raw, sg_half, &flow, &mut notes);
     let cg = CgAccel {
         ra: flight.aircraft.accel_position_m,
-        accels,
-        w: rates.smooth.each_ref().map(wz),
-        wd: rates.accel.each_ref().map(wz),
+        accels: controls.accels,
+        w: rates.smooth.each_ref().map(|x| or_zeros(x, flight.len())),
+        wd: rates.accel.each_ref().map(|x| or_zeros(x, flight.len())),
     };
     let mut z = force_coefficients(flight, &cg, &thrust, air.alpha.is_some(), &flow);
     moment_coefficients(flight, &cg, &thrust, &flow, &rates, &mut z, &mut notes);
     let parts = SignalParts {
         air,
         rates: rates.smooth,
-        surfaces,
-        surface_rates,
+        surfaces: controls.surfaces,
+        surface_rates: controls.surface_rates,
     };
     let mut signals = signals_of(flight, sg_half, parts, &z, &cg, &thrust, &flow);
     signals.insert(Signal::Airspeed, v);
-    let attitude_measured = flight.get(Pitch).is_some();
-    let att = |q: Quantity| sm(flight.get(q).map(|x| x.to_vec())).unwrap_or_else(|| zeros.clone());
-    let barred = super::origin::barred_terms(flight);
+    let barred = barred_terms(flight);
     notes.extend(
         barred
             .iter()
@@ -387,19 +369,73 @@ fn synthesise_piece(
         signals,
         notes,
         barred,
-        kinematics: Some(Kinematics {
-            // The aerodynamic force first: it reads the rates and the thrust moved below.
-            aero_force_n: (0..n)
-                .map(|i| cg.aero_force(i, flight.aircraft.mass_kg, &thrust.f_t[i]))
-                .collect(),
-            attitude_rad: [att(Roll), att(Pitch)],
-            rates_rad_s: cg.w,
-            qbar_pa: qbar,
-            density_kgpm3: flow.rho_v,
-            thrust_force_n: thrust.f_t,
-            thrust_moment_nm: thrust.m_t,
-            attitude_measured,
-        }),
+        kinematics: Some(kinematics_of(flight, sg_half, qbar, cg, thrust, flow)),
+    }
+}
+
+/// `x`, or `n` zeros when absent.
+fn or_zeros(x: &Option<Vec<f64>>, n: usize) -> Vec<f64> {
+    x.clone().unwrap_or_else(|| vec![0.0; n])
+}
+
+/// The surfaces and accelerometers, corrected and smoothed, and the surfaces' rates.
+struct Controls {
+    /// Elevator, aileron, rudder.
+    surfaces: [Option<Vec<f64>>; 3],
+    /// Their rates: differentiated before smoothing, as α̇ (the signal module's doc says why).
+    surface_rates: [Option<Vec<f64>>; 3],
+    /// Specific force at the accelerometer, x, y, z.
+    accels: [Option<Vec<f64>>; 3],
+}
+
+fn controls_of(raw: &Corrected, sg_half: usize) -> Controls {
+    use Quantity::*;
+    let sm = |x: Option<Vec<f64>>| x.map(|v| sg_smooth(&v, sg_half));
+    let rate = |q: Quantity| raw.get(q).map(|x| sg_smooth(&derivative(&x, raw.h_s), sg_half));
+    Controls {
+        surfaces: [sm(raw.get(Elevator)), sm(raw.get(Aileron)), sm(raw.get(Rudder))],
+        surface_rates: [rate(Elevator), rate(Aileron), rate(Rudder)],
+        accels: [sm(raw.get(AccelX)), sm(raw.get(AccelY)), sm(raw.get(AccelZ))],
+    }
+}
+
+/// The flow of airspeed `v` and dynamic pressure `qbar`, with the flow angles at the CG.
+fn flow_of(flight: &MeasuredFlight, v: &[f64], qbar: &[f64], air: &AirAtCg) -> Flow {
+    let n = flight.len();
+    let vv: Vec<f64> = v.iter().map(|x| x.max(1.0)).collect();
+    Flow {
+        rho_v: (0..n).map(|i| 2.0 * qbar[i] / (vv[i] * vv[i])).collect(),
+        qs: qbar.iter().map(|q| q * flight.aircraft.wing_area_m2).collect(),
+        vv,
+        al: or_zeros(&air.alpha, n),
+        be: or_zeros(&air.beta, n),
+    }
+}
+
+/// The quantities eq. 1–2 used besides the coefficients, for the held-out simulation.
+fn kinematics_of(
+    flight: &MeasuredFlight,
+    sg_half: usize,
+    qbar: Vec<f64>,
+    cg: CgAccel,
+    thrust: ThrustForces,
+    flow: Flow,
+) -> Kinematics {
+    use Quantity::*;
+    let n = flight.len();
+    let att = |q: Quantity| or_zeros(&flight.get(q).map(|x| sg_smooth(x, sg_half)), n);
+    Kinematics {
+        // The aerodynamic force first: it reads the rates and the thrust moved below.
+        aero_force_n: (0..n)
+            .map(|i| cg.aero_force(i, flight.aircraft.mass_kg, &thrust.f_t[i]))
+            .collect(),
+        attitude_rad: [att(Roll), att(Pitch)],
+        rates_rad_s: cg.w,
+        qbar_pa: qbar,
+        density_kgpm3: flow.rho_v,
+        thrust_force_n: thrust.f_t,
+        thrust_moment_nm: thrust.m_t,
+        attitude_measured: flight.get(Pitch).is_some(),
     }
 }
 
@@ -1032,6 +1068,72 @@ pub enum Term {
     RudderRate,
 }
 
+/// Lowest Mach number at which a Mach term is offered.
+pub const MIN_MACH: f64 = 0.3;
+
+/// Whether a term is offered on a flight whose largest Mach number is `mach_max` and whose thrust
+/// is known (`thrust_known`), whatever the model ([`super::family`]'s module docs).
+pub fn offered_on_flight(t: Term, mach_max: f64, thrust_known: bool) -> bool {
+    use Term::*;
+    match t {
+        Mach => mach_max >= MIN_MACH,
+        Thrust | ThrustElevator | ThrustAlpha | ThrustBeta => thrust_known,
+        _ => true,
+    }
+}
+
+/// The library terms not offered to a coefficient (its index into
+/// [`COEFFICIENTS`]) because, with this flight's estimated flow angles, they
+/// restate the measured force through a kinematic identity or, `α·q_n` in `C_D`, the drag's
+/// rotation error ([`super::origin`]'s module doc); each with the reason in words.
+///
+/// An α estimated from the inertial data (the ground velocity less a slowly updated wind) gives
+/// `α̇ = q − γ̇`, and `γ̇` is the measured lift over `m·V`: in C_L the term restates the lift. In
+/// the other coefficients it carries the same measured lift, and in turbulence that lift holds
+/// the gust's share, which the estimated α does not see — so a fit takes α̇ for the gust's
+/// effect on the coefficient (a pitching moment that follows the lift, not a downwash lag). The
+/// two cannot be told apart from such a flight, so α̇ is offered nowhere. Likewise β̇ with an
+/// estimated β (the measured side force over `m·V` plus `p sin α − r cos α` and gravity).
+pub fn barred_terms(flight: &MeasuredFlight) -> Vec<(usize, Term, String)> {
+    // (the angle, its rate, the coefficient it restates, its name, the force it carries)
+    let rates = [
+        (Quantity::Alpha, Term::AlphaDot, 0, "α", "α̇ = q − γ̇ and γ̇ is the measured lift over m·V", "lift", "an α̇ term would restate the measured lift through that identity (size ≈ −4m/(ρSc̄)), not an aerodynamic cause"),
+        (Quantity::Beta, Term::BetaDot, 2, "β", "β̇ is the measured side force over m·V plus p sin α − r cos α and gravity", "side force", "a β̇ term would restate the measured side force, not an aerodynamic cause"),
+    ];
+    const C_D: usize = 1;
+    let mut out = Vec::new();
+    for (q, term, own, angle, identity, force, restated) in rates {
+        let Origin::Estimated { by } = flight.log.origin_of(q) else {
+            continue;
+        };
+        for (i, name) in COEFFICIENTS.iter().enumerate() {
+            let why = if i == own {
+                restated.to_string()
+            } else {
+                format!("in {name} it would carry the measured {force}, which in turbulence holds the gust's share that the estimated {angle} misses: its effect cannot be told from the gust's")
+            };
+            out.push((
+                i,
+                term,
+                format!(
+                    "{} not offered in {name}: {angle} is estimated from the inertial data ({by}), so {identity} — {why}",
+                    term.name().trim_end_matches("_n")
+                ),
+            ));
+        }
+    }
+    if let Origin::Estimated { by } = flight.log.origin_of(Quantity::Alpha) {
+        out.push((
+            C_D,
+            Term::AlphaQ,
+            format!(
+                "α·q not offered in C_D: α is estimated ({by}), and drag is the measured force rotated by α, so C_D carries C_L·(α̂ − α); with C_L linear in α and the estimate's error following the manoeuvre (its lag, the gust share it misses), that error fits α·q_n with a systematic value (module doc of gaps::origin), not an aerodynamic cause"
+            ),
+        ));
+    }
+    out
+}
+
 /// Reference values of the terms that need them, from the identification segment.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TermRefs {
@@ -1056,7 +1158,7 @@ impl Term {
 
     /// The [`library`](Self::library) of coefficient `coef` less the terms `table` bars on its
     /// flight ([`Table::barred`]) and those that mean nothing on it
-    /// ([`super::family::offered_on_flight`]: Mach below compressibility, thrust unknown): the
+    /// ([`offered_on_flight`]: Mach below compressibility, thrust unknown): the
     /// candidates the analysis offers.
     pub fn offered(coef: usize, table: &Table) -> Vec<Term> {
         let mach_max = table
@@ -1066,8 +1168,7 @@ impl Term {
         let thrust_known = table.signals.contains_key(&Signal::ThrustCoeff);
         let mut lib = Self::library(coef);
         lib.retain(|t| {
-            !table.barred.iter().any(|(i, b, _)| *i == coef && b == t)
-                && super::family::offered_on_flight(*t, mach_max, thrust_known)
+            !table.barred.iter().any(|(i, b, _)| *i == coef && b == t) && offered_on_flight(*t, mach_max, thrust_known)
         });
         lib
     }

@@ -904,7 +904,7 @@ impl<D: Dynamics> Setup<D> {
 }
 
 /// The output-error analysis of the low-rate path: `C_L`, `C_D`, `C_m` (module doc) and `C_Y`,
-/// `C_l`, `C_n` ([`super::oem_lateral`]), each axis where the data allow it. `Err` says why
+/// `C_l`, `C_n` (`oem_lateral.rs`), each axis where the data allow it. `Err` says why
 /// neither can run.
 pub fn analyse(inp: &Inputs) -> Result<LowRate, String> {
     let lon = setup(inp).and_then(|s| analyse_axis(inp, s));
@@ -936,10 +936,55 @@ pub fn analyse(inp: &Inputs) -> Result<LowRate, String> {
 /// The output-error analysis of one axis's three coefficients: the baseline, the candidates, the
 /// final joint fit and, with pooled manoeuvres, the homogeneity of every added term.
 fn analyse_axis<D: Dynamics>(inp: &Inputs, setup: Setup<D>) -> Result<LowRate, String> {
+    let Baseline { spec, th0, dropped } = baseline_spec::<D>(inp)?;
+    let base = setup.fit_relaxed(&spec, th0)?;
+    let h_base = setup
+        .held_out(&base)
+        .ok_or("a fold leaves the baseline's parameters unidentifiable")?;
+    let axis = Axis::new(inp, &setup, base, h_base);
+    let notes = axis.notes();
+    let mut current = axis.base.clone();
+    let mut h_current = axis.h_base.clone();
+    let per_coef: Vec<CoefficientResult> = D::COVERED
+        .iter()
+        .map(|&c| axis.select(c, &mut current, &mut h_current))
+        .collect();
+    // The final joint model, its noise relaxed.
+    let fin = if current.spec == axis.base.spec {
+        axis.base.clone()
+    } else {
+        setup.fit_relaxed(&current.spec, current.th.clone())?
+    };
+    let (fin, homogeneity) = axis.homogeneous(fin)?;
+    let h_fin = setup
+        .held_out(&fin)
+        .ok_or("a fold leaves the final model unidentifiable")?;
+    let coefficients = per_coef
+        .into_iter()
+        .map(|r| axis.gap(r, &dropped, &fin, &h_fin, &homogeneity))
+        .collect();
+    Ok(LowRate {
+        coefficients,
+        covered: D::COVERED.to_vec(),
+        notes,
+    })
+}
+
+/// An axis's baseline before its fit.
+struct Baseline {
+    /// The terms with a column.
+    spec: Spec,
+    /// Their start: least squares on the synthesised coefficients.
+    th0: Vec<f64>,
+    /// Per coefficient, the baseline terms without a column or untestable on the axis.
+    dropped: Vec<Vec<String>>,
+}
+
+/// The baseline: terms with a column, started from least squares on the synthesised
+/// coefficients (the equation error at this rate: a start, not an answer); the terms dropped per
+/// coefficient.
+fn baseline_spec<D: Dynamics>(inp: &Inputs) -> Result<Baseline, String> {
     let table = inp.table;
-    let n = table.t_s.len();
-    // The baseline: terms with a column, started from least squares on the synthesised
-    // coefficients (the equation error at this rate: a start, not an answer).
     let mut terms = Vec::new();
     let mut th0 = Vec::new();
     let mut dropped: Vec<Vec<String>> = vec![Vec::new(); 6];
@@ -958,125 +1003,88 @@ fn analyse_axis<D: Dynamics>(inp: &Inputs, setup: Setup<D>) -> Result<LowRate, S
         let start = ols_theta(&cols, z).unwrap_or_else(|| vec![0.0; cols.len()]);
         th0.extend(start);
     }
-    let spec = Spec::new(D::COVERED, terms);
-    let base = setup.fit_relaxed(&spec, th0)?;
-    let w0 = base.w;
-    let h_base = setup
-        .held_out(&base)
-        .ok_or("a fold leaves the baseline's parameters unidentifiable")?;
-    let g = setup.blocks.len();
-    let gain_crit = select::student_t_upper_quantile(inp.cv.gain_alpha, (g as f64 - 1.0).max(1.0));
-    let t_detect = select::detection_factor(inp.threshold_t2, gain_crit, g as f64 - 1.0);
-    let n_all = n as f64;
-    let r0 = noise_of(&base.e);
-    let h_s = (table.t_s[n - 1] - table.t_s[0]) / (n - 1).max(1) as f64;
-    let one_s = ((1.0 / h_s).round() as usize).max(1);
-    let noise: Vec<String> = (0..NY)
-        .map(|i| {
-            format!(
-                "{} {:.2e} ({})², autocorrelation {:.2} at one sample, {:.2} at 1 s",
-                D::OUTPUTS[i],
-                r0[i],
-                D::UNITS[i],
-                autocorrelation(&base.e, i, 1, inp.pieces),
-                autocorrelation(&base.e, i, one_s, inp.pieces)
-            )
-        })
-        .collect();
-    let mut notes = vec![format!(
-        "output error ({}): {}; R relaxed to the residuals' mean square ({}); held-out: {}, the fits without a fold by one Gauss–Newton step",
-        D::COVERED.map(|c| COEFFICIENTS[c]).join(", "),
-        D::READING,
-        noise.join(", "),
-        setup.fold_note
-    )];
-    if !base.converged {
-        notes.push("the baseline's Gauss–Newton iterations did not converge within their limit".into());
+    Ok(Baseline {
+        spec: Spec::new(D::COVERED, terms),
+        th0,
+        dropped,
+    })
+}
+
+/// One axis's analysis after its baseline fit: the inputs, the plant and folds, the baseline and
+/// its held-out residuals, and the tests' critical values.
+struct Axis<'a, D> {
+    inp: &'a Inputs<'a>,
+    setup: &'a Setup<D>,
+    base: Fit,
+    h_base: HeldOut,
+    /// The held-out test's critical value (`G − 1` degrees of freedom, `G` the folds' blocks).
+    gain_crit: f64,
+    /// `min_detectable / σ`.
+    t_detect: f64,
+    /// The sample interval, s.
+    h_s: f64,
+}
+
+impl<'a, D: Dynamics> Axis<'a, D> {
+    fn new(inp: &'a Inputs<'a>, setup: &'a Setup<D>, base: Fit, h_base: HeldOut) -> Self {
+        let t_s = &inp.table.t_s;
+        let n = t_s.len();
+        let g = setup.blocks.len();
+        let gain_crit = select::student_t_upper_quantile(inp.cv.gain_alpha, (g as f64 - 1.0).max(1.0));
+        Self {
+            inp,
+            setup,
+            base,
+            h_base,
+            gain_crit,
+            t_detect: select::detection_factor(inp.threshold_t2, gain_crit, g as f64 - 1.0),
+            h_s: (t_s[n - 1] - t_s[0]) / (n - 1).max(1) as f64,
+        }
     }
-    let mut current = base.clone();
-    let mut h_current = h_base.clone();
-    let mut per_coef: Vec<CoefficientResult> = Vec::new();
-    for c in D::COVERED {
+
+    /// The axis's notes: the method, the baseline's output noise and its colour, the folds.
+    fn notes(&self) -> Vec<String> {
+        let (inp, base) = (self.inp, &self.base);
+        let r0 = noise_of(&base.e);
+        let one_s = ((1.0 / self.h_s).round() as usize).max(1);
+        let noise: Vec<String> = (0..NY)
+            .map(|i| {
+                format!(
+                    "{} {:.2e} ({})², autocorrelation {:.2} at one sample, {:.2} at 1 s",
+                    D::OUTPUTS[i],
+                    r0[i],
+                    D::UNITS[i],
+                    autocorrelation(&base.e, i, 1, inp.pieces),
+                    autocorrelation(&base.e, i, one_s, inp.pieces)
+                )
+            })
+            .collect();
+        let mut notes = vec![format!(
+            "output error ({}): {}; R relaxed to the residuals' mean square ({}); held-out: {}, the fits without a fold by one Gauss–Newton step",
+            D::COVERED.map(|c| COEFFICIENTS[c]).join(", "),
+            D::READING,
+            noise.join(", "),
+            self.setup.fold_note
+        )];
+        if !base.converged {
+            notes.push("the baseline's Gauss–Newton iterations did not converge within their limit".into());
+        }
+        notes
+    }
+
+    /// Forward selection on coefficient `c` from the current joint model (`current`, its held-out
+    /// residuals `h_current`), which each added term extends.
+    fn select(&self, c: usize, current: &mut Fit, h_current: &mut HeldOut) -> CoefficientResult {
         let mut first_round: Option<Vec<CandidateScore>> = None;
         let mut added: Vec<Added> = Vec::new();
         let mut cnotes: Vec<String> = Vec::new();
         for round in 0..MAX_ADDED {
-            let mut scored: Vec<Scored> = Vec::new();
-            for t in Term::offered(c, table) {
-                if current.spec.terms.contains(&(c, t)) {
-                    continue;
-                }
-                if let Some(why) = D::untestable(c, t) {
-                    scored.push((CandidateScore::unscored(t, c, why.into()), None));
-                    continue;
-                }
-                if t.column(table, inp.refs).is_none() {
-                    continue;
-                }
-                let (s1, th1) = current.spec.with(c, t, &current.th);
-                let fit1 = match setup.fit(&s1, th1, w0) {
-                    Ok(f) => f,
-                    Err(e) => {
-                        scored.push((CandidateScore::unscored(t, c, e), None));
-                        continue;
-                    }
-                };
-                let Some(h1) = setup.held_out(&fit1) else {
-                    scored.push((
-                        CandidateScore::unscored(t, c, "a fold leaves the extended model unidentifiable".into()),
-                        None,
-                    ));
-                    continue;
-                };
-                let j = s1.np() - 1;
-                let (value, sigma) = (fit1.th[j], fit1.sigma[j]);
-                let t2 = (value / sigma).powi(2);
-                let cmp = compare(&h_current, &h1);
-                let r1 = noise_of(&fit1.e);
-                let r_cur = noise_of(&current.e);
-                let lik = n_all * (0..NY).map(|i| (r_cur[i] / r1[i]).ln()).sum::<f64>();
-                let significant = t2 > inp.threshold_t2 && cmp.z > 0.0 && cmp.t > gain_crit;
-                scored.push((
-                    CandidateScore {
-                        term: t.name().into(),
-                        kind: t.kind(c),
-                        t2,
-                        cv_gain: cmp.rel,
-                        cv_gain_z: cmp.z,
-                        cv_noise_z: cmp.t,
-                        pse: f64::NAN,
-                        significant,
-                        reason: None,
-                        value,
-                        sigma,
-                        min_detectable: t_detect * sigma,
-                        // The oracle ([`super::oracle`]) is an equation-error construction; this
-                        // path reports none.
-                        oracle_se: f64::NAN,
-                        oracle_min_detectable: f64::NAN,
-                        se_ratio: f64::NAN,
-                        oracle_reliability: f64::NAN,
-                    },
-                    Some((fit1, h1, lik)),
-                ));
-            }
+            let mut scored: Vec<Scored> = Term::offered(c, self.inp.table)
+                .into_iter()
+                .filter_map(|t| self.score(c, t, current, h_current))
+                .collect();
             scored.sort_by(|a, b| b.0.t2.total_cmp(&a.0.t2));
-            for (s, f) in scored.iter().take(3) {
-                if let Some((_, _, lik)) = f {
-                    cnotes.push(format!(
-                        "{}{}: candidate {} likelihood gain 2ΔlnL {lik:.1} (t² {:.1}, held-out T {:.2})",
-                        COEFFICIENTS[c],
-                        if round == 0 {
-                            String::new()
-                        } else {
-                            format!(" (round {})", round + 1)
-                        },
-                        s.term,
-                        s.t2,
-                        s.cv_noise_z
-                    ));
-                }
-            }
+            cnotes.extend(likelihood_notes(c, round, &scored));
             let names_sig: Vec<String> = scored
                 .iter()
                 .filter(|(s, _)| s.significant)
@@ -1102,21 +1110,78 @@ fn analyse_axis<D: Dynamics>(inp: &Inputs, setup: Setup<D>) -> Result<LowRate, S
                 exact_delay_s: None,
                 family,
             });
-            current = fit1;
-            h_current = h1;
+            *current = fit1;
+            *h_current = h1;
         }
-        per_coef.push((c, first_round.unwrap_or_default(), added, cnotes));
+        (c, first_round.unwrap_or_default(), added, cnotes)
     }
-    // The final joint model, its noise relaxed.
-    let mut fin = if current.spec == base.spec {
-        base.clone()
-    } else {
-        setup.fit_relaxed(&current.spec, current.th.clone())?
-    };
-    // Pooled manoeuvres: an added term stays only when its per-manoeuvre estimates agree.
-    let mut homogeneity: Vec<(usize, Homogeneity)> = Vec::new();
-    if inp.pieces.len() >= select::MIN_PIECES_FOR_FOLDS && fin.spec != base.spec {
-        let max_lag = (inp.max_lag_s / h_s).round() as usize;
+
+    /// Candidate `t` of coefficient `c` added to the current model: its score, and the fit, the
+    /// held-out residuals and the likelihood gain when it could be fitted; `None` when it is in
+    /// the model already or has no column.
+    fn score(&self, c: usize, t: Term, current: &Fit, h_current: &HeldOut) -> Option<Scored> {
+        let (inp, setup) = (self.inp, self.setup);
+        if current.spec.terms.contains(&(c, t)) {
+            return None;
+        }
+        if let Some(why) = D::untestable(c, t) {
+            return Some((CandidateScore::unscored(t, c, why.into()), None));
+        }
+        t.column(inp.table, inp.refs)?;
+        let (s1, th1) = current.spec.with(c, t, &current.th);
+        let fit1 = match setup.fit(&s1, th1, self.base.w) {
+            Ok(f) => f,
+            Err(e) => return Some((CandidateScore::unscored(t, c, e), None)),
+        };
+        let Some(h1) = setup.held_out(&fit1) else {
+            return Some((
+                CandidateScore::unscored(t, c, "a fold leaves the extended model unidentifiable".into()),
+                None,
+            ));
+        };
+        let j = s1.np() - 1;
+        let (value, sigma) = (fit1.th[j], fit1.sigma[j]);
+        let t2 = (value / sigma).powi(2);
+        let cmp = compare(h_current, &h1);
+        let r1 = noise_of(&fit1.e);
+        let r_cur = noise_of(&current.e);
+        let n_all = inp.table.t_s.len() as f64;
+        let lik = n_all * (0..NY).map(|i| (r_cur[i] / r1[i]).ln()).sum::<f64>();
+        let significant = t2 > inp.threshold_t2 && cmp.z > 0.0 && cmp.t > self.gain_crit;
+        Some((
+            CandidateScore {
+                term: t.name().into(),
+                kind: t.kind(c),
+                t2,
+                cv_gain: cmp.rel,
+                cv_gain_z: cmp.z,
+                cv_noise_z: cmp.t,
+                pse: f64::NAN,
+                significant,
+                reason: None,
+                value,
+                sigma,
+                min_detectable: self.t_detect * sigma,
+                // The oracle ([`super::oracle`]) is an equation-error construction; this
+                // path reports none.
+                oracle_se: f64::NAN,
+                oracle_min_detectable: f64::NAN,
+                se_ratio: f64::NAN,
+                oracle_reliability: f64::NAN,
+            },
+            Some((fit1, h1, lik)),
+        ))
+    }
+
+    /// Pooled manoeuvres: an added term stays only when its per-manoeuvre estimates agree; the
+    /// final model refitted without those that do not, and every added term's judgement.
+    fn homogeneous(&self, fin: Fit) -> Result<(Fit, Vec<(usize, Homogeneity)>), String> {
+        let (inp, base) = (self.inp, &self.base);
+        let mut homogeneity: Vec<(usize, Homogeneity)> = Vec::new();
+        if inp.pieces.len() < select::MIN_PIECES_FOR_FOLDS || fin.spec == base.spec {
+            return Ok((fin, homogeneity));
+        }
+        let max_lag = (inp.max_lag_s / self.h_s).round() as usize;
         for (j, (c, t)) in fin.spec.terms.iter().enumerate().skip(base.spec.np()) {
             let per = per_manoeuvre(&fin, j, inp.pieces, max_lag);
             homogeneity.push((
@@ -1133,29 +1198,39 @@ fn analyse_axis<D: Dynamics>(inp: &Inputs, setup: Setup<D>) -> Result<LowRate, S
             .filter(|(_, (_, h))| !h.agrees)
             .map(|(ct, _)| *ct)
             .collect();
-        if !refused.is_empty() {
-            let (terms, th): (Vec<(usize, Term)>, Vec<f64>) = fin
-                .spec
-                .terms
-                .iter()
-                .zip(&fin.th)
-                .filter(|(ct, _)| !refused.contains(ct))
-                .map(|(ct, t)| (*ct, *t))
-                .unzip();
-            let spec = Spec::new(D::COVERED, terms);
-            fin = if spec == base.spec {
-                base.clone()
-            } else {
-                setup.fit_relaxed(&spec, th)?
-            };
+        if refused.is_empty() {
+            return Ok((fin, homogeneity));
         }
+        let (terms, th): (Vec<(usize, Term)>, Vec<f64>) = fin
+            .spec
+            .terms
+            .iter()
+            .zip(&fin.th)
+            .filter(|(ct, _)| !refused.contains(ct))
+            .map(|(ct, t)| (*ct, *t))
+            .unzip();
+        let spec = Spec::new(D::COVERED, terms);
+        let fin = if spec == base.spec {
+            base.clone()
+        } else {
+            self.setup.fit_relaxed(&spec, th)?
+        };
+        Ok((fin, homogeneity))
     }
-    let h_fin = setup
-        .held_out(&fin)
-        .ok_or("a fold leaves the final model unidentifiable")?;
-    let n_id = inp.n_id.min(n);
-    let mut coefficients = Vec::new();
-    for (c, candidates, mut added, mut cnotes) in per_coef {
+
+    /// Coefficient `c`'s gap from its selection (`r`), the final model `fin` and its held-out
+    /// residuals, and the homogeneity judgements: the added terms confirmed, both models' fits,
+    /// the verdict.
+    fn gap(
+        &self,
+        r: CoefficientResult,
+        dropped: &[Vec<String>],
+        fin: &Fit,
+        h_fin: &HeldOut,
+        homogeneity: &[(usize, Homogeneity)],
+    ) -> CoefficientGap {
+        let (inp, setup, base, table) = (self.inp, self.setup, &self.base, self.inp.table);
+        let (c, candidates, mut added, mut cnotes) = r;
         let homogeneity: Vec<Homogeneity> = homogeneity
             .iter()
             .filter(|(cc, _)| *cc == c)
@@ -1168,7 +1243,8 @@ fn analyse_axis<D: Dynamics>(inp: &Inputs, setup: Setup<D>) -> Result<LowRate, S
         added.retain(|a| !refused.iter().any(|h| h.term == a.term));
         let o = D::primary_output(c);
         let meas: Vec<f64> = setup.plant.y_m().iter().map(|y| y[o]).collect();
-        let mean = meas.iter().sum::<f64>() / n_all;
+        let n = table.t_s.len();
+        let mean = meas.iter().sum::<f64>() / n as f64;
         let sst: f64 = meas.iter().map(|v| (v - mean).powi(2)).sum::<f64>().max(1e-300);
         let cv_r2 = |f: &Fit, h: &[Vec<[f64; NY]>]| -> f64 {
             let sse: f64 = h.iter().flatten().map(|r| r[o] * r[o] / f.w[o]).sum();
@@ -1180,56 +1256,7 @@ fn analyse_axis<D: Dynamics>(inp: &Inputs, setup: Setup<D>) -> Result<LowRate, S
                 a.sigma = fin.sigma[j];
             }
         }
-        let model_fit = |f: &Fit, h: &[Vec<[f64; NY]>]| -> ModelFit {
-            let parameters: Vec<Parameter> = f
-                .spec
-                .of(c)
-                .iter()
-                .map(|(j, t)| Parameter {
-                    term: t.name().into(),
-                    value: f.th[*j],
-                    sigma: f.sigma[*j],
-                    sigma_eq17: f.sigma_crb[*j],
-                    exact: true,
-                    ols_value: f64::NAN,
-                })
-                .collect();
-            let p = parameters.len();
-            let pred: Vec<f64> = f.run.yhat.iter().map(|y| y[o]).collect();
-            // Held-out predictions of the validation segment: measured − held-out residual.
-            let mut ho = vec![f64::NAN; n];
-            for (bi, &(a, _)) in setup.blocks.iter().enumerate() {
-                for (s, r) in h[bi].iter().enumerate() {
-                    ho[a + s] = meas[a + s] - r[o] / f.w[o].sqrt();
-                }
-            }
-            let (zv, hv): (Vec<f64>, Vec<f64>) = (n_id..n)
-                .map(|k| (meas[k], ho[k]))
-                .filter(|(_, h)| h.is_finite())
-                .unzip();
-            ModelFit {
-                estimator: format!(
-                    "output error (Gauss–Newton; {} simulated; judged on {})",
-                    D::STATES,
-                    D::OUTPUTS[o]
-                ),
-                solution: if f.converged { "converged" } else { "iteration limit" }.into(),
-                not_determined: None,
-                sigma_z2: 1.0 / f.w[o],
-                parameters,
-                identification: metrics(&meas[..n_id], &pred[..n_id], p),
-                validation: if zv.is_empty() {
-                    Metrics {
-                        r2: f64::NAN,
-                        rms: f64::NAN,
-                        pse: f64::NAN,
-                        n: 0,
-                    }
-                } else {
-                    metrics(&zv, &hv, p)
-                },
-            }
-        };
+        let n_id = inp.n_id.min(n);
         let ci = D::COVERED.iter().position(|x| *x == c).unwrap_or(0);
         let traces = Traces {
             t_s: table.t_s.clone(),
@@ -1238,33 +1265,10 @@ fn analyse_axis<D: Dynamics>(inp: &Inputs, setup: Setup<D>) -> Result<LowRate, S
             extended: fin.run.coefs.iter().map(|v| v[ci]).collect(),
             split: n_id,
         };
-        let (r2b, r2e) = (cv_r2(&base, &h_base), cv_r2(&fin, &h_fin));
-        let not_confirmed = refused.iter().map(|h| h.term.as_str()).collect::<Vec<_>>().join(", ");
-        let verdict = if added.is_empty() && !refused.is_empty() {
-            format!(
-                "not confirmed (output error): {not_confirmed} predicted held-out manoeuvres better, but its estimates do not agree across the manoeuvres (see `homogeneity`); held-out R² of {} {r2b:.3}",
-                D::OUTPUTS[o]
-            )
-        } else if added.is_empty() {
-            format!(
-                "nothing missing (output error): no candidate improves the held-out prediction of {} beyond noise; held-out R² {r2b:.3}",
-                D::OUTPUTS[o]
-            )
-        } else if !refused.is_empty() {
-            format!(
-                "extended (output error): {}; held-out R² of {} {r2b:.3} → {r2e:.3}; not confirmed (estimates do not agree across manoeuvres): {not_confirmed}",
-                added.iter().map(|a| a.term.as_str()).collect::<Vec<_>>().join(", "),
-                D::OUTPUTS[o]
-            )
-        } else {
-            format!(
-                "extended (output error): {}; held-out R² of {} {r2b:.3} → {r2e:.3}",
-                added.iter().map(|a| a.term.as_str()).collect::<Vec<_>>().join(", "),
-                D::OUTPUTS[o]
-            )
-        };
+        let (r2b, r2e) = (cv_r2(base, &self.h_base), cv_r2(fin, h_fin));
+        let verdict = verdict(D::OUTPUTS[o], &added, &refused, r2b, r2e);
         let model_of = |f: &Fit| -> Vec<(Term, f64)> { f.spec.of(c).iter().map(|(j, t)| (*t, f.th[*j])).collect() };
-        coefficients.push(CoefficientGap {
+        CoefficientGap {
             name: COEFFICIENTS[c].to_string(),
             verdict,
             cv_r2_baseline: r2b,
@@ -1277,22 +1281,121 @@ fn analyse_axis<D: Dynamics>(inp: &Inputs, setup: Setup<D>) -> Result<LowRate, S
             threshold_t2: inp.threshold_t2,
             blocks: inp.threshold_blocks,
             dropped_terms: dropped[c].clone(),
-            baseline: model_fit(&base, &h_base),
+            baseline: self.model_fit(c, &meas, base, &self.h_base),
             candidates,
             added,
             notes: cnotes,
-            extended: model_fit(&fin, &h_fin),
+            extended: self.model_fit(c, &meas, fin, h_fin),
             homogeneity,
             traces,
-            baseline_model: model_of(&base),
-            extended_model: model_of(&fin),
-        });
+            baseline_model: model_of(base),
+            extended_model: model_of(fin),
+        }
     }
-    Ok(LowRate {
-        coefficients,
-        covered: D::COVERED.to_vec(),
-        notes,
-    })
+
+    /// Fit `f` of coefficient `c` as the report shows it: its parameters, and the prediction of
+    /// the primary output `meas` on the identification segment and held out on the validation
+    /// segment (residuals `h`).
+    fn model_fit(&self, c: usize, meas: &[f64], f: &Fit, h: &[Vec<[f64; NY]>]) -> ModelFit {
+        let n = self.inp.table.t_s.len();
+        let n_id = self.inp.n_id.min(n);
+        let o = D::primary_output(c);
+        let parameters: Vec<Parameter> = f
+            .spec
+            .of(c)
+            .iter()
+            .map(|(j, t)| Parameter {
+                term: t.name().into(),
+                value: f.th[*j],
+                sigma: f.sigma[*j],
+                sigma_eq17: f.sigma_crb[*j],
+                exact: true,
+                ols_value: f64::NAN,
+            })
+            .collect();
+        let p = parameters.len();
+        let pred: Vec<f64> = f.run.yhat.iter().map(|y| y[o]).collect();
+        // Held-out predictions of the validation segment: measured − held-out residual.
+        let mut ho = vec![f64::NAN; n];
+        for (bi, &(a, _)) in self.setup.blocks.iter().enumerate() {
+            for (s, r) in h[bi].iter().enumerate() {
+                ho[a + s] = meas[a + s] - r[o] / f.w[o].sqrt();
+            }
+        }
+        let (zv, hv): (Vec<f64>, Vec<f64>) = (n_id..n)
+            .map(|k| (meas[k], ho[k]))
+            .filter(|(_, h)| h.is_finite())
+            .unzip();
+        ModelFit {
+            estimator: format!(
+                "output error (Gauss–Newton; {} simulated; judged on {})",
+                D::STATES,
+                D::OUTPUTS[o]
+            ),
+            solution: if f.converged { "converged" } else { "iteration limit" }.into(),
+            not_determined: None,
+            sigma_z2: 1.0 / f.w[o],
+            parameters,
+            identification: metrics(&meas[..n_id], &pred[..n_id], p),
+            validation: if zv.is_empty() {
+                Metrics {
+                    r2: f64::NAN,
+                    rms: f64::NAN,
+                    pse: f64::NAN,
+                    n: 0,
+                }
+            } else {
+                metrics(&zv, &hv, p)
+            },
+        }
+    }
+}
+
+/// The notes on a round's three strongest candidates: their likelihood gain beside `t²` and `T`.
+fn likelihood_notes(c: usize, round: usize, scored: &[Scored]) -> Vec<String> {
+    let mut out = Vec::new();
+    for (s, f) in scored.iter().take(3) {
+        if let Some((_, _, lik)) = f {
+            out.push(format!(
+                "{}{}: candidate {} likelihood gain 2ΔlnL {lik:.1} (t² {:.1}, held-out T {:.2})",
+                COEFFICIENTS[c],
+                if round == 0 {
+                    String::new()
+                } else {
+                    format!(" (round {})", round + 1)
+                },
+                s.term,
+                s.t2,
+                s.cv_noise_z
+            ));
+        }
+    }
+    out
+}
+
+/// A coefficient's verdict on the low-rate path, judged on `output`: the terms added and those
+/// whose estimates do not agree across the manoeuvres, with the held-out R² before and after.
+fn verdict(output: &str, added: &[Added], refused: &[&Homogeneity], r2b: f64, r2e: f64) -> String {
+    let not_confirmed = refused.iter().map(|h| h.term.as_str()).collect::<Vec<_>>().join(", ");
+    if added.is_empty() && !refused.is_empty() {
+        format!(
+            "not confirmed (output error): {not_confirmed} predicted held-out manoeuvres better, but its estimates do not agree across the manoeuvres (see `homogeneity`); held-out R² of {output} {r2b:.3}"
+        )
+    } else if added.is_empty() {
+        format!(
+            "nothing missing (output error): no candidate improves the held-out prediction of {output} beyond noise; held-out R² {r2b:.3}"
+        )
+    } else if !refused.is_empty() {
+        format!(
+            "extended (output error): {}; held-out R² of {output} {r2b:.3} → {r2e:.3}; not confirmed (estimates do not agree across manoeuvres): {not_confirmed}",
+            added.iter().map(|a| a.term.as_str()).collect::<Vec<_>>().join(", ")
+        )
+    } else {
+        format!(
+            "extended (output error): {}; held-out R² of {output} {r2b:.3} → {r2e:.3}",
+            added.iter().map(|a| a.term.as_str()).collect::<Vec<_>>().join(", ")
+        )
+    }
 }
 
 /// The autocorrelation of output `i`'s residuals at `lag` samples, lags within each piece: how

@@ -52,31 +52,18 @@
 //! over a normal angle error, sample by sample ([`column_error_variances`]): exact for the
 //! polynomial terms, a smoothed derivative for the stall break and hinge.
 
+pub use super::detection::{detection_factor, level_of_normal_threshold, POWER};
 use super::model::{Signal, Table, Term, TermRefs};
 use super::noise::ColumnErrors;
 use super::regress::{self, EivModel};
-use super::signal::{normal_upper_quantile, white_noise_sd};
+use super::signal::white_noise_sd;
 use crate::io::measured::{MeasuredFlight, Quantity};
 use nalgebra::{DMatrix, DVector};
 use std::collections::BTreeMap;
 
-/// The detection probability the limits are stated for.
-pub const POWER: f64 = 0.8;
-
 /// The least reliability ratio the limit is divided by: a regressor with less than 1 % of its
 /// variation true is reported at 100× its error-free limit (undetectable in practice either way).
 pub const MIN_RELIABILITY: f64 = 0.01;
-
-/// `oracle_min_detectable / se` for an entry test of one-sided level `p_entry` and a held-out test
-/// of level `gain_alpha`, the standard error known (normal quantiles).
-pub fn detection_factor(p_entry: f64, gain_alpha: f64) -> f64 {
-    normal_upper_quantile(p_entry).max(2.0 * normal_upper_quantile(gain_alpha)) + normal_upper_quantile(1.0 - POWER)
-}
-
-/// The one-sided level of a normal test whose two-sided threshold on `t²` is `threshold_t2`.
-pub fn level_of_normal_threshold(threshold_t2: f64) -> f64 {
-    0.5 * libm::erfc(threshold_t2.max(0.0).sqrt() / core::f64::consts::SQRT_2)
-}
 
 /// One candidate's oracle.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -40,69 +40,20 @@
 //!   offered in `C_D`: a real one (a pitch-rate lift `C_Lq` in the induced drag) is missed, not
 //!   invented; with a vane it is offered.
 
-use super::model::{Term, COEFFICIENTS};
 use crate::io::measured::{MeasuredFlight, Origin, Quantity};
 
 /// The flow channels whose origin the report shows, and each one's origin for the report (kept
 /// with the reader's [`Origin`], which the data-quality assessment reports too).
 pub use crate::io::measured::{channel_origin, FLOW_CHANNELS};
 
+/// The library terms an estimated flow angle bars (module doc): what the synthesis records in
+/// its table, so that the candidates offered leave them out.
+pub use super::model::barred_terms;
+
 /// Whether the compatibility check may offer sensor errors (bias, scale, delay, vane position)
 /// of channel `q`: not when `q` is an estimate.
 pub fn has_sensor_errors(flight: &MeasuredFlight, q: Quantity) -> bool {
     !flight.log.is_estimated(q)
-}
-
-/// The library terms not offered to a coefficient (its index into
-/// [`super::model::COEFFICIENTS`]) because, with this flight's estimated flow angles, they
-/// restate the measured force through a kinematic identity or, `α·q_n` in `C_D`, the drag's
-/// rotation error (module doc); each with the reason in words.
-///
-/// An α estimated from the inertial data (the ground velocity less a slowly updated wind) gives
-/// `α̇ = q − γ̇`, and `γ̇` is the measured lift over `m·V`: in C_L the term restates the lift. In
-/// the other coefficients it carries the same measured lift, and in turbulence that lift holds
-/// the gust's share, which the estimated α does not see — so a fit takes α̇ for the gust's
-/// effect on the coefficient (a pitching moment that follows the lift, not a downwash lag). The
-/// two cannot be told apart from such a flight, so α̇ is offered nowhere. Likewise β̇ with an
-/// estimated β (the measured side force over `m·V` plus `p sin α − r cos α` and gravity).
-pub fn barred_terms(flight: &MeasuredFlight) -> Vec<(usize, Term, String)> {
-    // (the angle, its rate, the coefficient it restates, its name, the force it carries)
-    let rates = [
-        (Quantity::Alpha, Term::AlphaDot, 0, "α", "α̇ = q − γ̇ and γ̇ is the measured lift over m·V", "lift", "an α̇ term would restate the measured lift through that identity (size ≈ −4m/(ρSc̄)), not an aerodynamic cause"),
-        (Quantity::Beta, Term::BetaDot, 2, "β", "β̇ is the measured side force over m·V plus p sin α − r cos α and gravity", "side force", "a β̇ term would restate the measured side force, not an aerodynamic cause"),
-    ];
-    const C_D: usize = 1;
-    let mut out = Vec::new();
-    for (q, term, own, angle, identity, force, restated) in rates {
-        let Origin::Estimated { by } = flight.log.origin_of(q) else {
-            continue;
-        };
-        for (i, name) in COEFFICIENTS.iter().enumerate() {
-            let why = if i == own {
-                restated.to_string()
-            } else {
-                format!("in {name} it would carry the measured {force}, which in turbulence holds the gust's share that the estimated {angle} misses: its effect cannot be told from the gust's")
-            };
-            out.push((
-                i,
-                term,
-                format!(
-                    "{} not offered in {name}: {angle} is estimated from the inertial data ({by}), so {identity} — {why}",
-                    term.name().trim_end_matches("_n")
-                ),
-            ));
-        }
-    }
-    if let Origin::Estimated { by } = flight.log.origin_of(Quantity::Alpha) {
-        out.push((
-            C_D,
-            Term::AlphaQ,
-            format!(
-                "α·q not offered in C_D: α is estimated ({by}), and drag is the measured force rotated by α, so C_D carries C_L·(α̂ − α); with C_L linear in α and the estimate's error following the manoeuvre (its lag, the gust share it misses), that error fits α·q_n with a systematic value (module doc of gaps::origin), not an aerodynamic cause"
-            ),
-        ));
-    }
-    out
 }
 
 /// The report's notes on the flow channels' origins: which are estimated and what the analysis

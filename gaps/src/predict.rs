@@ -1,7 +1,7 @@
 //! Coefficient prediction: the aerodynamic models a gap analysis identified (its `report.json`,
 //! schema `aerosid-gaps/3`) applied to another flight.
 //!
-//! The other flight goes through the analysis's own pre-processing ([`super::preprocess`]: the
+//! The other flight goes through the analysis's own pre-processing (`preprocess` of the crate root: the
 //! α/β source, the compatibility check and its sensor corrections, the air data the report used)
 //! and synthesis ([`super::model::synthesise`]); each saved term's column is formed by
 //! [`Term::column`] with the report's reference values (`term_refs`; a report without them takes

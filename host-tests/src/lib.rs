@@ -7,7 +7,7 @@
 //! the ELF checks) and nothing depends on it, so its tests may combine them freely. The tests that
 //! run the `aerosid` binary live in `tool/tests/` (only the binary's own package is given its path).
 //!
-//! * [`reference`] — batch and compressed PCA-GTLS references built on faer's SVD/QR.
+//! * [`reference`](mod@reference) — batch and compressed PCA-GTLS references built on faer's SVD/QR.
 //! * [`data`] — seeded synthetic regression data (well/badly excited, collinear, noisy regressors).
 #![forbid(unsafe_code)]
 // Index loops mirror the matrix formulas of the references.

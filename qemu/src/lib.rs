@@ -21,6 +21,24 @@
 //! check and the `f32` pipeline, and the health report the firmware sends. The chip and link
 //! counters and the report's assembly are the core's (`aerosid_core::harness`, tested there), the
 //! same code the firmware runs; what is modelled here is the order of the firmware's stages.
+//!
+//! ```
+//! use aerosid_core::aero::SensorSample;
+//! use aerosid_qemu::{emulate, Scenario};
+//! // What the firmware would send after a log of level samples at 100 Hz (no QEMU needed).
+//! let samples: Vec<SensorSample<f32>> = (0..50)
+//!     .map(|k| SensorSample {
+//!         t_s: k as f32 * 0.01,
+//!         dt_s: 0.01,
+//!         airspeed_mps: 15.0,
+//!         air_density_kgpm3: 1.2,
+//!         ..SensorSample::default()
+//!     })
+//!     .collect();
+//! let sent = emulate(&Scenario::clean(&samples))?;
+//! assert_eq!(sent.processed, samples.len());
+//! # Ok::<(), aerosid_qemu::QemuError>(())
+//! ```
 
 use aerosid_core::aero::model::{channel, ChannelMask};
 use aerosid_core::aero::{model::idx, onboard, Admission, SensorSample, SequenceCheck, StuckDetector};

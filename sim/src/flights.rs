@@ -102,7 +102,7 @@ pub fn fig2_config(jump_s: f64, excite_until_s: f64, duration_s: f64, seed: u64)
     }
 }
 
-/// The main job's flight ([`crate::report`]): the default skywalker with every hidden effect, light
+/// The main job's flight (the tool's `report` module): the default skywalker with every hidden effect, light
 /// Dryden turbulence and the default sensors (noise and per-run biases); 20 s of cruise, then every
 /// 8 s an elevator 3-2-1-1 (0.4 s steps, ±0.2 rad) and 4 s doublet (±0.3 rad), an aileron 3-2-1-1
 /// (0.3 s steps, ±0.15 rad) and a 2 s rudder doublet (±0.2 rad), until `duration_s`.

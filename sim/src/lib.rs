@@ -23,6 +23,17 @@
 //! [`simulate`] runs a flight at 100 Hz (by default) and returns the sensor log
 //! ([`aerosid_core::aero::SensorSample`]) with a truth record per sample. Everything is `f64`,
 //! seeded, without global state.
+//!
+//! ```
+//! use aerosid_sim::{simulate, SimConfig};
+//! // Two seconds of the default flight (the Skywalker from trim at 15 m/s, seeded),
+//! // logged at 100 Hz.
+//! let cfg = SimConfig { duration_s: 2.0, ..SimConfig::default() };
+//! let flight = simulate(&cfg)?;
+//! assert_eq!(flight.samples.len(), 200);
+//! assert_eq!(flight.truth.len(), flight.samples.len());
+//! # Ok::<(), aerosid_sim::SimError>(())
+//! ```
 
 pub mod actuator;
 pub mod aero;

@@ -23,7 +23,7 @@ const TRUTH: [f64; 4] = [0.01, -1.3, -20.0, 1.0];
 const SIGMA: [f64; 4] = [0.0087, 0.01 * 0.24 / (2.0 * 15.0), 0.005, 0.004];
 const RATE_HZ: f64 = 100.0;
 
-/// True short-period-like signals: α, q_n, δe at time `t` [s] (zero excitation in cruise).
+/// True short-period-like signals: α, q_n, δe at time `t` (s) (zero excitation in cruise).
 pub fn manoeuvre(t: f64) -> [f64; 3] {
     let trim_alpha = 0.06;
     if t < 20.0 {

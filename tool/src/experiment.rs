@@ -1,10 +1,10 @@
 //! Simulated flights through the on-board identification, as the firmware would run it (seed
 //! 000 Section VI-A, Fig. 1–2).
 //!
-//! [`run`] simulates a flight ([`sim::simulate`]), converts every `f64` [`SensorSample`] to `f32`
+//! [`run`] simulates a flight ([`sim::simulate`]), converts every `f64` [`SensorSample`](aerosid_core::aero::SensorSample) to `f32`
 //! and feeds it to the on-board [`Pipeline<f32>`] (synthesis, six PCA-GTLS estimators). Alongside,
 //! an RLS baseline ([`aerosid_core::Rls`], the seed's "sequential OLS") per coefficient is updated
-//! with the *same* regressor vector and output the pipeline used ([`PipelineStep::regressors`],
+//! with the *same* regressor vector and output the pipeline used ([`PipelineStep::regressors`](aerosid_core::aero::PipelineStep::regressors),
 //! including the moment prefilter) exactly when the pipeline's estimator accepted the sample.
 //!
 //! Recorded per sample and coefficient ([`CoefficientTrace`]): GTLS `θ`, `k` (eq. 21), the `λ_F`

@@ -12,6 +12,23 @@
 //! QEMU harness (`aerosid-qemu`, for `aerosid replay --qemu`) and the ELF checks
 //! (`aerosid-elf-check`, for `aerosid panic-audit` and `aerosid stack-bound`). Nothing here depends
 //! on the test crate, so `cargo install --path tool` builds neither faer nor the test suites.
+//!
+//! The entry point a program shares with `aerosid batch`: one log read and analysed into its
+//! folder ([`batch::run_one`]), never failing (a bad log is an `error` row with the message).
+//!
+//! ```
+//! use aerosid::batch::{run_one, BatchSettings, Status};
+//! use std::path::Path;
+//! let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("data");
+//! let out = std::env::temp_dir().join(format!("aerosid-doc-{}", std::process::id()));
+//! let mut settings = BatchSettings::new(&out);
+//! settings.with = Some(data.join("maps/hfb320.map"));
+//! settings.progress = false;
+//! let row = run_one(&data.join("flight/hfb320_1_10.asc"), &settings);
+//! assert_eq!(row.status, Status::Verdict, "{}", row.reason);
+//! assert!(out.join(&row.folder).join("report.json").is_file());
+//! # std::fs::remove_dir_all(&out).ok();
+//! ```
 #![forbid(unsafe_code)]
 // Index loops mirror the matrix formulas of the estimators.
 #![allow(clippy::needless_range_loop)]

@@ -583,113 +583,14 @@ fn data_sources(file: &ModelFile, f: &str) -> Result<(Layout, Vec<Expr>), ModelE
                 .map(|o| (format!("outputs.{}", o.name), o.column, o.channel.as_ref(), o.scale)),
         )
         .collect();
-    let columns = file.data.columns;
-    let mut layout = match columns {
-        Some(columns) => {
-            let tc = file.data.time_column.unwrap_or(0);
-            if columns == 0 || tc == 0 || tc > columns {
-                return err(f, "data.time_column", format!("must be 1 to data.columns = {columns}"));
-            }
-            Layout::Columns {
-                columns,
-                time_column: tc,
-            }
-        }
-        None => {
-            if file.data.time_column.is_some() {
-                return err(
-                    f,
-                    "data.time_column",
-                    "applies to a file read by column number: give data.columns too, or name channels and leave both out",
-                );
-            }
-            Layout::Channels(Vec::new())
-        }
-    };
+    let mut layout = layout_of(&file.data, f)?;
     let mut sources = Vec::new();
     for (what, column, channel, scale) in entries {
         if !(scale.is_finite() && scale != 0.0) {
             return err(f, &format!("{what}.scale"), "must be a finite non-zero number");
         }
-        let terms = match (column, channel, &mut layout) {
-            (Some(_), Some(_), _) => {
-                return err(f, &what, "give `column` or `channel`, not both");
-            }
-            (None, None, Layout::Columns { .. }) => {
-                return err(f, &what, "give `column = N` (or `channel = \"$N\"`)");
-            }
-            (None, None, Layout::Channels(_)) => {
-                return err(
-                    f,
-                    &what,
-                    "give `channel` (a measured channel such as \"alpha\", \"pitch_rate\", \"elevator\")",
-                );
-            }
-            (Some(_), None, Layout::Channels(_)) => {
-                return err(
-                    f,
-                    &format!("{what}.column"),
-                    "a column number needs [data] columns and time_column (a file without a header); name the channel instead, e.g. channel = \"alpha\"",
-                );
-            }
-            (Some(col), None, Layout::Columns { columns, .. }) => {
-                if col == 0 || col > *columns {
-                    return err(
-                        f,
-                        &format!("{what}.column"),
-                        format!("{col}: must be 1 to data.columns = {columns}"),
-                    );
-                }
-                vec![crate::io::colmap::Term {
-                    coef: 1.0,
-                    source: Source::Column(col),
-                }]
-            }
-            (None, Some(text), Layout::Columns { columns, .. }) => {
-                let n = *columns;
-                let resolve = |s: &str| match s.strip_prefix('$').map(str::parse::<usize>) {
-                    Some(Ok(k)) if k >= 1 && k <= n => Ok(Source::Column(k)),
-                    _ => Err(format!("`{s}`: a file read by column number takes columns $1 … ${n}")),
-                };
-                let (terms, constant) =
-                    parse_terms(text, f, 0, 1, &resolve).map_err(|e| channel_error(f, &what, text, e))?;
-                if constant != 0.0 {
-                    return err(
-                        f,
-                        &format!("{what}.channel"),
-                        format!("`{text}`: a constant term is not a measurement; give channels only"),
-                    );
-                }
-                terms
-            }
-            (None, Some(text), Layout::Channels(used)) => {
-                let known = std::cell::RefCell::new(std::mem::take(used));
-                let resolve = |s: &str| {
-                    let q = channel_named(s).ok_or_else(|| {
-                        format!("`{s}` is not a measured channel (name it as a column map does: alpha, pitch_rate, elevator, … or as the project CSV's columns: alpha_rad, gyro_rad_s_y, …; docs/measured-data.md)")
-                    })?;
-                    let mut k = known.borrow_mut();
-                    let i = k.iter().position(|c| *c == q).unwrap_or_else(|| {
-                        k.push(q);
-                        k.len() - 1
-                    });
-                    Ok(Source::Column(i + 1))
-                };
-                let parsed = parse_terms(text, f, 0, 1, &resolve);
-                *used = known.into_inner();
-                let (terms, constant) = parsed.map_err(|e| channel_error(f, &what, text, e))?;
-                if constant != 0.0 {
-                    return err(
-                        f,
-                        &format!("{what}.channel"),
-                        format!("`{text}`: a constant term is not a measurement; give channels only"),
-                    );
-                }
-                terms
-            }
-        };
         sources.push(Expr {
-            terms,
+            terms: source_terms(f, &what, column, channel, &mut layout)?,
             constant: 0.0,
             factor: scale,
             unit: String::new(),
@@ -698,6 +599,113 @@ fn data_sources(file: &ModelFile, f: &str) -> Result<(Layout, Vec<Expr>), ModelE
         });
     }
     Ok((layout, sources))
+}
+
+/// The layout `[data]` gives: columns by number (`columns`, `time_column`), else channels by name.
+fn layout_of(data: &DataSpec, f: &str) -> Result<Layout, ModelError> {
+    match data.columns {
+        Some(columns) => {
+            let tc = data.time_column.unwrap_or(0);
+            if columns == 0 || tc == 0 || tc > columns {
+                return err(f, "data.time_column", format!("must be 1 to data.columns = {columns}"));
+            }
+            Ok(Layout::Columns {
+                columns,
+                time_column: tc,
+            })
+        }
+        None => {
+            if data.time_column.is_some() {
+                return err(
+                    f,
+                    "data.time_column",
+                    "applies to a file read by column number: give data.columns too, or name channels and leave both out",
+                );
+            }
+            Ok(Layout::Channels(Vec::new()))
+        }
+    }
+}
+
+/// The columns entry `what` (an input or output) reads, by its `column` or `channel` in
+/// `layout`; a channel named for the first time is added to a layout of channels.
+fn source_terms(
+    f: &str,
+    what: &str,
+    column: Option<usize>,
+    channel: Option<&String>,
+    layout: &mut Layout,
+) -> Result<Vec<crate::io::colmap::Term>, ModelError> {
+    match (column, channel, layout) {
+        (Some(_), Some(_), _) => err(f, what, "give `column` or `channel`, not both"),
+        (None, None, Layout::Columns { .. }) => err(f, what, "give `column = N` (or `channel = \"$N\"`)"),
+        (None, None, Layout::Channels(_)) => err(
+            f,
+            what,
+            "give `channel` (a measured channel such as \"alpha\", \"pitch_rate\", \"elevator\")",
+        ),
+        (Some(_), None, Layout::Channels(_)) => err(
+            f,
+            &format!("{what}.column"),
+            "a column number needs [data] columns and time_column (a file without a header); name the channel instead, e.g. channel = \"alpha\"",
+        ),
+        (Some(col), None, Layout::Columns { columns, .. }) => {
+            if col == 0 || col > *columns {
+                return err(
+                    f,
+                    &format!("{what}.column"),
+                    format!("{col}: must be 1 to data.columns = {columns}"),
+                );
+            }
+            Ok(vec![crate::io::colmap::Term {
+                coef: 1.0,
+                source: Source::Column(col),
+            }])
+        }
+        (None, Some(text), Layout::Columns { columns, .. }) => {
+            let n = *columns;
+            let resolve = |s: &str| match s.strip_prefix('$').map(str::parse::<usize>) {
+                Some(Ok(k)) if k >= 1 && k <= n => Ok(Source::Column(k)),
+                _ => Err(format!("`{s}`: a file read by column number takes columns $1 … ${n}")),
+            };
+            measurement_only(f, what, text, parse_terms(text, f, 0, 1, &resolve))
+        }
+        (None, Some(text), Layout::Channels(used)) => {
+            let known = std::cell::RefCell::new(std::mem::take(used));
+            let resolve = |s: &str| {
+                let q = channel_named(s).ok_or_else(|| {
+                    format!("`{s}` is not a measured channel (name it as a column map does: alpha, pitch_rate, elevator, … or as the project CSV's columns: alpha_rad, gyro_rad_s_y, …; docs/measured-data.md)")
+                })?;
+                let mut k = known.borrow_mut();
+                let i = k.iter().position(|c| *c == q).unwrap_or_else(|| {
+                    k.push(q);
+                    k.len() - 1
+                });
+                Ok(Source::Column(i + 1))
+            };
+            let parsed = parse_terms(text, f, 0, 1, &resolve);
+            *used = known.into_inner();
+            measurement_only(f, what, text, parsed)
+        }
+    }
+}
+
+/// A parsed `channel` expression's terms; refused when it does not parse or adds a constant.
+fn measurement_only(
+    f: &str,
+    what: &str,
+    text: &str,
+    parsed: Result<(Vec<crate::io::colmap::Term>, f64), crate::io::ReadError>,
+) -> Result<Vec<crate::io::colmap::Term>, ModelError> {
+    let (terms, constant) = parsed.map_err(|e| channel_error(f, what, text, e))?;
+    if constant != 0.0 {
+        return err(
+            f,
+            &format!("{what}.channel"),
+            format!("`{text}`: a constant term is not a measurement; give channels only"),
+        );
+    }
+    Ok(terms)
 }
 
 /// A `channel` expression's parse error as a model-file error naming the field.
@@ -721,251 +729,35 @@ impl UserModel {
     }
 
     /// Parses a model file's text; `path` names it in errors and resolves its relative paths.
+    ///
+    /// The steps, in the order their errors are reported: sizes, parameters, settings, data
+    /// sources, outputs and states; the `[linear]` form turned into equations; the names of the
+    /// environment; the expressions compiled against it.
     pub fn parse(text: &str, path: &Path) -> Result<Self, ModelError> {
         let f = path.display().to_string();
         let mut file: ModelFile = toml::from_str(text).map_err(|e| ModelError(format!("{f}: {e}")))?;
-        let (nx, nu, ny) = (file.states.len(), file.inputs.len(), file.outputs.len());
-        if nx == 0 || nx > MAX_X {
-            return err(&f, "states", format!("{nx} states; 1 to {MAX_X} are supported"));
-        }
-        if nu > MAX_U {
-            return err(&f, "inputs", format!("{nu} inputs; at most {MAX_U} are supported"));
-        }
-        if ny == 0 || ny > MAX_Y {
-            return err(&f, "outputs", format!("{ny} outputs; 1 to {MAX_Y} are supported"));
-        }
-        for p in &file.parameters {
-            if !p.start.is_finite() {
-                return err(&f, &format!("parameters.{}.start", p.name), "not a finite number");
-            }
-            if let Some(s) = p.prior_sigma {
-                if !(s > 0.0 && s.is_finite()) {
-                    return err(&f, &format!("parameters.{}.prior_sigma", p.name), "must be > 0");
-                }
-            }
-        }
-        let est = &file.estimation;
-        for (field, ok) in [
-            (
-                "estimation.integrator (euler, rk2 or rk4)",
-                parse_integrator(&est.integrator).is_some(),
-            ),
-            (
-                "estimation.input_hold (zero or linear)",
-                parse_hold(&est.input_hold).is_some(),
-            ),
-            (
-                "estimation.sensitivity (one-step or propagated)",
-                parse_sensitivity(&est.sensitivity).is_some(),
-            ),
-            ("estimation.prior_sigma_floor (> 0)", est.prior_sigma_floor > 0.0),
-            ("estimation.tolerance_sigma (> 0)", est.tolerance_sigma > 0.0),
-        ] {
-            if !ok {
-                return err(&f, field, "not one of the accepted values");
-            }
-        }
-        if est.estimate_noise && !(est.method == Method::OutputError && est.iteration == Iteration::GaussNewton) {
-            return err(
-                &f,
-                "estimation.estimate_noise",
-                "only with method = \"output-error\" and iteration = \"gauss-newton\" (the filter error method takes R as given)",
-            );
-        }
+        check_sizes(&file, &f)?;
+        check_parameters(&file, &f)?;
+        check_estimation(&file.estimation, &f)?;
         let (layout, sources) = data_sources(&file, &f)?;
-        for o in &file.outputs {
-            if !(o.noise_variance > 0.0 && o.noise_variance.is_finite()) {
-                return err(
-                    &f,
-                    &format!("outputs.{}.noise_variance", o.name),
-                    "must be > 0 (R must be positive definite)",
-                );
-            }
-        }
-        for s in &file.states {
-            if !(s.process_noise.is_finite()) {
-                return err(&f, &format!("states.{}.process_noise", s.name), "not a finite number");
-            }
-            match &s.initial {
-                Initial::Value(v) if !v.is_finite() => {
-                    return err(&f, &format!("states.{}.initial", s.name), "not a finite number")
-                }
-                Initial::Output(o) if !file.outputs.iter().any(|y| &y.name == o) => {
-                    return err(
-                        &f,
-                        &format!("states.{}.initial", s.name),
-                        format!("`{o}` is not an output"),
-                    )
-                }
-                _ => {}
-            }
-            let var = s.initial_variance.or_else(|| match &s.initial {
-                Initial::Output(o) => file.outputs.iter().find(|y| &y.name == o).map(|y| y.noise_variance),
-                Initial::Value(_) => None,
-            });
-            if !matches!(var, Some(v) if v > 0.0 && v.is_finite()) {
-                return err(
-                    &f,
-                    &format!("states.{}.initial_variance", s.name),
-                    "give a variance > 0 (only a state started from an output takes that output's noise variance)",
-                );
-            }
-        }
-
-        // The linear form, turned into equations.
+        check_outputs(&file, &f)?;
+        check_states(&file, &f)?;
         if let Some(lin) = file.linear.clone() {
-            let xs: Vec<String> = file.states.iter().map(|s| s.name.clone()).collect();
-            let us: Vec<String> = file.inputs.iter().map(|s| s.name.clone()).collect();
-            let ax = linear_row(&f, "linear.A", &lin.a, nx, &xs)?;
-            let bu = linear_row(&f, "linear.B", &lin.b, nx, &us)?;
-            let cx = linear_row(&f, "linear.C", &lin.c, ny, &xs)?;
-            let du = match &lin.d {
-                Some(d) => linear_row(&f, "linear.D", d, ny, &us)?,
-                None => vec!["0".into(); ny],
-            };
-            let bias = |v: &Option<Vec<toml::Value>>, n: usize, field: &str| -> Result<Vec<String>, ModelError> {
-                match v {
-                    None => Ok(vec!["0".into(); n]),
-                    Some(v) if v.len() != n => err(&f, field, format!("{} entries; expected {n}", v.len())),
-                    Some(v) => v
-                        .iter()
-                        .map(|e| {
-                            entry_text(e)
-                                .ok_or_else(|| ModelError(format!("{f}: {field}: `{e}` is not a number or expression")))
-                        })
-                        .collect(),
-                }
-            };
-            let f0 = bias(&lin.f0, nx, "linear.f0")?;
-            let h0 = bias(&lin.h0, ny, "linear.h0")?;
-            for (i, s) in file.states.iter_mut().enumerate() {
-                if s.equation.is_some() {
-                    return err(
-                        &f,
-                        &format!("states.{}.equation", s.name),
-                        "give either equations or [linear], not both",
-                    );
-                }
-                s.equation = Some(format!("{} + {} + ({})", ax[i], bu[i], f0[i]));
-            }
-            for (i, o) in file.outputs.iter_mut().enumerate() {
-                if o.equation.is_some() {
-                    return err(
-                        &f,
-                        &format!("outputs.{}.equation", o.name),
-                        "give either equations or [linear], not both",
-                    );
-                }
-                o.equation = Some(format!("{} + {} + ({})", cx[i], du[i], h0[i]));
-            }
+            expand_linear(&mut file, &lin, &f)?;
         }
-
-        // The environment: constants, parameters, states, inputs, definitions.
-        let mut names: Vec<String> = Vec::new();
-        let mut slot: HashMap<String, usize> = HashMap::new();
-        let mut add = |name: &str, field: String, slot: &mut HashMap<String, usize>| -> Result<(), ModelError> {
-            let parsed = exmex::parse::<f64>(name).ok();
-            if !matches!(parsed.as_ref().map(|p| p.var_names()), Some(v) if v.len() == 1 && v[0] == name) {
-                return err(&f, &field, format!("`{name}` is not usable as a name (letters, digits, _; not a function or constant such as sin, PI, E)"));
-            }
-            if slot.contains_key(name) {
-                return err(&f, &field, format!("`{name}` is defined twice (names are shared by constants, parameters, states, inputs and definitions)"));
-            }
-            slot.insert(name.to_string(), names.len());
-            names.push(name.to_string());
-            Ok(())
-        };
-        let mut const_values = Vec::new();
-        let mut aircraft_constants = Vec::new();
-        for (k, v) in &file.constants {
-            add(k, format!("constants.{k}"), &mut slot)?;
-            let x = match v {
-                toml::Value::Float(x) => *x,
-                toml::Value::Integer(i) => *i as f64,
-                toml::Value::String(a) => match AIRCRAFT_CONSTANTS
-                    .iter()
-                    .position(|(name, _)| a.strip_prefix("aircraft.") == Some(*name))
-                {
-                    Some(j) => {
-                        aircraft_constants.push((const_values.len(), j));
-                        f64::NAN
-                    }
-                    None => return err(&f, &format!("constants.{k}"), aircraft_constant_help(a)),
-                },
-                _ => return err(&f, &format!("constants.{k}"), "must be a number"),
-            };
-            const_values.push(x);
-        }
-        let n_const = const_values.len();
+        let mut scope = Scope::new(&f);
+        let constants = scope.constants(&file)?;
         for p in &file.parameters {
-            add(&p.name, format!("parameters.{}", p.name), &mut slot)?;
+            scope.add(&p.name, format!("parameters.{}", p.name))?;
         }
         for s in &file.states {
-            add(&s.name, format!("states.{}", s.name), &mut slot)?;
+            scope.add(&s.name, format!("states.{}", s.name))?;
         }
         for u in &file.inputs {
-            add(&u.name, format!("inputs.{}", u.name), &mut slot)?;
+            scope.add(&u.name, format!("inputs.{}", u.name))?;
         }
-        let compile = |text: &str, field: &str, slot: &HashMap<String, usize>| -> Result<Compiled, ModelError> {
-            let expr = exmex::parse::<f64>(text).map_err(|e| ModelError(format!("{f}: {field}: `{text}`: {e}")))?;
-            if expr.var_names().len() > MAX_VARS_PER_EXPRESSION {
-                return err(
-                    &f,
-                    field,
-                    format!("uses more than {MAX_VARS_PER_EXPRESSION} names; split it with [definitions]"),
-                );
-            }
-            let mut slots = Vec::new();
-            for v in expr.var_names() {
-                match slot.get(v) {
-                    Some(&s) => slots.push(s),
-                    None => {
-                        return err(
-                            &f,
-                            field,
-                            format!("`{v}` is not a constant, parameter, state, input or earlier definition"),
-                        )
-                    }
-                }
-            }
-            Ok(Compiled { expr, slots })
-        };
-        let mut defs = Vec::new();
-        for (k, v) in &file.definitions {
-            let toml::Value::String(text) = v else {
-                return err(&f, &format!("definitions.{k}"), "must be an expression string");
-            };
-            defs.push(compile(text, &format!("definitions.{k}"), &slot)?);
-            add(k, format!("definitions.{k}"), &mut slot)?;
-        }
-        let mut state_eqs = Vec::new();
-        for s in &file.states {
-            let field = format!("states.{}.equation", s.name);
-            let text = s
-                .equation
-                .as_deref()
-                .ok_or_else(|| ModelError(format!("{f}: {field}: missing (or give [linear])")))?;
-            state_eqs.push(compile(text, &field, &slot)?);
-        }
-        let mut output_eqs = Vec::new();
-        for o in &file.outputs {
-            let field = format!("outputs.{}.equation", o.name);
-            let text = o
-                .equation
-                .as_deref()
-                .ok_or_else(|| ModelError(format!("{f}: {field}: missing (or give [linear])")))?;
-            output_eqs.push(compile(text, &field, &slot)?);
-        }
-        let free: Vec<usize> = (0..file.parameters.len())
-            .filter(|&i| !file.parameters[i].fixed)
-            .collect();
-        if free.len() > MAX_P {
-            return err(
-                &f,
-                "parameters",
-                format!("{} free parameters; at most {MAX_P} (fix some)", free.len()),
-            );
-        }
+        let equations = scope.equations(&file)?;
+        let free = free_parameters(&file, &f)?;
         let values = file.parameters.iter().map(|p| p.start).collect();
         Ok(Self {
             file,
@@ -973,14 +765,14 @@ impl UserModel {
             text: text.to_string(),
             layout,
             sources,
-            n_const,
-            const_values,
-            aircraft_constants,
+            n_const: constants.values.len(),
+            const_values: constants.values,
+            aircraft_constants: constants.from_aircraft,
             free,
             values,
-            defs,
-            state_eqs,
-            output_eqs,
+            defs: equations.defs,
+            state_eqs: equations.states,
+            output_eqs: equations.outputs,
         })
     }
 
@@ -1123,6 +915,311 @@ impl UserModel {
             env.push(v);
         }
         env
+    }
+}
+
+/// The numbers of states, inputs and outputs within what the filter is built for.
+fn check_sizes(file: &ModelFile, f: &str) -> Result<(), ModelError> {
+    let (nx, nu, ny) = (file.states.len(), file.inputs.len(), file.outputs.len());
+    if nx == 0 || nx > MAX_X {
+        return err(f, "states", format!("{nx} states; 1 to {MAX_X} are supported"));
+    }
+    if nu > MAX_U {
+        return err(f, "inputs", format!("{nu} inputs; at most {MAX_U} are supported"));
+    }
+    if ny == 0 || ny > MAX_Y {
+        return err(f, "outputs", format!("{ny} outputs; 1 to {MAX_Y} are supported"));
+    }
+    Ok(())
+}
+
+/// Every parameter's start finite and its prior σ, when given, positive.
+fn check_parameters(file: &ModelFile, f: &str) -> Result<(), ModelError> {
+    for p in &file.parameters {
+        if !p.start.is_finite() {
+            return err(f, &format!("parameters.{}.start", p.name), "not a finite number");
+        }
+        if let Some(s) = p.prior_sigma {
+            if !(s > 0.0 && s.is_finite()) {
+                return err(f, &format!("parameters.{}.prior_sigma", p.name), "must be > 0");
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The `[estimation]` settings: names known, numbers positive, noise estimated only where the
+/// method can.
+fn check_estimation(est: &EstimationSpec, f: &str) -> Result<(), ModelError> {
+    for (field, ok) in [
+        (
+            "estimation.integrator (euler, rk2 or rk4)",
+            parse_integrator(&est.integrator).is_some(),
+        ),
+        (
+            "estimation.input_hold (zero or linear)",
+            parse_hold(&est.input_hold).is_some(),
+        ),
+        (
+            "estimation.sensitivity (one-step or propagated)",
+            parse_sensitivity(&est.sensitivity).is_some(),
+        ),
+        ("estimation.prior_sigma_floor (> 0)", est.prior_sigma_floor > 0.0),
+        ("estimation.tolerance_sigma (> 0)", est.tolerance_sigma > 0.0),
+    ] {
+        if !ok {
+            return err(f, field, "not one of the accepted values");
+        }
+    }
+    if est.estimate_noise && !(est.method == Method::OutputError && est.iteration == Iteration::GaussNewton) {
+        return err(
+            f,
+            "estimation.estimate_noise",
+            "only with method = \"output-error\" and iteration = \"gauss-newton\" (the filter error method takes R as given)",
+        );
+    }
+    Ok(())
+}
+
+/// Every output's noise variance positive (R positive definite).
+fn check_outputs(file: &ModelFile, f: &str) -> Result<(), ModelError> {
+    for o in &file.outputs {
+        if !(o.noise_variance > 0.0 && o.noise_variance.is_finite()) {
+            return err(
+                f,
+                &format!("outputs.{}.noise_variance", o.name),
+                "must be > 0 (R must be positive definite)",
+            );
+        }
+    }
+    Ok(())
+}
+
+/// Every state's process noise finite, its start a number or an output, and its initial
+/// variance given or taken from that output.
+fn check_states(file: &ModelFile, f: &str) -> Result<(), ModelError> {
+    for s in &file.states {
+        if !(s.process_noise.is_finite()) {
+            return err(f, &format!("states.{}.process_noise", s.name), "not a finite number");
+        }
+        match &s.initial {
+            Initial::Value(v) if !v.is_finite() => {
+                return err(f, &format!("states.{}.initial", s.name), "not a finite number")
+            }
+            Initial::Output(o) if !file.outputs.iter().any(|y| &y.name == o) => {
+                return err(
+                    f,
+                    &format!("states.{}.initial", s.name),
+                    format!("`{o}` is not an output"),
+                )
+            }
+            _ => {}
+        }
+        let var = s.initial_variance.or_else(|| match &s.initial {
+            Initial::Output(o) => file.outputs.iter().find(|y| &y.name == o).map(|y| y.noise_variance),
+            Initial::Value(_) => None,
+        });
+        if !matches!(var, Some(v) if v > 0.0 && v.is_finite()) {
+            return err(
+                f,
+                &format!("states.{}.initial_variance", s.name),
+                "give a variance > 0 (only a state started from an output takes that output's noise variance)",
+            );
+        }
+    }
+    Ok(())
+}
+
+/// The `[linear]` form turned into one equation per state (`A x + B u + f0`) and per output
+/// (`C x + D u + h0`); a file giving both forms is refused.
+fn expand_linear(file: &mut ModelFile, lin: &LinearSpec, f: &str) -> Result<(), ModelError> {
+    let (nx, ny) = (file.states.len(), file.outputs.len());
+    let xs: Vec<String> = file.states.iter().map(|s| s.name.clone()).collect();
+    let us: Vec<String> = file.inputs.iter().map(|s| s.name.clone()).collect();
+    let ax = linear_row(f, "linear.A", &lin.a, nx, &xs)?;
+    let bu = linear_row(f, "linear.B", &lin.b, nx, &us)?;
+    let cx = linear_row(f, "linear.C", &lin.c, ny, &xs)?;
+    let du = match &lin.d {
+        Some(d) => linear_row(f, "linear.D", d, ny, &us)?,
+        None => vec!["0".into(); ny],
+    };
+    let f0 = linear_bias(f, &lin.f0, nx, "linear.f0")?;
+    let h0 = linear_bias(f, &lin.h0, ny, "linear.h0")?;
+    for (i, s) in file.states.iter_mut().enumerate() {
+        let text = format!("{} + {} + ({})", ax[i], bu[i], f0[i]);
+        set_from_linear(f, format!("states.{}.equation", s.name), &mut s.equation, text)?;
+    }
+    for (i, o) in file.outputs.iter_mut().enumerate() {
+        let text = format!("{} + {} + ({})", cx[i], du[i], h0[i]);
+        set_from_linear(f, format!("outputs.{}.equation", o.name), &mut o.equation, text)?;
+    }
+    Ok(())
+}
+
+/// An equation set from the `[linear]` form; one the file gives as well is refused.
+fn set_from_linear(f: &str, field: String, equation: &mut Option<String>, text: String) -> Result<(), ModelError> {
+    if equation.is_some() {
+        return err(f, &field, "give either equations or [linear], not both");
+    }
+    *equation = Some(text);
+    Ok(())
+}
+
+/// A `[linear]` offset vector (`f0`, `h0`) as `n` expression texts; zeros when absent.
+fn linear_bias(f: &str, v: &Option<Vec<toml::Value>>, n: usize, field: &str) -> Result<Vec<String>, ModelError> {
+    match v {
+        None => Ok(vec!["0".into(); n]),
+        Some(v) if v.len() != n => err(f, field, format!("{} entries; expected {n}", v.len())),
+        Some(v) => v
+            .iter()
+            .map(|e| {
+                entry_text(e).ok_or_else(|| ModelError(format!("{f}: {field}: `{e}` is not a number or expression")))
+            })
+            .collect(),
+    }
+}
+
+/// The indices of the free parameters, at most [`MAX_P`] of them.
+fn free_parameters(file: &ModelFile, f: &str) -> Result<Vec<usize>, ModelError> {
+    let free: Vec<usize> = (0..file.parameters.len())
+        .filter(|&i| !file.parameters[i].fixed)
+        .collect();
+    if free.len() > MAX_P {
+        return err(
+            f,
+            "parameters",
+            format!("{} free parameters; at most {MAX_P} (fix some)", free.len()),
+        );
+    }
+    Ok(free)
+}
+
+/// The constants' values in file order: numbers as given, NaN for those taken from the aircraft.
+struct Constants {
+    values: Vec<f64>,
+    /// `(index into values, index into AIRCRAFT_CONSTANTS)`.
+    from_aircraft: Vec<(usize, usize)>,
+}
+
+/// The compiled expressions: definitions, state equations, output equations.
+struct Equations {
+    defs: Vec<Compiled>,
+    states: Vec<Compiled>,
+    outputs: Vec<Compiled>,
+}
+
+/// The environment's names as they are declared, each with its slot:
+/// `[constants | parameters | states | inputs | definitions]`.
+struct Scope<'a> {
+    /// The model file's name, for errors.
+    f: &'a str,
+    slot: HashMap<String, usize>,
+}
+
+impl<'a> Scope<'a> {
+    fn new(f: &'a str) -> Self {
+        Self {
+            f,
+            slot: HashMap::new(),
+        }
+    }
+
+    /// Declares `name` (from `field`) in the next slot: a usable name, declared once.
+    fn add(&mut self, name: &str, field: String) -> Result<(), ModelError> {
+        let parsed = exmex::parse::<f64>(name).ok();
+        if !matches!(parsed.as_ref().map(|p| p.var_names()), Some(v) if v.len() == 1 && v[0] == name) {
+            return err(self.f, &field, format!("`{name}` is not usable as a name (letters, digits, _; not a function or constant such as sin, PI, E)"));
+        }
+        if self.slot.contains_key(name) {
+            return err(self.f, &field, format!("`{name}` is defined twice (names are shared by constants, parameters, states, inputs and definitions)"));
+        }
+        let next = self.slot.len();
+        self.slot.insert(name.to_string(), next);
+        Ok(())
+    }
+
+    /// Declares the constants and reads their values (a number, or `aircraft.NAME`).
+    fn constants(&mut self, file: &ModelFile) -> Result<Constants, ModelError> {
+        let f = self.f;
+        let mut values = Vec::new();
+        let mut from_aircraft = Vec::new();
+        for (k, v) in &file.constants {
+            self.add(k, format!("constants.{k}"))?;
+            let x = match v {
+                toml::Value::Float(x) => *x,
+                toml::Value::Integer(i) => *i as f64,
+                toml::Value::String(a) => match AIRCRAFT_CONSTANTS
+                    .iter()
+                    .position(|(name, _)| a.strip_prefix("aircraft.") == Some(*name))
+                {
+                    Some(j) => {
+                        from_aircraft.push((values.len(), j));
+                        f64::NAN
+                    }
+                    None => return err(f, &format!("constants.{k}"), aircraft_constant_help(a)),
+                },
+                _ => return err(f, &format!("constants.{k}"), "must be a number"),
+            };
+            values.push(x);
+        }
+        Ok(Constants { values, from_aircraft })
+    }
+
+    /// Compiles `text` against the names declared so far.
+    fn compile(&self, text: &str, field: &str) -> Result<Compiled, ModelError> {
+        let f = self.f;
+        let expr = exmex::parse::<f64>(text).map_err(|e| ModelError(format!("{f}: {field}: `{text}`: {e}")))?;
+        if expr.var_names().len() > MAX_VARS_PER_EXPRESSION {
+            return err(
+                f,
+                field,
+                format!("uses more than {MAX_VARS_PER_EXPRESSION} names; split it with [definitions]"),
+            );
+        }
+        let mut slots = Vec::new();
+        for v in expr.var_names() {
+            match self.slot.get(v) {
+                Some(&s) => slots.push(s),
+                None => {
+                    return err(
+                        f,
+                        field,
+                        format!("`{v}` is not a constant, parameter, state, input or earlier definition"),
+                    )
+                }
+            }
+        }
+        Ok(Compiled { expr, slots })
+    }
+
+    /// Compiles the definitions (each declared after its own expression, so it sees only earlier
+    /// ones), then the state and output equations.
+    fn equations(&mut self, file: &ModelFile) -> Result<Equations, ModelError> {
+        let f = self.f;
+        let mut defs = Vec::new();
+        for (k, v) in &file.definitions {
+            let toml::Value::String(text) = v else {
+                return err(f, &format!("definitions.{k}"), "must be an expression string");
+            };
+            defs.push(self.compile(text, &format!("definitions.{k}"))?);
+            self.add(k, format!("definitions.{k}"))?;
+        }
+        let equation = |name: &str, equation: Option<&str>, kind: &str| -> Result<Compiled, ModelError> {
+            let field = format!("{kind}.{name}.equation");
+            let text = equation.ok_or_else(|| ModelError(format!("{f}: {field}: missing (or give [linear])")))?;
+            self.compile(text, &field)
+        };
+        let states = file
+            .states
+            .iter()
+            .map(|s| equation(&s.name, s.equation.as_deref(), "states"))
+            .collect::<Result<_, _>>()?;
+        let outputs = file
+            .outputs
+            .iter()
+            .map(|o| equation(&o.name, o.equation.as_deref(), "outputs"))
+            .collect::<Result<_, _>>()?;
+        Ok(Equations { defs, states, outputs })
     }
 }
 
