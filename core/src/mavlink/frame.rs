@@ -5,6 +5,7 @@
 //! MAVLink 1 frame: `0xFE, len, seq, sysid, compid, msgid, payload[len], crc[2]`.
 
 use super::crc::{accumulate, accumulate_slice, CRC_INIT};
+pub use super::messages::MAX_PAYLOAD_LEN;
 use super::messages::{Encode, Payload};
 
 /// MAVLink 2 start byte.
@@ -19,8 +20,6 @@ pub const HEADER_LEN_V1: usize = 6;
 pub const CHECKSUM_LEN: usize = 2;
 /// Signature length (link id, 48-bit timestamp, 48-bit signature).
 pub const SIGNATURE_LEN: usize = 13;
-/// Longest payload.
-pub const MAX_PAYLOAD_LEN: usize = 255;
 /// Longest frame (signed MAVLink 2 with a 255-byte payload): 280 bytes.
 pub const MAX_FRAME_LEN: usize = HEADER_LEN_V2 + MAX_PAYLOAD_LEN + CHECKSUM_LEN + SIGNATURE_LEN;
 /// The only incompatibility flag defined: the frame is signed.

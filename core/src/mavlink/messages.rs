@@ -7,7 +7,8 @@
 //! checked against pymavlink 2.4.50's generated dialects (and, for `ESC_STATUS`, which that release
 //! leaves out as work-in-progress, against its generator run on the message's definition).
 
-use super::frame::MAX_PAYLOAD_LEN;
+/// Longest payload (the range of the frame's length byte).
+pub const MAX_PAYLOAD_LEN: usize = 255;
 
 /// A zero-extended payload: a received payload copied to the front, the rest zero (MAVLink 2
 /// trailing-zero truncation and absent extensions both read as zero).
