@@ -211,6 +211,13 @@ use crate::linalg::slice_finite;
 use crate::{Error, Real};
 use nalgebra::{SMatrix, SVector};
 
+/// The early test's fill: a short window's `σ_ν²` enters the minimum the early test compares with
+/// once its weight `W₂` is this fraction of its full weight `1/(1 − γ₂)` (module doc, "Eq. 32
+/// before the noise power has its weight").
+pub const EARLY_WINDOW_FILL: f64 = 0.8;
+/// The early test's threshold over eq. 32's `γ₀²` (same section).
+pub const EARLY_THRESHOLD: f64 = 1.25;
+
 /// Which assignment of the smoothing constants in eq. 28 to use (see the module doc).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Eq28Reading {
@@ -249,6 +256,12 @@ pub struct VffSettings<T> {
     pub noise_clip: T,
     /// The reading of the damaged eq. 28.
     pub reading: Eq28Reading,
+    /// The early test (not in the seed; module doc, "Eq. 32 before the noise power has its
+    /// weight"): until `σ_ε²` has [`Self::min_noise_weight_samples`], `σ_ν²` is compared with
+    /// [`EARLY_THRESHOLD`]` · γ₀²` times the smallest `σ_ν²` since the statistics started among the
+    /// short windows filled to [`EARLY_WINDOW_FILL`] of their full weight. Our reading of eq. 28
+    /// only. (A `bool` beside `reading`: it takes no room in the on-board state.)
+    pub early_test: bool,
 }
 
 impl<T: Real> VffSettings<T> {
@@ -267,6 +280,7 @@ impl<T: Real> VffSettings<T> {
         min_noise_weight_samples: T::ZERO,
         noise_clip: T::ZERO,
         reading: Eq28Reading::Paleologu,
+        early_test: false,
     };
 
     /// Defaults for `n` parameters: `γ₂ = 1 − 1/(5·max(n, 3))`, `γ₁ = 1 − 1/(200n)`, `γ₀` from the
@@ -309,6 +323,7 @@ impl<T: Real> VffSettings<T> {
             min_noise_weight_samples: T::lit(50.0),
             noise_clip: T::lit(1.1),
             reading: Eq28Reading::Paleologu,
+            early_test: true,
         }
     }
 
@@ -343,6 +358,7 @@ impl<T: Real> VffSettings<T> {
             lambda_max: T::one(),
             min_noise_weight_samples: T::lit(50.0),
             noise_clip: T::zero(),
+            early_test: false,
             ..Self::for_dimension(1)
         }
     }
@@ -386,6 +402,9 @@ pub struct Vff<T: Real, const N: usize> {
     sq2: T,
     snu2: T,
     seps2: T,
+    /// The smallest `σ_ν²` of a short window filled to [`EARLY_WINDOW_FILL`] since
+    /// the statistics started, while eq. 32 is not yet tested against `σ_ε²` (0: none yet).
+    snu2_min: T,
     /// The sums of weights (in samples) of the means `σ_q²`, `σ_ν²` and of `σ_ε²` since the
     /// statistics started: `W₂` and `D` in our reading, the sums over `γ₁` and `γ₂` in the literal
     /// one; both 0 until they start.
@@ -438,6 +457,7 @@ impl<T: Real, const N: usize> Vff<T, N> {
         sq2: T::ZERO,
         snu2: T::ZERO,
         seps2: T::ZERO,
+        snu2_min: T::ZERO,
         weight_nu: T::ZERO,
         weight_eps: T::ZERO,
         lambda: T::ZERO,
@@ -454,6 +474,7 @@ impl<T: Real, const N: usize> Vff<T, N> {
             sq2: T::zero(),
             snu2: T::zero(),
             seps2: T::zero(),
+            snu2_min: T::zero(),
             weight_nu: T::zero(),
             weight_eps: T::zero(),
             lambda: settings.lambda_max,
@@ -502,16 +523,19 @@ impl<T: Real, const N: usize> Vff<T, N> {
         for i in 0..N {
             q += x0[i] * px[i];
         }
-        let (mut sq2, mut snu2, mut seps2) = (self.sq2, self.snu2, self.seps2);
+        let (mut sq2, mut snu2, mut seps2, mut snu2_min) = (self.sq2, self.snu2, self.seps2, self.snu2_min);
         let (mut w_nu, mut w_eps) = (self.weight_nu, self.weight_eps);
         let mut lambda_new = s.lambda_max;
         // Our reading restarts the statistics on a sample whose estimate is no solution while
         // eq. 32 is not yet tested (module doc); the literal one runs on from the first solution.
+        let z = T::zero();
         let settling = s.reading == Eq28Reading::Paleologu && w_eps < s.min_noise_weight_samples;
         if !solved && settling {
-            (sq2, snu2, seps2, w_nu, w_eps) = (T::zero(), T::zero(), T::zero(), T::zero(), T::zero());
+            (sq2, snu2, seps2, snu2_min, w_nu, w_eps) = (z, z, z, z, z, z);
         } else if solved || self.started() {
-            let tested = match s.reading {
+            // The power eq. 32 compares σ_ν² with (σ_ε², or the early test's minimum), if any, and
+            // the factor on γ₀².
+            let reference = match s.reading {
                 Eq28Reading::Paleologu => {
                     // 28a–b: means over the short window, weight W₂(t) = γ₂W₂(t−1) + 1 (gain 1 on
                     // the first sample). 28c: the old-noise mean, its weight D(t) = γ₁D(t−1) +
@@ -531,7 +555,15 @@ impl<T: Real, const N: usize> Vff<T, N> {
                         let g_eps = inflow / w_eps;
                         seps2 = (one - g_eps) * seps2 + g_eps * snu2_prev; // 28c
                     }
-                    w_eps >= s.min_noise_weight_samples
+                    if w_eps >= s.min_noise_weight_samples {
+                        Some((seps2, one))
+                    } else if s.early_test && w_nu * (one - s.gamma2) >= T::lit(EARLY_WINDOW_FILL) {
+                        // The early test (module doc): the smallest filled short window so far.
+                        snu2_min = if snu2_min > z { snu2_min.minr(snu2) } else { snu2 };
+                        Some((snu2_min, T::lit(EARLY_THRESHOLD)))
+                    } else {
+                        None
+                    }
                 }
                 Eq28Reading::Literal => {
                     // As printed: 28a–b on γ₁, 28c on γ₂, each a mean over the samples so far.
@@ -541,15 +573,16 @@ impl<T: Real, const N: usize> Vff<T, N> {
                     sq2 = (one - g) * sq2 + g * (q * q);
                     snu2 = (one - g) * snu2 + g * (nu * nu);
                     seps2 = (one - g_eps) * seps2 + g_eps * (nu * nu);
-                    true
+                    Some((seps2, one))
                 }
             };
             // Eq. 32 (σ_ν ≤ γ₀σ_ε, compared squared), else eq. 33.
-            lambda_new = if !tested || snu2 <= s.gamma0 * s.gamma0 * seps2 {
-                s.lambda_max
-            } else {
-                let (sig_q, sig_nu, sig_eps) = (sq2.root(), snu2.root(), seps2.root());
-                (sig_q * sig_eps / (s.varsigma + (sig_nu - sig_eps).abs())).minr(s.lambda_max)
+            lambda_new = match reference {
+                Some((r, c)) if snu2 > c * s.gamma0 * s.gamma0 * r => {
+                    let (sig_q, sig_nu, sig_eps) = (sq2.root(), snu2.root(), r.root());
+                    (sig_q * sig_eps / (s.varsigma + (sig_nu - sig_eps).abs())).minr(s.lambda_max)
+                }
+                _ => s.lambda_max,
             }
             .maxr(s.lambda_min);
         }
@@ -568,6 +601,7 @@ impl<T: Real, const N: usize> Vff<T, N> {
         };
         // P stays positive semi-definite with trace ≤ its initial trace, so its entries are
         // bounded: finite P x̂₀, powers, λ and trace make the new P finite.
+        // (σ_ν²'s minimum is one of the finite σ_ν².)
         let finite = slice_finite(&px) && slice_finite(&[q, g, sq2, snu2, seps2, w_nu, w_eps, lambda_new, trace]);
         if !finite {
             return None;
@@ -585,6 +619,7 @@ impl<T: Real, const N: usize> Vff<T, N> {
         self.sq2 = sq2;
         self.snu2 = snu2;
         self.seps2 = seps2;
+        self.snu2_min = snu2_min;
         self.weight_nu = w_nu;
         self.weight_eps = w_eps;
         self.lambda = lambda_new;
