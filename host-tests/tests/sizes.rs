@@ -2,11 +2,11 @@
 //!
 //! The firmware budget (estimator state ≤ 4 KB for the six estimators, asserted in
 //! `synthesis.rs`) gives ~680 bytes each on average; these tests fail if a change makes the `f32`
-//! state grow past the figures below (measured + ~2.5 %). The dimension-6 estimator is 816 B:
+//! state grow past the figures below (measured + ~2.5 %). The dimension-6 estimator is 820 B:
 //! 680 B of matrices and scalars, plus `V` double-buffered (144 B: the update writes the new `V`
 //! into the spare buffer instead of copying 144 B per sample), `C·a` of its `θ` (24 B), the VFF's
-//! two sums of weights of its bias-corrected means (8 B) and the clip of the noise power's input
-//! (4 B).
+//! two sums of weights of its bias-corrected means (8 B), the clip of the noise power's input
+//! (4 B) and the early test's smallest short-window power (4 B).
 
 use aerosid_core::{Gtls, Rls};
 use core::mem::size_of;
