@@ -109,7 +109,7 @@ impl AngleError {
 /// (docs/test-card.md): the pitching and yawing moments get no proxy. In `C_n`, whose baseline
 /// has no δa, the side force's misfit of its own δa term passes through the proxy into the
 /// candidate δa (named on 16 of 20 clean cards); in `C_m` the lift's residual named α·q_n on a
-/// clean card and detected nothing more.
+/// clean card and missed a planted thrust moment (`C_T` in `C_m`) named without it.
 pub const PROXY_TARGETS: [(usize, usize); 2] = [(0, 1), (2, 3)];
 
 /// The gust proxies of a flight, `(coefficient whose candidates they judge, column)`
