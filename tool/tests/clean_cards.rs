@@ -86,7 +86,7 @@ fn at_most_one_of_six_clean_cards_names_a_cause() {
 /// limit and more) is still named: the check does not silence a coefficient whose residual an
 /// effect dominates.
 #[test]
-fn the_gust_the_estimated_alpha_misses_names_no_lift_term_and_keeps_a_planted_drag() {
+fn the_gust_the_estimated_angles_miss_names_nothing_and_keeps_a_planted_drag() {
     let root = std::env::temp_dir().join(format!("aerosid-gust-cards-{}", std::process::id()));
     for seed in [330u64, 338, 342, 348] {
         let named = causes_named(&root, None, seed, CardTurbulence::Light);
