@@ -33,6 +33,7 @@ pub(crate) fn analyse_coefficient(
     errors: Option<&ColumnErrors>,
     pieces: &[(usize, usize)],
     flight_oracle: &oracle::FlightOracle,
+    gust_proxies: &[(usize, Vec<f64>)],
 ) -> Option<CoefficientGap> {
     let c = Coefficient {
         i,
@@ -47,6 +48,7 @@ pub(crate) fn analyse_coefficient(
         errors,
         pieces,
         flight_oracle,
+        gust_proxies,
     };
     c.analyse(base)
 }
@@ -72,6 +74,9 @@ struct Coefficient<'a> {
     /// The manoeuvres' sample ranges.
     pieces: &'a [(usize, usize)],
     flight_oracle: &'a oracle::FlightOracle,
+    /// The gust proxies of the flight ([`gust::proxies`]): the candidate tests count what a
+    /// candidate predicts beyond them.
+    gust_proxies: &'a [(usize, Vec<f64>)],
 }
 
 /// A model's terms and their columns over every sample.
@@ -109,13 +114,17 @@ impl Coefficient<'_> {
         let Columns { terms, cols } = &baseline_columns;
         let baseline_model: Vec<(Term, f64)> = terms.iter().copied().zip(baseline.fit.theta.iter().copied()).collect();
         let (library, mut candidates) = self.library(terms);
+        let beyond = gust::Beyond::new(self.i, self.gust_proxies, self.zc, cols, &library, self.n_id);
+        let (zs, bs, ls) = beyond.as_ref().map_or((self.zc, &cols[..], &library[..]), |b| {
+            (&b.z[..], &b.base[..], &b.library[..])
+        });
         let mut sel = stepwise(
             self.i,
-            self.zc,
+            zs,
             self.h_s,
             terms,
-            cols,
-            &library,
+            bs,
+            ls,
             self.errors,
             self.p_test,
             self.settings,

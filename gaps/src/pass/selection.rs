@@ -21,6 +21,7 @@ pub fn select(prepared: &Prepared, syn: &Synthesised, settings: &GapSettings, no
     let (plan, h) = (&prepared.plan, prepared.h);
     let table = &syn.table;
     let mut coefficients = Vec::new();
+    let gust_proxies = crate::gust::proxies(table, &syn.refs, &prepared.baselines, plan.n_id, &syn.oracle);
     for i in 0..6 {
         let Some(zc) = &table.z[i] else { continue };
         if let Some(g) = analyse_coefficient(
@@ -37,6 +38,7 @@ pub fn select(prepared: &Prepared, syn: &Synthesised, settings: &GapSettings, no
             syn.errors[i].as_ref(),
             &syn.pieces,
             &syn.oracle,
+            &gust_proxies,
         ) {
             coefficients.push(g);
         }
