@@ -74,7 +74,6 @@ pub use fit::MIN_PREDICTIVE_R2;
 pub mod gust;
 pub mod held_noise;
 pub mod hidden;
-mod holdout;
 mod homogeneity;
 pub mod instrumental;
 pub mod model;

@@ -50,9 +50,6 @@ pub fn prepare(flight: &MeasuredFlight, settings: &GapSettings) -> Result<Prepar
     check_input(flight)?;
     let (decimated, rate_note) = at_analysis_rate(flight, settings.max_rate_hz).unzip();
     let at_rate = decimated.as_ref().unwrap_or(flight);
-    // Pooled manoeuvres: the held-out ones stratified by the axis each excites.
-    let stratified = crate::holdout::stratified(at_rate, settings.identification_fraction);
-    let at_rate = stratified.as_ref().unwrap_or(at_rate);
     let flight = crate::io::flow_angles::prepare(at_rate, settings.flow_angles, &WindFitSettings::default());
     let h = check_input(&flight)?;
     let baselines: [Vec<Term>; 6] = core::array::from_fn(|i| match &settings.baseline {
@@ -129,19 +126,14 @@ fn compat_candidate_count(flight: &MeasuredFlight) -> usize {
 }
 
 /// The end of the identification segment: the first `fraction` of the samples, clamped to leave
-/// 100 and 50; on a flight of [`select::MIN_PIECES_FOR_FOLDS`] manoeuvres or more laid out by
-/// [`crate::holdout::stratified`], the start of its held-out manoeuvres (each axis's manoeuvres
-/// on both sides), else the join nearest to that fraction (whole manoeuvres held out; at least
-/// one on each side).
+/// 100 and 50; on a flight of [`select::MIN_PIECES_FOR_FOLDS`] manoeuvres or more, the join
+/// nearest to it (whole manoeuvres held out; at least one on each side).
 fn identification_end(flight: &MeasuredFlight, fraction: f64) -> usize {
     let n = flight.len();
     let at = ((n as f64 * fraction).round() as usize).clamp(100, n - 50);
     let pieces = flight.pieces();
     if pieces.len() < select::MIN_PIECES_FOR_FOLDS {
         return at;
-    }
-    if let Some(end) = crate::holdout::identification_end(flight, fraction) {
-        return end;
     }
     pieces[1..]
         .iter()

@@ -133,7 +133,7 @@ fn manoeuvres_note(count: usize) -> Option<String> {
         return None;
     }
     let folds = if count >= select::MIN_PIECES_FOR_FOLDS {
-        "the held-out data are whole manoeuvres (leave one manoeuvre out; the final fits on the identification manoeuvres, the rest held out, each axis's manoeuvres on both sides where it has two or more), and an added term must agree across the manoeuvres that excite it (Cochran's Q at the held-out gain level)".to_string()
+        "the held-out data are whole manoeuvres (leave one manoeuvre out; the first fits of the baselines on the manoeuvres before the identification split, the rest held out), and an added term must agree across the manoeuvres that excite it (Cochran's Q at the held-out gain level)".to_string()
     } else {
         format!(
             "fewer than {} manoeuvres: a whole manoeuvre cannot be held out, so the held-out data are time blocks within each manoeuvre as for one record",
