@@ -6,8 +6,8 @@
 //! on coloured residuals give ratios of several.
 //!
 //! * `gaps`: the pooled test card (`aerosid card`, eight records, light MIL-F-8785C turbulence),
-//!   the baseline's fit of each coefficient, σ by leaving one manoeuvre out
-//!   (`regress::manoeuvre_jackknife`). The draws are kept apart by estimator: where PCA-GTLS is
+//!   the baseline's fit of each coefficient, σ the manoeuvre-level sandwich
+//!   (`regress::manoeuvre_sandwich`). The draws are kept apart by estimator: where PCA-GTLS is
 //!   not determined the fit is OLS (said so in the report), and the two estimate different
 //!   things with an estimated flow angle (attenuated or not), so a mixture's scatter is not any
 //!   σ's. The band is asserted on an estimator's draws when it fitted at least 3/4 of the cards.
