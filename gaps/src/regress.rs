@@ -323,22 +323,30 @@ pub fn manoeuvre_sandwich(
     let mut meat = DMatrix::<f64>::zeros(p, p);
     for &(a, b) in ranges {
         let score = DVector::from_fn(p, |j, _| super::signal::dot(&cols[j][a..b], &residual[a..b]) / scale[j]);
-        let m = l.solve_lower_triangular(&score)?;
-        let lb = l.solve_lower_triangular(&gram(a, b))?;
-        let bg = l.solve_lower_triangular(&lb.transpose())?;
-        let eig = nalgebra::SymmetricEigen::new(0.5 * (&bg + bg.transpose()));
-        if eig.eigenvalues.iter().any(|&v| v.is_nan() || v >= 1.0 - 1e-9) {
-            return None;
-        }
-        let d = DVector::from_fn(p, |k, _| (1.0 - eig.eigenvalues[k].max(0.0)).powf(-0.5));
-        let v = &eig.eigenvectors;
-        let adj = &l * (v * d.component_mul(&(v.transpose() * m)));
-        let psi = adj - corr.scale((b - a) as f64);
+        let psi = cr2_score(&l, &gram(a, b), &score)? - corr.scale((b - a) as f64);
         meat += &psi * psi.transpose();
     }
     let cov = &hinv * meat * hinv.transpose();
     let sigma: Vec<f64> = (0..p).map(|j| cov[(j, j)].max(0.0).sqrt() / scale[j]).collect();
     sigma.iter().all(|s| s.is_finite()).then_some(sigma)
+}
+
+/// A cluster's score with the CR2 bias reduction ([`manoeuvre_sandwich`]): `L (I − B_g)^{−1/2} L⁻¹ s_g`
+/// with `L` the lower Cholesky factor of the whole information (`XᵀX`, or `Σ HᵀWH` of an output
+/// error fit), `B_g = L⁻¹ M_g L⁻ᵀ` (`M_g`: the cluster's part of it) and `s_g` the cluster's score.
+/// `None` when the cluster carries a direction alone (an eigenvalue of `B_g` above `1 − 1e-9`).
+pub(crate) fn cr2_score(l: &DMatrix<f64>, gram_g: &DMatrix<f64>, score: &DVector<f64>) -> Option<DVector<f64>> {
+    let p = score.len();
+    let m = l.solve_lower_triangular(score)?;
+    let lb = l.solve_lower_triangular(gram_g)?;
+    let bg = l.solve_lower_triangular(&lb.transpose())?;
+    let eig = nalgebra::SymmetricEigen::new(0.5 * (&bg + bg.transpose()));
+    if eig.eigenvalues.iter().any(|&v| v.is_nan() || v >= 1.0 - 1e-9) {
+        return None;
+    }
+    let d = DVector::from_fn(p, |k, _| (1.0 - eig.eigenvalues[k].max(0.0)).powf(-0.5));
+    let v = &eig.eigenvectors;
+    Some(l * (v * d.component_mul(&(v.transpose() * m))))
 }
 
 /// Fewest manoeuvres for [`manoeuvre_sandwich`] (as for holding out whole manoeuvres: with two,
