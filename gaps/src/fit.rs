@@ -310,7 +310,7 @@ impl Coefficient<'_> {
     }
 
     /// `columns` fitted on the identification samples: PCA-GTLS when it applies, else OLS
-    /// ([`Coefficient::estimate`]); σ by leaving one manoeuvre out when manoeuvres are pooled.
+    /// ([`Coefficient::estimate`]); σ by the manoeuvre-level sandwich when manoeuvres are pooled.
     fn fit_model(&self, columns: &Columns) -> Option<Fitted> {
         let Columns { terms, cols: cols_full } = columns;
         let n_id = self.n_id;
@@ -320,14 +320,14 @@ impl Coefficient<'_> {
             .errors
             .map_or_else(|| EivModel::exact(terms.len()), |e| e.eiv(terms));
         let (mut f, estimator) = self.estimate(&cols, terms, &eiv)?;
-        // Pooled manoeuvres: σ by leaving one manoeuvre out (`regress::manoeuvre_jackknife`).
+        // Pooled manoeuvres: the manoeuvre-level sandwich (`regress::manoeuvre_sandwich`).
         let fitted_eiv = if estimator == "PCA-GTLS" {
             eiv.clone()
         } else {
             EivModel::exact(terms.len())
         };
         let id_pieces: Vec<(usize, usize)> = self.pieces.iter().copied().filter(|&(_, b)| b <= n_id).collect();
-        if let Some(s) = regress::manoeuvre_jackknife(&cols, z_id, &fitted_eiv, &id_pieces) {
+        if let Some(s) = regress::manoeuvre_sandwich(&cols, z_id, &f.theta, &fitted_eiv, &id_pieces) {
             f.sigma = s;
         }
         let o = ols(&cols, z_id, n_id, 0)?;

@@ -42,10 +42,14 @@
 //! which the σ below accounts for.
 //!
 //! ## Uncertainty
-//! `σ` is the block sandwich `M⁻¹ (Σ_b s_b s_bᵀ) M⁻¹` (`M = Σ HᵀR⁻¹H`, `s_b = Σ_{k∈b} HᵀR⁻¹e_k`
-//! over blocks of [`super::GapSettings::max_lag_s`]) — a residual-colour correction in the spirit
-//! of Morelli & Klein (1997), summing the residual correlation within a block instead of lag by
-//! lag — and never below the Cramér–Rao bound `√(M⁻¹)_jj` (reported as `sigma_eq17`).
+//! `σ` is the block sandwich `M⁻¹ (Σ_b s̃_b s̃_bᵀ) M⁻¹` (`M = Σ HᵀR⁻¹H`, `s_b = Σ_{k∈b} HᵀR⁻¹e_k`
+//! over blocks of [`super::GapSettings::max_lag_s`], bias-reduced as CR2 does for clusters:
+//! [`block_sandwich_sigma`]) — a residual-colour correction in the spirit of Morelli & Klein
+//! (1997), summing the residual correlation within a block instead of lag by lag. The Cramér–Rao
+//! bound `√(M⁻¹)_jj` is reported beside it (`sigma_eq17`) but is not a floor: with `R` the
+//! residuals' mean square it assumes white residuals, and on coloured ones it is no lower bound
+//! (in moderate turbulence at 10 Hz it exceeded the scatter of `C_m`'s intercept, α and `q_n` by
+//! 1.6–2, docs/model-gaps.md). It is σ only when the sandwich cannot be formed.
 //!
 //! ## Candidates and the held-out test
 //! Each candidate of [`Term::offered`] is added to the current model of its coefficient and the
@@ -568,6 +572,32 @@ fn normal(
     (m, g)
 }
 
+/// The block sandwich σ of an output-error fit (module doc, "Uncertainty"): `M⁻¹ (Σ_b s̃_b s̃_bᵀ) M⁻¹`
+/// with each block's score `s_b = Σ_{k∈b} HᵀWe_k` bias-reduced as CR2 does for clusters
+/// ([`super::regress::cr2_score`]: `s̃_b = L(I − L⁻¹M_bL⁻ᵀ)^{−1/2}L⁻¹s_b`, `M = LLᵀ`): at the estimate
+/// the residual of a block is partly absorbed by the fit, in proportion to the block's share of
+/// the information, which biases the plain block sum low. `None` when `M` is not positive
+/// definite or a block carries a direction alone (the caller then states the Cramér–Rao bound).
+fn block_sandwich_sigma(
+    run: &Run,
+    e: &[[f64; NY]],
+    w: &[f64; NY],
+    m: &DMatrix<f64>,
+    inv: &DMatrix<f64>,
+    blocks: &[(usize, usize)],
+) -> Option<Vec<f64>> {
+    let np = m.nrows();
+    let l = m.clone().cholesky()?.l();
+    let mut meat = DMatrix::<f64>::zeros(np, np);
+    for &blk in blocks {
+        let (m_b, s_b) = normal(run, e, w, &[blk], np);
+        let s = super::regress::cr2_score(&l, &m_b, &s_b)?;
+        meat += &s * s.transpose();
+    }
+    let sw = inv * meat * inv;
+    Some((0..np).map(|j| sw[(j, j)].max(0.0).sqrt()).collect())
+}
+
 /// An axis's plant with the manoeuvres, the sandwich blocks and the held-out folds.
 pub(super) struct Setup<D> {
     pub(super) plant: D,
@@ -635,15 +665,8 @@ impl<D: Dynamics> Setup<D> {
             .cholesky()
             .ok_or("the parameters are not identifiable from this flight (singular information matrix)")?
             .inverse();
-        // Block sandwich.
-        let mut meat = DMatrix::<f64>::zeros(np, np);
-        for &blk in &self.sandwich {
-            let (_, s) = normal(&run, &e, &w, &[blk], np);
-            meat += &s * s.transpose();
-        }
-        let sw = &inv * meat * &inv;
         let sigma_crb: Vec<f64> = (0..np).map(|j| inv[(j, j)].max(0.0).sqrt()).collect();
-        let sigma = (0..np).map(|j| sw[(j, j)].max(0.0).sqrt().max(sigma_crb[j])).collect();
+        let sigma = block_sandwich_sigma(&run, &e, &w, &m, &inv, &self.sandwich).unwrap_or_else(|| sigma_crb.clone());
         Ok(Fit {
             spec: spec.clone(),
             th,
