@@ -1204,3 +1204,47 @@ pub fn parse_ulog_with(
     })?;
     Ok(flight)
 }
+
+/// The warning for a series' gaps longer than [`GAP_FACTOR`] × its median interval in the
+/// window, if any; `scope` and `cause` as the reader words them (` in the window`, `dropped
+/// messages; `).
+pub(crate) fn gap_warning(name: &str, t: &[f64], base: &TimeBase, scope: &str, cause: &str) -> Option<String> {
+    let (count, longest, at) = gaps(t, base.lo, base.hi)?;
+    Some(format!(
+        "`{name}`: {count} gap{} longer than {GAP_FACTOR} × its median interval{scope}, the longest {:.3} s from t = {:.3} s ({cause}interpolated across)",
+        if count == 1 { "" } else { "s" },
+        longest * 1e-6,
+        at * 1e-6
+    ))
+}
+
+/// The window read: from `w0` to `w1` (µs), why, and whether the vehicle flew in it.
+pub(crate) struct Window {
+    pub(crate) w0: f64,
+    pub(crate) w1: f64,
+    pub(crate) text: Option<String>,
+    pub(crate) airborne: Option<bool>,
+}
+
+/// The uniform time base: the window's bounds `lo`…`hi` (µs), the step and the grid.
+pub(crate) struct TimeBase {
+    pub(crate) lo: f64,
+    pub(crate) hi: f64,
+    pub(crate) h_us: f64,
+    pub(crate) grid: Vec<f64>,
+}
+
+impl TimeBase {
+    /// The rate, Hz, at which a series with times `t` (µs) is logged in the window (a series
+    /// with one sample in a 1-s window: 1 Hz).
+    pub(crate) fn rate_hz(&self, t: &[f64]) -> f64 {
+        let k = t.iter().filter(|x| **x >= self.lo && **x <= self.hi).count();
+        k as f64 / ((self.hi - self.lo + self.h_us) * 1e-6)
+    }
+}
+
+/// `(t, x)` interpolated linearly at the times of `grid` (held at its ends).
+pub(crate) fn interpolate(t: &[f64], x: &[f64], grid: &[f64]) -> Vec<f64> {
+    let mut j = 0;
+    grid.iter().map(|&tq| interp(t, x, tq, &mut j)).collect()
+}
