@@ -634,16 +634,7 @@ pub fn parse_ulog_with(
     let mut optional = log.optional_channels();
     let mut attitude = log.attitude();
     let mapped = log.map_channels(map)?;
-    // A map channel replaces the built-in of the same quantity; the map's channels are its own
-    // sources, and what it says of a channel's origin holds.
-    let map_has = |q: Quantity| map.channels.iter().any(|(c, _)| *c == q);
-    builtin.channels.retain(|(q, _)| !map_has(*q));
-    builtin.origin.retain(|q, _| !map_has(*q));
-    builtin.origin.extend(map.origin.iter().map(|(q, o)| (*q, o.clone())));
-    optional.retain(|(q, _)| !map_has(*q));
-    if map_has(Quantity::Roll) || map_has(Quantity::Pitch) || map_has(Quantity::Yaw) {
-        attitude = None;
-    }
+    map_overrides(map, &mut builtin, &mut optional, &mut attitude);
     if builtin.channels.is_empty() && attitude.is_none() && mapped.is_empty() {
         return Err(err(format!(
             "no channel this reader knows is in the log (it reads vehicle_attitude, vehicle_angular_velocity or sensor_combined, vehicle_acceleration, airspeed_validated or airspeed, vehicle_air_data, airflow_aoa/airflow_slip, actuator_motors; a `format = ulog` map names others); topics in the log [instance: messages]: {}",
@@ -717,18 +708,48 @@ pub fn parse_ulog_with(
     };
     flight.validate().map_err(|inv| {
         let src = inv.quantity.map_or(String::new(), |q| {
-            if let Some((_, _, rs)) = mapped.iter().find(|(c, _, _)| *c == q) {
-                rs.first()
-                    .map_or(String::new(), |r| format!(" (from `{}`, map {})", r.topic, map.file))
-            } else if let Some((_, r)) = builtin.channels.iter().chain(&optional).find(|(c, _)| *c == q) {
-                format!(" (from `{}.{}`)", r.topic, topics[r.topic].names[r.field])
-            } else {
-                " (from `vehicle_attitude.q`)".to_string()
-            }
+            source_of(q, &topics, map, &mapped, builtin.channels.iter().chain(&optional))
         });
         err(inv.describe(&src, &flight.t_s))
     })?;
     Ok(flight)
+}
+
+/// A map channel replaces the built-in of the same quantity; the map's channels are its own
+/// sources, and what it says of a channel's origin holds.
+fn map_overrides(
+    map: &ColumnMap,
+    builtin: &mut Builtin,
+    optional: &mut Vec<(Quantity, Resolved<'static>)>,
+    attitude: &mut Option<[Resolved<'static>; 4]>,
+) {
+    let map_has = |q: Quantity| map.channels.iter().any(|(c, _)| *c == q);
+    builtin.channels.retain(|(q, _)| !map_has(*q));
+    builtin.origin.retain(|q, _| !map_has(*q));
+    builtin.origin.extend(map.origin.iter().map(|(q, o)| (*q, o.clone())));
+    optional.retain(|(q, _)| !map_has(*q));
+    if map_has(Quantity::Roll) || map_has(Quantity::Pitch) || map_has(Quantity::Yaw) {
+        *attitude = None;
+    }
+}
+
+/// Where channel `q` was read from, for an error message: the map's first source, the built-in
+/// or optional field (`read`), else the attitude quaternion.
+fn source_of<'a, 't: 'a>(
+    q: Quantity,
+    topics: &BTreeMap<String, Topic>,
+    map: &ColumnMap,
+    mapped: &[Mapped<'_, 't>],
+    mut read: impl Iterator<Item = &'a (Quantity, Resolved<'t>)>,
+) -> String {
+    if let Some((_, _, rs)) = mapped.iter().find(|(c, _, _)| *c == q) {
+        rs.first()
+            .map_or(String::new(), |r| format!(" (from `{}`, map {})", r.topic, map.file))
+    } else if let Some((_, r)) = read.find(|(c, _)| *c == q) {
+        format!(" (from `{}.{}`)", r.topic, topics[r.topic].names[r.field])
+    } else {
+        " (from `vehicle_attitude.q`)".to_string()
+    }
 }
 
 /// The topics to decode: the built-in ones, those the map reads, and its time base.
