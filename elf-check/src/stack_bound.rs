@@ -757,16 +757,7 @@ impl Graph<'_> {
         let index: HashMap<u64, usize> = code.iter().enumerate().map(|(k, (_, i))| (i.addr, k)).collect();
         let end = funcs.get(fi + 1).map_or(u64::MAX, |g| g.start);
         let inside = |a: u64| a >= f.start && a < end;
-        // Every address a branch or a jump table of this function reaches (for `constant_in`).
-        let mut targets: BTreeSet<u64> = BTreeSet::new();
-        for &(at, i) in &code {
-            let (b, _) = split_mnemonic(&i.mnemonic);
-            match b.as_str() {
-                "b" | "cbz" | "cbnz" => targets.extend(target(&i.operands).filter(|&t| inside(t))),
-                "tbb" | "tbh" => targets.extend(table_targets(f, at, &index)?),
-                _ => {}
-            }
-        }
+        let targets = branch_targets(f, &code, &index, end)?;
         let mut state_in: Vec<Option<State>> = vec![None; code.len()];
         let mut own: BTreeMap<Level, u64> = BTreeMap::new();
         let mut calls: BTreeSet<(u64, Level, Callee)> = BTreeSet::new();
@@ -781,15 +772,6 @@ impl Graph<'_> {
         };
         let mut exit: Option<State> = None;
         let mut seeds = vec![(0usize, entry)];
-        // BASEPRI hardware value → RTIC logical priority masked (`cortex_logical2hw` inverted).
-        let logical = |hw: i64| -> u8 {
-            let hw = (hw & 0xff) >> (8 - prio_bits);
-            if hw == 0 {
-                0
-            } else {
-                ((1i64 << prio_bits) - hw).clamp(0, 254) as u8
-            }
-        };
         while let Some((k, st)) = seeds.pop() {
             if k >= code.len() {
                 continue;
@@ -809,97 +791,15 @@ impl Graph<'_> {
                 stack_effect(&base, &insn.operands).map_err(|e| format!("{} at {:#x}: {e}", f.name, insn.addr))?;
             let mut after = st;
             after.depth = if cond && grow < 0 { st.depth } else { st.depth + grow };
-            // Interrupt masking. A value that is not a visible constant (a restore of a saved
-            // BASEPRI or PRIMASK) is taken as no masking: more preemption, a larger bound.
             let ops = insn.operands.replace(' ', "");
-            let saved_in = |o: &str, prefix: &str| -> Option<(u8, bool, bool)> {
-                let n: usize = o.get(prefix.len()..)?.strip_prefix('r')?.parse().ok()?;
-                st.saved.get(n).copied().flatten()
+            let write = MaskingWrite {
+                insns: &f.insns,
+                at: code[k].0,
+                targets: &targets,
+                prio_bits,
             };
-            match (base.as_str(), ops.as_str()) {
-                ("cpsid", "i") => after.primask = true,
-                ("cpsie", "i") => {
-                    after.primask = false;
-                    after.absolute = true;
-                }
-                ("msr", o) if o.starts_with("primask,") => {
-                    if let Some((_, p, abs)) = saved_in(o, "primask,") {
-                        after.primask = p;
-                        after.absolute |= abs;
-                    } else {
-                        match constant_in(&f.insns, code[k].0, &targets, &o["primask,".len()..]) {
-                            Some(v) if v & 1 == 1 => after.primask = true,
-                            _ => {
-                                after.primask = false;
-                                after.absolute = true;
-                            }
-                        }
-                    }
-                }
-                ("msr", o) if o.starts_with("basepri_max,") => {
-                    // Only raises; an unknown value raises by an unknown amount: ignored.
-                    if let Some(v) = constant_in(&f.insns, code[k].0, &targets, &o["basepri_max,".len()..]) {
-                        after.basepri = after.basepri.max(logical(v));
-                    }
-                }
-                ("msr", o) if o.starts_with("basepri,") => {
-                    if let Some((b, _, abs)) = saved_in(o, "basepri,") {
-                        after.basepri = b;
-                        after.absolute |= abs;
-                    } else {
-                        after.basepri =
-                            constant_in(&f.insns, code[k].0, &targets, &o["basepri,".len()..]).map_or(0, logical);
-                        after.absolute = true;
-                    }
-                }
-                _ => {}
-            }
-            // Registers written by this instruction lose what they held; `mrs` saves a masking.
-            if matches!(base.as_str(), "bl" | "blx") {
-                for r in [0, 1, 2, 3, 12] {
-                    after.saved[r] = None;
-                }
-            } else if !READS_ONLY.contains(&base.as_str()) || ops.contains('!') || ops.contains("],#") {
-                // (A store with writeback or post-indexing writes its base register.)
-                for r in registers(&insn.operands) {
-                    after.saved[r] = None;
-                }
-            }
-            // A saved masking spilled to, or reloaded from, a stack slot.
-            let sp_slot = |ops: &str| -> Option<(usize, i64)> {
-                let (reg, rest) = ops.split_once(',')?;
-                let r: usize = reg.strip_prefix('r')?.parse().ok()?;
-                let off = match rest {
-                    "[sp]" => 0,
-                    _ => immediate(rest.strip_prefix("[sp,#")?.strip_suffix(']')?)?,
-                };
-                Some((r, st.depth - off))
-            };
-            if matches!(base.as_str(), "str" | "ldr") {
-                if let Some((r, pos)) = sp_slot(&ops) {
-                    if base == "str" {
-                        for slot in after.slots.iter_mut() {
-                            if slot.is_some_and(|(p, _)| p == pos) {
-                                *slot = None;
-                            }
-                        }
-                        if let Some(m) = st.saved.get(r).copied().flatten() {
-                            if let Some(free) = after.slots.iter_mut().find(|s| s.is_none()) {
-                                *free = Some((pos, m));
-                            }
-                        }
-                    } else if r < 13 {
-                        after.saved[r] = st.slots.iter().flatten().find(|(p, _)| *p == pos).map(|(_, m)| *m);
-                    }
-                }
-            }
-            if base == "mrs" {
-                if let Some(r) = registers(&insn.operands).next() {
-                    if ops.ends_with(",primask") || ops.ends_with(",basepri") {
-                        after.saved[r] = Some((st.basepri, st.primask, st.absolute));
-                    }
-                }
-            }
+            apply_masking(&write, &base, &ops, st, &mut after);
+            track_saved(&base, &ops, &insn.operands, st, &mut after);
             if cond {
                 after = State {
                     depth: after.depth,
@@ -918,40 +818,17 @@ impl Graph<'_> {
             // After a direct call returns, the masking is the callee's at its returns (an RTIC lock's
             // `critical_section::acquire` returns with interrupts masked, `init` enables them); after
             // an indirect one, none (absolutely).
-            let mut call = |c: Callee, at: State| {
-                calls.insert((at.depth.max(0) as u64, at.level(), c));
-            };
             match base.as_str() {
                 "bl" | "blx" => match target(&insn.operands) {
                     Some(t) => {
-                        let g = containing(funcs, t).ok_or_else(|| format!("call to {t:#x} outside every function"))?;
-                        // A critical section's release runs at the masking it restores (that of
-                        // the matching acquire's caller), at most: its points count at that level.
-                        let mut at = after;
-                        if self.is_release(g) {
-                            // The weaker of the masking now and the one it restores.
-                            let (b, p, abs) = after.section.unwrap_or((0, false, true));
-                            at.basepri = at.basepri.min(b);
-                            at.primask &= p;
-                            at.absolute |= abs;
-                        }
-                        call(Callee::Direct(t), at);
-                        let pre = after;
-                        after = self.after_call(Some(g), after)?;
-                        if cond {
-                            // Not taken: the masking before the call.
-                            after = State {
-                                depth: after.depth,
-                                ..after.join(pre)
-                            };
-                        }
-                        // A callee that never returns (`halt`, the panic machinery) ends the path.
-                        if self.is_panic(g) || self.frame(g)?.exit.is_none() {
+                        let returns;
+                        (after, returns) = self.direct_call(t, after, cond, &mut calls)?;
+                        if !returns {
                             fall = cond;
                         }
                     }
                     None if base == "blx" => {
-                        call(Callee::Indirect, after);
+                        record(&mut calls, Callee::Indirect, after);
                         let pre = after;
                         after = self.after_indirect(fi, after)?;
                         if cond {
@@ -965,7 +842,7 @@ impl Graph<'_> {
                 },
                 "bx" => {
                     if insn.operands.trim() != "lr" {
-                        call(Callee::Indirect, after);
+                        record(&mut calls, Callee::Indirect, after);
                         let e = self.after_indirect(fi, after)?;
                         exit = Some(exit.map_or(e, |x| x.join(e)));
                     }
@@ -978,7 +855,7 @@ impl Graph<'_> {
                         Some(&tk) if inside(t) => seeds.push((tk, after)),
                         _ => {
                             // A tail call: its returns are this function's.
-                            call(Callee::Direct(t), after);
+                            record(&mut calls, Callee::Direct(t), after);
                             let g =
                                 containing(funcs, t).ok_or_else(|| format!("call to {t:#x} outside every function"))?;
                             let e = self.after_call(Some(g), after)?;
@@ -1002,7 +879,7 @@ impl Graph<'_> {
                 _ => {
                     if !ret && ops.starts_with("pc,") && base != "str" {
                         if base == "ldr" || base == "mov" {
-                            call(Callee::Indirect, after);
+                            record(&mut calls, Callee::Indirect, after);
                             let e = self.after_indirect(fi, after)?;
                             exit = Some(exit.map_or(e, |x| x.join(e)));
                             fall = cond;
@@ -1020,7 +897,7 @@ impl Graph<'_> {
                     seeds.push((next, after));
                 } else if let Some(g) = funcs.get(fi + 1) {
                     // Falls off the end into the next symbol: a tail call to it.
-                    call(Callee::Direct(g.start), after);
+                    record(&mut calls, Callee::Direct(g.start), after);
                     let e = self.after_call(Some(fi + 1), after)?;
                     exit = Some(exit.map_or(e, |x| x.join(e)));
                 }
@@ -1034,6 +911,195 @@ impl Graph<'_> {
         self.frame_busy[fi] = false;
         self.frames[fi] = Some(out.clone());
         Ok(out)
+    }
+
+    /// A direct call of `t` from the state `after` (`cond`: a conditional call), recorded in
+    /// `calls`; the state when it returns (a conditional call's joined with the state before it,
+    /// the call not taken), and whether it returns at all.
+    fn direct_call(
+        &mut self,
+        t: u64,
+        after: State,
+        cond: bool,
+        calls: &mut BTreeSet<(u64, Level, Callee)>,
+    ) -> Result<(State, bool), String> {
+        let g = containing(self.funcs, t).ok_or_else(|| format!("call to {t:#x} outside every function"))?;
+        // A critical section's release runs at the masking it restores (that of the matching
+        // acquire's caller), at most: its points count at that level.
+        let mut at = after;
+        if self.is_release(g) {
+            // The weaker of the masking now and the one it restores.
+            let (b, p, abs) = after.section.unwrap_or((0, false, true));
+            at.basepri = at.basepri.min(b);
+            at.primask &= p;
+            at.absolute |= abs;
+        }
+        record(calls, Callee::Direct(t), at);
+        let mut out = self.after_call(Some(g), after)?;
+        if cond {
+            // Not taken: the masking before the call.
+            out = State {
+                depth: out.depth,
+                ..out.join(after)
+            };
+        }
+        // A callee that never returns (`halt`, the panic machinery) ends the path.
+        let returns = !(self.is_panic(g) || self.frame(g)?.exit.is_none());
+        Ok((out, returns))
+    }
+}
+
+/// A call to `c` made at the state `at`: its depth and masking level.
+fn record(calls: &mut BTreeSet<(u64, Level, Callee)>, c: Callee, at: State) {
+    calls.insert((at.depth.max(0) as u64, at.level(), c));
+}
+
+/// Every address a branch or a jump table of function `f` reaches (a branch's only inside it,
+/// `end` being the next function's start), for `constant_in`.
+fn branch_targets(
+    f: &Function,
+    code: &[(usize, &Insn)],
+    index: &HashMap<u64, usize>,
+    end: u64,
+) -> Result<BTreeSet<u64>, String> {
+    let inside = |a: u64| a >= f.start && a < end;
+    let mut targets: BTreeSet<u64> = BTreeSet::new();
+    for &(at, i) in code {
+        let (b, _) = split_mnemonic(&i.mnemonic);
+        match b.as_str() {
+            "b" | "cbz" | "cbnz" => targets.extend(target(&i.operands).filter(|&t| inside(t))),
+            "tbb" | "tbh" => targets.extend(table_targets(f, at, index)?),
+            _ => {}
+        }
+    }
+    Ok(targets)
+}
+
+/// Where an instruction that may write the masking is, for finding the constant it writes: the
+/// function's instructions, its index among them, the function's branch targets
+/// ([`branch_targets`]), and the implemented priority bits.
+struct MaskingWrite<'a> {
+    insns: &'a [Insn],
+    at: usize,
+    targets: &'a BTreeSet<u64>,
+    prio_bits: u32,
+}
+
+impl MaskingWrite<'_> {
+    /// The constant register `reg` holds at the instruction, if visible.
+    fn constant(&self, reg: &str) -> Option<i64> {
+        constant_in(self.insns, self.at, self.targets, reg)
+    }
+
+    /// BASEPRI hardware value → RTIC logical priority masked (`cortex_logical2hw` inverted).
+    fn logical(&self, hw: i64) -> u8 {
+        let hw = (hw & 0xff) >> (8 - self.prio_bits);
+        if hw == 0 {
+            0
+        } else {
+            ((1i64 << self.prio_bits) - hw).clamp(0, 254) as u8
+        }
+    }
+}
+
+/// Interrupt masking after the instruction `base ops` (operands without spaces), from the state
+/// `st` before it. A value that is not a visible constant (a restore of a saved BASEPRI or
+/// PRIMASK) is taken as no masking: more preemption, a larger bound.
+fn apply_masking(w: &MaskingWrite, base: &str, ops: &str, st: State, after: &mut State) {
+    let saved_in = |o: &str, prefix: &str| -> Option<(u8, bool, bool)> {
+        let n: usize = o.get(prefix.len()..)?.strip_prefix('r')?.parse().ok()?;
+        st.saved.get(n).copied().flatten()
+    };
+    match (base, ops) {
+        ("cpsid", "i") => after.primask = true,
+        ("cpsie", "i") => {
+            after.primask = false;
+            after.absolute = true;
+        }
+        ("msr", o) if o.starts_with("primask,") => {
+            if let Some((_, p, abs)) = saved_in(o, "primask,") {
+                after.primask = p;
+                after.absolute |= abs;
+            } else {
+                match w.constant(&o["primask,".len()..]) {
+                    Some(v) if v & 1 == 1 => after.primask = true,
+                    _ => {
+                        after.primask = false;
+                        after.absolute = true;
+                    }
+                }
+            }
+        }
+        ("msr", o) if o.starts_with("basepri_max,") => {
+            // Only raises; an unknown value raises by an unknown amount: ignored.
+            if let Some(v) = w.constant(&o["basepri_max,".len()..]) {
+                after.basepri = after.basepri.max(w.logical(v));
+            }
+        }
+        ("msr", o) if o.starts_with("basepri,") => {
+            if let Some((b, _, abs)) = saved_in(o, "basepri,") {
+                after.basepri = b;
+                after.absolute |= abs;
+            } else {
+                after.basepri = w.constant(&o["basepri,".len()..]).map_or(0, |v| w.logical(v));
+                after.absolute = true;
+            }
+        }
+        _ => {}
+    }
+}
+
+/// The saved maskings after the instruction `base ops` (operands without spaces; `operands` as
+/// written), from the state `st` before it: registers it writes lose what they held, a saved
+/// masking follows a spill to or a reload from a stack slot, and `mrs` saves one.
+fn track_saved(base: &str, ops: &str, operands: &str, st: State, after: &mut State) {
+    if matches!(base, "bl" | "blx") {
+        for r in [0, 1, 2, 3, 12] {
+            after.saved[r] = None;
+        }
+    } else if !READS_ONLY.contains(&base) || ops.contains('!') || ops.contains("],#") {
+        // (A store with writeback or post-indexing writes its base register.)
+        for r in registers(operands) {
+            after.saved[r] = None;
+        }
+    }
+    if matches!(base, "str" | "ldr") {
+        spill_or_reload(base, ops, st, after);
+    }
+    if base == "mrs" {
+        if let Some(r) = registers(operands).next() {
+            if ops.ends_with(",primask") || ops.ends_with(",basepri") {
+                after.saved[r] = Some((st.basepri, st.primask, st.absolute));
+            }
+        }
+    }
+}
+
+/// A saved masking spilled to (`str`), or reloaded from (`ldr`), a stack slot.
+fn spill_or_reload(base: &str, ops: &str, st: State, after: &mut State) {
+    let sp_slot = |ops: &str| -> Option<(usize, i64)> {
+        let (reg, rest) = ops.split_once(',')?;
+        let r: usize = reg.strip_prefix('r')?.parse().ok()?;
+        let off = match rest {
+            "[sp]" => 0,
+            _ => immediate(rest.strip_prefix("[sp,#")?.strip_suffix(']')?)?,
+        };
+        Some((r, st.depth - off))
+    };
+    let Some((r, pos)) = sp_slot(ops) else { return };
+    if base == "str" {
+        for slot in after.slots.iter_mut() {
+            if slot.is_some_and(|(p, _)| p == pos) {
+                *slot = None;
+            }
+        }
+        if let Some(m) = st.saved.get(r).copied().flatten() {
+            if let Some(free) = after.slots.iter_mut().find(|s| s.is_none()) {
+                *free = Some((pos, m));
+            }
+        }
+    } else if r < 13 {
+        after.saved[r] = st.slots.iter().flatten().find(|(p, _)| *p == pos).map(|(_, m)| *m);
     }
 }
 

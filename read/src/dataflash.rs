@@ -57,7 +57,7 @@
 //! interpolated with the yaw unwrapped, then wrapped to (−π, π].
 
 use super::measured::{Aircraft, LogMeta, MeasuredFlight, Quantity};
-use super::ulog::{gaps, hold_over_nan, longest_run, median, time_grid, GAP_FACTOR};
+use super::ulog::{gap_warning, hold_over_nan, interpolate, longest_run, median, time_grid, TimeBase, Window};
 use super::{ReadError, ReadOptions};
 use std::collections::BTreeMap;
 use std::f64::consts::PI;
@@ -382,459 +382,59 @@ pub fn parse_dataflash(
     aircraft: Aircraft,
     opts: &ReadOptions,
 ) -> Result<MeasuredFlight, ReadError> {
-    let err = |m: String| ReadError::new(file, 0, 0, m);
     let log = parse(bytes, file)?;
+    let msgs = Messages { log: &log, opts, file };
     let mut warnings = log.warnings.clone();
-    if log.skipped_bytes > 0 {
-        warnings.push(format!(
-            "{} byte{} that start no known message skipped (the first at byte {}): a corrupt block or a cut end",
-            log.skipped_bytes,
-            if log.skipped_bytes == 1 { "" } else { "s" },
-            log.first_skip.unwrap_or(0)
-        ));
+    if let Some(w) = skipped_warning(&log) {
+        warnings.push(w);
     }
-    let names = || {
-        let mut v: Vec<String> = log
-            .series
-            .iter()
-            .map(|((n, i), s)| format!("{n}[{i}: {}]", s.time_us.len()))
-            .collect();
-        v.dedup();
-        v.join(", ")
-    };
-    // A message instance: 4.x `I` field, else the numbered message (`IMU2` is instance 1).
-    let series = |msg: &str| -> Option<(String, &Series)> {
-        let inst = opts.instances.get(msg).copied().unwrap_or(0);
-        if let Some(s) = log.series.get(&(msg.to_string(), inst)) {
-            return Some((format!("{msg}[{inst}]"), s));
-        }
-        if inst > 0 {
-            let numbered = format!("{msg}{}", inst + 1);
-            return log.series.get(&(numbered.clone(), 0)).map(|s| (numbered, s));
-        }
-        None
-    };
-    for (msg, inst) in &opts.instances {
-        if series(msg).is_none() {
-            return Err(err(format!(
-                "instance {inst} of `{msg}` asked for, but the log has no such message instance; messages [instance: count]: {}",
-                names()
-            )));
-        }
-    }
-    // (quantity, source name, times µs, values SI)
-    let mut raw: Vec<(Quantity, String, Vec<f64>, Vec<f64>)> = Vec::new();
-    for (q, msg, label, si, default) in WANTS {
-        let Some((src, s)) = series(msg) else { continue };
-        let Some(j) = s.labels.iter().position(|l| l == label) else {
-            continue;
-        };
-        let factor = match log.units.get(msg).and_then(|m| m.get(label)) {
-            Some(u) => unit_factor(u, si).ok_or_else(|| {
-                err(format!(
-                    "`{msg}.{label}` is logged in `{u}` (FMTU/UNIT), which this reader cannot convert to {si}"
-                ))
-            })?,
-            None => default,
-        };
-        raw.push((
-            q,
-            format!("{src}.{label}"),
-            s.time_us.clone(),
-            s.values[j].iter().map(|v| v * factor).collect(),
-        ));
-    }
-    // Optional channels: the ground velocity (α-free mode) and the autopilot's wind. The EKF's
-    // velocity (`XKF1`, EKF3, else `NKF1`, EKF2) is preferred to the GPS's: it is logged faster
-    // than the GPS (which is 5–10 Hz), blends the GPS with the IMU, and is the same filter's
-    // solution as the `ATT` attitude the α/β estimate rotates it with. Else `GPS.Spd` and
-    // `GPS.GCrs` (ground speed and course over ground) give north and east, and `GPS.VZ` (down,
-    // positive descending, as ArduPilot logs the GPS's NED velocity) the vertical.
-    let field_of = |msg: &str, label: &str, si: &str, default: f64| -> Result<Option<NamedSeries>, ReadError> {
-        let Some((src, s)) = series(msg) else { return Ok(None) };
-        let Some(j) = s.labels.iter().position(|l| l == label) else {
-            return Ok(None);
-        };
-        let factor = match log.units.get(msg).and_then(|m| m.get(label)) {
-            Some(u) => unit_factor(u, si).ok_or_else(|| {
-                err(format!(
-                    "`{msg}.{label}` is logged in `{u}` (FMTU/UNIT), which this reader cannot convert to {si}"
-                ))
-            })?,
-            None => default,
-        };
-        Ok(Some((
-            format!("{src}.{label}"),
-            s.time_us.clone(),
-            s.values[j].iter().map(|v| v * factor).collect(),
-        )))
-    };
-    // An optional channel in a unit this reader cannot convert is left out with a warning, not a
-    // reason to refuse the log.
-    let opt = |r: Result<Option<NamedSeries>, ReadError>, w: &mut Vec<String>| match r {
-        Ok(x) => x,
-        Err(e) => {
-            w.push(format!("{}; this optional channel is not read", e.message));
-            None
-        }
-    };
-    let mut optional: Vec<(Quantity, String, Vec<f64>, Vec<f64>)> = Vec::new();
-    let mut ekf_velocity = false;
-    for msg in ["XKF1", "NKF1"] {
-        if let (Some(n), Some(e), Some(d)) = (
-            opt(field_of(msg, "VN", "m/s", 1.0), &mut warnings),
-            opt(field_of(msg, "VE", "m/s", 1.0), &mut warnings),
-            opt(field_of(msg, "VD", "m/s", 1.0), &mut warnings),
-        ) {
-            for (q, (src, t, v)) in [
-                (Quantity::VelocityNorth, n),
-                (Quantity::VelocityEast, e),
-                (Quantity::VelocityDown, d),
-            ] {
-                optional.push((q, src, t, v));
-            }
-            ekf_velocity = true;
-            break;
-        }
-    }
-    if !ekf_velocity {
-        if let (Some(spd), Some(crs), Some(vz)) = (
-            opt(field_of("GPS", "Spd", "m/s", 1.0), &mut warnings),
-            opt(field_of("GPS", "GCrs", "rad", PI / 180.0), &mut warnings),
-            opt(field_of("GPS", "VZ", "m/s", 1.0), &mut warnings),
-        ) {
-            let north: Vec<f64> = spd.2.iter().zip(&crs.2).map(|(v, c)| v * c.cos()).collect();
-            let east: Vec<f64> = spd.2.iter().zip(&crs.2).map(|(v, c)| v * c.sin()).collect();
-            optional.push((
-                Quantity::VelocityNorth,
-                format!("{} × cos {}", spd.0, crs.0),
-                spd.1.clone(),
-                north,
-            ));
-            optional.push((
-                Quantity::VelocityEast,
-                format!("{} × sin {}", spd.0, crs.0),
-                spd.1.clone(),
-                east,
-            ));
-            optional.push((Quantity::VelocityDown, vz.0, vz.1, vz.2));
-        }
-    }
-    for msg in ["XKF2", "NKF2"] {
-        if let (Some(n), Some(e)) = (
-            opt(field_of(msg, "VWN", "m/s", 1.0), &mut warnings),
-            opt(field_of(msg, "VWE", "m/s", 1.0), &mut warnings),
-        ) {
-            optional.push((Quantity::WindNorth, n.0, n.1, n.2));
-            optional.push((Quantity::WindEast, e.0, e.1, e.2));
-            break;
-        }
-    }
+    msgs.check_instances()?;
+    let mut raw = msgs.wanted_channels()?;
+    let mut optional = msgs.optional_channels(&mut warnings);
     if raw.iter().any(|(q, ..)| *q == Quantity::Airspeed) {
         warnings.push("`ARSP.Airspeed` is ArduPilot's equivalent airspeed; it is used as the true airspeed (no EAS2TAS correction: about 1 % low per 200 m of density altitude)".into());
     }
-    // An α/β that is zero throughout was never computed (no air-relative speed above 2 m/s).
-    raw.retain(|(q, src, _, v)| {
-        let zero = matches!(q, Quantity::Alpha | Quantity::Beta) && v.iter().all(|x| *x == 0.0);
-        if zero {
-            warnings.push(format!(
-                "`{src}` is zero in every message: the autopilot did not compute it (zero padding); not read"
-            ));
-        }
-        !zero
-    });
-    let mut origin = BTreeMap::new();
-    for (q, src, ..) in &raw {
-        if matches!(q, Quantity::Alpha | Quantity::Beta) && src.starts_with("AOA") {
-            origin.insert(
-                *q,
-                super::measured::Origin::Estimated {
-                    by: format!("ArduPilot `{src}` (the AHRS's EKF ground velocity minus its wind estimate; no vane)"),
-                },
-            );
-        }
-    }
-    // Throttle and surfaces from the servo functions.
-    let functions: BTreeMap<usize, i64> = (1..=16)
-        .filter_map(|n| {
-            log.parameters
-                .get(&format!("SERVO{n}_FUNCTION"))
-                .map(|f| (n, *f as i64))
-        })
-        .collect();
-    if let Some((src, s)) = series("RCOU") {
-        for (&n, &f) in &functions {
-            let Some(j) = s.labels.iter().position(|l| *l == format!("C{n}")) else {
-                continue;
-            };
-            let p = |k: &str, d: f64| log.parameters.get(&format!("SERVO{n}_{k}")).copied().unwrap_or(d);
-            match f {
-                70 => {
-                    let (lo, hi) = (p("MIN", 1100.0), p("MAX", 1900.0));
-                    if hi > lo {
-                        raw.push((
-                            Quantity::Throttle,
-                            format!("{src}.C{n} (SERVO{n}_FUNCTION 70, throttle)"),
-                            s.time_us.clone(),
-                            s.values[j].iter().map(|v| ((v - lo) / (hi - lo)).clamp(0.0, 1.0)).collect(),
-                        ));
-                    }
-                }
-                4 | 19 | 21 => warnings.push(format!(
-                    "`{src}.C{n}` drives the {} (SERVO{n}_FUNCTION {f}) as PWM; its throw in radians is the airframe's and not logged, so it is not read: no {} derivative",
-                    match f {
-                        4 => "aileron",
-                        19 => "elevator",
-                        _ => "rudder",
-                    },
-                    match f {
-                        4 => "aileron",
-                        19 => "elevator",
-                        _ => "rudder",
-                    }
-                )),
-                _ => {}
-            }
-        }
-    }
+    drop_zero_flow_angles(&mut raw, &mut warnings);
+    let origin = flow_angle_origin(&raw);
+    msgs.servo_channels(&mut raw, &mut warnings);
     if raw.is_empty() {
-        return Err(err(format!(
+        return Err(msgs.err(format!(
             "no channel this reader knows is in the log (it reads IMU, ATT, ARSP, AOA, BARO, RCOU); messages [instance: count]: {}",
-            names()
+            msgs.names()
         )));
     }
-    // Times strictly increasing per series (drop repeats), finite values checked in the window.
     for (_, src, t, v) in raw.iter_mut().chain(optional.iter_mut()) {
-        let mut keep = Vec::with_capacity(t.len());
-        let mut last = f64::NEG_INFINITY;
-        for (i, &ti) in t.iter().enumerate() {
-            if ti > last {
-                keep.push(i);
-                last = ti;
-            }
-        }
-        if keep.len() < t.len() {
-            warnings.push(format!(
-                "`{src}`: {} of {} messages with a time not later than the message before; dropped",
-                t.len() - keep.len(),
-                t.len()
-            ));
-            *t = keep.iter().map(|&i| t[i]).collect();
-            *v = keep.iter().map(|&i| v[i]).collect();
-        }
+        drop_repeated_times(src, t, v, &mut warnings);
     }
     raw.retain(|(_, _, t, _)| t.len() >= 2);
     let first_us = raw.iter().map(|r| r.2[0]).fold(f64::INFINITY, f64::min);
     let last_us = raw.iter().map(|r| r.2[r.2.len() - 1]).fold(f64::NEG_INFINITY, f64::max);
-    // Window.
-    let mut airborne = None;
-    let (w0, w1, window) = if let Some(w) = opts.chosen_window(first_us, last_us).map_err(err)? {
-        w
-    } else {
-        let (thr, from) = match log.parameters.get("ARSPD_FBW_MIN") {
-            Some(v) if *v > 0.0 => (0.8 * v, "0.8 × ARSPD_FBW_MIN"),
-            _ => (8.0, "8 m/s, no ARSPD_FBW_MIN logged"),
-        };
-        let speed: Option<(String, Vec<f64>, Vec<f64>)> = raw
-            .iter()
-            .find(|r| r.0 == Quantity::Airspeed)
-            .map(|r| ("airspeed".to_string(), r.2.clone(), r.3.clone()))
-            .or_else(|| {
-                let (src, s) = series("GPS")?;
-                let j = s.labels.iter().position(|l| l == "Spd")?;
-                Some((
-                    format!("GPS ground speed `{src}.Spd`"),
-                    s.time_us.clone(),
-                    s.values[j].clone(),
-                ))
-            });
-        match speed {
-            Some((what, t, v)) => {
-                // A missing (NaN) airspeed keeps the state before it: the gate does not cut around it, so
-                // the read refuses it inside the window rather than hiding it.
-                let holds = hold_over_nan(&v, thr);
-                match longest_run(&t, &holds, last_us) {
-                    Some((a, b)) => {
-                        airborne = Some(true);
-                        (
-                            a,
-                            b,
-                            Some(format!(
-                                "in the air {:.3}…{:.3} s: the longest stretch with {what} above {thr:.1} m/s ({from})",
-                                a * 1e-6,
-                                b * 1e-6
-                            )),
-                        )
-                    }
-                    None => {
-                        airborne = Some(false);
-                        (
-                            f64::NEG_INFINITY,
-                            f64::INFINITY,
-                            Some(format!(
-                                "never in the air: {what} never above {thr:.1} m/s ({from}); the whole log is read, on the ground"
-                            )),
-                        )
-                    }
-                }
-            }
-            None => (
-                f64::NEG_INFINITY,
-                f64::INFINITY,
-                Some("no airspeed or GPS speed: the whole log is read, in the air or not".into()),
-            ),
-        }
-    };
-    let lo = raw.iter().map(|r| r.2[0]).fold(w0, f64::max).ceil();
-    let hi = raw.iter().map(|r| r.2[r.2.len() - 1]).fold(w1, f64::min).floor();
-    // Base: the fastest series in the window (the IMU when logged).
-    let count_in = |t: &[f64]| t.iter().filter(|x| **x >= lo && **x <= hi).count();
-    let Some(base) = raw.iter().max_by_key(|r| count_in(&r.2)) else {
-        return Err(err("no channel with two samples".into()));
-    };
-    let base_t: Vec<f64> = base.2.iter().copied().filter(|x| *x >= lo && *x <= hi).collect();
-    let h_us = match opts.rate_hz {
-        Some(r) => (1e6 / r).round().max(1.0),
-        None => median(&base_t.windows(2).map(|w| w[1] - w[0]).collect::<Vec<_>>()).round(),
-    };
-    // (NaN-safe: a NaN bound or step fails the positive test.)
-    let usable = hi > lo && base_t.len() >= 2 && h_us >= 1.0;
-    if !usable {
-        return Err(err(format!(
-            "the channels read ({}) overlap in the window over fewer than 2 samples",
-            raw.iter().map(|r| r.1.clone()).collect::<Vec<_>>().join(", ")
-        )));
-    }
-    let base_src = base.1.clone();
-    let grid = time_grid(lo, hi, h_us, base_t.len(), &base_src).map_err(err)?;
+    let window = msgs.window(&raw, first_us, last_us)?;
+    let (base, base_src) = msgs.time_base(&raw, &window)?;
     let mut channels = BTreeMap::new();
     let mut logged_rate_hz = BTreeMap::new();
-    for (q, src, t, v) in &raw {
-        let i0 = t.partition_point(|&x| x < lo).saturating_sub(1);
-        let i1 = (t.partition_point(|&x| x <= hi) + 1).min(t.len());
-        if let Some(i) = v[i0..i1].iter().position(|x| !x.is_finite()) {
-            return Err(err(format!(
-                "`{src}` is {} at t = {:.6} s inside the window read; missing samples are refused, not interpolated",
-                v[i0 + i],
-                t[i0 + i] * 1e-6
-            )));
-        }
-        if let Some((count, longest, at)) = gaps(t, lo, hi) {
-            warnings.push(format!(
-                "`{src}`: {count} gap{} longer than {GAP_FACTOR} × its median interval, the longest {:.3} s from t = {:.3} s (interpolated across)",
-                if count == 1 { "" } else { "s" },
-                longest * 1e-6,
-                at * 1e-6
-            ));
-        }
-        // Yaw unwrapped before interpolation, wrapped after.
-        let v: Vec<f64> = if *q == Quantity::Yaw {
-            let mut out = Vec::with_capacity(v.len());
-            let mut offset = 0.0;
-            for (i, &x) in v.iter().enumerate() {
-                if i > 0 {
-                    let d = x - v[i - 1];
-                    if d > PI {
-                        offset -= 2.0 * PI;
-                    } else if d < -PI {
-                        offset += 2.0 * PI;
-                    }
-                }
-                out.push(x + offset);
-            }
-            out
-        } else {
-            v.clone()
-        };
-        let mut j = 0usize;
-        let mut out = Vec::with_capacity(grid.len());
-        for &tq in &grid {
-            while j + 1 < t.len() && t[j + 1] < tq {
-                j += 1;
-            }
-            let x = if j + 1 >= t.len() || tq <= t[j] {
-                v[j.min(t.len() - 1)]
-            } else {
-                v[j] + (tq - t[j]) / (t[j + 1] - t[j]) * (v[j + 1] - v[j])
-            };
-            out.push(if *q == Quantity::Yaw {
-                (x + PI).rem_euclid(2.0 * PI) - PI
-            } else {
-                x
-            });
-        }
-        channels.insert(*q, out);
-        logged_rate_hz.insert(*q, count_in(t) as f64 / ((hi - lo + h_us) * 1e-6));
+    for c in &raw {
+        let out = msgs.resample_channel(c, &base, &mut warnings)?;
+        channels.insert(c.0, out);
+        logged_rate_hz.insert(c.0, base.rate_hz(&c.2));
     }
-    // The optional channels: read where they cover the window (to within two of their own
-    // intervals, held at their ends) and are finite in it; else left out with a warning.
-    for (q, src, t, v) in &optional {
-        let dt = median(&t.windows(2).map(|w| w[1] - w[0]).collect::<Vec<_>>());
-        if t.len() < 2 || t[0] > lo + 2.0 * dt || t[t.len() - 1] < hi - 2.0 * dt {
-            warnings.push(format!(
-                "`{src}` ({q}) covers {:.3}…{:.3} s, not the window {:.3}…{:.3} s: not read (choose a window inside it with --from/--to to read it)",
-                t.first().copied().unwrap_or(0.0) * 1e-6,
-                t.last().copied().unwrap_or(0.0) * 1e-6,
-                lo * 1e-6,
-                hi * 1e-6
-            ));
-            continue;
+    for c in &optional {
+        if let Some(out) = resample_optional(c, &base, &mut warnings) {
+            channels.insert(c.0, out);
+            logged_rate_hz.insert(c.0, base.rate_hz(&c.2));
         }
-        let i0 = t.partition_point(|&x| x < lo).saturating_sub(1);
-        let i1 = (t.partition_point(|&x| x <= hi) + 1).min(t.len());
-        if let Some(i) = v[i0..i1].iter().position(|x| !x.is_finite()) {
-            warnings.push(format!(
-                "`{src}` is {} at t = {:.6} s inside the window: {q} not read",
-                v[i0 + i],
-                t[i0 + i] * 1e-6
-            ));
-            continue;
-        }
-        if let Some((count, longest, at)) = gaps(t, lo, hi) {
-            warnings.push(format!(
-                "`{src}`: {count} gap{} longer than {GAP_FACTOR} × its median interval, the longest {:.3} s from t = {:.3} s (interpolated across)",
-                if count == 1 { "" } else { "s" },
-                longest * 1e-6,
-                at * 1e-6
-            ));
-        }
-        let mut j = 0usize;
-        let out: Vec<f64> = grid
-            .iter()
-            .map(|&tq| {
-                while j + 1 < t.len() && t[j + 1] < tq {
-                    j += 1;
-                }
-                if j + 1 >= t.len() || tq <= t[j] {
-                    v[j.min(t.len() - 1)]
-                } else {
-                    v[j] + (tq - t[j]) / (t[j + 1] - t[j]) * (v[j + 1] - v[j])
-                }
-            })
-            .collect();
-        channels.insert(*q, out);
-        logged_rate_hz.insert(*q, count_in(t) as f64 / ((hi - lo + h_us) * 1e-6));
     }
     let flight = MeasuredFlight {
         source: file.to_string(),
-        t_s: grid.iter().map(|t| t * 1e-6).collect(),
+        t_s: base.grid.iter().map(|t| t * 1e-6).collect(),
         channels,
         aircraft,
         log: LogMeta {
             format: "ArduPilot DataFlash".into(),
             logged_rate_hz,
-            resampling: Some(format!(
-                "uniform {:.2} Hz ({h_us} µs step: {}), linear interpolation in time (yaw unwrapped), no anti-alias filter; {} samples",
-                1e6 / h_us,
-                if opts.rate_hz.is_some() {
-                    "the rate asked for".to_string()
-                } else {
-                    format!("the median interval of `{base_src}`")
-                },
-                grid.len()
-            )),
-            window,
-            airborne,
+            resampling: Some(resampling(&base, &base_src, opts)),
+            window: window.text,
+            airborne: window.airborne,
             aircraft_unknown: false,
             parameters: log.parameters.clone(),
             warnings,
@@ -848,7 +448,485 @@ pub fn parse_dataflash(
             .quantity
             .and_then(|q| raw.iter().chain(&optional).find(|r| r.0 == q))
             .map_or(String::new(), |r| format!(" (from `{}`)", r.1));
-        err(inv.describe(&src, &flight.t_s))
+        msgs.err(inv.describe(&src, &flight.t_s))
     })?;
     Ok(flight)
+}
+
+/// A channel read: quantity, source name, times (µs), SI values.
+type Channel = (Quantity, String, Vec<f64>, Vec<f64>);
+
+/// The warning for bytes that start no known message, if any were skipped.
+fn skipped_warning(log: &Log) -> Option<String> {
+    (log.skipped_bytes > 0).then(|| {
+        format!(
+            "{} byte{} that start no known message skipped (the first at byte {}): a corrupt block or a cut end",
+            log.skipped_bytes,
+            if log.skipped_bytes == 1 { "" } else { "s" },
+            log.first_skip.unwrap_or(0)
+        )
+    })
+}
+
+/// The parsed log, with the instances asked for, as the source of the channels.
+struct Messages<'a> {
+    log: &'a Log,
+    opts: &'a ReadOptions,
+    file: &'a str,
+}
+
+impl Messages<'_> {
+    /// An error in the file, at no particular line.
+    fn err(&self, m: String) -> ReadError {
+        ReadError::new(self.file, 0, 0, m)
+    }
+
+    /// The messages and instances in the log with their counts, for error messages.
+    fn names(&self) -> String {
+        let mut v: Vec<String> = self
+            .log
+            .series
+            .iter()
+            .map(|((n, i), s)| format!("{n}[{i}: {}]", s.time_us.len()))
+            .collect();
+        v.dedup();
+        v.join(", ")
+    }
+
+    /// A message instance: 4.x `I` field, else the numbered message (`IMU2` is instance 1).
+    fn series(&self, msg: &str) -> Option<(String, &Series)> {
+        let inst = self.opts.instances.get(msg).copied().unwrap_or(0);
+        if let Some(s) = self.log.series.get(&(msg.to_string(), inst)) {
+            return Some((format!("{msg}[{inst}]"), s));
+        }
+        if inst > 0 {
+            let numbered = format!("{msg}{}", inst + 1);
+            return self.log.series.get(&(numbered.clone(), 0)).map(|s| (numbered, s));
+        }
+        None
+    }
+
+    /// Every instance asked for is in the log.
+    fn check_instances(&self) -> Result<(), ReadError> {
+        for (msg, inst) in &self.opts.instances {
+            if self.series(msg).is_none() {
+                return Err(self.err(format!(
+                    "instance {inst} of `{msg}` asked for, but the log has no such message instance; messages [instance: count]: {}",
+                    self.names()
+                )));
+            }
+        }
+        Ok(())
+    }
+
+    /// One field in SI units (`default` the factor when the log names no unit); `None` when the
+    /// message or the field is not logged, an error when its unit cannot be converted.
+    fn field(&self, msg: &str, label: &str, si: &str, default: f64) -> Result<Option<NamedSeries>, ReadError> {
+        let Some((src, s)) = self.series(msg) else {
+            return Ok(None);
+        };
+        let Some(j) = s.labels.iter().position(|l| l == label) else {
+            return Ok(None);
+        };
+        let factor = match self.log.units.get(msg).and_then(|m| m.get(label)) {
+            Some(u) => unit_factor(u, si).ok_or_else(|| {
+                self.err(format!(
+                    "`{msg}.{label}` is logged in `{u}` (FMTU/UNIT), which this reader cannot convert to {si}"
+                ))
+            })?,
+            None => default,
+        };
+        Ok(Some((
+            format!("{src}.{label}"),
+            s.time_us.clone(),
+            s.values[j].iter().map(|v| v * factor).collect(),
+        )))
+    }
+
+    /// The channels of [`WANTS`] that are logged.
+    fn wanted_channels(&self) -> Result<Vec<Channel>, ReadError> {
+        let mut raw = Vec::new();
+        for (q, msg, label, si, default) in WANTS {
+            if let Some((src, t, v)) = self.field(msg, label, si, default)? {
+                raw.push((q, src, t, v));
+            }
+        }
+        Ok(raw)
+    }
+
+    /// An optional field: one in a unit this reader cannot convert is left out with a warning,
+    /// not a reason to refuse the log.
+    fn optional_field(
+        &self,
+        (msg, label, si, default): (&str, &str, &str, f64),
+        warnings: &mut Vec<String>,
+    ) -> Option<NamedSeries> {
+        match self.field(msg, label, si, default) {
+            Ok(x) => x,
+            Err(e) => {
+                warnings.push(format!("{}; this optional channel is not read", e.message));
+                None
+            }
+        }
+    }
+
+    /// Optional channels: the ground velocity (α-free mode) and the autopilot's wind.
+    fn optional_channels(&self, warnings: &mut Vec<String>) -> Vec<Channel> {
+        let mut optional = self.ekf_velocity(warnings);
+        if optional.is_empty() {
+            optional = self.gps_velocity(warnings);
+        }
+        for msg in ["XKF2", "NKF2"] {
+            if let (Some(n), Some(e)) = (
+                self.optional_field((msg, "VWN", "m/s", 1.0), warnings),
+                self.optional_field((msg, "VWE", "m/s", 1.0), warnings),
+            ) {
+                optional.push((Quantity::WindNorth, n.0, n.1, n.2));
+                optional.push((Quantity::WindEast, e.0, e.1, e.2));
+                break;
+            }
+        }
+        optional
+    }
+
+    /// The EKF's velocity (`XKF1`, EKF3, else `NKF1`, EKF2), preferred to the GPS's: it is
+    /// logged faster than the GPS (which is 5–10 Hz), blends the GPS with the IMU, and is the same
+    /// filter's solution as the `ATT` attitude the α/β estimate rotates it with. Empty when not
+    /// logged.
+    fn ekf_velocity(&self, warnings: &mut Vec<String>) -> Vec<Channel> {
+        for msg in ["XKF1", "NKF1"] {
+            if let (Some(n), Some(e), Some(d)) = (
+                self.optional_field((msg, "VN", "m/s", 1.0), warnings),
+                self.optional_field((msg, "VE", "m/s", 1.0), warnings),
+                self.optional_field((msg, "VD", "m/s", 1.0), warnings),
+            ) {
+                return [
+                    (Quantity::VelocityNorth, n),
+                    (Quantity::VelocityEast, e),
+                    (Quantity::VelocityDown, d),
+                ]
+                .into_iter()
+                .map(|(q, (src, t, v))| (q, src, t, v))
+                .collect();
+            }
+        }
+        Vec::new()
+    }
+
+    /// The GPS's velocity: `GPS.Spd` and `GPS.GCrs` (ground speed and course over ground) give
+    /// north and east, and `GPS.VZ` (down, positive descending, as ArduPilot logs the GPS's NED
+    /// velocity) the vertical. Empty when not logged.
+    fn gps_velocity(&self, warnings: &mut Vec<String>) -> Vec<Channel> {
+        let (Some(spd), Some(crs), Some(vz)) = (
+            self.optional_field(("GPS", "Spd", "m/s", 1.0), warnings),
+            self.optional_field(("GPS", "GCrs", "rad", PI / 180.0), warnings),
+            self.optional_field(("GPS", "VZ", "m/s", 1.0), warnings),
+        ) else {
+            return Vec::new();
+        };
+        let north: Vec<f64> = spd.2.iter().zip(&crs.2).map(|(v, c)| v * c.cos()).collect();
+        let east: Vec<f64> = spd.2.iter().zip(&crs.2).map(|(v, c)| v * c.sin()).collect();
+        vec![
+            (
+                Quantity::VelocityNorth,
+                format!("{} × cos {}", spd.0, crs.0),
+                spd.1.clone(),
+                north,
+            ),
+            (
+                Quantity::VelocityEast,
+                format!("{} × sin {}", spd.0, crs.0),
+                spd.1.clone(),
+                east,
+            ),
+            (Quantity::VelocityDown, vz.0, vz.1, vz.2),
+        ]
+    }
+
+    /// Throttle from the servo output whose function is throttle (`SERVOn_FUNCTION` 70, scaled by
+    /// its PWM range); a warning for each surface servo, whose throw in radians is not logged.
+    fn servo_channels(&self, raw: &mut Vec<Channel>, warnings: &mut Vec<String>) {
+        let params = &self.log.parameters;
+        let functions: BTreeMap<usize, i64> = (1..=16)
+            .filter_map(|n| params.get(&format!("SERVO{n}_FUNCTION")).map(|f| (n, *f as i64)))
+            .collect();
+        let Some((src, s)) = self.series("RCOU") else { return };
+        for (&n, &f) in &functions {
+            let Some(j) = s.labels.iter().position(|l| *l == format!("C{n}")) else {
+                continue;
+            };
+            let p = |k: &str, d: f64| params.get(&format!("SERVO{n}_{k}")).copied().unwrap_or(d);
+            match f {
+                70 => {
+                    let (lo, hi) = (p("MIN", 1100.0), p("MAX", 1900.0));
+                    if hi > lo {
+                        raw.push((
+                            Quantity::Throttle,
+                            format!("{src}.C{n} (SERVO{n}_FUNCTION 70, throttle)"),
+                            s.time_us.clone(),
+                            s.values[j]
+                                .iter()
+                                .map(|v| ((v - lo) / (hi - lo)).clamp(0.0, 1.0))
+                                .collect(),
+                        ));
+                    }
+                }
+                4 | 19 | 21 => {
+                    let surface = match f {
+                        4 => "aileron",
+                        19 => "elevator",
+                        _ => "rudder",
+                    };
+                    warnings.push(format!(
+                        "`{src}.C{n}` drives the {surface} (SERVO{n}_FUNCTION {f}) as PWM; its throw in radians is the airframe's and not logged, so it is not read: no {surface} derivative"
+                    ));
+                }
+                _ => {}
+            }
+        }
+    }
+
+    /// The window read: the one asked for, else the longest stretch in the air (airspeed, else
+    /// GPS ground speed, above a threshold), else the whole log.
+    fn window(&self, raw: &[Channel], first_us: f64, last_us: f64) -> Result<Window, ReadError> {
+        if let Some((w0, w1, text)) = self.opts.chosen_window(first_us, last_us).map_err(|m| self.err(m))? {
+            return Ok(Window {
+                w0,
+                w1,
+                text,
+                airborne: None,
+            });
+        }
+        let (thr, from) = match self.log.parameters.get("ARSPD_FBW_MIN") {
+            Some(v) if *v > 0.0 => (0.8 * v, "0.8 × ARSPD_FBW_MIN"),
+            _ => (8.0, "8 m/s, no ARSPD_FBW_MIN logged"),
+        };
+        let Some((what, t, v)) = self.speed(raw) else {
+            return Ok(Window {
+                w0: f64::NEG_INFINITY,
+                w1: f64::INFINITY,
+                text: Some("no airspeed or GPS speed: the whole log is read, in the air or not".into()),
+                airborne: None,
+            });
+        };
+        // A missing (NaN) airspeed keeps the state before it: the gate does not cut around it, so
+        // the read refuses it inside the window rather than hiding it.
+        let holds = hold_over_nan(&v, thr);
+        Ok(match longest_run(&t, &holds, last_us) {
+            Some((a, b)) => Window {
+                w0: a,
+                w1: b,
+                text: Some(format!(
+                    "in the air {:.3}…{:.3} s: the longest stretch with {what} above {thr:.1} m/s ({from})",
+                    a * 1e-6,
+                    b * 1e-6
+                )),
+                airborne: Some(true),
+            },
+            None => Window {
+                w0: f64::NEG_INFINITY,
+                w1: f64::INFINITY,
+                text: Some(format!(
+                    "never in the air: {what} never above {thr:.1} m/s ({from}); the whole log is read, on the ground"
+                )),
+                airborne: Some(false),
+            },
+        })
+    }
+
+    /// The speed that says whether the vehicle is in the air: the airspeed, else the GPS ground
+    /// speed; with its name, times (µs) and values.
+    fn speed(&self, raw: &[Channel]) -> Option<NamedSeries> {
+        raw.iter()
+            .find(|r| r.0 == Quantity::Airspeed)
+            .map(|r| ("airspeed".to_string(), r.2.clone(), r.3.clone()))
+            .or_else(|| {
+                let (src, s) = self.series("GPS")?;
+                let j = s.labels.iter().position(|l| l == "Spd")?;
+                Some((
+                    format!("GPS ground speed `{src}.Spd`"),
+                    s.time_us.clone(),
+                    s.values[j].clone(),
+                ))
+            })
+    }
+
+    /// The uniform time base in the window, and the series that gives the step unless a rate is
+    /// asked for: the fastest in the window (the IMU when logged).
+    fn time_base(&self, raw: &[Channel], window: &Window) -> Result<(TimeBase, String), ReadError> {
+        let lo = raw.iter().map(|r| r.2[0]).fold(window.w0, f64::max).ceil();
+        let hi = raw.iter().map(|r| r.2[r.2.len() - 1]).fold(window.w1, f64::min).floor();
+        let count_in = |t: &[f64]| t.iter().filter(|x| **x >= lo && **x <= hi).count();
+        let Some(base) = raw.iter().max_by_key(|r| count_in(&r.2)) else {
+            return Err(self.err("no channel with two samples".into()));
+        };
+        let base_t: Vec<f64> = base.2.iter().copied().filter(|x| *x >= lo && *x <= hi).collect();
+        let h_us = match self.opts.rate_hz {
+            Some(r) => (1e6 / r).round().max(1.0),
+            None => median(&base_t.windows(2).map(|w| w[1] - w[0]).collect::<Vec<_>>()).round(),
+        };
+        // (NaN-safe: a NaN bound or step fails the positive test.)
+        let usable = hi > lo && base_t.len() >= 2 && h_us >= 1.0;
+        if !usable {
+            return Err(self.err(format!(
+                "the channels read ({}) overlap in the window over fewer than 2 samples",
+                raw.iter().map(|r| r.1.clone()).collect::<Vec<_>>().join(", ")
+            )));
+        }
+        let base_src = base.1.clone();
+        let grid = time_grid(lo, hi, h_us, base_t.len(), &base_src).map_err(|m| self.err(m))?;
+        Ok((TimeBase { lo, hi, h_us, grid }, base_src))
+    }
+
+    /// A channel on the time base: refused when not finite in the window, yaw unwrapped before
+    /// the interpolation and wrapped after.
+    fn resample_channel(
+        &self,
+        (q, src, t, v): &Channel,
+        base: &TimeBase,
+        warnings: &mut Vec<String>,
+    ) -> Result<Vec<f64>, ReadError> {
+        if let Some((x, at)) = first_non_finite(t, v, base) {
+            return Err(self.err(format!(
+                "`{src}` is {x} at t = {:.6} s inside the window read; missing samples are refused, not interpolated",
+                at * 1e-6
+            )));
+        }
+        if let Some(w) = gap_warning(src, t, base, "", "") {
+            warnings.push(w);
+        }
+        if *q != Quantity::Yaw {
+            return Ok(interpolate(t, v, &base.grid));
+        }
+        let unwrapped = unwrap_angle(v);
+        Ok(interpolate(t, &unwrapped, &base.grid)
+            .into_iter()
+            .map(|x| (x + PI).rem_euclid(2.0 * PI) - PI)
+            .collect())
+    }
+}
+
+/// How the channels were resampled, in words; `base_src` the series whose median interval set
+/// the step.
+fn resampling(base: &TimeBase, base_src: &str, opts: &ReadOptions) -> String {
+    format!(
+        "uniform {:.2} Hz ({} µs step: {}), linear interpolation in time (yaw unwrapped), no anti-alias filter; {} samples",
+        1e6 / base.h_us,
+        base.h_us,
+        if opts.rate_hz.is_some() {
+            "the rate asked for".to_string()
+        } else {
+            format!("the median interval of `{base_src}`")
+        },
+        base.grid.len()
+    )
+}
+
+/// An α/β that is zero throughout was never computed (no air-relative speed above 2 m/s): it is
+/// dropped with a warning.
+fn drop_zero_flow_angles(raw: &mut Vec<Channel>, warnings: &mut Vec<String>) {
+    raw.retain(|(q, src, _, v)| {
+        let zero = matches!(q, Quantity::Alpha | Quantity::Beta) && v.iter().all(|x| *x == 0.0);
+        if zero {
+            warnings.push(format!(
+                "`{src}` is zero in every message: the autopilot did not compute it (zero padding); not read"
+            ));
+        }
+        !zero
+    });
+}
+
+/// The α and β from ArduPilot's `AOA` message are its estimate, not a vane's.
+fn flow_angle_origin(raw: &[Channel]) -> BTreeMap<Quantity, super::measured::Origin> {
+    let mut origin = BTreeMap::new();
+    for (q, src, ..) in raw {
+        if matches!(q, Quantity::Alpha | Quantity::Beta) && src.starts_with("AOA") {
+            origin.insert(
+                *q,
+                super::measured::Origin::Estimated {
+                    by: format!("ArduPilot `{src}` (the AHRS's EKF ground velocity minus its wind estimate; no vane)"),
+                },
+            );
+        }
+    }
+    origin
+}
+
+/// Times strictly increasing: messages with a time not later than the one before are dropped,
+/// with a warning.
+fn drop_repeated_times(src: &str, t: &mut Vec<f64>, v: &mut Vec<f64>, warnings: &mut Vec<String>) {
+    let mut keep = Vec::with_capacity(t.len());
+    let mut last = f64::NEG_INFINITY;
+    for (i, &ti) in t.iter().enumerate() {
+        if ti > last {
+            keep.push(i);
+            last = ti;
+        }
+    }
+    if keep.len() < t.len() {
+        warnings.push(format!(
+            "`{src}`: {} of {} messages with a time not later than the message before; dropped",
+            t.len() - keep.len(),
+            t.len()
+        ));
+        *t = keep.iter().map(|&i| t[i]).collect();
+        *v = keep.iter().map(|&i| v[i]).collect();
+    }
+}
+
+/// The first value that is not finite among the samples that enter the window's interpolation
+/// (one either side of it), with its time (µs).
+fn first_non_finite(t: &[f64], v: &[f64], base: &TimeBase) -> Option<(f64, f64)> {
+    let i0 = t.partition_point(|&x| x < base.lo).saturating_sub(1);
+    let i1 = (t.partition_point(|&x| x <= base.hi) + 1).min(t.len());
+    v[i0..i1]
+        .iter()
+        .position(|x| !x.is_finite())
+        .map(|i| (v[i0 + i], t[i0 + i]))
+}
+
+/// An angle with its 2π jumps removed.
+fn unwrap_angle(v: &[f64]) -> Vec<f64> {
+    let mut out = Vec::with_capacity(v.len());
+    let mut offset = 0.0;
+    for (i, &x) in v.iter().enumerate() {
+        if i > 0 {
+            let d = x - v[i - 1];
+            if d > PI {
+                offset -= 2.0 * PI;
+            } else if d < -PI {
+                offset += 2.0 * PI;
+            }
+        }
+        out.push(x + offset);
+    }
+    out
+}
+
+/// An optional channel on the time base: read where it covers the window (to within two of its
+/// own intervals, held at its ends) and is finite in it; else `None`, with a warning.
+fn resample_optional((q, src, t, v): &Channel, base: &TimeBase, warnings: &mut Vec<String>) -> Option<Vec<f64>> {
+    let (lo, hi) = (base.lo, base.hi);
+    let dt = median(&t.windows(2).map(|w| w[1] - w[0]).collect::<Vec<_>>());
+    if t.len() < 2 || t[0] > lo + 2.0 * dt || t[t.len() - 1] < hi - 2.0 * dt {
+        warnings.push(format!(
+            "`{src}` ({q}) covers {:.3}…{:.3} s, not the window {:.3}…{:.3} s: not read (choose a window inside it with --from/--to to read it)",
+            t.first().copied().unwrap_or(0.0) * 1e-6,
+            t.last().copied().unwrap_or(0.0) * 1e-6,
+            lo * 1e-6,
+            hi * 1e-6
+        ));
+        return None;
+    }
+    if let Some((x, at)) = first_non_finite(t, v, base) {
+        warnings.push(format!(
+            "`{src}` is {x} at t = {:.6} s inside the window: {q} not read",
+            at * 1e-6
+        ));
+        return None;
+    }
+    if let Some(w) = gap_warning(src, t, base, "", "") {
+        warnings.push(w);
+    }
+    Some(interpolate(t, v, &base.grid))
 }

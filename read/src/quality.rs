@@ -153,7 +153,6 @@ fn name(q: Quantity) -> &'static str {
 /// # Ok::<(), aerosid_read::ReadError>(())
 /// ```
 pub fn assess(flight: &MeasuredFlight, needs: &Needs) -> DataQuality {
-    use Quantity::*;
     let meta: &LogMeta = &flight.log;
     let n = flight.len();
     let duration_s = if n >= 2 { flight.t_s[n - 1] - flight.t_s[0] } else { 0.0 };
@@ -162,12 +161,76 @@ pub fn assess(flight: &MeasuredFlight, needs: &Needs) -> DataQuality {
     } else {
         0.0
     };
-    let mut warnings: Vec<String> = meta.warnings.clone();
-    let mut why_not: Vec<String> = Vec::new();
-    let has = |q: Quantity| flight.get(q).is_some();
-    // Rates.
+    let mut found = Findings {
+        warnings: meta.warnings.clone(),
+        why_not: Vec::new(),
+    };
+    check_rates(meta, rate_hz, &mut found);
+    check_duration_and_aircraft(meta, needs, duration_s, &mut found);
+    let logged = Logged {
+        flight,
+        constant: check_channel_values(flight, &mut found),
+    };
+    let flow = meta.flow_angles.as_ref();
+    let air = air_data(&logged, flow);
+    if let Some(f) = flow.filter(|_| air.estimated) {
+        check_estimated_alpha(f, &mut found);
+    }
+    let coefficients: Vec<Identifiability> = needs
+        .coefficients
+        .iter()
+        .map(|&coef| identifiability(coef, &logged, flow.filter(|_| air.estimated)))
+        .collect();
+    let Findings { warnings, mut why_not } = found;
+    if coefficients.iter().all(|c| !c.identifiable) {
+        why_not.push("no coefficient can be identified from what is logged (see `coefficients`)".into());
+    }
+    DataQuality {
+        format: meta.format.clone(),
+        samples: n,
+        duration_s,
+        rate_hz,
+        window: meta.window.clone(),
+        resampling: meta.resampling.clone(),
+        air_data: air.text,
+        flow_angles: flow.cloned(),
+        channel_origin: super::measured::channel_origin(flight),
+        warnings,
+        coefficients,
+        supports_verdict: why_not.is_empty(),
+        why_not,
+    }
+}
+
+/// The warnings and the reasons for no verdict, in the order the checks find them.
+struct Findings {
+    warnings: Vec<String>,
+    why_not: Vec<String>,
+}
+
+/// The flight's channels, with those constant at every sample (which carry no information).
+struct Logged<'a> {
+    flight: &'a MeasuredFlight,
+    constant: Vec<Quantity>,
+}
+
+impl Logged<'_> {
+    /// Whether `q` is logged at all.
+    fn has(&self, q: Quantity) -> bool {
+        self.flight.get(q).is_some()
+    }
+
+    /// Whether `q` is logged and varies.
+    fn live(&self, q: Quantity) -> bool {
+        self.has(q) && !self.constant.contains(&q)
+    }
+}
+
+/// The time-base rate, and each channel's logged rate against what the motion it carries needs.
+fn check_rates(meta: &LogMeta, rate_hz: f64, found: &mut Findings) {
+    use Quantity::*;
     if rate_hz < MIN_RATE_HZ {
-        why_not.push(format!(
+        found.why_not.push(format!(
             "the time base is {rate_hz:.1} Hz; the analysis smooths and differentiates over ±0.1 s and needs at least {MIN_RATE_HZ} Hz"
         ));
     }
@@ -189,40 +252,53 @@ pub fn assess(flight: &MeasuredFlight, needs: &Needs) -> DataQuality {
                 | WindNorth
                 | WindEast
         );
-        if r < rate_hz * 0.99 {
-            if q == Airspeed && r < MIN_AIRSPEED_RATE_HZ {
-                why_not.push(format!(
-                    "the airspeed is logged at {r:.2} Hz: it scales every coefficient (q̄ ∝ V²) and at below {MIN_AIRSPEED_RATE_HZ} Hz the changes between its samples are not in the data"
-                ));
-            } else if motion && r < MIN_MOTION_RATE_HZ {
-                why_not.push(format!(
-                    "`{}` is logged at {r:.2} Hz, below {MIN_MOTION_RATE_HZ} Hz: it cannot follow the short-period and roll modes (1–2.5 Hz)",
-                    name(q)
-                ));
-            }
-            if r < WARN_MOTION_RATE_HZ {
-                warnings.push(format!(
-                    "`{}` logged at {r:.1} Hz, interpolated linearly onto {rate_hz:.1} Hz: motion faster than {:.1} Hz is not in it",
-                    name(q),
-                    r / 2.0
-                ));
-            }
+        if r >= rate_hz * 0.99 {
+            continue;
+        }
+        if q == Airspeed && r < MIN_AIRSPEED_RATE_HZ {
+            found.why_not.push(format!(
+                "the airspeed is logged at {r:.2} Hz: it scales every coefficient (q̄ ∝ V²) and at below {MIN_AIRSPEED_RATE_HZ} Hz the changes between its samples are not in the data"
+            ));
+        } else if motion && r < MIN_MOTION_RATE_HZ {
+            found.why_not.push(format!(
+                "`{}` is logged at {r:.2} Hz, below {MIN_MOTION_RATE_HZ} Hz: it cannot follow the short-period and roll modes (1–2.5 Hz)",
+                name(q)
+            ));
+        }
+        if r < WARN_MOTION_RATE_HZ {
+            found.warnings.push(format!(
+                "`{}` logged at {r:.1} Hz, interpolated linearly onto {rate_hz:.1} Hz: motion faster than {:.1} Hz is not in it",
+                name(q),
+                r / 2.0
+            ));
         }
     }
+}
+
+/// The duration against the held-out test's, whether the vehicle flew, whether it is known.
+fn check_duration_and_aircraft(meta: &LogMeta, needs: &Needs, duration_s: f64, found: &mut Findings) {
     let min_duration = 2.0 * needs.folds as f64 * needs.block_s;
     if duration_s < min_duration {
-        why_not.push(format!(
+        found.why_not.push(format!(
             "{duration_s:.1} s of data: the held-out test needs at least two {}-s blocks per fold ({min_duration:.0} s)",
             needs.block_s
         ));
     }
     if meta.airborne == Some(false) {
-        why_not.push("the log says the vehicle never left the ground".into());
+        found
+            .why_not
+            .push("the log says the vehicle never left the ground".into());
     }
     if meta.aircraft_unknown {
-        why_not.push("no aircraft file: mass, inertia and geometry are unknown, so no coefficient can be scaled (give one with --with FILE.aircraft)".into());
+        found.why_not.push("no aircraft file: mass, inertia and geometry are unknown, so no coefficient can be scaled (give one with --with FILE.aircraft)".into());
     }
-    // Constant channels, zero padding, saturation.
+}
+
+/// Constant channels (zero padding among them) and saturated controls, as warnings; returns the
+/// constant channels.
+fn check_channel_values(flight: &MeasuredFlight, found: &mut Findings) -> Vec<Quantity> {
+    use Quantity::*;
+    let n = flight.len();
     let mut constant = Vec::new();
     for (&q, x) in &flight.channels {
         let (lo, hi) = x
@@ -230,7 +306,7 @@ pub fn assess(flight: &MeasuredFlight, needs: &Needs) -> DataQuality {
             .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(*v), b.max(*v)));
         if n >= 2 && hi - lo == 0.0 {
             constant.push(q);
-            warnings.push(if lo == 0.0 {
+            found.warnings.push(if lo == 0.0 {
                 format!(
                     "`{}` is zero at every sample (zero padding: not logged, or no sensor); it carries no information",
                     name(q)
@@ -244,38 +320,53 @@ pub fn assess(flight: &MeasuredFlight, needs: &Needs) -> DataQuality {
             continue;
         }
         if matches!(q, Elevator | Aileron | Rudder | Flap | Throttle) && hi > lo {
-            let tol = 0.005 * (hi - lo);
-            for (edge, what) in [(hi, "maximum"), (lo, "minimum")] {
-                let k = x.iter().filter(|v| (**v - edge).abs() <= tol).count();
-                if k as f64 > SATURATED_SHARE * n as f64 {
-                    warnings.push(format!(
-                        "`{}` sits at its {what} {edge:.4} for {:.0} % of the samples (saturated there: its effect is not separable from a constant)",
-                        name(q),
-                        100.0 * k as f64 / n as f64
-                    ));
-                }
-            }
+            check_saturation(q, x, (lo, hi), n, found);
         }
     }
-    let live = |q: Quantity| has(q) && !constant.contains(&q);
-    // Air data.
-    let flow = meta.flow_angles.as_ref();
-    // Where α comes from ([`LogMeta::origin`]): an estimator's α — the α-free mode's, whose
-    // uncertainty it states, or the autopilot's, whose it does not — or a vane.
-    let estimated = flow.is_some_and(|f| f.status == "estimated") && live(Alpha);
+    constant
+}
+
+/// A warning for each limit (`lo`, `hi`) at which the control `q` sits for more than
+/// [`SATURATED_SHARE`] of the flight's `n` samples.
+fn check_saturation(q: Quantity, x: &[f64], (lo, hi): (f64, f64), n: usize, found: &mut Findings) {
+    let tol = 0.005 * (hi - lo);
+    for (edge, what) in [(hi, "maximum"), (lo, "minimum")] {
+        let k = x.iter().filter(|v| (**v - edge).abs() <= tol).count();
+        if k as f64 > SATURATED_SHARE * n as f64 {
+            found.warnings.push(format!(
+                "`{}` sits at its {what} {edge:.4} for {:.0} % of the samples (saturated there: its effect is not separable from a constant)",
+                name(q),
+                100.0 * k as f64 / n as f64
+            ));
+        }
+    }
+}
+
+/// Where α comes from, in words, and whether it is the α-free mode's estimate.
+struct AirData {
+    text: String,
+    estimated: bool,
+}
+
+/// Where α comes from ([`LogMeta::origin`]): an estimator's α — the α-free mode's, whose
+/// uncertainty it states, or the autopilot's, whose it does not — or a vane.
+fn air_data(logged: &Logged, flow: Option<&super::flow_angles::FlowAngles>) -> AirData {
+    use Quantity::*;
+    let meta = &logged.flight.log;
+    let estimated = flow.is_some_and(|f| f.status == "estimated") && logged.live(Alpha);
     let other_estimate = match meta.origin_of(Alpha) {
-        super::measured::Origin::Estimated { by } if !estimated && live(Alpha) => Some(by),
+        super::measured::Origin::Estimated { by } if !estimated && logged.live(Alpha) => Some(by),
         _ => None,
     };
     let no_vane = "no α/β vane: none. The analysis's inertial reconstruction (`--air-data reconstructed`) integrates the accelerometers and gyros with steady air assumed per 5-s segment, but anchors each segment to a measured α (`gaps::compat::velocity_problem`), so without a vane there is no α or β: C_L and C_D (wind axes) and every α or β term are not identified";
-    let air_data = if estimated {
+    let text = if estimated {
         let f = flow.map_or(String::new(), |f| f.summary.clone());
         format!("estimated (no vane used): {f}")
     } else if let Some(by) = &other_estimate {
         format!(
             "estimated (no vane): α from {by}; its error, lag included, is not stated by the log: only its white noise enters the errors-in-variables model, and α̇ is not offered in C_L (the lift restated)"
         )
-    } else if live(Alpha) {
+    } else if logged.live(Alpha) {
         "measured: α (and β where logged) from vanes, airspeed from the pitot".to_string()
     } else {
         match flow {
@@ -287,158 +378,176 @@ pub fn assess(flight: &MeasuredFlight, needs: &Needs) -> DataQuality {
             _ => no_vane.to_string(),
         }
     };
-    if let Some(f) = flow.filter(|_| estimated) {
-        for a in &f.assumptions {
-            warnings.push(format!("α-free mode: {a}"));
+    AirData { text, estimated }
+}
+
+/// The α-free mode's assumptions as warnings, and whether its α is good enough to rest a verdict
+/// on (σ and excitation).
+fn check_estimated_alpha(f: &super::flow_angles::FlowAngles, found: &mut Findings) {
+    for a in &f.assumptions {
+        found.warnings.push(format!("α-free mode: {a}"));
+    }
+    if f.alpha_sigma_rad > MAX_ESTIMATED_ALPHA_SIGMA_RAD {
+        found.why_not.push(format!(
+            "the estimated α is uncertain to σ ≈ {:.3} rad ({:.1}°), more than {:.3} rad: a missing α term could not be told from the wind estimate's error",
+            f.alpha_sigma_rad,
+            f.alpha_sigma_rad.to_degrees(),
+            MAX_ESTIMATED_ALPHA_SIGMA_RAD
+        ));
+    } else if !f.alpha_sigma_rad.is_finite() {
+        found.why_not.push("the estimated α comes from the autopilot's wind estimate, whose uncertainty is unknown: no verdict rests on it".into());
+    }
+    if f.alpha_excitation_rad < MIN_EXCITATION_OVER_SIGMA * f.alpha_sigma_smoothed_rad {
+        found.why_not.push(format!(
+            "the estimated α varies by {:.3} rad RMS, less than {MIN_EXCITATION_OVER_SIGMA} × its σ after smoothing ({:.3} rad; gusts the constant wind does not follow): the α terms cannot be told from the estimate's error, and their fits would be biased low (errors in variables)",
+            f.alpha_excitation_rad, f.alpha_sigma_smoothed_rad
+        ));
+    }
+}
+
+/// Whether one coefficient can be formed from what is logged, and what is missing or assumed;
+/// `estimate` is the α-free mode's estimate when α comes from it.
+fn identifiability(coef: &str, logged: &Logged, estimate: Option<&super::flow_angles::FlowAngles>) -> Identifiability {
+    use Quantity::*;
+    let flight = logged.flight;
+    let mut notes = Vec::new();
+    let mut ok = true;
+    if !logged.live(Airspeed) {
+        ok = false;
+        notes.push("no airspeed logged: q̄ = ½ρV² is unknown, so no coefficient".into());
+    }
+    if flight.log.aircraft_unknown {
+        ok = false;
+        notes.push("no aircraft file: cannot be scaled".into());
+    }
+    if matches!(coef, "C_L" | "C_D" | "C_Y") {
+        ok &= force_notes(coef, logged, estimate, &mut notes);
+    } else {
+        ok &= moment_notes(coef, logged, &mut notes);
+    }
+    let thrust_known =
+        logged.has(Thrust) || (matches!(flight.aircraft.thrust, ThrustSource::Propeller(_)) && logged.live(PropSpeed));
+    if coef == "C_D" && !thrust_known {
+        notes
+            .push("no thrust logged or modelled: C_D here holds thrust as well (drag and thrust not separable)".into());
+    }
+    surface_notes(coef, logged, &mut notes);
+    if !logged.live(Alpha) && matches!(coef, "C_m") {
+        notes.push("no α: no α derivative (C_mα), the moment is fitted to rates and controls only".into());
+    }
+    if matches!(coef, "C_Y" | "C_l" | "C_n") && !logged.live(Beta) {
+        notes.push("no β: no β derivative (no vane)".into());
+    }
+    if let Some(f) = estimate {
+        estimate_notes(coef, f, &mut notes);
+    }
+    Identifiability {
+        coefficient: coef.to_string(),
+        identifiable: ok,
+        notes,
+    }
+}
+
+/// A force coefficient's needs: the accelerations, and α for the wind axes; false when it cannot
+/// be formed.
+fn force_notes(
+    coef: &str,
+    logged: &Logged,
+    estimate: Option<&super::flow_angles::FlowAngles>,
+    notes: &mut Vec<String>,
+) -> bool {
+    use Quantity::*;
+    let mut ok = true;
+    let need: &[Quantity] = match coef {
+        "C_Y" => &[AccelY],
+        _ => &[AccelX, AccelZ],
+    };
+    for q in need {
+        if !logged.live(*q) {
+            ok = false;
+            notes.push(format!("no `{}`: the force is not measured", name(*q)));
         }
-        if f.alpha_sigma_rad > MAX_ESTIMATED_ALPHA_SIGMA_RAD {
-            why_not.push(format!(
-                "the estimated α is uncertain to σ ≈ {:.3} rad ({:.1}°), more than {:.3} rad: a missing α term could not be told from the wind estimate's error",
-                f.alpha_sigma_rad,
-                f.alpha_sigma_rad.to_degrees(),
-                MAX_ESTIMATED_ALPHA_SIGMA_RAD
-            ));
-        } else if !f.alpha_sigma_rad.is_finite() {
-            why_not.push("the estimated α comes from the autopilot's wind estimate, whose uncertainty is unknown: no verdict rests on it".into());
-        }
-        if f.alpha_excitation_rad < MIN_EXCITATION_OVER_SIGMA * f.alpha_sigma_smoothed_rad {
-            why_not.push(format!(
-                "the estimated α varies by {:.3} rad RMS, less than {MIN_EXCITATION_OVER_SIGMA} × its σ after smoothing ({:.3} rad; gusts the constant wind does not follow): the α terms cannot be told from the estimate's error, and their fits would be biased low (errors in variables)",
-                f.alpha_excitation_rad, f.alpha_sigma_smoothed_rad
+    }
+    if matches!(coef, "C_L" | "C_D") {
+        if let Some(f) = estimate {
+            notes.push(format!(
+                "α estimated, not measured (σ ≈ {:.3} rad): the wind axes and the α derivatives carry that uncertainty",
+                f.alpha_sigma_rad
             ));
         }
     }
-    // What can be identified.
-    let inertia = flight.aircraft.inertia_kgm2;
+    if matches!(coef, "C_L" | "C_D") && !logged.live(Alpha) {
+        ok = false;
+        notes.push("no α: the wind axes are unknown (no vane, and the inertial reconstruction needs one)".into());
+    }
+    ok
+}
+
+/// A moment coefficient's needs: the rates, and for the rolling and yawing moments the lateral
+/// inertia; false when it cannot be formed.
+fn moment_notes(coef: &str, logged: &Logged, notes: &mut Vec<String>) -> bool {
+    use Quantity::*;
+    let mut ok = true;
+    let need: &[Quantity] = match coef {
+        "C_m" => &[PitchRate],
+        _ => &[RollRate, PitchRate, YawRate],
+    };
+    for q in need {
+        if !logged.live(*q) {
+            ok = false;
+            notes.push(format!("no `{}`: the moment is not measured", name(*q)));
+        }
+    }
+    let inertia = logged.flight.aircraft.inertia_kgm2;
     let lateral_inertia = inertia[(0, 0)].is_finite() && inertia[(2, 2)].is_finite() && inertia[(0, 2)].is_finite();
-    let thrust_known = has(Thrust) || (matches!(flight.aircraft.thrust, ThrustSource::Propeller(_)) && live(PropSpeed));
-    let mut coefficients = Vec::new();
-    for &coef in needs.coefficients {
-        let mut notes = Vec::new();
-        let mut ok = true;
-        if !live(Airspeed) {
-            ok = false;
-            notes.push("no airspeed logged: q̄ = ½ρV² is unknown, so no coefficient".into());
-        }
-        if meta.aircraft_unknown {
-            ok = false;
-            notes.push("no aircraft file: cannot be scaled".into());
-        }
-        let force = matches!(coef, "C_L" | "C_D" | "C_Y");
-        if force {
-            let need: &[Quantity] = match coef {
-                "C_Y" => &[AccelY],
-                _ => &[AccelX, AccelZ],
-            };
-            for q in need {
-                if !live(*q) {
-                    ok = false;
-                    notes.push(format!("no `{}`: the force is not measured", name(*q)));
-                }
-            }
-            if matches!(coef, "C_L" | "C_D") && estimated {
-                if let Some(f) = flow {
-                    notes.push(format!(
-                        "α estimated, not measured (σ ≈ {:.3} rad): the wind axes and the α derivatives carry that uncertainty",
-                        f.alpha_sigma_rad
-                    ));
-                }
-            }
-            if matches!(coef, "C_L" | "C_D") && !live(Alpha) {
-                ok = false;
-                notes.push(
-                    "no α: the wind axes are unknown (no vane, and the inertial reconstruction needs one)".into(),
-                );
-            }
-        } else {
-            let need: &[Quantity] = match coef {
-                "C_m" => &[PitchRate],
-                _ => &[RollRate, PitchRate, YawRate],
-            };
-            for q in need {
-                if !live(*q) {
-                    ok = false;
-                    notes.push(format!("no `{}`: the moment is not measured", name(*q)));
-                }
-            }
-            if coef != "C_m" && !lateral_inertia {
-                ok = false;
-                notes.push(
-                    "Jx, Jz or Jxz unknown in the aircraft file: the rolling and yawing moments cannot be formed"
-                        .into(),
-                );
-            }
-        }
-        if coef == "C_D" && !thrust_known {
-            notes.push(
-                "no thrust logged or modelled: C_D here holds thrust as well (drag and thrust not separable)".into(),
-            );
-        }
-        let surfaces: &[(Quantity, &str)] = match coef {
-            "C_L" | "C_m" => &[(Elevator, "elevator")],
-            "C_Y" => &[(Rudder, "rudder")],
-            "C_l" | "C_n" => &[(Aileron, "aileron"), (Rudder, "rudder")],
-            _ => &[],
-        };
-        for (q, s) in surfaces {
-            if !live(*q) {
-                notes.push(format!(
-                    "no {s} deflection {}: no {s} derivative",
-                    if has(*q) { "variation" } else { "logged" }
-                ));
-            }
-        }
-        if !live(Alpha) && matches!(coef, "C_m") {
-            notes.push("no α: no α derivative (C_mα), the moment is fitted to rates and controls only".into());
-        }
-        if matches!(coef, "C_Y" | "C_l" | "C_n") && !live(Beta) {
-            notes.push("no β: no β derivative (no vane)".into());
-        }
-        if let Some(f) = flow.filter(|_| estimated) {
-            if coef == "C_m" {
-                notes.push(format!(
-                    "C_mα from the estimated α (σ ≈ {:.3} rad, α varies by {:.3} rad RMS)",
-                    f.alpha_sigma_rad, f.alpha_excitation_rad
-                ));
-            }
-            if matches!(coef, "C_Y" | "C_l" | "C_n") {
-                let weak = f.beta_excitation_rad.is_nan()
-                    || f.beta_excitation_rad < MIN_EXCITATION_OVER_SIGMA * f.beta_sigma_smoothed_rad;
-                notes.push(format!(
-                    "β estimated (σ ≈ {:.3} rad; β varies by {:.3} rad RMS){}",
-                    f.beta_sigma_rad,
-                    f.beta_excitation_rad,
-                    if weak {
-                        format!(": the sideslip excitation is under {MIN_EXCITATION_OVER_SIGMA} × the estimate's σ, so the β derivatives are weakly determined (fly rudder doublets)")
-                    } else {
-                        String::new()
-                    }
-                ));
-            }
-        }
-        coefficients.push(Identifiability {
-            coefficient: coef.to_string(),
-            identifiable: ok,
-            notes,
-        });
+    if coef != "C_m" && !lateral_inertia {
+        ok = false;
+        notes
+            .push("Jx, Jz or Jxz unknown in the aircraft file: the rolling and yawing moments cannot be formed".into());
     }
-    if coefficients.iter().all(|c| !c.identifiable) {
-        why_not.push("no coefficient can be identified from what is logged (see `coefficients`)".into());
+    ok
+}
+
+/// The control derivatives a coefficient loses for each surface not logged or not moved.
+fn surface_notes(coef: &str, logged: &Logged, notes: &mut Vec<String>) {
+    use Quantity::*;
+    let surfaces: &[(Quantity, &str)] = match coef {
+        "C_L" | "C_m" => &[(Elevator, "elevator")],
+        "C_Y" => &[(Rudder, "rudder")],
+        "C_l" | "C_n" => &[(Aileron, "aileron"), (Rudder, "rudder")],
+        _ => &[],
+    };
+    for (q, s) in surfaces {
+        if !logged.live(*q) {
+            notes.push(format!(
+                "no {s} deflection {}: no {s} derivative",
+                if logged.has(*q) { "variation" } else { "logged" }
+            ));
+        }
     }
-    DataQuality {
-        format: meta.format.clone(),
-        samples: n,
-        duration_s,
-        rate_hz,
-        window: meta.window.clone(),
-        resampling: meta.resampling.clone(),
-        air_data,
-        flow_angles: flow.cloned(),
-        channel_origin: super::measured::channel_origin(flight),
-        warnings,
-        coefficients,
-        supports_verdict: why_not.is_empty(),
-        why_not,
+}
+
+/// The uncertainty a coefficient inherits from the α-free mode's α and β.
+fn estimate_notes(coef: &str, f: &super::flow_angles::FlowAngles, notes: &mut Vec<String>) {
+    if coef == "C_m" {
+        notes.push(format!(
+            "C_mα from the estimated α (σ ≈ {:.3} rad, α varies by {:.3} rad RMS)",
+            f.alpha_sigma_rad, f.alpha_excitation_rad
+        ));
+    }
+    if matches!(coef, "C_Y" | "C_l" | "C_n") {
+        let weak = f.beta_excitation_rad.is_nan()
+            || f.beta_excitation_rad < MIN_EXCITATION_OVER_SIGMA * f.beta_sigma_smoothed_rad;
+        notes.push(format!(
+            "β estimated (σ ≈ {:.3} rad; β varies by {:.3} rad RMS){}",
+            f.beta_sigma_rad,
+            f.beta_excitation_rad,
+            if weak {
+                format!(": the sideslip excitation is under {MIN_EXCITATION_OVER_SIGMA} × the estimate's σ, so the β derivatives are weakly determined (fly rudder doublets)")
+            } else {
+                String::new()
+            }
+        ));
     }
 }
 

@@ -618,6 +618,142 @@ pub fn parse_ulog_with(
     }
     let err = |m: String| ReadError::new(file, 0, 0, m);
     let s = scan(bytes, file)?;
+    let (mut topics, catalog) = collect(&bytes[..s.end], file, &s.places, &wanted_topics(map), &opts.instances)?;
+    check_instances(opts, &catalog).map_err(err)?;
+    let mut warnings = Vec::new();
+    for (name, tp) in topics.iter_mut() {
+        drop_repeated_times(name, tp, &mut warnings);
+    }
+    let log = Topics {
+        topics: &topics,
+        catalog: &catalog,
+        file,
+        opts,
+    };
+    let mut builtin = log.builtin_channels(&mut warnings);
+    let mut optional = log.optional_channels();
+    let mut attitude = log.attitude();
+    let mapped = log.map_channels(map)?;
+    map_overrides(map, &mut builtin, &mut optional, &mut attitude);
+    if builtin.channels.is_empty() && attitude.is_none() && mapped.is_empty() {
+        return Err(err(format!(
+            "no channel this reader knows is in the log (it reads vehicle_attitude, vehicle_angular_velocity or sensor_combined, vehicle_acceleration, airspeed_validated or airspeed, vehicle_air_data, airflow_aoa/airflow_slip, actuator_motors; a `format = ulog` map names others); topics in the log [instance: messages]: {}",
+            topic_names(&catalog)
+        )));
+    }
+    let mut used = used_fields(&builtin.channels, attitude.as_ref(), &mapped);
+    let base_topic = log.base_topic(map, builtin.rates_topic, &used)?;
+    used.entry(base_topic).or_default();
+    let times: BTreeMap<&str, Vec<f64>> = used
+        .keys()
+        .map(|name| (*name, topics[*name].time_us.iter().map(|&t| t as f64).collect()))
+        .collect();
+    let window = log.window(&s.parameters, &builtin.channels, &times)?;
+    let base = time_base(&times, base_topic, &window, opts).map_err(err)?;
+    for (name, fields) in &used {
+        check_in_window(name, fields, &topics[*name], &times[*name], &base, &mut warnings).map_err(err)?;
+    }
+    let mut channels: BTreeMap<Quantity, Vec<f64>> = BTreeMap::new();
+    let mut logged_rate_hz = BTreeMap::new();
+    let resample = |r: &Resolved| interpolate(&times[r.topic], &topics[r.topic].values[r.field], &base.grid);
+    for (q, r) in &builtin.channels {
+        channels.insert(*q, resample(r));
+        logged_rate_hz.insert(*q, base.rate_hz(&times[r.topic]));
+    }
+    if let Some(a) = &attitude {
+        let topic = a[0].topic;
+        let euler = attitude_euler(&topics[topic], &times[topic], a, &base.grid).map_err(err)?;
+        for (q, v) in [Quantity::Roll, Quantity::Pitch, Quantity::Yaw].into_iter().zip(euler) {
+            channels.insert(q, v);
+            logged_rate_hz.insert(q, base.rate_hz(&times[topic]));
+        }
+    }
+    for (q, e, rs) in &mapped {
+        let cols: Vec<Vec<f64>> = rs.iter().map(resample).collect();
+        channels.insert(
+            *q,
+            (0..base.grid.len())
+                .map(|k| e.eval(cols.iter().map(|c| c[k])))
+                .collect(),
+        );
+        if let Some(r) = rs.first() {
+            logged_rate_hz.insert(*q, base.rate_hz(&times[r.topic]));
+        }
+    }
+    for (q, v, rate_hz) in read_optional(&topics, &optional, &base, &mut warnings) {
+        channels.insert(q, v);
+        logged_rate_hz.insert(q, rate_hz);
+    }
+    if let Some(w) = surface_warning(&topics, &channels) {
+        warnings.push(w);
+    }
+    let flight = MeasuredFlight {
+        source: file.to_string(),
+        t_s: base.grid.iter().map(|t| t * 1e-6).collect(),
+        channels,
+        aircraft: map.aircraft.clone(),
+        log: LogMeta {
+            format: "PX4 ULog".into(),
+            logged_rate_hz,
+            resampling: Some(resampling(&base, base_topic, opts)),
+            window: window.text,
+            airborne: window.airborne,
+            aircraft_unknown: false,
+            parameters: s.parameters,
+            warnings,
+            flow_angles: None,
+            origin: builtin.origin,
+            pieces: Vec::new(),
+        },
+    };
+    flight.validate().map_err(|inv| {
+        let src = inv.quantity.map_or(String::new(), |q| {
+            source_of(q, &topics, map, &mapped, builtin.channels.iter().chain(&optional))
+        });
+        err(inv.describe(&src, &flight.t_s))
+    })?;
+    Ok(flight)
+}
+
+/// A map channel replaces the built-in of the same quantity; the map's channels are its own
+/// sources, and what it says of a channel's origin holds.
+fn map_overrides(
+    map: &ColumnMap,
+    builtin: &mut Builtin,
+    optional: &mut Vec<(Quantity, Resolved<'static>)>,
+    attitude: &mut Option<[Resolved<'static>; 4]>,
+) {
+    let map_has = |q: Quantity| map.channels.iter().any(|(c, _)| *c == q);
+    builtin.channels.retain(|(q, _)| !map_has(*q));
+    builtin.origin.retain(|q, _| !map_has(*q));
+    builtin.origin.extend(map.origin.iter().map(|(q, o)| (*q, o.clone())));
+    optional.retain(|(q, _)| !map_has(*q));
+    if map_has(Quantity::Roll) || map_has(Quantity::Pitch) || map_has(Quantity::Yaw) {
+        *attitude = None;
+    }
+}
+
+/// Where channel `q` was read from, for an error message: the map's first source, the built-in
+/// or optional field (`read`), else the attitude quaternion.
+fn source_of<'a, 't: 'a>(
+    q: Quantity,
+    topics: &BTreeMap<String, Topic>,
+    map: &ColumnMap,
+    mapped: &[Mapped<'_, 't>],
+    mut read: impl Iterator<Item = &'a (Quantity, Resolved<'t>)>,
+) -> String {
+    if let Some((_, _, rs)) = mapped.iter().find(|(c, _, _)| *c == q) {
+        rs.first()
+            .map_or(String::new(), |r| format!(" (from `{}`, map {})", r.topic, map.file))
+    } else if let Some((_, r)) = read.find(|(c, _)| *c == q) {
+        format!(" (from `{}.{}`)", r.topic, topics[r.topic].names[r.field])
+    } else {
+        " (from `vehicle_attitude.q`)".to_string()
+    }
+}
+
+/// The topics to decode: the built-in ones, those the map reads, and its time base.
+fn wanted_topics(map: &ColumnMap) -> BTreeSet<String> {
     let mut wanted: BTreeSet<String> = BUILTIN_TOPICS.iter().map(|s| s.to_string()).collect();
     for (_, e) in &map.channels {
         for t in &e.terms {
@@ -629,346 +765,437 @@ pub fn parse_ulog_with(
     if let Some(b) = &map.time_base {
         wanted.insert(b.clone());
     }
-    let (mut topics, catalog) = collect(&bytes[..s.end], file, &s.places, &wanted, &opts.instances)?;
+    wanted
+}
+
+/// Every topic instance asked for is in the log.
+fn check_instances(opts: &ReadOptions, catalog: &BTreeMap<(String, u8), TopicInfo>) -> Result<(), String> {
     for (name, inst) in &opts.instances {
         if !catalog.contains_key(&(name.clone(), *inst)) {
-            return Err(err(format!(
+            return Err(format!(
                 "instance {inst} of `{name}` asked for, but the log has no such topic instance; topics in the log [instance: messages]: {}",
-                topic_names(&catalog)
-            )));
-        }
-    }
-    let mut warnings = Vec::new();
-    // Time: strictly increasing; a repeated (or earlier) time is dropped, the first kept.
-    for (name, tp) in topics.iter_mut() {
-        let n = tp.time_us.len();
-        let mut keep = Vec::with_capacity(n);
-        let mut last: Option<u64> = None;
-        for (i, &t) in tp.time_us.iter().enumerate() {
-            if last.is_none_or(|l| t > l) {
-                keep.push(i);
-                last = Some(t);
-            }
-        }
-        if keep.len() < n {
-            warnings.push(format!(
-                "`{name}`: {} of {n} messages have a `{}` not later than the message before (a repeated sample); dropped, the first of each time kept",
-                n - keep.len(),
-                tp.time_field
+                topic_names(catalog)
             ));
-            tp.time_us = keep.iter().map(|&i| tp.time_us[i]).collect();
-            tp.places = keep.iter().map(|&i| tp.places[i]).collect();
-            for v in tp.values.iter_mut() {
-                *v = keep.iter().map(|&i| v[i]).collect();
-            }
         }
     }
-    let topics = topics;
-    let field = |topic: &'static str, name: &str| -> Option<Resolved<'static>> {
-        let t = topics.get(topic).filter(|t| !t.time_us.is_empty())?;
+    Ok(())
+}
+
+/// Time strictly increasing: a repeated (or earlier) time is dropped, the first kept, with a
+/// warning.
+fn drop_repeated_times(name: &str, tp: &mut Topic, warnings: &mut Vec<String>) {
+    let n = tp.time_us.len();
+    let mut keep = Vec::with_capacity(n);
+    let mut last: Option<u64> = None;
+    for (i, &t) in tp.time_us.iter().enumerate() {
+        if last.is_none_or(|l| t > l) {
+            keep.push(i);
+            last = Some(t);
+        }
+    }
+    if keep.len() < n {
+        warnings.push(format!(
+            "`{name}`: {} of {n} messages have a `{}` not later than the message before (a repeated sample); dropped, the first of each time kept",
+            n - keep.len(),
+            tp.time_field
+        ));
+        tp.time_us = keep.iter().map(|&i| tp.time_us[i]).collect();
+        tp.places = keep.iter().map(|&i| tp.places[i]).collect();
+        for v in tp.values.iter_mut() {
+            *v = keep.iter().map(|&i| v[i]).collect();
+        }
+    }
+}
+
+/// The decoded topics, as the source of the channels.
+struct Topics<'t> {
+    topics: &'t BTreeMap<String, Topic>,
+    catalog: &'t BTreeMap<(String, u8), TopicInfo>,
+    file: &'t str,
+    opts: &'t ReadOptions,
+}
+
+/// The built-in channels found in the log, the topic of the rates, and the channels' origins.
+struct Builtin {
+    channels: Vec<(Quantity, Resolved<'static>)>,
+    rates_topic: Option<&'static str>,
+    origin: BTreeMap<Quantity, Origin>,
+}
+
+/// A map channel: its quantity, expression and resolved sources.
+type Mapped<'m, 't> = (Quantity, &'m Expr, Vec<Resolved<'t>>);
+
+impl<'t> Topics<'t> {
+    fn err(&self, m: String) -> ReadError {
+        ReadError::new(self.file, 0, 0, m)
+    }
+
+    /// A field of a built-in topic that has messages.
+    fn field(&self, topic: &'static str, name: &str) -> Option<Resolved<'static>> {
+        let t = self.topics.get(topic).filter(|t| !t.time_us.is_empty())?;
         let i = t.names.iter().position(|n| n == name)?;
         Some(Resolved { topic, field: i })
-    };
-    let mut builtin: Vec<(Quantity, Resolved)> = Vec::new();
-    let pick3 = |cands: &[(&'static str, &str)]| -> Option<[Resolved<'static>; 3]> {
+    }
+
+    /// The first of `cands` (topic, vector) whose components `[0]`, `[1]`, `[2]` are all logged.
+    fn pick3(&self, cands: &[(&'static str, &str)]) -> Option<[Resolved<'static>; 3]> {
         for (topic, base) in cands {
             if let (Some(a), Some(b), Some(c)) = (
-                field(topic, &format!("{base}[0]")),
-                field(topic, &format!("{base}[1]")),
-                field(topic, &format!("{base}[2]")),
+                self.field(topic, &format!("{base}[0]")),
+                self.field(topic, &format!("{base}[1]")),
+                self.field(topic, &format!("{base}[2]")),
             ) {
                 return Some([a, b, c]);
             }
         }
         None
-    };
-    let map_has = |q: Quantity| map.channels.iter().any(|(c, _)| *c == q);
-    let rates = pick3(&[("vehicle_angular_velocity", "xyz"), ("sensor_combined", "gyro_rad")]);
-    let rates_topic = rates.as_ref().map(|r| r[0].topic);
-    if let Some([a, b, c]) = rates {
-        builtin.extend([
-            (Quantity::RollRate, a),
-            (Quantity::PitchRate, b),
-            (Quantity::YawRate, c),
-        ]);
     }
-    if let Some([a, b, c]) = pick3(&[("vehicle_angular_velocity", "xyz_derivative")]) {
-        builtin.extend([
-            (Quantity::RollAccel, a),
-            (Quantity::PitchAccel, b),
-            (Quantity::YawAccel, c),
-        ]);
-    }
-    if let Some([a, b, c]) = pick3(&[
-        ("vehicle_acceleration", "xyz"),
-        ("sensor_combined", "accelerometer_m_s2"),
-    ]) {
-        builtin.extend([(Quantity::AccelX, a), (Quantity::AccelY, b), (Quantity::AccelZ, c)]);
-    }
-    // Of the two airspeed topics, the one with more messages (PX4 logs `airspeed_validated` at
-    // 1 Hz by default but the raw `airspeed` sometimes faster); ties go to the validated one.
-    let count = |t: &str| topics.get(t).map_or(0, |x| x.time_us.len());
-    let airspeed = match (
-        field("airspeed_validated", "true_airspeed_m_s"),
-        field("airspeed", "true_airspeed_m_s"),
-    ) {
-        (Some(v), Some(raw)) if count("airspeed") > count("airspeed_validated") => {
-            warnings.push(format!(
-                "true airspeed from `airspeed` ({} messages) rather than `airspeed_validated` ({}): the raw sensor topic is logged faster",
-                count("airspeed"),
-                count("airspeed_validated")
-            ));
-            let _ = v;
-            Some(raw)
+
+    /// The channels this reader knows by their PX4 topics.
+    fn builtin_channels(&self, warnings: &mut Vec<String>) -> Builtin {
+        let mut builtin: Vec<(Quantity, Resolved<'static>)> = Vec::new();
+        let rates = self.pick3(&[("vehicle_angular_velocity", "xyz"), ("sensor_combined", "gyro_rad")]);
+        let rates_topic = rates.as_ref().map(|r| r[0].topic);
+        if let Some([a, b, c]) = rates {
+            builtin.extend([
+                (Quantity::RollRate, a),
+                (Quantity::PitchRate, b),
+                (Quantity::YawRate, c),
+            ]);
         }
-        (Some(v), _) => Some(v),
-        (None, raw) => raw,
-    };
-    // Where the channels come from (`LogMeta::origin`). `airflow_aoa` and `airflow_slip` are
-    // published by PX4's vane drivers (an AS5600-type angle sensor on a vane): sensors. The
-    // validated airspeed may be an estimator's (see `airspeed_validated_origin`).
-    let mut origin = BTreeMap::new();
-    if let Some(r) = airspeed {
-        if r.topic == "airspeed_validated" {
-            if let Some(by) = topics.get(r.topic).and_then(airspeed_validated_origin) {
-                origin.insert(Quantity::Airspeed, Origin::Estimated { by });
+        if let Some([a, b, c]) = self.pick3(&[("vehicle_angular_velocity", "xyz_derivative")]) {
+            builtin.extend([
+                (Quantity::RollAccel, a),
+                (Quantity::PitchAccel, b),
+                (Quantity::YawAccel, c),
+            ]);
+        }
+        if let Some([a, b, c]) = self.pick3(&[
+            ("vehicle_acceleration", "xyz"),
+            ("sensor_combined", "accelerometer_m_s2"),
+        ]) {
+            builtin.extend([(Quantity::AccelX, a), (Quantity::AccelY, b), (Quantity::AccelZ, c)]);
+        }
+        // Where the channels come from (`LogMeta::origin`). `airflow_aoa` and `airflow_slip` are
+        // published by PX4's vane drivers (an AS5600-type angle sensor on a vane): sensors. The
+        // validated airspeed may be an estimator's (see `airspeed_validated_origin`).
+        let mut origin = BTreeMap::new();
+        if let Some(r) = self.airspeed(warnings) {
+            if r.topic == "airspeed_validated" {
+                if let Some(by) = self.topics.get(r.topic).and_then(airspeed_validated_origin) {
+                    origin.insert(Quantity::Airspeed, Origin::Estimated { by });
+                }
+            }
+            builtin.push((Quantity::Airspeed, r));
+        }
+        for (q, topic, name) in [
+            (Quantity::AirDensity, "vehicle_air_data", "rho"),
+            (Quantity::Altitude, "vehicle_air_data", "baro_alt_meter"),
+            (Quantity::Alpha, "airflow_aoa", "aoa_rad"),
+            (Quantity::Beta, "airflow_slip", "slip_rad"),
+        ] {
+            if let Some(r) = self.field(topic, name) {
+                builtin.push((q, r));
             }
         }
-        builtin.push((Quantity::Airspeed, r));
-    }
-    for (q, topic, name) in [
-        (Quantity::AirDensity, "vehicle_air_data", "rho"),
-        (Quantity::Altitude, "vehicle_air_data", "baro_alt_meter"),
-        (Quantity::Alpha, "airflow_aoa", "aoa_rad"),
-        (Quantity::Beta, "airflow_slip", "slip_rad"),
-    ] {
-        if let Some(r) = field(topic, name) {
-            builtin.push((q, r));
+        if let Some(r) = self
+            .field("actuator_motors", "control[0]")
+            .or_else(|| self.field("actuator_controls_0", "control[3]"))
+        {
+            builtin.push((Quantity::Throttle, r));
+        }
+        Builtin {
+            channels: builtin,
+            rates_topic,
+            origin,
         }
     }
-    if let Some(r) = field("actuator_motors", "control[0]").or_else(|| field("actuator_controls_0", "control[3]")) {
-        builtin.push((Quantity::Throttle, r));
+
+    /// Of the two airspeed topics, the one with more messages (PX4 logs `airspeed_validated` at
+    /// 1 Hz by default but the raw `airspeed` sometimes faster); ties go to the validated one.
+    fn airspeed(&self, warnings: &mut Vec<String>) -> Option<Resolved<'static>> {
+        let count = |t: &str| self.topics.get(t).map_or(0, |x| x.time_us.len());
+        match (
+            self.field("airspeed_validated", "true_airspeed_m_s"),
+            self.field("airspeed", "true_airspeed_m_s"),
+        ) {
+            (Some(_), Some(raw)) if count("airspeed") > count("airspeed_validated") => {
+                warnings.push(format!(
+                    "true airspeed from `airspeed` ({} messages) rather than `airspeed_validated` ({}): the raw sensor topic is logged faster",
+                    count("airspeed"),
+                    count("airspeed_validated")
+                ));
+                Some(raw)
+            }
+            (Some(v), _) => Some(v),
+            (None, raw) => raw,
+        }
     }
-    // Optional channels (the ground velocity for the α-free mode, the autopilot's wind for
-    // comparison): they do not cut the window; one that does not cover it is left out, with a
-    // warning.
-    let mut optional: Vec<(Quantity, Resolved)> = Vec::new();
-    let velocity = [
-        ("vehicle_local_position", ["vx", "vy", "vz"]),
-        ("vehicle_gps_position", ["vel_n_m_s", "vel_e_m_s", "vel_d_m_s"]),
-        ("sensor_gps", ["vel_n_m_s", "vel_e_m_s", "vel_d_m_s"]),
-    ]
-    .into_iter()
-    .find_map(|(topic, names)| match names.map(|n| field(topic, n)) {
-        [Some(a), Some(b), Some(c)] => Some([a, b, c]),
-        _ => None,
-    });
-    if let Some([a, b, c]) = velocity {
-        optional.extend([
-            (Quantity::VelocityNorth, a),
-            (Quantity::VelocityEast, b),
-            (Quantity::VelocityDown, c),
-        ]);
+
+    /// Optional channels (the ground velocity for the α-free mode, the autopilot's wind for
+    /// comparison): they do not cut the window; one that does not cover it is left out, with a
+    /// warning.
+    fn optional_channels(&self) -> Vec<(Quantity, Resolved<'static>)> {
+        let mut optional = Vec::new();
+        let velocity = [
+            ("vehicle_local_position", ["vx", "vy", "vz"]),
+            ("vehicle_gps_position", ["vel_n_m_s", "vel_e_m_s", "vel_d_m_s"]),
+            ("sensor_gps", ["vel_n_m_s", "vel_e_m_s", "vel_d_m_s"]),
+        ]
+        .into_iter()
+        .find_map(|(topic, names)| match names.map(|n| self.field(topic, n)) {
+            [Some(a), Some(b), Some(c)] => Some([a, b, c]),
+            _ => None,
+        });
+        if let Some([a, b, c]) = velocity {
+            optional.extend([
+                (Quantity::VelocityNorth, a),
+                (Quantity::VelocityEast, b),
+                (Quantity::VelocityDown, c),
+            ]);
+        }
+        let wind = ["wind", "wind_estimate"].into_iter().find_map(|topic| {
+            match (
+                self.field(topic, "windspeed_north"),
+                self.field(topic, "windspeed_east"),
+            ) {
+                (Some(a), Some(b)) => Some([a, b]),
+                _ => None,
+            }
+        });
+        if let Some([a, b]) = wind {
+            optional.extend([(Quantity::WindNorth, a), (Quantity::WindEast, b)]);
+        }
+        optional
     }
-    let wind = ["wind", "wind_estimate"].into_iter().find_map(|topic| {
-        match (field(topic, "windspeed_north"), field(topic, "windspeed_east")) {
-            (Some(a), Some(b)) => Some([a, b]),
+
+    /// The attitude quaternion's four components.
+    fn attitude(&self) -> Option<[Resolved<'static>; 4]> {
+        match ["q[0]", "q[1]", "q[2]", "q[3]"].map(|n| self.field("vehicle_attitude", n)) {
+            [Some(a), Some(b), Some(c), Some(d)] => Some([a, b, c, d]),
             _ => None,
         }
-    });
-    if let Some([a, b]) = wind {
-        optional.extend([(Quantity::WindNorth, a), (Quantity::WindEast, b)]);
     }
-    let attitude = match ["q[0]", "q[1]", "q[2]", "q[3]"].map(|n| field("vehicle_attitude", n)) {
-        [Some(a), Some(b), Some(c), Some(d)] => Some([a, b, c, d]),
-        _ => None,
-    };
-    // Map channels: resolve `topic.field`.
-    let mut mapped: Vec<(Quantity, &Expr, Vec<Resolved>)> = Vec::new();
-    for (q, e) in &map.channels {
-        let mut rs = Vec::new();
-        for t in &e.terms {
-            let Source::Field { topic, field: name } = &t.source else {
-                return Err(ReadError::new(
-                    &map.file,
-                    e.line,
-                    0,
-                    "a ULog map names `topic.field` sources",
-                ));
-            };
-            let chosen = opts.instances.get(topic).copied().unwrap_or(0);
-            let Some((key, tp)) = topics
-                .get_key_value(topic.as_str())
-                .filter(|(_, t)| !t.time_us.is_empty())
-            else {
-                let others: Vec<String> = catalog
-                    .keys()
-                    .filter(|(n, _)| n == topic)
-                    .map(|(_, i)| i.to_string())
-                    .collect();
-                let why = if others.is_empty() {
-                    format!("the log has no topic `{topic}`")
-                } else {
-                    format!(
-                        "the log has instance(s) {} of `{topic}` but not {chosen} (choose one with --instance {topic}=N)",
-                        others.join(", ")
-                    )
+
+    /// The map's channels, each `topic.field` source resolved.
+    fn map_channels<'m>(&self, map: &'m ColumnMap) -> Result<Vec<Mapped<'m, 't>>, ReadError> {
+        let mut mapped = Vec::new();
+        for (q, e) in &map.channels {
+            let mut rs = Vec::new();
+            for t in &e.terms {
+                let Source::Field { topic, field: name } = &t.source else {
+                    return Err(ReadError::new(
+                        &map.file,
+                        e.line,
+                        0,
+                        "a ULog map names `topic.field` sources",
+                    ));
                 };
-                return Err(err(format!(
-                    "ULog topic `{topic}` (instance {chosen}) read by `channel.{q}` ({}:{}) is missing: {why}; topics in the log [instance: messages]: {}",
-                    map.file,
-                    e.line,
-                    topic_names(&catalog)
-                )));
+                rs.push(self.resolve(map, *q, e.line, topic, name)?);
+            }
+            mapped.push((*q, e, rs));
+        }
+        Ok(mapped)
+    }
+
+    /// The source `topic.name` of the map's channel `q` (on `line`), in the chosen instance.
+    fn resolve(
+        &self,
+        map: &ColumnMap,
+        q: Quantity,
+        line: usize,
+        topic: &str,
+        name: &str,
+    ) -> Result<Resolved<'t>, ReadError> {
+        let chosen = self.opts.instances.get(topic).copied().unwrap_or(0);
+        let Some((key, tp)) = self.topics.get_key_value(topic).filter(|(_, t)| !t.time_us.is_empty()) else {
+            let others: Vec<String> = self
+                .catalog
+                .keys()
+                .filter(|(n, _)| n == topic)
+                .map(|(_, i)| i.to_string())
+                .collect();
+            let why = if others.is_empty() {
+                format!("the log has no topic `{topic}`")
+            } else {
+                format!(
+                    "the log has instance(s) {} of `{topic}` but not {chosen} (choose one with --instance {topic}=N)",
+                    others.join(", ")
+                )
             };
-            let Some(i) = tp.names.iter().position(|n| n == name) else {
-                return Err(err(format!(
-                    "ULog topic `{topic}` has no field `{name}`, read by `channel.{q}` ({}:{}); its fields: {}",
-                    map.file,
-                    e.line,
-                    tp.names.join(", ")
-                )));
-            };
-            rs.push(Resolved {
-                topic: key.as_str(),
-                field: i,
+            return Err(self.err(format!(
+                "ULog topic `{topic}` (instance {chosen}) read by `channel.{q}` ({}:{line}) is missing: {why}; topics in the log [instance: messages]: {}",
+                map.file,
+                topic_names(self.catalog)
+            )));
+        };
+        let Some(i) = tp.names.iter().position(|n| n == name) else {
+            return Err(self.err(format!(
+                "ULog topic `{topic}` has no field `{name}`, read by `channel.{q}` ({}:{line}); its fields: {}",
+                map.file,
+                tp.names.join(", ")
+            )));
+        };
+        Ok(Resolved {
+            topic: key.as_str(),
+            field: i,
+        })
+    }
+
+    /// The topic whose median interval sets the step: the map's time base, else the rates'
+    /// topic when used, else the used topic with the most messages.
+    fn base_topic(
+        &self,
+        map: &ColumnMap,
+        rates_topic: Option<&'static str>,
+        used: &BTreeMap<&'t str, BTreeSet<usize>>,
+    ) -> Result<&'t str, ReadError> {
+        Ok(match &map.time_base {
+            Some(b) => match self
+                .topics
+                .get_key_value(b.as_str())
+                .filter(|(_, t)| !t.time_us.is_empty())
+            {
+                Some((k, _)) => k.as_str(),
+                None => {
+                    return Err(self.err(format!(
+                        "time_base topic `{b}` is not in the log; topics in the log [instance: messages]: {}",
+                        topic_names(self.catalog)
+                    )))
+                }
+            },
+            None => match rates_topic.filter(|t| used.contains_key(t)) {
+                Some(t) => t,
+                None => used
+                    .keys()
+                    .copied()
+                    .max_by_key(|t| self.topics[*t].time_us.len())
+                    .unwrap_or_default(),
+            },
+        })
+    }
+
+    /// The window read, µs: the one asked for, else the longest stretch in the air (by the land
+    /// detector, else the airspeed), else the whole log. `times`: the used topics' times.
+    fn window(
+        &self,
+        parameters: &BTreeMap<String, f64>,
+        builtin: &[(Quantity, Resolved)],
+        times: &BTreeMap<&str, Vec<f64>>,
+    ) -> Result<Window, ReadError> {
+        let first_us = times
+            .values()
+            .filter_map(|t| t.first())
+            .copied()
+            .fold(f64::INFINITY, f64::min);
+        let last_us = times
+            .values()
+            .filter_map(|t| t.last())
+            .copied()
+            .fold(f64::NEG_INFINITY, f64::max);
+        if let Some((w0, w1, text)) = self.opts.chosen_window(first_us, last_us).map_err(|m| self.err(m))? {
+            return Ok(Window {
+                w0,
+                w1,
+                text,
+                airborne: None,
             });
         }
-        mapped.push((*q, e, rs));
-    }
-    // A map channel replaces the built-in of the same quantity.
-    builtin.retain(|(q, _)| !map_has(*q));
-    // The map's channels are its own sources, and what it says of a channel's origin holds.
-    origin.retain(|q, _| !map_has(*q));
-    origin.extend(map.origin.iter().map(|(q, o)| (*q, o.clone())));
-    optional.retain(|(q, _)| !map_has(*q));
-    let attitude = if map_has(Quantity::Roll) || map_has(Quantity::Pitch) || map_has(Quantity::Yaw) {
-        None
-    } else {
-        attitude
-    };
-    if builtin.is_empty() && attitude.is_none() && mapped.is_empty() {
-        return Err(err(format!(
-            "no channel this reader knows is in the log (it reads vehicle_attitude, vehicle_angular_velocity or sensor_combined, vehicle_acceleration, airspeed_validated or airspeed, vehicle_air_data, airflow_aoa/airflow_slip, actuator_motors; a `format = ulog` map names others); topics in the log [instance: messages]: {}",
-            topic_names(&catalog)
-        )));
-    }
-    // Topics used and their fields.
-    let mut used: BTreeMap<&str, BTreeSet<usize>> = BTreeMap::new();
-    for (_, r) in &builtin {
-        used.entry(r.topic).or_default().insert(r.field);
-    }
-    if let Some(a) = &attitude {
-        for r in a {
-            used.entry(r.topic).or_default().insert(r.field);
-        }
-    }
-    for (_, _, rs) in &mapped {
-        for r in rs {
-            used.entry(r.topic).or_default().insert(r.field);
-        }
-    }
-    // Time base topic.
-    let base_topic: &str = match &map.time_base {
-        Some(b) => match topics.get_key_value(b.as_str()).filter(|(_, t)| !t.time_us.is_empty()) {
-            Some((k, _)) => k.as_str(),
-            None => {
-                return Err(err(format!(
-                    "time_base topic `{b}` is not in the log; topics in the log [instance: messages]: {}",
-                    topic_names(&catalog)
-                )))
-            }
-        },
-        None => match rates_topic.filter(|t| used.contains_key(t)) {
-            Some(t) => t,
-            None => used
-                .keys()
-                .copied()
-                .max_by_key(|t| topics[*t].time_us.len())
-                .unwrap_or_default(),
-        },
-    };
-    used.entry(base_topic).or_default();
-    let times: BTreeMap<&str, Vec<f64>> = used
-        .keys()
-        .map(|name| (*name, topics[*name].time_us.iter().map(|&t| t as f64).collect()))
-        .collect();
-    let first_us = times
-        .values()
-        .filter_map(|t| t.first())
-        .copied()
-        .fold(f64::INFINITY, f64::min);
-    let last_us = times
-        .values()
-        .filter_map(|t| t.last())
-        .copied()
-        .fold(f64::NEG_INFINITY, f64::max);
-    // Window, µs.
-    let mut airborne = None;
-    let (w0, w1, window) = if let Some(w) = opts.chosen_window(first_us, last_us).map_err(err)? {
-        w
-    } else {
-        let land = field("vehicle_land_detected", "landed");
         let airspeed = builtin.iter().find(|(q, _)| *q == Quantity::Airspeed).map(|(_, r)| r);
-        let (run, how) = if let Some(r) = &land {
-            let tp = &topics[r.topic];
+        let (run, how) = self.in_the_air(parameters, airspeed, last_us);
+        Ok(match run {
+            Some((a, b)) => Window {
+                w0: a,
+                w1: b,
+                text: Some(format!(
+                    "in the air {:.3}…{:.3} s: the longest stretch with {how}",
+                    a * 1e-6,
+                    b * 1e-6
+                )),
+                airborne: Some(true),
+            },
+            None if how.is_empty() => Window {
+                w0: f64::NEG_INFINITY,
+                w1: f64::INFINITY,
+                text: Some("no land detector and no airspeed: the whole log is read, in the air or not".into()),
+                airborne: None,
+            },
+            None => Window {
+                w0: f64::NEG_INFINITY,
+                w1: f64::INFINITY,
+                text: Some(format!(
+                    "never in the air by {how}: the whole log is read, on the ground"
+                )),
+                airborne: Some(false),
+            },
+        })
+    }
+
+    /// The longest stretch in the air, µs, and by what (empty when the log has neither a land
+    /// detector nor an airspeed).
+    fn in_the_air(
+        &self,
+        parameters: &BTreeMap<String, f64>,
+        airspeed: Option<&Resolved>,
+        last_us: f64,
+    ) -> (Option<(f64, f64)>, String) {
+        if let Some(r) = &self.field("vehicle_land_detected", "landed") {
+            let tp = &self.topics[r.topic];
             let t: Vec<f64> = tp.time_us.iter().map(|&t| t as f64).collect();
             let holds: Vec<bool> = tp.values[r.field].iter().map(|v| *v == 0.0).collect();
-            (
+            return (
                 longest_run(&t, &holds, last_us),
                 "`vehicle_land_detected.landed` false".to_string(),
-            )
-        } else if let Some(r) = airspeed {
-            let (thr, from) = match (s.parameters.get("FW_AIRSPD_STALL"), s.parameters.get("FW_AIRSPD_MIN")) {
-                (Some(v), _) if *v > 0.0 => (0.8 * v, "0.8 × FW_AIRSPD_STALL"),
-                (_, Some(v)) if *v > 0.0 => (0.8 * v, "0.8 × FW_AIRSPD_MIN"),
-                _ => (8.0, "8 m/s, no FW_AIRSPD_STALL or FW_AIRSPD_MIN logged"),
-            };
-            let tp = &topics[r.topic];
-            let t: Vec<f64> = tp.time_us.iter().map(|&t| t as f64).collect();
-            // A missing (NaN) airspeed keeps the state before it: the gate does not cut around it, so
-            // the read refuses it inside the window rather than hiding it.
-            let holds = hold_over_nan(&tp.values[r.field], thr);
-            (
-                longest_run(&t, &holds, last_us),
-                format!("true airspeed above {thr:.1} m/s ({from})"),
-            )
-        } else {
-            (None, String::new())
-        };
-        match run {
-            Some((a, b)) => {
-                airborne = Some(true);
-                (
-                    a,
-                    b,
-                    Some(format!(
-                        "in the air {:.3}…{:.3} s: the longest stretch with {how}",
-                        a * 1e-6,
-                        b * 1e-6
-                    )),
-                )
-            }
-            None if how.is_empty() => (
-                f64::NEG_INFINITY,
-                f64::INFINITY,
-                Some("no land detector and no airspeed: the whole log is read, in the air or not".into()),
-            ),
-            None => {
-                airborne = Some(false);
-                (
-                    f64::NEG_INFINITY,
-                    f64::INFINITY,
-                    Some(format!(
-                        "never in the air by {how}: the whole log is read, on the ground"
-                    )),
-                )
-            }
+            );
         }
-    };
-    let lo = times.values().map(|t| t[0]).fold(w0, f64::max).ceil();
-    let hi = times.values().map(|t| t[t.len() - 1]).fold(w1, f64::min).floor();
-    // The step: the base topic's median interval in the window, or the rate asked for.
+        let Some(r) = airspeed else {
+            return (None, String::new());
+        };
+        let (thr, from) = match (parameters.get("FW_AIRSPD_STALL"), parameters.get("FW_AIRSPD_MIN")) {
+            (Some(v), _) if *v > 0.0 => (0.8 * v, "0.8 × FW_AIRSPD_STALL"),
+            (_, Some(v)) if *v > 0.0 => (0.8 * v, "0.8 × FW_AIRSPD_MIN"),
+            _ => (8.0, "8 m/s, no FW_AIRSPD_STALL or FW_AIRSPD_MIN logged"),
+        };
+        let tp = &self.topics[r.topic];
+        let t: Vec<f64> = tp.time_us.iter().map(|&t| t as f64).collect();
+        // A missing (NaN) airspeed keeps the state before it: the gate does not cut around it, so
+        // the read refuses it inside the window rather than hiding it.
+        let holds = hold_over_nan(&tp.values[r.field], thr);
+        (
+            longest_run(&t, &holds, last_us),
+            format!("true airspeed above {thr:.1} m/s ({from})"),
+        )
+    }
+}
+
+/// The topics used and their fields.
+fn used_fields<'t>(
+    builtin: &[(Quantity, Resolved<'t>)],
+    attitude: Option<&[Resolved<'t>; 4]>,
+    mapped: &[Mapped<'_, 't>],
+) -> BTreeMap<&'t str, BTreeSet<usize>> {
+    let mut used: BTreeMap<&str, BTreeSet<usize>> = BTreeMap::new();
+    let resolved = builtin
+        .iter()
+        .map(|(_, r)| r)
+        .chain(attitude.into_iter().flatten())
+        .chain(mapped.iter().flat_map(|(_, _, rs)| rs));
+    for r in resolved {
+        used.entry(r.topic).or_default().insert(r.field);
+    }
+    used
+}
+
+/// The uniform time base in the window: the step is the base topic's median interval in it, or
+/// the rate asked for. `times`: the used topics' times.
+fn time_base(
+    times: &BTreeMap<&str, Vec<f64>>,
+    base_topic: &str,
+    window: &Window,
+    opts: &ReadOptions,
+) -> Result<TimeBase, String> {
+    let lo = times.values().map(|t| t[0]).fold(window.w0, f64::max).ceil();
+    let hi = times.values().map(|t| t[t.len() - 1]).fold(window.w1, f64::min).floor();
     let base_t: Vec<f64> = times[base_topic]
         .iter()
         .copied()
@@ -981,226 +1208,231 @@ pub fn parse_ulog_with(
     // (NaN-safe: a NaN bound or step fails the positive test.)
     let usable = hi > lo && base_t.len() >= 2 && h_us >= 1.0;
     if !usable {
-        return Err(err(format!(
+        return Err(format!(
             "the used topics ({}) overlap in the window over fewer than 2 samples of `{base_topic}`",
-            used.keys().copied().collect::<Vec<_>>().join(", ")
-        )));
+            times.keys().copied().collect::<Vec<_>>().join(", ")
+        ));
     }
-    let base_us = time_grid(lo, hi, h_us, base_t.len(), base_topic).map_err(err)?;
-    // Every used field finite over the samples the interpolation touches.
-    for (name, fields) in &used {
-        let tp = &topics[*name];
-        let t = &times[*name];
-        let i0 = t.partition_point(|&x| x < lo).saturating_sub(1);
-        let i1 = (t.partition_point(|&x| x <= hi) + 1).min(t.len());
-        for &f in fields {
-            if let Some(i) = tp.values[f][i0..i1].iter().position(|v| !v.is_finite()).map(|i| i + i0) {
-                let run = tp.values[f][i..].iter().take_while(|v| !v.is_finite()).count();
-                let p = tp.places[i];
-                return Err(err(format!(
-                    "ULog message #{} at byte {}: `{name}.{}` is {} (a run of {run} message{}) inside the window read; missing samples are refused, not interpolated (cut them off with --from/--to)",
-                    p.index,
-                    p.offset,
-                    tp.names[f],
-                    tp.values[f][i],
-                    if run == 1 { "" } else { "s" }
-                )));
-            }
-        }
-        if let Some((count, longest, at)) = gaps(t, lo, hi) {
-            warnings.push(format!(
-                "`{name}`: {count} gap{} longer than {GAP_FACTOR} × its median interval in the window, the longest {:.3} s from t = {:.3} s (dropped messages; interpolated across)",
-                if count == 1 { "" } else { "s" },
-                longest * 1e-6,
-                at * 1e-6
-            ));
-        }
-    }
-    let rate_of = |topic: &str| {
-        let t = &times[topic];
-        // Samples per second of the window (a topic with one sample in a 1-s window: 1 Hz).
-        let k = t.iter().filter(|x| **x >= lo && **x <= hi).count();
-        k as f64 / ((hi - lo + h_us) * 1e-6)
-    };
-    let resample = |r: &Resolved| -> Vec<f64> {
-        let (t, x) = (&times[r.topic], &topics[r.topic].values[r.field]);
-        let mut j = 0;
-        base_us.iter().map(|&tq| interp(t, x, tq, &mut j)).collect()
-    };
-    let mut channels: BTreeMap<Quantity, Vec<f64>> = BTreeMap::new();
-    let mut logged_rate_hz = BTreeMap::new();
-    for (q, r) in &builtin {
-        channels.insert(*q, resample(r));
-        logged_rate_hz.insert(*q, rate_of(r.topic));
-    }
-    if let Some(a) = &attitude {
-        let topic = a[0].topic;
-        let t = &times[topic];
-        let comps: Vec<&Vec<f64>> = a.iter().map(|r| &topics[topic].values[r.field]).collect();
-        let mut euler = [Vec::new(), Vec::new(), Vec::new()];
-        let mut j = 0;
-        for (k, &tq) in base_us.iter().enumerate() {
-            while j + 1 < t.len() && t[j + 1] < tq {
-                j += 1;
-            }
-            let at = |i: usize| [comps[0][i], comps[1][i], comps[2][i], comps[3][i]];
-            let q0 = at(j);
-            let q = if j + 1 < t.len() && tq > t[j] {
-                let mut q1 = at(j + 1);
-                if q0.iter().zip(&q1).map(|(a, b)| a * b).sum::<f64>() < 0.0 {
-                    q1 = q1.map(|v| -v);
-                }
-                let w = (tq - t[j]) / (t[j + 1] - t[j]);
-                [0, 1, 2, 3].map(|i| q0[i] + w * (q1[i] - q0[i]))
-            } else {
-                q0
-            };
-            let norm = q.iter().map(|v| v * v).sum::<f64>().sqrt();
-            if norm < 1e-6 {
-                let p = topics[topic].places[j];
-                return Err(err(format!(
-                    "ULog message #{} at byte {}: `vehicle_attitude.q` has zero norm (output sample {k})",
-                    p.index, p.offset
-                )));
-            }
-            let q = q.map(|v| v / norm);
-            let e = quaternion_to_euler(q);
-            for i in 0..3 {
-                euler[i].push(e[i]);
-            }
-        }
-        let [r, p, y] = euler;
-        for (q, v) in [(Quantity::Roll, r), (Quantity::Pitch, p), (Quantity::Yaw, y)] {
-            channels.insert(q, v);
-            logged_rate_hz.insert(q, rate_of(topic));
-        }
-    }
-    for (q, e, rs) in &mapped {
-        let cols: Vec<Vec<f64>> = rs.iter().map(resample).collect();
-        channels.insert(
-            *q,
-            (0..base_us.len()).map(|k| e.eval(cols.iter().map(|c| c[k]))).collect(),
-        );
-        if let Some(r) = rs.first() {
-            logged_rate_hz.insert(*q, rate_of(r.topic));
-        }
-    }
-    // The optional channels: read where their topic covers the window (to within two of its own
-    // intervals; held at its ends) and is finite there.
-    let mut optional_topics: BTreeMap<&str, Vec<&(Quantity, Resolved)>> = BTreeMap::new();
-    for o in &optional {
-        optional_topics.entry(o.1.topic).or_default().push(o);
-    }
-    for (name, fields) in optional_topics {
-        let tp = &topics[name];
-        let t: Vec<f64> = tp.time_us.iter().map(|&x| x as f64).collect();
-        let dt = median(&t.windows(2).map(|w| w[1] - w[0]).collect::<Vec<_>>());
-        let what: Vec<&str> = fields.iter().map(|(q, _)| q.name()).collect();
-        if t.len() < 2 || t[0] > lo + 2.0 * dt || t[t.len() - 1] < hi - 2.0 * dt {
-            warnings.push(format!(
-                "`{name}` ({}) covers {:.3}…{:.3} s, not the window {:.3}…{:.3} s: not read (choose a window inside it with --from/--to to read it)",
-                what.join(", "),
-                t.first().copied().unwrap_or(0.0) * 1e-6,
-                t.last().copied().unwrap_or(0.0) * 1e-6,
-                lo * 1e-6,
-                hi * 1e-6
-            ));
-            continue;
-        }
-        let i0 = t.partition_point(|&x| x < lo).saturating_sub(1);
-        let i1 = (t.partition_point(|&x| x <= hi) + 1).min(t.len());
-        let bad = fields.iter().find_map(|(_, r)| {
-            tp.values[r.field][i0..i1]
-                .iter()
-                .position(|v| !v.is_finite())
-                .map(|i| (r, i + i0))
-        });
-        if let Some((r, i)) = bad {
+    let grid = time_grid(lo, hi, h_us, base_t.len(), base_topic)?;
+    Ok(TimeBase { lo, hi, h_us, grid })
+}
+
+/// A used topic's fields finite over the samples the interpolation touches (an error names the
+/// first missing run); a warning for its gaps in the window.
+fn check_in_window(
+    name: &str,
+    fields: &BTreeSet<usize>,
+    tp: &Topic,
+    t: &[f64],
+    base: &TimeBase,
+    warnings: &mut Vec<String>,
+) -> Result<(), String> {
+    let i0 = t.partition_point(|&x| x < base.lo).saturating_sub(1);
+    let i1 = (t.partition_point(|&x| x <= base.hi) + 1).min(t.len());
+    for &f in fields {
+        if let Some(i) = tp.values[f][i0..i1].iter().position(|v| !v.is_finite()).map(|i| i + i0) {
+            let run = tp.values[f][i..].iter().take_while(|v| !v.is_finite()).count();
             let p = tp.places[i];
-            warnings.push(format!(
-                "ULog message #{} at byte {}: `{name}.{}` is {} inside the window: `{name}` ({}) not read",
+            return Err(format!(
+                "ULog message #{} at byte {}: `{name}.{}` is {} (a run of {run} message{}) inside the window read; missing samples are refused, not interpolated (cut them off with --from/--to)",
                 p.index,
                 p.offset,
-                tp.names[r.field],
-                tp.values[r.field][i],
-                what.join(", ")
+                tp.names[f],
+                tp.values[f][i],
+                if run == 1 { "" } else { "s" }
             ));
+        }
+    }
+    if let Some(w) = gap_warning(name, t, base, " in the window", "dropped messages; ") {
+        warnings.push(w);
+    }
+    Ok(())
+}
+
+/// Roll, pitch and yaw on the `grid` from the attitude quaternion `a` of topic `tp` (times `t`):
+/// interpolated component-wise on the shorter arc, normalised, converted.
+fn attitude_euler(tp: &Topic, t: &[f64], a: &[Resolved; 4], grid: &[f64]) -> Result<[Vec<f64>; 3], String> {
+    let comps: Vec<&Vec<f64>> = a.iter().map(|r| &tp.values[r.field]).collect();
+    let mut euler = [Vec::new(), Vec::new(), Vec::new()];
+    let mut j = 0;
+    for (k, &tq) in grid.iter().enumerate() {
+        while j + 1 < t.len() && t[j + 1] < tq {
+            j += 1;
+        }
+        let at = |i: usize| [comps[0][i], comps[1][i], comps[2][i], comps[3][i]];
+        let q0 = at(j);
+        let q = if j + 1 < t.len() && tq > t[j] {
+            let mut q1 = at(j + 1);
+            if q0.iter().zip(&q1).map(|(a, b)| a * b).sum::<f64>() < 0.0 {
+                q1 = q1.map(|v| -v);
+            }
+            let w = (tq - t[j]) / (t[j + 1] - t[j]);
+            [0, 1, 2, 3].map(|i| q0[i] + w * (q1[i] - q0[i]))
+        } else {
+            q0
+        };
+        let norm = q.iter().map(|v| v * v).sum::<f64>().sqrt();
+        if norm < 1e-6 {
+            let p = tp.places[j];
+            return Err(format!(
+                "ULog message #{} at byte {}: `vehicle_attitude.q` has zero norm (output sample {k})",
+                p.index, p.offset
+            ));
+        }
+        let e = quaternion_to_euler(q.map(|v| v / norm));
+        for i in 0..3 {
+            euler[i].push(e[i]);
+        }
+    }
+    Ok(euler)
+}
+
+/// The optional channels on the time base, each with its logged rate: read where their topic
+/// covers the window (to within two of its own intervals; held at its ends) and is finite there;
+/// else left out, with a warning.
+fn read_optional(
+    topics: &BTreeMap<String, Topic>,
+    optional: &[(Quantity, Resolved)],
+    base: &TimeBase,
+    warnings: &mut Vec<String>,
+) -> Vec<(Quantity, Vec<f64>, f64)> {
+    let mut by_topic: BTreeMap<&str, Vec<&(Quantity, Resolved)>> = BTreeMap::new();
+    for o in optional {
+        by_topic.entry(o.1.topic).or_default().push(o);
+    }
+    let mut out = Vec::new();
+    for (name, fields) in by_topic {
+        let tp = &topics[name];
+        let t: Vec<f64> = tp.time_us.iter().map(|&x| x as f64).collect();
+        if let Some(w) = optional_unusable(name, tp, &t, &fields, base) {
+            warnings.push(w);
             continue;
         }
-        if let Some((count, longest, at)) = gaps(&t, lo, hi) {
-            warnings.push(format!(
-                "`{name}`: {count} gap{} longer than {GAP_FACTOR} × its median interval in the window, the longest {:.3} s from t = {:.3} s (dropped messages; interpolated across)",
-                if count == 1 { "" } else { "s" },
-                longest * 1e-6,
-                at * 1e-6
-            ));
+        if let Some(w) = gap_warning(name, &t, base, " in the window", "dropped messages; ") {
+            warnings.push(w);
         }
-        let k = t.iter().filter(|x| **x >= lo && **x <= hi).count();
         for (q, r) in fields {
-            let mut j = 0;
-            channels.insert(
-                *q,
-                base_us
-                    .iter()
-                    .map(|&tq| interp(&t, &tp.values[r.field], tq, &mut j))
-                    .collect(),
-            );
-            logged_rate_hz.insert(*q, k as f64 / ((hi - lo + h_us) * 1e-6));
+            out.push((*q, interpolate(&t, &tp.values[r.field], &base.grid), base.rate_hz(&t)));
         }
     }
-    let surfaces = [Quantity::Elevator, Quantity::Aileron, Quantity::Rudder];
-    if !surfaces.iter().any(|q| channels.contains_key(q)) {
-        let present: Vec<&str> = ["actuator_servos", "actuator_controls_0", "actuator_outputs"]
-            .into_iter()
-            .filter(|t| topics.get(*t).is_some_and(|x| !x.time_us.is_empty()))
-            .collect();
-        if !present.is_empty() {
-            warnings.push(format!(
-                "no surface deflection mapped: the log has {} (normalised commands or PWM), but their throw in radians is the airframe's; map them in a `format = ulog` map, e.g. `channel.elevator = K*actuator_controls_0.control[1] rad`",
-                present.iter().map(|t| format!("`{t}`")).collect::<Vec<_>>().join(", ")
-            ));
-        }
+    out
+}
+
+/// Why an optional topic is not read (it does not cover the window, or is not finite in it), or
+/// `None` when it is.
+fn optional_unusable(
+    name: &str,
+    tp: &Topic,
+    t: &[f64],
+    fields: &[&(Quantity, Resolved)],
+    base: &TimeBase,
+) -> Option<String> {
+    let (lo, hi) = (base.lo, base.hi);
+    let dt = median(&t.windows(2).map(|w| w[1] - w[0]).collect::<Vec<_>>());
+    let what: Vec<&str> = fields.iter().map(|(q, _)| q.name()).collect();
+    if t.len() < 2 || t[0] > lo + 2.0 * dt || t[t.len() - 1] < hi - 2.0 * dt {
+        return Some(format!(
+            "`{name}` ({}) covers {:.3}…{:.3} s, not the window {:.3}…{:.3} s: not read (choose a window inside it with --from/--to to read it)",
+            what.join(", "),
+            t.first().copied().unwrap_or(0.0) * 1e-6,
+            t.last().copied().unwrap_or(0.0) * 1e-6,
+            lo * 1e-6,
+            hi * 1e-6
+        ));
     }
-    let base_rate = 1e6 / h_us;
-    let flight = MeasuredFlight {
-        source: file.to_string(),
-        t_s: base_us.iter().map(|t| t * 1e-6).collect(),
-        channels,
-        aircraft: map.aircraft.clone(),
-        log: LogMeta {
-            format: "PX4 ULog".into(),
-            logged_rate_hz,
-            resampling: Some(format!(
-                "uniform {base_rate:.2} Hz ({h_us} µs step: {}), every field linearly interpolated in time (the attitude quaternion normalised after interpolation), no anti-alias filter; {} samples",
-                if opts.rate_hz.is_some() {
-                    "the rate asked for".to_string()
-                } else {
-                    format!("the median interval of `{base_topic}`")
-                },
-                base_us.len()
-            )),
-            window,
-            airborne,
-            aircraft_unknown: false,
-            parameters: s.parameters,
-            warnings,
-            flow_angles: None,
-            origin,
-            pieces: Vec::new(),
-        },
-    };
-    flight.validate().map_err(|inv| {
-        let src = inv.quantity.map_or(String::new(), |q| {
-            if let Some((_, _, rs)) = mapped.iter().find(|(c, _, _)| *c == q) {
-                rs.first()
-                    .map_or(String::new(), |r| format!(" (from `{}`, map {})", r.topic, map.file))
-            } else if let Some((_, r)) = builtin.iter().chain(&optional).find(|(c, _)| *c == q) {
-                format!(" (from `{}.{}`)", r.topic, topics[r.topic].names[r.field])
-            } else {
-                " (from `vehicle_attitude.q`)".to_string()
-            }
-        });
-        err(inv.describe(&src, &flight.t_s))
+    let i0 = t.partition_point(|&x| x < lo).saturating_sub(1);
+    let i1 = (t.partition_point(|&x| x <= hi) + 1).min(t.len());
+    let (r, i) = fields.iter().find_map(|(_, r)| {
+        tp.values[r.field][i0..i1]
+            .iter()
+            .position(|v| !v.is_finite())
+            .map(|i| (r, i + i0))
     })?;
-    Ok(flight)
+    let p = tp.places[i];
+    Some(format!(
+        "ULog message #{} at byte {}: `{name}.{}` is {} inside the window: `{name}` ({}) not read",
+        p.index,
+        p.offset,
+        tp.names[r.field],
+        tp.values[r.field][i],
+        what.join(", ")
+    ))
+}
+
+/// A warning when no surface is mapped but the log has actuator topics (whose throw in radians
+/// the airframe sets).
+fn surface_warning(topics: &BTreeMap<String, Topic>, channels: &BTreeMap<Quantity, Vec<f64>>) -> Option<String> {
+    let surfaces = [Quantity::Elevator, Quantity::Aileron, Quantity::Rudder];
+    if surfaces.iter().any(|q| channels.contains_key(q)) {
+        return None;
+    }
+    let present: Vec<&str> = ["actuator_servos", "actuator_controls_0", "actuator_outputs"]
+        .into_iter()
+        .filter(|t| topics.get(*t).is_some_and(|x| !x.time_us.is_empty()))
+        .collect();
+    (!present.is_empty()).then(|| {
+        format!(
+            "no surface deflection mapped: the log has {} (normalised commands or PWM), but their throw in radians is the airframe's; map them in a `format = ulog` map, e.g. `channel.elevator = K*actuator_controls_0.control[1] rad`",
+            present.iter().map(|t| format!("`{t}`")).collect::<Vec<_>>().join(", ")
+        )
+    })
+}
+
+/// How the channels were resampled, in words.
+fn resampling(base: &TimeBase, base_topic: &str, opts: &ReadOptions) -> String {
+    let base_rate = 1e6 / base.h_us;
+    let h_us = base.h_us;
+    format!(
+        "uniform {base_rate:.2} Hz ({h_us} µs step: {}), every field linearly interpolated in time (the attitude quaternion normalised after interpolation), no anti-alias filter; {} samples",
+        if opts.rate_hz.is_some() {
+            "the rate asked for".to_string()
+        } else {
+            format!("the median interval of `{base_topic}`")
+        },
+        base.grid.len()
+    )
+}
+
+/// The warning for a series' gaps longer than [`GAP_FACTOR`] × its median interval in the
+/// window, if any; `scope` and `cause` as the reader words them (` in the window`, `dropped
+/// messages; `).
+pub(crate) fn gap_warning(name: &str, t: &[f64], base: &TimeBase, scope: &str, cause: &str) -> Option<String> {
+    let (count, longest, at) = gaps(t, base.lo, base.hi)?;
+    Some(format!(
+        "`{name}`: {count} gap{} longer than {GAP_FACTOR} × its median interval{scope}, the longest {:.3} s from t = {:.3} s ({cause}interpolated across)",
+        if count == 1 { "" } else { "s" },
+        longest * 1e-6,
+        at * 1e-6
+    ))
+}
+
+/// The window read: from `w0` to `w1` (µs), why, and whether the vehicle flew in it.
+pub(crate) struct Window {
+    pub(crate) w0: f64,
+    pub(crate) w1: f64,
+    pub(crate) text: Option<String>,
+    pub(crate) airborne: Option<bool>,
+}
+
+/// The uniform time base: the window's bounds `lo`…`hi` (µs), the step and the grid.
+pub(crate) struct TimeBase {
+    pub(crate) lo: f64,
+    pub(crate) hi: f64,
+    pub(crate) h_us: f64,
+    pub(crate) grid: Vec<f64>,
+}
+
+impl TimeBase {
+    /// The rate, Hz, at which a series with times `t` (µs) is logged in the window (a series
+    /// with one sample in a 1-s window: 1 Hz).
+    pub(crate) fn rate_hz(&self, t: &[f64]) -> f64 {
+        let k = t.iter().filter(|x| **x >= self.lo && **x <= self.hi).count();
+        k as f64 / ((self.hi - self.lo + self.h_us) * 1e-6)
+    }
+}
+
+/// `(t, x)` interpolated linearly at the times of `grid` (held at its ends).
+pub(crate) fn interpolate(t: &[f64], x: &[f64], grid: &[f64]) -> Vec<f64> {
+    let mut j = 0;
+    grid.iter().map(|&tq| interp(t, x, tq, &mut j)).collect()
 }
