@@ -307,7 +307,8 @@ pub struct VffSettings<T> {
     /// weight"): until `σ_ε²` has [`Self::min_noise_weight_samples`], `σ_ν²` is compared with
     /// [`EARLY_THRESHOLD`]` · γ₀²` times the smallest `σ_ν²` since the statistics started among the
     /// short windows filled to [`EARLY_WINDOW_FILL`] of their full weight. Our reading of eq. 28
-    /// only. (A `bool` beside `reading`: it takes no room in the on-board state.)
+    /// only. (A `bool` beside `reading`: it takes no room in the on-board state.) Without the
+    /// crate's `early-test` feature the test is not built and this flag is ignored.
     pub early_test: bool,
 }
 
@@ -370,7 +371,7 @@ impl<T: Real> VffSettings<T> {
             min_noise_weight_samples: T::lit(50.0),
             noise_clip: T::lit(1.1),
             reading: Eq28Reading::Paleologu,
-            early_test: true,
+            early_test: cfg!(feature = "early-test"),
         }
     }
 
@@ -604,7 +605,10 @@ impl<T: Real, const N: usize> Vff<T, N> {
                     }
                     if w_eps >= s.min_noise_weight_samples {
                         Some((seps2, one))
-                    } else if s.early_test && w_nu * (one - s.gamma2) >= T::lit(EARLY_WINDOW_FILL) {
+                    } else if cfg!(feature = "early-test")
+                        && s.early_test
+                        && w_nu * (one - s.gamma2) >= T::lit(EARLY_WINDOW_FILL)
+                    {
                         // The early test (module doc): the smallest filled short window so far.
                         snu2_min = if snu2_min > z { snu2_min.minr(snu2) } else { snu2 };
                         Some((snu2_min, T::lit(EARLY_THRESHOLD)))
