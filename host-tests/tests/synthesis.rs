@@ -577,7 +577,7 @@ fn pipeline_size() {
         std::mem::size_of::<aerosid_core::Gtls<f32, 6, 1, 6>>()
     );
     assert!(n32 < 8192);
-    // The goal: the six estimators' state ≤ 4 KB (measured 2·460 + 624 + 3·820 = 4 004 B; the
+    // The goal: the six estimators' state ≤ 4 KB (measured 2·460 + 624 + 3·820 = 4 004 B; the
     // dimension-6 state holds two `V` buffers, see `sizes.rs`).
     let six = 2 * std::mem::size_of::<aerosid_core::Gtls<f32, 4, 1, 4>>()
         + std::mem::size_of::<aerosid_core::Gtls<f32, 5, 1, 5>>()
