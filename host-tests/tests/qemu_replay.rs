@@ -20,17 +20,16 @@ const STEP_BUDGET_MEDIAN: u32 = 25_500;
 const STEP_BUDGET_MAX: u32 = qemu::STEP_BUDGET_MAX;
 /// Instructions the whole firmware executes per sample (`qemu::PERIOD_PROBE`: the step, the
 /// sample queue, the sampling task with the replay's reads, the count file, interrupts), median
-/// and maximum: regression budgets ≈ 5 % above the measured 28 236 / 45 546. Not asserted on the
+/// and maximum: regression budgets ≈ 5 % above the measured 28 339 / 45 613. Not asserted on the
 /// fault run, whose drops and bus retries put several sampling-task runs into one period.
 const FIRMWARE_BUDGET_MEDIAN: u32 = 29_700;
 /// See [`FIRMWARE_BUDGET_MEDIAN`].
 const FIRMWARE_BUDGET_MAX: u32 = 47_900;
 /// Instructions the telemetry task holds the estimator lock to encode one report part (one
 /// coefficient report with eq. 17's covariance, the health report or the counters): regression
-/// budget, about 10 % above the measured 14 548 (the counters part; the longest coefficient report,
-/// dimension 6, holds it 14 520; the firmware's last two report periods make the second's
-/// `lock_max` cover every part of the first). With the
-/// longest step (≈ 38 700) that is ≈ 53 000 instructions, ≈ 1 ms at 168 MHz even at 3 cycles per
+/// budget, ≈ 4 % above the measured 15 424 (the longest part of a period; the firmware's last two
+/// report periods make the second's `lock_max` cover every part of the first). With the
+/// longest step (≈ 41 700) that is ≈ 58 000 instructions, ≈ 1 ms at 168 MHz even at 3 cycles per
 /// instruction, against the 40 ms a sample can wait in the firmware's queue of four.
 const LOCK_BUDGET: u32 = 16_000;
 /// Stack high-water mark, regression budget (shared with the fault run; measured figures there).
