@@ -634,9 +634,12 @@ impl<T: Real, const N: usize> Vff<T, N> {
                     // (module doc, "28c while eq. 32 holds"); tested means against σ_ε² or by the
                     // early test (a filled short window's minimum exists, `snu2_min > 0`) while σ_ε²
                     // is not below that minimum (module doc, "The clip while the early test holds").
-                    let tested = w_eps >= s.min_noise_weight_samples
-                        || (cfg!(feature = "early-test") && snu2_min > z && seps2 >= snu2_min);
-                    let calm = s.noise_clip > T::zero() && tested && self.lambda >= s.lambda_max;
+                    // (The order of the comparisons keeps the firmware's code, without the early
+                    // test, as it was.)
+                    let calm = s.noise_clip > T::zero()
+                        && (w_eps >= s.min_noise_weight_samples
+                            || (cfg!(feature = "early-test") && snu2_min > z && seps2 >= snu2_min))
+                        && self.lambda >= s.lambda_max;
                     let snu2_prev = if calm { snu2.minr(s.noise_clip * seps2) } else { snu2 };
                     w_nu = s.gamma2 * w_nu + one;
                     let g = one / w_nu;
