@@ -690,24 +690,17 @@ impl Messages<'_> {
     /// GPS ground speed, above a threshold), else the whole log.
     fn window(&self, raw: &[Channel], first_us: f64, last_us: f64) -> Result<Window, ReadError> {
         if let Some((w0, w1, text)) = self.opts.chosen_window(first_us, last_us).map_err(|m| self.err(m))? {
-            return Ok(Window {
-                w0,
-                w1,
-                text,
-                airborne: None,
-            });
+            return Ok(Window::chosen(w0, w1, text));
         }
         let (thr, from) = match self.log.parameters.get("ARSPD_FBW_MIN") {
             Some(v) if *v > 0.0 => (0.8 * v, "0.8 × ARSPD_FBW_MIN"),
             _ => (8.0, "8 m/s, no ARSPD_FBW_MIN logged"),
         };
         let Some((what, t, v)) = self.speed(raw) else {
-            return Ok(Window {
-                w0: f64::NEG_INFINITY,
-                w1: f64::INFINITY,
-                text: Some("no airspeed or GPS speed: the whole log is read, in the air or not".into()),
-                airborne: None,
-            });
+            return Ok(Window::whole_log(
+                "no airspeed or GPS speed: the whole log is read, in the air or not".into(),
+                None,
+            ));
         };
         // A missing (NaN) airspeed keeps the state before it: the gate does not cut around it, so
         // the read refuses it inside the window rather than hiding it.
@@ -723,14 +716,12 @@ impl Messages<'_> {
                 )),
                 airborne: Some(true),
             },
-            None => Window {
-                w0: f64::NEG_INFINITY,
-                w1: f64::INFINITY,
-                text: Some(format!(
+            None => Window::whole_log(
+                format!(
                     "never in the air: {what} never above {thr:.1} m/s ({from}); the whole log is read, on the ground"
-                )),
-                airborne: Some(false),
-            },
+                ),
+                Some(false),
+            ),
         })
     }
 

@@ -1094,12 +1094,7 @@ impl<'t> Topics<'t> {
             .copied()
             .fold(f64::NEG_INFINITY, f64::max);
         if let Some((w0, w1, text)) = self.opts.chosen_window(first_us, last_us).map_err(|m| self.err(m))? {
-            return Ok(Window {
-                w0,
-                w1,
-                text,
-                airborne: None,
-            });
+            return Ok(Window::chosen(w0, w1, text));
         }
         let airspeed = builtin.iter().find(|(q, _)| *q == Quantity::Airspeed).map(|(_, r)| r);
         let (run, how) = self.in_the_air(parameters, airspeed, last_us);
@@ -1114,20 +1109,14 @@ impl<'t> Topics<'t> {
                 )),
                 airborne: Some(true),
             },
-            None if how.is_empty() => Window {
-                w0: f64::NEG_INFINITY,
-                w1: f64::INFINITY,
-                text: Some("no land detector and no airspeed: the whole log is read, in the air or not".into()),
-                airborne: None,
-            },
-            None => Window {
-                w0: f64::NEG_INFINITY,
-                w1: f64::INFINITY,
-                text: Some(format!(
-                    "never in the air by {how}: the whole log is read, on the ground"
-                )),
-                airborne: Some(false),
-            },
+            None if how.is_empty() => Window::whole_log(
+                "no land detector and no airspeed: the whole log is read, in the air or not".into(),
+                None,
+            ),
+            None => Window::whole_log(
+                format!("never in the air by {how}: the whole log is read, on the ground"),
+                Some(false),
+            ),
         })
     }
 
@@ -1412,6 +1401,30 @@ pub(crate) struct Window {
     pub(crate) w1: f64,
     pub(crate) text: Option<String>,
     pub(crate) airborne: Option<bool>,
+}
+
+impl Window {
+    /// The window the user chose (`--from/--to`, `--whole-log`): whether the vehicle flew in it
+    /// is not judged.
+    pub(crate) fn chosen(w0: f64, w1: f64, text: Option<String>) -> Self {
+        Self {
+            w0,
+            w1,
+            text,
+            airborne: None,
+        }
+    }
+
+    /// The whole log, for the reason `text`; `airborne`: whether the vehicle flew (`None`: no
+    /// way to tell).
+    pub(crate) fn whole_log(text: String, airborne: Option<bool>) -> Self {
+        Self {
+            w0: f64::NEG_INFINITY,
+            w1: f64::INFINITY,
+            text: Some(text),
+            airborne,
+        }
+    }
 }
 
 /// The uniform time base: the window's bounds `lo`…`hi` (µs), the step and the grid.
