@@ -617,58 +617,181 @@ pub fn parse_ulog_with(
         return Err(ReadError::new(&map.file, 0, 0, "not a ULog map (`format = ulog`)"));
     }
     let err = |m: String| ReadError::new(file, 0, 0, m);
-    let s = scan(bytes, file)?;
-    let (mut topics, catalog) = collect(&bytes[..s.end], file, &s.places, &wanted_topics(map), &opts.instances)?;
-    check_instances(opts, &catalog).map_err(err)?;
-    let mut warnings = Vec::new();
-    for (name, tp) in topics.iter_mut() {
-        drop_repeated_times(name, tp, &mut warnings);
-    }
+    let Decoded {
+        scan: s,
+        topics,
+        catalog,
+        mut warnings,
+    } = decode_topics(bytes, file, map, opts)?;
     let log = Topics {
         topics: &topics,
         catalog: &catalog,
         file,
         opts,
     };
-    let mut builtin = log.builtin_channels(&mut warnings);
-    let mut optional = log.optional_channels();
-    let mut attitude = log.attitude();
-    let mapped = log.map_channels(map)?;
-    map_overrides(map, &mut builtin, &mut optional, &mut attitude);
-    if builtin.channels.is_empty() && attitude.is_none() && mapped.is_empty() {
-        return Err(err(format!(
-            "no channel this reader knows is in the log (it reads vehicle_attitude, vehicle_angular_velocity or sensor_combined, vehicle_acceleration, airspeed_validated or airspeed, vehicle_air_data, airflow_aoa/airflow_slip, actuator_motors; a `format = ulog` map names others); topics in the log [instance: messages]: {}",
-            topic_names(&catalog)
-        )));
+    let src = log.sources(map, &mut warnings)?;
+    let timing = log.timing(&src, map, &s.parameters, &mut warnings)?;
+    let (channels, logged_rate_hz) = resample_channels(&topics, &timing, &src, &mut warnings).map_err(err)?;
+    let flight = MeasuredFlight {
+        source: file.to_string(),
+        t_s: timing.base.grid.iter().map(|t| t * 1e-6).collect(),
+        channels,
+        aircraft: map.aircraft.clone(),
+        log: LogMeta {
+            format: "PX4 ULog".into(),
+            logged_rate_hz,
+            resampling: Some(resampling(&timing.base, timing.base_topic, opts)),
+            window: timing.window.text,
+            airborne: timing.window.airborne,
+            aircraft_unknown: false,
+            parameters: s.parameters,
+            warnings,
+            flow_angles: None,
+            origin: src.builtin.origin.clone(),
+            pieces: Vec::new(),
+        },
+    };
+    flight.validate().map_err(|inv| {
+        let src_text = inv.quantity.map_or(String::new(), |q| {
+            source_of(
+                q,
+                &topics,
+                map,
+                &src.mapped,
+                src.builtin.channels.iter().chain(&src.optional),
+            )
+        });
+        err(inv.describe(&src_text, &flight.t_s))
+    })?;
+    Ok(flight)
+}
+
+/// The log decoded: its scan (the parameters), the topics (a repeated time dropped, with a
+/// warning) and the catalog of every topic instance.
+struct Decoded {
+    scan: Scan,
+    topics: BTreeMap<String, Topic>,
+    catalog: BTreeMap<(String, u8), TopicInfo>,
+    warnings: Vec<String>,
+}
+
+/// Scans and decodes the topics the reader and `map` use, at the instances `opts` asks for
+/// (each of which must be in the log).
+fn decode_topics(bytes: &[u8], file: &str, map: &ColumnMap, opts: &ReadOptions) -> Result<Decoded, ReadError> {
+    let s = scan(bytes, file)?;
+    let (mut topics, catalog) = collect(&bytes[..s.end], file, &s.places, &wanted_topics(map), &opts.instances)?;
+    check_instances(opts, &catalog).map_err(|m| ReadError::new(file, 0, 0, m))?;
+    let mut warnings = Vec::new();
+    for (name, tp) in topics.iter_mut() {
+        drop_repeated_times(name, tp, &mut warnings);
     }
-    let mut used = used_fields(&builtin.channels, attitude.as_ref(), &mapped);
-    let base_topic = log.base_topic(map, builtin.rates_topic, &used)?;
-    used.entry(base_topic).or_default();
-    let times: BTreeMap<&str, Vec<f64>> = used
-        .keys()
-        .map(|name| (*name, topics[*name].time_us.iter().map(|&t| t as f64).collect()))
-        .collect();
-    let window = log.window(&s.parameters, &builtin.channels, &times)?;
-    let base = time_base(&times, base_topic, &window, opts).map_err(err)?;
-    for (name, fields) in &used {
-        check_in_window(name, fields, &topics[*name], &times[*name], &base, &mut warnings).map_err(err)?;
+    Ok(Decoded {
+        scan: s,
+        topics,
+        catalog,
+        warnings,
+    })
+}
+
+/// Where every channel is read from: the built-in and optional fields, the attitude quaternion
+/// and the map's channels (which replace the built-in ones of their quantity).
+struct Sources<'m, 't> {
+    builtin: Builtin,
+    optional: Vec<(Quantity, Resolved<'static>)>,
+    attitude: Option<[Resolved<'static>; 4]>,
+    mapped: Vec<Mapped<'m, 't>>,
+}
+
+/// The time base of the read: the topic that sets its step, the used topics' times (µs), the
+/// window and the grid.
+struct Timing<'t> {
+    base_topic: &'t str,
+    times: BTreeMap<&'t str, Vec<f64>>,
+    window: Window,
+    base: TimeBase,
+}
+
+impl<'t> Topics<'t> {
+    /// The channels' sources; an error naming the log's topics when it has none this reader
+    /// knows.
+    fn sources<'m>(&self, map: &'m ColumnMap, warnings: &mut Vec<String>) -> Result<Sources<'m, 't>, ReadError> {
+        let mut builtin = self.builtin_channels(warnings);
+        let mut optional = self.optional_channels();
+        let mut attitude = self.attitude();
+        let mapped = self.map_channels(map)?;
+        map_overrides(map, &mut builtin, &mut optional, &mut attitude);
+        if builtin.channels.is_empty() && attitude.is_none() && mapped.is_empty() {
+            return Err(self.err(format!(
+                "no channel this reader knows is in the log (it reads vehicle_attitude, vehicle_angular_velocity or sensor_combined, vehicle_acceleration, airspeed_validated or airspeed, vehicle_air_data, airflow_aoa/airflow_slip, actuator_motors; a `format = ulog` map names others); topics in the log [instance: messages]: {}",
+                topic_names(self.catalog)
+            )));
+        }
+        Ok(Sources {
+            builtin,
+            optional,
+            attitude,
+            mapped,
+        })
     }
+
+    /// The window and the uniform time base of the used topics, each of them checked finite
+    /// (and its gaps warned of) in the window.
+    fn timing(
+        &self,
+        src: &Sources<'_, 't>,
+        map: &ColumnMap,
+        parameters: &BTreeMap<String, f64>,
+        warnings: &mut Vec<String>,
+    ) -> Result<Timing<'t>, ReadError> {
+        let mut used = used_fields(&src.builtin.channels, src.attitude.as_ref(), &src.mapped);
+        let base_topic = self.base_topic(map, src.builtin.rates_topic, &used)?;
+        used.entry(base_topic).or_default();
+        let times: BTreeMap<&str, Vec<f64>> = used
+            .keys()
+            .map(|name| (*name, self.topics[*name].time_us.iter().map(|&t| t as f64).collect()))
+            .collect();
+        let window = self.window(parameters, &src.builtin.channels, &times)?;
+        let base = time_base(&times, base_topic, &window, self.opts).map_err(|m| self.err(m))?;
+        for (name, fields) in &used {
+            check_in_window(name, fields, &self.topics[*name], &times[*name], &base, warnings)
+                .map_err(|m| self.err(m))?;
+        }
+        Ok(Timing {
+            base_topic,
+            times,
+            window,
+            base,
+        })
+    }
+}
+
+/// Every channel on the time base with the rate it was logged at: the built-in ones, the
+/// attitude's Euler angles, the map's channels, the optional ones (where their topic covers the
+/// window); a warning when the surfaces do not move.
+#[allow(clippy::type_complexity)]
+fn resample_channels(
+    topics: &BTreeMap<String, Topic>,
+    timing: &Timing,
+    src: &Sources,
+    warnings: &mut Vec<String>,
+) -> Result<(BTreeMap<Quantity, Vec<f64>>, BTreeMap<Quantity, f64>), String> {
+    let (times, base) = (&timing.times, &timing.base);
     let mut channels: BTreeMap<Quantity, Vec<f64>> = BTreeMap::new();
     let mut logged_rate_hz = BTreeMap::new();
     let resample = |r: &Resolved| interpolate(&times[r.topic], &topics[r.topic].values[r.field], &base.grid);
-    for (q, r) in &builtin.channels {
+    for (q, r) in &src.builtin.channels {
         channels.insert(*q, resample(r));
         logged_rate_hz.insert(*q, base.rate_hz(&times[r.topic]));
     }
-    if let Some(a) = &attitude {
+    if let Some(a) = &src.attitude {
         let topic = a[0].topic;
-        let euler = attitude_euler(&topics[topic], &times[topic], a, &base.grid).map_err(err)?;
+        let euler = attitude_euler(&topics[topic], &times[topic], a, &base.grid)?;
         for (q, v) in [Quantity::Roll, Quantity::Pitch, Quantity::Yaw].into_iter().zip(euler) {
             channels.insert(q, v);
             logged_rate_hz.insert(q, base.rate_hz(&times[topic]));
         }
     }
-    for (q, e, rs) in &mapped {
+    for (q, e, rs) in &src.mapped {
         let cols: Vec<Vec<f64>> = rs.iter().map(resample).collect();
         channels.insert(
             *q,
@@ -680,39 +803,14 @@ pub fn parse_ulog_with(
             logged_rate_hz.insert(*q, base.rate_hz(&times[r.topic]));
         }
     }
-    for (q, v, rate_hz) in read_optional(&topics, &optional, &base, &mut warnings) {
+    for (q, v, rate_hz) in read_optional(topics, &src.optional, base, warnings) {
         channels.insert(q, v);
         logged_rate_hz.insert(q, rate_hz);
     }
-    if let Some(w) = surface_warning(&topics, &channels) {
+    if let Some(w) = surface_warning(topics, &channels) {
         warnings.push(w);
     }
-    let flight = MeasuredFlight {
-        source: file.to_string(),
-        t_s: base.grid.iter().map(|t| t * 1e-6).collect(),
-        channels,
-        aircraft: map.aircraft.clone(),
-        log: LogMeta {
-            format: "PX4 ULog".into(),
-            logged_rate_hz,
-            resampling: Some(resampling(&base, base_topic, opts)),
-            window: window.text,
-            airborne: window.airborne,
-            aircraft_unknown: false,
-            parameters: s.parameters,
-            warnings,
-            flow_angles: None,
-            origin: builtin.origin,
-            pieces: Vec::new(),
-        },
-    };
-    flight.validate().map_err(|inv| {
-        let src = inv.quantity.map_or(String::new(), |q| {
-            source_of(q, &topics, map, &mapped, builtin.channels.iter().chain(&optional))
-        });
-        err(inv.describe(&src, &flight.t_s))
-    })?;
-    Ok(flight)
+    Ok((channels, logged_rate_hz))
 }
 
 /// A map channel replaces the built-in of the same quantity; the map's channels are its own
