@@ -212,170 +212,21 @@ pub fn fit_wind(
     yaw: &[f64],
     s: &WindFitSettings,
 ) -> Result<WindFit, String> {
-    let n = t_s.len();
-    if vel_ned.iter().any(|v| v.len() != n) || airspeed.len() != n || yaw.len() != n {
-        return Err("the ground velocity, airspeed and yaw are not all as long as the time base".into());
-    }
-    let use_: Vec<usize> = (0..n)
-        .filter(|&i| {
-            airspeed[i] > s.min_airspeed_mps
-                && vel_ned.iter().all(|v| v[i].is_finite())
-                && yaw[i].is_finite()
-                && t_s[i].is_finite()
-        })
-        .collect();
-    if use_.len() < 20 {
-        return Err(format!(
-            "{} samples with a logged airspeed above {} m/s: too few to fit a wind",
-            use_.len(),
-            s.min_airspeed_mps
-        ));
-    }
-    let t0 = t_s[use_[0]];
-    let t_end = t_s[use_[use_.len() - 1]];
-    let nb = match s.block_s {
-        Some(b) if b > 0.0 && b.is_finite() => (((t_end - t0) / b).round() as usize).max(1),
-        _ => 1,
-    };
-    let span = (t_end - t0).max(1e-9);
-    let block_of = |t: f64| (((t - t0) / span * nb as f64).floor() as usize).min(nb - 1);
-    let p = 1 + 2 * nb;
-    // Start: the linear form |v_g|² = 2 v_g·w + k²V_m² − |w|² (one wind), least squares.
-    let mut a = DMatrix::<f64>::zeros(use_.len(), 4);
-    let mut y = DVector::<f64>::zeros(use_.len());
-    for (r, &i) in use_.iter().enumerate() {
-        let (vn, ve, vd) = (vel_ned[0][i], vel_ned[1][i], vel_ned[2][i]);
-        a[(r, 0)] = 2.0 * vn;
-        a[(r, 1)] = 2.0 * ve;
-        a[(r, 2)] = airspeed[i] * airspeed[i];
-        a[(r, 3)] = -1.0;
-        y[r] = vn * vn + ve * ve + vd * vd;
-    }
-    let mut theta = DVector::<f64>::zeros(p);
-    theta[0] = 1.0;
-    if let Ok(sol) = a.clone().svd(true, true).solve(&y, 1e-12) {
-        if sol[2] > 0.0 && sol.iter().all(|v| v.is_finite()) {
-            theta[0] = sol[2].sqrt();
-            for b in 0..nb {
-                theta[1 + 2 * b] = sol[0];
-                theta[2 + 2 * b] = sol[1];
-            }
-        }
-    }
-    let residuals = |th: &DVector<f64>| -> (Vec<f64>, DMatrix<f64>) {
-        let mut r = Vec::with_capacity(use_.len());
-        let mut j = DMatrix::<f64>::zeros(use_.len(), p);
-        for (row, &i) in use_.iter().enumerate() {
-            let b = block_of(t_s[i]);
-            let (wn, we) = (th[1 + 2 * b], th[2 + 2 * b]);
-            let (an, ae, ad) = (vel_ned[0][i] - wn, vel_ned[1][i] - we, vel_ned[2][i]);
-            let va = (an * an + ae * ae + ad * ad).sqrt().max(1e-6);
-            r.push(th[0] * airspeed[i] - va);
-            j[(row, 0)] = airspeed[i];
-            j[(row, 1 + 2 * b)] = an / va;
-            j[(row, 2 + 2 * b)] = ae / va;
-        }
-        (r, j)
-    };
-    let cost = |r: &[f64]| r.iter().map(|x| x * x).sum::<f64>();
-    let (mut r, mut j) = residuals(&theta);
-    for _ in 0..50 {
-        let jt = j.transpose();
-        let g = &jt * DVector::from_column_slice(&r);
-        let h = &jt * &j;
-        let Some(step) = h.clone().cholesky().map(|c| c.solve(&g)) else {
-            break;
-        };
-        let c0 = cost(&r);
-        let mut lambda = 1.0;
-        let mut improved = false;
-        while lambda > 1e-4 {
-            let cand = &theta - &step * lambda;
-            let (rc, jc) = residuals(&cand);
-            if cost(&rc) <= c0 {
-                theta = cand;
-                r = rc;
-                j = jc;
-                improved = true;
-                break;
-            }
-            lambda *= 0.5;
-        }
-        if !improved || step.norm() * lambda < 1e-9 {
-            break;
-        }
-    }
-    let m = use_.len();
-    let s2 = cost(&r) / (m.saturating_sub(p)).max(1) as f64;
+    let d = WindData::select(t_s, vel_ned, airspeed, yaw, s)?;
+    let (theta, r, j) = d.gauss_newton(d.initial_guess());
+    let m = d.use_.len();
+    let p = d.parameters();
+    let s2 = sum_sq(&r) / (m.saturating_sub(p)).max(1) as f64;
     let factor = correlation_factor(&r);
     let n_eff = m as f64 / factor;
     let jtj = j.transpose() * &j;
     let cov = jtj.clone().try_inverse().map(|inv| inv * (s2 * factor));
-    // Condition of the Jacobian with unit-length columns.
-    let mut js = j.clone();
-    for c in 0..p {
-        let norm = js.column(c).norm();
-        if norm > 0.0 {
-            js.column_mut(c).scale_mut(1.0 / norm);
-        }
-    }
-    let sv = js.singular_values();
-    let (mx, mn) = sv
-        .iter()
-        .fold((0.0f64, f64::INFINITY), |(a, b), v| (a.max(*v), b.min(*v)));
-    let condition = if mn > 0.0 { mx / mn } else { f64::INFINITY };
+    let condition = scaled_condition(&j);
     let sd = |k: usize| cov.as_ref().map_or(f64::INFINITY, |c| c[(k, k)].max(0.0).sqrt());
     let mut refused = Vec::new();
-    let mut blocks = Vec::new();
-    for b in 0..nb {
-        let psi: Vec<f64> = use_
-            .iter()
-            .filter(|&&i| block_of(t_s[i]) == b)
-            .map(|&i| yaw[i])
-            .collect();
-        let span_b = heading_span(&psi);
-        let (lo, hi) = (t0 + span * b as f64 / nb as f64, t0 + span * (b + 1) as f64 / nb as f64);
-        if span_b < s.min_heading_span_rad {
-            refused.push(format!(
-                "the heading spans only {:.0}° over {lo:.1}…{hi:.1} s: the wind and the pitot scale separate only with heading changes of at least {:.0}° (fly a turn or a circle)",
-                span_b.to_degrees(),
-                s.min_heading_span_rad.to_degrees()
-            ));
-        }
-        let sig = [sd(1 + 2 * b), sd(2 + 2 * b)];
-        if sig.iter().any(|v| v.is_nan() || *v > s.max_wind_sigma_mps) {
-            refused.push(format!(
-                "the wind over {lo:.1}…{hi:.1} s is determined only to σ = ({:.2}, {:.2}) m/s (north, east), more than {} m/s",
-                sig[0], sig[1], s.max_wind_sigma_mps
-            ));
-        }
-        blocks.push(WindBlock {
-            t_s: [lo, hi],
-            wind_ne_mps: [theta[1 + 2 * b], theta[2 + 2 * b]],
-            sigma_ne_mps: sig,
-            heading_span_deg: span_b.to_degrees(),
-        });
-    }
-    if condition.is_nan() || condition > s.max_condition {
-        refused.push(format!(
-            "the fit's regressors (scaled) have condition number {condition:.0}, above {}: the wind and the pitot scale trade off against each other",
-            s.max_condition
-        ));
-    }
-    if sd(0).is_nan() || sd(0) > s.max_scale_sigma {
-        refused.push(format!(
-            "the pitot scale is determined only to σ = {:.3}, more than {}",
-            sd(0),
-            s.max_scale_sigma
-        ));
-    }
-    if !(s.scale_range.0..=s.scale_range.1).contains(&theta[0]) {
-        refused.push(format!(
-            "the fitted pitot scale {:.3} is outside the plausible {}…{} (airspeed in knots or km/h, or a blocked or leaking pitot?)",
-            theta[0], s.scale_range.0, s.scale_range.1
-        ));
-    }
-    let residual_rms_mps = (cost(&r) / m as f64).sqrt();
+    let blocks = d.blocks(&theta, &sd, s, &mut refused);
+    scale_refusals(condition, sd(0), theta[0], s, &mut refused);
+    let residual_rms_mps = (sum_sq(&r) / m as f64).sqrt();
     Ok(WindFit {
         blocks,
         pitot_scale: theta[0],
@@ -387,6 +238,247 @@ pub fn fit_wind(
         covariance: cov.map_or_else(Vec::new, |c| c.transpose().as_slice().to_vec()),
         refused,
     })
+}
+
+/// Sum of squares.
+fn sum_sq(r: &[f64]) -> f64 {
+    r.iter().map(|x| x * x).sum::<f64>()
+}
+
+/// The wind fit's data: the samples it uses and their time blocks (one wind each). The
+/// parameters are `[k, w_N(0), w_E(0), w_N(1), …]`.
+struct WindData<'a> {
+    t_s: &'a [f64],
+    vel_ned: [&'a [f64]; 3],
+    airspeed: &'a [f64],
+    yaw: &'a [f64],
+    /// The samples used: airspeed above the minimum, everything finite.
+    use_: Vec<usize>,
+    t0: f64,
+    span: f64,
+    /// Blocks.
+    nb: usize,
+}
+
+impl<'a> WindData<'a> {
+    /// Checks the lengths, selects the samples and cuts the time into blocks.
+    fn select(
+        t_s: &'a [f64],
+        vel_ned: [&'a [f64]; 3],
+        airspeed: &'a [f64],
+        yaw: &'a [f64],
+        s: &WindFitSettings,
+    ) -> Result<Self, String> {
+        let n = t_s.len();
+        if vel_ned.iter().any(|v| v.len() != n) || airspeed.len() != n || yaw.len() != n {
+            return Err("the ground velocity, airspeed and yaw are not all as long as the time base".into());
+        }
+        let use_: Vec<usize> = (0..n)
+            .filter(|&i| {
+                airspeed[i] > s.min_airspeed_mps
+                    && vel_ned.iter().all(|v| v[i].is_finite())
+                    && yaw[i].is_finite()
+                    && t_s[i].is_finite()
+            })
+            .collect();
+        if use_.len() < 20 {
+            return Err(format!(
+                "{} samples with a logged airspeed above {} m/s: too few to fit a wind",
+                use_.len(),
+                s.min_airspeed_mps
+            ));
+        }
+        let t0 = t_s[use_[0]];
+        let t_end = t_s[use_[use_.len() - 1]];
+        let nb = match s.block_s {
+            Some(b) if b > 0.0 && b.is_finite() => (((t_end - t0) / b).round() as usize).max(1),
+            _ => 1,
+        };
+        let span = (t_end - t0).max(1e-9);
+        Ok(Self {
+            t_s,
+            vel_ned,
+            airspeed,
+            yaw,
+            use_,
+            t0,
+            span,
+            nb,
+        })
+    }
+
+    fn block_of(&self, t: f64) -> usize {
+        (((t - self.t0) / self.span * self.nb as f64).floor() as usize).min(self.nb - 1)
+    }
+
+    fn parameters(&self) -> usize {
+        1 + 2 * self.nb
+    }
+
+    /// The start: the linear form |v_g|² = 2 v_g·w + k²V_m² − |w|² (one wind), least squares;
+    /// `k = 1`, no wind when it has no positive `k²`.
+    fn initial_guess(&self) -> DVector<f64> {
+        let (vel_ned, airspeed) = (self.vel_ned, self.airspeed);
+        let mut a = DMatrix::<f64>::zeros(self.use_.len(), 4);
+        let mut y = DVector::<f64>::zeros(self.use_.len());
+        for (r, &i) in self.use_.iter().enumerate() {
+            let (vn, ve, vd) = (vel_ned[0][i], vel_ned[1][i], vel_ned[2][i]);
+            a[(r, 0)] = 2.0 * vn;
+            a[(r, 1)] = 2.0 * ve;
+            a[(r, 2)] = airspeed[i] * airspeed[i];
+            a[(r, 3)] = -1.0;
+            y[r] = vn * vn + ve * ve + vd * vd;
+        }
+        let mut theta = DVector::<f64>::zeros(self.parameters());
+        theta[0] = 1.0;
+        if let Ok(sol) = a.clone().svd(true, true).solve(&y, 1e-12) {
+            if sol[2] > 0.0 && sol.iter().all(|v| v.is_finite()) {
+                theta[0] = sol[2].sqrt();
+                for b in 0..self.nb {
+                    theta[1 + 2 * b] = sol[0];
+                    theta[2 + 2 * b] = sol[1];
+                }
+            }
+        }
+        theta
+    }
+
+    /// The residuals `k·V_m − |v_g − w|` and their Jacobian at `th`.
+    fn residuals(&self, th: &DVector<f64>) -> (Vec<f64>, DMatrix<f64>) {
+        let (vel_ned, airspeed) = (self.vel_ned, self.airspeed);
+        let mut r = Vec::with_capacity(self.use_.len());
+        let mut j = DMatrix::<f64>::zeros(self.use_.len(), self.parameters());
+        for (row, &i) in self.use_.iter().enumerate() {
+            let b = self.block_of(self.t_s[i]);
+            let (wn, we) = (th[1 + 2 * b], th[2 + 2 * b]);
+            let (an, ae, ad) = (vel_ned[0][i] - wn, vel_ned[1][i] - we, vel_ned[2][i]);
+            let va = (an * an + ae * ae + ad * ad).sqrt().max(1e-6);
+            r.push(th[0] * airspeed[i] - va);
+            j[(row, 0)] = airspeed[i];
+            j[(row, 1 + 2 * b)] = an / va;
+            j[(row, 2 + 2 * b)] = ae / va;
+        }
+        (r, j)
+    }
+
+    /// Gauss–Newton with step halving from `theta`: the fit, its residuals and Jacobian.
+    fn gauss_newton(&self, mut theta: DVector<f64>) -> (DVector<f64>, Vec<f64>, DMatrix<f64>) {
+        let (mut r, mut j) = self.residuals(&theta);
+        for _ in 0..50 {
+            let jt = j.transpose();
+            let g = &jt * DVector::from_column_slice(&r);
+            let h = &jt * &j;
+            let Some(step) = h.clone().cholesky().map(|c| c.solve(&g)) else {
+                break;
+            };
+            let c0 = sum_sq(&r);
+            let mut lambda = 1.0;
+            let mut improved = false;
+            while lambda > 1e-4 {
+                let cand = &theta - &step * lambda;
+                let (rc, jc) = self.residuals(&cand);
+                if sum_sq(&rc) <= c0 {
+                    theta = cand;
+                    r = rc;
+                    j = jc;
+                    improved = true;
+                    break;
+                }
+                lambda *= 0.5;
+            }
+            if !improved || step.norm() * lambda < 1e-9 {
+                break;
+            }
+        }
+        (theta, r, j)
+    }
+
+    /// Each block's wind with its σ and heading span; a block whose heading spans too little or
+    /// whose wind is too uncertain adds its reason to `refused`. `sd(k)` is parameter `k`'s σ.
+    fn blocks(
+        &self,
+        theta: &DVector<f64>,
+        sd: &dyn Fn(usize) -> f64,
+        s: &WindFitSettings,
+        refused: &mut Vec<String>,
+    ) -> Vec<WindBlock> {
+        let (t0, span, nb) = (self.t0, self.span, self.nb);
+        let mut blocks = Vec::new();
+        for b in 0..nb {
+            let psi: Vec<f64> = self
+                .use_
+                .iter()
+                .filter(|&&i| self.block_of(self.t_s[i]) == b)
+                .map(|&i| self.yaw[i])
+                .collect();
+            let span_b = heading_span(&psi);
+            let (lo, hi) = (t0 + span * b as f64 / nb as f64, t0 + span * (b + 1) as f64 / nb as f64);
+            if span_b < s.min_heading_span_rad {
+                refused.push(format!(
+                    "the heading spans only {:.0}° over {lo:.1}…{hi:.1} s: the wind and the pitot scale separate only with heading changes of at least {:.0}° (fly a turn or a circle)",
+                    span_b.to_degrees(),
+                    s.min_heading_span_rad.to_degrees()
+                ));
+            }
+            let sig = [sd(1 + 2 * b), sd(2 + 2 * b)];
+            if sig.iter().any(|v| v.is_nan() || *v > s.max_wind_sigma_mps) {
+                refused.push(format!(
+                    "the wind over {lo:.1}…{hi:.1} s is determined only to σ = ({:.2}, {:.2}) m/s (north, east), more than {} m/s",
+                    sig[0], sig[1], s.max_wind_sigma_mps
+                ));
+            }
+            blocks.push(WindBlock {
+                t_s: [lo, hi],
+                wind_ne_mps: [theta[1 + 2 * b], theta[2 + 2 * b]],
+                sigma_ne_mps: sig,
+                heading_span_deg: span_b.to_degrees(),
+            });
+        }
+        blocks
+    }
+}
+
+/// The condition number of a Jacobian with its columns scaled to unit length.
+fn scaled_condition(j: &DMatrix<f64>) -> f64 {
+    let mut js = j.clone();
+    for c in 0..js.ncols() {
+        let norm = js.column(c).norm();
+        if norm > 0.0 {
+            js.column_mut(c).scale_mut(1.0 / norm);
+        }
+    }
+    let sv = js.singular_values();
+    let (mx, mn) = sv
+        .iter()
+        .fold((0.0f64, f64::INFINITY), |(a, b), v| (a.max(*v), b.min(*v)));
+    if mn > 0.0 {
+        mx / mn
+    } else {
+        f64::INFINITY
+    }
+}
+
+/// The reasons not to trust the pitot scale (and with it the winds): a fit whose regressors
+/// trade off (`condition`), a scale too uncertain (`scale_sigma`) or implausible (`scale`).
+fn scale_refusals(condition: f64, scale_sigma: f64, scale: f64, s: &WindFitSettings, refused: &mut Vec<String>) {
+    if condition.is_nan() || condition > s.max_condition {
+        refused.push(format!(
+            "the fit's regressors (scaled) have condition number {condition:.0}, above {}: the wind and the pitot scale trade off against each other",
+            s.max_condition
+        ));
+    }
+    if scale_sigma.is_nan() || scale_sigma > s.max_scale_sigma {
+        refused.push(format!(
+            "the pitot scale is determined only to σ = {:.3}, more than {}",
+            scale_sigma, s.max_scale_sigma
+        ));
+    }
+    if !(s.scale_range.0..=s.scale_range.1).contains(&scale) {
+        refused.push(format!(
+            "the fitted pitot scale {:.3} is outside the plausible {}…{} (airspeed in knots or km/h, or a blocked or leaking pitot?)",
+            scale, s.scale_range.0, s.scale_range.1
+        ));
+    }
 }
 
 /// The estimated channels: α, β (rad), and the per-sample wind used.
