@@ -1336,45 +1336,7 @@ pub fn analyse(
 ) -> Result<StackBound, String> {
     let mut funcs = parse(disassembly);
     funcs.sort_by_key(|f| f.start);
-    let starts: HashMap<u64, usize> = funcs.iter().enumerate().map(|(i, f)| (f.start, i)).collect();
-    // Address-taken functions: Thumb addresses (bit 0 set) of a function start in data, in literal
-    // pools, or from `movw`/`movt` pairs.
-    let mut taken: BTreeSet<usize> = BTreeSet::new();
-    let mut mark = |w: u64| {
-        if w & 1 == 1 {
-            if let Some(&i) = starts.get(&(w & !1)) {
-                taken.insert(i);
-            }
-        }
-    };
-    for (_, w) in dump_words(data_dump) {
-        mark(u64::from(w));
-    }
-    for f in &funcs {
-        let mut low: HashMap<String, u64> = HashMap::new();
-        for i in &f.insns {
-            if i.mnemonic == ".word" {
-                if let Some(w) = immediate(&i.operands) {
-                    mark(w as u64);
-                }
-            }
-            let (base, _) = split_mnemonic(&i.mnemonic);
-            if let Some((reg, imm)) = i.operands.split_once(", #") {
-                let Some(v) = immediate(imm) else { continue };
-                match base.as_str() {
-                    "movw" => {
-                        low.insert(reg.to_string(), v as u64);
-                    }
-                    "movt" => {
-                        if let Some(l) = low.get(reg) {
-                            mark(((v as u64) << 16) | l);
-                        }
-                    }
-                    _ => {}
-                }
-            }
-        }
-    }
+    let taken = address_taken(&funcs, data_dump);
     let n = funcs.len();
     let mut g = Graph {
         funcs: &funcs,
@@ -1388,92 +1350,18 @@ pub fn analyse(
         busy: vec![false; n],
         sites: BTreeMap::new(),
     };
-    let vector: Vec<u32> = dump_words(vector_dump).into_iter().map(|(_, w)| w).collect();
-    if vector.len() < 2 {
-        return Err("the vector table is empty".into());
-    }
-    const EXCEPTIONS: [&str; 16] = [
-        "",
-        "Reset",
-        "NMI",
-        "HardFault",
-        "MemManage",
-        "BusFault",
-        "UsageFault",
-        "",
-        "",
-        "",
-        "",
-        "SVCall",
-        "DebugMonitor",
-        "",
-        "PendSV",
-        "SysTick",
-    ];
-    let mut roots = Vec::new();
-    let mut seen = BTreeSet::new();
-    let mut thread = Profile::default();
-    let mut listed = Vec::new();
-    let mut unlisted = Vec::new();
-    for (slot, &w) in vector.iter().enumerate().skip(1) {
-        if w == 0 {
-            continue;
-        }
-        let Some(fi) = containing(&funcs, u64::from(w & !1)) else {
-            return Err(format!("vector {slot} ({w:#x}) is outside the code"));
-        };
-        if !seen.insert(fi) {
-            continue;
-        }
-        let p = g.bound(fi)?;
-        let function = short(&funcs[fi].name);
-        let name = match slot {
-            1 => format!("Reset (thread mode): {function}"),
-            2..=15 => format!("exception {slot} ({}): {function}", EXCEPTIONS[slot]),
-            _ => format!("IRQ {}: {function}", slot - 16),
-        };
-        let priority = config.priorities.iter().find(|(h, _)| *h == function).map(|(_, p)| *p);
-        let frame = if slot == 1 { 0 } else { EXCEPTION_FRAME_BYTES };
-        let chain = g.chain(fi)?;
-        roots.push(RootBound {
-            name,
-            function: function.clone(),
-            priority: if slot == 1 { None } else { priority },
-            bytes: p.max + frame,
-            chain,
-        });
-        match (slot, priority) {
-            (1, _) => thread = p,
-            (_, Some(priority)) => listed.push(Handler {
-                name: function,
-                priority,
-                profile: p,
-            }),
-            (_, None) => unlisted.push((function, p.max + EXCEPTION_FRAME_BYTES)),
-        }
-    }
+    let Roots {
+        roots,
+        thread,
+        listed,
+        unlisted,
+    } = vector_roots(&mut g, vector_dump)?;
     for (h, _) in config.priorities.iter().filter(|(h, _)| !config.optional.contains(h)) {
         if !roots.iter().any(|r| r.function == *h && r.priority.is_some()) {
             return Err(format!("`priority | {h}`: no handler of that name in the vector table"));
         }
     }
-    // Thread mode at each of its masking levels, the handlers that may preempt it there, and the
-    // handlers the configuration does not list (faults), on top of everything.
-    let mut memo = HashMap::new();
-    let mut best: (u64, Vec<(String, u64)>) = (0, Vec::new());
-    for (&(l, _), &d) in &thread.by_level {
-        let (w, chain) = worst_above(l, &listed, &mut memo);
-        if d + w > best.0 || best.1.is_empty() {
-            let mut c = vec![(format!("thread mode (at level {l})"), d)];
-            c.extend(chain);
-            best = (d + w, c);
-        }
-    }
-    let (mut total, mut nesting) = best;
-    for (name, b) in unlisted {
-        total += b;
-        nesting.push((format!("{name} (not listed: preempts everything)"), b));
-    }
+    let (total, nesting) = worst_nesting(&thread, &listed, unlisted);
     let indirect = g
         .sites
         .iter()
@@ -1500,6 +1388,155 @@ pub fn analyse(
         address_taken: taken.len(),
         static_ram,
     })
+}
+
+/// Address-taken functions (indices into `funcs`, sorted by start): Thumb addresses (bit 0 set)
+/// of a function start in data, in literal pools, or from `movw`/`movt` pairs.
+fn address_taken(funcs: &[Function], data_dump: &str) -> BTreeSet<usize> {
+    let starts: HashMap<u64, usize> = funcs.iter().enumerate().map(|(i, f)| (f.start, i)).collect();
+    let mut taken: BTreeSet<usize> = BTreeSet::new();
+    let mut mark = |w: u64| {
+        if w & 1 == 1 {
+            if let Some(&i) = starts.get(&(w & !1)) {
+                taken.insert(i);
+            }
+        }
+    };
+    for (_, w) in dump_words(data_dump) {
+        mark(u64::from(w));
+    }
+    for f in funcs {
+        let mut low: HashMap<String, u64> = HashMap::new();
+        for i in &f.insns {
+            if i.mnemonic == ".word" {
+                if let Some(w) = immediate(&i.operands) {
+                    mark(w as u64);
+                }
+            }
+            let (base, _) = split_mnemonic(&i.mnemonic);
+            if let Some((reg, imm)) = i.operands.split_once(", #") {
+                let Some(v) = immediate(imm) else { continue };
+                match base.as_str() {
+                    "movw" => {
+                        low.insert(reg.to_string(), v as u64);
+                    }
+                    "movt" => {
+                        if let Some(l) = low.get(reg) {
+                            mark(((v as u64) << 16) | l);
+                        }
+                    }
+                    _ => {}
+                }
+            }
+        }
+    }
+    taken
+}
+
+/// The system exceptions' names by vector slot (empty: reserved).
+const EXCEPTIONS: [&str; 16] = [
+    "",
+    "Reset",
+    "NMI",
+    "HardFault",
+    "MemManage",
+    "BusFault",
+    "UsageFault",
+    "",
+    "",
+    "",
+    "",
+    "SVCall",
+    "DebugMonitor",
+    "",
+    "PendSV",
+    "SysTick",
+];
+
+/// The bounds of the vector table's entries: every root with its bound, thread mode's profile,
+/// the handlers the configuration gives a priority, and those it does not (name, bytes with
+/// the exception frame).
+struct Roots {
+    roots: Vec<RootBound>,
+    thread: Profile,
+    listed: Vec<Handler>,
+    unlisted: Vec<(String, u64)>,
+}
+
+/// Bounds every function the vector table names (once each, in slot order).
+fn vector_roots(g: &mut Graph, vector_dump: &str) -> Result<Roots, String> {
+    let (funcs, config) = (g.funcs, g.config);
+    let vector: Vec<u32> = dump_words(vector_dump).into_iter().map(|(_, w)| w).collect();
+    if vector.len() < 2 {
+        return Err("the vector table is empty".into());
+    }
+    let mut out = Roots {
+        roots: Vec::new(),
+        thread: Profile::default(),
+        listed: Vec::new(),
+        unlisted: Vec::new(),
+    };
+    let mut seen = BTreeSet::new();
+    for (slot, &w) in vector.iter().enumerate().skip(1) {
+        if w == 0 {
+            continue;
+        }
+        let Some(fi) = containing(funcs, u64::from(w & !1)) else {
+            return Err(format!("vector {slot} ({w:#x}) is outside the code"));
+        };
+        if !seen.insert(fi) {
+            continue;
+        }
+        let p = g.bound(fi)?;
+        let function = short(&funcs[fi].name);
+        let name = match slot {
+            1 => format!("Reset (thread mode): {function}"),
+            2..=15 => format!("exception {slot} ({}): {function}", EXCEPTIONS[slot]),
+            _ => format!("IRQ {}: {function}", slot - 16),
+        };
+        let priority = config.priorities.iter().find(|(h, _)| *h == function).map(|(_, p)| *p);
+        let frame = if slot == 1 { 0 } else { EXCEPTION_FRAME_BYTES };
+        let chain = g.chain(fi)?;
+        out.roots.push(RootBound {
+            name,
+            function: function.clone(),
+            priority: if slot == 1 { None } else { priority },
+            bytes: p.max + frame,
+            chain,
+        });
+        match (slot, priority) {
+            (1, _) => out.thread = p,
+            (_, Some(priority)) => out.listed.push(Handler {
+                name: function,
+                priority,
+                profile: p,
+            }),
+            (_, None) => out.unlisted.push((function, p.max + EXCEPTION_FRAME_BYTES)),
+        }
+    }
+    Ok(out)
+}
+
+/// The worst nesting: thread mode at each of its masking levels, the listed handlers that may
+/// preempt it there, and the handlers the configuration does not list (faults) on top of
+/// everything. Bytes, and the chain of (what, bytes it adds).
+fn worst_nesting(thread: &Profile, listed: &[Handler], unlisted: Vec<(String, u64)>) -> Nesting {
+    let mut memo = HashMap::new();
+    let mut best: (u64, Vec<(String, u64)>) = (0, Vec::new());
+    for (&(l, _), &d) in &thread.by_level {
+        let (w, chain) = worst_above(l, listed, &mut memo);
+        if d + w > best.0 || best.1.is_empty() {
+            let mut c = vec![(format!("thread mode (at level {l})"), d)];
+            c.extend(chain);
+            best = (d + w, c);
+        }
+    }
+    let (mut total, mut nesting) = best;
+    for (name, b) in unlisted {
+        total += b;
+        nesting.push((format!("{name} (not listed: preempts everything)"), b));
+    }
+    (total, nesting)
 }
 
 fn run(tool: &Path, args: &[&str], elf: &Path) -> Result<String, String> {
