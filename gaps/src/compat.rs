@@ -1658,39 +1658,92 @@ fn attitude_problem(flight: &MeasuredFlight, h_s: f64) -> Option<(Problem<'_>, V
     let lateral = get(RollRate).is_some() && get(YawRate).is_some() && get(Roll).is_some();
     // Missing lateral channels read as zero.
     let ch = |q: Quantity| get(q).map_or_else(|| vec![0.0; n], <[f64]>::to_vec);
-    let lat = std::rc::Rc::new([ch(RollRate), ch(YawRate), ch(Roll)]);
-    let phi_m = &lat[2];
+    let lat = [ch(RollRate), ch(YawRate), ch(Roll)];
     let psi_m = get(Yaw).filter(|_| lateral).map(unwrap);
     let mut outputs = vec![Pitch];
     let mut measured = vec![theta_m.to_vec()];
-    let cands = attitude_candidates(flight);
     if lateral {
         outputs.insert(0, Roll);
-        measured.insert(0, phi_m.to_vec());
+        measured.insert(0, lat[2].to_vec());
     }
     if let Some(psi) = &psi_m {
         outputs.push(Yaw);
         measured.push(psi.clone());
     }
-    let cands_a = cands.clone();
-    let bias_of = move |g: &[f64], q: Quantity| -> f64 {
-        cands_a
-            .iter()
-            .position(|c| *c == SensorParam::Bias(q))
-            .map_or(0.0, |i| g[i])
+    let x0: Vec<Vec<f64>> = segs
+        .iter()
+        .map(|&(a, _)| vec![lat[2][a], theta_m[a], psi_m.as_ref().map_or(0.0, |v| v[a])])
+        .collect();
+    let model = std::rc::Rc::new(AttitudeModel {
+        h_s,
+        q_m,
+        lat,
+        lateral,
+        candidates: attitude_candidates(flight),
+        outputs,
+        segments: segs,
+    });
+    let (m_sim, m_x0, m_g) = (model.clone(), model.clone(), model.clone());
+    let problem = Problem {
+        nx: 3,
+        x_mask: vec![lateral, true, psi_m.is_some()],
+        x_steps: vec![1e-4; 3],
+        fold_of: segment_folds(flight, &model.segments),
+        segments: model.segments.clone(),
+        candidates: model.candidates.clone(),
+        sim: Box::new(move |g: &[f64], x0: &[f64], a: usize, b: usize| m_sim.simulate(g, x0, a, b)),
+        measured,
+        outputs: model.outputs.clone(),
+        x0_sens: Some(Box::new(move |g: &[f64], x0: &[f64], seg: usize| {
+            m_x0.x0_sensitivity(g, x0, seg)
+        })),
+        split: None,
+        g_sens: Some(Box::new(move |g: &[f64], x0: &[f64], seg: usize, cand: usize| {
+            m_g.candidate_sensitivity(g, x0, seg, cand)
+        })),
+        memo: Memo::for_segments(model.segments.len()),
     };
-    // Euler's kinematic equations with the rates less the gyro biases `b`,
-    // `ẋ = f(x, ω − b)`, `x = (φ, θ, ψ)`; beside `f`, its Jacobians `J = ∂f/∂x` and `∂f/∂b`
-    // (row-major 3×3) for the variational equations of the sensitivities.
-    let kin_lat = lat.clone();
-    let kinematics = move |x: &[f64], k: usize, fr: f64, bias: [f64; 3]| -> ([f64; 3], [f64; 9], [f64; 9]) {
-        let [p_m, r_m, _] = &*kin_lat;
+    Some((problem, x0))
+}
+
+/// The attitude part's model, shared by the problem's closures: Euler's kinematic equations
+/// driven by the gyros less their biases, the attitude its outputs, and the sensitivities by the
+/// variational equations.
+struct AttitudeModel<'a> {
+    h_s: f64,
+    q_m: &'a [f64],
+    /// `p`, `r` and `φ` as measured (zero when the flight has no lateral channels).
+    lat: [Vec<f64>; 3],
+    lateral: bool,
+    candidates: Vec<SensorParam>,
+    outputs: Vec<Quantity>,
+    segments: Vec<(usize, usize)>,
+}
+
+impl AttitudeModel<'_> {
+    /// The gyro biases `[b_p, b_q, b_r]` in `g` (0 for one that is not a candidate).
+    fn biases(&self, g: &[f64]) -> [f64; 3] {
+        use Quantity::*;
+        let bias_of = |q: Quantity| {
+            self.candidates
+                .iter()
+                .position(|c| *c == SensorParam::Bias(q))
+                .map_or(0.0, |i| g[i])
+        };
+        [bias_of(RollRate), bias_of(PitchRate), bias_of(YawRate)]
+    }
+
+    /// Euler's kinematic equations with the rates less the gyro biases `b`,
+    /// `ẋ = f(x, ω − b)`, `x = (φ, θ, ψ)`; beside `f`, its Jacobians `J = ∂f/∂x` and `∂f/∂b`
+    /// (row-major 3×3) for the variational equations of the sensitivities.
+    fn kinematics(&self, x: &[f64], k: usize, fr: f64, bias: [f64; 3]) -> ([f64; 3], [f64; 9], [f64; 9]) {
+        let [p_m, r_m, _] = &self.lat;
         let (pp, qq, rr) = (
             lerp(p_m, k, fr) - bias[0],
-            lerp(q_m, k, fr) - bias[1],
+            lerp(self.q_m, k, fr) - bias[1],
             lerp(r_m, k, fr) - bias[2],
         );
-        if !lateral {
+        if !self.lateral {
             let mut db = [0.0; 9];
             db[4] = -1.0;
             return ([0.0, qq, 0.0], [0.0; 9], db);
@@ -1707,46 +1760,43 @@ fn attitude_problem(flight: &MeasuredFlight, h_s: f64) -> Option<(Problem<'_>, V
         let j = [b * tn, a * sec * sec, 0.0, -a, 0.0, 0.0, b * sec, a * tn * sec, 0.0];
         let db = [-1.0, -sf * tn, -cf * tn, 0.0, -cf, sf, 0.0, -sf * sec, -cf * sec];
         (f, j, db)
-    };
-    let biases_of = {
-        let bias_of = bias_of.clone();
-        move |g: &[f64]| [bias_of(g, RollRate), bias_of(g, PitchRate), bias_of(g, YawRate)]
-    };
-    let index_of = |o: &Quantity| match o {
-        Roll => 0,
-        Pitch => 1,
-        _ => 2,
-    };
-    let outs_a = outputs.clone();
-    let sim_a = {
-        let (biases_of, kinematics) = (biases_of.clone(), kinematics.clone());
-        move |g: &[f64], x0: &[f64], a: usize, b: usize| -> Vec<Vec<f64>> {
-            let bias = biases_of(g);
-            let xs = integrate([x0[0], x0[1], x0[2]], a, b, h_s, |x, k, fr| {
-                kinematics(x, k, fr, bias).0
-            });
-            outs_a
-                .iter()
-                .map(|o| xs.iter().map(|x| x[index_of(o)]).collect())
-                .collect()
+    }
+
+    /// The state index of output `o`.
+    fn index_of(o: &Quantity) -> usize {
+        match o {
+            Quantity::Roll => 0,
+            Quantity::Pitch => 1,
+            _ => 2,
         }
-    };
-    // The sensitivities by the variational equations integrated with the states by the same
-    // RK4: RK4 commutes with differentiation, so these are the exact derivatives of the
-    // integrated outputs (what central differences approximate), at the cost of one integration
-    // instead of two per initial state or candidate.
-    let outs_x = outputs.clone();
-    let (segs_x, biases_x, kin_x) = (segs.clone(), biases_of.clone(), kinematics.clone());
-    let sens_a = move |g: &[f64], x0: &[f64], seg: usize| -> Vec<Vec<[f64; 3]>> {
-        let bias = biases_x(g);
-        let (a, b) = segs_x[seg];
+    }
+
+    /// The outputs over `[a, b)` from the initial attitude `x0`.
+    fn simulate(&self, g: &[f64], x0: &[f64], a: usize, b: usize) -> Vec<Vec<f64>> {
+        let bias = self.biases(g);
+        let xs = integrate([x0[0], x0[1], x0[2]], a, b, self.h_s, |x, k, fr| {
+            self.kinematics(x, k, fr, bias).0
+        });
+        self.outputs
+            .iter()
+            .map(|o| xs.iter().map(|x| x[Self::index_of(o)]).collect())
+            .collect()
+    }
+
+    /// The sensitivities to the initial state of segment `seg` by the variational equations
+    /// integrated with the states by the same RK4: RK4 commutes with differentiation, so these
+    /// are the exact derivatives of the integrated outputs (what central differences
+    /// approximate), at the cost of one integration instead of two per initial state.
+    fn x0_sensitivity(&self, g: &[f64], x0: &[f64], seg: usize) -> Vec<Vec<[f64; 3]>> {
+        let bias = self.biases(g);
+        let (a, b) = self.segments[seg];
         let mut z0 = [0.0; 12];
         z0[..3].copy_from_slice(&x0[..3]);
         for i in 0..3 {
             z0[3 + 4 * i] = 1.0;
         }
-        let zs = integrate(z0, a, b, h_s, |z, k, fr| {
-            let (f, j, _) = kin_x(&z[..3], k, fr, bias);
+        let zs = integrate(z0, a, b, self.h_s, |z, k, fr| {
+            let (f, j, _) = self.kinematics(&z[..3], k, fr, bias);
             let mut d = [0.0; 12];
             d[..3].copy_from_slice(&f);
             for r in 0..3 {
@@ -1756,26 +1806,29 @@ fn attitude_problem(flight: &MeasuredFlight, h_s: f64) -> Option<(Problem<'_>, V
             }
             d
         });
-        outs_x
+        self.outputs
             .iter()
             .map(|o| {
-                let r = index_of(o);
+                let r = Self::index_of(o);
                 zs.iter().map(|z| [z[3 + 3 * r], z[4 + 3 * r], z[5 + 3 * r]]).collect()
             })
             .collect()
-    };
-    let (outs_g, cands_g, segs_g) = (outputs.clone(), cands.clone(), segs.clone());
-    let g_sens_a = move |g: &[f64], x0: &[f64], seg: usize, cand: usize| -> Option<Vec<Vec<f64>>> {
-        let col = match cands_g.get(cand)? {
+    }
+
+    /// The sensitivity to candidate `cand` (a gyro bias) over segment `seg`, by the variational
+    /// equations as [`Self::x0_sensitivity`].
+    fn candidate_sensitivity(&self, g: &[f64], x0: &[f64], seg: usize, cand: usize) -> Option<Vec<Vec<f64>>> {
+        use Quantity::*;
+        let col = match self.candidates.get(cand)? {
             SensorParam::Bias(RollRate) => 0,
             SensorParam::Bias(PitchRate) => 1,
             SensorParam::Bias(YawRate) => 2,
             _ => return None,
         };
-        let bias = biases_of(g);
-        let (a, b) = segs_g[seg];
-        let zs = integrate([x0[0], x0[1], x0[2], 0.0, 0.0, 0.0], a, b, h_s, |z, k, fr| {
-            let (f, j, db) = kinematics(&z[..3], k, fr, bias);
+        let bias = self.biases(g);
+        let (a, b) = self.segments[seg];
+        let zs = integrate([x0[0], x0[1], x0[2], 0.0, 0.0, 0.0], a, b, self.h_s, |z, k, fr| {
+            let (f, j, db) = self.kinematics(&z[..3], k, fr, bias);
             let mut d = [f[0], f[1], f[2], 0.0, 0.0, 0.0];
             for r in 0..3 {
                 d[3 + r] = (0..3).map(|m| j[3 * r + m] * z[3 + m]).sum::<f64>() + db[3 * r + col];
@@ -1783,32 +1836,12 @@ fn attitude_problem(flight: &MeasuredFlight, h_s: f64) -> Option<(Problem<'_>, V
             d
         });
         Some(
-            outs_g
+            self.outputs
                 .iter()
-                .map(|o| zs.iter().map(|z| z[3 + index_of(o)]).collect())
+                .map(|o| zs.iter().map(|z| z[3 + Self::index_of(o)]).collect())
                 .collect(),
         )
-    };
-    let x0: Vec<Vec<f64>> = segs
-        .iter()
-        .map(|&(a, _)| vec![phi_m[a], theta_m[a], psi_m.as_ref().map_or(0.0, |v| v[a])])
-        .collect();
-    let problem = Problem {
-        nx: 3,
-        x_mask: vec![lateral, true, psi_m.is_some()],
-        x_steps: vec![1e-4; 3],
-        fold_of: segment_folds(flight, &segs),
-        segments: segs.clone(),
-        candidates: cands.clone(),
-        sim: Box::new(sim_a),
-        measured,
-        outputs: outputs.clone(),
-        x0_sens: Some(Box::new(sens_a)),
-        split: None,
-        g_sens: Some(Box::new(g_sens_a)),
-        memo: Memo::for_segments(segs.len()),
-    };
-    Some((problem, x0))
+    }
 }
 
 /// The compatibility check of a flight (uniform time base `h_s`).
