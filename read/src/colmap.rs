@@ -33,7 +33,7 @@
 //! Every error names the file, the line and the column (1-based); nothing panics.
 
 use super::aircraft::{read_aircraft, G0_MPS2, KG_PER_SLUG, M_PER_FT};
-use super::measured::{Aircraft, MeasuredFlight, Origin, Quantity};
+use super::measured::{Aircraft, Invalid, MeasuredFlight, Origin, Quantity};
 use super::{key_values, read_text, KeyValue, ReadError};
 use std::collections::BTreeMap;
 use std::f64::consts::PI;
@@ -699,21 +699,7 @@ pub fn parse_ascii(text: &str, file: &str, map: &ColumnMap) -> Result<MeasuredFl
     let Some(time) = &map.time else {
         return Err(ReadError::new(&map.file, 0, 0, "missing key `time`"));
     };
-    let n_cols = map.columns;
-    // Which columns are read, and by which quantity (for messages).
-    let mut used: BTreeMap<usize, String> = BTreeMap::new();
-    for t in &time.terms {
-        if let Source::Column(c) = t.source {
-            used.entry(c).or_insert_with(|| "time".into());
-        }
-    }
-    for (q, e) in &map.channels {
-        for t in &e.terms {
-            if let Source::Column(c) = t.source {
-                used.entry(c).or_insert_with(|| q.name().into());
-            }
-        }
-    }
+    let used = used_columns(time, map);
     let lines: Vec<(usize, Vec<&str>)> = text
         .lines()
         .enumerate()
@@ -722,62 +708,9 @@ pub fn parse_ascii(text: &str, file: &str, map: &ColumnMap) -> Result<MeasuredFl
         .collect();
     let mut t_s = Vec::with_capacity(lines.len());
     let mut chans: Vec<Vec<f64>> = vec![Vec::with_capacity(lines.len()); map.channels.len()];
-    let mut row = vec![0.0; n_cols + 1];
-    for (k, (line, cells)) in lines.iter().enumerate() {
-        if cells.len() != n_cols {
-            let col = if cells.len() < n_cols {
-                cells.len() + 1
-            } else {
-                n_cols + 1
-            };
-            return Err(ReadError::new(
-                file,
-                *line,
-                col,
-                format!(
-                    "{} numbers on this line, the map ({}) says {n_cols}{}",
-                    cells.len(),
-                    map.file,
-                    used.get(&col)
-                        .map_or(String::new(), |q| format!(" (column {col} is `{q}`)"))
-                ),
-            ));
-        }
-        for (&c, what) in &used {
-            let cell = cells[c - 1];
-            match cell.parse::<f64>() {
-                Ok(v) if v.is_finite() => row[c] = v,
-                Ok(v) => {
-                    // A missing sample: report the run it starts.
-                    let run = lines[k..]
-                        .iter()
-                        .take_while(|(_, cs)| {
-                            cs.get(c - 1)
-                                .and_then(|s| s.parse::<f64>().ok())
-                                .is_some_and(|x| !x.is_finite())
-                        })
-                        .count();
-                    let last = lines[k + run - 1].0;
-                    return Err(ReadError::new(
-                        file,
-                        *line,
-                        c,
-                        format!(
-                            "column {c} (`{what}`): non-finite value `{cell}` ({v}), a run of {run} row{} (lines {line}–{last}); missing samples are refused, not interpolated",
-                            if run == 1 { "" } else { "s" }
-                        ),
-                    ));
-                }
-                Err(_) => {
-                    return Err(ReadError::new(
-                        file,
-                        *line,
-                        c,
-                        format!("column {c} (`{what}`): `{cell}` is not a number"),
-                    ))
-                }
-            }
-        }
+    let mut row = vec![0.0; map.columns + 1];
+    for k in 0..lines.len() {
+        read_row(&lines, k, &used, &mut row, file, map)?;
         let value = |e: &Expr| {
             e.eval(e.terms.iter().map(|t| match t.source {
                 Source::Column(c) => row[c],
@@ -800,28 +733,122 @@ pub fn parse_ascii(text: &str, file: &str, map: &ColumnMap) -> Result<MeasuredFl
         aircraft: map.aircraft.clone(),
         log: Default::default(),
     };
-    flight.validate().map_err(|inv| {
-        let line = inv.sample.and_then(|i| lines.get(i)).map_or(0, |(l, _)| *l);
-        let column = match inv.quantity {
-            Some(q) => map
-                .channels
-                .iter()
-                .find(|(c, _)| *c == q)
-                .and_then(|(_, e)| e.first_column()),
-            None => time.first_column(),
-        }
-        .unwrap_or(0);
-        let what = inv.quantity.map_or("time".to_string(), |q| q.name().to_string());
-        let msg = inv.message.clone();
-        ReadError::new(
-            file,
-            line,
-            column,
-            format!("column {column} (`{what}`, map {}): {msg}", map.file),
-        )
-    })?;
+    flight
+        .validate()
+        .map_err(|inv| invalid_at(&inv, &lines, time, file, map))?;
     let mut flight = flight;
     flight.log.origin = map.origin.clone();
     super::held::resolve(&mut flight);
     Ok(flight)
+}
+
+/// The columns the map reads, each with the first quantity that reads it (for messages).
+fn used_columns(time: &Expr, map: &ColumnMap) -> BTreeMap<usize, String> {
+    let mut used: BTreeMap<usize, String> = BTreeMap::new();
+    for t in &time.terms {
+        if let Source::Column(c) = t.source {
+            used.entry(c).or_insert_with(|| "time".into());
+        }
+    }
+    for (q, e) in &map.channels {
+        for t in &e.terms {
+            if let Source::Column(c) = t.source {
+                used.entry(c).or_insert_with(|| q.name().into());
+            }
+        }
+    }
+    used
+}
+
+/// Reads the `used` columns of row `k` of `lines` (line number, cells) into `row` (indexed by
+/// column): the row must have the map's column count, and each cell read must be a finite
+/// number (a run of missing samples is named).
+fn read_row(
+    lines: &[(usize, Vec<&str>)],
+    k: usize,
+    used: &BTreeMap<usize, String>,
+    row: &mut [f64],
+    file: &str,
+    map: &ColumnMap,
+) -> Result<(), ReadError> {
+    let n_cols = map.columns;
+    let (line, cells) = &lines[k];
+    if cells.len() != n_cols {
+        let col = if cells.len() < n_cols {
+            cells.len() + 1
+        } else {
+            n_cols + 1
+        };
+        return Err(ReadError::new(
+            file,
+            *line,
+            col,
+            format!(
+                "{} numbers on this line, the map ({}) says {n_cols}{}",
+                cells.len(),
+                map.file,
+                used.get(&col)
+                    .map_or(String::new(), |q| format!(" (column {col} is `{q}`)"))
+            ),
+        ));
+    }
+    for (&c, what) in used {
+        let cell = cells[c - 1];
+        match cell.parse::<f64>() {
+            Ok(v) if v.is_finite() => row[c] = v,
+            Ok(v) => {
+                // A missing sample: report the run it starts.
+                let run = lines[k..]
+                    .iter()
+                    .take_while(|(_, cs)| {
+                        cs.get(c - 1)
+                            .and_then(|s| s.parse::<f64>().ok())
+                            .is_some_and(|x| !x.is_finite())
+                    })
+                    .count();
+                let last = lines[k + run - 1].0;
+                return Err(ReadError::new(
+                    file,
+                    *line,
+                    c,
+                    format!(
+                        "column {c} (`{what}`): non-finite value `{cell}` ({v}), a run of {run} row{} (lines {line}–{last}); missing samples are refused, not interpolated",
+                        if run == 1 { "" } else { "s" }
+                    ),
+                ));
+            }
+            Err(_) => {
+                return Err(ReadError::new(
+                    file,
+                    *line,
+                    c,
+                    format!("column {c} (`{what}`): `{cell}` is not a number"),
+                ))
+            }
+        }
+    }
+    Ok(())
+}
+
+/// A flight's invalidity as an error at the file's line and the map's first column of the
+/// channel (or the time) at fault.
+fn invalid_at(inv: &Invalid, lines: &[(usize, Vec<&str>)], time: &Expr, file: &str, map: &ColumnMap) -> ReadError {
+    let line = inv.sample.and_then(|i| lines.get(i)).map_or(0, |(l, _)| *l);
+    let column = match inv.quantity {
+        Some(q) => map
+            .channels
+            .iter()
+            .find(|(c, _)| *c == q)
+            .and_then(|(_, e)| e.first_column()),
+        None => time.first_column(),
+    }
+    .unwrap_or(0);
+    let what = inv.quantity.map_or("time".to_string(), |q| q.name().to_string());
+    let msg = inv.message.clone();
+    ReadError::new(
+        file,
+        line,
+        column,
+        format!("column {column} (`{what}`, map {}): {msg}", map.file),
+    )
 }
