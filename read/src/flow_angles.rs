@@ -529,6 +529,46 @@ pub fn estimate(flight: &MeasuredFlight, s: &WindFitSettings) -> Result<Estimate
         let m = |x: &[f64]| x.iter().sum::<f64>() / x.len().max(1) as f64;
         [m(a), m(b)]
     });
+    let Some((vel, att)) = velocity_and_attitude(flight, &mut info) else {
+        return Err(Box::new(info));
+    };
+    let Some(w) = wind_per_sample(flight, vel, att[2], autopilot, s, &mut info) else {
+        return Err(Box::new(info));
+    };
+    let a = Angles::of(vel, att, &w);
+    // Angles beyond 0.6 rad over more than 5 % of the samples: on the ground, or a wrong wind.
+    let wild = a.alpha.iter().chain(&a.beta).filter(|x| x.abs() > 0.6).count();
+    if wild as f64 > 0.05 * 2.0 * n as f64 {
+        info.why_not.push(format!(
+            "the estimate gives |α| or |β| above 0.6 rad at {wild} of {} values: the vehicle is not flying in the window, or the velocity, attitude or wind is wrong",
+            2 * n
+        ));
+        return Err(Box::new(info));
+    }
+    if w.cov.is_some() {
+        angle_sigmas(flight, att, &a, w.turbulence_mps, &mut info);
+    }
+    info.alpha_excitation_rad = std_dev(&a.alpha);
+    info.beta_excitation_rad = std_dev(&a.beta);
+    info.status = "estimated".into();
+    info.assumptions = assumptions(&info.wind_source);
+    info.summary = summary(&info);
+    Ok(Estimate {
+        alpha_rad: a.alpha,
+        beta_rad: a.beta,
+        airspeed_mps: a.speed,
+        info,
+    })
+}
+
+/// The ground velocity (north, east, down) and the attitude (roll, pitch, yaw); `None` (the
+/// reason in `info`) when any is not logged.
+#[allow(clippy::type_complexity)]
+fn velocity_and_attitude<'f>(
+    flight: &'f MeasuredFlight,
+    info: &mut FlowAngles,
+) -> Option<([&'f [f64]; 3], [&'f [f64]; 3])> {
+    use Quantity::*;
     let vel = [
         flight.get(VelocityNorth),
         flight.get(VelocityEast),
@@ -547,26 +587,45 @@ pub fn estimate(flight: &MeasuredFlight, s: &WindFitSettings) -> Result<Estimate
             "α and β cannot be estimated without a vane: no {} logged (the estimate needs the ground velocity vel_n/e/d and the attitude)",
             missing.join(", ")
         ));
-        return Err(Box::new(info));
+        return None;
     }
     let (Some(vn), Some(ve), Some(vd)) = (vel[0], vel[1], vel[2]) else {
-        return Err(Box::new(info));
+        return None;
     };
     let (Some(roll), Some(pitch), Some(yaw)) = (att[0], att[1], att[2]) else {
-        return Err(Box::new(info));
+        return None;
     };
-    // Per-sample wind, and its 2×2 covariance (None: unknown).
-    let mut wind: Vec<[f64; 2]> = vec![[0.0; 2]; n];
-    let mut wind_cov: Option<Vec<[f64; 3]>> = None;
-    let mut turbulence_mps = f64::NAN;
-    match (flight.get(Airspeed), autopilot) {
+    Some(([vn, ve, vd], [roll, pitch, yaw]))
+}
+
+/// The wind at every sample: fitted (with its covariance and the fit's residual, the
+/// turbulence) when the airspeed is logged, else the autopilot's estimate.
+struct SampleWind {
+    wind: Vec<[f64; 2]>,
+    /// Per sample `[c_NN, c_NE, c_EE]` (`None`: unknown).
+    cov: Option<Vec<[f64; 3]>>,
+    turbulence_mps: f64,
+}
+
+/// The wind per sample and its source (in `info`, with the fit); `None` (the reasons in `info`)
+/// when there is none to trust.
+fn wind_per_sample(
+    flight: &MeasuredFlight,
+    vel: [&[f64]; 3],
+    yaw: &[f64],
+    autopilot: Option<(&[f64], &[f64])>,
+    s: &WindFitSettings,
+    info: &mut FlowAngles,
+) -> Option<SampleWind> {
+    let n = flight.len();
+    match (flight.get(Quantity::Airspeed), autopilot) {
         (Some(v_m), _) => {
             info.wind_source = "wind-triangle fit".into();
-            let fit = match fit_wind(&flight.t_s, [vn, ve, vd], v_m, yaw, s) {
+            let fit = match fit_wind(&flight.t_s, vel, v_m, yaw, s) {
                 Ok(f) => f,
                 Err(e) => {
                     info.why_not.push(format!("the wind cannot be fitted: {e}"));
-                    return Err(Box::new(info));
+                    return None;
                 }
             };
             if !fit.refused.is_empty() {
@@ -575,102 +634,128 @@ pub fn estimate(flight: &MeasuredFlight, s: &WindFitSettings) -> Result<Estimate
                     info.why_not.push("the autopilot's logged wind estimate is not used instead: it faces the same observability limit and comes without an uncertainty".into());
                 }
                 info.fit = Some(fit);
-                return Err(Box::new(info));
+                return None;
             }
-            let p = 1 + 2 * fit.blocks.len();
-            let t0 = fit.blocks[0].t_s[0];
-            let t1 = fit.blocks[fit.blocks.len() - 1].t_s[1];
-            let nb = fit.blocks.len();
-            let mut cov = Vec::with_capacity(n);
-            for (k, &t) in flight.t_s.iter().enumerate() {
-                let b = (((t - t0) / (t1 - t0).max(1e-9) * nb as f64).floor().max(0.0) as usize).min(nb - 1);
-                wind[k] = fit.blocks[b].wind_ne_mps;
-                let c = |i: usize, j: usize| fit.covariance.get(i * p + j).copied().unwrap_or(f64::NAN);
-                let (i, j) = (1 + 2 * b, 2 + 2 * b);
-                cov.push([c(i, i), c(i, j), c(j, j)]);
-            }
-            wind_cov = Some(cov);
-            turbulence_mps = fit.residual_rms_mps;
+            let w = fitted_wind(&fit, &flight.t_s);
             info.fit = Some(fit);
+            Some(w)
         }
         (None, Some((wn, we))) => {
             info.wind_source = "autopilot wind estimate".into();
+            let mut wind: Vec<[f64; 2]> = vec![[0.0; 2]; n];
             for k in 0..n {
                 wind[k] = [wn[k], we[k]];
             }
+            Some(SampleWind {
+                wind,
+                cov: None,
+                turbulence_mps: f64::NAN,
+            })
         }
         (None, None) => {
             info.why_not.push("no airspeed logged, so the wind cannot be separated from the ground velocity, and the autopilot logged no wind estimate (PX4 `wind`/`wind_estimate`, ArduPilot `XKF2.VWN/VWE`): α and β cannot be estimated".into());
-            return Err(Box::new(info));
+            None
         }
     }
-    let mut alpha = Vec::with_capacity(n);
-    let mut beta = Vec::with_capacity(n);
-    let mut speed = Vec::with_capacity(n);
-    let (mut var_a, mut var_b) = (0.0, 0.0);
-    for k in 0..n {
-        let vg = [vn[k], ve[k], vd[k]];
-        let (a, b, v) = alpha_beta(vg, wind[k], roll[k], pitch[k], yaw[k]);
-        alpha.push(a);
-        beta.push(b);
-        speed.push(v);
-        if let Some(cov) = &wind_cov {
-            // Gradient with respect to (w_N, w_E) by central differences (0.01 m/s).
-            let d = 0.01;
-            let at = |dn: f64, de: f64| alpha_beta(vg, [wind[k][0] + dn, wind[k][1] + de], roll[k], pitch[k], yaw[k]);
-            let (an, bn, _) = at(d, 0.0);
-            let (an2, bn2, _) = at(-d, 0.0);
-            let (ae, be, _) = at(0.0, d);
-            let (ae2, be2, _) = at(0.0, -d);
-            let ga = [(an - an2) / (2.0 * d), (ae - ae2) / (2.0 * d)];
-            let gb = [(bn - bn2) / (2.0 * d), (be - be2) / (2.0 * d)];
-            let [cnn, cne, cee] = cov[k];
-            let q = |g: [f64; 2]| g[0] * g[0] * cnn + 2.0 * g[0] * g[1] * cne + g[1] * g[1] * cee;
-            var_a += q(ga);
-            var_b += q(gb);
+}
+
+/// A wind fit's block wind and its covariance at every time of `t_s`.
+fn fitted_wind(fit: &WindFit, t_s: &[f64]) -> SampleWind {
+    let p = 1 + 2 * fit.blocks.len();
+    let t0 = fit.blocks[0].t_s[0];
+    let t1 = fit.blocks[fit.blocks.len() - 1].t_s[1];
+    let nb = fit.blocks.len();
+    let mut wind: Vec<[f64; 2]> = vec![[0.0; 2]; t_s.len()];
+    let mut cov = Vec::with_capacity(t_s.len());
+    for (k, &t) in t_s.iter().enumerate() {
+        let b = (((t - t0) / (t1 - t0).max(1e-9) * nb as f64).floor().max(0.0) as usize).min(nb - 1);
+        wind[k] = fit.blocks[b].wind_ne_mps;
+        let c = |i: usize, j: usize| fit.covariance.get(i * p + j).copied().unwrap_or(f64::NAN);
+        let (i, j) = (1 + 2 * b, 2 + 2 * b);
+        cov.push([c(i, i), c(i, j), c(j, j)]);
+    }
+    SampleWind {
+        wind,
+        cov: Some(cov),
+        turbulence_mps: fit.residual_rms_mps,
+    }
+}
+
+/// α, β and the airspeed of every sample, and the sums over the samples of the variance the
+/// wind's uncertainty puts into α and β (0 when the wind has no covariance).
+struct Angles {
+    alpha: Vec<f64>,
+    beta: Vec<f64>,
+    speed: Vec<f64>,
+    var_a: f64,
+    var_b: f64,
+}
+
+impl Angles {
+    fn of(vel: [&[f64]; 3], att: [&[f64]; 3], w: &SampleWind) -> Self {
+        let ([vn, ve, vd], [roll, pitch, yaw], wind) = (vel, att, &w.wind);
+        let n = wind.len();
+        let mut out = Self {
+            alpha: Vec::with_capacity(n),
+            beta: Vec::with_capacity(n),
+            speed: Vec::with_capacity(n),
+            var_a: 0.0,
+            var_b: 0.0,
+        };
+        for k in 0..n {
+            let vg = [vn[k], ve[k], vd[k]];
+            let (a, b, v) = alpha_beta(vg, wind[k], roll[k], pitch[k], yaw[k]);
+            out.alpha.push(a);
+            out.beta.push(b);
+            out.speed.push(v);
+            if let Some(cov) = &w.cov {
+                // Gradient with respect to (w_N, w_E) by central differences (0.01 m/s).
+                let d = 0.01;
+                let at =
+                    |dn: f64, de: f64| alpha_beta(vg, [wind[k][0] + dn, wind[k][1] + de], roll[k], pitch[k], yaw[k]);
+                let (an, bn, _) = at(d, 0.0);
+                let (an2, bn2, _) = at(-d, 0.0);
+                let (ae, be, _) = at(0.0, d);
+                let (ae2, be2, _) = at(0.0, -d);
+                let ga = [(an - an2) / (2.0 * d), (ae - ae2) / (2.0 * d)];
+                let gb = [(bn - bn2) / (2.0 * d), (be - be2) / (2.0 * d)];
+                let [cnn, cne, cee] = cov[k];
+                let q = |g: [f64; 2]| g[0] * g[0] * cnn + 2.0 * g[0] * g[1] * cne + g[1] * g[1] * cee;
+                out.var_a += q(ga);
+                out.var_b += q(gb);
+            }
         }
+        out
     }
-    let v_mean = speed.iter().sum::<f64>() / n.max(1) as f64;
-    // Angles beyond 0.6 rad over more than 5 % of the samples: on the ground, or a wrong wind.
-    let wild = alpha.iter().chain(&beta).filter(|x| x.abs() > 0.6).count();
-    if wild as f64 > 0.05 * 2.0 * n as f64 {
-        info.why_not.push(format!(
-            "the estimate gives |α| or |β| above 0.6 rad at {wild} of {} values: the vehicle is not flying in the window, or the velocity, attitude or wind is wrong",
-            2 * n
-        ));
-        return Err(Box::new(info));
-    }
-    if wind_cov.is_some() {
-        // The gusts: the airspeed residual less the pitot's own white noise (third differences),
-        // which is no error of α or β.
-        let pitot_white = flight.get(Airspeed).map_or(0.0, crate::signal::white_noise_sd)
-            * info.fit.as_ref().map_or(1.0, |f| f.pitot_scale);
-        let gust = (turbulence_mps * turbulence_mps - pitot_white * pitot_white)
-            .max(0.0)
-            .sqrt();
-        let turb = gust / v_mean.max(1.0);
-        // The attitude's white noise passes one for one (pitch into α, yaw into β); estimated
-        // from its third differences.
-        let theta_noise = crate::signal::white_noise_sd(pitch);
-        let psi_noise = crate::signal::white_noise_sd(yaw);
-        let (wa, wb) = (var_a / n as f64, var_b / n as f64);
-        info.alpha_sigma_rad = (wa + turb * turb + theta_noise * theta_noise).sqrt();
-        info.beta_sigma_rad = (wb + turb * turb + psi_noise * psi_noise).sqrt();
-        let k = SMOOTHED_WHITE_SHARE;
-        info.alpha_sigma_smoothed_rad = (wa + turb * turb + (k * theta_noise).powi(2)).sqrt();
-        info.beta_sigma_smoothed_rad = (wb + turb * turb + (k * psi_noise).powi(2)).sqrt();
-    }
-    info.alpha_excitation_rad = std_dev(&alpha);
-    info.beta_excitation_rad = std_dev(&beta);
-    info.status = "estimated".into();
-    info.assumptions = assumptions(&info.wind_source);
-    info.summary = summary(&info);
-    Ok(Estimate {
-        alpha_rad: alpha,
-        beta_rad: beta,
-        airspeed_mps: speed,
-        info,
-    })
+}
+
+/// The σ of α and β (raw and smoothed) in `info`: the wind's uncertainty, the gusts (the fit's
+/// residual `turbulence_mps` less the pitot's white noise, over the mean airspeed) and the
+/// attitude's (`att`: roll, pitch, yaw) white noise.
+fn angle_sigmas(flight: &MeasuredFlight, att: [&[f64]; 3], a: &Angles, turbulence_mps: f64, info: &mut FlowAngles) {
+    let n = flight.len();
+    let [_, pitch, yaw] = att;
+    let v_mean = a.speed.iter().sum::<f64>() / n.max(1) as f64;
+    // The gusts: the airspeed residual less the pitot's own white noise (third differences),
+    // which is no error of α or β.
+    let pitot_white = flight
+        .get(Quantity::Airspeed)
+        .map_or(0.0, crate::signal::white_noise_sd)
+        * info.fit.as_ref().map_or(1.0, |f| f.pitot_scale);
+    let gust = (turbulence_mps * turbulence_mps - pitot_white * pitot_white)
+        .max(0.0)
+        .sqrt();
+    let turb = gust / v_mean.max(1.0);
+    // The attitude's white noise passes one for one (pitch into α, yaw into β); estimated
+    // from its third differences.
+    let theta_noise = crate::signal::white_noise_sd(pitch);
+    let psi_noise = crate::signal::white_noise_sd(yaw);
+    let (wa, wb) = (a.var_a / n as f64, a.var_b / n as f64);
+    info.alpha_sigma_rad = (wa + turb * turb + theta_noise * theta_noise).sqrt();
+    info.beta_sigma_rad = (wb + turb * turb + psi_noise * psi_noise).sqrt();
+    let k = SMOOTHED_WHITE_SHARE;
+    info.alpha_sigma_smoothed_rad = (wa + turb * turb + (k * theta_noise).powi(2)).sqrt();
+    info.beta_sigma_smoothed_rad = (wb + turb * turb + (k * psi_noise).powi(2)).sqrt();
 }
 
 /// The one-sentence description of an estimate (or of why there is none).
