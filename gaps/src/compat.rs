@@ -971,6 +971,56 @@ fn unwrap(x: &[f64]) -> Vec<f64> {
     out
 }
 
+/// A part of the check as a segmented model: what its [`Problem`] asks of it.
+trait SegmentModel {
+    /// Its segments, candidates and outputs.
+    fn parts(&self) -> Parts<'_>;
+    /// The outputs over `[a, b)` from the initial state `x0`.
+    fn simulate(&self, g: &[f64], x0: &[f64], a: usize, b: usize) -> Vec<Vec<f64>>;
+    /// Per output and sample, the output's derivative with respect to each initial state of
+    /// segment `seg`.
+    fn x0_sensitivity(&self, g: &[f64], x0: &[f64], seg: usize) -> Vec<Vec<[f64; 3]>>;
+    /// Per output and sample, the output's derivative with respect to candidate `cand` over
+    /// segment `seg`, where the model has it analytically (else `None`: differenced).
+    fn candidate_sensitivity(&self, g: &[f64], x0: &[f64], seg: usize, cand: usize) -> Option<Vec<Vec<f64>>>;
+}
+
+/// A model's segments, candidates and outputs.
+type Parts<'m> = (&'m [(usize, usize)], &'m [SensorParam], &'m [Quantity]);
+
+/// The output-error problem of `model` on `flight`: three states with the mask `x_mask` and the
+/// difference step `x_step`, the fitted outputs' `measured` series and the model's `split`.
+fn problem_of<'a, M: SegmentModel + 'a>(
+    model: &std::rc::Rc<M>,
+    flight: &MeasuredFlight,
+    x_mask: Vec<bool>,
+    x_step: f64,
+    measured: Vec<Vec<f64>>,
+    split: Option<Split<'a>>,
+) -> Problem<'a> {
+    let (m_sim, m_x0, m_g) = (model.clone(), model.clone(), model.clone());
+    let (segments, candidates, outputs) = model.parts();
+    Problem {
+        nx: 3,
+        x_mask,
+        x_steps: vec![x_step; 3],
+        fold_of: segment_folds(flight, segments),
+        segments: segments.to_vec(),
+        candidates: candidates.to_vec(),
+        sim: Box::new(move |g: &[f64], x0: &[f64], a: usize, b: usize| m_sim.simulate(g, x0, a, b)),
+        measured,
+        outputs: outputs.to_vec(),
+        x0_sens: Some(Box::new(move |g: &[f64], x0: &[f64], seg: usize| {
+            m_x0.x0_sensitivity(g, x0, seg)
+        })),
+        split,
+        g_sens: Some(Box::new(move |g: &[f64], x0: &[f64], seg: usize, cand: usize| {
+            m_g.candidate_sensitivity(g, x0, seg, cand)
+        })),
+        memo: Memo::for_segments(segments.len()),
+    }
+}
+
 /// The velocity part of the compatibility check, built for a flight: the segmented output-error
 /// problem, the state integrator (sensor-error values, initial state, segment) and the initial
 /// states of every segment (from the first 10 samples of the measured air data).
@@ -1077,31 +1127,13 @@ fn velocity_problem(flight: &MeasuredFlight, h_s: f64, gyro_bias: [f64; 3]) -> O
         let m = model.clone();
         std::rc::Rc::new(move |g: &[f64], xs: &[[f64; 3]], a: usize, only: Option<usize>| m.outputs_of(g, xs, a, only))
     };
-    let (m_sim, m_x0, m_g) = (model.clone(), model.clone(), model.clone());
+    let split = Split {
+        states: states.clone(),
+        outputs: out_map,
+        channel: model.channels(),
+    };
     Some(VelocityProblem {
-        problem: Problem {
-            nx: 3,
-            x_mask: vec![true, lat_v, true],
-            x_steps: vec![1e-3; 3],
-            fold_of: segment_folds(flight, &model.segments),
-            segments: model.segments.clone(),
-            candidates: model.candidates.clone(),
-            sim: Box::new(move |g: &[f64], x0: &[f64], a: usize, b: usize| m_sim.simulate(g, x0, a, b)),
-            measured,
-            outputs: model.outputs.clone(),
-            x0_sens: Some(Box::new(move |g: &[f64], x0: &[f64], seg: usize| {
-                m_x0.x0_sensitivity(g, x0, seg)
-            })),
-            split: Some(Split {
-                states: states.clone(),
-                outputs: out_map,
-                channel: model.channels(),
-            }),
-            g_sens: Some(Box::new(move |g: &[f64], x0: &[f64], seg: usize, cand: usize| {
-                m_g.candidate_sensitivity(g, x0, seg, cand)
-            })),
-            memo: Memo::for_segments(model.segments.len()),
-        },
+        problem: problem_of(&model, flight, vec![true, lat_v, true], 1e-3, measured, Some(split)),
         states,
         x0,
         lateral: lat_v,
@@ -1395,29 +1427,6 @@ impl VelocityModel {
             .collect()
     }
 
-    /// Per output and sample, the output's derivative with respect to each initial state of
-    /// segment `seg`.
-    fn x0_sensitivity(&self, g: &[f64], x0: &[f64], seg: usize) -> Vec<Vec<[f64; 3]>> {
-        let (a, b) = self.segments[seg];
-        let xs = self.states(g, x0, a, b);
-        let phi = &self.responses.phis[seg];
-        self.gradients(g, &xs, a)
-            .iter()
-            .enumerate()
-            .map(|(o, dy)| {
-                let comp: [Vec<f64>; 3] = core::array::from_fn(|c| {
-                    let s: Vec<f64> = dy
-                        .iter()
-                        .zip(phi)
-                        .map(|(d, f)| d.x * f[c] + d.y * f[3 + c] + d.z * f[6 + c])
-                        .collect();
-                    self.delayed(g, o, &s)
-                });
-                (0..dy.len()).map(|i| [comp[0][i], comp[1][i], comp[2][i]]).collect()
-            })
-            .collect()
-    }
-
     /// The outputs of the states `xs` from sample `a` (only output `only` when given, the others
     /// empty).
     fn outputs_of(&self, g: &[f64], xs: &[[f64; 3]], a: usize, only: Option<usize>) -> Vec<Vec<f64>> {
@@ -1449,12 +1458,6 @@ impl VelocityModel {
             .collect()
     }
 
-    /// The outputs over `[a, b)` from the initial state `x0`.
-    fn simulate(&self, g: &[f64], x0: &[f64], a: usize, b: usize) -> Vec<Vec<f64>> {
-        let xs = self.states(g, x0, a, b);
-        self.outputs_of(g, &xs, a, None)
-    }
-
     /// Per candidate, the one output it moves without moving the states, or `None` (an
     /// accelerometer bias).
     fn channels(&self) -> Vec<Option<usize>> {
@@ -1464,6 +1467,61 @@ impl VelocityModel {
             .map(|c| match c {
                 SensorParam::Bias(AccelX | AccelY | AccelZ) => None,
                 c => self.outputs.iter().position(|o| *o == c.channel()),
+            })
+            .collect()
+    }
+
+    /// Per output, its derivative with respect to the bias of accelerometer axis `j` over
+    /// segment `seg` (through `ψⱼ`).
+    fn accel_bias_sensitivity(&self, g: &[f64], x0: &[f64], seg: usize, j: usize) -> Vec<Vec<f64>> {
+        let (a, b) = self.segments[seg];
+        let xs = self.states(g, x0, a, b);
+        let psi = &self.responses.unit_bias[seg][j];
+        self.gradients(g, &xs, a)
+            .iter()
+            .enumerate()
+            .map(|(o, dy)| {
+                let s: Vec<f64> = dy
+                    .iter()
+                    .zip(psi)
+                    .map(|(d, p)| d.x * p[0] + d.y * p[1] + d.z * p[2])
+                    .collect();
+                self.delayed(g, o, &s)
+            })
+            .collect()
+    }
+}
+
+impl SegmentModel for VelocityModel {
+    fn parts(&self) -> Parts<'_> {
+        (&self.segments, &self.candidates, &self.outputs)
+    }
+
+    /// The outputs over `[a, b)` from the initial state `x0`.
+    fn simulate(&self, g: &[f64], x0: &[f64], a: usize, b: usize) -> Vec<Vec<f64>> {
+        let xs = self.states(g, x0, a, b);
+        self.outputs_of(g, &xs, a, None)
+    }
+
+    /// Per output and sample, the output's derivative with respect to each initial state of
+    /// segment `seg`.
+    fn x0_sensitivity(&self, g: &[f64], x0: &[f64], seg: usize) -> Vec<Vec<[f64; 3]>> {
+        let (a, b) = self.segments[seg];
+        let xs = self.states(g, x0, a, b);
+        let phi = &self.responses.phis[seg];
+        self.gradients(g, &xs, a)
+            .iter()
+            .enumerate()
+            .map(|(o, dy)| {
+                let comp: [Vec<f64>; 3] = core::array::from_fn(|c| {
+                    let s: Vec<f64> = dy
+                        .iter()
+                        .zip(phi)
+                        .map(|(d, f)| d.x * f[c] + d.y * f[3 + c] + d.z * f[6 + c])
+                        .collect();
+                    self.delayed(g, o, &s)
+                });
+                (0..dy.len()).map(|i| [comp[0][i], comp[1][i], comp[2][i]]).collect()
             })
             .collect()
     }
@@ -1510,26 +1568,6 @@ impl VelocityModel {
             }
             _ => None,
         }
-    }
-
-    /// Per output, its derivative with respect to the bias of accelerometer axis `j` over
-    /// segment `seg` (through `ψⱼ`).
-    fn accel_bias_sensitivity(&self, g: &[f64], x0: &[f64], seg: usize, j: usize) -> Vec<Vec<f64>> {
-        let (a, b) = self.segments[seg];
-        let xs = self.states(g, x0, a, b);
-        let psi = &self.responses.unit_bias[seg][j];
-        self.gradients(g, &xs, a)
-            .iter()
-            .enumerate()
-            .map(|(o, dy)| {
-                let s: Vec<f64> = dy
-                    .iter()
-                    .zip(psi)
-                    .map(|(d, p)| d.x * p[0] + d.y * p[1] + d.z * p[2])
-                    .collect();
-                self.delayed(g, o, &s)
-            })
-            .collect()
     }
 }
 
@@ -1683,26 +1721,14 @@ fn attitude_problem(flight: &MeasuredFlight, h_s: f64) -> Option<(Problem<'_>, V
         outputs,
         segments: segs,
     });
-    let (m_sim, m_x0, m_g) = (model.clone(), model.clone(), model.clone());
-    let problem = Problem {
-        nx: 3,
-        x_mask: vec![lateral, true, psi_m.is_some()],
-        x_steps: vec![1e-4; 3],
-        fold_of: segment_folds(flight, &model.segments),
-        segments: model.segments.clone(),
-        candidates: model.candidates.clone(),
-        sim: Box::new(move |g: &[f64], x0: &[f64], a: usize, b: usize| m_sim.simulate(g, x0, a, b)),
+    let problem = problem_of(
+        &model,
+        flight,
+        vec![lateral, true, psi_m.is_some()],
+        1e-4,
         measured,
-        outputs: model.outputs.clone(),
-        x0_sens: Some(Box::new(move |g: &[f64], x0: &[f64], seg: usize| {
-            m_x0.x0_sensitivity(g, x0, seg)
-        })),
-        split: None,
-        g_sens: Some(Box::new(move |g: &[f64], x0: &[f64], seg: usize, cand: usize| {
-            m_g.candidate_sensitivity(g, x0, seg, cand)
-        })),
-        memo: Memo::for_segments(model.segments.len()),
-    };
+        None,
+    );
     Some((problem, x0))
 }
 
@@ -1769,6 +1795,12 @@ impl AttitudeModel<'_> {
             Quantity::Pitch => 1,
             _ => 2,
         }
+    }
+}
+
+impl SegmentModel for AttitudeModel<'_> {
+    fn parts(&self) -> Parts<'_> {
+        (&self.segments, &self.candidates, &self.outputs)
     }
 
     /// The outputs over `[a, b)` from the initial attitude `x0`.
