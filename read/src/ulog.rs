@@ -292,104 +292,150 @@ fn collect(
     wanted: &BTreeSet<String>,
     instances: &BTreeMap<String, u8>,
 ) -> Result<Collected, ReadError> {
-    let mut topics: BTreeMap<String, Topic> = BTreeMap::new();
-    let mut catalog: BTreeMap<(String, u8), TopicInfo> = BTreeMap::new();
-    // msg_id → (catalog key, `timestamp` offset), and the decoder when the topic is wanted.
-    let mut ids: HashMap<u16, IdEntry> = HashMap::new();
-    let mut k = 0usize;
-    let mut failure: Option<ReadError> = None;
+    let mut c = Collector {
+        file,
+        places,
+        wanted,
+        instances,
+        topics: BTreeMap::new(),
+        catalog: BTreeMap::new(),
+        ids: HashMap::new(),
+        k: 0,
+        failure: None,
+    };
     {
-        let mut callback = |m: &DataMessage| {
-            let place = places.get(k).copied().unwrap_or(Place { index: 0, offset: 0 });
-            k += 1;
-            if failure.is_some() {
-                return;
-            }
-            let (key, ts_offset, decoder) = ids.entry(m.msg_id).or_insert_with(|| {
-                let name = m.flattened_format.message_name().to_string();
-                let instance = m.multi_id.value();
-                let fields: Vec<_> = m.flattened_format.fields.iter().collect();
-                let offset_of = |n: &str| {
-                    fields
-                        .iter()
-                        .find(|f| f.flattened_field_name == n && f.field_type == FlattenedFieldType::UInt64)
-                        .map(|f| f.offset as usize)
-                };
-                let ts = offset_of("timestamp");
-                let info = catalog.entry((name.clone(), instance)).or_default();
-                info.fields = fields.iter().map(|f| f.flattened_field_name.clone()).collect();
-                let chosen = instances.get(&name).copied().unwrap_or(0);
-                let decoder = if wanted.contains(&name) && instance == chosen {
-                    let (time_offset, time_field) = match offset_of("timestamp_sample") {
-                        Some(o) => (Some(o), "timestamp_sample"),
-                        None => (ts, "timestamp"),
-                    };
-                    time_offset.map(|o| {
-                        let topic = topics.entry(name.clone()).or_default();
-                        topic.names = fields.iter().map(|f| f.flattened_field_name.clone()).collect();
-                        topic.values = vec![Vec::new(); fields.len()];
-                        topic.time_field = time_field;
-                        let layout = fields
-                            .iter()
-                            .map(|f| (f.field_type.clone(), f.offset as usize))
-                            .collect();
-                        (name.clone(), o, time_field, layout)
-                    })
-                } else {
-                    None
-                };
-                ((name, instance), ts, decoder)
-            });
-            if let Some(info) = catalog.get_mut(key) {
-                let t = ts_offset
-                    .and_then(|o| m.data.get(o..))
-                    .and_then(decode_u64)
-                    .unwrap_or(0);
-                if info.count == 0 {
-                    info.span_us = (t, t);
-                }
-                info.count += 1;
-                info.span_us.0 = info.span_us.0.min(t);
-                info.span_us.1 = info.span_us.1.max(t);
-            }
-            let Some((name, time_offset, time_field, layout)) = decoder else {
-                return;
-            };
-            let Some(topic) = topics.get_mut(name.as_str()) else {
-                return;
-            };
-            let Some(t) = m.data.get(*time_offset..).and_then(decode_u64) else {
-                failure = Some(ReadError::new(
-                    file,
-                    0,
-                    0,
-                    format!(
-                        "ULog message #{} at byte {}: `{name}` too short for its `{time_field}`",
-                        place.index, place.offset
-                    ),
-                ));
-                return;
-            };
-            for (j, (ty, off)) in layout.iter().enumerate() {
-                let v = m.data.get(*off..).and_then(|b| decode(ty, b)).unwrap_or(f64::NAN);
-                topic.values[j].push(v);
-            }
-            topic.time_us.push(t);
-            topic.places.push(place);
-        };
+        let mut callback = |m: &DataMessage| c.message(m);
         let mut parser = LogParser::default();
         parser.set_data_message_callback(&mut callback);
         parser.consume_bytes(bytes).map_err(|e| {
-            let at = places.get(k).map_or(String::new(), |p| {
+            let at = places.get(c.k).map_or(String::new(), |p| {
                 format!(" near ULog message #{} at byte {}", p.index, p.offset)
             });
             ReadError::new(file, 0, 0, format!("malformed ULog{at}: {e}"))
         })?;
     }
-    if let Some(f) = failure {
+    if let Some(f) = c.failure {
         return Err(f);
     }
-    Ok((topics, catalog))
+    Ok((c.topics, c.catalog))
+}
+
+/// The pass of [`collect`] over the data messages: the wanted topics' data, the catalog of every
+/// topic instance, what each message id is (`ids`), the messages seen (`k`) and the first
+/// failure (after which the rest is only counted).
+struct Collector<'c> {
+    file: &'c str,
+    places: &'c [Place],
+    wanted: &'c BTreeSet<String>,
+    instances: &'c BTreeMap<String, u8>,
+    topics: BTreeMap<String, Topic>,
+    catalog: BTreeMap<(String, u8), TopicInfo>,
+    ids: HashMap<u16, IdEntry>,
+    k: usize,
+    failure: Option<ReadError>,
+}
+
+impl Collector<'_> {
+    /// One data message: counted in the catalog, and its fields appended to its topic when the
+    /// topic is wanted.
+    fn message(&mut self, m: &DataMessage) {
+        let place = self
+            .places
+            .get(self.k)
+            .copied()
+            .unwrap_or(Place { index: 0, offset: 0 });
+        self.k += 1;
+        if self.failure.is_some() {
+            return;
+        }
+        let (catalog, topics) = (&mut self.catalog, &mut self.topics);
+        let (wanted, instances) = (self.wanted, self.instances);
+        let (key, ts_offset, decoder) = self
+            .ids
+            .entry(m.msg_id)
+            .or_insert_with(|| id_entry(m, catalog, topics, wanted, instances));
+        if let Some(info) = catalog.get_mut(key) {
+            let t = ts_offset
+                .and_then(|o| m.data.get(o..))
+                .and_then(decode_u64)
+                .unwrap_or(0);
+            if info.count == 0 {
+                info.span_us = (t, t);
+            }
+            info.count += 1;
+            info.span_us.0 = info.span_us.0.min(t);
+            info.span_us.1 = info.span_us.1.max(t);
+        }
+        let Some((name, time_offset, time_field, layout)) = decoder else {
+            return;
+        };
+        let Some(topic) = topics.get_mut(name.as_str()) else {
+            return;
+        };
+        let Some(t) = m.data.get(*time_offset..).and_then(decode_u64) else {
+            self.failure = Some(ReadError::new(
+                self.file,
+                0,
+                0,
+                format!(
+                    "ULog message #{} at byte {}: `{name}` too short for its `{time_field}`",
+                    place.index, place.offset
+                ),
+            ));
+            return;
+        };
+        for (j, (ty, off)) in layout.iter().enumerate() {
+            let v = m.data.get(*off..).and_then(|b| decode(ty, b)).unwrap_or(f64::NAN);
+            topic.values[j].push(v);
+        }
+        topic.time_us.push(t);
+        topic.places.push(place);
+    }
+}
+
+/// What the first message of an id says: its topic instance (entered in `catalog` with its
+/// fields), its `timestamp` offset, and, when the topic is `wanted` at the instance asked for
+/// (`instances`, else 0) and has a time field, its decoder (the topic entered in `topics`).
+fn id_entry(
+    m: &DataMessage,
+    catalog: &mut BTreeMap<(String, u8), TopicInfo>,
+    topics: &mut BTreeMap<String, Topic>,
+    wanted: &BTreeSet<String>,
+    instances: &BTreeMap<String, u8>,
+) -> IdEntry {
+    let name = m.flattened_format.message_name().to_string();
+    let instance = m.multi_id.value();
+    let fields: Vec<_> = m.flattened_format.fields.iter().collect();
+    let offset_of = |n: &str| {
+        fields
+            .iter()
+            .find(|f| f.flattened_field_name == n && f.field_type == FlattenedFieldType::UInt64)
+            .map(|f| f.offset as usize)
+    };
+    let ts = offset_of("timestamp");
+    let info = catalog.entry((name.clone(), instance)).or_default();
+    info.fields = fields.iter().map(|f| f.flattened_field_name.clone()).collect();
+    let chosen = instances.get(&name).copied().unwrap_or(0);
+    let decoder = if wanted.contains(&name) && instance == chosen {
+        let (time_offset, time_field) = match offset_of("timestamp_sample") {
+            Some(o) => (Some(o), "timestamp_sample"),
+            None => (ts, "timestamp"),
+        };
+        time_offset.map(|o| {
+            let topic = topics.entry(name.clone()).or_default();
+            topic.names = fields.iter().map(|f| f.flattened_field_name.clone()).collect();
+            topic.values = vec![Vec::new(); fields.len()];
+            topic.time_field = time_field;
+            let layout = fields
+                .iter()
+                .map(|f| (f.field_type.clone(), f.offset as usize))
+                .collect();
+            (name.clone(), o, time_field, layout)
+        })
+    } else {
+        None
+    };
+    ((name, instance), ts, decoder)
 }
 
 /// The topic instances of a ULog, one line each: `name` (instance, messages, rate, time span,
