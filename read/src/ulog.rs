@@ -105,21 +105,15 @@ struct Scan {
 /// short for their own headers.
 fn scan(bytes: &[u8], file: &str) -> Result<Scan, ReadError> {
     let e = |m: String| ReadError::new(file, 0, 0, m);
-    if bytes.len() < 16 {
-        return Err(e(format!(
-            "not a ULog: {} bytes, the header alone has 16 (truncated ULog)",
-            bytes.len()
-        )));
-    }
-    if bytes[..7] != MAGIC {
-        return Err(e("not a ULog: the file does not start with the ULog magic bytes".into()));
-    }
-    let mut end = bytes.len();
+    check_header(bytes).map_err(e)?;
+    let mut s = Scan {
+        places: Vec::new(),
+        end: bytes.len(),
+        parameters: BTreeMap::new(),
+    };
     let mut pos = 16;
     let mut index = 0usize;
-    let mut data = Vec::new();
-    let mut parameters = BTreeMap::new();
-    while pos < end {
+    while pos < s.end {
         let Some(head) = bytes.get(pos..pos + 3) else {
             return Err(e(format!(
                 "truncated ULog: message #{index} at byte {pos}: the file ends inside the 3-byte message header"
@@ -131,30 +125,62 @@ fn scan(bytes: &[u8], file: &str) -> Result<Scan, ReadError> {
             return Err(e(format!(
                 "truncated ULog: message #{index} (type '{}') at byte {pos} declares {size} bytes, the file has {} left",
                 kind as char,
-                end.saturating_sub(pos + 3)
+                s.end.saturating_sub(pos + 3)
             )));
         };
-        let bad = |m: &str| {
+        s.message(kind, index, pos, payload).map_err(|m| {
             e(format!(
                 "malformed ULog: message #{index} (type '{}') at byte {pos}: {m}",
                 kind as char
             ))
-        };
+        })?;
+        pos += 3 + size;
+        index += 1;
+    }
+    if pos > s.end {
+        return Err(e(format!(
+            "malformed ULog: a message runs past the start of the appended data at byte {}",
+            s.end
+        )));
+    }
+    Ok(s)
+}
+
+/// The file is long enough for the ULog header and starts with its magic bytes.
+fn check_header(bytes: &[u8]) -> Result<(), String> {
+    if bytes.len() < 16 {
+        return Err(format!(
+            "not a ULog: {} bytes, the header alone has 16 (truncated ULog)",
+            bytes.len()
+        ));
+    }
+    if bytes[..7] != MAGIC {
+        return Err("not a ULog: the file does not start with the ULog magic bytes".into());
+    }
+    Ok(())
+}
+
+impl Scan {
+    /// Message `index` (type `kind`, at byte `pos`, its `payload`): a FlagBits message may end
+    /// the primary section early, a parameter is kept (its first value), a data message's place
+    /// is noted. `Err`: why the message is malformed.
+    fn message(&mut self, kind: u8, index: usize, pos: usize, payload: &[u8]) -> Result<(), &'static str> {
+        let size = payload.len();
         match kind {
             b'B' => {
                 if index != 0 {
-                    return Err(bad("FlagBits must be the first message"));
+                    return Err("FlagBits must be the first message");
                 }
                 if size < 40 {
-                    return Err(bad("FlagBits shorter than 40 bytes"));
+                    return Err("FlagBits shorter than 40 bytes");
                 }
                 // The first appended-data offset ends the primary section.
                 let first = u64::from_le_bytes(payload[16..24].try_into().unwrap_or([0; 8])) as usize;
-                if first != 0 && first < end {
-                    end = first;
+                if first != 0 && first < self.end {
+                    self.end = first;
                 }
             }
-            b'A' if size < 3 => return Err(bad("AddLogged shorter than its 3-byte header")),
+            b'A' if size < 3 => return Err("AddLogged shorter than its 3-byte header"),
             b'P' | b'Q' => {
                 let k = if kind == b'P' { 0 } else { 1 };
                 match payload.get(k) {
@@ -163,29 +189,18 @@ fn scan(bytes: &[u8], file: &str) -> Result<Scan, ReadError> {
                             let key = &payload[1..1 + len as usize];
                             let value = &payload[1 + len as usize..];
                             if let Some((name, v)) = parameter(key, value) {
-                                parameters.entry(name).or_insert(v);
+                                self.parameters.entry(name).or_insert(v);
                             }
                         }
                     }
-                    _ => return Err(bad("parameter key longer than the message")),
+                    _ => return Err("parameter key longer than the message"),
                 }
             }
-            b'D' => data.push(Place { index, offset: pos }),
+            b'D' => self.places.push(Place { index, offset: pos }),
             _ => {}
         }
-        pos += 3 + size;
-        index += 1;
+        Ok(())
     }
-    if pos > end {
-        return Err(e(format!(
-            "malformed ULog: a message runs past the start of the appended data at byte {end}"
-        )));
-    }
-    Ok(Scan {
-        places: data,
-        end,
-        parameters,
-    })
 }
 
 /// A parameter message's name and value (`float NAME` → f32, `int32_t NAME` → i32); `None` for
