@@ -745,172 +745,170 @@ impl Graph<'_> {
             ));
         }
         self.frame_busy[fi] = true;
-        let funcs = self.funcs;
-        let prio_bits = self.prio_bits;
-        let f = &funcs[fi];
-        let code: Vec<(usize, &Insn)> = f
-            .insns
-            .iter()
-            .enumerate()
-            .filter(|(_, i)| !i.mnemonic.starts_with('.'))
-            .collect();
-        let index: HashMap<u64, usize> = code.iter().enumerate().map(|(k, (_, i))| (i.addr, k)).collect();
-        let end = funcs.get(fi + 1).map_or(u64::MAX, |g| g.start);
-        let inside = |a: u64| a >= f.start && a < end;
-        let targets = branch_targets(f, &code, &index, end)?;
-        let mut state_in: Vec<Option<State>> = vec![None; code.len()];
-        let mut own: BTreeMap<Level, u64> = BTreeMap::new();
-        let mut calls: BTreeSet<(u64, Level, Callee)> = BTreeSet::new();
-        let entry = State {
-            depth: 0,
-            basepri: 0,
-            primask: false,
-            absolute: false,
-            saved: [None; 13],
-            section: None,
-            slots: [None; 4],
-        };
-        let mut exit: Option<State> = None;
-        let mut seeds = vec![(0usize, entry)];
-        while let Some((k, st)) = seeds.pop() {
-            if k >= code.len() {
-                continue;
-            }
-            let st = match state_in[k] {
-                Some(old) if old.join(st) == old => continue,
-                Some(old) => old.join(st),
-                None => st,
-            };
-            if st.depth > 1 << 24 {
-                return Err(format!("{}: the stack grows without bound in a loop", f.name));
-            }
-            state_in[k] = Some(st);
-            let insn = code[k].1;
-            let (base, cond) = split_mnemonic(&insn.mnemonic);
-            let (grow, ret) =
-                stack_effect(&base, &insn.operands).map_err(|e| format!("{} at {:#x}: {e}", f.name, insn.addr))?;
-            let mut after = st;
-            after.depth = if cond && grow < 0 { st.depth } else { st.depth + grow };
-            let ops = insn.operands.replace(' ', "");
-            let write = MaskingWrite {
-                insns: &f.insns,
-                at: code[k].0,
-                targets: &targets,
-                prio_bits,
-            };
-            apply_masking(&write, &base, &ops, st, &mut after);
-            track_saved(&base, &ops, &insn.operands, st, &mut after);
-            if cond {
-                after = State {
-                    depth: after.depth,
-                    ..after.join(st)
-                };
-            }
-            for s in [st, after] {
-                let e = own.entry(s.level()).or_default();
-                *e = (*e).max(s.depth.max(0) as u64);
-            }
-            let next = k + 1;
-            let mut fall = !ret || cond;
-            if ret || (base == "bx" && insn.operands.trim() == "lr") {
-                exit = Some(exit.map_or(after, |e| e.join(after)));
-            }
-            // After a direct call returns, the masking is the callee's at its returns (an RTIC lock's
-            // `critical_section::acquire` returns with interrupts masked, `init` enables them); after
-            // an indirect one, none (absolutely).
-            match base.as_str() {
-                "bl" | "blx" => match target(&insn.operands) {
-                    Some(t) => {
-                        let returns;
-                        (after, returns) = self.direct_call(t, after, cond, &mut calls)?;
-                        if !returns {
-                            fall = cond;
-                        }
-                    }
-                    None if base == "blx" => {
-                        record(&mut calls, Callee::Indirect, after);
-                        let pre = after;
-                        after = self.after_indirect(fi, after)?;
-                        if cond {
-                            after = State {
-                                depth: after.depth,
-                                ..after.join(pre)
-                            };
-                        }
-                    }
-                    None => return Err(format!("{} at {:#x}: bl without a target", f.name, insn.addr)),
-                },
-                "bx" => {
-                    if insn.operands.trim() != "lr" {
-                        record(&mut calls, Callee::Indirect, after);
-                        let e = self.after_indirect(fi, after)?;
-                        exit = Some(exit.map_or(e, |x| x.join(e)));
-                    }
-                    fall = cond;
-                }
-                "b" | "cbz" | "cbnz" => {
-                    let t = target(&insn.operands)
-                        .ok_or_else(|| format!("{} at {:#x}: branch without a target", f.name, insn.addr))?;
-                    match index.get(&t) {
-                        Some(&tk) if inside(t) => seeds.push((tk, after)),
-                        _ => {
-                            // A tail call: its returns are this function's.
-                            record(&mut calls, Callee::Direct(t), after);
-                            let g =
-                                containing(funcs, t).ok_or_else(|| format!("call to {t:#x} outside every function"))?;
-                            let e = self.after_call(Some(g), after)?;
-                            exit = Some(exit.map_or(e, |x| x.join(e)));
-                        }
-                    }
-                    if base == "b" && !cond {
-                        fall = false;
-                    }
-                }
-                "tbb" | "tbh" => {
-                    // The table follows the instruction (objdump shows it as data).
-                    for t in table_targets(f, code[k].0, &index)? {
-                        if let Some(&tk) = index.get(&t) {
-                            seeds.push((tk, after));
-                        }
-                    }
-                    fall = cond;
-                }
-                "udf" | "trap" => fall = cond,
-                _ => {
-                    if !ret && ops.starts_with("pc,") && base != "str" {
-                        if base == "ldr" || base == "mov" {
-                            record(&mut calls, Callee::Indirect, after);
-                            let e = self.after_indirect(fi, after)?;
-                            exit = Some(exit.map_or(e, |x| x.join(e)));
-                            fall = cond;
-                        } else {
-                            return Err(format!(
-                                "{} at {:#x}: unrecognised write to pc: `{} {}`",
-                                f.name, insn.addr, insn.mnemonic, insn.operands
-                            ));
-                        }
-                    }
-                }
-            }
-            if fall {
-                if next < code.len() {
-                    seeds.push((next, after));
-                } else if let Some(g) = funcs.get(fi + 1) {
-                    // Falls off the end into the next symbol: a tail call to it.
-                    record(&mut calls, Callee::Direct(g.start), after);
-                    let e = self.after_call(Some(fi + 1), after)?;
-                    exit = Some(exit.map_or(e, |x| x.join(e)));
-                }
+        let mut w = FrameWalk::new(self.funcs, fi)?;
+        while let Some((k, st)) = w.seeds.pop() {
+            if let Some(st) = w.enter(k, st)? {
+                self.frame_step(&mut w, k, st)?;
             }
         }
         let out = Frame {
-            own,
-            calls: calls.into_iter().collect(),
-            exit,
+            own: w.own,
+            calls: w.calls.into_iter().collect(),
+            exit: w.exit,
         };
         self.frame_busy[fi] = false;
         self.frames[fi] = Some(out.clone());
         Ok(out)
+    }
+
+    /// One instruction of the walk, entered at state `st`: its effect on the stack and the
+    /// masking, then where control goes (the next instruction, branch targets, calls, returns).
+    fn frame_step(&mut self, w: &mut FrameWalk, k: usize, st: State) -> Result<(), String> {
+        let (f, insn) = (w.f, w.code[k].1);
+        let (base, cond) = split_mnemonic(&insn.mnemonic);
+        let (grow, ret) =
+            stack_effect(&base, &insn.operands).map_err(|e| format!("{} at {:#x}: {e}", f.name, insn.addr))?;
+        let mut after = st;
+        after.depth = if cond && grow < 0 { st.depth } else { st.depth + grow };
+        let ops = insn.operands.replace(' ', "");
+        let write = MaskingWrite {
+            insns: &f.insns,
+            at: w.code[k].0,
+            targets: &w.targets,
+            prio_bits: self.prio_bits,
+        };
+        apply_masking(&write, &base, &ops, st, &mut after);
+        track_saved(&base, &ops, &insn.operands, st, &mut after);
+        if cond {
+            after = State {
+                depth: after.depth,
+                ..after.join(st)
+            };
+        }
+        for s in [st, after] {
+            let e = w.own.entry(s.level()).or_default();
+            *e = (*e).max(s.depth.max(0) as u64);
+        }
+        if ret || (base == "bx" && insn.operands.trim() == "lr") {
+            w.join_exit(after);
+        }
+        let op = Op {
+            base: &base,
+            cond,
+            ret,
+            ops: &ops,
+        };
+        let fall = self.transfer(w, k, &op, &mut after)?;
+        if fall {
+            let next = k + 1;
+            if next < w.code.len() {
+                w.seeds.push((next, after));
+            } else if let Some(g) = self.funcs.get(w.fi + 1) {
+                // Falls off the end into the next symbol: a tail call to it.
+                record(&mut w.calls, Callee::Direct(g.start), after);
+                let e = self.after_call(Some(w.fi + 1), after)?;
+                w.join_exit(e);
+            }
+        }
+        Ok(())
+    }
+
+    /// Where control goes after instruction `k` (decoded as `op`) leaves the state `after`:
+    /// calls (which change `after` to the state when they return), branches and jump tables
+    /// (seeding their targets), tail calls and indirect jumps (joined into the exit). Returns
+    /// whether control may fall through to the next instruction.
+    fn transfer(&mut self, w: &mut FrameWalk, k: usize, op: &Op, after: &mut State) -> Result<bool, String> {
+        let (f, insn) = (w.f, w.code[k].1);
+        let cond = op.cond;
+        let mut fall = !op.ret || cond;
+        match op.base {
+            "bl" | "blx" => {
+                if !self.call_transfer(w, k, op, after)? {
+                    fall = cond;
+                }
+            }
+            "bx" => {
+                if insn.operands.trim() != "lr" {
+                    record(&mut w.calls, Callee::Indirect, *after);
+                    let e = self.after_indirect(w.fi, *after)?;
+                    w.join_exit(e);
+                }
+                fall = cond;
+            }
+            "b" | "cbz" | "cbnz" => {
+                let t = target(&insn.operands)
+                    .ok_or_else(|| format!("{} at {:#x}: branch without a target", f.name, insn.addr))?;
+                match w.index.get(&t) {
+                    Some(&tk) if w.inside(t) => w.seeds.push((tk, *after)),
+                    _ => {
+                        // A tail call: its returns are this function's.
+                        record(&mut w.calls, Callee::Direct(t), *after);
+                        let g = containing(self.funcs, t)
+                            .ok_or_else(|| format!("call to {t:#x} outside every function"))?;
+                        let e = self.after_call(Some(g), *after)?;
+                        w.join_exit(e);
+                    }
+                }
+                if op.base == "b" && !cond {
+                    fall = false;
+                }
+            }
+            "tbb" | "tbh" => {
+                // The table follows the instruction (objdump shows it as data).
+                for t in table_targets(f, w.code[k].0, &w.index)? {
+                    if let Some(&tk) = w.index.get(&t) {
+                        w.seeds.push((tk, *after));
+                    }
+                }
+                fall = cond;
+            }
+            "udf" | "trap" => fall = cond,
+            _ => {
+                if !op.ret && op.ops.starts_with("pc,") && op.base != "str" {
+                    if op.base == "ldr" || op.base == "mov" {
+                        record(&mut w.calls, Callee::Indirect, *after);
+                        let e = self.after_indirect(w.fi, *after)?;
+                        w.join_exit(e);
+                        fall = cond;
+                    } else {
+                        return Err(format!(
+                            "{} at {:#x}: unrecognised write to pc: `{} {}`",
+                            f.name, insn.addr, insn.mnemonic, insn.operands
+                        ));
+                    }
+                }
+            }
+        }
+        Ok(fall)
+    }
+
+    /// A `bl`/`blx` at instruction `k`: `after` becomes the state when it returns (the callee's
+    /// masking at its returns, an RTIC lock's `critical_section::acquire` returning with
+    /// interrupts masked, `init` enabling them; after an indirect call, none, absolutely).
+    /// Returns whether the call returns (a direct call of a function that never does ends the
+    /// path).
+    fn call_transfer(&mut self, w: &mut FrameWalk, k: usize, op: &Op, after: &mut State) -> Result<bool, String> {
+        let (f, insn) = (w.f, w.code[k].1);
+        match target(&insn.operands) {
+            Some(t) => {
+                let returns;
+                (*after, returns) = self.direct_call(t, *after, op.cond, &mut w.calls)?;
+                Ok(returns)
+            }
+            None if op.base == "blx" => {
+                record(&mut w.calls, Callee::Indirect, *after);
+                let pre = *after;
+                *after = self.after_indirect(w.fi, *after)?;
+                if op.cond {
+                    *after = State {
+                        depth: after.depth,
+                        ..after.join(pre)
+                    };
+                }
+                Ok(true)
+            }
+            None => Err(format!("{} at {:#x}: bl without a target", f.name, insn.addr)),
+        }
     }
 
     /// A direct call of `t` from the state `after` (`cond`: a conditional call), recorded in
@@ -946,6 +944,98 @@ impl Graph<'_> {
         // A callee that never returns (`halt`, the panic machinery) ends the path.
         let returns = !(self.is_panic(g) || self.frame(g)?.exit.is_none());
         Ok((out, returns))
+    }
+}
+
+/// An instruction as the walk reads it: the base mnemonic, whether it is conditional, whether it
+/// returns, and its operands without spaces.
+struct Op<'s> {
+    base: &'s str,
+    cond: bool,
+    ret: bool,
+    ops: &'s str,
+}
+
+/// The data flow over one function's instructions, in progress: the function and its code (the
+/// instructions that are not data, with their index among all), their positions by address, the
+/// function's end and branch targets; the state entering each instruction, the deepest point at
+/// each level, the calls, the joined state at the returns and the work list.
+struct FrameWalk<'f> {
+    fi: usize,
+    f: &'f Function,
+    code: Vec<(usize, &'f Insn)>,
+    index: HashMap<u64, usize>,
+    end: u64,
+    targets: BTreeSet<u64>,
+    state_in: Vec<Option<State>>,
+    own: BTreeMap<Level, u64>,
+    calls: BTreeSet<(u64, Level, Callee)>,
+    exit: Option<State>,
+    seeds: Vec<(usize, State)>,
+}
+
+impl<'f> FrameWalk<'f> {
+    /// The walk of `funcs[fi]`, seeded with its entry (no stack, no masking of its own).
+    fn new(funcs: &'f [Function], fi: usize) -> Result<Self, String> {
+        let f = &funcs[fi];
+        let code: Vec<(usize, &Insn)> = f
+            .insns
+            .iter()
+            .enumerate()
+            .filter(|(_, i)| !i.mnemonic.starts_with('.'))
+            .collect();
+        let index: HashMap<u64, usize> = code.iter().enumerate().map(|(k, (_, i))| (i.addr, k)).collect();
+        let end = funcs.get(fi + 1).map_or(u64::MAX, |g| g.start);
+        let targets = branch_targets(f, &code, &index, end)?;
+        let entry = State {
+            depth: 0,
+            basepri: 0,
+            primask: false,
+            absolute: false,
+            saved: [None; 13],
+            section: None,
+            slots: [None; 4],
+        };
+        Ok(Self {
+            fi,
+            f,
+            state_in: vec![None; code.len()],
+            code,
+            index,
+            end,
+            targets,
+            own: BTreeMap::new(),
+            calls: BTreeSet::new(),
+            exit: None,
+            seeds: vec![(0usize, entry)],
+        })
+    }
+
+    fn inside(&self, a: u64) -> bool {
+        a >= self.f.start && a < self.end
+    }
+
+    /// Instruction `k` entered at `st`: the state joined with the one it had, or `None` when
+    /// there is nothing new to walk (past the end, or no change).
+    fn enter(&mut self, k: usize, st: State) -> Result<Option<State>, String> {
+        if k >= self.code.len() {
+            return Ok(None);
+        }
+        let st = match self.state_in[k] {
+            Some(old) if old.join(st) == old => return Ok(None),
+            Some(old) => old.join(st),
+            None => st,
+        };
+        if st.depth > 1 << 24 {
+            return Err(format!("{}: the stack grows without bound in a loop", self.f.name));
+        }
+        self.state_in[k] = Some(st);
+        Ok(Some(st))
+    }
+
+    /// A state at a return of the function, joined into the exit.
+    fn join_exit(&mut self, e: State) {
+        self.exit = Some(self.exit.map_or(e, |x| x.join(e)));
     }
 }
 
@@ -1336,45 +1426,7 @@ pub fn analyse(
 ) -> Result<StackBound, String> {
     let mut funcs = parse(disassembly);
     funcs.sort_by_key(|f| f.start);
-    let starts: HashMap<u64, usize> = funcs.iter().enumerate().map(|(i, f)| (f.start, i)).collect();
-    // Address-taken functions: Thumb addresses (bit 0 set) of a function start in data, in literal
-    // pools, or from `movw`/`movt` pairs.
-    let mut taken: BTreeSet<usize> = BTreeSet::new();
-    let mut mark = |w: u64| {
-        if w & 1 == 1 {
-            if let Some(&i) = starts.get(&(w & !1)) {
-                taken.insert(i);
-            }
-        }
-    };
-    for (_, w) in dump_words(data_dump) {
-        mark(u64::from(w));
-    }
-    for f in &funcs {
-        let mut low: HashMap<String, u64> = HashMap::new();
-        for i in &f.insns {
-            if i.mnemonic == ".word" {
-                if let Some(w) = immediate(&i.operands) {
-                    mark(w as u64);
-                }
-            }
-            let (base, _) = split_mnemonic(&i.mnemonic);
-            if let Some((reg, imm)) = i.operands.split_once(", #") {
-                let Some(v) = immediate(imm) else { continue };
-                match base.as_str() {
-                    "movw" => {
-                        low.insert(reg.to_string(), v as u64);
-                    }
-                    "movt" => {
-                        if let Some(l) = low.get(reg) {
-                            mark(((v as u64) << 16) | l);
-                        }
-                    }
-                    _ => {}
-                }
-            }
-        }
-    }
+    let taken = address_taken(&funcs, data_dump);
     let n = funcs.len();
     let mut g = Graph {
         funcs: &funcs,
@@ -1388,92 +1440,18 @@ pub fn analyse(
         busy: vec![false; n],
         sites: BTreeMap::new(),
     };
-    let vector: Vec<u32> = dump_words(vector_dump).into_iter().map(|(_, w)| w).collect();
-    if vector.len() < 2 {
-        return Err("the vector table is empty".into());
-    }
-    const EXCEPTIONS: [&str; 16] = [
-        "",
-        "Reset",
-        "NMI",
-        "HardFault",
-        "MemManage",
-        "BusFault",
-        "UsageFault",
-        "",
-        "",
-        "",
-        "",
-        "SVCall",
-        "DebugMonitor",
-        "",
-        "PendSV",
-        "SysTick",
-    ];
-    let mut roots = Vec::new();
-    let mut seen = BTreeSet::new();
-    let mut thread = Profile::default();
-    let mut listed = Vec::new();
-    let mut unlisted = Vec::new();
-    for (slot, &w) in vector.iter().enumerate().skip(1) {
-        if w == 0 {
-            continue;
-        }
-        let Some(fi) = containing(&funcs, u64::from(w & !1)) else {
-            return Err(format!("vector {slot} ({w:#x}) is outside the code"));
-        };
-        if !seen.insert(fi) {
-            continue;
-        }
-        let p = g.bound(fi)?;
-        let function = short(&funcs[fi].name);
-        let name = match slot {
-            1 => format!("Reset (thread mode): {function}"),
-            2..=15 => format!("exception {slot} ({}): {function}", EXCEPTIONS[slot]),
-            _ => format!("IRQ {}: {function}", slot - 16),
-        };
-        let priority = config.priorities.iter().find(|(h, _)| *h == function).map(|(_, p)| *p);
-        let frame = if slot == 1 { 0 } else { EXCEPTION_FRAME_BYTES };
-        let chain = g.chain(fi)?;
-        roots.push(RootBound {
-            name,
-            function: function.clone(),
-            priority: if slot == 1 { None } else { priority },
-            bytes: p.max + frame,
-            chain,
-        });
-        match (slot, priority) {
-            (1, _) => thread = p,
-            (_, Some(priority)) => listed.push(Handler {
-                name: function,
-                priority,
-                profile: p,
-            }),
-            (_, None) => unlisted.push((function, p.max + EXCEPTION_FRAME_BYTES)),
-        }
-    }
+    let Roots {
+        roots,
+        thread,
+        listed,
+        unlisted,
+    } = vector_roots(&mut g, vector_dump)?;
     for (h, _) in config.priorities.iter().filter(|(h, _)| !config.optional.contains(h)) {
         if !roots.iter().any(|r| r.function == *h && r.priority.is_some()) {
             return Err(format!("`priority | {h}`: no handler of that name in the vector table"));
         }
     }
-    // Thread mode at each of its masking levels, the handlers that may preempt it there, and the
-    // handlers the configuration does not list (faults), on top of everything.
-    let mut memo = HashMap::new();
-    let mut best: (u64, Vec<(String, u64)>) = (0, Vec::new());
-    for (&(l, _), &d) in &thread.by_level {
-        let (w, chain) = worst_above(l, &listed, &mut memo);
-        if d + w > best.0 || best.1.is_empty() {
-            let mut c = vec![(format!("thread mode (at level {l})"), d)];
-            c.extend(chain);
-            best = (d + w, c);
-        }
-    }
-    let (mut total, mut nesting) = best;
-    for (name, b) in unlisted {
-        total += b;
-        nesting.push((format!("{name} (not listed: preempts everything)"), b));
-    }
+    let (total, nesting) = worst_nesting(&thread, &listed, unlisted);
     let indirect = g
         .sites
         .iter()
@@ -1500,6 +1478,155 @@ pub fn analyse(
         address_taken: taken.len(),
         static_ram,
     })
+}
+
+/// Address-taken functions (indices into `funcs`, sorted by start): Thumb addresses (bit 0 set)
+/// of a function start in data, in literal pools, or from `movw`/`movt` pairs.
+fn address_taken(funcs: &[Function], data_dump: &str) -> BTreeSet<usize> {
+    let starts: HashMap<u64, usize> = funcs.iter().enumerate().map(|(i, f)| (f.start, i)).collect();
+    let mut taken: BTreeSet<usize> = BTreeSet::new();
+    let mut mark = |w: u64| {
+        if w & 1 == 1 {
+            if let Some(&i) = starts.get(&(w & !1)) {
+                taken.insert(i);
+            }
+        }
+    };
+    for (_, w) in dump_words(data_dump) {
+        mark(u64::from(w));
+    }
+    for f in funcs {
+        let mut low: HashMap<String, u64> = HashMap::new();
+        for i in &f.insns {
+            if i.mnemonic == ".word" {
+                if let Some(w) = immediate(&i.operands) {
+                    mark(w as u64);
+                }
+            }
+            let (base, _) = split_mnemonic(&i.mnemonic);
+            if let Some((reg, imm)) = i.operands.split_once(", #") {
+                let Some(v) = immediate(imm) else { continue };
+                match base.as_str() {
+                    "movw" => {
+                        low.insert(reg.to_string(), v as u64);
+                    }
+                    "movt" => {
+                        if let Some(l) = low.get(reg) {
+                            mark(((v as u64) << 16) | l);
+                        }
+                    }
+                    _ => {}
+                }
+            }
+        }
+    }
+    taken
+}
+
+/// The system exceptions' names by vector slot (empty: reserved).
+const EXCEPTIONS: [&str; 16] = [
+    "",
+    "Reset",
+    "NMI",
+    "HardFault",
+    "MemManage",
+    "BusFault",
+    "UsageFault",
+    "",
+    "",
+    "",
+    "",
+    "SVCall",
+    "DebugMonitor",
+    "",
+    "PendSV",
+    "SysTick",
+];
+
+/// The bounds of the vector table's entries: every root with its bound, thread mode's profile,
+/// the handlers the configuration gives a priority, and those it does not (name, bytes with
+/// the exception frame).
+struct Roots {
+    roots: Vec<RootBound>,
+    thread: Profile,
+    listed: Vec<Handler>,
+    unlisted: Vec<(String, u64)>,
+}
+
+/// Bounds every function the vector table names (once each, in slot order).
+fn vector_roots(g: &mut Graph, vector_dump: &str) -> Result<Roots, String> {
+    let (funcs, config) = (g.funcs, g.config);
+    let vector: Vec<u32> = dump_words(vector_dump).into_iter().map(|(_, w)| w).collect();
+    if vector.len() < 2 {
+        return Err("the vector table is empty".into());
+    }
+    let mut out = Roots {
+        roots: Vec::new(),
+        thread: Profile::default(),
+        listed: Vec::new(),
+        unlisted: Vec::new(),
+    };
+    let mut seen = BTreeSet::new();
+    for (slot, &w) in vector.iter().enumerate().skip(1) {
+        if w == 0 {
+            continue;
+        }
+        let Some(fi) = containing(funcs, u64::from(w & !1)) else {
+            return Err(format!("vector {slot} ({w:#x}) is outside the code"));
+        };
+        if !seen.insert(fi) {
+            continue;
+        }
+        let p = g.bound(fi)?;
+        let function = short(&funcs[fi].name);
+        let name = match slot {
+            1 => format!("Reset (thread mode): {function}"),
+            2..=15 => format!("exception {slot} ({}): {function}", EXCEPTIONS[slot]),
+            _ => format!("IRQ {}: {function}", slot - 16),
+        };
+        let priority = config.priorities.iter().find(|(h, _)| *h == function).map(|(_, p)| *p);
+        let frame = if slot == 1 { 0 } else { EXCEPTION_FRAME_BYTES };
+        let chain = g.chain(fi)?;
+        out.roots.push(RootBound {
+            name,
+            function: function.clone(),
+            priority: if slot == 1 { None } else { priority },
+            bytes: p.max + frame,
+            chain,
+        });
+        match (slot, priority) {
+            (1, _) => out.thread = p,
+            (_, Some(priority)) => out.listed.push(Handler {
+                name: function,
+                priority,
+                profile: p,
+            }),
+            (_, None) => out.unlisted.push((function, p.max + EXCEPTION_FRAME_BYTES)),
+        }
+    }
+    Ok(out)
+}
+
+/// The worst nesting: thread mode at each of its masking levels, the listed handlers that may
+/// preempt it there, and the handlers the configuration does not list (faults) on top of
+/// everything. Bytes, and the chain of (what, bytes it adds).
+fn worst_nesting(thread: &Profile, listed: &[Handler], unlisted: Vec<(String, u64)>) -> Nesting {
+    let mut memo = HashMap::new();
+    let mut best: (u64, Vec<(String, u64)>) = (0, Vec::new());
+    for (&(l, _), &d) in &thread.by_level {
+        let (w, chain) = worst_above(l, listed, &mut memo);
+        if d + w > best.0 || best.1.is_empty() {
+            let mut c = vec![(format!("thread mode (at level {l})"), d)];
+            c.extend(chain);
+            best = (d + w, c);
+        }
+    }
+    let (mut total, mut nesting) = best;
+    for (name, b) in unlisted {
+        total += b;
+        nesting.push((format!("{name} (not listed: preempts everything)"), b));
+    }
+    (total, nesting)
 }
 
 fn run(tool: &Path, args: &[&str], elf: &Path) -> Result<String, String> {

@@ -971,6 +971,56 @@ fn unwrap(x: &[f64]) -> Vec<f64> {
     out
 }
 
+/// A part of the check as a segmented model: what its [`Problem`] asks of it.
+trait SegmentModel {
+    /// Its segments, candidates and outputs.
+    fn parts(&self) -> Parts<'_>;
+    /// The outputs over `[a, b)` from the initial state `x0`.
+    fn simulate(&self, g: &[f64], x0: &[f64], a: usize, b: usize) -> Vec<Vec<f64>>;
+    /// Per output and sample, the output's derivative with respect to each initial state of
+    /// segment `seg`.
+    fn x0_sensitivity(&self, g: &[f64], x0: &[f64], seg: usize) -> Vec<Vec<[f64; 3]>>;
+    /// Per output and sample, the output's derivative with respect to candidate `cand` over
+    /// segment `seg`, where the model has it analytically (else `None`: differenced).
+    fn candidate_sensitivity(&self, g: &[f64], x0: &[f64], seg: usize, cand: usize) -> Option<Vec<Vec<f64>>>;
+}
+
+/// A model's segments, candidates and outputs.
+type Parts<'m> = (&'m [(usize, usize)], &'m [SensorParam], &'m [Quantity]);
+
+/// The output-error problem of `model` on `flight`: three states with the mask `x_mask` and the
+/// difference step `x_step`, the fitted outputs' `measured` series and the model's `split`.
+fn problem_of<'a, M: SegmentModel + 'a>(
+    model: &std::rc::Rc<M>,
+    flight: &MeasuredFlight,
+    x_mask: Vec<bool>,
+    x_step: f64,
+    measured: Vec<Vec<f64>>,
+    split: Option<Split<'a>>,
+) -> Problem<'a> {
+    let (m_sim, m_x0, m_g) = (model.clone(), model.clone(), model.clone());
+    let (segments, candidates, outputs) = model.parts();
+    Problem {
+        nx: 3,
+        x_mask,
+        x_steps: vec![x_step; 3],
+        fold_of: segment_folds(flight, segments),
+        segments: segments.to_vec(),
+        candidates: candidates.to_vec(),
+        sim: Box::new(move |g: &[f64], x0: &[f64], a: usize, b: usize| m_sim.simulate(g, x0, a, b)),
+        measured,
+        outputs: outputs.to_vec(),
+        x0_sens: Some(Box::new(move |g: &[f64], x0: &[f64], seg: usize| {
+            m_x0.x0_sensitivity(g, x0, seg)
+        })),
+        split,
+        g_sens: Some(Box::new(move |g: &[f64], x0: &[f64], seg: usize, cand: usize| {
+            m_g.candidate_sensitivity(g, x0, seg, cand)
+        })),
+        memo: Memo::for_segments(segments.len()),
+    }
+}
+
 /// The velocity part of the compatibility check, built for a flight: the segmented output-error
 /// problem, the state integrator (sensor-error values, initial state, segment) and the initial
 /// states of every segment (from the first 10 samples of the measured air data).
@@ -1046,211 +1096,343 @@ pub fn velocity_candidates(flight: &MeasuredFlight) -> Vec<SensorParam> {
 /// Builds the velocity problem (`None` without `a_x`, `a_z`, `V`, `α`). `gyro_bias` is removed
 /// from the rates (the attitude part's estimate).
 fn velocity_problem(flight: &MeasuredFlight, h_s: f64, gyro_bias: [f64; 3]) -> Option<VelocityProblem<'_>> {
-    use Quantity::*;
-    let get = |q: Quantity| flight.get(q);
-    let (Some(q_m), Some(theta_m)) = (get(PitchRate), get(Pitch)) else {
-        return None;
-    };
-    let (ax, az, v_m, a_m) = (get(AccelX)?, get(AccelZ)?, get(Airspeed)?, get(Alpha)?);
-    let n = flight.len();
-    let lateral = get(RollRate).is_some() && get(YawRate).is_some() && get(Roll).is_some();
-    let lat_v = lateral && get(AccelY).is_some();
-    // Missing channels read as zero (borrowed from the flight when present).
-    fn zero(x: Option<&[f64]>, n: usize) -> std::borrow::Cow<'_, [f64]> {
-        x.map_or_else(|| std::borrow::Cow::Owned(vec![0.0; n]), std::borrow::Cow::Borrowed)
-    }
-    let p_m = zero(get(RollRate), n);
-    let r_m = zero(get(YawRate), n);
-    let phi_m = zero(get(Roll), n);
-    let ay = zero(get(AccelY), n);
-    let beta_m = get(Beta).filter(|_| lat_v);
-    let mut outputs = vec![Airspeed, Alpha];
-    let mut measured = vec![v_m.to_vec(), a_m.to_vec()];
-    if let Some(b) = beta_m {
-        outputs.push(Beta);
-        measured.push(b.to_vec());
-    }
-    let cands = velocity_candidates(flight);
-    let ac = &flight.aircraft;
-    let (rv_a, rv_b, r_pitot) = (
-        ac.alpha_vane_position_m,
-        ac.beta_vane_position_m,
-        ac.airspeed_position_m,
-    );
-    let cands_b = cands.clone();
-    let par = move |g: &[f64], c: SensorParam| -> f64 { cands_b.iter().position(|x| *x == c).map_or(0.0, |i| g[i]) };
-    let pc: Vec<f64> = p_m.iter().map(|v| v - gyro_bias[0]).collect();
-    let qc: Vec<f64> = q_m.iter().map(|v| v - gyro_bias[1]).collect();
-    let rc: Vec<f64> = r_m.iter().map(|v| v - gyro_bias[2]).collect();
-    let rates = std::rc::Rc::new([pc, qc, rc]);
-    let attitude = std::rc::Rc::new(AttitudeTable::new(&phi_m, theta_m));
+    let inputs = VelocityInputs::read(flight, gyro_bias)?;
     let segs = segments(flight, h_s);
-    // The velocity equations are linear in the state and in the accelerometer biases
-    // (`ẋ = A(t)x + u(t) − b`, `A = −[ω×]` with the measured rates, `u` the measured specific force
-    // and gravity), and RK4 of an affine system is affine in its initial state and its constant
-    // input: per segment, `x(t) = Φ(t)x₀ + x_u(t) + Σⱼ bⱼ ψⱼ(t)` with `Φ` the RK4 of `Φ̇ = AΦ`,
-    // `x_u` the RK4 solution from rest with no bias and `ψⱼ` the one of `ψ̇ = Aψ − eⱼ` from rest.
-    // Each is integrated once for the whole check (`A`, `u` depend on no candidate); a candidate's
-    // states are then the combination, equal to integrating them (to rounding).
-    let lat_mask = move |d: Vector3<f64>| [d.x, if lat_v { d.y } else { 0.0 }, d.z];
-    let rate_at = {
-        let rates = rates.clone();
-        move |k: usize, fr: f64| {
-            let [pc, qc, rc] = &*rates;
-            Vector3::new(lerp(pc, k, fr), lerp(qc, k, fr), lerp(rc, k, fr))
-        }
-    };
-    let state_of = |x: &[f64; 3]| Vector3::new(x[0], if lat_v { x[1] } else { 0.0 }, x[2]);
-    let forced: Vec<Vec<[f64; 3]>> = segs
-        .iter()
-        .map(|&(a, b)| {
-            integrate([0.0; 3], a, b, h_s, |x, k, fr| {
-                let [sf, cf, st, ct] = attitude.at(k, fr).unwrap_or_else(|| {
-                    let (sf, cf) = sin_cos(lerp(&phi_m, k, fr));
-                    let (st, ct) = sin_cos(lerp(theta_m, k, fr));
-                    [sf, cf, st, ct]
-                });
-                let acc = Vector3::new(lerp(ax, k, fr), lerp(&ay, k, fr), lerp(az, k, fr));
-                let gv = Vector3::new(-st, ct * sf, ct * cf) * G_MPS2;
-                lat_mask(acc + gv - rate_at(k, fr).cross(&state_of(x)))
-            })
-        })
-        .collect();
-    let unit_bias: std::rc::Rc<Vec<[Vec<[f64; 3]>; 3]>> = std::rc::Rc::new(
-        segs.iter()
-            .map(|&(a, b)| {
-                core::array::from_fn(|j| {
-                    let e = Vector3::from_fn(|i, _| if i == j { 1.0 } else { 0.0 });
-                    integrate([0.0; 3], a, b, h_s, |x, k, fr| {
-                        lat_mask(-e - rate_at(k, fr).cross(&state_of(x)))
-                    })
-                })
-            })
-            .collect(),
-    );
-    // The state transition matrix Φ(t) = ∂x(t)/∂x₀ of every segment (also the analytic
-    // initial-state sensitivity of the outputs, below).
-    let phis: std::rc::Rc<Vec<Vec<[f64; 9]>>> = std::rc::Rc::new(
-        segs.iter()
-            .map(|&(a, b)| {
-                let eye = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0];
-                integrate(eye, a, b, h_s, |m, k, fr| {
-                    let w = rate_at(k, fr);
-                    let mut d = [0.0; 9];
-                    for c in 0..3 {
-                        let dv = lat_mask(-w.cross(&state_of(&[m[c], m[3 + c], m[6 + c]])));
-                        d[c] = dv[0];
-                        d[3 + c] = dv[1];
-                        d[6 + c] = dv[2];
-                    }
-                    d
-                })
-            })
-            .collect(),
-    );
+    let responses = AffineResponses::integrate(&inputs, &segs, h_s);
+    let x0 = initial_velocities(&segs, &inputs);
+    let lat_v = inputs.lat_v;
+    let VelocityInputs {
+        rates,
+        outputs,
+        measured,
+        ..
+    } = inputs;
+    let ac = &flight.aircraft;
+    let model = std::rc::Rc::new(VelocityModel {
+        h_s,
+        candidates: velocity_candidates(flight),
+        outputs,
+        rates,
+        alpha_vane_m: ac.alpha_vane_position_m,
+        beta_vane_m: ac.beta_vane_position_m,
+        pitot_m: ac.airspeed_position_m,
+        segments: segs,
+        responses,
+    });
     let states: VelocityStates<'_> = {
-        let (par, phis, segs, unit_bias) = (par.clone(), phis.clone(), segs.clone(), unit_bias.clone());
-        std::rc::Rc::new(move |g: &[f64], x0: &[f64], a: usize, b: usize| -> Vec<[f64; 3]> {
-            use SensorParam as S;
-            let bias = [
-                par(g, S::Bias(AccelX)),
-                par(g, S::Bias(AccelY)),
-                par(g, S::Bias(AccelZ)),
-            ];
-            // The problem integrates whole segments only.
-            let Some(sg) = segs.iter().position(|&s| s == (a, b)) else {
-                return Vec::new();
-            };
-            let (phi, xu, psi) = (&phis[sg], &forced[sg], &unit_bias[sg]);
-            (0..b - a)
-                .map(|i| {
-                    let f = &phi[i];
-                    core::array::from_fn(|r| {
-                        let free = f[3 * r] * x0[0] + f[3 * r + 1] * x0[1] + f[3 * r + 2] * x0[2];
-                        free + xu[i][r] + bias[0] * psi[0][i][r] + bias[1] * psi[1][i][r] + bias[2] * psi[2][i][r]
+        let m = model.clone();
+        std::rc::Rc::new(move |g: &[f64], x0: &[f64], a: usize, b: usize| m.states(g, x0, a, b))
+    };
+    let out_map: OutputMap<'_> = {
+        let m = model.clone();
+        std::rc::Rc::new(move |g: &[f64], xs: &[[f64; 3]], a: usize, only: Option<usize>| m.outputs_of(g, xs, a, only))
+    };
+    let split = Split {
+        states: states.clone(),
+        outputs: out_map,
+        channel: model.channels(),
+    };
+    Some(VelocityProblem {
+        problem: problem_of(&model, flight, vec![true, lat_v, true], 1e-3, measured, Some(split)),
+        states,
+        x0,
+        lateral: lat_v,
+    })
+}
+
+/// What the velocity part reads of a flight: the specific force and the attitude that drive the
+/// equations (a missing lateral channel reads as zero), the rates with the gyro biases removed,
+/// and the air data it fits.
+struct VelocityInputs<'a> {
+    ax: &'a [f64],
+    ay: std::borrow::Cow<'a, [f64]>,
+    az: &'a [f64],
+    phi: std::borrow::Cow<'a, [f64]>,
+    theta: &'a [f64],
+    /// `p, q, r` less the gyro biases.
+    rates: [Vec<f64>; 3],
+    v: &'a [f64],
+    alpha: &'a [f64],
+    /// β, when the lateral velocity is reconstructed.
+    beta: Option<&'a [f64]>,
+    /// The lateral velocity is reconstructed (roll and yaw rates, roll and `a_y` logged).
+    lat_v: bool,
+    /// The fitted outputs (`V`, `α`, and `β` when read) and their measured series.
+    outputs: Vec<Quantity>,
+    measured: Vec<Vec<f64>>,
+}
+
+impl<'a> VelocityInputs<'a> {
+    /// `None` without `q`, `θ`, `a_x`, `a_z`, `V`, `α`.
+    fn read(flight: &'a MeasuredFlight, gyro_bias: [f64; 3]) -> Option<Self> {
+        use Quantity::*;
+        let get = |q: Quantity| flight.get(q);
+        let (Some(q_m), Some(theta)) = (get(PitchRate), get(Pitch)) else {
+            return None;
+        };
+        let (ax, az, v, alpha) = (get(AccelX)?, get(AccelZ)?, get(Airspeed)?, get(Alpha)?);
+        let n = flight.len();
+        let lateral = get(RollRate).is_some() && get(YawRate).is_some() && get(Roll).is_some();
+        let lat_v = lateral && get(AccelY).is_some();
+        // Missing channels read as zero (borrowed from the flight when present).
+        fn zero(x: Option<&[f64]>, n: usize) -> std::borrow::Cow<'_, [f64]> {
+            x.map_or_else(|| std::borrow::Cow::Owned(vec![0.0; n]), std::borrow::Cow::Borrowed)
+        }
+        let p_m = zero(get(RollRate), n);
+        let r_m = zero(get(YawRate), n);
+        let beta = get(Beta).filter(|_| lat_v);
+        let mut outputs = vec![Airspeed, Alpha];
+        let mut measured = vec![v.to_vec(), alpha.to_vec()];
+        if let Some(b) = beta {
+            outputs.push(Beta);
+            measured.push(b.to_vec());
+        }
+        let less = |x: &[f64], b: f64| -> Vec<f64> { x.iter().map(|v| v - b).collect() };
+        Some(Self {
+            ax,
+            ay: zero(get(AccelY), n),
+            az,
+            phi: zero(get(Roll), n),
+            theta,
+            rates: [
+                less(&p_m, gyro_bias[0]),
+                less(q_m, gyro_bias[1]),
+                less(&r_m, gyro_bias[2]),
+            ],
+            v,
+            alpha,
+            beta,
+            lat_v,
+            outputs,
+            measured,
+        })
+    }
+}
+
+/// The initial velocity of every segment from the mean air data over its first 10 samples.
+fn initial_velocities(segs: &[(usize, usize)], inp: &VelocityInputs) -> Vec<Vec<f64>> {
+    segs.iter()
+        .map(|&(a, b)| {
+            let k1 = (a + 10).min(b);
+            let (v0, al0) = (mean(&inp.v[a..k1]), mean(&inp.alpha[a..k1]));
+            let be0 = inp.beta.map_or(0.0, |bb| mean(&bb[a..k1]));
+            vec![v0 * al0.cos() * be0.cos(), v0 * be0.sin(), v0 * al0.sin() * be0.cos()]
+        })
+        .collect()
+}
+
+/// The velocity equations' kinematic coupling `−ω × v` with the measured rates (interpolated
+/// linearly between samples), the lateral velocity held at zero when it is not reconstructed.
+struct Coupling<'r> {
+    rates: &'r [Vec<f64>; 3],
+    lat_v: bool,
+}
+
+impl Coupling<'_> {
+    fn rate_at(&self, k: usize, fr: f64) -> Vector3<f64> {
+        let [pc, qc, rc] = self.rates;
+        Vector3::new(lerp(pc, k, fr), lerp(qc, k, fr), lerp(rc, k, fr))
+    }
+
+    /// A derivative with its lateral component dropped when the lateral velocity is not
+    /// reconstructed.
+    fn mask(&self, d: Vector3<f64>) -> [f64; 3] {
+        [d.x, if self.lat_v { d.y } else { 0.0 }, d.z]
+    }
+
+    fn state_of(&self, x: &[f64; 3]) -> Vector3<f64> {
+        Vector3::new(x[0], if self.lat_v { x[1] } else { 0.0 }, x[2])
+    }
+}
+
+/// The velocity equations are linear in the state and in the accelerometer biases
+/// (`ẋ = A(t)x + u(t) − b`, `A = −[ω×]` with the measured rates, `u` the measured specific force
+/// and gravity), and RK4 of an affine system is affine in its initial state and its constant
+/// input: per segment, `x(t) = Φ(t)x₀ + x_u(t) + Σⱼ bⱼ ψⱼ(t)` with `Φ` the RK4 of `Φ̇ = AΦ`,
+/// `x_u` the RK4 solution from rest with no bias and `ψⱼ` the one of `ψ̇ = Aψ − eⱼ` from rest.
+/// Each is integrated once for the whole check (`A`, `u` depend on no candidate); a candidate's
+/// states are then the combination, equal to integrating them (to rounding).
+struct AffineResponses {
+    /// `x_u` per segment.
+    forced: Vec<Vec<[f64; 3]>>,
+    /// `ψⱼ` per segment, `j` = x, y, z.
+    unit_bias: Vec<[Vec<[f64; 3]>; 3]>,
+    /// The state transition matrix Φ(t) = ∂x(t)/∂x₀ (row-major) per segment (also the analytic
+    /// initial-state sensitivity of the outputs).
+    phis: Vec<Vec<[f64; 9]>>,
+}
+
+impl AffineResponses {
+    fn integrate(inp: &VelocityInputs, segs: &[(usize, usize)], h_s: f64) -> Self {
+        let c = Coupling {
+            rates: &inp.rates,
+            lat_v: inp.lat_v,
+        };
+        Self {
+            forced: Self::forced(inp, &c, segs, h_s),
+            unit_bias: segs
+                .iter()
+                .map(|&(a, b)| {
+                    core::array::from_fn(|j| {
+                        let e = Vector3::from_fn(|i, _| if i == j { 1.0 } else { 0.0 });
+                        integrate([0.0; 3], a, b, h_s, |x, k, fr| {
+                            c.mask(-e - c.rate_at(k, fr).cross(&c.state_of(x)))
+                        })
                     })
                 })
-                .collect()
-        })
-    };
-    // The outputs' derivatives: each output is `(1+k)·y(t−τ) + b` of a function `y(l)` of the
-    // local velocity `l = v + ω × r` at the sensor, so a state sensitivity `s(t)` (a column of Φ,
-    // or the response ψⱼ to an accelerometer bias) moves it by `(1+k)·shift(∇y(l)ᵀ s)`.
-    let gradients = {
-        let (outs, rates, par) = (outputs.clone(), rates.clone(), par.clone());
-        std::rc::Rc::new(move |g: &[f64], xs: &[[f64; 3]], a: usize| -> Vec<Vec<Vector3<f64>>> {
-            use SensorParam as S;
-            let [pc, qc, rc] = &*rates;
-            outs.iter()
-                .map(|o| {
-                    let r = match o {
-                        Airspeed => r_pitot,
-                        Alpha => rv_a + Vector3::new(par(g, S::VaneX(Alpha)), 0.0, 0.0),
-                        _ => rv_b + Vector3::new(par(g, S::VaneX(Beta)), 0.0, 0.0),
-                    };
-                    xs.iter()
-                        .enumerate()
-                        .map(|(i, x)| {
-                            let k = a + i;
-                            let w = Vector3::new(pc[k], qc[k], rc[k]);
-                            let l = Vector3::new(x[0], x[1], x[2]) + w.cross(&r);
-                            match o {
-                                Airspeed => l / l.norm(),
-                                Alpha => Vector3::new(-l.z, 0.0, l.x) / (l.x * l.x + l.z * l.z),
-                                _ => {
-                                    let nl = l.norm().max(1e-6);
-                                    let sb = l.y / nl;
-                                    let c = (1.0 - sb * sb).max(1e-12).sqrt();
-                                    (Vector3::new(0.0, 1.0 / nl, 0.0) - l * (l.y / (nl * nl * nl))) / c
-                                }
-                            }
-                        })
-                        .collect()
+                .collect(),
+            phis: segs
+                .iter()
+                .map(|&(a, b)| {
+                    let eye = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0];
+                    integrate(eye, a, b, h_s, |m, k, fr| {
+                        let w = c.rate_at(k, fr);
+                        let mut d = [0.0; 9];
+                        for col in 0..3 {
+                            let dv = c.mask(-w.cross(&c.state_of(&[m[col], m[3 + col], m[6 + col]])));
+                            d[col] = dv[0];
+                            d[3 + col] = dv[1];
+                            d[6 + col] = dv[2];
+                        }
+                        d
+                    })
                 })
-                .collect()
-        })
-    };
-    // `(1+k)·shift(series)` of output `o`.
-    let delayed = {
-        let (outs, par) = (outputs.clone(), par.clone());
-        move |g: &[f64], o: usize, series: &[f64]| -> Vec<f64> {
-            let q = outs[o];
-            let (tau, k) = (par(g, SensorParam::Delay(q)), par(g, SensorParam::Scale(q)));
-            shift(series, h_s, -tau).into_iter().map(|v| (1.0 + k) * v).collect()
+                .collect(),
         }
-    };
-    let (states_d, segs_d, phis_d, grads_d, delayed_d) = (
-        states.clone(),
-        segs.clone(),
-        phis.clone(),
-        gradients.clone(),
-        delayed.clone(),
-    );
-    let sens_b = move |g: &[f64], x0: &[f64], seg: usize| -> Vec<Vec<[f64; 3]>> {
-        let (a, b) = segs_d[seg];
-        let xs = states_d(g, x0, a, b);
-        let phi = &phis_d[seg];
-        grads_d(g, &xs, a)
-            .iter()
-            .enumerate()
-            .map(|(o, dy)| {
-                let comp: [Vec<f64>; 3] = core::array::from_fn(|c| {
-                    let s: Vec<f64> = dy
-                        .iter()
-                        .zip(phi)
-                        .map(|(d, f)| d.x * f[c] + d.y * f[3 + c] + d.z * f[6 + c])
-                        .collect();
-                    delayed_d(g, o, &s)
-                });
-                (0..dy.len()).map(|i| [comp[0][i], comp[1][i], comp[2][i]]).collect()
+    }
+
+    /// `x_u`: from rest, driven by the measured specific force and gravity at the measured
+    /// attitude.
+    fn forced(inp: &VelocityInputs, c: &Coupling, segs: &[(usize, usize)], h_s: f64) -> Vec<Vec<[f64; 3]>> {
+        let attitude = AttitudeTable::new(&inp.phi, inp.theta);
+        segs.iter()
+            .map(|&(a, b)| {
+                integrate([0.0; 3], a, b, h_s, |x, k, fr| {
+                    let [sf, cf, st, ct] = attitude.at(k, fr).unwrap_or_else(|| {
+                        let (sf, cf) = sin_cos(lerp(&inp.phi, k, fr));
+                        let (st, ct) = sin_cos(lerp(inp.theta, k, fr));
+                        [sf, cf, st, ct]
+                    });
+                    let acc = Vector3::new(lerp(inp.ax, k, fr), lerp(&inp.ay, k, fr), lerp(inp.az, k, fr));
+                    let gv = Vector3::new(-st, ct * sf, ct * cf) * G_MPS2;
+                    c.mask(acc + gv - c.rate_at(k, fr).cross(&c.state_of(x)))
+                })
             })
             .collect()
-    };
-    let outs_b = outputs.clone();
-    let out_map: OutputMap<'_> = std::rc::Rc::new(move |g: &[f64], xs: &[[f64; 3]], a: usize, only: Option<usize>| {
+    }
+}
+
+/// The velocity part's model, shared by the problem's closures: its states from the affine
+/// responses, the outputs `(1+k)·y(t−τ) + b` of the local velocity at each sensor, and their
+/// analytic sensitivities.
+struct VelocityModel {
+    h_s: f64,
+    candidates: Vec<SensorParam>,
+    outputs: Vec<Quantity>,
+    /// `p, q, r` less the gyro biases.
+    rates: [Vec<f64>; 3],
+    alpha_vane_m: Vector3<f64>,
+    beta_vane_m: Vector3<f64>,
+    pitot_m: Vector3<f64>,
+    segments: Vec<(usize, usize)>,
+    responses: AffineResponses,
+}
+
+impl VelocityModel {
+    /// Candidate `c`'s value in `g` (0 when it is not a candidate).
+    fn par(&self, g: &[f64], c: SensorParam) -> f64 {
+        self.candidates.iter().position(|x| *x == c).map_or(0.0, |i| g[i])
+    }
+
+    /// The body velocity at the CG per sample of segment `[a, b)` (empty for a range that is not a
+    /// whole segment: the problem integrates whole segments only).
+    fn states(&self, g: &[f64], x0: &[f64], a: usize, b: usize) -> Vec<[f64; 3]> {
+        use Quantity::*;
         use SensorParam as S;
-        let [pc, qc, rc] = &*rates;
-        outs_b
+        let bias = [
+            self.par(g, S::Bias(AccelX)),
+            self.par(g, S::Bias(AccelY)),
+            self.par(g, S::Bias(AccelZ)),
+        ];
+        let Some(sg) = self.segments.iter().position(|&s| s == (a, b)) else {
+            return Vec::new();
+        };
+        let r = &self.responses;
+        let (phi, xu, psi) = (&r.phis[sg], &r.forced[sg], &r.unit_bias[sg]);
+        (0..b - a)
+            .map(|i| {
+                let f = &phi[i];
+                core::array::from_fn(|r| {
+                    let free = f[3 * r] * x0[0] + f[3 * r + 1] * x0[1] + f[3 * r + 2] * x0[2];
+                    free + xu[i][r] + bias[0] * psi[0][i][r] + bias[1] * psi[1][i][r] + bias[2] * psi[2][i][r]
+                })
+            })
+            .collect()
+    }
+
+    /// Where output `o`'s sensor is (a vane's at its known position plus the estimated `Δx`).
+    fn sensor_position(&self, g: &[f64], o: Quantity) -> Vector3<f64> {
+        use Quantity::*;
+        match o {
+            Airspeed => self.pitot_m,
+            Alpha => self.alpha_vane_m + Vector3::new(self.par(g, SensorParam::VaneX(Alpha)), 0.0, 0.0),
+            _ => self.beta_vane_m + Vector3::new(self.par(g, SensorParam::VaneX(Beta)), 0.0, 0.0),
+        }
+    }
+
+    /// The local velocity `v + ω × r` at sample `k` of state `x`, at position `r`.
+    fn local_velocity(&self, x: &[f64; 3], k: usize, r: &Vector3<f64>) -> Vector3<f64> {
+        let [pc, qc, rc] = &self.rates;
+        let w = Vector3::new(pc[k], qc[k], rc[k]);
+        Vector3::new(x[0], x[1], x[2]) + w.cross(r)
+    }
+
+    /// The outputs' derivatives: each output is `(1+k)·y(t−τ) + b` of a function `y(l)` of the
+    /// local velocity `l = v + ω × r` at the sensor, so a state sensitivity `s(t)` (a column of
+    /// Φ, or the response ψⱼ to an accelerometer bias) moves it by `(1+k)·shift(∇y(l)ᵀ s)`. Per
+    /// output and sample, `∇y(l)`.
+    fn gradients(&self, g: &[f64], xs: &[[f64; 3]], a: usize) -> Vec<Vec<Vector3<f64>>> {
+        use Quantity::*;
+        self.outputs
+            .iter()
+            .map(|o| {
+                let r = self.sensor_position(g, *o);
+                xs.iter()
+                    .enumerate()
+                    .map(|(i, x)| {
+                        let l = self.local_velocity(x, a + i, &r);
+                        match o {
+                            Airspeed => l / l.norm(),
+                            Alpha => Vector3::new(-l.z, 0.0, l.x) / (l.x * l.x + l.z * l.z),
+                            _ => {
+                                let nl = l.norm().max(1e-6);
+                                let sb = l.y / nl;
+                                let c = (1.0 - sb * sb).max(1e-12).sqrt();
+                                (Vector3::new(0.0, 1.0 / nl, 0.0) - l * (l.y / (nl * nl * nl))) / c
+                            }
+                        }
+                    })
+                    .collect()
+            })
+            .collect()
+    }
+
+    /// `(1+k)·shift(series)` of output `o`.
+    fn delayed(&self, g: &[f64], o: usize, series: &[f64]) -> Vec<f64> {
+        let q = self.outputs[o];
+        let (tau, k) = (self.par(g, SensorParam::Delay(q)), self.par(g, SensorParam::Scale(q)));
+        shift(series, self.h_s, -tau)
+            .into_iter()
+            .map(|v| (1.0 + k) * v)
+            .collect()
+    }
+
+    /// The outputs of the states `xs` from sample `a` (only output `only` when given, the others
+    /// empty).
+    fn outputs_of(&self, g: &[f64], xs: &[[f64; 3]], a: usize, only: Option<usize>) -> Vec<Vec<f64>> {
+        use Quantity::*;
+        use SensorParam as S;
+        self.outputs
             .iter()
             .enumerate()
             .map(|(oi, o)| {
@@ -1261,62 +1443,104 @@ fn velocity_problem(flight: &MeasuredFlight, h_s: f64, gyro_bias: [f64; 3]) -> O
                     .iter()
                     .enumerate()
                     .map(|(i, x)| {
-                        let k = a + i;
-                        let w = Vector3::new(pc[k], qc[k], rc[k]);
-                        let v = Vector3::new(x[0], x[1], x[2]);
+                        let l = self.local_velocity(x, a + i, &self.sensor_position(g, *o));
                         match o {
-                            Airspeed => (v + w.cross(&r_pitot)).norm(),
-                            Alpha => {
-                                let r = rv_a + Vector3::new(par(g, S::VaneX(Alpha)), 0.0, 0.0);
-                                let l = v + w.cross(&r);
-                                l.z.atan2(l.x)
-                            }
-                            _ => {
-                                let r = rv_b + Vector3::new(par(g, S::VaneX(Beta)), 0.0, 0.0);
-                                let l = v + w.cross(&r);
-                                (l.y / l.norm().max(1e-6)).clamp(-1.0, 1.0).asin()
-                            }
+                            Airspeed => l.norm(),
+                            Alpha => l.z.atan2(l.x),
+                            _ => (l.y / l.norm().max(1e-6)).clamp(-1.0, 1.0).asin(),
                         }
                     })
                     .collect();
-                let delayed = shift(&base, h_s, -par(g, S::Delay(*o)));
-                let (k, bb) = (par(g, S::Scale(*o)), par(g, S::Bias(*o)));
+                let delayed = shift(&base, self.h_s, -self.par(g, S::Delay(*o)));
+                let (k, bb) = (self.par(g, S::Scale(*o)), self.par(g, S::Bias(*o)));
                 delayed.iter().map(|y| (1.0 + k) * y + bb).collect()
             })
             .collect()
-    });
-    let (states_s, out_s) = (states.clone(), out_map.clone());
-    let sim_b = move |g: &[f64], x0: &[f64], a: usize, b: usize| -> Vec<Vec<f64>> {
-        let xs = states_s(g, x0, a, b);
-        out_s(g, &xs, a, None)
-    };
-    let channel: Vec<Option<usize>> = cands
-        .iter()
-        .map(|c| match c {
-            SensorParam::Bias(AccelX | AccelY | AccelZ) => None,
-            c => outputs.iter().position(|o| *o == c.channel()),
-        })
-        .collect();
-    // Analytic candidate columns where they are cheap and exact: an air-data bias moves its output
-    // by 1, a scale factor by the delayed output `y(t−τ)`, an accelerometer bias through `ψⱼ`.
-    // Delays and vane positions are differenced.
-    let (cands_g, outs_g, segs_g, states_g, out_g) = (
-        cands.clone(),
-        outputs.clone(),
-        segs.clone(),
-        states.clone(),
-        out_map.clone(),
-    );
-    let g_sens_b = move |g: &[f64], x0: &[f64], seg: usize, cand: usize| -> Option<Vec<Vec<f64>>> {
+    }
+
+    /// Per candidate, the one output it moves without moving the states, or `None` (an
+    /// accelerometer bias).
+    fn channels(&self) -> Vec<Option<usize>> {
+        use Quantity::*;
+        self.candidates
+            .iter()
+            .map(|c| match c {
+                SensorParam::Bias(AccelX | AccelY | AccelZ) => None,
+                c => self.outputs.iter().position(|o| *o == c.channel()),
+            })
+            .collect()
+    }
+
+    /// Per output, its derivative with respect to the bias of accelerometer axis `j` over
+    /// segment `seg` (through `ψⱼ`).
+    fn accel_bias_sensitivity(&self, g: &[f64], x0: &[f64], seg: usize, j: usize) -> Vec<Vec<f64>> {
+        let (a, b) = self.segments[seg];
+        let xs = self.states(g, x0, a, b);
+        let psi = &self.responses.unit_bias[seg][j];
+        self.gradients(g, &xs, a)
+            .iter()
+            .enumerate()
+            .map(|(o, dy)| {
+                let s: Vec<f64> = dy
+                    .iter()
+                    .zip(psi)
+                    .map(|(d, p)| d.x * p[0] + d.y * p[1] + d.z * p[2])
+                    .collect();
+                self.delayed(g, o, &s)
+            })
+            .collect()
+    }
+}
+
+impl SegmentModel for VelocityModel {
+    fn parts(&self) -> Parts<'_> {
+        (&self.segments, &self.candidates, &self.outputs)
+    }
+
+    /// The outputs over `[a, b)` from the initial state `x0`.
+    fn simulate(&self, g: &[f64], x0: &[f64], a: usize, b: usize) -> Vec<Vec<f64>> {
+        let xs = self.states(g, x0, a, b);
+        self.outputs_of(g, &xs, a, None)
+    }
+
+    /// Per output and sample, the output's derivative with respect to each initial state of
+    /// segment `seg`.
+    fn x0_sensitivity(&self, g: &[f64], x0: &[f64], seg: usize) -> Vec<Vec<[f64; 3]>> {
+        let (a, b) = self.segments[seg];
+        let xs = self.states(g, x0, a, b);
+        let phi = &self.responses.phis[seg];
+        self.gradients(g, &xs, a)
+            .iter()
+            .enumerate()
+            .map(|(o, dy)| {
+                let comp: [Vec<f64>; 3] = core::array::from_fn(|c| {
+                    let s: Vec<f64> = dy
+                        .iter()
+                        .zip(phi)
+                        .map(|(d, f)| d.x * f[c] + d.y * f[3 + c] + d.z * f[6 + c])
+                        .collect();
+                    self.delayed(g, o, &s)
+                });
+                (0..dy.len()).map(|i| [comp[0][i], comp[1][i], comp[2][i]]).collect()
+            })
+            .collect()
+    }
+
+    /// Analytic candidate columns where they are cheap and exact: an air-data bias moves its
+    /// output by 1, a scale factor by the delayed output `y(t−τ)`, an accelerometer bias through
+    /// `ψⱼ`. Delays and vane positions are differenced (`None`).
+    fn candidate_sensitivity(&self, g: &[f64], x0: &[f64], seg: usize, cand: usize) -> Option<Vec<Vec<f64>>> {
+        use Quantity::*;
         use SensorParam as S;
-        let (a, b) = segs_g[seg];
-        let zero = || vec![0.0; b - a];
-        let param = *cands_g.get(cand)?;
-        let out_of = |q: Quantity| outs_g.iter().position(|o| *o == q);
+        let (a, b) = self.segments[seg];
+        let param = *self.candidates.get(cand)?;
+        let out_of = |q: Quantity| self.outputs.iter().position(|o| *o == q);
         let per_output = |o: usize, col: Vec<f64>| -> Vec<Vec<f64>> {
-            let mut v = vec![Vec::new(); outs_g.len()];
+            let mut v = vec![Vec::new(); self.outputs.len()];
             v[o] = col;
-            v.iter_mut().filter(|c| c.is_empty()).for_each(|c| *c = zero());
+            v.iter_mut()
+                .filter(|c| c.is_empty())
+                .for_each(|c| *c = vec![0.0; b - a]);
             v
         };
         match param {
@@ -1326,74 +1550,25 @@ fn velocity_problem(flight: &MeasuredFlight, h_s: f64, gyro_bias: [f64; 3]) -> O
                     AccelY => 1,
                     _ => 2,
                 };
-                let xs = states_g(g, x0, a, b);
-                let psi = &unit_bias[seg][j];
-                Some(
-                    gradients(g, &xs, a)
-                        .iter()
-                        .enumerate()
-                        .map(|(o, dy)| {
-                            let s: Vec<f64> = dy
-                                .iter()
-                                .zip(psi)
-                                .map(|(d, p)| d.x * p[0] + d.y * p[1] + d.z * p[2])
-                                .collect();
-                            delayed(g, o, &s)
-                        })
-                        .collect(),
-                )
+                Some(self.accel_bias_sensitivity(g, x0, seg, j))
             }
             S::Bias(q) => Some(per_output(out_of(q)?, vec![1.0; b - a])),
             S::Scale(q) => {
                 let o = out_of(q)?;
                 // The output with no scale and no bias: `y(t−τ)`.
                 let mut g0 = g.to_vec();
-                for (c, p) in cands_g.iter().enumerate() {
+                for (c, p) in self.candidates.iter().enumerate() {
                     if *p == S::Scale(q) || *p == S::Bias(q) {
                         g0[c] = 0.0;
                     }
                 }
-                let xs = states_g(&g0, x0, a, b);
-                let mut y = out_g(&g0, &xs, a, Some(o));
+                let xs = self.states(&g0, x0, a, b);
+                let mut y = self.outputs_of(&g0, &xs, a, Some(o));
                 Some(per_output(o, std::mem::take(&mut y[o])))
             }
             _ => None,
         }
-    };
-    let x0: Vec<Vec<f64>> = segs
-        .iter()
-        .map(|&(a, b)| {
-            let k1 = (a + 10).min(b);
-            let (v0, al0) = (mean(&v_m[a..k1]), mean(&a_m[a..k1]));
-            let be0 = beta_m.map_or(0.0, |bb| mean(&bb[a..k1]));
-            vec![v0 * al0.cos() * be0.cos(), v0 * be0.sin(), v0 * al0.sin() * be0.cos()]
-        })
-        .collect();
-    let n_segments = segs.len();
-    Some(VelocityProblem {
-        problem: Problem {
-            nx: 3,
-            x_mask: vec![true, lat_v, true],
-            x_steps: vec![1e-3; 3],
-            fold_of: segment_folds(flight, &segs),
-            segments: segs,
-            candidates: cands,
-            sim: Box::new(sim_b),
-            measured,
-            outputs,
-            x0_sens: Some(Box::new(sens_b)),
-            split: Some(Split {
-                states: states.clone(),
-                outputs: out_map,
-                channel,
-            }),
-            g_sens: Some(Box::new(g_sens_b)),
-            memo: Memo::for_segments(n_segments),
-        },
-        states,
-        x0,
-        lateral: lat_v,
-    })
+    }
 }
 
 /// `sin φ, cos φ, sin θ, cos θ` of the measured attitude at every sample and every midpoint (the
@@ -1521,39 +1696,80 @@ fn attitude_problem(flight: &MeasuredFlight, h_s: f64) -> Option<(Problem<'_>, V
     let lateral = get(RollRate).is_some() && get(YawRate).is_some() && get(Roll).is_some();
     // Missing lateral channels read as zero.
     let ch = |q: Quantity| get(q).map_or_else(|| vec![0.0; n], <[f64]>::to_vec);
-    let lat = std::rc::Rc::new([ch(RollRate), ch(YawRate), ch(Roll)]);
-    let phi_m = &lat[2];
+    let lat = [ch(RollRate), ch(YawRate), ch(Roll)];
     let psi_m = get(Yaw).filter(|_| lateral).map(unwrap);
     let mut outputs = vec![Pitch];
     let mut measured = vec![theta_m.to_vec()];
-    let cands = attitude_candidates(flight);
     if lateral {
         outputs.insert(0, Roll);
-        measured.insert(0, phi_m.to_vec());
+        measured.insert(0, lat[2].to_vec());
     }
     if let Some(psi) = &psi_m {
         outputs.push(Yaw);
         measured.push(psi.clone());
     }
-    let cands_a = cands.clone();
-    let bias_of = move |g: &[f64], q: Quantity| -> f64 {
-        cands_a
-            .iter()
-            .position(|c| *c == SensorParam::Bias(q))
-            .map_or(0.0, |i| g[i])
-    };
-    // Euler's kinematic equations with the rates less the gyro biases `b`,
-    // `ẋ = f(x, ω − b)`, `x = (φ, θ, ψ)`; beside `f`, its Jacobians `J = ∂f/∂x` and `∂f/∂b`
-    // (row-major 3×3) for the variational equations of the sensitivities.
-    let kin_lat = lat.clone();
-    let kinematics = move |x: &[f64], k: usize, fr: f64, bias: [f64; 3]| -> ([f64; 3], [f64; 9], [f64; 9]) {
-        let [p_m, r_m, _] = &*kin_lat;
+    let x0: Vec<Vec<f64>> = segs
+        .iter()
+        .map(|&(a, _)| vec![lat[2][a], theta_m[a], psi_m.as_ref().map_or(0.0, |v| v[a])])
+        .collect();
+    let model = std::rc::Rc::new(AttitudeModel {
+        h_s,
+        q_m,
+        lat,
+        lateral,
+        candidates: attitude_candidates(flight),
+        outputs,
+        segments: segs,
+    });
+    let problem = problem_of(
+        &model,
+        flight,
+        vec![lateral, true, psi_m.is_some()],
+        1e-4,
+        measured,
+        None,
+    );
+    Some((problem, x0))
+}
+
+/// The attitude part's model, shared by the problem's closures: Euler's kinematic equations
+/// driven by the gyros less their biases, the attitude its outputs, and the sensitivities by the
+/// variational equations.
+struct AttitudeModel<'a> {
+    h_s: f64,
+    q_m: &'a [f64],
+    /// `p`, `r` and `φ` as measured (zero when the flight has no lateral channels).
+    lat: [Vec<f64>; 3],
+    lateral: bool,
+    candidates: Vec<SensorParam>,
+    outputs: Vec<Quantity>,
+    segments: Vec<(usize, usize)>,
+}
+
+impl AttitudeModel<'_> {
+    /// The gyro biases `[b_p, b_q, b_r]` in `g` (0 for one that is not a candidate).
+    fn biases(&self, g: &[f64]) -> [f64; 3] {
+        use Quantity::*;
+        let bias_of = |q: Quantity| {
+            self.candidates
+                .iter()
+                .position(|c| *c == SensorParam::Bias(q))
+                .map_or(0.0, |i| g[i])
+        };
+        [bias_of(RollRate), bias_of(PitchRate), bias_of(YawRate)]
+    }
+
+    /// Euler's kinematic equations with the rates less the gyro biases `b`,
+    /// `ẋ = f(x, ω − b)`, `x = (φ, θ, ψ)`; beside `f`, its Jacobians `J = ∂f/∂x` and `∂f/∂b`
+    /// (row-major 3×3) for the variational equations of the sensitivities.
+    fn kinematics(&self, x: &[f64], k: usize, fr: f64, bias: [f64; 3]) -> ([f64; 3], [f64; 9], [f64; 9]) {
+        let [p_m, r_m, _] = &self.lat;
         let (pp, qq, rr) = (
             lerp(p_m, k, fr) - bias[0],
-            lerp(q_m, k, fr) - bias[1],
+            lerp(self.q_m, k, fr) - bias[1],
             lerp(r_m, k, fr) - bias[2],
         );
-        if !lateral {
+        if !self.lateral {
             let mut db = [0.0; 9];
             db[4] = -1.0;
             return ([0.0, qq, 0.0], [0.0; 9], db);
@@ -1570,46 +1786,49 @@ fn attitude_problem(flight: &MeasuredFlight, h_s: f64) -> Option<(Problem<'_>, V
         let j = [b * tn, a * sec * sec, 0.0, -a, 0.0, 0.0, b * sec, a * tn * sec, 0.0];
         let db = [-1.0, -sf * tn, -cf * tn, 0.0, -cf, sf, 0.0, -sf * sec, -cf * sec];
         (f, j, db)
-    };
-    let biases_of = {
-        let bias_of = bias_of.clone();
-        move |g: &[f64]| [bias_of(g, RollRate), bias_of(g, PitchRate), bias_of(g, YawRate)]
-    };
-    let index_of = |o: &Quantity| match o {
-        Roll => 0,
-        Pitch => 1,
-        _ => 2,
-    };
-    let outs_a = outputs.clone();
-    let sim_a = {
-        let (biases_of, kinematics) = (biases_of.clone(), kinematics.clone());
-        move |g: &[f64], x0: &[f64], a: usize, b: usize| -> Vec<Vec<f64>> {
-            let bias = biases_of(g);
-            let xs = integrate([x0[0], x0[1], x0[2]], a, b, h_s, |x, k, fr| {
-                kinematics(x, k, fr, bias).0
-            });
-            outs_a
-                .iter()
-                .map(|o| xs.iter().map(|x| x[index_of(o)]).collect())
-                .collect()
+    }
+
+    /// The state index of output `o`.
+    fn index_of(o: &Quantity) -> usize {
+        match o {
+            Quantity::Roll => 0,
+            Quantity::Pitch => 1,
+            _ => 2,
         }
-    };
-    // The sensitivities by the variational equations integrated with the states by the same
-    // RK4: RK4 commutes with differentiation, so these are the exact derivatives of the
-    // integrated outputs (what central differences approximate), at the cost of one integration
-    // instead of two per initial state or candidate.
-    let outs_x = outputs.clone();
-    let (segs_x, biases_x, kin_x) = (segs.clone(), biases_of.clone(), kinematics.clone());
-    let sens_a = move |g: &[f64], x0: &[f64], seg: usize| -> Vec<Vec<[f64; 3]>> {
-        let bias = biases_x(g);
-        let (a, b) = segs_x[seg];
+    }
+}
+
+impl SegmentModel for AttitudeModel<'_> {
+    fn parts(&self) -> Parts<'_> {
+        (&self.segments, &self.candidates, &self.outputs)
+    }
+
+    /// The outputs over `[a, b)` from the initial attitude `x0`.
+    fn simulate(&self, g: &[f64], x0: &[f64], a: usize, b: usize) -> Vec<Vec<f64>> {
+        let bias = self.biases(g);
+        let xs = integrate([x0[0], x0[1], x0[2]], a, b, self.h_s, |x, k, fr| {
+            self.kinematics(x, k, fr, bias).0
+        });
+        self.outputs
+            .iter()
+            .map(|o| xs.iter().map(|x| x[Self::index_of(o)]).collect())
+            .collect()
+    }
+
+    /// The sensitivities to the initial state of segment `seg` by the variational equations
+    /// integrated with the states by the same RK4: RK4 commutes with differentiation, so these
+    /// are the exact derivatives of the integrated outputs (what central differences
+    /// approximate), at the cost of one integration instead of two per initial state.
+    fn x0_sensitivity(&self, g: &[f64], x0: &[f64], seg: usize) -> Vec<Vec<[f64; 3]>> {
+        let bias = self.biases(g);
+        let (a, b) = self.segments[seg];
         let mut z0 = [0.0; 12];
         z0[..3].copy_from_slice(&x0[..3]);
         for i in 0..3 {
             z0[3 + 4 * i] = 1.0;
         }
-        let zs = integrate(z0, a, b, h_s, |z, k, fr| {
-            let (f, j, _) = kin_x(&z[..3], k, fr, bias);
+        let zs = integrate(z0, a, b, self.h_s, |z, k, fr| {
+            let (f, j, _) = self.kinematics(&z[..3], k, fr, bias);
             let mut d = [0.0; 12];
             d[..3].copy_from_slice(&f);
             for r in 0..3 {
@@ -1619,26 +1838,29 @@ fn attitude_problem(flight: &MeasuredFlight, h_s: f64) -> Option<(Problem<'_>, V
             }
             d
         });
-        outs_x
+        self.outputs
             .iter()
             .map(|o| {
-                let r = index_of(o);
+                let r = Self::index_of(o);
                 zs.iter().map(|z| [z[3 + 3 * r], z[4 + 3 * r], z[5 + 3 * r]]).collect()
             })
             .collect()
-    };
-    let (outs_g, cands_g, segs_g) = (outputs.clone(), cands.clone(), segs.clone());
-    let g_sens_a = move |g: &[f64], x0: &[f64], seg: usize, cand: usize| -> Option<Vec<Vec<f64>>> {
-        let col = match cands_g.get(cand)? {
+    }
+
+    /// The sensitivity to candidate `cand` (a gyro bias) over segment `seg`, by the variational
+    /// equations as [`Self::x0_sensitivity`].
+    fn candidate_sensitivity(&self, g: &[f64], x0: &[f64], seg: usize, cand: usize) -> Option<Vec<Vec<f64>>> {
+        use Quantity::*;
+        let col = match self.candidates.get(cand)? {
             SensorParam::Bias(RollRate) => 0,
             SensorParam::Bias(PitchRate) => 1,
             SensorParam::Bias(YawRate) => 2,
             _ => return None,
         };
-        let bias = biases_of(g);
-        let (a, b) = segs_g[seg];
-        let zs = integrate([x0[0], x0[1], x0[2], 0.0, 0.0, 0.0], a, b, h_s, |z, k, fr| {
-            let (f, j, db) = kinematics(&z[..3], k, fr, bias);
+        let bias = self.biases(g);
+        let (a, b) = self.segments[seg];
+        let zs = integrate([x0[0], x0[1], x0[2], 0.0, 0.0, 0.0], a, b, self.h_s, |z, k, fr| {
+            let (f, j, db) = self.kinematics(&z[..3], k, fr, bias);
             let mut d = [f[0], f[1], f[2], 0.0, 0.0, 0.0];
             for r in 0..3 {
                 d[3 + r] = (0..3).map(|m| j[3 * r + m] * z[3 + m]).sum::<f64>() + db[3 * r + col];
@@ -1646,32 +1868,12 @@ fn attitude_problem(flight: &MeasuredFlight, h_s: f64) -> Option<(Problem<'_>, V
             d
         });
         Some(
-            outs_g
+            self.outputs
                 .iter()
-                .map(|o| zs.iter().map(|z| z[3 + index_of(o)]).collect())
+                .map(|o| zs.iter().map(|z| z[3 + Self::index_of(o)]).collect())
                 .collect(),
         )
-    };
-    let x0: Vec<Vec<f64>> = segs
-        .iter()
-        .map(|&(a, _)| vec![phi_m[a], theta_m[a], psi_m.as_ref().map_or(0.0, |v| v[a])])
-        .collect();
-    let problem = Problem {
-        nx: 3,
-        x_mask: vec![lateral, true, psi_m.is_some()],
-        x_steps: vec![1e-4; 3],
-        fold_of: segment_folds(flight, &segs),
-        segments: segs.clone(),
-        candidates: cands.clone(),
-        sim: Box::new(sim_a),
-        measured,
-        outputs: outputs.clone(),
-        x0_sens: Some(Box::new(sens_a)),
-        split: None,
-        g_sens: Some(Box::new(g_sens_a)),
-        memo: Memo::for_segments(segs.len()),
-    };
-    Some((problem, x0))
+    }
 }
 
 /// The compatibility check of a flight (uniform time base `h_s`).

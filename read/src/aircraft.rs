@@ -29,7 +29,7 @@
 //! file and the key. Nothing panics.
 
 use super::measured::{Aircraft, ThrustSource};
-use super::{key_values, read_text, ReadError};
+use super::{key_values, read_text, KeyValue, ReadError};
 use aerosid_core::aero::Propeller;
 use nalgebra::{Matrix3, Vector3};
 use std::path::Path;
@@ -131,19 +131,67 @@ fn spellings(base: &str) -> String {
         .unwrap_or_default()
 }
 
-/// Parses an aircraft file from `text` (`file` names it in errors).
-pub fn parse_aircraft(text: &str, file: &str) -> Result<Aircraft, ReadError> {
-    let kvs = key_values(text, file)?;
-    let mut name: Option<String> = None;
-    let mut thrust_kind: Option<(&str, usize, usize)> = None;
-    // base → (SI value, line, value column)
-    let mut values: Vec<(&'static str, f64, usize, usize)> = Vec::new();
-    for kv in &kvs {
+/// A numeric key as read: base name, SI value, line and value column.
+type Entry = (&'static str, f64, usize, usize);
+
+/// The keys of an aircraft file as read, before the checks across keys.
+struct Entries<'t> {
+    name: Option<String>,
+    /// The `thrust` value, its line and value column.
+    thrust_kind: Option<(&'t str, usize, usize)>,
+    values: Vec<Entry>,
+}
+
+impl Entries<'_> {
+    fn get(&self, base: &str) -> Option<&Entry> {
+        self.values.iter().find(|(b, _, _, _)| *b == base)
+    }
+
+    fn required(&self, base: &str, file: &str) -> Result<f64, ReadError> {
+        self.get(base).map(|(_, v, _, _)| *v).ok_or_else(|| {
+            ReadError::new(
+                file,
+                0,
+                0,
+                format!("missing required key `{base}` (one of {})", spellings(base)),
+            )
+        })
+    }
+
+    /// The value of an optional key, 0 when absent.
+    fn optional(&self, base: &str) -> f64 {
+        self.get(base).map_or(0.0, |(_, v, _, _)| *v)
+    }
+
+    /// The position `{p}_x`, `{p}_y`, `{p}_z` (each 0 when absent).
+    fn vec3(&self, p: &str) -> Vector3<f64> {
+        Vector3::new(
+            self.optional(&format!("{p}_x")),
+            self.optional(&format!("{p}_y")),
+            self.optional(&format!("{p}_z")),
+        )
+    }
+
+    /// The line and value column of `thrust`, `(0, 0)` when absent.
+    fn thrust_at(&self) -> (usize, usize) {
+        self.thrust_kind.map_or((0, 0), |(_, l, c)| (l, c))
+    }
+}
+
+/// Reads every key of the file, each checked on its own: known, a unit accepted, set once, a
+/// finite number (or `unknown` where accepted).
+fn read_entries<'t>(kvs: &[KeyValue<'t>], file: &str) -> Result<Entries<'t>, ReadError> {
+    let mut e = Entries {
+        name: None,
+        thrust_kind: None,
+        values: Vec::new(),
+    };
+    for kv in kvs {
         match kv.key {
-            "name" => name = Some(kv.value.to_string()),
+            "name" => e.name = Some(kv.value.to_string()),
             "thrust" => match kv.value {
                 "measured" | "measured_twin" | "propeller" | "unknown" => {
-                    thrust_kind = Some((kv.value, kv.line, kv.value_col))
+                    e.thrust_kind = Some((kv.value, kv.line, kv.value_col))
                 }
                 other => {
                     return Err(ReadError::new(
@@ -154,75 +202,91 @@ pub fn parse_aircraft(text: &str, file: &str) -> Result<Aircraft, ReadError> {
                     ))
                 }
             },
-            key => {
-                let Some((base, factor, unknown_ok)) = numeric_key(key) else {
-                    let hint = NUMERIC
-                        .iter()
-                        .find(|(b, _, _)| key.starts_with(b) && key[b.len()..].starts_with('_'))
-                        .map(|(b, _, _)| format!(" (unit not accepted; use one of {})", spellings(b)))
-                        .unwrap_or_default();
-                    return Err(ReadError::new(
-                        file,
-                        kv.line,
-                        kv.key_col,
-                        format!("unknown key `{key}`{hint}"),
-                    ));
-                };
-                if let Some((_, _, l, _)) = values.iter().find(|(b, _, _, _)| *b == base) {
-                    return Err(ReadError::new(
-                        file,
-                        kv.line,
-                        kv.key_col,
-                        format!("`{base}` already set on line {l} (in another unit)"),
-                    ));
-                }
-                let v = if kv.value == "unknown" {
-                    if !unknown_ok {
-                        return Err(ReadError::new(
-                            file,
-                            kv.line,
-                            kv.value_col,
-                            format!("`{key}` may not be `unknown`"),
-                        ));
-                    }
-                    f64::NAN
-                } else {
-                    match kv.value.parse::<f64>() {
-                        Ok(v) if v.is_finite() => v * factor,
-                        _ => {
-                            return Err(ReadError::new(
-                                file,
-                                kv.line,
-                                kv.value_col,
-                                format!("`{}` is not a finite number", kv.value),
-                            ))
-                        }
-                    }
-                };
-                values.push((base, v, kv.line, kv.value_col));
+            _ => {
+                let entry = numeric_entry(kv, file, &e.values)?;
+                e.values.push(entry);
             }
         }
     }
-    let get = |base: &str| values.iter().find(|(b, _, _, _)| *b == base);
-    let required = |base: &str| {
-        get(base).map(|(_, v, _, _)| *v).ok_or_else(|| {
-            ReadError::new(
-                file,
-                0,
-                0,
-                format!("missing required key `{base}` (one of {})", spellings(base)),
-            )
-        })
+    Ok(e)
+}
+
+/// One numeric key's entry; `earlier` are the entries before it (a key may be set once).
+fn numeric_entry(kv: &KeyValue, file: &str, earlier: &[Entry]) -> Result<Entry, ReadError> {
+    let key = kv.key;
+    let Some((base, factor, unknown_ok)) = numeric_key(key) else {
+        let hint = NUMERIC
+            .iter()
+            .find(|(b, _, _)| key.starts_with(b) && key[b.len()..].starts_with('_'))
+            .map(|(b, _, _)| format!(" (unit not accepted; use one of {})", spellings(b)))
+            .unwrap_or_default();
+        return Err(ReadError::new(
+            file,
+            kv.line,
+            kv.key_col,
+            format!("unknown key `{key}`{hint}"),
+        ));
     };
-    let optional = |base: &str| get(base).map_or(0.0, |(_, v, _, _)| *v);
-    let name = name.ok_or_else(|| ReadError::new(file, 0, 0, "missing required key `name`"))?;
-    let mass = required("mass")?;
-    let (jx, jy, jz) = (required("jx")?, required("jy")?, required("jz")?);
-    let jxz = optional("jxz");
-    let (area, span, chord) = (required("wing_area")?, required("span")?, required("chord")?);
+    if let Some((_, _, l, _)) = earlier.iter().find(|(b, _, _, _)| *b == base) {
+        return Err(ReadError::new(
+            file,
+            kv.line,
+            kv.key_col,
+            format!("`{base}` already set on line {l} (in another unit)"),
+        ));
+    }
+    let v = if kv.value == "unknown" {
+        if !unknown_ok {
+            return Err(ReadError::new(
+                file,
+                kv.line,
+                kv.value_col,
+                format!("`{key}` may not be `unknown`"),
+            ));
+        }
+        f64::NAN
+    } else {
+        match kv.value.parse::<f64>() {
+            Ok(v) if v.is_finite() => v * factor,
+            _ => {
+                return Err(ReadError::new(
+                    file,
+                    kv.line,
+                    kv.value_col,
+                    format!("`{}` is not a finite number", kv.value),
+                ))
+            }
+        }
+    };
+    Ok((base, v, kv.line, kv.value_col))
+}
+
+/// The mass properties and geometry: the required keys, each positive, and the inertia tensor
+/// positive definite.
+struct MassGeometry {
+    mass: f64,
+    inertia: Matrix3<f64>,
+    area: f64,
+    span: f64,
+    chord: f64,
+}
+
+fn mass_geometry(e: &Entries, file: &str) -> Result<MassGeometry, ReadError> {
+    let mass = e.required("mass", file)?;
+    let (jx, jy, jz) = (
+        e.required("jx", file)?,
+        e.required("jy", file)?,
+        e.required("jz", file)?,
+    );
+    let jxz = e.optional("jxz");
+    let (area, span, chord) = (
+        e.required("wing_area", file)?,
+        e.required("span", file)?,
+        e.required("chord", file)?,
+    );
     // Positivity, reported at the key's value.
     for base in ["mass", "jx", "jy", "jz", "wing_area", "span", "chord"] {
-        if let Some((_, v, l, c)) = get(base) {
+        if let Some((_, v, l, c)) = e.get(base) {
             if v.is_finite() && *v <= 0.0 {
                 return Err(ReadError::new(
                     file,
@@ -234,7 +298,7 @@ pub fn parse_aircraft(text: &str, file: &str) -> Result<Aircraft, ReadError> {
         }
     }
     if jx.is_finite() && jz.is_finite() && jxz.is_finite() && jx * jz - jxz * jxz <= 0.0 {
-        let (l, c) = get("jxz").map_or((0, 0), |(_, _, l, c)| (*l, *c));
+        let (l, c) = e.get("jxz").map_or((0, 0), |(_, _, l, c)| (*l, *c));
         return Err(ReadError::new(
             file,
             l,
@@ -242,25 +306,30 @@ pub fn parse_aircraft(text: &str, file: &str) -> Result<Aircraft, ReadError> {
             "inertia tensor not positive definite (Jx·Jz ≤ Jxz²)",
         ));
     }
-    let vec3 = |p: &str| {
-        Vector3::new(
-            optional(&format!("{p}_x")),
-            optional(&format!("{p}_y")),
-            optional(&format!("{p}_z")),
-        )
-    };
-    // `vec3` looks keys up by base name; the bases are 'static in NUMERIC, so compare by value.
-    let thrust_position = vec3("thrust");
-    let thrust_pitch = optional("thrust_pitch");
-    let kind = thrust_kind.map_or("unknown", |(k, _, _)| k);
+    let mut inertia = Matrix3::from_diagonal(&Vector3::new(jx, jy, jz));
+    inertia[(0, 2)] = -jxz;
+    inertia[(2, 0)] = -jxz;
+    Ok(MassGeometry {
+        mass,
+        inertia,
+        area,
+        span,
+        chord,
+    })
+}
+
+/// The thrust kind (`unknown` when not given), after checking that no thrust-point or propeller
+/// key is given for a kind that does not use it.
+fn thrust_kind_checked<'t>(e: &Entries<'t>, file: &str) -> Result<&'t str, ReadError> {
+    let kind = e.thrust_kind.map_or("unknown", |(k, _, _)| k);
     let thrust_keys_given = ["thrust_x", "thrust_y", "thrust_z", "thrust_pitch"]
         .iter()
-        .filter_map(|b| get(b))
+        .filter_map(|b| e.get(b))
         .next();
     let prop_keys_given = NUMERIC
         .iter()
         .filter(|(b, _, _)| b.starts_with("prop_"))
-        .filter_map(|(b, _, _)| get(b))
+        .filter_map(|(b, _, _)| e.get(b))
         .next();
     if kind == "unknown" {
         if let Some((b, _, l, c)) = thrust_keys_given.or(prop_keys_given) {
@@ -284,14 +353,18 @@ pub fn parse_aircraft(text: &str, file: &str) -> Result<Aircraft, ReadError> {
             ));
         }
     }
-    let thrust = match kind {
-        "measured" => ThrustSource::Measured {
-            position_m: thrust_position,
-            pitch_rad: thrust_pitch,
-        },
+    Ok(kind)
+}
+
+/// How thrust is known, from the `thrust` kind and the thrust-point and propeller keys.
+fn thrust_source(e: &Entries, file: &str) -> Result<ThrustSource, ReadError> {
+    let position_m = e.vec3("thrust");
+    let pitch_rad = e.optional("thrust_pitch");
+    Ok(match thrust_kind_checked(e, file)? {
+        "measured" => ThrustSource::Measured { position_m, pitch_rad },
         "measured_twin" => {
-            if thrust_position.y <= 0.0 {
-                let (l, c) = thrust_kind.map_or((0, 0), |(_, l, c)| (l, c));
+            if position_m.y <= 0.0 {
+                let (l, c) = e.thrust_at();
                 return Err(ReadError::new(
                     file,
                     l,
@@ -300,16 +373,17 @@ pub fn parse_aircraft(text: &str, file: &str) -> Result<Aircraft, ReadError> {
                 ));
             }
             ThrustSource::MeasuredTwin {
-                right_engine_position_m: thrust_position,
-                pitch_rad: thrust_pitch,
+                right_engine_position_m: position_m,
+                pitch_rad,
             }
         }
         "propeller" => {
-            let d = optional("prop_diameter");
+            let d = e.optional("prop_diameter");
             if d <= 0.0 {
-                let (l, c) = get("prop_diameter")
+                let (l, c) = e
+                    .get("prop_diameter")
                     .map(|(_, _, l, c)| (*l, *c))
-                    .or(thrust_kind.map(|(_, l, c)| (l, c)))
+                    .or(e.thrust_kind.map(|(_, l, c)| (l, c)))
                     .unwrap_or((0, 0));
                 return Err(ReadError::new(
                     file,
@@ -320,29 +394,38 @@ pub fn parse_aircraft(text: &str, file: &str) -> Result<Aircraft, ReadError> {
             }
             ThrustSource::Propeller(Propeller {
                 diameter_m: d,
-                ct: [optional("prop_ct0"), optional("prop_ct1"), optional("prop_ct2")],
-                cp: [optional("prop_cp0"), optional("prop_cp1"), optional("prop_cp2")],
-                position_m: thrust_position,
-                pitch_rad: thrust_pitch,
+                ct: [e.optional("prop_ct0"), e.optional("prop_ct1"), e.optional("prop_ct2")],
+                cp: [e.optional("prop_cp0"), e.optional("prop_cp1"), e.optional("prop_cp2")],
+                position_m,
+                pitch_rad,
             })
         }
         _ => ThrustSource::Unknown,
-    };
-    let mut inertia = Matrix3::from_diagonal(&Vector3::new(jx, jy, jz));
-    inertia[(0, 2)] = -jxz;
-    inertia[(2, 0)] = -jxz;
+    })
+}
+
+/// Parses an aircraft file from `text` (`file` names it in errors).
+pub fn parse_aircraft(text: &str, file: &str) -> Result<Aircraft, ReadError> {
+    let kvs = key_values(text, file)?;
+    let e = read_entries(&kvs, file)?;
+    let name = e
+        .name
+        .clone()
+        .ok_or_else(|| ReadError::new(file, 0, 0, "missing required key `name`"))?;
+    let m = mass_geometry(&e, file)?;
+    let thrust = thrust_source(&e, file)?;
     Ok(Aircraft {
         name,
-        mass_kg: mass,
-        inertia_kgm2: inertia,
-        wing_area_m2: area,
-        span_m: span,
-        chord_m: chord,
-        accel_position_m: vec3("accel"),
-        alpha_vane_position_m: vec3("alpha_vane"),
-        beta_vane_position_m: vec3("beta_vane"),
-        airspeed_position_m: vec3("airspeed"),
-        moment_reference_m: vec3("moment_reference"),
+        mass_kg: m.mass,
+        inertia_kgm2: m.inertia,
+        wing_area_m2: m.area,
+        span_m: m.span,
+        chord_m: m.chord,
+        accel_position_m: e.vec3("accel"),
+        alpha_vane_position_m: e.vec3("alpha_vane"),
+        beta_vane_position_m: e.vec3("beta_vane"),
+        airspeed_position_m: e.vec3("airspeed"),
+        moment_reference_m: e.vec3("moment_reference"),
         thrust,
     })
 }

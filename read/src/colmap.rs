@@ -33,8 +33,8 @@
 //! Every error names the file, the line and the column (1-based); nothing panics.
 
 use super::aircraft::{read_aircraft, G0_MPS2, KG_PER_SLUG, M_PER_FT};
-use super::measured::{Aircraft, MeasuredFlight, Origin, Quantity};
-use super::{key_values, read_text, ReadError};
+use super::measured::{Aircraft, Invalid, MeasuredFlight, Origin, Quantity};
+use super::{key_values, read_text, KeyValue, ReadError};
 use std::collections::BTreeMap;
 use std::f64::consts::PI;
 use std::path::Path;
@@ -420,85 +420,123 @@ fn parse_constant(value: &str, file: &str, line: usize, col: usize, want: Dimens
 /// it).
 pub fn parse_map(text: &str, file: &str, dir: &Path) -> Result<ColumnMap, ReadError> {
     let kvs = key_values(text, file)?;
-    let find = |k: &str| kvs.iter().find(|kv| kv.key == k);
-    let format = match find("format") {
+    let format = map_format(&kvs, file)?;
+    let columns = map_columns(&kvs, format, file)?;
+    let aircraft = map_aircraft(&kvs, file, dir)?;
+    let mut e = MapEntries::default();
+    for kv in &kvs {
+        e.read(kv, file, format, columns)?;
+    }
+    let MapEntries {
+        time,
+        time_base,
+        variable,
+        mut channels,
+        biases,
+        origins,
+    } = e;
+    apply_biases(biases, &mut channels, format, file)?;
+    let origin = origins_checked(origins, &channels, format, file)?;
+    if format == Format::Ascii && time.is_none() {
+        return Err(ReadError::new(file, 0, 0, "missing key `time` (e.g. `time = $1 s`)"));
+    }
+    Ok(ColumnMap {
+        file: file.to_string(),
+        format,
+        columns,
+        time,
+        time_base,
+        channels,
+        aircraft,
+        variable,
+        origin,
+    })
+}
+
+/// The map's `format` (required).
+fn map_format(kvs: &[KeyValue], file: &str) -> Result<Format, ReadError> {
+    match kvs.iter().find(|kv| kv.key == "format") {
         Some(kv) => match kv.value {
-            "ascii" => Format::Ascii,
-            "ulog" => Format::Ulog,
-            v => {
-                return Err(ReadError::new(
-                    file,
-                    kv.line,
-                    kv.value_col,
-                    format!("unknown format `{v}` (ascii or ulog)"),
-                ))
-            }
-        },
-        None => return Err(ReadError::new(file, 0, 0, "missing key `format` (ascii or ulog)")),
-    };
-    let columns = match (format, find("columns")) {
-        (Format::Ascii, Some(kv)) => match kv.value.parse::<usize>() {
-            Ok(n) if n >= 1 => n,
-            _ => {
-                return Err(ReadError::new(
-                    file,
-                    kv.line,
-                    kv.value_col,
-                    format!("`{}` is not a positive column count", kv.value),
-                ))
-            }
-        },
-        (Format::Ascii, None) => return Err(ReadError::new(file, 0, 0, "missing key `columns` (numbers per line)")),
-        (Format::Ulog, Some(kv)) => {
-            return Err(ReadError::new(
+            "ascii" => Ok(Format::Ascii),
+            "ulog" => Ok(Format::Ulog),
+            v => Err(ReadError::new(
                 file,
                 kv.line,
-                kv.key_col,
-                "`columns` applies to `format = ascii` only",
-            ))
-        }
-        (Format::Ulog, None) => 0,
-    };
-    let aircraft = match find("aircraft") {
+                kv.value_col,
+                format!("unknown format `{v}` (ascii or ulog)"),
+            )),
+        },
+        None => Err(ReadError::new(file, 0, 0, "missing key `format` (ascii or ulog)")),
+    }
+}
+
+/// The numbers per line of an ASCII file (required for `format = ascii`, refused for ULog: 0).
+fn map_columns(kvs: &[KeyValue], format: Format, file: &str) -> Result<usize, ReadError> {
+    match (format, kvs.iter().find(|kv| kv.key == "columns")) {
+        (Format::Ascii, Some(kv)) => match kv.value.parse::<usize>() {
+            Ok(n) if n >= 1 => Ok(n),
+            _ => Err(ReadError::new(
+                file,
+                kv.line,
+                kv.value_col,
+                format!("`{}` is not a positive column count", kv.value),
+            )),
+        },
+        (Format::Ascii, None) => Err(ReadError::new(file, 0, 0, "missing key `columns` (numbers per line)")),
+        (Format::Ulog, Some(kv)) => Err(ReadError::new(
+            file,
+            kv.line,
+            kv.key_col,
+            "`columns` applies to `format = ascii` only",
+        )),
+        (Format::Ulog, None) => Ok(0),
+    }
+}
+
+/// The aircraft file the map names (required), read relative to the map's folder `dir`.
+fn map_aircraft(kvs: &[KeyValue], file: &str, dir: &Path) -> Result<Aircraft, ReadError> {
+    match kvs.iter().find(|kv| kv.key == "aircraft") {
         Some(kv) => read_aircraft(&dir.join(kv.value)).map_err(|e| {
             if e.line == 0 && e.message.contains("No such file") {
                 ReadError::new(file, kv.line, kv.value_col, format!("aircraft file: {e}"))
             } else {
                 e
             }
-        })?,
-        None => return Err(ReadError::new(file, 0, 0, "missing key `aircraft` (the aircraft file)")),
-    };
-    let mut time = None;
-    let mut time_base = None;
-    let mut variable = None;
-    let mut channels: Vec<(Quantity, Expr)> = Vec::new();
-    let mut biases: Vec<(Quantity, f64, usize, usize)> = Vec::new();
-    let mut origins: Vec<(Quantity, Origin, usize, usize)> = Vec::new();
-    for kv in &kvs {
+        }),
+        None => Err(ReadError::new(file, 0, 0, "missing key `aircraft` (the aircraft file)")),
+    }
+}
+
+/// The map's keys other than `format`, `columns` and `aircraft`, each checked on its own.
+#[derive(Default)]
+struct MapEntries {
+    time: Option<Expr>,
+    time_base: Option<String>,
+    variable: Option<String>,
+    channels: Vec<(Quantity, Expr)>,
+    /// `bias.Q`: quantity, value, line, key column.
+    biases: Vec<(Quantity, f64, usize, usize)>,
+    /// `origin.Q`: quantity, origin, line, key column.
+    origins: Vec<(Quantity, Origin, usize, usize)>,
+}
+
+impl MapEntries {
+    /// Reads one key.
+    fn read(&mut self, kv: &KeyValue, file: &str, format: Format, columns: usize) -> Result<(), ReadError> {
+        let refuse = |why: &str| Err(ReadError::new(file, kv.line, kv.key_col, why));
         match kv.key {
             "format" | "columns" | "aircraft" | "description" => {}
             "variable" => {
                 if format == Format::Ulog {
-                    return Err(ReadError::new(
-                        file,
-                        kv.line,
-                        kv.key_col,
-                        "`variable` applies to `format = ascii` (a `.mat` matrix) only",
-                    ));
+                    return refuse("`variable` applies to `format = ascii` (a `.mat` matrix) only");
                 }
-                variable = Some(kv.value.to_string());
+                self.variable = Some(kv.value.to_string());
             }
             "time" => {
                 if format == Format::Ulog {
-                    return Err(ReadError::new(
-                        file,
-                        kv.line,
-                        kv.key_col,
-                        "a ULog map sets `time_base = TOPIC`, not `time`",
-                    ));
+                    return refuse("a ULog map sets `time_base = TOPIC`, not `time`");
                 }
-                time = Some(parse_expr(
+                self.time = Some(parse_expr(
                     kv.value,
                     file,
                     kv.line,
@@ -510,71 +548,88 @@ pub fn parse_map(text: &str, file: &str, dir: &Path) -> Result<ColumnMap, ReadEr
             }
             "time_base" => {
                 if format == Format::Ascii {
-                    return Err(ReadError::new(
-                        file,
-                        kv.line,
-                        kv.key_col,
-                        "`time_base` applies to `format = ulog` only",
-                    ));
+                    return refuse("`time_base` applies to `format = ulog` only");
                 }
-                time_base = Some(kv.value.to_string());
+                self.time_base = Some(kv.value.to_string());
             }
-            key => {
-                let (kind, name) = key.split_once('.').unwrap_or((key, ""));
-                let q = match (kind, Quantity::from_name(name)) {
-                    ("channel" | "bias" | "constant" | "origin", Some(q)) => q,
-                    ("channel" | "bias" | "constant" | "origin", None) => {
-                        return Err(ReadError::new(
-                            file,
-                            kv.line,
-                            kv.key_col + kind.len() + 1,
-                            format!("unknown quantity `{name}`"),
-                        ))
-                    }
-                    _ => {
-                        return Err(ReadError::new(
-                            file,
-                            kv.line,
-                            kv.key_col,
-                            format!("unknown key `{key}`"),
-                        ))
-                    }
-                };
-                if kind == "origin" {
-                    let o = parse_origin(kv.value, file, kv.line, kv.value_col)?;
-                    origins.push((q, o, kv.line, kv.key_col));
-                    continue;
-                }
-                if channels.iter().any(|(c, _)| *c == q) && kind != "bias" {
-                    return Err(ReadError::new(
-                        file,
-                        kv.line,
-                        kv.key_col,
-                        format!("`{q}` is set twice (as a channel and a constant)"),
-                    ));
-                }
-                if kind == "channel" {
-                    let e = parse_expr(kv.value, file, kv.line, kv.value_col, format, columns, dimension(q))?;
-                    channels.push((q, e));
-                } else if kind == "constant" {
-                    channels.push((q, parse_constant(kv.value, file, kv.line, kv.value_col, dimension(q))?));
-                } else {
-                    let Some(b) = parse_number(kv.value) else {
-                        return Err(ReadError::new(
-                            file,
-                            kv.line,
-                            kv.value_col,
-                            format!(
-                                "`{}` is not a finite number (a bias is in SI units, no unit written)",
-                                kv.value
-                            ),
-                        ));
-                    };
-                    biases.push((q, b, kv.line, kv.key_col));
-                }
-            }
+            _ => self.read_quantity_key(kv, file, format, columns)?,
         }
+        Ok(())
     }
+
+    /// Reads a `channel.Q`, `constant.Q`, `bias.Q` or `origin.Q` key.
+    fn read_quantity_key(
+        &mut self,
+        kv: &KeyValue,
+        file: &str,
+        format: Format,
+        columns: usize,
+    ) -> Result<(), ReadError> {
+        let key = kv.key;
+        let (kind, name) = key.split_once('.').unwrap_or((key, ""));
+        let q = match (kind, Quantity::from_name(name)) {
+            ("channel" | "bias" | "constant" | "origin", Some(q)) => q,
+            ("channel" | "bias" | "constant" | "origin", None) => {
+                return Err(ReadError::new(
+                    file,
+                    kv.line,
+                    kv.key_col + kind.len() + 1,
+                    format!("unknown quantity `{name}`"),
+                ))
+            }
+            _ => {
+                return Err(ReadError::new(
+                    file,
+                    kv.line,
+                    kv.key_col,
+                    format!("unknown key `{key}`"),
+                ))
+            }
+        };
+        if kind == "origin" {
+            let o = parse_origin(kv.value, file, kv.line, kv.value_col)?;
+            self.origins.push((q, o, kv.line, kv.key_col));
+            return Ok(());
+        }
+        if self.channels.iter().any(|(c, _)| *c == q) && kind != "bias" {
+            return Err(ReadError::new(
+                file,
+                kv.line,
+                kv.key_col,
+                format!("`{q}` is set twice (as a channel and a constant)"),
+            ));
+        }
+        if kind == "channel" {
+            let e = parse_expr(kv.value, file, kv.line, kv.value_col, format, columns, dimension(q))?;
+            self.channels.push((q, e));
+        } else if kind == "constant" {
+            self.channels
+                .push((q, parse_constant(kv.value, file, kv.line, kv.value_col, dimension(q))?));
+        } else {
+            let Some(b) = parse_number(kv.value) else {
+                return Err(ReadError::new(
+                    file,
+                    kv.line,
+                    kv.value_col,
+                    format!(
+                        "`{}` is not a finite number (a bias is in SI units, no unit written)",
+                        kv.value
+                    ),
+                ));
+            };
+            self.biases.push((q, b, kv.line, kv.key_col));
+        }
+        Ok(())
+    }
+}
+
+/// Sets each `bias.Q` on its `channel.Q` (which must exist).
+fn apply_biases(
+    biases: Vec<(Quantity, f64, usize, usize)>,
+    channels: &mut [(Quantity, Expr)],
+    format: Format,
+    file: &str,
+) -> Result<(), ReadError> {
     for (q, b, line, col) in biases {
         match channels.iter_mut().find(|(c, _)| *c == q) {
             Some((_, e)) => e.bias = b,
@@ -597,6 +652,16 @@ pub fn parse_map(text: &str, file: &str, dir: &Path) -> Result<ColumnMap, ReadEr
             }
         }
     }
+    Ok(())
+}
+
+/// The `origin.Q` keys by quantity; in an ASCII map each needs its `channel.Q`.
+fn origins_checked(
+    origins: Vec<(Quantity, Origin, usize, usize)>,
+    channels: &[(Quantity, Expr)],
+    format: Format,
+    file: &str,
+) -> Result<BTreeMap<Quantity, Origin>, ReadError> {
     let mut origin = BTreeMap::new();
     for (q, o, line, col) in origins {
         if format == Format::Ascii && !channels.iter().any(|(c, _)| *c == q) {
@@ -609,20 +674,7 @@ pub fn parse_map(text: &str, file: &str, dir: &Path) -> Result<ColumnMap, ReadEr
         }
         origin.insert(q, o);
     }
-    if format == Format::Ascii && time.is_none() {
-        return Err(ReadError::new(file, 0, 0, "missing key `time` (e.g. `time = $1 s`)"));
-    }
-    Ok(ColumnMap {
-        file: file.to_string(),
-        format,
-        columns,
-        time,
-        time_base,
-        channels,
-        aircraft,
-        variable,
-        origin,
-    })
+    Ok(origin)
 }
 
 /// Reads a column map file.
@@ -647,21 +699,7 @@ pub fn parse_ascii(text: &str, file: &str, map: &ColumnMap) -> Result<MeasuredFl
     let Some(time) = &map.time else {
         return Err(ReadError::new(&map.file, 0, 0, "missing key `time`"));
     };
-    let n_cols = map.columns;
-    // Which columns are read, and by which quantity (for messages).
-    let mut used: BTreeMap<usize, String> = BTreeMap::new();
-    for t in &time.terms {
-        if let Source::Column(c) = t.source {
-            used.entry(c).or_insert_with(|| "time".into());
-        }
-    }
-    for (q, e) in &map.channels {
-        for t in &e.terms {
-            if let Source::Column(c) = t.source {
-                used.entry(c).or_insert_with(|| q.name().into());
-            }
-        }
-    }
+    let used = used_columns(time, map);
     let lines: Vec<(usize, Vec<&str>)> = text
         .lines()
         .enumerate()
@@ -670,62 +708,9 @@ pub fn parse_ascii(text: &str, file: &str, map: &ColumnMap) -> Result<MeasuredFl
         .collect();
     let mut t_s = Vec::with_capacity(lines.len());
     let mut chans: Vec<Vec<f64>> = vec![Vec::with_capacity(lines.len()); map.channels.len()];
-    let mut row = vec![0.0; n_cols + 1];
-    for (k, (line, cells)) in lines.iter().enumerate() {
-        if cells.len() != n_cols {
-            let col = if cells.len() < n_cols {
-                cells.len() + 1
-            } else {
-                n_cols + 1
-            };
-            return Err(ReadError::new(
-                file,
-                *line,
-                col,
-                format!(
-                    "{} numbers on this line, the map ({}) says {n_cols}{}",
-                    cells.len(),
-                    map.file,
-                    used.get(&col)
-                        .map_or(String::new(), |q| format!(" (column {col} is `{q}`)"))
-                ),
-            ));
-        }
-        for (&c, what) in &used {
-            let cell = cells[c - 1];
-            match cell.parse::<f64>() {
-                Ok(v) if v.is_finite() => row[c] = v,
-                Ok(v) => {
-                    // A missing sample: report the run it starts.
-                    let run = lines[k..]
-                        .iter()
-                        .take_while(|(_, cs)| {
-                            cs.get(c - 1)
-                                .and_then(|s| s.parse::<f64>().ok())
-                                .is_some_and(|x| !x.is_finite())
-                        })
-                        .count();
-                    let last = lines[k + run - 1].0;
-                    return Err(ReadError::new(
-                        file,
-                        *line,
-                        c,
-                        format!(
-                            "column {c} (`{what}`): non-finite value `{cell}` ({v}), a run of {run} row{} (lines {line}–{last}); missing samples are refused, not interpolated",
-                            if run == 1 { "" } else { "s" }
-                        ),
-                    ));
-                }
-                Err(_) => {
-                    return Err(ReadError::new(
-                        file,
-                        *line,
-                        c,
-                        format!("column {c} (`{what}`): `{cell}` is not a number"),
-                    ))
-                }
-            }
-        }
+    let mut row = vec![0.0; map.columns + 1];
+    for k in 0..lines.len() {
+        read_row(&lines, k, &used, &mut row, file, map)?;
         let value = |e: &Expr| {
             e.eval(e.terms.iter().map(|t| match t.source {
                 Source::Column(c) => row[c],
@@ -748,28 +733,122 @@ pub fn parse_ascii(text: &str, file: &str, map: &ColumnMap) -> Result<MeasuredFl
         aircraft: map.aircraft.clone(),
         log: Default::default(),
     };
-    flight.validate().map_err(|inv| {
-        let line = inv.sample.and_then(|i| lines.get(i)).map_or(0, |(l, _)| *l);
-        let column = match inv.quantity {
-            Some(q) => map
-                .channels
-                .iter()
-                .find(|(c, _)| *c == q)
-                .and_then(|(_, e)| e.first_column()),
-            None => time.first_column(),
-        }
-        .unwrap_or(0);
-        let what = inv.quantity.map_or("time".to_string(), |q| q.name().to_string());
-        let msg = inv.message.clone();
-        ReadError::new(
-            file,
-            line,
-            column,
-            format!("column {column} (`{what}`, map {}): {msg}", map.file),
-        )
-    })?;
+    flight
+        .validate()
+        .map_err(|inv| invalid_at(&inv, &lines, time, file, map))?;
     let mut flight = flight;
     flight.log.origin = map.origin.clone();
     super::held::resolve(&mut flight);
     Ok(flight)
+}
+
+/// The columns the map reads, each with the first quantity that reads it (for messages).
+fn used_columns(time: &Expr, map: &ColumnMap) -> BTreeMap<usize, String> {
+    let mut used: BTreeMap<usize, String> = BTreeMap::new();
+    for t in &time.terms {
+        if let Source::Column(c) = t.source {
+            used.entry(c).or_insert_with(|| "time".into());
+        }
+    }
+    for (q, e) in &map.channels {
+        for t in &e.terms {
+            if let Source::Column(c) = t.source {
+                used.entry(c).or_insert_with(|| q.name().into());
+            }
+        }
+    }
+    used
+}
+
+/// Reads the `used` columns of row `k` of `lines` (line number, cells) into `row` (indexed by
+/// column): the row must have the map's column count, and each cell read must be a finite
+/// number (a run of missing samples is named).
+fn read_row(
+    lines: &[(usize, Vec<&str>)],
+    k: usize,
+    used: &BTreeMap<usize, String>,
+    row: &mut [f64],
+    file: &str,
+    map: &ColumnMap,
+) -> Result<(), ReadError> {
+    let n_cols = map.columns;
+    let (line, cells) = &lines[k];
+    if cells.len() != n_cols {
+        let col = if cells.len() < n_cols {
+            cells.len() + 1
+        } else {
+            n_cols + 1
+        };
+        return Err(ReadError::new(
+            file,
+            *line,
+            col,
+            format!(
+                "{} numbers on this line, the map ({}) says {n_cols}{}",
+                cells.len(),
+                map.file,
+                used.get(&col)
+                    .map_or(String::new(), |q| format!(" (column {col} is `{q}`)"))
+            ),
+        ));
+    }
+    for (&c, what) in used {
+        let cell = cells[c - 1];
+        match cell.parse::<f64>() {
+            Ok(v) if v.is_finite() => row[c] = v,
+            Ok(v) => {
+                // A missing sample: report the run it starts.
+                let run = lines[k..]
+                    .iter()
+                    .take_while(|(_, cs)| {
+                        cs.get(c - 1)
+                            .and_then(|s| s.parse::<f64>().ok())
+                            .is_some_and(|x| !x.is_finite())
+                    })
+                    .count();
+                let last = lines[k + run - 1].0;
+                return Err(ReadError::new(
+                    file,
+                    *line,
+                    c,
+                    format!(
+                        "column {c} (`{what}`): non-finite value `{cell}` ({v}), a run of {run} row{} (lines {line}–{last}); missing samples are refused, not interpolated",
+                        if run == 1 { "" } else { "s" }
+                    ),
+                ));
+            }
+            Err(_) => {
+                return Err(ReadError::new(
+                    file,
+                    *line,
+                    c,
+                    format!("column {c} (`{what}`): `{cell}` is not a number"),
+                ))
+            }
+        }
+    }
+    Ok(())
+}
+
+/// A flight's invalidity as an error at the file's line and the map's first column of the
+/// channel (or the time) at fault.
+fn invalid_at(inv: &Invalid, lines: &[(usize, Vec<&str>)], time: &Expr, file: &str, map: &ColumnMap) -> ReadError {
+    let line = inv.sample.and_then(|i| lines.get(i)).map_or(0, |(l, _)| *l);
+    let column = match inv.quantity {
+        Some(q) => map
+            .channels
+            .iter()
+            .find(|(c, _)| *c == q)
+            .and_then(|(_, e)| e.first_column()),
+        None => time.first_column(),
+    }
+    .unwrap_or(0);
+    let what = inv.quantity.map_or("time".to_string(), |q| q.name().to_string());
+    let msg = inv.message.clone();
+    ReadError::new(
+        file,
+        line,
+        column,
+        format!("column {column} (`{what}`, map {}): {msg}", map.file),
+    )
 }

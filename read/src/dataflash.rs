@@ -161,10 +161,7 @@ struct Log {
 /// Parses the whole file.
 fn parse(bytes: &[u8], file: &str) -> Result<Log, ReadError> {
     let mut layouts: BTreeMap<u8, Layout> = BTreeMap::new();
-    let mut log = Log::default();
-    let mut unit_names: BTreeMap<char, String> = BTreeMap::new();
-    // FMTU: message type → unit ids (one char per field).
-    let mut fmtu: BTreeMap<u8, String> = BTreeMap::new();
+    let mut sink = Sink::default();
     let mut pos = 0usize;
     if bytes.len() < 3 || bytes[..2] != HEAD {
         return Err(ReadError::new(
@@ -174,71 +171,98 @@ fn parse(bytes: &[u8], file: &str) -> Result<Log, ReadError> {
             "not an ArduPilot DataFlash log: the file does not start with the message header 0xA3 0x95",
         ));
     }
+    let skip = |log: &mut Log, pos: usize| {
+        log.first_skip.get_or_insert(pos);
+        log.skipped_bytes += 1;
+    };
     while pos + 3 <= bytes.len() {
         if bytes[pos..pos + 2] != HEAD {
-            log.first_skip.get_or_insert(pos);
-            log.skipped_bytes += 1;
+            skip(&mut sink.log, pos);
             pos += 1;
             continue;
         }
         let ty = bytes[pos + 2];
-        let (len, layout) = if ty == FMT_TYPE {
-            (FMT_LEN, None)
-        } else {
-            match layouts.get(&ty) {
-                Some(l) => (l.len, Some(l)),
-                None => {
-                    log.first_skip.get_or_insert(pos);
-                    log.skipped_bytes += 1;
-                    pos += 1;
-                    continue;
-                }
+        let len = match layouts.get(&ty) {
+            _ if ty == FMT_TYPE => FMT_LEN,
+            Some(l) => l.len,
+            None => {
+                skip(&mut sink.log, pos);
+                pos += 1;
+                continue;
             }
         };
         let Some(payload) = bytes.get(pos + 3..pos + len) else {
             // A message cut by the end of the file: the log ends here.
-            log.skipped_bytes += bytes.len() - pos;
-            log.first_skip.get_or_insert(pos);
+            sink.log.skipped_bytes += bytes.len() - pos;
+            sink.log.first_skip.get_or_insert(pos);
             break;
         };
-        log.messages += 1;
+        sink.log.messages += 1;
         if ty == FMT_TYPE {
-            let t = payload[0];
-            let l = payload[1] as usize;
-            let name = match decode(b'n', &payload[2..6]) {
-                Value::Text(s) => s,
-                Value::Num(_) => String::new(),
-            };
-            let format: Vec<u8> = payload[6..22].iter().copied().take_while(|&c| c != 0).collect();
-            let labels: Vec<String> = match decode(b'Z', &payload[22..86]) {
-                Value::Text(s) => s.split(',').map(|x| x.trim().to_string()).collect(),
-                Value::Num(_) => Vec::new(),
-            };
-            let size: Option<usize> = format.iter().map(|&c| field_size(c)).sum();
-            let mut labels = labels;
-            labels.resize_with(format.len(), String::new);
-            match size {
-                _ if t == FMT_TYPE => {}
-                Some(sz) if sz + 3 == l => {
-                    layouts.insert(
-                        t,
-                        Layout {
-                            name,
-                            len: l,
-                            format,
-                            labels,
-                        },
-                    );
-                }
-                _ => log.warnings.push(format!(
-                    "the FMT message at byte {pos} declares `{name}` (type {t}) with format `{}` and length {l}, which do not agree (or an unknown field type): its messages are skipped",
-                    String::from_utf8_lossy(&format)
-                )),
-            }
-            pos += len;
-            continue;
+            fmt_message(payload, pos, &mut layouts, &mut sink.log.warnings);
+        } else if let Some(layout) = layouts.get(&ty) {
+            sink.data_message(layout, payload, pos);
+        } else {
+            break;
         }
-        let Some(layout) = layout else { break };
+        pos += len;
+    }
+    if pos < bytes.len() && pos + 3 > bytes.len() {
+        sink.log.skipped_bytes += bytes.len() - pos;
+    }
+    Ok(sink.with_units(&layouts))
+}
+
+/// A FMT message (at byte `pos`): the layout of a message type, kept when its format and length
+/// agree (else a warning, and that type's messages are skipped).
+fn fmt_message(payload: &[u8], pos: usize, layouts: &mut BTreeMap<u8, Layout>, warnings: &mut Vec<String>) {
+    let t = payload[0];
+    let l = payload[1] as usize;
+    let name = match decode(b'n', &payload[2..6]) {
+        Value::Text(s) => s,
+        Value::Num(_) => String::new(),
+    };
+    let format: Vec<u8> = payload[6..22].iter().copied().take_while(|&c| c != 0).collect();
+    let labels: Vec<String> = match decode(b'Z', &payload[22..86]) {
+        Value::Text(s) => s.split(',').map(|x| x.trim().to_string()).collect(),
+        Value::Num(_) => Vec::new(),
+    };
+    let size: Option<usize> = format.iter().map(|&c| field_size(c)).sum();
+    let mut labels = labels;
+    labels.resize_with(format.len(), String::new);
+    match size {
+        _ if t == FMT_TYPE => {}
+        Some(sz) if sz + 3 == l => {
+            layouts.insert(
+                t,
+                Layout {
+                    name,
+                    len: l,
+                    format,
+                    labels,
+                },
+            );
+        }
+        _ => warnings.push(format!(
+            "the FMT message at byte {pos} declares `{name}` (type {t}) with format `{}` and length {l}, which do not agree (or an unknown field type): its messages are skipped",
+            String::from_utf8_lossy(&format)
+        )),
+    }
+}
+
+/// What the pass collects besides the layouts: the log, the unit names by id (UNIT) and the unit
+/// ids of each message type's fields (FMTU, one char per field).
+#[derive(Default)]
+struct Sink {
+    log: Log,
+    unit_names: BTreeMap<char, String>,
+    fmtu: BTreeMap<u8, String>,
+}
+
+impl Sink {
+    /// A data message of `layout` at byte `pos`: a parameter, a unit, a field-unit list, and a
+    /// sample of its series when it has a time.
+    fn data_message(&mut self, layout: &Layout, payload: &[u8], pos: usize) {
         let mut vals = Vec::with_capacity(layout.format.len());
         let mut off = 0;
         for &c in &layout.format {
@@ -250,17 +274,17 @@ fn parse(bytes: &[u8], file: &str) -> Result<Log, ReadError> {
         match layout.name.as_str() {
             "PARM" => {
                 if let (Some(Value::Text(n)), Some(Value::Num(v))) = (get("Name"), get("Value")) {
-                    log.parameters.entry(n.clone()).or_insert(*v);
+                    self.log.parameters.entry(n.clone()).or_insert(*v);
                 }
             }
             "UNIT" => {
                 if let (Some(Value::Num(id)), Some(Value::Text(l))) = (get("Id"), get("Label")) {
-                    unit_names.insert(*id as u8 as char, l.clone());
+                    self.unit_names.insert(*id as u8 as char, l.clone());
                 }
             }
             "FMTU" => {
                 if let (Some(Value::Num(t)), Some(Value::Text(u))) = (get("FmtType"), get("UnitIds")) {
-                    fmtu.insert(*t as u8, u.clone());
+                    self.fmtu.insert(*t as u8, u.clone());
                 }
             }
             _ => {}
@@ -276,38 +300,46 @@ fn parse(bytes: &[u8], file: &str) -> Result<Log, ReadError> {
                 Some(Value::Num(i)) => *i as u8,
                 _ => 0,
             };
-            let s = log.series.entry((layout.name.clone(), instance)).or_default();
-            if s.labels.is_empty() {
-                s.labels = layout.labels.clone();
-                s.values = vec![Vec::new(); layout.labels.len()];
-            }
-            if s.values.len() == vals.len() {
-                s.time_us.push(t);
-                s.offsets.push(pos);
-                for (j, v) in vals.iter().enumerate() {
-                    s.values[j].push(match v {
-                        Value::Num(x) => *x,
-                        Value::Text(_) => f64::NAN,
-                    });
+            self.log.push_sample(layout, instance, t, pos, &vals);
+        }
+    }
+
+    /// The log with each message type's field units (FMTU's ids named by UNIT).
+    fn with_units(mut self, layouts: &BTreeMap<u8, Layout>) -> Log {
+        for (ty, ids) in &self.fmtu {
+            if let Some(l) = layouts.get(ty) {
+                let m = self.log.units.entry(l.name.clone()).or_default();
+                for (label, id) in l.labels.iter().zip(ids.chars()) {
+                    if let Some(u) = self.unit_names.get(&id) {
+                        m.insert(label.clone(), u.clone());
+                    }
                 }
             }
         }
-        pos += len;
+        self.log
     }
-    if pos < bytes.len() && pos + 3 > bytes.len() {
-        log.skipped_bytes += bytes.len() - pos;
-    }
-    for (ty, ids) in &fmtu {
-        if let Some(l) = layouts.get(ty) {
-            let m = log.units.entry(l.name.clone()).or_default();
-            for (label, id) in l.labels.iter().zip(ids.chars()) {
-                if let Some(u) = unit_names.get(&id) {
-                    m.insert(label.clone(), u.clone());
-                }
+}
+
+impl Log {
+    /// One sample (time `t` µs, message at byte `pos`) of the series of `layout` at `instance`
+    /// (text fields as NaN); a message whose field count differs from the series' is left out.
+    fn push_sample(&mut self, layout: &Layout, instance: u8, t: f64, pos: usize, vals: &[Value]) {
+        let s = self.series.entry((layout.name.clone(), instance)).or_default();
+        if s.labels.is_empty() {
+            s.labels = layout.labels.clone();
+            s.values = vec![Vec::new(); layout.labels.len()];
+        }
+        if s.values.len() == vals.len() {
+            s.time_us.push(t);
+            s.offsets.push(pos);
+            for (j, v) in vals.iter().enumerate() {
+                s.values[j].push(match v {
+                    Value::Num(x) => *x,
+                    Value::Text(_) => f64::NAN,
+                });
             }
         }
     }
-    Ok(log)
 }
 
 /// The factor from a logged unit name (ArduPilot's `UNIT` labels) to SI, for a field whose SI
@@ -690,24 +722,17 @@ impl Messages<'_> {
     /// GPS ground speed, above a threshold), else the whole log.
     fn window(&self, raw: &[Channel], first_us: f64, last_us: f64) -> Result<Window, ReadError> {
         if let Some((w0, w1, text)) = self.opts.chosen_window(first_us, last_us).map_err(|m| self.err(m))? {
-            return Ok(Window {
-                w0,
-                w1,
-                text,
-                airborne: None,
-            });
+            return Ok(Window::chosen(w0, w1, text));
         }
         let (thr, from) = match self.log.parameters.get("ARSPD_FBW_MIN") {
             Some(v) if *v > 0.0 => (0.8 * v, "0.8 × ARSPD_FBW_MIN"),
             _ => (8.0, "8 m/s, no ARSPD_FBW_MIN logged"),
         };
         let Some((what, t, v)) = self.speed(raw) else {
-            return Ok(Window {
-                w0: f64::NEG_INFINITY,
-                w1: f64::INFINITY,
-                text: Some("no airspeed or GPS speed: the whole log is read, in the air or not".into()),
-                airborne: None,
-            });
+            return Ok(Window::whole_log(
+                "no airspeed or GPS speed: the whole log is read, in the air or not".into(),
+                None,
+            ));
         };
         // A missing (NaN) airspeed keeps the state before it: the gate does not cut around it, so
         // the read refuses it inside the window rather than hiding it.
@@ -723,14 +748,12 @@ impl Messages<'_> {
                 )),
                 airborne: Some(true),
             },
-            None => Window {
-                w0: f64::NEG_INFINITY,
-                w1: f64::INFINITY,
-                text: Some(format!(
+            None => Window::whole_log(
+                format!(
                     "never in the air: {what} never above {thr:.1} m/s ({from}); the whole log is read, on the ground"
-                )),
-                airborne: Some(false),
-            },
+                ),
+                Some(false),
+            ),
         })
     }
 

@@ -212,170 +212,21 @@ pub fn fit_wind(
     yaw: &[f64],
     s: &WindFitSettings,
 ) -> Result<WindFit, String> {
-    let n = t_s.len();
-    if vel_ned.iter().any(|v| v.len() != n) || airspeed.len() != n || yaw.len() != n {
-        return Err("the ground velocity, airspeed and yaw are not all as long as the time base".into());
-    }
-    let use_: Vec<usize> = (0..n)
-        .filter(|&i| {
-            airspeed[i] > s.min_airspeed_mps
-                && vel_ned.iter().all(|v| v[i].is_finite())
-                && yaw[i].is_finite()
-                && t_s[i].is_finite()
-        })
-        .collect();
-    if use_.len() < 20 {
-        return Err(format!(
-            "{} samples with a logged airspeed above {} m/s: too few to fit a wind",
-            use_.len(),
-            s.min_airspeed_mps
-        ));
-    }
-    let t0 = t_s[use_[0]];
-    let t_end = t_s[use_[use_.len() - 1]];
-    let nb = match s.block_s {
-        Some(b) if b > 0.0 && b.is_finite() => (((t_end - t0) / b).round() as usize).max(1),
-        _ => 1,
-    };
-    let span = (t_end - t0).max(1e-9);
-    let block_of = |t: f64| (((t - t0) / span * nb as f64).floor() as usize).min(nb - 1);
-    let p = 1 + 2 * nb;
-    // Start: the linear form |v_g|² = 2 v_g·w + k²V_m² − |w|² (one wind), least squares.
-    let mut a = DMatrix::<f64>::zeros(use_.len(), 4);
-    let mut y = DVector::<f64>::zeros(use_.len());
-    for (r, &i) in use_.iter().enumerate() {
-        let (vn, ve, vd) = (vel_ned[0][i], vel_ned[1][i], vel_ned[2][i]);
-        a[(r, 0)] = 2.0 * vn;
-        a[(r, 1)] = 2.0 * ve;
-        a[(r, 2)] = airspeed[i] * airspeed[i];
-        a[(r, 3)] = -1.0;
-        y[r] = vn * vn + ve * ve + vd * vd;
-    }
-    let mut theta = DVector::<f64>::zeros(p);
-    theta[0] = 1.0;
-    if let Ok(sol) = a.clone().svd(true, true).solve(&y, 1e-12) {
-        if sol[2] > 0.0 && sol.iter().all(|v| v.is_finite()) {
-            theta[0] = sol[2].sqrt();
-            for b in 0..nb {
-                theta[1 + 2 * b] = sol[0];
-                theta[2 + 2 * b] = sol[1];
-            }
-        }
-    }
-    let residuals = |th: &DVector<f64>| -> (Vec<f64>, DMatrix<f64>) {
-        let mut r = Vec::with_capacity(use_.len());
-        let mut j = DMatrix::<f64>::zeros(use_.len(), p);
-        for (row, &i) in use_.iter().enumerate() {
-            let b = block_of(t_s[i]);
-            let (wn, we) = (th[1 + 2 * b], th[2 + 2 * b]);
-            let (an, ae, ad) = (vel_ned[0][i] - wn, vel_ned[1][i] - we, vel_ned[2][i]);
-            let va = (an * an + ae * ae + ad * ad).sqrt().max(1e-6);
-            r.push(th[0] * airspeed[i] - va);
-            j[(row, 0)] = airspeed[i];
-            j[(row, 1 + 2 * b)] = an / va;
-            j[(row, 2 + 2 * b)] = ae / va;
-        }
-        (r, j)
-    };
-    let cost = |r: &[f64]| r.iter().map(|x| x * x).sum::<f64>();
-    let (mut r, mut j) = residuals(&theta);
-    for _ in 0..50 {
-        let jt = j.transpose();
-        let g = &jt * DVector::from_column_slice(&r);
-        let h = &jt * &j;
-        let Some(step) = h.clone().cholesky().map(|c| c.solve(&g)) else {
-            break;
-        };
-        let c0 = cost(&r);
-        let mut lambda = 1.0;
-        let mut improved = false;
-        while lambda > 1e-4 {
-            let cand = &theta - &step * lambda;
-            let (rc, jc) = residuals(&cand);
-            if cost(&rc) <= c0 {
-                theta = cand;
-                r = rc;
-                j = jc;
-                improved = true;
-                break;
-            }
-            lambda *= 0.5;
-        }
-        if !improved || step.norm() * lambda < 1e-9 {
-            break;
-        }
-    }
-    let m = use_.len();
-    let s2 = cost(&r) / (m.saturating_sub(p)).max(1) as f64;
+    let d = WindData::select(t_s, vel_ned, airspeed, yaw, s)?;
+    let (theta, r, j) = d.gauss_newton(d.initial_guess());
+    let m = d.use_.len();
+    let p = d.parameters();
+    let s2 = sum_sq(&r) / (m.saturating_sub(p)).max(1) as f64;
     let factor = correlation_factor(&r);
     let n_eff = m as f64 / factor;
     let jtj = j.transpose() * &j;
     let cov = jtj.clone().try_inverse().map(|inv| inv * (s2 * factor));
-    // Condition of the Jacobian with unit-length columns.
-    let mut js = j.clone();
-    for c in 0..p {
-        let norm = js.column(c).norm();
-        if norm > 0.0 {
-            js.column_mut(c).scale_mut(1.0 / norm);
-        }
-    }
-    let sv = js.singular_values();
-    let (mx, mn) = sv
-        .iter()
-        .fold((0.0f64, f64::INFINITY), |(a, b), v| (a.max(*v), b.min(*v)));
-    let condition = if mn > 0.0 { mx / mn } else { f64::INFINITY };
+    let condition = scaled_condition(&j);
     let sd = |k: usize| cov.as_ref().map_or(f64::INFINITY, |c| c[(k, k)].max(0.0).sqrt());
     let mut refused = Vec::new();
-    let mut blocks = Vec::new();
-    for b in 0..nb {
-        let psi: Vec<f64> = use_
-            .iter()
-            .filter(|&&i| block_of(t_s[i]) == b)
-            .map(|&i| yaw[i])
-            .collect();
-        let span_b = heading_span(&psi);
-        let (lo, hi) = (t0 + span * b as f64 / nb as f64, t0 + span * (b + 1) as f64 / nb as f64);
-        if span_b < s.min_heading_span_rad {
-            refused.push(format!(
-                "the heading spans only {:.0}° over {lo:.1}…{hi:.1} s: the wind and the pitot scale separate only with heading changes of at least {:.0}° (fly a turn or a circle)",
-                span_b.to_degrees(),
-                s.min_heading_span_rad.to_degrees()
-            ));
-        }
-        let sig = [sd(1 + 2 * b), sd(2 + 2 * b)];
-        if sig.iter().any(|v| v.is_nan() || *v > s.max_wind_sigma_mps) {
-            refused.push(format!(
-                "the wind over {lo:.1}…{hi:.1} s is determined only to σ = ({:.2}, {:.2}) m/s (north, east), more than {} m/s",
-                sig[0], sig[1], s.max_wind_sigma_mps
-            ));
-        }
-        blocks.push(WindBlock {
-            t_s: [lo, hi],
-            wind_ne_mps: [theta[1 + 2 * b], theta[2 + 2 * b]],
-            sigma_ne_mps: sig,
-            heading_span_deg: span_b.to_degrees(),
-        });
-    }
-    if condition.is_nan() || condition > s.max_condition {
-        refused.push(format!(
-            "the fit's regressors (scaled) have condition number {condition:.0}, above {}: the wind and the pitot scale trade off against each other",
-            s.max_condition
-        ));
-    }
-    if sd(0).is_nan() || sd(0) > s.max_scale_sigma {
-        refused.push(format!(
-            "the pitot scale is determined only to σ = {:.3}, more than {}",
-            sd(0),
-            s.max_scale_sigma
-        ));
-    }
-    if !(s.scale_range.0..=s.scale_range.1).contains(&theta[0]) {
-        refused.push(format!(
-            "the fitted pitot scale {:.3} is outside the plausible {}…{} (airspeed in knots or km/h, or a blocked or leaking pitot?)",
-            theta[0], s.scale_range.0, s.scale_range.1
-        ));
-    }
-    let residual_rms_mps = (cost(&r) / m as f64).sqrt();
+    let blocks = d.blocks(&theta, &sd, s, &mut refused);
+    scale_refusals(condition, sd(0), theta[0], s, &mut refused);
+    let residual_rms_mps = (sum_sq(&r) / m as f64).sqrt();
     Ok(WindFit {
         blocks,
         pitot_scale: theta[0],
@@ -387,6 +238,247 @@ pub fn fit_wind(
         covariance: cov.map_or_else(Vec::new, |c| c.transpose().as_slice().to_vec()),
         refused,
     })
+}
+
+/// Sum of squares.
+fn sum_sq(r: &[f64]) -> f64 {
+    r.iter().map(|x| x * x).sum::<f64>()
+}
+
+/// The wind fit's data: the samples it uses and their time blocks (one wind each). The
+/// parameters are `[k, w_N(0), w_E(0), w_N(1), …]`.
+struct WindData<'a> {
+    t_s: &'a [f64],
+    vel_ned: [&'a [f64]; 3],
+    airspeed: &'a [f64],
+    yaw: &'a [f64],
+    /// The samples used: airspeed above the minimum, everything finite.
+    use_: Vec<usize>,
+    t0: f64,
+    span: f64,
+    /// Blocks.
+    nb: usize,
+}
+
+impl<'a> WindData<'a> {
+    /// Checks the lengths, selects the samples and cuts the time into blocks.
+    fn select(
+        t_s: &'a [f64],
+        vel_ned: [&'a [f64]; 3],
+        airspeed: &'a [f64],
+        yaw: &'a [f64],
+        s: &WindFitSettings,
+    ) -> Result<Self, String> {
+        let n = t_s.len();
+        if vel_ned.iter().any(|v| v.len() != n) || airspeed.len() != n || yaw.len() != n {
+            return Err("the ground velocity, airspeed and yaw are not all as long as the time base".into());
+        }
+        let use_: Vec<usize> = (0..n)
+            .filter(|&i| {
+                airspeed[i] > s.min_airspeed_mps
+                    && vel_ned.iter().all(|v| v[i].is_finite())
+                    && yaw[i].is_finite()
+                    && t_s[i].is_finite()
+            })
+            .collect();
+        if use_.len() < 20 {
+            return Err(format!(
+                "{} samples with a logged airspeed above {} m/s: too few to fit a wind",
+                use_.len(),
+                s.min_airspeed_mps
+            ));
+        }
+        let t0 = t_s[use_[0]];
+        let t_end = t_s[use_[use_.len() - 1]];
+        let nb = match s.block_s {
+            Some(b) if b > 0.0 && b.is_finite() => (((t_end - t0) / b).round() as usize).max(1),
+            _ => 1,
+        };
+        let span = (t_end - t0).max(1e-9);
+        Ok(Self {
+            t_s,
+            vel_ned,
+            airspeed,
+            yaw,
+            use_,
+            t0,
+            span,
+            nb,
+        })
+    }
+
+    fn block_of(&self, t: f64) -> usize {
+        (((t - self.t0) / self.span * self.nb as f64).floor() as usize).min(self.nb - 1)
+    }
+
+    fn parameters(&self) -> usize {
+        1 + 2 * self.nb
+    }
+
+    /// The start: the linear form |v_g|² = 2 v_g·w + k²V_m² − |w|² (one wind), least squares;
+    /// `k = 1`, no wind when it has no positive `k²`.
+    fn initial_guess(&self) -> DVector<f64> {
+        let (vel_ned, airspeed) = (self.vel_ned, self.airspeed);
+        let mut a = DMatrix::<f64>::zeros(self.use_.len(), 4);
+        let mut y = DVector::<f64>::zeros(self.use_.len());
+        for (r, &i) in self.use_.iter().enumerate() {
+            let (vn, ve, vd) = (vel_ned[0][i], vel_ned[1][i], vel_ned[2][i]);
+            a[(r, 0)] = 2.0 * vn;
+            a[(r, 1)] = 2.0 * ve;
+            a[(r, 2)] = airspeed[i] * airspeed[i];
+            a[(r, 3)] = -1.0;
+            y[r] = vn * vn + ve * ve + vd * vd;
+        }
+        let mut theta = DVector::<f64>::zeros(self.parameters());
+        theta[0] = 1.0;
+        if let Ok(sol) = a.clone().svd(true, true).solve(&y, 1e-12) {
+            if sol[2] > 0.0 && sol.iter().all(|v| v.is_finite()) {
+                theta[0] = sol[2].sqrt();
+                for b in 0..self.nb {
+                    theta[1 + 2 * b] = sol[0];
+                    theta[2 + 2 * b] = sol[1];
+                }
+            }
+        }
+        theta
+    }
+
+    /// The residuals `k·V_m − |v_g − w|` and their Jacobian at `th`.
+    fn residuals(&self, th: &DVector<f64>) -> (Vec<f64>, DMatrix<f64>) {
+        let (vel_ned, airspeed) = (self.vel_ned, self.airspeed);
+        let mut r = Vec::with_capacity(self.use_.len());
+        let mut j = DMatrix::<f64>::zeros(self.use_.len(), self.parameters());
+        for (row, &i) in self.use_.iter().enumerate() {
+            let b = self.block_of(self.t_s[i]);
+            let (wn, we) = (th[1 + 2 * b], th[2 + 2 * b]);
+            let (an, ae, ad) = (vel_ned[0][i] - wn, vel_ned[1][i] - we, vel_ned[2][i]);
+            let va = (an * an + ae * ae + ad * ad).sqrt().max(1e-6);
+            r.push(th[0] * airspeed[i] - va);
+            j[(row, 0)] = airspeed[i];
+            j[(row, 1 + 2 * b)] = an / va;
+            j[(row, 2 + 2 * b)] = ae / va;
+        }
+        (r, j)
+    }
+
+    /// Gauss–Newton with step halving from `theta`: the fit, its residuals and Jacobian.
+    fn gauss_newton(&self, mut theta: DVector<f64>) -> (DVector<f64>, Vec<f64>, DMatrix<f64>) {
+        let (mut r, mut j) = self.residuals(&theta);
+        for _ in 0..50 {
+            let jt = j.transpose();
+            let g = &jt * DVector::from_column_slice(&r);
+            let h = &jt * &j;
+            let Some(step) = h.clone().cholesky().map(|c| c.solve(&g)) else {
+                break;
+            };
+            let c0 = sum_sq(&r);
+            let mut lambda = 1.0;
+            let mut improved = false;
+            while lambda > 1e-4 {
+                let cand = &theta - &step * lambda;
+                let (rc, jc) = self.residuals(&cand);
+                if sum_sq(&rc) <= c0 {
+                    theta = cand;
+                    r = rc;
+                    j = jc;
+                    improved = true;
+                    break;
+                }
+                lambda *= 0.5;
+            }
+            if !improved || step.norm() * lambda < 1e-9 {
+                break;
+            }
+        }
+        (theta, r, j)
+    }
+
+    /// Each block's wind with its σ and heading span; a block whose heading spans too little or
+    /// whose wind is too uncertain adds its reason to `refused`. `sd(k)` is parameter `k`'s σ.
+    fn blocks(
+        &self,
+        theta: &DVector<f64>,
+        sd: &dyn Fn(usize) -> f64,
+        s: &WindFitSettings,
+        refused: &mut Vec<String>,
+    ) -> Vec<WindBlock> {
+        let (t0, span, nb) = (self.t0, self.span, self.nb);
+        let mut blocks = Vec::new();
+        for b in 0..nb {
+            let psi: Vec<f64> = self
+                .use_
+                .iter()
+                .filter(|&&i| self.block_of(self.t_s[i]) == b)
+                .map(|&i| self.yaw[i])
+                .collect();
+            let span_b = heading_span(&psi);
+            let (lo, hi) = (t0 + span * b as f64 / nb as f64, t0 + span * (b + 1) as f64 / nb as f64);
+            if span_b < s.min_heading_span_rad {
+                refused.push(format!(
+                    "the heading spans only {:.0}° over {lo:.1}…{hi:.1} s: the wind and the pitot scale separate only with heading changes of at least {:.0}° (fly a turn or a circle)",
+                    span_b.to_degrees(),
+                    s.min_heading_span_rad.to_degrees()
+                ));
+            }
+            let sig = [sd(1 + 2 * b), sd(2 + 2 * b)];
+            if sig.iter().any(|v| v.is_nan() || *v > s.max_wind_sigma_mps) {
+                refused.push(format!(
+                    "the wind over {lo:.1}…{hi:.1} s is determined only to σ = ({:.2}, {:.2}) m/s (north, east), more than {} m/s",
+                    sig[0], sig[1], s.max_wind_sigma_mps
+                ));
+            }
+            blocks.push(WindBlock {
+                t_s: [lo, hi],
+                wind_ne_mps: [theta[1 + 2 * b], theta[2 + 2 * b]],
+                sigma_ne_mps: sig,
+                heading_span_deg: span_b.to_degrees(),
+            });
+        }
+        blocks
+    }
+}
+
+/// The condition number of a Jacobian with its columns scaled to unit length.
+fn scaled_condition(j: &DMatrix<f64>) -> f64 {
+    let mut js = j.clone();
+    for c in 0..js.ncols() {
+        let norm = js.column(c).norm();
+        if norm > 0.0 {
+            js.column_mut(c).scale_mut(1.0 / norm);
+        }
+    }
+    let sv = js.singular_values();
+    let (mx, mn) = sv
+        .iter()
+        .fold((0.0f64, f64::INFINITY), |(a, b), v| (a.max(*v), b.min(*v)));
+    if mn > 0.0 {
+        mx / mn
+    } else {
+        f64::INFINITY
+    }
+}
+
+/// The reasons not to trust the pitot scale (and with it the winds): a fit whose regressors
+/// trade off (`condition`), a scale too uncertain (`scale_sigma`) or implausible (`scale`).
+fn scale_refusals(condition: f64, scale_sigma: f64, scale: f64, s: &WindFitSettings, refused: &mut Vec<String>) {
+    if condition.is_nan() || condition > s.max_condition {
+        refused.push(format!(
+            "the fit's regressors (scaled) have condition number {condition:.0}, above {}: the wind and the pitot scale trade off against each other",
+            s.max_condition
+        ));
+    }
+    if scale_sigma.is_nan() || scale_sigma > s.max_scale_sigma {
+        refused.push(format!(
+            "the pitot scale is determined only to σ = {:.3}, more than {}",
+            scale_sigma, s.max_scale_sigma
+        ));
+    }
+    if !(s.scale_range.0..=s.scale_range.1).contains(&scale) {
+        refused.push(format!(
+            "the fitted pitot scale {:.3} is outside the plausible {}…{} (airspeed in knots or km/h, or a blocked or leaking pitot?)",
+            scale, s.scale_range.0, s.scale_range.1
+        ));
+    }
 }
 
 /// The estimated channels: α, β (rad), and the per-sample wind used.
@@ -437,6 +529,46 @@ pub fn estimate(flight: &MeasuredFlight, s: &WindFitSettings) -> Result<Estimate
         let m = |x: &[f64]| x.iter().sum::<f64>() / x.len().max(1) as f64;
         [m(a), m(b)]
     });
+    let Some((vel, att)) = velocity_and_attitude(flight, &mut info) else {
+        return Err(Box::new(info));
+    };
+    let Some(w) = wind_per_sample(flight, vel, att[2], autopilot, s, &mut info) else {
+        return Err(Box::new(info));
+    };
+    let a = Angles::of(vel, att, &w);
+    // Angles beyond 0.6 rad over more than 5 % of the samples: on the ground, or a wrong wind.
+    let wild = a.alpha.iter().chain(&a.beta).filter(|x| x.abs() > 0.6).count();
+    if wild as f64 > 0.05 * 2.0 * n as f64 {
+        info.why_not.push(format!(
+            "the estimate gives |α| or |β| above 0.6 rad at {wild} of {} values: the vehicle is not flying in the window, or the velocity, attitude or wind is wrong",
+            2 * n
+        ));
+        return Err(Box::new(info));
+    }
+    if w.cov.is_some() {
+        angle_sigmas(flight, att, &a, w.turbulence_mps, &mut info);
+    }
+    info.alpha_excitation_rad = std_dev(&a.alpha);
+    info.beta_excitation_rad = std_dev(&a.beta);
+    info.status = "estimated".into();
+    info.assumptions = assumptions(&info.wind_source);
+    info.summary = summary(&info);
+    Ok(Estimate {
+        alpha_rad: a.alpha,
+        beta_rad: a.beta,
+        airspeed_mps: a.speed,
+        info,
+    })
+}
+
+/// The ground velocity (north, east, down) and the attitude (roll, pitch, yaw); `None` (the
+/// reason in `info`) when any is not logged.
+#[allow(clippy::type_complexity)]
+fn velocity_and_attitude<'f>(
+    flight: &'f MeasuredFlight,
+    info: &mut FlowAngles,
+) -> Option<([&'f [f64]; 3], [&'f [f64]; 3])> {
+    use Quantity::*;
     let vel = [
         flight.get(VelocityNorth),
         flight.get(VelocityEast),
@@ -455,26 +587,45 @@ pub fn estimate(flight: &MeasuredFlight, s: &WindFitSettings) -> Result<Estimate
             "α and β cannot be estimated without a vane: no {} logged (the estimate needs the ground velocity vel_n/e/d and the attitude)",
             missing.join(", ")
         ));
-        return Err(Box::new(info));
+        return None;
     }
     let (Some(vn), Some(ve), Some(vd)) = (vel[0], vel[1], vel[2]) else {
-        return Err(Box::new(info));
+        return None;
     };
     let (Some(roll), Some(pitch), Some(yaw)) = (att[0], att[1], att[2]) else {
-        return Err(Box::new(info));
+        return None;
     };
-    // Per-sample wind, and its 2×2 covariance (None: unknown).
-    let mut wind: Vec<[f64; 2]> = vec![[0.0; 2]; n];
-    let mut wind_cov: Option<Vec<[f64; 3]>> = None;
-    let mut turbulence_mps = f64::NAN;
-    match (flight.get(Airspeed), autopilot) {
+    Some(([vn, ve, vd], [roll, pitch, yaw]))
+}
+
+/// The wind at every sample: fitted (with its covariance and the fit's residual, the
+/// turbulence) when the airspeed is logged, else the autopilot's estimate.
+struct SampleWind {
+    wind: Vec<[f64; 2]>,
+    /// Per sample `[c_NN, c_NE, c_EE]` (`None`: unknown).
+    cov: Option<Vec<[f64; 3]>>,
+    turbulence_mps: f64,
+}
+
+/// The wind per sample and its source (in `info`, with the fit); `None` (the reasons in `info`)
+/// when there is none to trust.
+fn wind_per_sample(
+    flight: &MeasuredFlight,
+    vel: [&[f64]; 3],
+    yaw: &[f64],
+    autopilot: Option<(&[f64], &[f64])>,
+    s: &WindFitSettings,
+    info: &mut FlowAngles,
+) -> Option<SampleWind> {
+    let n = flight.len();
+    match (flight.get(Quantity::Airspeed), autopilot) {
         (Some(v_m), _) => {
             info.wind_source = "wind-triangle fit".into();
-            let fit = match fit_wind(&flight.t_s, [vn, ve, vd], v_m, yaw, s) {
+            let fit = match fit_wind(&flight.t_s, vel, v_m, yaw, s) {
                 Ok(f) => f,
                 Err(e) => {
                     info.why_not.push(format!("the wind cannot be fitted: {e}"));
-                    return Err(Box::new(info));
+                    return None;
                 }
             };
             if !fit.refused.is_empty() {
@@ -483,102 +634,128 @@ pub fn estimate(flight: &MeasuredFlight, s: &WindFitSettings) -> Result<Estimate
                     info.why_not.push("the autopilot's logged wind estimate is not used instead: it faces the same observability limit and comes without an uncertainty".into());
                 }
                 info.fit = Some(fit);
-                return Err(Box::new(info));
+                return None;
             }
-            let p = 1 + 2 * fit.blocks.len();
-            let t0 = fit.blocks[0].t_s[0];
-            let t1 = fit.blocks[fit.blocks.len() - 1].t_s[1];
-            let nb = fit.blocks.len();
-            let mut cov = Vec::with_capacity(n);
-            for (k, &t) in flight.t_s.iter().enumerate() {
-                let b = (((t - t0) / (t1 - t0).max(1e-9) * nb as f64).floor().max(0.0) as usize).min(nb - 1);
-                wind[k] = fit.blocks[b].wind_ne_mps;
-                let c = |i: usize, j: usize| fit.covariance.get(i * p + j).copied().unwrap_or(f64::NAN);
-                let (i, j) = (1 + 2 * b, 2 + 2 * b);
-                cov.push([c(i, i), c(i, j), c(j, j)]);
-            }
-            wind_cov = Some(cov);
-            turbulence_mps = fit.residual_rms_mps;
+            let w = fitted_wind(&fit, &flight.t_s);
             info.fit = Some(fit);
+            Some(w)
         }
         (None, Some((wn, we))) => {
             info.wind_source = "autopilot wind estimate".into();
+            let mut wind: Vec<[f64; 2]> = vec![[0.0; 2]; n];
             for k in 0..n {
                 wind[k] = [wn[k], we[k]];
             }
+            Some(SampleWind {
+                wind,
+                cov: None,
+                turbulence_mps: f64::NAN,
+            })
         }
         (None, None) => {
             info.why_not.push("no airspeed logged, so the wind cannot be separated from the ground velocity, and the autopilot logged no wind estimate (PX4 `wind`/`wind_estimate`, ArduPilot `XKF2.VWN/VWE`): α and β cannot be estimated".into());
-            return Err(Box::new(info));
+            None
         }
     }
-    let mut alpha = Vec::with_capacity(n);
-    let mut beta = Vec::with_capacity(n);
-    let mut speed = Vec::with_capacity(n);
-    let (mut var_a, mut var_b) = (0.0, 0.0);
-    for k in 0..n {
-        let vg = [vn[k], ve[k], vd[k]];
-        let (a, b, v) = alpha_beta(vg, wind[k], roll[k], pitch[k], yaw[k]);
-        alpha.push(a);
-        beta.push(b);
-        speed.push(v);
-        if let Some(cov) = &wind_cov {
-            // Gradient with respect to (w_N, w_E) by central differences (0.01 m/s).
-            let d = 0.01;
-            let at = |dn: f64, de: f64| alpha_beta(vg, [wind[k][0] + dn, wind[k][1] + de], roll[k], pitch[k], yaw[k]);
-            let (an, bn, _) = at(d, 0.0);
-            let (an2, bn2, _) = at(-d, 0.0);
-            let (ae, be, _) = at(0.0, d);
-            let (ae2, be2, _) = at(0.0, -d);
-            let ga = [(an - an2) / (2.0 * d), (ae - ae2) / (2.0 * d)];
-            let gb = [(bn - bn2) / (2.0 * d), (be - be2) / (2.0 * d)];
-            let [cnn, cne, cee] = cov[k];
-            let q = |g: [f64; 2]| g[0] * g[0] * cnn + 2.0 * g[0] * g[1] * cne + g[1] * g[1] * cee;
-            var_a += q(ga);
-            var_b += q(gb);
+}
+
+/// A wind fit's block wind and its covariance at every time of `t_s`.
+fn fitted_wind(fit: &WindFit, t_s: &[f64]) -> SampleWind {
+    let p = 1 + 2 * fit.blocks.len();
+    let t0 = fit.blocks[0].t_s[0];
+    let t1 = fit.blocks[fit.blocks.len() - 1].t_s[1];
+    let nb = fit.blocks.len();
+    let mut wind: Vec<[f64; 2]> = vec![[0.0; 2]; t_s.len()];
+    let mut cov = Vec::with_capacity(t_s.len());
+    for (k, &t) in t_s.iter().enumerate() {
+        let b = (((t - t0) / (t1 - t0).max(1e-9) * nb as f64).floor().max(0.0) as usize).min(nb - 1);
+        wind[k] = fit.blocks[b].wind_ne_mps;
+        let c = |i: usize, j: usize| fit.covariance.get(i * p + j).copied().unwrap_or(f64::NAN);
+        let (i, j) = (1 + 2 * b, 2 + 2 * b);
+        cov.push([c(i, i), c(i, j), c(j, j)]);
+    }
+    SampleWind {
+        wind,
+        cov: Some(cov),
+        turbulence_mps: fit.residual_rms_mps,
+    }
+}
+
+/// α, β and the airspeed of every sample, and the sums over the samples of the variance the
+/// wind's uncertainty puts into α and β (0 when the wind has no covariance).
+struct Angles {
+    alpha: Vec<f64>,
+    beta: Vec<f64>,
+    speed: Vec<f64>,
+    var_a: f64,
+    var_b: f64,
+}
+
+impl Angles {
+    fn of(vel: [&[f64]; 3], att: [&[f64]; 3], w: &SampleWind) -> Self {
+        let ([vn, ve, vd], [roll, pitch, yaw], wind) = (vel, att, &w.wind);
+        let n = wind.len();
+        let mut out = Self {
+            alpha: Vec::with_capacity(n),
+            beta: Vec::with_capacity(n),
+            speed: Vec::with_capacity(n),
+            var_a: 0.0,
+            var_b: 0.0,
+        };
+        for k in 0..n {
+            let vg = [vn[k], ve[k], vd[k]];
+            let (a, b, v) = alpha_beta(vg, wind[k], roll[k], pitch[k], yaw[k]);
+            out.alpha.push(a);
+            out.beta.push(b);
+            out.speed.push(v);
+            if let Some(cov) = &w.cov {
+                // Gradient with respect to (w_N, w_E) by central differences (0.01 m/s).
+                let d = 0.01;
+                let at =
+                    |dn: f64, de: f64| alpha_beta(vg, [wind[k][0] + dn, wind[k][1] + de], roll[k], pitch[k], yaw[k]);
+                let (an, bn, _) = at(d, 0.0);
+                let (an2, bn2, _) = at(-d, 0.0);
+                let (ae, be, _) = at(0.0, d);
+                let (ae2, be2, _) = at(0.0, -d);
+                let ga = [(an - an2) / (2.0 * d), (ae - ae2) / (2.0 * d)];
+                let gb = [(bn - bn2) / (2.0 * d), (be - be2) / (2.0 * d)];
+                let [cnn, cne, cee] = cov[k];
+                let q = |g: [f64; 2]| g[0] * g[0] * cnn + 2.0 * g[0] * g[1] * cne + g[1] * g[1] * cee;
+                out.var_a += q(ga);
+                out.var_b += q(gb);
+            }
         }
+        out
     }
-    let v_mean = speed.iter().sum::<f64>() / n.max(1) as f64;
-    // Angles beyond 0.6 rad over more than 5 % of the samples: on the ground, or a wrong wind.
-    let wild = alpha.iter().chain(&beta).filter(|x| x.abs() > 0.6).count();
-    if wild as f64 > 0.05 * 2.0 * n as f64 {
-        info.why_not.push(format!(
-            "the estimate gives |α| or |β| above 0.6 rad at {wild} of {} values: the vehicle is not flying in the window, or the velocity, attitude or wind is wrong",
-            2 * n
-        ));
-        return Err(Box::new(info));
-    }
-    if wind_cov.is_some() {
-        // The gusts: the airspeed residual less the pitot's own white noise (third differences),
-        // which is no error of α or β.
-        let pitot_white = flight.get(Airspeed).map_or(0.0, crate::signal::white_noise_sd)
-            * info.fit.as_ref().map_or(1.0, |f| f.pitot_scale);
-        let gust = (turbulence_mps * turbulence_mps - pitot_white * pitot_white)
-            .max(0.0)
-            .sqrt();
-        let turb = gust / v_mean.max(1.0);
-        // The attitude's white noise passes one for one (pitch into α, yaw into β); estimated
-        // from its third differences.
-        let theta_noise = crate::signal::white_noise_sd(pitch);
-        let psi_noise = crate::signal::white_noise_sd(yaw);
-        let (wa, wb) = (var_a / n as f64, var_b / n as f64);
-        info.alpha_sigma_rad = (wa + turb * turb + theta_noise * theta_noise).sqrt();
-        info.beta_sigma_rad = (wb + turb * turb + psi_noise * psi_noise).sqrt();
-        let k = SMOOTHED_WHITE_SHARE;
-        info.alpha_sigma_smoothed_rad = (wa + turb * turb + (k * theta_noise).powi(2)).sqrt();
-        info.beta_sigma_smoothed_rad = (wb + turb * turb + (k * psi_noise).powi(2)).sqrt();
-    }
-    info.alpha_excitation_rad = std_dev(&alpha);
-    info.beta_excitation_rad = std_dev(&beta);
-    info.status = "estimated".into();
-    info.assumptions = assumptions(&info.wind_source);
-    info.summary = summary(&info);
-    Ok(Estimate {
-        alpha_rad: alpha,
-        beta_rad: beta,
-        airspeed_mps: speed,
-        info,
-    })
+}
+
+/// The σ of α and β (raw and smoothed) in `info`: the wind's uncertainty, the gusts (the fit's
+/// residual `turbulence_mps` less the pitot's white noise, over the mean airspeed) and the
+/// attitude's (`att`: roll, pitch, yaw) white noise.
+fn angle_sigmas(flight: &MeasuredFlight, att: [&[f64]; 3], a: &Angles, turbulence_mps: f64, info: &mut FlowAngles) {
+    let n = flight.len();
+    let [_, pitch, yaw] = att;
+    let v_mean = a.speed.iter().sum::<f64>() / n.max(1) as f64;
+    // The gusts: the airspeed residual less the pitot's own white noise (third differences),
+    // which is no error of α or β.
+    let pitot_white = flight
+        .get(Quantity::Airspeed)
+        .map_or(0.0, crate::signal::white_noise_sd)
+        * info.fit.as_ref().map_or(1.0, |f| f.pitot_scale);
+    let gust = (turbulence_mps * turbulence_mps - pitot_white * pitot_white)
+        .max(0.0)
+        .sqrt();
+    let turb = gust / v_mean.max(1.0);
+    // The attitude's white noise passes one for one (pitch into α, yaw into β); estimated
+    // from its third differences.
+    let theta_noise = crate::signal::white_noise_sd(pitch);
+    let psi_noise = crate::signal::white_noise_sd(yaw);
+    let (wa, wb) = (a.var_a / n as f64, a.var_b / n as f64);
+    info.alpha_sigma_rad = (wa + turb * turb + theta_noise * theta_noise).sqrt();
+    info.beta_sigma_rad = (wb + turb * turb + psi_noise * psi_noise).sqrt();
+    let k = SMOOTHED_WHITE_SHARE;
+    info.alpha_sigma_smoothed_rad = (wa + turb * turb + (k * theta_noise).powi(2)).sqrt();
+    info.beta_sigma_smoothed_rad = (wb + turb * turb + (k * psi_noise).powi(2)).sqrt();
 }
 
 /// The one-sentence description of an estimate (or of why there is none).

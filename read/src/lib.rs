@@ -380,100 +380,84 @@ pub fn read_measured_with(
     companion: Option<&Path>,
     opts: &ReadOptions,
 ) -> Result<MeasuredFlight, ReadError> {
-    let name = data.display().to_string();
-    let ext = |p: &Path| p.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
-    let data_ext = ext(data);
+    let data_ext = extension(data);
     let Some(companion) = companion else {
-        let mut f = match data_ext.as_deref() {
-            Some("ulg") => ulog::read_ulog_with(data, &colmap::ColumnMap::ulog_default(placeholder_aircraft()), opts)?,
-            Some("bin") => dataflash::read_dataflash(data, placeholder_aircraft(), opts)?,
-            _ => {
-                return Err(ReadError::new(
-                    &name,
-                    0,
-                    0,
-                    "this data file needs a companion file (`--with`): a column map (`.map`) or an aircraft file (`.aircraft`); only `.ulg` and `.bin` logs can be read without one",
-                ))
-            }
-        };
-        f.log.aircraft_unknown = true;
-        return Ok(f);
+        return read_without_companion(data, data_ext.as_deref(), opts);
     };
-    let companion_is_map = match ext(companion).as_deref() {
+    let companion_is_map = match extension(companion).as_deref() {
         Some("map") => true,
         Some("aircraft") => false,
         _ => {
-            return Err(ReadError::new(
-                &companion.display().to_string(),
-                0,
-                0,
+            return Err(companion_error(
+                companion,
                 "the companion file must be a column map (`.map`) or an aircraft file (`.aircraft`)",
             ))
         }
     };
-    match data_ext.as_deref() {
-        Some("csv") => {
-            if companion_is_map {
-                return Err(ReadError::new(
-                    &companion.display().to_string(),
-                    0,
-                    0,
-                    "a project CSV log has named SI columns and needs an aircraft file, not a column map",
-                ));
-            }
+    match (data_ext.as_deref(), companion_is_map) {
+        (Some("csv"), true) => Err(companion_error(
+            companion,
+            "a project CSV log has named SI columns and needs an aircraft file, not a column map",
+        )),
+        (Some("csv"), false) => project_csv::read_project_csv(data, aircraft::read_aircraft(companion)?),
+        (Some("asc") | Some("txt") | Some("dat"), false) => Err(companion_error(
+            companion,
+            "an ASCII flight-test file needs a column map (`.map`) saying which column is which",
+        )),
+        (Some("asc") | Some("txt") | Some("dat"), true) => colmap::read_ascii(data, &colmap::read_map(companion)?),
+        (Some("mat"), false) => Err(companion_error(
+            companion,
+            "a `.mat` file needs a column map (`.map`, `format = ascii`) saying which column of which matrix is which",
+        )),
+        (Some("mat"), true) => mat::read_mat(data, &colmap::read_map(companion)?),
+        (Some("ulg"), true) => ulog::read_ulog_with(data, &colmap::read_map(companion)?, opts),
+        (Some("ulg"), false) => {
             let aircraft = aircraft::read_aircraft(companion)?;
-            project_csv::read_project_csv(data, aircraft)
+            ulog::read_ulog_with(data, &colmap::ColumnMap::ulog_default(aircraft), opts)
         }
-        Some("asc") | Some("txt") | Some("dat") => {
-            if !companion_is_map {
-                return Err(ReadError::new(
-                    &companion.display().to_string(),
-                    0,
-                    0,
-                    "an ASCII flight-test file needs a column map (`.map`) saying which column is which",
-                ));
-            }
-            let map = colmap::read_map(companion)?;
-            colmap::read_ascii(data, &map)
-        }
-        Some("mat") => {
-            if !companion_is_map {
-                return Err(ReadError::new(
-                    &companion.display().to_string(),
-                    0,
-                    0,
-                    "a `.mat` file needs a column map (`.map`, `format = ascii`) saying which column of which matrix is which",
-                ));
-            }
-            let map = colmap::read_map(companion)?;
-            mat::read_mat(data, &map)
-        }
-        Some("ulg") => {
-            if companion_is_map {
-                let map = colmap::read_map(companion)?;
-                ulog::read_ulog_with(data, &map, opts)
-            } else {
-                let aircraft = aircraft::read_aircraft(companion)?;
-                ulog::read_ulog_with(data, &colmap::ColumnMap::ulog_default(aircraft), opts)
-            }
-        }
-        Some("bin") => {
-            if companion_is_map {
-                return Err(ReadError::new(
-                    &companion.display().to_string(),
-                    0,
-                    0,
-                    "an ArduPilot DataFlash log is read with an aircraft file (`.aircraft`); its messages are built in",
-                ));
-            }
-            let aircraft = aircraft::read_aircraft(companion)?;
-            dataflash::read_dataflash(data, aircraft, opts)
-        }
+        (Some("bin"), true) => Err(companion_error(
+            companion,
+            "an ArduPilot DataFlash log is read with an aircraft file (`.aircraft`); its messages are built in",
+        )),
+        (Some("bin"), false) => dataflash::read_dataflash(data, aircraft::read_aircraft(companion)?, opts),
         _ => Err(ReadError::new(
-            &name,
+            &data.display().to_string(),
             0,
             0,
             "unknown data file type (expected .csv, .asc/.txt/.dat, .mat, .ulg or .bin)",
         )),
     }
+}
+
+/// A file's extension, lower case.
+fn extension(p: &Path) -> Option<String> {
+    p.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase)
+}
+
+/// An error of the companion file as a whole.
+fn companion_error(companion: &Path, message: &str) -> ReadError {
+    ReadError::new(&companion.display().to_string(), 0, 0, message)
+}
+
+/// A log read without a companion file (`.ulg` and `.bin` only): the placeholder aircraft, and
+/// the log says so.
+fn read_without_companion(
+    data: &Path,
+    data_ext: Option<&str>,
+    opts: &ReadOptions,
+) -> Result<MeasuredFlight, ReadError> {
+    let mut f = match data_ext {
+        Some("ulg") => ulog::read_ulog_with(data, &colmap::ColumnMap::ulog_default(placeholder_aircraft()), opts)?,
+        Some("bin") => dataflash::read_dataflash(data, placeholder_aircraft(), opts)?,
+        _ => {
+            return Err(ReadError::new(
+                &data.display().to_string(),
+                0,
+                0,
+                "this data file needs a companion file (`--with`): a column map (`.map`) or an aircraft file (`.aircraft`); only `.ulg` and `.bin` logs can be read without one",
+            ))
+        }
+    };
+    f.log.aircraft_unknown = true;
+    Ok(f)
 }

@@ -61,10 +61,40 @@ pub fn parse_mat(bytes: &[u8], file: &str, map: &ColumnMap) -> Result<MeasuredFl
                 "not a readable MATLAB level-5 file: {e} (a v7.3 file is HDF5: save it with `save -v7`)"
             ))
         })?;
-    let describe = |a: &matfile::Array| {
-        let s: Vec<String> = a.size().iter().map(|d| d.to_string()).collect();
-        format!("`{}` {}", a.name(), s.join("×"))
-    };
+    let array = choose_matrix(&parsed, map, file)?;
+    let (rows, cols) = (array.size()[0], array.size()[1]);
+    let values = real(array.data());
+    // The declared size against the data stored (a corrupt header can declare any size): every
+    // index below and the text's capacity are bounded by the values actually read.
+    if rows.checked_mul(cols) != Some(values.len()) {
+        return Err(err(format!(
+            "matrix {} declares {rows} × {cols} values but holds {} (a corrupt or truncated file)",
+            describe(array),
+            values.len()
+        )));
+    }
+    let text = matrix_text(&values, rows, cols);
+    let name = array.name().to_string();
+    let mut flight = parse_ascii(&text, file, map).map_err(|mut e| {
+        if e.file == file && e.line > 0 {
+            e.message = format!("matrix `{name}` row {} column {}: {}", e.line, e.column, e.message);
+        }
+        e
+    })?;
+    flight.log.format = format!("MATLAB .mat (matrix `{name}`, {rows} × {cols})");
+    Ok(flight)
+}
+
+/// A matrix for messages: its name and size (`` `fdata` 401×90 ``).
+fn describe(a: &matfile::Array) -> String {
+    let s: Vec<String> = a.size().iter().map(|d| d.to_string()).collect();
+    format!("`{}` {}", a.name(), s.join("×"))
+}
+
+/// The matrix the map reads: the one `variable` names, else the only one with the map's column
+/// count (of several, `fdata`); it must be rows × the map's columns.
+fn choose_matrix<'p>(parsed: &'p MatFile, map: &ColumnMap, file: &str) -> Result<&'p matfile::Array, ReadError> {
+    let err = |m: String| ReadError::new(file, 0, 0, m);
     let all: Vec<String> = parsed.arrays().iter().map(describe).collect();
     let fits = |a: &&matfile::Array| a.ndims() == 2 && a.size()[1] == map.columns && a.size()[0] >= 2;
     let array = match &map.variable {
@@ -107,18 +137,12 @@ pub fn parse_mat(bytes: &[u8], file: &str, map: &ColumnMap) -> Result<MeasuredFl
             map.columns
         )));
     }
-    let (rows, cols) = (array.size()[0], array.size()[1]);
-    let values = real(array.data());
-    // The declared size against the data stored (a corrupt header can declare any size): every
-    // index below and the text's capacity are bounded by the values actually read.
-    if rows.checked_mul(cols) != Some(values.len()) {
-        return Err(err(format!(
-            "matrix {} declares {rows} × {cols} values but holds {} (a corrupt or truncated file)",
-            describe(array),
-            values.len()
-        )));
-    }
-    // Column-major: element (i, j) at i + j·rows.
+    Ok(array)
+}
+
+/// The matrix's values (column-major: element (i, j) at i + j·rows) as whitespace-separated
+/// text, a row per line, for the ASCII reader.
+fn matrix_text(values: &[f64], rows: usize, cols: usize) -> String {
     let mut text = String::with_capacity(values.len() * 24);
     for i in 0..rows {
         for j in 0..cols {
@@ -129,13 +153,5 @@ pub fn parse_mat(bytes: &[u8], file: &str, map: &ColumnMap) -> Result<MeasuredFl
         }
         text.push('\n');
     }
-    let name = array.name().to_string();
-    let mut flight = parse_ascii(&text, file, map).map_err(|mut e| {
-        if e.file == file && e.line > 0 {
-            e.message = format!("matrix `{name}` row {} column {}: {}", e.line, e.column, e.message);
-        }
-        e
-    })?;
-    flight.log.format = format!("MATLAB .mat (matrix `{name}`, {rows} × {cols})");
-    Ok(flight)
+    text
 }

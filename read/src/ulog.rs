@@ -105,21 +105,15 @@ struct Scan {
 /// short for their own headers.
 fn scan(bytes: &[u8], file: &str) -> Result<Scan, ReadError> {
     let e = |m: String| ReadError::new(file, 0, 0, m);
-    if bytes.len() < 16 {
-        return Err(e(format!(
-            "not a ULog: {} bytes, the header alone has 16 (truncated ULog)",
-            bytes.len()
-        )));
-    }
-    if bytes[..7] != MAGIC {
-        return Err(e("not a ULog: the file does not start with the ULog magic bytes".into()));
-    }
-    let mut end = bytes.len();
+    check_header(bytes).map_err(e)?;
+    let mut s = Scan {
+        places: Vec::new(),
+        end: bytes.len(),
+        parameters: BTreeMap::new(),
+    };
     let mut pos = 16;
     let mut index = 0usize;
-    let mut data = Vec::new();
-    let mut parameters = BTreeMap::new();
-    while pos < end {
+    while pos < s.end {
         let Some(head) = bytes.get(pos..pos + 3) else {
             return Err(e(format!(
                 "truncated ULog: message #{index} at byte {pos}: the file ends inside the 3-byte message header"
@@ -131,30 +125,62 @@ fn scan(bytes: &[u8], file: &str) -> Result<Scan, ReadError> {
             return Err(e(format!(
                 "truncated ULog: message #{index} (type '{}') at byte {pos} declares {size} bytes, the file has {} left",
                 kind as char,
-                end.saturating_sub(pos + 3)
+                s.end.saturating_sub(pos + 3)
             )));
         };
-        let bad = |m: &str| {
+        s.message(kind, index, pos, payload).map_err(|m| {
             e(format!(
                 "malformed ULog: message #{index} (type '{}') at byte {pos}: {m}",
                 kind as char
             ))
-        };
+        })?;
+        pos += 3 + size;
+        index += 1;
+    }
+    if pos > s.end {
+        return Err(e(format!(
+            "malformed ULog: a message runs past the start of the appended data at byte {}",
+            s.end
+        )));
+    }
+    Ok(s)
+}
+
+/// The file is long enough for the ULog header and starts with its magic bytes.
+fn check_header(bytes: &[u8]) -> Result<(), String> {
+    if bytes.len() < 16 {
+        return Err(format!(
+            "not a ULog: {} bytes, the header alone has 16 (truncated ULog)",
+            bytes.len()
+        ));
+    }
+    if bytes[..7] != MAGIC {
+        return Err("not a ULog: the file does not start with the ULog magic bytes".into());
+    }
+    Ok(())
+}
+
+impl Scan {
+    /// Message `index` (type `kind`, at byte `pos`, its `payload`): a FlagBits message may end
+    /// the primary section early, a parameter is kept (its first value), a data message's place
+    /// is noted. `Err`: why the message is malformed.
+    fn message(&mut self, kind: u8, index: usize, pos: usize, payload: &[u8]) -> Result<(), &'static str> {
+        let size = payload.len();
         match kind {
             b'B' => {
                 if index != 0 {
-                    return Err(bad("FlagBits must be the first message"));
+                    return Err("FlagBits must be the first message");
                 }
                 if size < 40 {
-                    return Err(bad("FlagBits shorter than 40 bytes"));
+                    return Err("FlagBits shorter than 40 bytes");
                 }
                 // The first appended-data offset ends the primary section.
                 let first = u64::from_le_bytes(payload[16..24].try_into().unwrap_or([0; 8])) as usize;
-                if first != 0 && first < end {
-                    end = first;
+                if first != 0 && first < self.end {
+                    self.end = first;
                 }
             }
-            b'A' if size < 3 => return Err(bad("AddLogged shorter than its 3-byte header")),
+            b'A' if size < 3 => return Err("AddLogged shorter than its 3-byte header"),
             b'P' | b'Q' => {
                 let k = if kind == b'P' { 0 } else { 1 };
                 match payload.get(k) {
@@ -163,29 +189,18 @@ fn scan(bytes: &[u8], file: &str) -> Result<Scan, ReadError> {
                             let key = &payload[1..1 + len as usize];
                             let value = &payload[1 + len as usize..];
                             if let Some((name, v)) = parameter(key, value) {
-                                parameters.entry(name).or_insert(v);
+                                self.parameters.entry(name).or_insert(v);
                             }
                         }
                     }
-                    _ => return Err(bad("parameter key longer than the message")),
+                    _ => return Err("parameter key longer than the message"),
                 }
             }
-            b'D' => data.push(Place { index, offset: pos }),
+            b'D' => self.places.push(Place { index, offset: pos }),
             _ => {}
         }
-        pos += 3 + size;
-        index += 1;
+        Ok(())
     }
-    if pos > end {
-        return Err(e(format!(
-            "malformed ULog: a message runs past the start of the appended data at byte {end}"
-        )));
-    }
-    Ok(Scan {
-        places: data,
-        end,
-        parameters,
-    })
 }
 
 /// A parameter message's name and value (`float NAME` → f32, `int32_t NAME` → i32); `None` for
@@ -292,104 +307,150 @@ fn collect(
     wanted: &BTreeSet<String>,
     instances: &BTreeMap<String, u8>,
 ) -> Result<Collected, ReadError> {
-    let mut topics: BTreeMap<String, Topic> = BTreeMap::new();
-    let mut catalog: BTreeMap<(String, u8), TopicInfo> = BTreeMap::new();
-    // msg_id → (catalog key, `timestamp` offset), and the decoder when the topic is wanted.
-    let mut ids: HashMap<u16, IdEntry> = HashMap::new();
-    let mut k = 0usize;
-    let mut failure: Option<ReadError> = None;
+    let mut c = Collector {
+        file,
+        places,
+        wanted,
+        instances,
+        topics: BTreeMap::new(),
+        catalog: BTreeMap::new(),
+        ids: HashMap::new(),
+        k: 0,
+        failure: None,
+    };
     {
-        let mut callback = |m: &DataMessage| {
-            let place = places.get(k).copied().unwrap_or(Place { index: 0, offset: 0 });
-            k += 1;
-            if failure.is_some() {
-                return;
-            }
-            let (key, ts_offset, decoder) = ids.entry(m.msg_id).or_insert_with(|| {
-                let name = m.flattened_format.message_name().to_string();
-                let instance = m.multi_id.value();
-                let fields: Vec<_> = m.flattened_format.fields.iter().collect();
-                let offset_of = |n: &str| {
-                    fields
-                        .iter()
-                        .find(|f| f.flattened_field_name == n && f.field_type == FlattenedFieldType::UInt64)
-                        .map(|f| f.offset as usize)
-                };
-                let ts = offset_of("timestamp");
-                let info = catalog.entry((name.clone(), instance)).or_default();
-                info.fields = fields.iter().map(|f| f.flattened_field_name.clone()).collect();
-                let chosen = instances.get(&name).copied().unwrap_or(0);
-                let decoder = if wanted.contains(&name) && instance == chosen {
-                    let (time_offset, time_field) = match offset_of("timestamp_sample") {
-                        Some(o) => (Some(o), "timestamp_sample"),
-                        None => (ts, "timestamp"),
-                    };
-                    time_offset.map(|o| {
-                        let topic = topics.entry(name.clone()).or_default();
-                        topic.names = fields.iter().map(|f| f.flattened_field_name.clone()).collect();
-                        topic.values = vec![Vec::new(); fields.len()];
-                        topic.time_field = time_field;
-                        let layout = fields
-                            .iter()
-                            .map(|f| (f.field_type.clone(), f.offset as usize))
-                            .collect();
-                        (name.clone(), o, time_field, layout)
-                    })
-                } else {
-                    None
-                };
-                ((name, instance), ts, decoder)
-            });
-            if let Some(info) = catalog.get_mut(key) {
-                let t = ts_offset
-                    .and_then(|o| m.data.get(o..))
-                    .and_then(decode_u64)
-                    .unwrap_or(0);
-                if info.count == 0 {
-                    info.span_us = (t, t);
-                }
-                info.count += 1;
-                info.span_us.0 = info.span_us.0.min(t);
-                info.span_us.1 = info.span_us.1.max(t);
-            }
-            let Some((name, time_offset, time_field, layout)) = decoder else {
-                return;
-            };
-            let Some(topic) = topics.get_mut(name.as_str()) else {
-                return;
-            };
-            let Some(t) = m.data.get(*time_offset..).and_then(decode_u64) else {
-                failure = Some(ReadError::new(
-                    file,
-                    0,
-                    0,
-                    format!(
-                        "ULog message #{} at byte {}: `{name}` too short for its `{time_field}`",
-                        place.index, place.offset
-                    ),
-                ));
-                return;
-            };
-            for (j, (ty, off)) in layout.iter().enumerate() {
-                let v = m.data.get(*off..).and_then(|b| decode(ty, b)).unwrap_or(f64::NAN);
-                topic.values[j].push(v);
-            }
-            topic.time_us.push(t);
-            topic.places.push(place);
-        };
+        let mut callback = |m: &DataMessage| c.message(m);
         let mut parser = LogParser::default();
         parser.set_data_message_callback(&mut callback);
         parser.consume_bytes(bytes).map_err(|e| {
-            let at = places.get(k).map_or(String::new(), |p| {
+            let at = places.get(c.k).map_or(String::new(), |p| {
                 format!(" near ULog message #{} at byte {}", p.index, p.offset)
             });
             ReadError::new(file, 0, 0, format!("malformed ULog{at}: {e}"))
         })?;
     }
-    if let Some(f) = failure {
+    if let Some(f) = c.failure {
         return Err(f);
     }
-    Ok((topics, catalog))
+    Ok((c.topics, c.catalog))
+}
+
+/// The pass of [`collect`] over the data messages: the wanted topics' data, the catalog of every
+/// topic instance, what each message id is (`ids`), the messages seen (`k`) and the first
+/// failure (after which the rest is only counted).
+struct Collector<'c> {
+    file: &'c str,
+    places: &'c [Place],
+    wanted: &'c BTreeSet<String>,
+    instances: &'c BTreeMap<String, u8>,
+    topics: BTreeMap<String, Topic>,
+    catalog: BTreeMap<(String, u8), TopicInfo>,
+    ids: HashMap<u16, IdEntry>,
+    k: usize,
+    failure: Option<ReadError>,
+}
+
+impl Collector<'_> {
+    /// One data message: counted in the catalog, and its fields appended to its topic when the
+    /// topic is wanted.
+    fn message(&mut self, m: &DataMessage) {
+        let place = self
+            .places
+            .get(self.k)
+            .copied()
+            .unwrap_or(Place { index: 0, offset: 0 });
+        self.k += 1;
+        if self.failure.is_some() {
+            return;
+        }
+        let (catalog, topics) = (&mut self.catalog, &mut self.topics);
+        let (wanted, instances) = (self.wanted, self.instances);
+        let (key, ts_offset, decoder) = self
+            .ids
+            .entry(m.msg_id)
+            .or_insert_with(|| id_entry(m, catalog, topics, wanted, instances));
+        if let Some(info) = catalog.get_mut(key) {
+            let t = ts_offset
+                .and_then(|o| m.data.get(o..))
+                .and_then(decode_u64)
+                .unwrap_or(0);
+            if info.count == 0 {
+                info.span_us = (t, t);
+            }
+            info.count += 1;
+            info.span_us.0 = info.span_us.0.min(t);
+            info.span_us.1 = info.span_us.1.max(t);
+        }
+        let Some((name, time_offset, time_field, layout)) = decoder else {
+            return;
+        };
+        let Some(topic) = topics.get_mut(name.as_str()) else {
+            return;
+        };
+        let Some(t) = m.data.get(*time_offset..).and_then(decode_u64) else {
+            self.failure = Some(ReadError::new(
+                self.file,
+                0,
+                0,
+                format!(
+                    "ULog message #{} at byte {}: `{name}` too short for its `{time_field}`",
+                    place.index, place.offset
+                ),
+            ));
+            return;
+        };
+        for (j, (ty, off)) in layout.iter().enumerate() {
+            let v = m.data.get(*off..).and_then(|b| decode(ty, b)).unwrap_or(f64::NAN);
+            topic.values[j].push(v);
+        }
+        topic.time_us.push(t);
+        topic.places.push(place);
+    }
+}
+
+/// What the first message of an id says: its topic instance (entered in `catalog` with its
+/// fields), its `timestamp` offset, and, when the topic is `wanted` at the instance asked for
+/// (`instances`, else 0) and has a time field, its decoder (the topic entered in `topics`).
+fn id_entry(
+    m: &DataMessage,
+    catalog: &mut BTreeMap<(String, u8), TopicInfo>,
+    topics: &mut BTreeMap<String, Topic>,
+    wanted: &BTreeSet<String>,
+    instances: &BTreeMap<String, u8>,
+) -> IdEntry {
+    let name = m.flattened_format.message_name().to_string();
+    let instance = m.multi_id.value();
+    let fields: Vec<_> = m.flattened_format.fields.iter().collect();
+    let offset_of = |n: &str| {
+        fields
+            .iter()
+            .find(|f| f.flattened_field_name == n && f.field_type == FlattenedFieldType::UInt64)
+            .map(|f| f.offset as usize)
+    };
+    let ts = offset_of("timestamp");
+    let info = catalog.entry((name.clone(), instance)).or_default();
+    info.fields = fields.iter().map(|f| f.flattened_field_name.clone()).collect();
+    let chosen = instances.get(&name).copied().unwrap_or(0);
+    let decoder = if wanted.contains(&name) && instance == chosen {
+        let (time_offset, time_field) = match offset_of("timestamp_sample") {
+            Some(o) => (Some(o), "timestamp_sample"),
+            None => (ts, "timestamp"),
+        };
+        time_offset.map(|o| {
+            let topic = topics.entry(name.clone()).or_default();
+            topic.names = fields.iter().map(|f| f.flattened_field_name.clone()).collect();
+            topic.values = vec![Vec::new(); fields.len()];
+            topic.time_field = time_field;
+            let layout = fields
+                .iter()
+                .map(|f| (f.field_type.clone(), f.offset as usize))
+                .collect();
+            (name.clone(), o, time_field, layout)
+        })
+    } else {
+        None
+    };
+    ((name, instance), ts, decoder)
 }
 
 /// The topic instances of a ULog, one line each: `name` (instance, messages, rate, time span,
@@ -617,58 +678,181 @@ pub fn parse_ulog_with(
         return Err(ReadError::new(&map.file, 0, 0, "not a ULog map (`format = ulog`)"));
     }
     let err = |m: String| ReadError::new(file, 0, 0, m);
-    let s = scan(bytes, file)?;
-    let (mut topics, catalog) = collect(&bytes[..s.end], file, &s.places, &wanted_topics(map), &opts.instances)?;
-    check_instances(opts, &catalog).map_err(err)?;
-    let mut warnings = Vec::new();
-    for (name, tp) in topics.iter_mut() {
-        drop_repeated_times(name, tp, &mut warnings);
-    }
+    let Decoded {
+        scan: s,
+        topics,
+        catalog,
+        mut warnings,
+    } = decode_topics(bytes, file, map, opts)?;
     let log = Topics {
         topics: &topics,
         catalog: &catalog,
         file,
         opts,
     };
-    let mut builtin = log.builtin_channels(&mut warnings);
-    let mut optional = log.optional_channels();
-    let mut attitude = log.attitude();
-    let mapped = log.map_channels(map)?;
-    map_overrides(map, &mut builtin, &mut optional, &mut attitude);
-    if builtin.channels.is_empty() && attitude.is_none() && mapped.is_empty() {
-        return Err(err(format!(
-            "no channel this reader knows is in the log (it reads vehicle_attitude, vehicle_angular_velocity or sensor_combined, vehicle_acceleration, airspeed_validated or airspeed, vehicle_air_data, airflow_aoa/airflow_slip, actuator_motors; a `format = ulog` map names others); topics in the log [instance: messages]: {}",
-            topic_names(&catalog)
-        )));
+    let src = log.sources(map, &mut warnings)?;
+    let timing = log.timing(&src, map, &s.parameters, &mut warnings)?;
+    let (channels, logged_rate_hz) = resample_channels(&topics, &timing, &src, &mut warnings).map_err(err)?;
+    let flight = MeasuredFlight {
+        source: file.to_string(),
+        t_s: timing.base.grid.iter().map(|t| t * 1e-6).collect(),
+        channels,
+        aircraft: map.aircraft.clone(),
+        log: LogMeta {
+            format: "PX4 ULog".into(),
+            logged_rate_hz,
+            resampling: Some(resampling(&timing.base, timing.base_topic, opts)),
+            window: timing.window.text,
+            airborne: timing.window.airborne,
+            aircraft_unknown: false,
+            parameters: s.parameters,
+            warnings,
+            flow_angles: None,
+            origin: src.builtin.origin.clone(),
+            pieces: Vec::new(),
+        },
+    };
+    flight.validate().map_err(|inv| {
+        let src_text = inv.quantity.map_or(String::new(), |q| {
+            source_of(
+                q,
+                &topics,
+                map,
+                &src.mapped,
+                src.builtin.channels.iter().chain(&src.optional),
+            )
+        });
+        err(inv.describe(&src_text, &flight.t_s))
+    })?;
+    Ok(flight)
+}
+
+/// The log decoded: its scan (the parameters), the topics (a repeated time dropped, with a
+/// warning) and the catalog of every topic instance.
+struct Decoded {
+    scan: Scan,
+    topics: BTreeMap<String, Topic>,
+    catalog: BTreeMap<(String, u8), TopicInfo>,
+    warnings: Vec<String>,
+}
+
+/// Scans and decodes the topics the reader and `map` use, at the instances `opts` asks for
+/// (each of which must be in the log).
+fn decode_topics(bytes: &[u8], file: &str, map: &ColumnMap, opts: &ReadOptions) -> Result<Decoded, ReadError> {
+    let s = scan(bytes, file)?;
+    let (mut topics, catalog) = collect(&bytes[..s.end], file, &s.places, &wanted_topics(map), &opts.instances)?;
+    check_instances(opts, &catalog).map_err(|m| ReadError::new(file, 0, 0, m))?;
+    let mut warnings = Vec::new();
+    for (name, tp) in topics.iter_mut() {
+        drop_repeated_times(name, tp, &mut warnings);
     }
-    let mut used = used_fields(&builtin.channels, attitude.as_ref(), &mapped);
-    let base_topic = log.base_topic(map, builtin.rates_topic, &used)?;
-    used.entry(base_topic).or_default();
-    let times: BTreeMap<&str, Vec<f64>> = used
-        .keys()
-        .map(|name| (*name, topics[*name].time_us.iter().map(|&t| t as f64).collect()))
-        .collect();
-    let window = log.window(&s.parameters, &builtin.channels, &times)?;
-    let base = time_base(&times, base_topic, &window, opts).map_err(err)?;
-    for (name, fields) in &used {
-        check_in_window(name, fields, &topics[*name], &times[*name], &base, &mut warnings).map_err(err)?;
+    Ok(Decoded {
+        scan: s,
+        topics,
+        catalog,
+        warnings,
+    })
+}
+
+/// Where every channel is read from: the built-in and optional fields, the attitude quaternion
+/// and the map's channels (which replace the built-in ones of their quantity).
+struct Sources<'m, 't> {
+    builtin: Builtin,
+    optional: Vec<(Quantity, Resolved<'static>)>,
+    attitude: Option<[Resolved<'static>; 4]>,
+    mapped: Vec<Mapped<'m, 't>>,
+}
+
+/// The time base of the read: the topic that sets its step, the used topics' times (µs), the
+/// window and the grid.
+struct Timing<'t> {
+    base_topic: &'t str,
+    times: BTreeMap<&'t str, Vec<f64>>,
+    window: Window,
+    base: TimeBase,
+}
+
+impl<'t> Topics<'t> {
+    /// The channels' sources; an error naming the log's topics when it has none this reader
+    /// knows.
+    fn sources<'m>(&self, map: &'m ColumnMap, warnings: &mut Vec<String>) -> Result<Sources<'m, 't>, ReadError> {
+        let mut builtin = self.builtin_channels(warnings);
+        let mut optional = self.optional_channels();
+        let mut attitude = self.attitude();
+        let mapped = self.map_channels(map)?;
+        map_overrides(map, &mut builtin, &mut optional, &mut attitude);
+        if builtin.channels.is_empty() && attitude.is_none() && mapped.is_empty() {
+            return Err(self.err(format!(
+                "no channel this reader knows is in the log (it reads vehicle_attitude, vehicle_angular_velocity or sensor_combined, vehicle_acceleration, airspeed_validated or airspeed, vehicle_air_data, airflow_aoa/airflow_slip, actuator_motors; a `format = ulog` map names others); topics in the log [instance: messages]: {}",
+                topic_names(self.catalog)
+            )));
+        }
+        Ok(Sources {
+            builtin,
+            optional,
+            attitude,
+            mapped,
+        })
     }
+
+    /// The window and the uniform time base of the used topics, each of them checked finite
+    /// (and its gaps warned of) in the window.
+    fn timing(
+        &self,
+        src: &Sources<'_, 't>,
+        map: &ColumnMap,
+        parameters: &BTreeMap<String, f64>,
+        warnings: &mut Vec<String>,
+    ) -> Result<Timing<'t>, ReadError> {
+        let mut used = used_fields(&src.builtin.channels, src.attitude.as_ref(), &src.mapped);
+        let base_topic = self.base_topic(map, src.builtin.rates_topic, &used)?;
+        used.entry(base_topic).or_default();
+        let times: BTreeMap<&str, Vec<f64>> = used
+            .keys()
+            .map(|name| (*name, self.topics[*name].time_us.iter().map(|&t| t as f64).collect()))
+            .collect();
+        let window = self.window(parameters, &src.builtin.channels, &times)?;
+        let base = time_base(&times, base_topic, &window, self.opts).map_err(|m| self.err(m))?;
+        for (name, fields) in &used {
+            check_in_window(name, fields, &self.topics[*name], &times[*name], &base, warnings)
+                .map_err(|m| self.err(m))?;
+        }
+        Ok(Timing {
+            base_topic,
+            times,
+            window,
+            base,
+        })
+    }
+}
+
+/// Every channel on the time base with the rate it was logged at: the built-in ones, the
+/// attitude's Euler angles, the map's channels, the optional ones (where their topic covers the
+/// window); a warning when the surfaces do not move.
+#[allow(clippy::type_complexity)]
+fn resample_channels(
+    topics: &BTreeMap<String, Topic>,
+    timing: &Timing,
+    src: &Sources,
+    warnings: &mut Vec<String>,
+) -> Result<(BTreeMap<Quantity, Vec<f64>>, BTreeMap<Quantity, f64>), String> {
+    let (times, base) = (&timing.times, &timing.base);
     let mut channels: BTreeMap<Quantity, Vec<f64>> = BTreeMap::new();
     let mut logged_rate_hz = BTreeMap::new();
     let resample = |r: &Resolved| interpolate(&times[r.topic], &topics[r.topic].values[r.field], &base.grid);
-    for (q, r) in &builtin.channels {
+    for (q, r) in &src.builtin.channels {
         channels.insert(*q, resample(r));
         logged_rate_hz.insert(*q, base.rate_hz(&times[r.topic]));
     }
-    if let Some(a) = &attitude {
+    if let Some(a) = &src.attitude {
         let topic = a[0].topic;
-        let euler = attitude_euler(&topics[topic], &times[topic], a, &base.grid).map_err(err)?;
+        let euler = attitude_euler(&topics[topic], &times[topic], a, &base.grid)?;
         for (q, v) in [Quantity::Roll, Quantity::Pitch, Quantity::Yaw].into_iter().zip(euler) {
             channels.insert(q, v);
             logged_rate_hz.insert(q, base.rate_hz(&times[topic]));
         }
     }
-    for (q, e, rs) in &mapped {
+    for (q, e, rs) in &src.mapped {
         let cols: Vec<Vec<f64>> = rs.iter().map(resample).collect();
         channels.insert(
             *q,
@@ -680,39 +864,14 @@ pub fn parse_ulog_with(
             logged_rate_hz.insert(*q, base.rate_hz(&times[r.topic]));
         }
     }
-    for (q, v, rate_hz) in read_optional(&topics, &optional, &base, &mut warnings) {
+    for (q, v, rate_hz) in read_optional(topics, &src.optional, base, warnings) {
         channels.insert(q, v);
         logged_rate_hz.insert(q, rate_hz);
     }
-    if let Some(w) = surface_warning(&topics, &channels) {
+    if let Some(w) = surface_warning(topics, &channels) {
         warnings.push(w);
     }
-    let flight = MeasuredFlight {
-        source: file.to_string(),
-        t_s: base.grid.iter().map(|t| t * 1e-6).collect(),
-        channels,
-        aircraft: map.aircraft.clone(),
-        log: LogMeta {
-            format: "PX4 ULog".into(),
-            logged_rate_hz,
-            resampling: Some(resampling(&base, base_topic, opts)),
-            window: window.text,
-            airborne: window.airborne,
-            aircraft_unknown: false,
-            parameters: s.parameters,
-            warnings,
-            flow_angles: None,
-            origin: builtin.origin,
-            pieces: Vec::new(),
-        },
-    };
-    flight.validate().map_err(|inv| {
-        let src = inv.quantity.map_or(String::new(), |q| {
-            source_of(q, &topics, map, &mapped, builtin.channels.iter().chain(&optional))
-        });
-        err(inv.describe(&src, &flight.t_s))
-    })?;
-    Ok(flight)
+    Ok((channels, logged_rate_hz))
 }
 
 /// A map channel replaces the built-in of the same quantity; the map's channels are its own
@@ -1094,12 +1253,7 @@ impl<'t> Topics<'t> {
             .copied()
             .fold(f64::NEG_INFINITY, f64::max);
         if let Some((w0, w1, text)) = self.opts.chosen_window(first_us, last_us).map_err(|m| self.err(m))? {
-            return Ok(Window {
-                w0,
-                w1,
-                text,
-                airborne: None,
-            });
+            return Ok(Window::chosen(w0, w1, text));
         }
         let airspeed = builtin.iter().find(|(q, _)| *q == Quantity::Airspeed).map(|(_, r)| r);
         let (run, how) = self.in_the_air(parameters, airspeed, last_us);
@@ -1114,20 +1268,14 @@ impl<'t> Topics<'t> {
                 )),
                 airborne: Some(true),
             },
-            None if how.is_empty() => Window {
-                w0: f64::NEG_INFINITY,
-                w1: f64::INFINITY,
-                text: Some("no land detector and no airspeed: the whole log is read, in the air or not".into()),
-                airborne: None,
-            },
-            None => Window {
-                w0: f64::NEG_INFINITY,
-                w1: f64::INFINITY,
-                text: Some(format!(
-                    "never in the air by {how}: the whole log is read, on the ground"
-                )),
-                airborne: Some(false),
-            },
+            None if how.is_empty() => Window::whole_log(
+                "no land detector and no airspeed: the whole log is read, in the air or not".into(),
+                None,
+            ),
+            None => Window::whole_log(
+                format!("never in the air by {how}: the whole log is read, on the ground"),
+                Some(false),
+            ),
         })
     }
 
@@ -1412,6 +1560,30 @@ pub(crate) struct Window {
     pub(crate) w1: f64,
     pub(crate) text: Option<String>,
     pub(crate) airborne: Option<bool>,
+}
+
+impl Window {
+    /// The window the user chose (`--from/--to`, `--whole-log`): whether the vehicle flew in it
+    /// is not judged.
+    pub(crate) fn chosen(w0: f64, w1: f64, text: Option<String>) -> Self {
+        Self {
+            w0,
+            w1,
+            text,
+            airborne: None,
+        }
+    }
+
+    /// The whole log, for the reason `text`; `airborne`: whether the vehicle flew (`None`: no
+    /// way to tell).
+    pub(crate) fn whole_log(text: String, airborne: Option<bool>) -> Self {
+        Self {
+            w0: f64::NEG_INFINITY,
+            w1: f64::INFINITY,
+            text: Some(text),
+            airborne,
+        }
+    }
 }
 
 /// The uniform time base: the window's bounds `lo`…`hi` (µs), the step and the grid.
