@@ -76,6 +76,7 @@ pub mod held_noise;
 pub mod hidden;
 mod homogeneity;
 pub mod instrumental;
+pub mod low_rate;
 pub mod model;
 pub mod noise;
 pub mod oem;

@@ -157,7 +157,7 @@ impl Spec {
 }
 
 /// What the model is run on.
-struct Plant<'a> {
+pub(super) struct Plant<'a> {
     m: Measured<'a>,
     alpha_m: &'a [f64],
 }
@@ -825,9 +825,9 @@ pub struct Inputs<'a> {
     pub max_lag_s: f64,
 }
 
-/// The plant, the manoeuvres, the sandwich blocks and the folds of `inp`; `Err` says why the path
-/// cannot run on these data.
-fn setup<'a>(inp: &Inputs<'a>) -> Result<Setup<Plant<'a>>, String> {
+/// The longitudinal plant, the manoeuvres, the sandwich blocks and the folds of `inp`; `Err` says
+/// why the path cannot run on these data.
+pub(super) fn setup<'a>(inp: &Inputs<'a>) -> Result<Setup<Plant<'a>>, String> {
     let table = inp.table;
     let kin = table.kinematics.as_ref().ok_or("no coefficient could be synthesised")?;
     let (alpha_m, v_m) = match (table.signals.get(&Signal::Alpha), table.signals.get(&Signal::Airspeed)) {
@@ -926,39 +926,9 @@ impl<D: Dynamics> Setup<D> {
     }
 }
 
-/// The output-error analysis of the low-rate path: `C_L`, `C_D`, `C_m` (module doc) and `C_Y`,
-/// `C_l`, `C_n` (`oem_lateral.rs`), each axis where the data allow it. `Err` says why
-/// neither can run.
-pub fn analyse(inp: &Inputs) -> Result<LowRate, String> {
-    let lon = setup(inp).and_then(|s| analyse_axis(inp, s));
-    let lat = super::oem_lateral::setup(inp).and_then(|s| analyse_axis(inp, s));
-    match (lon, lat) {
-        (Err(a), Err(b)) => Err(format!("longitudinal: {a}; lateral: {b}")),
-        (Ok(mut lr), Err(b)) => {
-            lr.notes.push(format!(
-                "C_Y, C_l, C_n not covered: the lateral output error cannot run: {b}"
-            ));
-            Ok(lr)
-        }
-        (Err(a), Ok(mut lr)) => {
-            lr.notes.insert(
-                0,
-                format!("C_L, C_D, C_m not covered: the longitudinal output error cannot run: {a}"),
-            );
-            Ok(lr)
-        }
-        (Ok(mut lr), Ok(lat)) => {
-            lr.coefficients.extend(lat.coefficients);
-            lr.covered.extend(lat.covered);
-            lr.notes.extend(lat.notes);
-            Ok(lr)
-        }
-    }
-}
-
 /// The output-error analysis of one axis's three coefficients: the baseline, the candidates, the
 /// final joint fit and, with pooled manoeuvres, the homogeneity of every added term.
-fn analyse_axis<D: Dynamics>(inp: &Inputs, setup: Setup<D>) -> Result<LowRate, String> {
+pub(super) fn analyse_axis<D: Dynamics>(inp: &Inputs, setup: Setup<D>) -> Result<LowRate, String> {
     let Baseline { spec, th0, dropped } = baseline_spec::<D>(inp)?;
     let base = setup.fit_relaxed(&spec, th0)?;
     let h_base = setup

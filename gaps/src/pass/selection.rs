@@ -5,7 +5,7 @@
 use super::prepare::Prepared;
 use super::synthesis::Synthesised;
 use crate::model::COEFFICIENTS;
-use crate::{fit::analyse_coefficient, oem, CoefficientGap, GapSettings};
+use crate::{fit::analyse_coefficient, low_rate, oem, CoefficientGap, GapSettings};
 
 /// Every coefficient's fit, extension and verdict.
 pub struct Selected {
@@ -43,7 +43,7 @@ pub fn select(prepared: &Prepared, syn: &Synthesised, settings: &GapSettings, no
             coefficients.push(g);
         }
     }
-    // Below the equation-error path's rate, `C_L`, `C_D`, `C_m` by output error ([`oem`]).
+    // Below the equation-error path's rate, `C_L`, `C_D`, `C_m` by output error ([`low_rate`]).
     let low_rate = 1.0 / h < crate::io::quality::MIN_RATE_HZ;
     let low_rate = low_rate
         && low_rate_path(&mut coefficients, notes, h, || oem::Inputs {
@@ -62,7 +62,7 @@ pub fn select(prepared: &Prepared, syn: &Synthesised, settings: &GapSettings, no
 }
 
 /// The low-rate path: `C_L`, `C_D`, `C_m` of `coefficients` replaced by their output-error
-/// analysis ([`oem::analyse`]); the other coefficients get no verdict and name nothing (the
+/// analysis ([`low_rate::analyse`]); the other coefficients get no verdict and name nothing (the
 /// equation-error path differentiates over ±0.1 s, which this rate cannot resolve). False, with a
 /// note saying why, when the path cannot run.
 fn low_rate_path<'a>(
@@ -73,7 +73,7 @@ fn low_rate_path<'a>(
 ) -> bool {
     let rate = 1.0 / h;
     let min = crate::io::quality::MIN_RATE_HZ;
-    match oem::analyse(&inputs()) {
+    match low_rate::analyse(&inputs()) {
         Ok(lr) => {
             let covered: Vec<&str> = lr.covered.iter().map(|&c| COEFFICIENTS[c]).collect();
             coefficients.retain(|c| !covered.contains(&c.name.as_str()));
