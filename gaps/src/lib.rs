@@ -76,6 +76,8 @@ pub mod held_noise;
 pub mod hidden;
 mod homogeneity;
 pub mod instrumental;
+pub mod low_rate;
+mod low_rate_fem;
 pub mod model;
 pub mod noise;
 pub mod oem;
@@ -152,6 +154,25 @@ pub struct GapSettings {
     /// in blocks of `k` samples first ([`MeasuredFlight::block_means`], `k = ⌊rate/cap⌋`), and
     /// the report says so. Default [`MAX_ANALYSIS_RATE_HZ`]; `None`: the rate as logged.
     pub max_rate_hz: Option<f64>,
+    /// The method of the low-rate path (below [`crate::io::quality::MIN_RATE_HZ`]). Default
+    /// [`LowRateMethod::OutputError`]: the filter error method detected more but named input
+    /// delays on clean simulated flights (docs/model-gaps.md, "Low-rate data").
+    pub low_rate_method: LowRateMethod,
+}
+
+/// How the low-rate path fits an axis: output error, or the filter error method (a steady-state
+/// Kalman filter in the loop) where the output-error residuals show process noise
+/// (docs/model-gaps.md, "Low-rate data").
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum LowRateMethod {
+    /// The filter error method where the likelihood-ratio test finds process noise, else output
+    /// error.
+    Test,
+    /// Output error on every axis.
+    #[default]
+    OutputError,
+    /// The filter error method on every axis where a filter can be formed.
+    FilterError,
 }
 
 /// The default cap of the analysis rate, Hz. What the analysis resolves lies far below it: the
@@ -177,6 +198,7 @@ impl Default for GapSettings {
             errors_in_variables: Some(MonteCarlo::default()),
             flow_angles: FlowAngleChoice::Auto,
             max_rate_hz: Some(MAX_ANALYSIS_RATE_HZ),
+            low_rate_method: LowRateMethod::OutputError,
         }
     }
 }

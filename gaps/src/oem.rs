@@ -38,8 +38,13 @@
 //! `estimate_noise`). The core's filter ([`aerosid_core::fem::FilterError`]) is not used here: its
 //! sensitivities of an RK4 step are central differences in every parameter (`2·NP` integrations
 //! per sample), five to ten times the cost of the sensitivity equations for the dozens of fits a
-//! candidate test makes; in turbulence (no process noise here) the price is coloured residuals,
-//! which the σ below accounts for.
+//! candidate test makes.
+//!
+//! **With process noise** (turbulence) the output error leaves the gusts' response in coloured
+//! residuals; where an axis's residuals show it (the likelihood-ratio test of `low_rate_fem.rs`),
+//! the same estimation runs with a steady-state Kalman filter in the loop — the filter error
+//! method with the gain held fixed (`Dynamics::run` with a gain): `e_k` are then the
+//! innovations, `R` their covariance, and everything below is unchanged.
 //!
 //! ## Uncertainty
 //! `σ` is the block sandwich `M⁻¹ (Σ_b s̃_b s̃_bᵀ) M⁻¹` (`M = Σ HᵀR⁻¹H`, `s_b = Σ_{k∈b} HᵀR⁻¹e_k`
@@ -117,7 +122,7 @@ pub(super) struct Spec {
 }
 
 impl Spec {
-    fn new(covered: [usize; 3], terms: Vec<(usize, Term)>) -> Self {
+    pub(super) fn new(covered: [usize; 3], terms: Vec<(usize, Term)>) -> Self {
         let by_coef = covered.map(|coef| {
             terms
                 .iter()
@@ -157,7 +162,7 @@ impl Spec {
 }
 
 /// What the model is run on.
-struct Plant<'a> {
+pub(super) struct Plant<'a> {
     m: Measured<'a>,
     alpha_m: &'a [f64],
 }
@@ -273,9 +278,20 @@ pub(super) trait Dynamics {
     }
 
     /// The simulation of every manoeuvre with `θ`: outputs, coefficients and (with `sens`) the
-    /// output sensitivities. `None` when the simulation leaves the plausible range or a term is
+    /// output sensitivities. With a `gain` `K` (`NX × NY`) it is the filter error method's
+    /// one-step prediction instead: at every sample the state is corrected by the innovation,
+    /// `x̂ = x̂⁻ + K(y − ŷ⁻)`, and, the gain held fixed, its sensitivity `S = S⁻ − K ∂ŷ⁻/∂θ`
+    /// (Jategaonkar 2015, eq. 5.17–5.21 with a steady-state gain); the outputs are the
+    /// predictions `ŷ⁻`. `None` when the simulation leaves the plausible range or a term is
     /// unavailable.
-    fn run(&self, spec: &Spec, th: &[f64], pieces: &[(usize, usize)], sens: bool) -> Option<Run> {
+    fn run(
+        &self,
+        spec: &Spec,
+        th: &[f64],
+        pieces: &[(usize, usize)],
+        sens: bool,
+        gain: Option<&DMatrix<f64>>,
+    ) -> Option<Run> {
         let n = self.y_m().len();
         let np = spec.np();
         let mut out = Run {
@@ -308,6 +324,22 @@ pub(super) trait Dynamics {
                 } else {
                     None
                 };
+                let mut first = Some((pt.xdot, stage1));
+                if let Some(kg) = gain {
+                    let innovation = DVector::from_fn(NY, |i, _| self.y_m()[k][i] - pt.y[i]);
+                    let dx = kg * innovation;
+                    for (xi, d) in x.as_mut().iter_mut().zip(dx.iter()) {
+                        *xi += d;
+                    }
+                    if sens {
+                        sm -= kg * &out.h[k];
+                    }
+                    if !self.plausible(&x) {
+                        return None;
+                    }
+                    // The first stage is taken again at the corrected state.
+                    first = None;
+                }
                 if k + 1 == b {
                     break;
                 }
@@ -338,7 +370,6 @@ pub(super) trait Dynamics {
                 // Sub-steps of at most MAX_STEP_S (the inputs interpolated at their fractions).
                 let m = ((hs / Self::MAX_STEP_S).ceil() as usize).max(1);
                 let hm = hs / m as f64;
-                let mut first = Some((pt.xdot, stage1));
                 for j in 0..m {
                     let f0 = j as f64 / m as f64;
                     let (k1, s1) = match first.take() {
@@ -545,7 +576,7 @@ fn cost(e: &[[f64; NY]], w: &[f64; NY]) -> f64 {
 }
 
 /// The residuals' mean square per output (floored).
-fn noise_of(e: &[[f64; NY]]) -> [f64; NY] {
+pub(super) fn noise_of(e: &[[f64; NY]]) -> [f64; NY] {
     let n = e.len().max(1) as f64;
     core::array::from_fn(|i| (e.iter().map(|r| r[i] * r[i]).sum::<f64>() / n).max(1e-18))
 }
@@ -602,7 +633,7 @@ fn block_sandwich_sigma(
 pub(super) struct Setup<D> {
     pub(super) plant: D,
     /// The simulated pieces (each starting from the measured state).
-    pieces: Vec<(usize, usize)>,
+    pub(super) pieces: Vec<(usize, usize)>,
     /// Sandwich blocks.
     sandwich: Vec<(usize, usize)>,
     /// Held-out blocks and their fold.
@@ -611,6 +642,8 @@ pub(super) struct Setup<D> {
     folds: usize,
     /// How the folds were formed, in words.
     fold_note: String,
+    /// The filter error method's steady-state gain (`NX × NY`); `None`: output error.
+    gain: Option<DMatrix<f64>>,
 }
 
 impl<D: Dynamics> Setup<D> {
@@ -621,7 +654,7 @@ impl<D: Dynamics> Setup<D> {
         let mut th = th0;
         let mut run = self
             .plant
-            .run(spec, &th, &self.pieces, true)
+            .run(spec, &th, &self.pieces, true, self.gain.as_ref())
             .ok_or("the simulation with the starting values leaves the plausible range")?;
         let mut e = self.plant.residuals(&run);
         let mut converged = false;
@@ -639,7 +672,7 @@ impl<D: Dynamics> Setup<D> {
             let mut accepted = false;
             for _ in 0..8 {
                 let th1: Vec<f64> = th.iter().zip(delta.iter()).map(|(t, d)| t + step * d).collect();
-                if let Some(r1) = self.plant.run(spec, &th1, &self.pieces, true) {
+                if let Some(r1) = self.plant.run(spec, &th1, &self.pieces, true, self.gain.as_ref()) {
                     let e1 = self.plant.residuals(&r1);
                     if cost(&e1, &w) <= c0 {
                         th = th1;
@@ -681,11 +714,63 @@ impl<D: Dynamics> Setup<D> {
         })
     }
 
+    /// The sample interval, s (the mean over the record).
+    pub(super) fn step_s(&self) -> f64 {
+        let t_s = self.plant.t_s();
+        let n = t_s.len();
+        (t_s[n - 1] - t_s[0]) / (n - 1).max(1) as f64
+    }
+
+    /// Runs the filter error method with the steady-state gain `k` (`NX × NY`) from now on.
+    pub(super) fn set_gain(&mut self, k: DMatrix<f64>) {
+        self.gain = Some(k);
+    }
+
+    /// The method that runs, in words.
+    fn method(&self) -> &'static str {
+        if self.gain.is_some() {
+            "filter error"
+        } else {
+            "output error"
+        }
+    }
+
+    /// The innovations (measured minus one-step predicted outputs) of the filter with gain `k`
+    /// at `θ`; `None` when the filtered simulation leaves the plausible range.
+    pub(super) fn innovations(&self, spec: &Spec, th: &[f64], k: &DMatrix<f64>) -> Option<Vec<[f64; NY]>> {
+        let run = self.plant.run(spec, th, &self.pieces, false, Some(k))?;
+        Some(self.plant.residuals(&run))
+    }
+
+    /// `(∂f/∂x, ∂h/∂x)` at `θ` averaged over the record at the measured states (up to 200
+    /// evenly spaced samples): the linearisation of the steady-state filter. `None` when no
+    /// sample gives both.
+    pub(super) fn mean_jacobians(&self, spec: &Spec, th: &[f64]) -> Option<(DMatrix<f64>, DMatrix<f64>)> {
+        let n = self.plant.y_m().len();
+        let mut sum: Option<(DMatrix<f64>, DMatrix<f64>)> = None;
+        let mut count = 0.0;
+        for k in (0..n).step_by((n / 200).max(1)) {
+            let x = self.plant.x0(k);
+            if !self.plant.plausible(&x) {
+                continue;
+            }
+            let Some((a, c)) = self.plant.dx(spec, x, k, 0.0, th) else {
+                continue;
+            };
+            sum = Some(match sum {
+                Some((sa, sc)) => (sa + a, sc + c),
+                None => (a, c),
+            });
+            count += 1.0;
+        }
+        sum.map(|(a, c)| (a / count, c / count))
+    }
+
     /// The baseline fit with the noise relaxation.
     fn fit_relaxed(&self, spec: &Spec, th0: Vec<f64>) -> Result<Fit, String> {
         let run = self
             .plant
-            .run(spec, &th0, &self.pieces, false)
+            .run(spec, &th0, &self.pieces, false, self.gain.as_ref())
             .ok_or("the simulation with the equation-error starting values leaves the plausible range")?;
         let mut r = noise_of(&self.plant.residuals(&run));
         let mut fit = self.fit(spec, th0, r.map(|x| 1.0 / x))?;
@@ -825,9 +910,9 @@ pub struct Inputs<'a> {
     pub max_lag_s: f64,
 }
 
-/// The plant, the manoeuvres, the sandwich blocks and the folds of `inp`; `Err` says why the path
-/// cannot run on these data.
-fn setup<'a>(inp: &Inputs<'a>) -> Result<Setup<Plant<'a>>, String> {
+/// The longitudinal plant, the manoeuvres, the sandwich blocks and the folds of `inp`; `Err` says
+/// why the path cannot run on these data.
+pub(super) fn setup<'a>(inp: &Inputs<'a>) -> Result<Setup<Plant<'a>>, String> {
     let table = inp.table;
     let kin = table.kinematics.as_ref().ok_or("no coefficient could be synthesised")?;
     let (alpha_m, v_m) = match (table.signals.get(&Signal::Alpha), table.signals.get(&Signal::Airspeed)) {
@@ -922,43 +1007,14 @@ impl<D: Dynamics> Setup<D> {
             fold,
             folds,
             fold_note,
-        }
-    }
-}
-
-/// The output-error analysis of the low-rate path: `C_L`, `C_D`, `C_m` (module doc) and `C_Y`,
-/// `C_l`, `C_n` (`oem_lateral.rs`), each axis where the data allow it. `Err` says why
-/// neither can run.
-pub fn analyse(inp: &Inputs) -> Result<LowRate, String> {
-    let lon = setup(inp).and_then(|s| analyse_axis(inp, s));
-    let lat = super::oem_lateral::setup(inp).and_then(|s| analyse_axis(inp, s));
-    match (lon, lat) {
-        (Err(a), Err(b)) => Err(format!("longitudinal: {a}; lateral: {b}")),
-        (Ok(mut lr), Err(b)) => {
-            lr.notes.push(format!(
-                "C_Y, C_l, C_n not covered: the lateral output error cannot run: {b}"
-            ));
-            Ok(lr)
-        }
-        (Err(a), Ok(mut lr)) => {
-            lr.notes.insert(
-                0,
-                format!("C_L, C_D, C_m not covered: the longitudinal output error cannot run: {a}"),
-            );
-            Ok(lr)
-        }
-        (Ok(mut lr), Ok(lat)) => {
-            lr.coefficients.extend(lat.coefficients);
-            lr.covered.extend(lat.covered);
-            lr.notes.extend(lat.notes);
-            Ok(lr)
+            gain: None,
         }
     }
 }
 
 /// The output-error analysis of one axis's three coefficients: the baseline, the candidates, the
 /// final joint fit and, with pooled manoeuvres, the homogeneity of every added term.
-fn analyse_axis<D: Dynamics>(inp: &Inputs, setup: Setup<D>) -> Result<LowRate, String> {
+pub(super) fn analyse_axis<D: Dynamics>(inp: &Inputs, setup: Setup<D>) -> Result<LowRate, String> {
     let Baseline { spec, th0, dropped } = baseline_spec::<D>(inp)?;
     let base = setup.fit_relaxed(&spec, th0)?;
     let h_base = setup
@@ -991,6 +1047,20 @@ fn analyse_axis<D: Dynamics>(inp: &Inputs, setup: Setup<D>) -> Result<LowRate, S
         covered: D::COVERED.to_vec(),
         notes,
     })
+}
+
+/// Residuals per sample and output.
+pub(super) type Residuals = Vec<[f64; NY]>;
+
+/// The output-error baseline of an axis (its terms with a column, the noise relaxed): the
+/// terms, `θ` and the residuals — what the process-noise test of `low_rate_fem.rs` starts from.
+pub(super) fn output_error_baseline<D: Dynamics>(
+    inp: &Inputs,
+    setup: &Setup<D>,
+) -> Result<(Spec, Vec<f64>, Residuals), String> {
+    let Baseline { spec, th0, .. } = baseline_spec::<D>(inp)?;
+    let fit = setup.fit_relaxed(&spec, th0)?;
+    Ok((fit.spec, fit.th, fit.e))
 }
 
 /// An axis's baseline before its fit.
@@ -1083,7 +1153,8 @@ impl<'a, D: Dynamics> Axis<'a, D> {
             })
             .collect();
         let mut notes = vec![format!(
-            "output error ({}): {}; R relaxed to the residuals' mean square ({}); held-out: {}, the fits without a fold by one Gauss–Newton step",
+            "{} ({}): {}; R relaxed to the residuals' mean square ({}); held-out: {}, the fits without a fold by one Gauss–Newton step",
+            self.setup.method(),
             D::COVERED.map(|c| COEFFICIENTS[c]).join(", "),
             D::READING,
             noise.join(", "),
@@ -1289,7 +1360,7 @@ impl<'a, D: Dynamics> Axis<'a, D> {
             split: n_id,
         };
         let (r2b, r2e) = (cv_r2(base, &self.h_base), cv_r2(fin, h_fin));
-        let verdict = verdict(D::OUTPUTS[o], &added, &refused, r2b, r2e);
+        let verdict = verdict(self.setup.method(), D::OUTPUTS[o], &added, &refused, r2b, r2e);
         let model_of = |f: &Fit| -> Vec<(Term, f64)> { f.spec.of(c).iter().map(|(j, t)| (*t, f.th[*j])).collect() };
         CoefficientGap {
             name: COEFFICIENTS[c].to_string(),
@@ -1351,8 +1422,14 @@ impl<'a, D: Dynamics> Axis<'a, D> {
             .unzip();
         ModelFit {
             estimator: format!(
-                "output error (Gauss–Newton; {} simulated; judged on {})",
+                "{} (Gauss–Newton; {} simulated{}; judged on {})",
+                self.setup.method(),
                 D::STATES,
+                if self.setup.gain.is_some() {
+                    ", corrected by a steady-state Kalman filter"
+                } else {
+                    ""
+                },
                 D::OUTPUTS[o]
             ),
             solution: if f.converged { "converged" } else { "iteration limit" }.into(),
@@ -1396,26 +1473,27 @@ fn likelihood_notes(c: usize, round: usize, scored: &[Scored]) -> Vec<String> {
     out
 }
 
-/// A coefficient's verdict on the low-rate path, judged on `output`: the terms added and those
-/// whose estimates do not agree across the manoeuvres, with the held-out R² before and after.
-fn verdict(output: &str, added: &[Added], refused: &[&Homogeneity], r2b: f64, r2e: f64) -> String {
+/// A coefficient's verdict on the low-rate path by `method`, judged on `output`: the terms added
+/// and those whose estimates do not agree across the manoeuvres, with the held-out R² before and
+/// after.
+fn verdict(method: &str, output: &str, added: &[Added], refused: &[&Homogeneity], r2b: f64, r2e: f64) -> String {
     let not_confirmed = refused.iter().map(|h| h.term.as_str()).collect::<Vec<_>>().join(", ");
     if added.is_empty() && !refused.is_empty() {
         format!(
-            "not confirmed (output error): {not_confirmed} predicted held-out manoeuvres better, but its estimates do not agree across the manoeuvres (see `homogeneity`); held-out R² of {output} {r2b:.3}"
+            "not confirmed ({method}): {not_confirmed} predicted held-out manoeuvres better, but its estimates do not agree across the manoeuvres (see `homogeneity`); held-out R² of {output} {r2b:.3}"
         )
     } else if added.is_empty() {
         format!(
-            "nothing missing (output error): no candidate improves the held-out prediction of {output} beyond noise; held-out R² {r2b:.3}"
+            "nothing missing ({method}): no candidate improves the held-out prediction of {output} beyond noise; held-out R² {r2b:.3}"
         )
     } else if !refused.is_empty() {
         format!(
-            "extended (output error): {}; held-out R² of {output} {r2b:.3} → {r2e:.3}; not confirmed (estimates do not agree across manoeuvres): {not_confirmed}",
+            "extended ({method}): {}; held-out R² of {output} {r2b:.3} → {r2e:.3}; not confirmed (estimates do not agree across manoeuvres): {not_confirmed}",
             added.iter().map(|a| a.term.as_str()).collect::<Vec<_>>().join(", ")
         )
     } else {
         format!(
-            "extended (output error): {}; held-out R² of {output} {r2b:.3} → {r2e:.3}",
+            "extended ({method}): {}; held-out R² of {output} {r2b:.3} → {r2e:.3}",
             added.iter().map(|a| a.term.as_str()).collect::<Vec<_>>().join(", ")
         )
     }
@@ -1526,13 +1604,14 @@ fn lowest_form<F>(c: usize, scored: &[(CandidateScore, F)], best: &mut usize) ->
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::gaps::{hidden, preprocess, GapSettings};
+    use nalgebra::DMatrix;
 
     /// `θ` of `terms` by least squares on the synthesised coefficients: a plausible point,
     /// coefficient by coefficient.
-    fn ls_start(table: &Table, refs: &TermRefs, covered: [usize; 3], terms: &[(usize, Term)]) -> Vec<f64> {
+    pub(crate) fn ls_start(table: &Table, refs: &TermRefs, covered: [usize; 3], terms: &[(usize, Term)]) -> Vec<f64> {
         let mut th = Vec::new();
         for c in covered {
             let cols: Vec<Vec<f64>> = terms
@@ -1547,9 +1626,16 @@ mod tests {
 
     /// Every column of the output sensitivities equals central differences of the simulated
     /// outputs (relative tolerance per column, see the tests).
-    fn assert_sensitivities<D: Dynamics>(plant: &D, spec: &Spec, th: &[f64], pieces: &[(usize, usize)], tol: f64) {
+    pub(crate) fn assert_sensitivities<D: Dynamics>(
+        plant: &D,
+        spec: &Spec,
+        th: &[f64],
+        pieces: &[(usize, usize)],
+        gain: Option<&DMatrix<f64>>,
+        tol: f64,
+    ) {
         let run = plant
-            .run(spec, th, pieces, true)
+            .run(spec, th, pieces, true, gain)
             .expect("the simulation stays in range");
         let n = plant.y_m().len();
         for j in 0..spec.np() {
@@ -1557,7 +1643,7 @@ mod tests {
             let at = |d: f64| {
                 let mut t = th.to_vec();
                 t[j] += d;
-                plant.run(spec, &t, pieces, false).expect("in range").yhat
+                plant.run(spec, &t, pieces, false, gain).expect("in range").yhat
             };
             let (up, dn) = (at(step), at(-step));
             let (mut err, mut norm) = (0.0, 0.0);
@@ -1578,39 +1664,70 @@ mod tests {
         }
     }
 
-    /// The output sensitivities of the simulation (the forward sensitivity equations integrated
-    /// with the states, with the chains through `C_L²` in `C_D` and `α̇` in `C_m`, and through
-    /// `β̇` in `C_l`, `C_n`) equal central differences of the simulated outputs, on both axes.
-    /// RK4 applied to the states and sensitivities together differentiates the discrete step
-    /// exactly; what differs is the central differences inside (`∂f/∂x`, the chain partials:
-    /// relative steps 10⁻⁶, errors ~10⁻¹⁰) and this test's own (relative step 10⁻⁶ of `θ`): a
-    /// relative tolerance of 10⁻⁵ per column leaves room for both.
+    /// A simulated 20 s flight in light turbulence averaged to 10 Hz, synthesised, with the
+    /// eq. 3 baselines: what the plants of both axes run on in the tests.
+    pub(crate) struct Fixture {
+        f: crate::io::measured::MeasuredFlight,
+        pre: crate::gaps::Preprocessed,
+        refs: TermRefs,
+        baselines: [Vec<Term>; 6],
+        pieces: [(usize, usize); 1],
+        s: GapSettings,
+    }
+
+    impl Fixture {
+        pub(crate) fn new() -> Self {
+            let fast = hidden::flight(None, 20.0, 7, true).expect("the simulator flies");
+            let f = fast.block_means(10);
+            let h = f.t_s[1] - f.t_s[0];
+            let s = GapSettings::default();
+            let baselines: [Vec<Term>; 6] = core::array::from_fn(Term::eq3);
+            let pre = preprocess(&f, h, &s, &baselines);
+            let refs = TermRefs {
+                alpha_break_rad: 0.1,
+                airspeed_mps: 18.0,
+                mach: 0.0,
+            };
+            let pieces = [(0, f.len())];
+            Self {
+                f,
+                pre,
+                refs,
+                baselines,
+                pieces,
+                s,
+            }
+        }
+
+        pub(crate) fn inputs(&self) -> Inputs<'_> {
+            Inputs {
+                table: &self.pre.table,
+                aircraft: &self.f.aircraft,
+                refs: &self.refs,
+                baselines: &self.baselines,
+                pieces: &self.pieces,
+                n_id: self.f.len() * 6 / 10,
+                threshold_t2: 20.0,
+                threshold_blocks: 10,
+                cv: self.s.cv,
+                max_lag_s: self.s.max_lag_s,
+            }
+        }
+    }
+
+    /// The output sensitivities of the longitudinal simulation (the forward sensitivity equations
+    /// integrated with the states, with the chains through `C_L²` in `C_D` and `α̇` in `C_m`)
+    /// equal central differences of the simulated outputs, without and with a state filter in
+    /// the loop (the filter error method's gain, here a fixed correction of α and `q` by their
+    /// own innovations). RK4 applied to the states and sensitivities together differentiates the
+    /// discrete step exactly, and the filter's update is linear in the state; what differs is the
+    /// central differences inside (`∂f/∂x`, the chain partials: relative steps 10⁻⁶, errors
+    /// ~10⁻¹⁰) and this test's own (relative step 10⁻⁶ of `θ`): a relative tolerance of 10⁻⁵ per
+    /// column leaves room for both. The lateral axis: `oem_lateral.rs`.
     #[test]
     fn the_sensitivities_match_differences_of_the_simulation() {
-        let fast = hidden::flight(None, 20.0, 7, true).expect("the simulator flies");
-        let f = fast.block_means(10);
-        let h = f.t_s[1] - f.t_s[0];
-        let s = GapSettings::default();
-        let baselines: [Vec<Term>; 6] = core::array::from_fn(Term::eq3);
-        let pre = preprocess(&f, h, &s, &baselines);
-        let refs = TermRefs {
-            alpha_break_rad: 0.1,
-            airspeed_mps: 18.0,
-            mach: 0.0,
-        };
-        let pieces = [(0, f.len())];
-        let inp = Inputs {
-            table: &pre.table,
-            aircraft: &f.aircraft,
-            refs: &refs,
-            baselines: &baselines,
-            pieces: &pieces,
-            n_id: f.len() * 6 / 10,
-            threshold_t2: 20.0,
-            threshold_blocks: 10,
-            cv: s.cv,
-            max_lag_s: s.max_lag_s,
-        };
+        let fx = Fixture::new();
+        let inp = fx.inputs();
         use Term::*;
         let lon = vec![
             (0, One),
@@ -1626,34 +1743,13 @@ mod tests {
             (4, Elevator),
             (4, AlphaDot),
         ];
-        let th = ls_start(&pre.table, &refs, COVERED, &lon);
+        let th = ls_start(inp.table, inp.refs, COVERED, &lon);
         let st = setup(&inp).expect("the longitudinal path runs on this flight");
-        assert_sensitivities(&st.plant, &Spec::new(COVERED, lon), &th, &pieces, 1e-5);
-        // The lateral point: the simulator's airframe (`SimAirframe::skywalker_2013_mod`), with
-        // small β̇ and α·β terms (least squares on the synthesised lateral coefficients at 10 Hz
-        // can start with an unstable roll mode).
-        let lat_at = [
-            (2, One, 0.0),
-            (2, Beta, -0.98),
-            (2, Rudder, -0.2),
-            (3, One, 0.0),
-            (3, Beta, -0.12),
-            (3, P, -1.0),
-            (3, R, 0.14),
-            (3, Aileron, 0.25),
-            (3, Rudder, -0.037),
-            (3, BetaDot, 0.05),
-            (5, One, 0.0),
-            (5, Beta, 0.25),
-            (5, P, 0.022),
-            (5, R, -1.0),
-            (5, Rudder, 0.1),
-            (5, BetaDot, -0.05),
-            (5, AlphaBeta, 0.5),
-        ];
-        let lat: Vec<(usize, Term)> = lat_at.iter().map(|(c, t, _)| (*c, *t)).collect();
-        let th: Vec<f64> = lat_at.iter().map(|x| x.2).collect();
-        let st = super::super::oem_lateral::setup(&inp).expect("the lateral path runs on this flight");
-        assert_sensitivities(&st.plant, &Spec::new([2, 3, 5], lat), &th, &st.pieces, 1e-5);
+        let spec = Spec::new(COVERED, lon);
+        assert_sensitivities(&st.plant, &spec, &th, inp.pieces, None, 1e-5);
+        let mut gain = DMatrix::<f64>::zeros(2, NY);
+        gain[(0, 0)] = 0.3;
+        gain[(1, 1)] = 0.3;
+        assert_sensitivities(&st.plant, &spec, &th, inp.pieces, Some(&gain), 1e-5);
     }
 }

@@ -231,3 +231,53 @@ pub(super) fn setup<'a>(inp: &Inputs<'a>) -> Result<Setup<Lateral<'a>>, String> 
         inp,
     ))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::super::oem::tests::{assert_sensitivities, Fixture};
+    use super::*;
+    use nalgebra::DMatrix;
+
+    /// The output sensitivities of the lateral simulation (the chains through `β̇` in `C_l`,
+    /// `C_n`, the RK4 sub-steps and the restarts) equal central differences of the simulated
+    /// outputs, without and with a state filter in the loop; the tolerance is the longitudinal
+    /// test's (`oem.rs`), for the same reasons.
+    #[test]
+    fn the_lateral_sensitivities_match_differences_of_the_simulation() {
+        let fx = Fixture::new();
+        let inp = fx.inputs();
+        use Term::*;
+        // The simulator's airframe (`SimAirframe::skywalker_2013_mod`), with small β̇ and α·β
+        // terms (least squares on the synthesised lateral coefficients at 10 Hz can start with
+        // an unstable roll mode).
+        let lat_at = [
+            (2, One, 0.0),
+            (2, Beta, -0.98),
+            (2, Rudder, -0.2),
+            (3, One, 0.0),
+            (3, Beta, -0.12),
+            (3, P, -1.0),
+            (3, R, 0.14),
+            (3, Aileron, 0.25),
+            (3, Rudder, -0.037),
+            (3, BetaDot, 0.05),
+            (5, One, 0.0),
+            (5, Beta, 0.25),
+            (5, P, 0.022),
+            (5, R, -1.0),
+            (5, Rudder, 0.1),
+            (5, BetaDot, -0.05),
+            (5, AlphaBeta, 0.5),
+        ];
+        let lat: Vec<(usize, Term)> = lat_at.iter().map(|(c, t, _)| (*c, *t)).collect();
+        let th: Vec<f64> = lat_at.iter().map(|x| x.2).collect();
+        let st = setup(&inp).expect("the lateral path runs on this flight");
+        let spec = Spec::new([2, 3, 5], lat);
+        assert_sensitivities(&st.plant, &spec, &th, &st.pieces, None, 1e-5);
+        let mut gain = DMatrix::<f64>::zeros(3, NY);
+        for i in 0..3 {
+            gain[(i, i)] = 0.3;
+        }
+        assert_sensitivities(&st.plant, &spec, &th, &st.pieces, Some(&gain), 1e-5);
+    }
+}

@@ -5,7 +5,7 @@
 use super::prepare::Prepared;
 use super::synthesis::Synthesised;
 use crate::model::COEFFICIENTS;
-use crate::{fit::analyse_coefficient, oem, CoefficientGap, GapSettings};
+use crate::{fit::analyse_coefficient, low_rate, oem, CoefficientGap, GapSettings};
 
 /// Every coefficient's fit, extension and verdict.
 pub struct Selected {
@@ -43,10 +43,10 @@ pub fn select(prepared: &Prepared, syn: &Synthesised, settings: &GapSettings, no
             coefficients.push(g);
         }
     }
-    // Below the equation-error path's rate, `C_L`, `C_D`, `C_m` by output error ([`oem`]).
+    // Below the equation-error path's rate, `C_L`, `C_D`, `C_m` by output error ([`low_rate`]).
     let low_rate = 1.0 / h < crate::io::quality::MIN_RATE_HZ;
     let low_rate = low_rate
-        && low_rate_path(&mut coefficients, notes, h, || oem::Inputs {
+        && low_rate_path(&mut coefficients, notes, h, settings, || oem::Inputs {
             table,
             aircraft: &prepared.flight.aircraft,
             refs: &syn.refs,
@@ -62,18 +62,19 @@ pub fn select(prepared: &Prepared, syn: &Synthesised, settings: &GapSettings, no
 }
 
 /// The low-rate path: `C_L`, `C_D`, `C_m` of `coefficients` replaced by their output-error
-/// analysis ([`oem::analyse`]); the other coefficients get no verdict and name nothing (the
+/// analysis ([`low_rate::analyse`]); the other coefficients get no verdict and name nothing (the
 /// equation-error path differentiates over ±0.1 s, which this rate cannot resolve). False, with a
 /// note saying why, when the path cannot run.
 fn low_rate_path<'a>(
     coefficients: &mut Vec<CoefficientGap>,
     notes: &mut Vec<String>,
     h: f64,
+    settings: &GapSettings,
     inputs: impl FnOnce() -> oem::Inputs<'a>,
 ) -> bool {
     let rate = 1.0 / h;
     let min = crate::io::quality::MIN_RATE_HZ;
-    match oem::analyse(&inputs()) {
+    match low_rate::analyse(&inputs(), settings.low_rate_method) {
         Ok(lr) => {
             let covered: Vec<&str> = lr.covered.iter().map(|&c| COEFFICIENTS[c]).collect();
             coefficients.retain(|c| !covered.contains(&c.name.as_str()));
@@ -93,7 +94,7 @@ fn low_rate_path<'a>(
             notes.insert(
                 0,
                 format!(
-                    "method: the data are at {rate:.1} Hz, below the {min} Hz the equation-error path needs (it smooths and differentiates over ±0.1 s), so {} are fitted and their candidates tested by output error (the low-rate path, docs/model-gaps.md)",
+                    "method: the data are at {rate:.1} Hz, below the {min} Hz the equation-error path needs (it smooths and differentiates over ±0.1 s), so {} are fitted and their candidates tested by output error, or by the filter error method on an axis whose residuals show process noise (the low-rate path, docs/model-gaps.md)",
                     covered.join(", ")
                 ),
             );
