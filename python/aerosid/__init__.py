@@ -47,6 +47,7 @@ GAPS_OPTIONS: Dict[str, Any] = {
     "compatibility": True,
     "baseline": None,
     "max_rate_hz": 50.0,
+    "low_rate_method": "output-error",
     "alpha": 0.01,
     "gain_alpha": 0.01,
 }
@@ -158,8 +159,8 @@ def gaps(
 
     ``options``: ``air_data`` (auto, measured, reconstructed, fused), ``flow_angles`` (auto, vanes,
     estimated, none), ``corrections`` (False keeps the named sensor errors), ``compatibility``,
-    ``baseline`` (e.g. ``"CL=1,alpha,dV"``), ``max_rate_hz`` (None: as logged), ``alpha``,
-    ``gain_alpha``; for files ``segments`` (``[(from_s, to_s), ...]`` seconds from each file's
+    ``baseline`` (e.g. ``"CL=1,alpha,dV"``), ``max_rate_hz`` (None: as logged),
+    ``low_rate_method`` (output-error, filter-error, test: below 20 Hz), ``alpha``, ``gain_alpha``; for files ``segments`` (``[(from_s, to_s), ...]`` seconds from each file's
     first sample, each its own manoeuvre: ``--segment``), and for ``.ulg`` / ``.bin`` files the
     options of :func:`read`.
     ``out``: a folder for report.json, report.txt and the figures (none written without it).

@@ -87,6 +87,7 @@ def gaps_file(
     compatibility: bool = True,
     baseline: Optional[str] = None,
     max_rate_hz: Optional[float] = 50.0,
+    low_rate_method: str = "output-error",
     alpha: float = 0.01,
     gain_alpha: float = 0.01,
 ) -> str: ...
@@ -102,6 +103,7 @@ def gaps_frame(
     compatibility: bool = True,
     baseline: Optional[str] = None,
     max_rate_hz: Optional[float] = 50.0,
+    low_rate_method: str = "output-error",
     alpha: float = 0.01,
     gain_alpha: float = 0.01,
 ) -> str: ...

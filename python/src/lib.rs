@@ -6,7 +6,7 @@
 
 use aerosid::batch::{BatchSettings, Row, Status};
 use aerosid::gaps::airdata::AirDataChoice;
-use aerosid::gaps::{GapSettings, Levels};
+use aerosid::gaps::{GapSettings, Levels, LowRateMethod};
 use aerosid_core::{Estimator, Gtls as CoreGtls, GtlsSettings};
 use aerosid_read::flow_angles::FlowAngleChoice;
 use aerosid_read::measured::{LogMeta, MeasuredFlight, Quantity};
@@ -156,6 +156,7 @@ fn settings(
     compatibility: bool,
     baseline: Option<&str>,
     max_rate_hz: Option<f64>,
+    low_rate_method: &str,
     alpha: f64,
     gain_alpha: f64,
 ) -> PyResult<GapSettings> {
@@ -180,6 +181,16 @@ fn settings(
             )));
         }
     }
+    let low_rate_method = match low_rate_method {
+        "output-error" => LowRateMethod::OutputError,
+        "filter-error" => LowRateMethod::FilterError,
+        "test" => LowRateMethod::Test,
+        other => {
+            return Err(err(format!(
+                "low_rate_method `{other}`: give output-error, filter-error or test"
+            )))
+        }
+    };
     let levels = Levels {
         alpha: Levels::check_alpha(alpha).map_err(|e| err(format!("alpha: {e}")))?,
         gain_alpha: Levels::check_gain_alpha(gain_alpha).map_err(|e| err(format!("gain_alpha: {e}")))?,
@@ -191,6 +202,7 @@ fn settings(
         compatibility,
         baseline,
         max_rate_hz,
+        low_rate_method,
         ..levels.apply(GapSettings::default())
     })
 }
@@ -210,7 +222,7 @@ fn analyse(py: Python<'_>, flight: &MeasuredFlight, s: &GapSettings, out: Option
 /// (as the command's repeated `--data`, each cut to every `--segment`); report.json's content as
 /// JSON text.
 #[pyfunction]
-#[pyo3(signature = (data, with_=None, out=None, segments=vec![], from_s=None, to_s=None, whole_log=false, rate_hz=None, instances=vec![], air_data="auto", flow_angles="auto", corrections=true, compatibility=true, baseline=None, max_rate_hz=Some(aerosid::gaps::MAX_ANALYSIS_RATE_HZ), alpha=0.01, gain_alpha=0.01))]
+#[pyo3(signature = (data, with_=None, out=None, segments=vec![], from_s=None, to_s=None, whole_log=false, rate_hz=None, instances=vec![], air_data="auto", flow_angles="auto", corrections=true, compatibility=true, baseline=None, max_rate_hz=Some(aerosid::gaps::MAX_ANALYSIS_RATE_HZ), low_rate_method="output-error", alpha=0.01, gain_alpha=0.01))]
 #[allow(clippy::too_many_arguments)]
 fn gaps_file(
     py: Python<'_>,
@@ -229,6 +241,7 @@ fn gaps_file(
     compatibility: bool,
     baseline: Option<&str>,
     max_rate_hz: Option<f64>,
+    low_rate_method: &str,
     alpha: f64,
     gain_alpha: f64,
 ) -> PyResult<String> {
@@ -239,6 +252,7 @@ fn gaps_file(
         compatibility,
         baseline,
         max_rate_hz,
+        low_rate_method,
         alpha,
         gain_alpha,
     )?;
@@ -309,7 +323,7 @@ fn frame_flight(
 
 /// The gap analysis of a frame's channels; report.json's content as JSON text.
 #[pyfunction]
-#[pyo3(signature = (source, t_s, channels, aircraft=None, out=None, air_data="auto", flow_angles="auto", corrections=true, compatibility=true, baseline=None, max_rate_hz=Some(aerosid::gaps::MAX_ANALYSIS_RATE_HZ), alpha=0.01, gain_alpha=0.01))]
+#[pyo3(signature = (source, t_s, channels, aircraft=None, out=None, air_data="auto", flow_angles="auto", corrections=true, compatibility=true, baseline=None, max_rate_hz=Some(aerosid::gaps::MAX_ANALYSIS_RATE_HZ), low_rate_method="output-error", alpha=0.01, gain_alpha=0.01))]
 #[allow(clippy::too_many_arguments)]
 fn gaps_frame(
     py: Python<'_>,
@@ -324,6 +338,7 @@ fn gaps_frame(
     compatibility: bool,
     baseline: Option<&str>,
     max_rate_hz: Option<f64>,
+    low_rate_method: &str,
     alpha: f64,
     gain_alpha: f64,
 ) -> PyResult<String> {
@@ -334,6 +349,7 @@ fn gaps_frame(
         compatibility,
         baseline,
         max_rate_hz,
+        low_rate_method,
         alpha,
         gain_alpha,
     )?;

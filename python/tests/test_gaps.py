@@ -92,6 +92,8 @@ def test_errors_carry_the_commands_messages(tmp_path):
         aerosid.gaps(ELV, aircraft=ATTAS_MAP, air_data="wind")
     with pytest.raises(aerosid.AerosidError, match="alpha"):
         aerosid.gaps(ELV, aircraft=ATTAS_MAP, alpha=2.0)
+    with pytest.raises(aerosid.AerosidError, match="low_rate_method `kalman`"):
+        aerosid.gaps(ELV, aircraft=ATTAS_MAP, low_rate_method="kalman")
     with pytest.raises(TypeError, match="unknown option"):
         aerosid.gaps(ELV, aircraft=ATTAS_MAP, alpah=0.05)
 

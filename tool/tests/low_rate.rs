@@ -107,6 +107,43 @@ fn the_ten_hertz_hfb320_gets_a_verdict_by_output_error() {
     );
 }
 
+/// `--low-rate-method filter-error` reaches the analysis: the HFB-320's report says, per axis,
+/// that the filter error method ran, and a verdict is still given.
+#[test]
+fn the_command_runs_the_filter_error_method_when_asked() {
+    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("data");
+    let out = std::env::temp_dir().join(format!("aerosid-low-rate-fem-{}", std::process::id()));
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_aerosid"))
+        .arg("gaps")
+        .arg("--data")
+        .arg(data.join("flight").join("hfb320_1_10.asc"))
+        .arg("--with")
+        .arg(data.join("maps").join("hfb320.map"))
+        .args(["--low-rate-method", "filter-error", "--out"])
+        .arg(&out)
+        .output()
+        .expect("running aerosid");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = std::fs::read_to_string(out.join("report.json")).expect("report.json");
+    let _ = std::fs::remove_dir_all(&out);
+    let r: serde_json::Value = serde_json::from_str(&text).expect("report.json is JSON");
+    let notes: Vec<&str> = r["notes"]
+        .as_array()
+        .expect("notes")
+        .iter()
+        .filter_map(|n| n.as_str())
+        .collect();
+    assert!(
+        notes.iter().any(|n| n.starts_with("method of this axis: filter error")),
+        "{notes:?}"
+    );
+    assert!(
+        !r["verdict"].as_str().expect("verdict").starts_with("no verdict"),
+        "{}",
+        r["verdict"]
+    );
+}
+
 #[test]
 fn a_lift_curvature_planted_at_ten_hertz_is_named_in_c_l() {
     // −10 /rad²: the top of the campaign's range (the equation-error path's least detectable size

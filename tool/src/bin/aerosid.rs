@@ -616,6 +616,27 @@ enum OnOff {
     Off,
 }
 
+/// `--low-rate-method` ([`aerosid::gaps::LowRateMethod`]).
+#[derive(Clone, Copy, ValueEnum)]
+enum LowRateArg {
+    /// Output error on every axis.
+    OutputError,
+    /// The filter error method on every axis where a filter can be formed.
+    FilterError,
+    /// The filter error method where a likelihood-ratio test finds process noise, else output error.
+    Test,
+}
+
+impl From<LowRateArg> for aerosid::gaps::LowRateMethod {
+    fn from(a: LowRateArg) -> Self {
+        match a {
+            LowRateArg::OutputError => Self::OutputError,
+            LowRateArg::FilterError => Self::FilterError,
+            LowRateArg::Test => Self::Test,
+        }
+    }
+}
+
 /// The names `--air-data` accepts ([`AirDataChoice::parse`]).
 const AIR_DATA_NAMES: [&str; 4] = ["auto", "measured", "reconstructed", "fused"];
 
@@ -731,6 +752,11 @@ struct GapsArgs {
     /// analyses them as logged
     #[arg(long, value_name = "HZ", default_value_t = MaxRate(Some(aerosid::gaps::MAX_ANALYSIS_RATE_HZ)), value_parser = max_rate_parser)]
     max_rate: MaxRate,
+    /// How the low-rate path (below 20 Hz) fits an axis. The default, output error, names no
+    /// cause on clean simulated 10 Hz flights; the filter error method (process noise) detected
+    /// more but named an input delay on each of them (docs/model-gaps.md, "Low-rate data").
+    #[arg(long, value_enum, value_name = "METHOD", default_value_t = LowRateArg::OutputError)]
+    low_rate_method: LowRateArg,
     #[command(flatten)]
     levels: LevelArgs,
 }
@@ -888,6 +914,7 @@ impl Execute for GapsArgs {
             compatibility: matches!(self.compatibility, OnOff::On),
             baseline: self.baseline.clone(),
             max_rate_hz: self.max_rate.0,
+            low_rate_method: self.low_rate_method.into(),
             ..self.levels.levels().apply(aerosid::gaps::GapSettings::default())
         };
         let opts = match self.read_options() {
