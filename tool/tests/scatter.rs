@@ -18,6 +18,14 @@
 //!   wind, the short-period output error stopped on a refused step or did not converge with every
 //!   prior tried.)
 //!
+//! Beside them (ignored): `gaps_varied_scatter_sweep`, the cards with each manoeuvre's amplitude
+//! and period drawn per card, as repeated flight tests vary (the model error's pull on each
+//! manoeuvre then enters the scatter); `fem_model_error_sweep`, the same manoeuvres in calm air,
+//! which splits σ into what a model error adds on every seed and the rest, for the linear and
+//! the physical short-period models (`skywalker_short_period_physical.toml`) and roll/yaw;
+//! `fem_input_noise_sweep`, the physical model with its input channels logged without noise
+//! (docs/fem.md, docs/model-gaps.md).
+//!
 //! The sweeps (`fem_scatter_sweep`, `gaps_scatter_sweep`, ignored: N = 40) print the tables
 //! docs/benchmarks.md records; the always-on test uses N = 16 (roll/yaw by `fem`) and asserts the band 0.7 ≤ ratio ≤ 1.5 widened by the
 //! sampling error of a standard deviation from N draws, `≈ 1/√(2N)` relative (0.18 at N = 16):
@@ -182,10 +190,27 @@ fn model_path(name: &str) -> PathBuf {
 /// trim, and ends before the throttle step at 8 s (whose speed change the short-period model does
 /// not have).
 fn manoeuvres(dir: &Path, first: u64, n: u64, turbulence: bool) -> Vec<PathBuf> {
+    manoeuvres_with(dir, first, n, turbulence, false)
+}
+
+/// [`manoeuvres`], with `quiet_inputs` the channels the physical short-period model takes as
+/// inputs (airspeed, attitude, propeller speed, surfaces, density) logged without noise; the
+/// outputs' sensors (vanes, gyros) keep theirs.
+fn manoeuvres_with(dir: &Path, first: u64, n: u64, turbulence: bool, quiet_inputs: bool) -> Vec<PathBuf> {
     std::fs::create_dir_all(dir).expect("a scratch folder");
     (first..first + n)
         .map(|seed| {
-            let cfg = hidden::config(None, 12.0, seed, turbulence);
+            let mut cfg = hidden::config(None, 12.0, seed, turbulence);
+            if quiet_inputs {
+                let s = &mut cfg.sensors;
+                (
+                    s.airspeed_mps,
+                    s.attitude_rad,
+                    s.prop_speed_rel,
+                    s.surface_rad,
+                    s.density_rel,
+                ) = (0.0, 0.0, 0.0, 0.0, 0.0);
+            }
             let out = simulate(&cfg).expect("the simulator flies");
             let f = dir.join(format!("manoeuvre_{seed}.csv"));
             write_log_file(&f, &out.samples).expect("the log writes");
@@ -298,8 +323,10 @@ fn fem_scatter_sweep() {
     let _ = std::fs::remove_dir_all(&dir);
     // The short period's Mα, Mq, Mδe keep a bias from a moment the model lacks (the speed change
     // times α and δe: the model file's comment), alike on every repetition: the coloured-residual
-    // σ counts that residual, the seed-to-seed scatter does not (docs/fem.md: 0.45–0.46), so only
-    // the roll/yaw band is asserted.
+    // σ counts that residual, the seed-to-seed scatter does not (docs/fem.md: 0.45–0.46; measured
+    // by `fem_model_error_sweep`), so only the roll/yaw band is asserted. The complete model
+    // (`skywalker_short_period_physical.toml`) is unbiased but its σ is 1.2–2.0× too small in
+    // this turbulence (docs/fem.md), so it is not asserted either.
     assert_band("fem roll/yaw", &lat);
 }
 
@@ -382,4 +409,14 @@ fn gaps_varied_scatter_sweep() {
     let dir = temp("gaps_varied_sweep");
     let c = varied_cards(&dir, 1000, 40);
     gaps_sweep("gaps, varied manoeuvres", &dir, &c);
+}
+
+#[test]
+#[ignore = "the sweep: 24 manoeuvres, inputs logged without noise, through fem (minutes)"]
+fn fem_input_noise_sweep() {
+    let dir = temp("fem_input_noise");
+    let t = manoeuvres_with(&dir.join("turbulent"), 1000, 24, true, true);
+    let c = manoeuvres_with(&dir.join("calm"), 1000, 24, false, true);
+    println!("{}", model_error_table("skywalker_short_period_physical.toml", &t, &c));
+    let _ = std::fs::remove_dir_all(&dir);
 }
