@@ -18,6 +18,14 @@
 //!   wind, the short-period output error stopped on a refused step or did not converge with every
 //!   prior tried.)
 //!
+//! Beside them (ignored): `gaps_varied_scatter_sweep`, the cards with each manoeuvre's amplitude
+//! and period drawn per card, as repeated flight tests vary (the model error's pull on each
+//! manoeuvre then enters the scatter); `fem_model_error_sweep`, the same manoeuvres in calm air,
+//! which splits σ into what a model error adds on every seed and the rest, for the linear and
+//! the physical short-period models (`skywalker_short_period_physical.toml`) and roll/yaw;
+//! `fem_input_noise_sweep`, the physical model with its input channels logged without noise
+//! (docs/fem.md, docs/model-gaps.md).
+//!
 //! The sweeps (`fem_scatter_sweep`, `gaps_scatter_sweep`, ignored: N = 40) print the tables
 //! docs/benchmarks.md records; the always-on test uses N = 16 (roll/yaw by `fem`) and asserts the band 0.7 ≤ ratio ≤ 1.5 widened by the
 //! sampling error of a standard deviation from N draws, `≈ 1/√(2N)` relative (0.18 at N = 16):
@@ -99,6 +107,54 @@ const ROLL_YAW: [&str; 3] = ["C_Y", "C_l", "C_n"];
 
 /// `gaps` on every pooled card: the baseline's estimates and stated σ per `coefficient:term`
 /// (the short-period and roll/yaw coefficients; the constant term left out).
+/// `n` clean cards like [`cards`] whose manoeuvres vary from card to card as repeated flight tests
+/// do: each manoeuvre's amplitude scaled by a factor drawn from U(0.7, 1.3) and its base period by
+/// one from U(0.8, 1.25) (the record lengthened by what the manoeuvre gained, so its free
+/// response stays as long), drawn from the card's seed. The same records, file names and logging
+/// as the standard card otherwise (`sim::test_card::fly_card`).
+fn varied_cards(dir: &Path, first: u64, n: u64) -> Vec<Vec<PathBuf>> {
+    use aerosid::card::{config, csv_text, record_file};
+    use aerosid::sim::test_card::{fly_card, standard_card};
+    use aerosid::sim::uav_log::UavLogging;
+    use rand::{Rng, SeedableRng};
+    let aircraft = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("data/aircraft")
+        .join(AIRCRAFT_FILE);
+    (first..first + n)
+        .map(|seed| {
+            let settings = CardSettings {
+                effect: None,
+                seed,
+                turbulence: CardTurbulence::Light,
+            };
+            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed ^ 0x7A71_ED00);
+            let card: Vec<_> = standard_card()
+                .into_iter()
+                .map(|mut c| {
+                    let end = c.manoeuvre.end_s();
+                    c.manoeuvre.amplitude *= rng.random_range(0.7..1.3);
+                    c.manoeuvre.period_s *= rng.random_range(0.8..1.25);
+                    c.duration_s += (c.manoeuvre.end_s() - end).max(0.0);
+                    c
+                })
+                .collect();
+            let records =
+                fly_card(&config(&settings), &card, &UavLogging::default(), 0.0, seed).expect("the card flies");
+            let folder = dir.join(format!("card_{seed}"));
+            std::fs::create_dir_all(&folder).expect("a scratch folder");
+            std::fs::copy(&aircraft, folder.join(AIRCRAFT_FILE)).expect("the aircraft file copies");
+            records
+                .iter()
+                .map(|r| {
+                    let p = folder.join(record_file(r));
+                    std::fs::write(&p, csv_text(&r.log)).expect("the record writes");
+                    p
+                })
+                .collect()
+        })
+        .collect()
+}
+
 fn gaps_draws(cards: &[Vec<PathBuf>]) -> BTreeMap<String, Draws> {
     let mut out: BTreeMap<String, Draws> = BTreeMap::new();
     for files in cards {
@@ -133,11 +189,28 @@ fn model_path(name: &str) -> PathBuf {
 /// ([`WINDOW`]) flies an elevator 3-2-1-1 and doublet, an aileron 3-2-1-1 and a rudder doublet from
 /// trim, and ends before the throttle step at 8 s (whose speed change the short-period model does
 /// not have).
-fn manoeuvres(dir: &Path, first: u64, n: u64) -> Vec<PathBuf> {
+fn manoeuvres(dir: &Path, first: u64, n: u64, turbulence: bool) -> Vec<PathBuf> {
+    manoeuvres_with(dir, first, n, turbulence, false)
+}
+
+/// [`manoeuvres`], with `quiet_inputs` the channels the physical short-period model takes as
+/// inputs (airspeed, attitude, propeller speed, surfaces, density) logged without noise; the
+/// outputs' sensors (vanes, gyros) keep theirs.
+fn manoeuvres_with(dir: &Path, first: u64, n: u64, turbulence: bool, quiet_inputs: bool) -> Vec<PathBuf> {
     std::fs::create_dir_all(dir).expect("a scratch folder");
     (first..first + n)
         .map(|seed| {
-            let cfg = hidden::config(None, 12.0, seed, true);
+            let mut cfg = hidden::config(None, 12.0, seed, turbulence);
+            if quiet_inputs {
+                let s = &mut cfg.sensors;
+                (
+                    s.airspeed_mps,
+                    s.attitude_rad,
+                    s.prop_speed_rel,
+                    s.surface_rad,
+                    s.density_rel,
+                ) = (0.0, 0.0, 0.0, 0.0, 0.0);
+            }
             let out = simulate(&cfg).expect("the simulator flies");
             let f = dir.join(format!("manoeuvre_{seed}.csv"));
             write_log_file(&f, &out.samples).expect("the log writes");
@@ -224,7 +297,7 @@ fn fem_sigma_matches_the_scatter_of_repeated_manoeuvres() {
     // GIVEN 16 simulated manoeuvres of independent seeds, WHEN `fem` fits the roll/yaw model to
     // each (output error, one manoeuvre at a time)
     let dir = temp("fem");
-    let f = manoeuvres(&dir, 100, 16);
+    let f = manoeuvres(&dir, 100, 16, true);
     let lat = fem_draws(&f, "skywalker_lateral.toml");
     println!("{}", table("roll/yaw", &lat));
     let _ = std::fs::remove_dir_all(&dir);
@@ -242,7 +315,7 @@ fn fem_sigma_matches_the_scatter_of_repeated_manoeuvres() {
 #[ignore = "the sweep: 40 manoeuvres through fem (minutes); prints docs/benchmarks.md's table"]
 fn fem_scatter_sweep() {
     let dir = temp("fem_sweep");
-    let f = manoeuvres(&dir, 1000, 40);
+    let f = manoeuvres(&dir, 1000, 40, true);
     let lon = fem_draws(&f, "skywalker_short_period.toml");
     println!("fem, N = {}\n{}", f.len(), table("short period", &lon));
     let lat = fem_draws(&f, "skywalker_lateral.toml");
@@ -250,8 +323,10 @@ fn fem_scatter_sweep() {
     let _ = std::fs::remove_dir_all(&dir);
     // The short period's Mα, Mq, Mδe keep a bias from a moment the model lacks (the speed change
     // times α and δe: the model file's comment), alike on every repetition: the coloured-residual
-    // σ counts that residual, the seed-to-seed scatter does not (docs/fem.md: 0.45–0.46), so only
-    // the roll/yaw band is asserted.
+    // σ counts that residual, the seed-to-seed scatter does not (docs/fem.md: 0.45–0.46; measured
+    // by `fem_model_error_sweep`), so only the roll/yaw band is asserted. The complete model
+    // (`skywalker_short_period_physical.toml`) is unbiased but its σ is 1.2–2.0× too small in
+    // this turbulence (docs/fem.md), so it is not asserted either.
     assert_band("fem roll/yaw", &lat);
 }
 
@@ -260,12 +335,88 @@ fn fem_scatter_sweep() {
 fn gaps_scatter_sweep() {
     let dir = temp("gaps_sweep");
     let c = cards(&dir, 1000, 40);
-    let g = gaps_draws(&c);
-    println!("gaps, N = {}\n{}", c.len(), table("pooled card, baseline", &g));
-    let _ = std::fs::remove_dir_all(&dir);
+    gaps_sweep("gaps, the same manoeuvres", &dir, &c);
+}
+
+/// `gaps` on every card of `c` (written under `dir`, removed after): prints the table and asserts
+/// the band on each estimator that fitted at least 3/4 of the cards.
+fn gaps_sweep(what: &str, dir: &Path, c: &[Vec<PathBuf>]) {
+    let g = gaps_draws(c);
+    println!("{what}, N = {}\n{}", c.len(), table("pooled card, baseline", &g));
+    let _ = std::fs::remove_dir_all(dir);
     let most: BTreeMap<String, Draws> = g
         .into_iter()
         .filter(|(_, d)| 4 * d.values.len() >= 3 * c.len())
         .collect();
-    assert_band("gaps", &most);
+    assert_band(what, &most);
+}
+
+fn rms(v: &[f64]) -> f64 {
+    (v.iter().map(|x| x * x).sum::<f64>() / v.len() as f64).sqrt()
+}
+
+/// The σ's split into what repeats on every seed and what does not: `model` fitted to the same
+/// manoeuvres in turbulence (T) and in calm air (C; same seeds and inputs, the sensors' noise
+/// white). In calm air the residual is the model's error, the same on every seed, plus white
+/// noise, whose scatter `s.d. C` is real: the part of σ that only the model error adds is
+/// `σ_C² − s.d._C²`, and `σ rand = √(σ_T² − σ_C² + s.d._C²)` (rms over the seeds) is the σ of
+/// the turbulence and the noise alone, which the seed-to-seed scatter `s.d. T` measures.
+fn model_error_table(model: &str, turbulent: &[PathBuf], calm: &[PathBuf]) -> String {
+    let t = fem_draws(turbulent, model);
+    let c = fem_draws(calm, model);
+    let mut s = format!(
+        "{model}, N = {}\n| parameter | mean T | s.d. T | rms σ T | s.d./rms σ T | mean C | s.d. C | rms σ C | s.d./σ C | σ rand | s.d. T/σ rand |\n",
+        turbulent.len()
+    );
+    for (name, d) in &t {
+        let e = &c[name];
+        let n = d.values.len() as f64;
+        let (st, sc) = (rms(&d.sigmas), rms(&e.sigmas));
+        let rand = (st * st - sc * sc + sd(&e.values).powi(2)).max(0.0).sqrt();
+        s.push_str(&format!(
+            "| {name} | {:.4} | {:.4} | {st:.4} | {:.2} | {:.4} | {:.4} | {sc:.4} | {:.2} | {rand:.4} | {:.2} |\n",
+            d.values.iter().sum::<f64>() / n,
+            sd(&d.values),
+            sd(&d.values) / st,
+            e.values.iter().sum::<f64>() / e.values.len() as f64,
+            sd(&e.values),
+            sd(&e.values) / sc,
+            sd(&d.values) / rand,
+        ));
+    }
+    s
+}
+
+#[test]
+#[ignore = "the sweep: 40 manoeuvres in turbulence and in calm air through fem (minutes)"]
+fn fem_model_error_sweep() {
+    let dir = temp("fem_model_error");
+    let t = manoeuvres(&dir.join("turbulent"), 1000, 40, true);
+    let c = manoeuvres(&dir.join("calm"), 1000, 40, false);
+    for model in [
+        "skywalker_short_period.toml",
+        "skywalker_short_period_physical.toml",
+        "skywalker_lateral.toml",
+    ] {
+        println!("{}", model_error_table(model, &t, &c));
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+#[ignore = "the sweep: 40 pooled cards of varied manoeuvres through gaps (minutes)"]
+fn gaps_varied_scatter_sweep() {
+    let dir = temp("gaps_varied_sweep");
+    let c = varied_cards(&dir, 1000, 40);
+    gaps_sweep("gaps, varied manoeuvres", &dir, &c);
+}
+
+#[test]
+#[ignore = "the sweep: 24 manoeuvres, inputs logged without noise, through fem (minutes)"]
+fn fem_input_noise_sweep() {
+    let dir = temp("fem_input_noise");
+    let t = manoeuvres_with(&dir.join("turbulent"), 1000, 24, true, true);
+    let c = manoeuvres_with(&dir.join("calm"), 1000, 24, false, true);
+    println!("{}", model_error_table("skywalker_short_period_physical.toml", &t, &c));
+    let _ = std::fs::remove_dir_all(&dir);
 }

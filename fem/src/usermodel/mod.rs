@@ -85,8 +85,9 @@ use std::path::{Path, PathBuf};
 
 /// Most states a model file may have.
 pub const MAX_X: usize = 8;
-/// Most inputs.
-pub const MAX_U: usize = 6;
+/// Most inputs (a physical model with measured states as inputs — airspeed, attitude, the other
+/// axis's rates, β, propeller speed, density — beside the surfaces needs nine).
+pub const MAX_U: usize = 10;
 /// Most outputs.
 pub const MAX_Y: usize = 10;
 /// Most free (estimated) parameters.
