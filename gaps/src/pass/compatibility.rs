@@ -54,6 +54,31 @@ pub fn check(
     Compatible { compatibility, corr }
 }
 
+/// The delays named, refined within their interval by the aerodynamic baselines before they are
+/// removed ([`crate::delay_rival::refine`]); a note when one moved.
+pub fn refine_delays(
+    compatible: &mut Compatible,
+    flight: &MeasuredFlight,
+    h: f64,
+    air: &super::air_data::AirData,
+    plan: &Plan,
+    baselines: &[Vec<crate::model::Term>; 6],
+    notes: &mut Vec<String>,
+) {
+    let c = &compatible.compatibility;
+    let refined = crate::delay_rival::refine(
+        flight,
+        h,
+        c,
+        &mut compatible.corr,
+        air.air.as_ref(),
+        plan.sg_half,
+        baselines,
+        plan.n_id,
+    );
+    notes.extend(refined);
+}
+
 /// The corrections of the sensor errors the compatibility check named.
 fn corrections_of(c: &Compatibility) -> Corrections {
     let mut corr = Corrections::default();
