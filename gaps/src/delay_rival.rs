@@ -65,20 +65,27 @@ pub struct Rivals {
     pub notes: Vec<(usize, String)>,
 }
 
-/// What the rivals are built from: the flight, its analysis rate, the corrections applied, the
-/// air data replacing sensors (if any), the table at the corrections, its references and the
-/// baselines.
-pub struct Inputs<'a> {
+/// The flight as the analysis sees it: its samples, its analysis rate, the compatibility
+/// check's findings, the air data replacing sensors (if any), the smoothing half-width, the
+/// baselines and the identification samples (the first `n_id`).
+#[derive(Clone, Copy)]
+pub struct Flight<'a> {
     pub flight: &'a MeasuredFlight,
     pub h_s: f64,
     pub compatibility: &'a Compatibility,
-    pub corr: &'a Corrections,
     pub air: Option<&'a BTreeMap<Quantity, Vec<f64>>>,
     pub sg_half: usize,
-    pub table: &'a Table,
-    pub refs: &'a TermRefs,
     pub baselines: &'a [Vec<Term>; 6],
     pub n_id: usize,
+}
+
+/// What the rivals are built from: the flight, the corrections applied, the table at them and
+/// its references.
+pub struct Inputs<'a> {
+    pub on: Flight<'a>,
+    pub corr: &'a Corrections,
+    pub table: &'a Table,
+    pub refs: &'a TermRefs,
 }
 
 /// The half-width of the interval, in the delay's standard errors, within which the aerodynamic
@@ -95,16 +102,16 @@ const REFINE_STEPS_PER_SIGMA: f64 = 2.0;
 /// bounds it, so no aerodynamic effect can move the delay further than the sensor's own data
 /// allow; within it, the equations that carry most of the delay's information decide. Changes
 /// `corr` and returns a note; `None` when no delay was named or none moved.
-pub fn refine(
-    flight: &MeasuredFlight,
-    h_s: f64,
-    compatibility: &Compatibility,
-    corr: &mut Corrections,
-    air: Option<&BTreeMap<Quantity, Vec<f64>>>,
-    sg_half: usize,
-    baselines: &[Vec<Term>; 6],
-    n_id: usize,
-) -> Option<String> {
+pub fn refine(on: &Flight, corr: &mut Corrections) -> Option<String> {
+    let Flight {
+        flight,
+        h_s,
+        compatibility,
+        air,
+        sg_half,
+        baselines,
+        n_id,
+    } = *on;
     let mut notes = Vec::new();
     for f in &compatibility.found {
         let SensorParam::Delay(q) = f.param else { continue };
@@ -176,21 +183,21 @@ const SPAN_SIGMAS: f64 = 3.0;
 /// The rivals of every delay named and removed ([`Rivals`]); empty when none was.
 pub fn rivals(inp: &Inputs) -> Rivals {
     let mut out = Rivals::default();
-    for f in &inp.compatibility.found {
+    for f in &inp.on.compatibility.found {
         let SensorParam::Delay(q) = f.param else { continue };
         let Some(&tau) = inp.corr.delay_s.get(&q) else { continue };
-        if inp.air.is_some_and(|a| a.contains_key(&q)) {
+        if inp.on.air.is_some_and(|a| a.contains_key(&q)) {
             continue;
         }
         let step = if f.sigma.is_finite() && f.sigma > 0.0 {
             SPAN_SIGMAS * f.sigma
         } else {
-            inp.h_s
+            inp.on.h_s
         };
         let at = |d: f64| {
             let mut c = inp.corr.clone();
             c.delay_s.insert(q, tau + d);
-            model::synthesise(inp.flight, inp.h_s, &c, inp.sg_half, inp.air)
+            model::synthesise(inp.on.flight, inp.on.h_s, &c, inp.on.sg_half, inp.on.air)
         };
         let (plus, minus) = (at(step), at(-step));
         for i in 0..6 {
@@ -227,12 +234,12 @@ fn rival_columns(i: usize, inp: &Inputs, plus: &Table, minus: &Table) -> Vec<Vec
 const RELEVANT: f64 = 1e-3;
 
 fn rival_column(i: usize, inp: &Inputs, plus: &Table, minus: &Table) -> Option<Vec<f64>> {
-    let terms = &inp.baselines[i];
+    let terms = &inp.on.baselines[i];
     let cols = |t: &Table| -> Option<Vec<Vec<f64>>> { terms.iter().map(|term| term.column(t, inp.refs)).collect() };
     let z = inp.table.z[i].as_ref()?;
     let x = cols(inp.table)?;
     let n = z.len();
-    let n_fit = inp.n_id.min(n);
+    let n_fit = inp.on.n_id.min(n);
     let id: Vec<Vec<f64>> = x.iter().map(|c| c[..n_fit].to_vec()).collect();
     let theta = regress::ols_theta(&id, &z[..n_fit])?;
     let resid = |t: &Table| -> Option<Vec<f64>> {
@@ -365,16 +372,18 @@ mod tests {
         let mut corr = Corrections::default();
         corr.delay_s.insert(Quantity::Alpha, 0.10);
         let inputs = Inputs {
-            flight: &flight,
-            h_s: 0.01,
-            compatibility: &compatibility,
+            on: Flight {
+                flight: &flight,
+                h_s: 0.01,
+                compatibility: &compatibility,
+                air: None,
+                sg_half,
+                baselines: &baselines,
+                n_id,
+            },
             corr: &corr,
-            air: None,
-            sg_half,
             table: &table,
             refs: &refs,
-            baselines: &baselines,
-            n_id,
         };
         // WHEN the rivals are built
         let r = rivals(&inputs);
@@ -429,16 +438,18 @@ mod tests {
         let alpha = flight.get(Quantity::Alpha).expect("α").to_vec();
         let air: BTreeMap<Quantity, Vec<f64>> = [(Quantity::Alpha, alpha)].into_iter().collect();
         let inputs = |compatibility, air| Inputs {
-            flight: &flight,
-            h_s: 0.01,
-            compatibility,
+            on: Flight {
+                flight: &flight,
+                h_s: 0.01,
+                compatibility,
+                air,
+                sg_half,
+                baselines: &baselines,
+                n_id,
+            },
             corr: &corr,
-            air,
-            sg_half,
             table: &table,
             refs: &refs,
-            baselines: &baselines,
-            n_id,
         };
         // WHEN the rivals are built THEN there are none
         assert_eq!(rivals(&inputs(&none, None)), Rivals::default());
@@ -455,16 +466,16 @@ mod tests {
         let mut corr = Corrections::default();
         corr.delay_s.insert(Quantity::Alpha, 0.10);
         // WHEN the delay is refined by the aerodynamic baselines
-        let note = refine(
-            &flight,
-            0.01,
-            &compatibility,
-            &mut corr,
-            None,
+        let on = |compatibility| Flight {
+            flight: &flight,
+            h_s: 0.01,
+            compatibility,
+            air: None,
             sg_half,
-            &baselines,
+            baselines: &baselines,
             n_id,
-        );
+        };
+        let note = refine(&on(&compatibility), &mut corr);
         // THEN it moves towards the planted 0.12 s (closer than the estimate, within the 3σ
         // interval) and the note says where it was removed
         let tau = corr.delay_s[&Quantity::Alpha];
@@ -476,16 +487,8 @@ mod tests {
         assert!(note.contains(&format!("removed at {tau:.4} s")), "{note}");
         // AND with no delay named nothing moves and there is no note
         let mut none = Corrections::default();
-        let r = refine(
-            &flight,
-            0.01,
-            &Compatibility::default(),
-            &mut none,
-            None,
-            sg_half,
-            &baselines,
-            n_id,
-        );
+        let nothing = Compatibility::default();
+        let r = refine(&on(&nothing), &mut none);
         assert!(r.is_none() && none == Corrections::default());
     }
 }

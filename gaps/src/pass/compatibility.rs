@@ -65,17 +65,16 @@ pub fn refine_delays(
     baselines: &[Vec<crate::model::Term>; 6],
     notes: &mut Vec<String>,
 ) {
-    let c = &compatible.compatibility;
-    let refined = crate::delay_rival::refine(
+    let on = crate::delay_rival::Flight {
         flight,
-        h,
-        c,
-        &mut compatible.corr,
-        air.air.as_ref(),
-        plan.sg_half,
+        h_s: h,
+        compatibility: &compatible.compatibility,
+        air: air.air.as_ref(),
+        sg_half: plan.sg_half,
         baselines,
-        plan.n_id,
-    );
+        n_id: plan.n_id,
+    };
+    let refined = crate::delay_rival::refine(&on, &mut compatible.corr);
     notes.extend(refined);
 }
 

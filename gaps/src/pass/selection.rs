@@ -33,16 +33,18 @@ pub fn select(
     let mut coefficients = Vec::new();
     let mut gust_proxies = crate::gust::proxies(table, &syn.refs, &prepared.baselines, plan.n_id, &syn.oracle);
     let rivals = delay_rival::rivals(&delay_rival::Inputs {
-        flight: &prepared.flight,
-        h_s: h,
-        compatibility: &compatible.compatibility,
+        on: delay_rival::Flight {
+            flight: &prepared.flight,
+            h_s: h,
+            compatibility: &compatible.compatibility,
+            air: air.air.as_ref(),
+            sg_half: plan.sg_half,
+            baselines: &prepared.baselines,
+            n_id: plan.n_id,
+        },
         corr: &compatible.corr,
-        air: air.air.as_ref(),
-        sg_half: plan.sg_half,
         table,
         refs: &syn.refs,
-        baselines: &prepared.baselines,
-        n_id: plan.n_id,
     });
     gust_proxies.extend(rivals.columns);
     for i in 0..6 {
