@@ -66,6 +66,7 @@
 
 pub mod airdata;
 pub mod compat;
+pub mod delay_rival;
 pub mod detection;
 pub mod eks;
 pub mod family;
@@ -812,10 +813,19 @@ pub fn run_gaps(flight: &MeasuredFlight, settings: &GapSettings) -> Result<GapRe
     let prepared = pass::prepare::prepare(flight, settings)?;
     let (flight, h) = (&prepared.flight, prepared.h);
     let mut notes: Vec<String> = prepared.rate_note.iter().cloned().collect();
-    let compatible = pass::compatibility::check(flight, h, settings, &prepared.plan, &mut notes);
+    let mut compatible = pass::compatibility::check(flight, h, settings, &prepared.plan, &mut notes);
     let air = pass::air_data::choose(flight, h, settings.air_data, &compatible.compatibility, &mut notes);
+    pass::compatibility::refine_delays(
+        &mut compatible,
+        flight,
+        h,
+        &air,
+        &prepared.plan,
+        &prepared.baselines,
+        &mut notes,
+    );
     let synthesised = pass::synthesis::synthesise(&prepared, &compatible, &air, settings, &mut notes)?;
-    let selected = pass::selection::select(&prepared, &synthesised, settings, &mut notes);
+    let selected = pass::selection::select(&prepared, &compatible, &air, &synthesised, settings, &mut notes);
     let validated = pass::validation::validate(&prepared, &compatible, &air, &synthesised, &selected, settings);
     Ok(pass::report::assemble(
         prepared,
@@ -919,8 +929,9 @@ pub(crate) fn preprocess(
 ) -> Preprocessed {
     let plan = pass::prepare::plan(flight, h, settings, baselines);
     let mut notes = Vec::new();
-    let compatible = pass::compatibility::check(flight, h, settings, &plan, &mut notes);
+    let mut compatible = pass::compatibility::check(flight, h, settings, &plan, &mut notes);
     let air = pass::air_data::choose(flight, h, settings.air_data, &compatible.compatibility, &mut notes);
+    pass::compatibility::refine_delays(&mut compatible, flight, h, &air, &plan, baselines, &mut notes);
     let table = pass::synthesis::table(flight, h, &plan, &compatible, &air);
     notes.extend(table.notes.iter().cloned());
     Preprocessed {

@@ -6,6 +6,7 @@ mod batch;
 mod clean_cards;
 mod cli;
 mod corrupt_logs;
+mod delay_rival;
 mod exit_codes;
 mod families;
 mod flow_angles;

@@ -54,6 +54,30 @@ pub fn check(
     Compatible { compatibility, corr }
 }
 
+/// The delays named, refined within their interval by the aerodynamic baselines before they are
+/// removed ([`crate::delay_rival::refine`]); a note when one moved.
+pub fn refine_delays(
+    compatible: &mut Compatible,
+    flight: &MeasuredFlight,
+    h: f64,
+    air: &super::air_data::AirData,
+    plan: &Plan,
+    baselines: &[Vec<crate::model::Term>; 6],
+    notes: &mut Vec<String>,
+) {
+    let on = crate::delay_rival::Flight {
+        flight,
+        h_s: h,
+        compatibility: &compatible.compatibility,
+        air: air.air.as_ref(),
+        sg_half: plan.sg_half,
+        baselines,
+        n_id: plan.n_id,
+    };
+    let refined = crate::delay_rival::refine(&on, &mut compatible.corr);
+    notes.extend(refined);
+}
+
 /// The corrections of the sensor errors the compatibility check named.
 fn corrections_of(c: &Compatibility) -> Corrections {
     let mut corr = Corrections::default();

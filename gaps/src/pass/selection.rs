@@ -2,10 +2,12 @@
 //! regression over the candidate library (`analyse_coefficient` in `fit.rs`); below the
 //! equation-error path's rate, `C_L`, `C_D`, `C_m` by output error instead ([`crate::oem`]).
 
+use super::air_data::AirData;
+use super::compatibility::Compatible;
 use super::prepare::Prepared;
 use super::synthesis::Synthesised;
 use crate::model::COEFFICIENTS;
-use crate::{fit::analyse_coefficient, low_rate, oem, CoefficientGap, GapSettings};
+use crate::{delay_rival, fit::analyse_coefficient, low_rate, oem, CoefficientGap, GapSettings};
 
 /// Every coefficient's fit, extension and verdict.
 pub struct Selected {
@@ -16,12 +18,35 @@ pub struct Selected {
     pub low_rate: bool,
 }
 
-/// [`Selected`] of a synthesised flight.
-pub fn select(prepared: &Prepared, syn: &Synthesised, settings: &GapSettings, notes: &mut Vec<String>) -> Selected {
+/// [`Selected`] of a synthesised flight; the candidates are tested beyond the gust proxies
+/// ([`crate::gust::proxies`]) and an error of any sensor delay removed ([`delay_rival`]).
+pub fn select(
+    prepared: &Prepared,
+    compatible: &Compatible,
+    air: &AirData,
+    syn: &Synthesised,
+    settings: &GapSettings,
+    notes: &mut Vec<String>,
+) -> Selected {
     let (plan, h) = (&prepared.plan, prepared.h);
     let table = &syn.table;
     let mut coefficients = Vec::new();
-    let gust_proxies = crate::gust::proxies(table, &syn.refs, &prepared.baselines, plan.n_id, &syn.oracle);
+    let mut gust_proxies = crate::gust::proxies(table, &syn.refs, &prepared.baselines, plan.n_id, &syn.oracle);
+    let rivals = delay_rival::rivals(&delay_rival::Inputs {
+        on: delay_rival::Flight {
+            flight: &prepared.flight,
+            h_s: h,
+            compatibility: &compatible.compatibility,
+            air: air.air.as_ref(),
+            sg_half: plan.sg_half,
+            baselines: &prepared.baselines,
+            n_id: plan.n_id,
+        },
+        corr: &compatible.corr,
+        table,
+        refs: &syn.refs,
+    });
+    gust_proxies.extend(rivals.columns);
     for i in 0..6 {
         let Some(zc) = &table.z[i] else { continue };
         if let Some(g) = analyse_coefficient(
@@ -40,6 +65,9 @@ pub fn select(prepared: &Prepared, syn: &Synthesised, settings: &GapSettings, no
             &syn.oracle,
             &gust_proxies,
         ) {
+            let mut g = g;
+            g.notes
+                .extend(rivals.notes.iter().filter(|(c, _)| *c == i).map(|(_, n)| n.clone()));
             coefficients.push(g);
         }
     }

@@ -99,7 +99,7 @@ pub fn synthesise(
 
 /// The terms' reference values: the α break at the 85th percentile of α, the mean airspeed and
 /// Mach number, all on the identification segment.
-fn term_refs(table: &Table, n_id: usize) -> TermRefs {
+pub(crate) fn term_refs(table: &Table, n_id: usize) -> TermRefs {
     let id_mean = |s: Signal| table.signals.get(&s).map(|v| signal::mean(&v[..n_id]));
     TermRefs {
         alpha_break_rad: table
