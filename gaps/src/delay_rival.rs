@@ -103,6 +103,9 @@ const REFINE_STEPS_PER_SIGMA: f64 = 2.0;
 /// allow; within it, the equations that carry most of the delay's information decide. Changes
 /// `corr` and returns a note; `None` when no delay was named or none moved.
 pub fn refine(on: &Flight, corr: &mut Corrections) -> Option<String> {
+    if below_equation_error_rate(on.h_s) {
+        return None;
+    }
     let Flight {
         flight,
         h_s,
@@ -140,8 +143,16 @@ pub fn refine(on: &Flight, corr: &mut Corrections) -> Option<String> {
         let Some((t, _)) = best else { continue };
         if t != tau {
             corr.delay_s.insert(q, t);
+            // At the interval's edge the baselines would move the delay further than the
+            // sensor's data allow: either its σ is too small or an aerodynamic term looks like a
+            // delay. Say so; the rivals then test how far the residual points.
+            let edge = if ((t - tau) / step).round().abs() as i64 >= k_max {
+                " — at the interval's edge: the baselines would move it further than the sensor test allows (its σ too small, or an aerodynamic term such as α̇ that looks like a delay)"
+            } else {
+                ""
+            };
             notes.push(format!(
-                "{} removed at {t:.4} s, not at the estimate {tau:.4} ± {:.4} s: within ±{REFINE_SIGMAS}σ of it, the delay that best fits the aerodynamic baselines (their profile likelihood, docs/model-gaps.md)",
+                "{} removed at {t:.4} s, not at the estimate {tau:.4} ± {:.4} s: within ±{REFINE_SIGMAS}σ of it, the delay that best fits the aerodynamic baselines (their profile likelihood, docs/model-gaps.md){edge}",
                 f.param.name(),
                 f.sigma
             ));
@@ -183,6 +194,9 @@ const SPAN_SIGMAS: f64 = 3.0;
 /// The rivals of every delay named and removed ([`Rivals`]); empty when none was.
 pub fn rivals(inp: &Inputs) -> Rivals {
     let mut out = Rivals::default();
+    if below_equation_error_rate(inp.on.h_s) {
+        return out;
+    }
     for f in &inp.on.compatibility.found {
         let SensorParam::Delay(q) = f.param else { continue };
         let Some(&tau) = inp.corr.delay_s.get(&q) else { continue };
@@ -201,31 +215,32 @@ pub fn rivals(inp: &Inputs) -> Rivals {
         };
         let (plus, minus) = (at(step), at(-step));
         for i in 0..6 {
-            let cols = rival_columns(i, inp, &plus, &minus);
-            if cols.is_empty() {
-                continue;
-            }
-            out.columns.extend(cols.into_iter().map(|c| (i, c)));
-            out.notes.push((
-                i,
-                format!(
-                    "{}: candidates tested beyond an error of the {} removed at {tau:.4} s, up to ±{step:.4} s ({SPAN_SIGMAS}σ; the baseline's change with the delay, docs/model-gaps.md): a candidate that only fits what the delay's estimate left is not named",
+            let bound = Bound {
+                step_s: step,
+                estimate_s: f.value,
+                removed_from_estimate_s: tau - f.value,
+            };
+            let note = match rival_column(i, inp, &plus, &minus, bound) {
+                None => continue,
+                Some(Rival::Column(c)) => {
+                    out.columns.push((i, c));
+                    format!(
+                        "{}: candidates tested beyond an error of the {} removed at {tau:.4} s, up to ±{step:.4} s ({SPAN_SIGMAS}σ; the baseline's change with the delay, docs/model-gaps.md): a candidate that only fits what the delay's estimate left is not named",
+                        COEFFICIENTS[i],
+                        f.param.name()
+                    )
+                }
+                Some(Rival::Beyond { implied_s }) => format!(
+                    "{}: candidates tested without the {}'s rival: the residual along the delay's direction would take a delay of {implied_s:.4} s, outside the sensor test's {:.4} ± {step:.4} s — more than the delay's error can leave, so an aerodynamic term may be what fits it (docs/model-gaps.md)",
                     COEFFICIENTS[i],
-                    f.param.name()
+                    f.param.name(),
+                    f.value
                 ),
-            ));
+            };
+            out.notes.push((i, note));
         }
     }
     out
-}
-
-/// Coefficient `i`'s rival, `r(plus) − r(minus)` with `r = z − Xθ̂` and `θ̂` fitted on the
-/// identification samples of `inp.table` (at `τ̂`), centred and scaled to unit RMS there. Empty
-/// when the coefficient or a baseline column is missing, or the delay does not change the
-/// coefficient (the change below [`RELEVANT`] of the baseline's residual RMS: the lateral
-/// coefficients for an α delay).
-fn rival_columns(i: usize, inp: &Inputs, plus: &Table, minus: &Table) -> Vec<Vec<f64>> {
-    rival_column(i, inp, plus, minus).into_iter().collect()
 }
 
 /// The least change of a coefficient's baseline residual over the delay's interval, relative to
@@ -233,7 +248,38 @@ fn rival_columns(i: usize, inp: &Inputs, plus: &Table, minus: &Table) -> Vec<Vec
 /// test.
 const RELEVANT: f64 = 1e-3;
 
-fn rival_column(i: usize, inp: &Inputs, plus: &Table, minus: &Table) -> Option<Vec<f64>> {
+/// What bounds a rival: the half-width of the delay's interval (`3σ_τ`), the sensor test's
+/// estimate and how far the delay removed lies from it (the refinement's move).
+#[derive(Clone, Copy)]
+struct Bound {
+    step_s: f64,
+    estimate_s: f64,
+    removed_from_estimate_s: f64,
+}
+
+/// A coefficient's rival, or why it has none although the delay changes it.
+enum Rival {
+    /// The rival column ([`Rivals::columns`]).
+    Column(Vec<f64>),
+    /// The baseline's residual along the delay's direction implies a delay of `implied_s`,
+    /// further from the sensor test's estimate than its interval: a free nuisance column would
+    /// take more than the delay's error can leave (an `α̇` term, say, whatever its size), so the
+    /// coefficient's candidates are tested without it.
+    Beyond { implied_s: f64 },
+}
+
+/// Coefficient `i`'s rival, `r(plus) − r(minus)` with `r = z − Xθ̂` and `θ̂` fitted on the
+/// identification samples of `inp.table` (at `τ̂`), centred and scaled to unit RMS there. `None`
+/// when the coefficient or a baseline column is missing, or the delay does not change the
+/// coefficient (the change below [`RELEVANT`] of the baseline's residual RMS: the lateral
+/// coefficients for an α delay).
+///
+/// **The bound.** With `g = (r(τ + s) − r(τ − s))/(2s) ≈ ∂r/∂τ`, the residual at the delay
+/// removed is `r(τ) ≈ e + (τ − τ*)·g` for a true delay `τ*`, so its least-squares coefficient on
+/// `g` estimates `τ − τ*`. When the delay this implies lies further from the sensor test's
+/// estimate than three standard errors of the difference (the sensor test's and this fit's), the
+/// residual along `g` is larger than a delay error the data allow: [`Rival::Beyond`].
+fn rival_column(i: usize, inp: &Inputs, plus: &Table, minus: &Table, bound: Bound) -> Option<Rival> {
     let terms = &inp.on.baselines[i];
     let cols = |t: &Table| -> Option<Vec<Vec<f64>>> { terms.iter().map(|term| term.column(t, inp.refs)).collect() };
     let z = inp.table.z[i].as_ref()?;
@@ -253,7 +299,49 @@ fn rival_column(i: usize, inp: &Inputs, plus: &Table, minus: &Table) -> Option<V
     let r0 = resid(inp.table)?;
     let (rp, rm) = (resid(plus)?, resid(minus)?);
     let d: Vec<f64> = rp.iter().zip(&rm).map(|(a, b)| a - b).collect();
-    unit_rms(d, n_fit, RELEVANT * rms(&r0[..n_fit]))
+    let column = unit_rms(d.clone(), n_fit, RELEVANT * rms(&r0[..n_fit]))?;
+    match implied_delay_offset(&d[..n_fit], &r0[..n_fit], bound) {
+        Some((off, se)) if off.abs() > SPAN_SIGMAS * se => Some(Rival::Beyond {
+            implied_s: bound.estimate_s + off,
+        }),
+        _ => Some(Rival::Column(column)),
+    }
+}
+
+/// How far from the sensor test's estimate the delay lies that the residual `r0` implies along
+/// `d = r(τ + s) − r(τ − s)`, `(τ − τ̂) − c` with `c` the least-squares coefficient of the
+/// centred `r0` on the centred `g = d/(2s)`, and that offset's standard error with both
+/// uncertainties, `√(σ_τ² + σ_c²)` (`σ_τ = s/3`, `σ_c` the least-squares σ of `c`). `None` when `g`
+/// has no variation.
+fn implied_delay_offset(d: &[f64], r0: &[f64], bound: Bound) -> Option<(f64, f64)> {
+    let n = d.len().min(r0.len());
+    if n < 3 || !bound.step_s.is_finite() || bound.step_s <= 0.0 {
+        return None;
+    }
+    let g: Vec<f64> = d[..n].iter().map(|v| v / (2.0 * bound.step_s)).collect();
+    let (mg, mr) = (g.iter().sum::<f64>() / n as f64, r0[..n].iter().sum::<f64>() / n as f64);
+    let (mut gg, mut gr) = (0.0, 0.0);
+    for k in 0..n {
+        gg += (g[k] - mg) * (g[k] - mg);
+        gr += (g[k] - mg) * (r0[k] - mr);
+    }
+    let c = gr / gg;
+    if !(gg > 0.0 && c.is_finite()) {
+        return None;
+    }
+    let rss: f64 = (0..n).map(|k| (r0[k] - mr - c * (g[k] - mg)).powi(2)).sum();
+    let var_c = rss / (n - 2) as f64 / gg;
+    let sigma_tau = bound.step_s / SPAN_SIGMAS;
+    let se = (sigma_tau * sigma_tau + var_c).sqrt();
+    se.is_finite().then_some((bound.removed_from_estimate_s - c, se))
+}
+
+/// Whether the data are below the rate the equation-error baselines need
+/// ([`crate::io::quality::MIN_RATE_HZ`]): there the low-rate path fits the coefficients by output
+/// error from the table as corrected, and neither the refinement nor the rivals (both built on
+/// equation-error fits that cannot resolve a delay there) run.
+fn below_equation_error_rate(h_s: f64) -> bool {
+    !(h_s > 0.0 && 1.0 / h_s >= crate::io::quality::MIN_RATE_HZ)
 }
 
 /// RMS of `x` about its mean.
@@ -418,6 +506,58 @@ mod tests {
             })
             .collect();
         assert!(corr_of.iter().all(|(_, c)| *c > 0.85), "{corr_of:?}");
+    }
+
+    #[test]
+    fn a_residual_along_the_delay_larger_than_its_interval_allows_gets_no_rival() {
+        // GIVEN the delayed flight with its delay removed at the truth (0.12 ± 0.007 s), and a
+        // pitching moment that also holds an α̇ term, −0.1 s·α̇ (C_mα̇ ≈ −10 at c̄/2V ≈ 0.01 s):
+        // along the delay's direction that is a delay error of ≈ 0.08 s, four times the interval
+        let (flight, sg_half, n_id, mut table) = fixture(0.12);
+        let alpha = table.signals.get(&Signal::Alpha).expect("α").clone();
+        let n = alpha.len();
+        let alpha_dot = |k: usize| (alpha[(k + 1).min(n - 1)] - alpha[k.saturating_sub(1)]) / 0.02;
+        let cm = table.z[4].as_mut().expect("C_m");
+        for (k, z) in cm.iter_mut().enumerate() {
+            *z -= 0.1 * alpha_dot(k);
+        }
+        let refs = TermRefs {
+            alpha_break_rad: 0.1,
+            airspeed_mps: 20.0,
+            mach: 0.0,
+        };
+        let baselines = HiddenEffect::baseline(None);
+        let compatibility = found_delay(0.12, 0.007);
+        let mut corr = Corrections::default();
+        corr.delay_s.insert(Quantity::Alpha, 0.12);
+        let inputs = Inputs {
+            on: Flight {
+                flight: &flight,
+                h_s: 0.01,
+                compatibility: &compatibility,
+                air: None,
+                sg_half,
+                baselines: &baselines,
+                n_id,
+            },
+            corr: &corr,
+            table: &table,
+            refs: &refs,
+        };
+        // WHEN the rivals are built
+        let r = rivals(&inputs);
+        // THEN C_m's candidates are tested without the rival (its note says why), so an α̇ term
+        // stays nameable; C_L keeps its rival
+        let with: Vec<usize> = r.columns.iter().map(|(i, _)| *i).collect();
+        assert!(!with.contains(&4), "{:?}", r.notes);
+        assert!(with.contains(&0), "{:?}", r.notes);
+        let cm_note = r
+            .notes
+            .iter()
+            .find(|(i, _)| *i == 4)
+            .map(|(_, t)| t.as_str())
+            .unwrap_or("");
+        assert!(cm_note.contains("without the delay(Alpha)'s rival"), "{:?}", r.notes);
     }
 
     #[test]

@@ -65,7 +65,7 @@ pub(super) fn decide<D: Dynamics>(inp: &Inputs, setup: &Setup<D>, choice: LowRat
     if matches!(choice, LowRateMethod::OutputError) {
         return Ok(Decision {
             gain: None,
-            note: "method of this axis: output error (the default; the filter error method where the residuals show process noise is `low_rate_method` Test)".into(),
+            note: "method of this axis: output error (the default; `--low-rate-method test` runs the filter error method where the residuals show process noise)".into(),
         });
     }
     let (spec, th, e) = oem::output_error_baseline(inp, setup)?;
@@ -80,7 +80,17 @@ pub(super) fn decide<D: Dynamics>(inp: &Inputs, setup: &Setup<D>, choice: LowRat
         });
     };
     let nx = a.nrows();
-    let phi = (a * setup.step_s()).exp();
+    // nalgebra's matrix exponential needs finite entries (it scales by the norm); a step that is
+    // not finite and positive has no discrete model.
+    let step_s = setup.step_s();
+    if !(step_s.is_finite() && step_s > 0.0 && a.iter().all(|v| v.is_finite())) {
+        return Ok(Decision {
+            gain: None,
+            note: "method of this axis: output error (the linearised model is not finite: no filter can be formed)"
+                .into(),
+        });
+    }
+    let phi = (a * step_s).exp();
     let r_meas = measurement_noise(setup, &r_oe);
     let mut best: Option<(f64, f64, DMatrix<f64>, [f64; NY])> = None;
     for kappa in KAPPAS {

@@ -716,9 +716,10 @@ impl<D: Dynamics> Setup<D> {
 
     /// The sample interval, s (the mean over the record).
     pub(super) fn step_s(&self) -> f64 {
-        let t_s = self.plant.t_s();
-        let n = t_s.len();
-        (t_s[n - 1] - t_s[0]) / (n - 1).max(1) as f64
+        match self.plant.t_s() {
+            [first, .., last] => (last - first) / (self.plant.t_s().len() - 1) as f64,
+            _ => f64::NAN,
+        }
     }
 
     /// Runs the filter error method with the steady-state gain `k` (`NX × NY`) from now on.

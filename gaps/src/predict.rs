@@ -346,11 +346,21 @@ pub fn predict(report: &SavedReport, flight: &MeasuredFlight) -> Result<GapsPred
         .filter(|n| !n.starts_with("the sensor errors named are removed"))
         .collect();
     if !pre.compatibility.found.is_empty() {
+        // A delay refined within its interval is removed at the refined value, which its own
+        // note (`… removed at …, not at the estimate …`) gives: say so instead of a second value.
+        let refined = |name: &str| notes.iter().any(|n| n.starts_with(&format!("{name} removed at ")));
         let names: Vec<String> = pre
             .compatibility
             .found
             .iter()
-            .map(|f| format!("{} = {:.4}", f.param.name(), f.value))
+            .map(|f| {
+                let name = f.param.name();
+                if refined(&name) {
+                    format!("{name} (as refined: the note above)")
+                } else {
+                    format!("{name} = {:.4}", f.value)
+                }
+            })
             .collect();
         notes.push(format!(
             "sensor errors the compatibility check finds in this flight are removed before the synthesis, as the analysis does: {}",

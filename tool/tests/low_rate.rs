@@ -486,7 +486,13 @@ fn detection_with_output_error_and_filter_error() {
                     .notes
                     .iter()
                     .filter(|n| n.starts_with("method of this axis"))
-                    .map(|n| if n.contains("filter error") { "FEM" } else { "OE" })
+                    .map(|n| {
+                        if n.starts_with("method of this axis: filter error") {
+                            "FEM"
+                        } else {
+                            "OE"
+                        }
+                    })
                     .collect();
                 let is_test = method == LowRateMethod::Test;
                 let t = tally.entry((name, is_test)).or_default();

@@ -122,8 +122,14 @@ fn low_rate_path<'a>(
             notes.insert(
                 0,
                 format!(
-                    "method: the data are at {rate:.1} Hz, below the {min} Hz the equation-error path needs (it smooths and differentiates over ±0.1 s), so {} are fitted and their candidates tested by output error, or by the filter error method on an axis whose residuals show process noise (the low-rate path, docs/model-gaps.md)",
-                    covered.join(", ")
+                    "method: the data are at {rate:.1} Hz, below the {min} Hz the equation-error path needs (it smooths and differentiates over ±0.1 s), so {} are fitted and their candidates tested by {} (the low-rate path, docs/model-gaps.md)",
+                    covered.join(", "),
+                    match settings.low_rate_method {
+                        crate::LowRateMethod::OutputError => "output error",
+                        crate::LowRateMethod::FilterError => "the filter error method (process noise)",
+                        crate::LowRateMethod::Test =>
+                            "the filter error method on an axis whose output-error residuals are coloured beyond chance (a likelihood-ratio test), else output error",
+                    }
                 ),
             );
             notes.extend(lr.notes);
