@@ -223,12 +223,56 @@ pub fn read_segments_with(
         Layout::Columns { columns, time_column } => numbered_table(model, path, *columns, *time_column)?,
         Layout::Channels(chs) => channel_table(path, companion, chs)?,
     };
-    let f = table.file.clone();
+    let f = &table.file;
     let rows = &table.rows;
     if rows.len() < 2 {
         return Err(format!("{f}: {} samples; at least two are needed", rows.len()));
     }
-    let (_, nu, ny) = model.dims();
+    check_used_columns(model, &table)?;
+    let tc = table.time_column - 1;
+    let t0 = rows[0].1[tc];
+    let (dt, pieces) = contiguous_pieces(&table)?;
+    let whole = [(f64::NEG_INFINITY, f64::INFINITY)];
+    let ranges = if ranges.is_empty() { &whole[..] } else { ranges };
+    let mut out = Vec::new();
+    for &(from, to) in ranges {
+        let mut found = false;
+        for piece in &pieces {
+            let idx: Vec<usize> = piece
+                .clone()
+                .filter(|&k| {
+                    let t = rows[k].1[tc] - t0;
+                    t >= from - 1e-9 * dt && t <= to + 1e-9 * dt
+                })
+                .collect();
+            if idx.is_empty() {
+                continue;
+            }
+            found = true;
+            if idx.len() < 2 {
+                return Err(format!(
+                    "{f}: segment {from}:{to} s holds {} sample of a piece; give a longer segment",
+                    idx.len()
+                ));
+            }
+            out.push(segment_of_rows(model, &table, &idx));
+        }
+        if !found {
+            let last = rows[rows.len() - 1].1[tc] - t0;
+            return Err(format!(
+                "{f}: segment {from}:{to} s has no samples; the file spans 0 to {last:.3} s from its first sample"
+            ));
+        }
+    }
+    Ok(out)
+}
+
+/// Every column the model reads (the time, each input's and output's) finite on every row and
+/// not zero on all of them (a missing, zero-padded channel); the error names the file, the line
+/// and the column, and says what to map instead.
+fn check_used_columns(model: &UserModel, table: &Table) -> Result<(), String> {
+    let f = &table.file;
+    let rows = &table.rows;
     let names = model
         .file
         .inputs
@@ -266,15 +310,20 @@ pub fn read_segments_with(
             });
         }
     }
+    Ok(())
+}
+
+/// The record's time step (the median forward step, s) and its contiguous pieces of rows: a
+/// step above 1.5 dt or not forward starts a new one.
+fn contiguous_pieces(table: &Table) -> Result<(f64, Vec<std::ops::Range<usize>>), String> {
+    let rows = &table.rows;
     let tc = table.time_column - 1;
-    let t0 = rows[0].1[tc];
     let diffs: Vec<f64> = rows.windows(2).map(|w| w[1].1[tc] - w[0].1[tc]).collect();
     let mut sorted: Vec<f64> = diffs.iter().copied().filter(|d| *d > 0.0).collect();
     sorted.sort_by(f64::total_cmp);
     let dt = *sorted
         .get(sorted.len() / 2)
-        .ok_or_else(|| format!("{f}: the time never increases"))?;
-    // Contiguous pieces: a step above 1.5 dt or not forward starts a new one.
+        .ok_or_else(|| format!("{}: the time never increases", table.file))?;
     let mut pieces: Vec<std::ops::Range<usize>> = Vec::new();
     let mut start = 0;
     for (k, d) in diffs.iter().enumerate() {
@@ -284,67 +333,45 @@ pub fn read_segments_with(
         }
     }
     pieces.push(start..rows.len());
-    let whole = [(f64::NEG_INFINITY, f64::INFINITY)];
-    let ranges = if ranges.is_empty() { &whole[..] } else { ranges };
-    let mut out = Vec::new();
-    for &(from, to) in ranges {
-        let mut found = false;
-        for piece in &pieces {
-            let idx: Vec<usize> = piece
-                .clone()
-                .filter(|&k| {
-                    let t = rows[k].1[tc] - t0;
-                    t >= from - 1e-9 * dt && t <= to + 1e-9 * dt
-                })
-                .collect();
-            if idx.is_empty() {
-                continue;
+    Ok((dt, pieces))
+}
+
+/// The segment of the rows `idx` (at least two): time from the record's first sample, the
+/// model's inputs and outputs from their sources.
+fn segment_of_rows(model: &UserModel, table: &Table, idx: &[usize]) -> Segment {
+    let (_, nu, ny) = model.dims();
+    let rows = &table.rows;
+    let tc = table.time_column - 1;
+    let t0 = rows[0].1[tc];
+    let t_s: Vec<f64> = idx.iter().map(|&k| rows[k].1[tc] - t0).collect();
+    let u = idx
+        .iter()
+        .map(|&k| {
+            let mut v = UVec::zeros();
+            for (j, e) in model.sources.iter().enumerate().take(nu) {
+                v[j] = source_value(e, &rows[k].1);
             }
-            found = true;
-            if idx.len() < 2 {
-                return Err(format!(
-                    "{f}: segment {from}:{to} s holds {} sample of a piece; give a longer segment",
-                    idx.len()
-                ));
+            v
+        })
+        .collect();
+    let y = idx
+        .iter()
+        .map(|&k| {
+            let mut v = YVec::zeros();
+            for (j, e) in model.sources[nu..].iter().enumerate().take(ny) {
+                v[j] = source_value(e, &rows[k].1);
             }
-            let t_s: Vec<f64> = idx.iter().map(|&k| rows[k].1[tc] - t0).collect();
-            let u = idx
-                .iter()
-                .map(|&k| {
-                    let mut v = UVec::zeros();
-                    for (j, e) in model.sources.iter().enumerate().take(nu) {
-                        v[j] = source_value(e, &rows[k].1);
-                    }
-                    v
-                })
-                .collect();
-            let y = idx
-                .iter()
-                .map(|&k| {
-                    let mut v = YVec::zeros();
-                    for (j, e) in model.sources[nu..].iter().enumerate().take(ny) {
-                        v[j] = source_value(e, &rows[k].1);
-                    }
-                    v
-                })
-                .collect();
-            out.push(Segment {
-                label: format!("{f} [{:.3}, {:.3}] s", t_s[0], t_s[t_s.len() - 1]),
-                file: f.clone(),
-                t_s,
-                u,
-                y,
-                aircraft: table.aircraft.clone(),
-            });
-        }
-        if !found {
-            let last = rows[rows.len() - 1].1[tc] - t0;
-            return Err(format!(
-                "{f}: segment {from}:{to} s has no samples; the file spans 0 to {last:.3} s from its first sample"
-            ));
-        }
+            v
+        })
+        .collect();
+    Segment {
+        label: format!("{f} [{:.3}, {:.3}] s", t_s[0], t_s[t_s.len() - 1], f = table.file),
+        file: table.file.clone(),
+        t_s,
+        u,
+        y,
+        aircraft: table.aircraft.clone(),
     }
-    Ok(out)
 }
 
 /// Sets the model's constants taken from the aircraft file from the segments' aircraft (see
