@@ -1010,58 +1010,16 @@ pub fn run_fem(args: &FemArgs) -> Result<FemRun, String> {
     for (n, v) in &args.fix {
         model.fix(n, *v).map_err(|e| e.0)?;
     }
-    let data = if args.data.is_empty() {
-        vec![model.default_data().ok_or_else(|| {
-            format!(
-                "{}: no data: give --data FILE or set [data] file in the model file",
-                args.model.display()
-            )
-        })?]
-    } else {
-        args.data.clone()
-    };
-    // The model's `[data] with` belongs to its `[data] file`; other files name theirs, as for
-    // `gaps` (a map describes one file layout).
-    let companion = match (&args.with, args.data.is_empty()) {
-        (Some(w), _) => Some(w.clone()),
-        (None, true) => model.default_companion(),
-        (None, false) => None,
-    };
+    let (data, companion) = data_and_companion(args, &model)?;
     let segs = load_segments(&model, &data, companion.as_deref(), &args.segments)?;
     apply_aircraft(&mut model, &segs)?;
     let dt = sample_period(&segs)?;
     let id = identify(&model, &segs)?;
-    // The model with the estimates.
-    let mut values = model.values().to_vec();
-    let sig = sigma_of(&coloured_covariance(&model, &segs, &id)?);
-    let sig_white = sigma_of(&id.covariance);
-    let mut sigma = vec![None; values.len()];
-    let mut sigma_white = vec![None; values.len()];
-    for (k, &i) in model.free().iter().enumerate() {
-        values[i] = id.p[k];
-        sigma[i] = Some(sig[k]);
-        sigma_white[i] = Some(sig_white[k]);
-    }
-    model.set_values(&values);
+    let estimates = set_estimates(&mut model, &segs, &id)?;
     let sims: Vec<_> = segs.iter().map(|s| simulate(&model, s, dt)).collect();
     let fit = fit_metrics(&model, &segs, &sims);
-    let val_files = if args.validate.is_empty() && !args.validate_segments.is_empty() {
-        data.clone()
-    } else {
-        args.validate.clone()
-    };
-    let vsegs = if val_files.is_empty() {
-        Vec::new()
-    } else {
-        load_segments(&model, &val_files, companion.as_deref(), &args.validate_segments)?
-    };
-    apply_aircraft(&mut model, &vsegs)?;
-    let vsims: Vec<_> = vsegs.iter().map(|s| simulate(&model, s, dt)).collect();
-    let validation = if vsegs.is_empty() {
-        Vec::new()
-    } else {
-        fit_metrics(&model, &vsegs, &vsims)
-    };
+    let identification = Fitted { segs, sims, fit };
+    let validation = validate(args, &mut model, &data, companion.as_deref(), dt)?;
     let est = &model.file.estimation;
     std::fs::create_dir_all(&args.out).map_err(|e| format!("{}: {e}", args.out.display()))?;
     let saved = SavedModel {
@@ -1080,60 +1038,167 @@ pub fn run_fem(args: &FemArgs) -> Result<FemRun, String> {
         .into(),
         iterations: id.iterations,
         converged: id.converged,
-        data: segs.iter().map(|s| s.label.clone()).collect(),
+        data: identification.segs.iter().map(|s| s.label.clone()).collect(),
         data_files: data.iter().map(|d| relative_to(d, &args.out)).collect(),
         with: companion.as_deref().map(|c| relative_to(c, &args.out)),
         dt_s: dt,
-        parameters: model
-            .file
-            .parameters
-            .iter()
-            .enumerate()
-            .map(|(i, p)| SavedParameter {
-                name: p.name.clone(),
-                value: values[i],
-                sigma: sigma[i],
-                sigma_white: sigma_white[i],
-                fixed: p.fixed,
-                start: p.start,
-                reference: p.reference,
-            })
-            .collect(),
+        parameters: saved_parameters(&model, &estimates),
         noise_variance: id.noise_variance.clone(),
-        fit,
-        validation_data: vsegs.iter().map(|s| s.label.clone()).collect(),
-        validation,
+        fit: identification.fit.clone(),
+        validation_data: validation.segs.iter().map(|s| s.label.clone()).collect(),
+        validation: validation.fit.clone(),
     };
-    let json_path = args.out.join("identification.json");
-    let json = serde_json::to_string_pretty(&saved).map_err(|e| e.to_string())?;
-    std::fs::write(&json_path, json).map_err(|e| format!("{}: {e}", json_path.display()))?;
-    let mut files = vec![json_path];
-    let fig = args.out.join("identification_fit.svg");
-    fit_figure(
-        &model,
-        &format!("{}: identification data", model.file.name),
-        &segs,
-        &sims,
-    )
-    .write_svg(&fig)
-    .map_err(|e: PlotError| format!("{}: {e:?}", fig.display()))?;
-    files.push(fig);
-    if !vsegs.is_empty() {
-        let fig = args.out.join("validation_fit.svg");
-        fit_figure(&model, &format!("{}: validation data", model.file.name), &vsegs, &vsims)
-            .write_svg(&fig)
-            .map_err(|e: PlotError| format!("{}: {e:?}", fig.display()))?;
-        files.push(fig);
-    }
-    if !id.history.is_empty() {
-        let fig = args.out.join("parameters.svg");
-        history_figure(&model, &id.history)
-            .write_svg(&fig)
-            .map_err(|e: PlotError| format!("{}: {e:?}", fig.display()))?;
-        files.push(fig);
-    }
+    let files = write_fem_outputs(&args.out, &model, &saved, &identification, &validation, &id.history)?;
     let text = report_text(&saved);
     Ok(FemRun { saved, text, files })
+}
+
+/// The data files (`--data`, else the model's `[data] file`) and their companion. The model's
+/// `[data] with` belongs to its `[data] file`; other files name theirs, as for `gaps` (a map
+/// describes one file layout).
+fn data_and_companion(args: &FemArgs, model: &UserModel) -> Result<(Vec<PathBuf>, Option<PathBuf>), String> {
+    let data = if args.data.is_empty() {
+        vec![model.default_data().ok_or_else(|| {
+            format!(
+                "{}: no data: give --data FILE or set [data] file in the model file",
+                args.model.display()
+            )
+        })?]
+    } else {
+        args.data.clone()
+    };
+    let companion = match (&args.with, args.data.is_empty()) {
+        (Some(w), _) => Some(w.clone()),
+        (None, true) => model.default_companion(),
+        (None, false) => None,
+    };
+    Ok((data, companion))
+}
+
+/// Every parameter's value and standard deviations (coloured residuals, white residuals; `None`
+/// for a fixed one), indexed as the model's parameters.
+struct Estimates {
+    values: Vec<f64>,
+    sigma: Vec<Option<f64>>,
+    sigma_white: Vec<Option<f64>>,
+}
+
+/// Puts the identified values into the model and returns them with their standard deviations.
+fn set_estimates(model: &mut UserModel, segs: &[Segment], id: &Identified) -> Result<Estimates, String> {
+    let mut values = model.values().to_vec();
+    let sig = sigma_of(&coloured_covariance(model, segs, id)?);
+    let sig_white = sigma_of(&id.covariance);
+    let mut sigma = vec![None; values.len()];
+    let mut sigma_white = vec![None; values.len()];
+    for (k, &i) in model.free().iter().enumerate() {
+        values[i] = id.p[k];
+        sigma[i] = Some(sig[k]);
+        sigma_white[i] = Some(sig_white[k]);
+    }
+    model.set_values(&values);
+    Ok(Estimates {
+        values,
+        sigma,
+        sigma_white,
+    })
+}
+
+/// Segments, their simulations by the identified model, and each output's fit.
+struct Fitted {
+    segs: Vec<Segment>,
+    sims: Vec<Vec<YVec>>,
+    fit: Vec<OutputFit>,
+}
+
+/// The validation segments (`--validate` files, else the identification's files when only
+/// `--validate-segment` is given; none without either) simulated by the identified model.
+fn validate(
+    args: &FemArgs,
+    model: &mut UserModel,
+    data: &[PathBuf],
+    companion: Option<&Path>,
+    dt: f64,
+) -> Result<Fitted, String> {
+    let val_files = if args.validate.is_empty() && !args.validate_segments.is_empty() {
+        data.to_vec()
+    } else {
+        args.validate.clone()
+    };
+    let segs = if val_files.is_empty() {
+        Vec::new()
+    } else {
+        load_segments(model, &val_files, companion, &args.validate_segments)?
+    };
+    apply_aircraft(model, &segs)?;
+    let sims: Vec<_> = segs.iter().map(|s| simulate(model, s, dt)).collect();
+    let fit = if segs.is_empty() {
+        Vec::new()
+    } else {
+        fit_metrics(model, &segs, &sims)
+    };
+    Ok(Fitted { segs, sims, fit })
+}
+
+/// The saved parameters: name, estimate, standard deviations, and the model file's settings.
+fn saved_parameters(model: &UserModel, e: &Estimates) -> Vec<SavedParameter> {
+    model
+        .file
+        .parameters
+        .iter()
+        .enumerate()
+        .map(|(i, p)| SavedParameter {
+            name: p.name.clone(),
+            value: e.values[i],
+            sigma: e.sigma[i],
+            sigma_white: e.sigma_white[i],
+            fixed: p.fixed,
+            start: p.start,
+            reference: p.reference,
+        })
+        .collect()
+}
+
+/// Writes `identification.json` and the figures (identification fit, validation fit when
+/// validated, parameter history of the recursive filter when it kept one) into `out`.
+fn write_fem_outputs(
+    out: &Path,
+    model: &UserModel,
+    saved: &SavedModel,
+    identification: &Fitted,
+    validation: &Fitted,
+    history: &[(usize, f64, PVec, PVec)],
+) -> Result<Vec<PathBuf>, String> {
+    let json_path = out.join("identification.json");
+    let json = serde_json::to_string_pretty(saved).map_err(|e| e.to_string())?;
+    std::fs::write(&json_path, json).map_err(|e| format!("{}: {e}", json_path.display()))?;
+    let mut files = vec![json_path];
+    let write = |name: &str, figure: Figure| -> Result<PathBuf, String> {
+        let path = out.join(name);
+        figure
+            .write_svg(&path)
+            .map_err(|e: PlotError| format!("{}: {e:?}", path.display()))?;
+        Ok(path)
+    };
+    let title = |what: &str| format!("{}: {what} data", model.file.name);
+    files.push(write(
+        "identification_fit.svg",
+        fit_figure(
+            model,
+            &title("identification"),
+            &identification.segs,
+            &identification.sims,
+        ),
+    )?);
+    if !validation.segs.is_empty() {
+        files.push(write(
+            "validation_fit.svg",
+            fit_figure(model, &title("validation"), &validation.segs, &validation.sims),
+        )?);
+    }
+    if !history.is_empty() {
+        files.push(write("parameters.svg", history_figure(model, history))?);
+    }
+    Ok(files)
 }
 
 /// The saved model as a text report.
