@@ -287,7 +287,32 @@ fn variants_table(rows: &[[f64; 20]]) -> Result<String, String> {
 /// Runs the report; returns the text and the figures written into `out_dir`.
 pub fn hfb320_report(data: &Path, out_dir: &Path) -> Result<(String, Vec<PathBuf>), String> {
     let rows = hfb320_rows(data)?;
-    let mut fem = hfb320_filter::<f64>(&rows, Sensitivity::Propagated)?;
+    let (t, hist) = recursive_pass(&rows)?;
+    let (p, s) = hist[hist.len() - 1];
+    let mut out = parameter_table(data, &p, &s);
+    out += &variants_table(&rows)?;
+    out += &noise_check(&rows)?;
+    // The identified model simulated over the record from the first measured state with the measured
+    // inputs (RK4 at the sample period), against the measurements; the published values likewise.
+    let sim = simulate_record(&rows, &p);
+    let sim_pub = simulate_record(&rows, &SVector::<f64, 11>::from_column_slice(&PUBLISHED));
+    out += &simulation_table(&rows, &sim, &sim_pub);
+    std::fs::create_dir_all(out_dir).map_err(|e| format!("{}: {e}", out_dir.display()))?;
+    let plot_err = |e: PlotError| format!("{e:?}");
+    let f1 = out_dir.join("fem_hfb320_outputs.svg");
+    outputs_figure(&rows, &sim).write_svg(&f1).map_err(plot_err)?;
+    let f2 = out_dir.join("fem_hfb320_parameters.svg");
+    parameters_figure(&t, &hist).write_svg(&f2).map_err(plot_err)?;
+    Ok((out, vec![f1, f2]))
+}
+
+/// One parameter estimate with its standard deviation, per sample.
+type Estimate = (SVector<f64, 11>, SVector<f64, 11>);
+
+/// One recursive pass of the filter error method over the record: the times and the estimates
+/// after each sample (the first the starting values).
+fn recursive_pass(rows: &[[f64; 20]]) -> Result<(Vec<f64>, Vec<Estimate>), String> {
+    let mut fem = hfb320_filter::<f64>(rows, Sensitivity::Propagated)?;
     let mut t = vec![rows[0][0]];
     let mut hist = vec![(*fem.parameters(), fem.parameter_sigma())];
     for w in rows.windows(2) {
@@ -296,7 +321,11 @@ pub fn hfb320_report(data: &Path, out_dir: &Path) -> Result<(String, Vec<PathBuf
         t.push(w[1][0]);
         hist.push((*fem.parameters(), fem.parameter_sigma()));
     }
-    let (p, s) = (*fem.parameters(), fem.parameter_sigma());
+    Ok((t, hist))
+}
+
+/// The final estimates ± σ against the published ones.
+fn parameter_table(data: &Path, p: &SVector<f64, 11>, s: &SVector<f64, 11>) -> String {
     let mut out = String::new();
     let _ = writeln!(
         out,
@@ -319,9 +348,13 @@ pub fn hfb320_report(data: &Path, out_dir: &Path) -> Result<(String, Vec<PathBuf
             (p[i] - PUBLISHED[i]).abs() / s[i]
         );
     }
+    out
+}
 
-    out += &variants_table(&rows)?;
-    let ratio = innovation_ratio(&rows)?;
+/// The innovations' mean square over their predicted variance, per output.
+fn noise_check(rows: &[[f64; 20]]) -> Result<String, String> {
+    let mut out = String::new();
+    let ratio = innovation_ratio(rows)?;
     let _ = writeln!(
         out,
         "noise check: mean Δz² over the predicted C P⁻ Cᵀ + R per output (1 if the book's F, R fit this filter):"
@@ -330,25 +363,30 @@ pub fn hfb320_report(data: &Path, out_dir: &Path) -> Result<(String, Vec<PathBuf
         let _ = write!(out, " {name} {r:.2};");
     }
     let _ = writeln!(out);
+    Ok(out)
+}
 
-    // The identified model simulated over the record from the first measured state with the measured
-    // inputs (RK4 at the sample period), against the measurements; the published values likewise.
+/// The model with `params` simulated over the record from the first measured state with the
+/// measured inputs (RK4 at the sample period, the input interpolated): its outputs per sample.
+fn simulate_record(rows: &[[f64; 20]], params: &SVector<f64, 11>) -> Vec<SVector<f64, 7>> {
     let model = Hfb320::<f64>::default();
-    let simulate = |params: &SVector<f64, 11>| -> Vec<SVector<f64, 7>> {
-        let mut x = SVector::<f64, 4>::new(rows[0][4], rows[0][5], rows[0][6], rows[0][7]);
-        let mut ys = Vec::with_capacity(rows.len());
-        for (k, r) in rows.iter().enumerate() {
-            let u = SVector::<f64, 2>::new(r[1], r[3]);
-            ys.push(model.h(&x, &u, params));
-            if let Some(next) = rows.get(k + 1) {
-                let un = SVector::<f64, 2>::new(next[1], next[3]);
-                x = integrate(&model, Integrator::Rk4, InputHold::Linear, 0.1, &x, &u, &un, params);
-            }
+    let mut x = SVector::<f64, 4>::new(rows[0][4], rows[0][5], rows[0][6], rows[0][7]);
+    let mut ys = Vec::with_capacity(rows.len());
+    for (k, r) in rows.iter().enumerate() {
+        let u = SVector::<f64, 2>::new(r[1], r[3]);
+        ys.push(model.h(&x, &u, params));
+        if let Some(next) = rows.get(k + 1) {
+            let un = SVector::<f64, 2>::new(next[1], next[3]);
+            x = integrate(&model, Integrator::Rk4, InputHold::Linear, 0.1, &x, &u, &un, params);
         }
-        ys
-    };
-    let sim = simulate(&p);
-    let sim_pub = simulate(&SVector::<f64, 11>::from_column_slice(&PUBLISHED));
+    }
+    ys
+}
+
+/// RMS and R² of each output of the two simulations (ours, the published model's) against the
+/// measurements.
+fn simulation_table(rows: &[[f64; 20]], sim: &[SVector<f64, 7>], sim_pub: &[SVector<f64, 7>]) -> String {
+    let mut out = String::new();
     let _ = writeln!(
         out,
         "\nmodels simulated over the whole record (open loop, no state filter; turbulence makes V and θ drift):"
@@ -366,12 +404,14 @@ pub fn hfb320_report(data: &Path, out_dir: &Path) -> Result<(String, Vec<PathBuf
             let ss_res: f64 = meas.iter().zip(ys.iter()).map(|(m, y)| (m - y[i]).powi(2)).sum();
             ((ss_res / meas.len() as f64).sqrt(), 1.0 - ss_res / ss_tot)
         };
-        let ((r1, q1), (r2, q2)) = (fit(&sim), fit(&sim_pub));
+        let ((r1, q1), (r2, q2)) = (fit(sim), fit(sim_pub));
         let _ = writeln!(out, "{name:>12} {r1:>10.4} {q1:>8.4} {r2:>16.4} {q2:>8.4}");
     }
+    out
+}
 
-    std::fs::create_dir_all(out_dir).map_err(|e| format!("{}: {e}", out_dir.display()))?;
-    let plot_err = |e: PlotError| format!("{e:?}");
+/// Each output measured against the identified model's simulation, and the residual.
+fn outputs_figure(rows: &[[f64; 20]], sim: &[SVector<f64, 7>]) -> Figure {
     let time: Vec<f64> = rows.iter().map(|r| r[0]).collect();
     let mut outputs = Figure::new("t (s)").title("HFB-320: measured vs identified model (simulation), residuals");
     for (i, name) in OUTPUTS.iter().enumerate() {
@@ -391,8 +431,11 @@ pub fn hfb320_report(data: &Path, out_dir: &Path) -> Result<(String, Vec<PathBuf
                 Colour::VERMILLION,
             )));
     }
-    let f1 = out_dir.join("fem_hfb320_outputs.svg");
-    outputs.write_svg(&f1).map_err(plot_err)?;
+    outputs
+}
+
+/// Each parameter's recursive estimate ± σ against the published value.
+fn parameters_figure(t: &[f64], hist: &[Estimate]) -> Figure {
     let mut params = Figure::new("t (s)").title("HFB-320: filter-error parameter estimates ±σ");
     for i in 0..11 {
         let est: Vec<f64> = hist.iter().map(|h| h.0[i]).collect();
@@ -400,12 +443,10 @@ pub fn hfb320_report(data: &Path, out_dir: &Path) -> Result<(String, Vec<PathBuf
         let published = vec![PUBLISHED[i]; t.len()];
         params = params.panel(
             Panel::new(hfb320_idx::NAMES[i], hfb320_idx::NAMES[i])
-                .band(Band::around("±σ", &t, &est, &sig, 1.0, Colour::BLUE))
-                .line(Line::new("ours", &t, &est, Colour::BLUE))
-                .line(Line::new("published FEM", &t, &published, Colour::BLACK).dashed()),
+                .band(Band::around("±σ", t, &est, &sig, 1.0, Colour::BLUE))
+                .line(Line::new("ours", t, &est, Colour::BLUE))
+                .line(Line::new("published FEM", t, &published, Colour::BLACK).dashed()),
         );
     }
-    let f2 = out_dir.join("fem_hfb320_parameters.svg");
-    params.write_svg(&f2).map_err(plot_err)?;
-    Ok((out, vec![f1, f2]))
+    params
 }

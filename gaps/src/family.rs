@@ -242,44 +242,108 @@ pub fn resolve(
 ) -> (Vec<(usize, FamilyChoice)>, Vec<String>) {
     let mut choices = Vec::new();
     let mut notes = Vec::new();
-    let col_of = |t: Term| terms.iter().position(|x| *x == t);
     for k in nb..model.len() {
         let a = model[k];
         let without: Vec<usize> = model.iter().copied().filter(|&x| x != a).collect();
         let Ok(w) = design.fit(&without) else { continue };
         let without_terms: Vec<Term> = without.iter().map(|&c| terms[c]).collect();
-        // A form in a's place: offered there, not excluded, fitted, its `t²` above the threshold
-        // (the family's held-out evidence is then weighed form against form).
-        let try_form = |model: &[usize], j: usize| -> Option<SubsetFit> {
-            if model.contains(&j) || excluded.contains(&j) || not_offered(terms[j], coef, &without_terms).is_some() {
-                return None;
-            }
-            let swapped: Vec<usize> = model.iter().map(|&x| if x == model[k] { j } else { x }).collect();
-            let f = design.fit(&swapped).ok()?;
-            (f.t2(k) > tests.threshold_t2).then_some(f)
+        let slot = Slot {
+            design,
+            terms,
+            coef,
+            k,
+            excluded,
+            without_terms: &without_terms,
+            tests,
         };
-        let beats = |x: &SubsetFit, y: &SubsetFit| beyond_noise(design, x, y, tests.gain_crit);
-        let mut stood_in = false;
-        if terms[a] == Term::Elevator2 {
-            if let Some(f) = col_of(Term::Alpha2).and_then(|j| try_form(model, j).map(|f| (j, f))) {
-                let (j, f) = f;
-                // A change of kind: α² must pass the held-out entry test itself as well.
-                if !beats(current, &f) && !beats(&f, current) && beyond_noise(design, &w, &f, tests.gain_crit) {
-                    notes.push(format!(
-                        "{} named in place of {}: the flight cannot tell them apart, and a curve nonlinear in α is preferred to the square of a control",
-                        terms[j].name(),
-                        terms[a].name()
-                    ));
-                    model[k] = j;
-                    *current = f;
-                    stood_in = true;
-                }
-            }
+        let stood_in = terms[a] == Term::Elevator2 && slot.alpha_squared_stands_in(model, current, &w, &mut notes);
+        if let Some(choice) = slot.family_form(model, current, stood_in, &mut notes) {
+            choices.push(choice);
         }
-        let a = model[k];
-        let Some(family) = Family::of(terms[a], coef) else {
-            continue;
+    }
+    (choices, notes)
+}
+
+/// One added term's place in the model (`model[k]`), and what trying another form there needs.
+struct Slot<'a> {
+    design: &'a Design,
+    terms: &'a [Term],
+    coef: usize,
+    k: usize,
+    excluded: &'a [usize],
+    /// The model's terms without the one in this place.
+    without_terms: &'a [Term],
+    tests: Tests,
+}
+
+impl Slot<'_> {
+    /// A form in the place: offered there, not excluded, fitted, its `t²` above the threshold
+    /// (the family's held-out evidence is then weighed form against form).
+    fn try_form(&self, model: &[usize], j: usize) -> Option<SubsetFit> {
+        if model.contains(&j)
+            || self.excluded.contains(&j)
+            || not_offered(self.terms[j], self.coef, self.without_terms).is_some()
+        {
+            return None;
+        }
+        let swapped: Vec<usize> = model.iter().map(|&x| if x == model[self.k] { j } else { x }).collect();
+        let f = self.design.fit(&swapped).ok()?;
+        (f.t2(self.k) > self.tests.threshold_t2).then_some(f)
+    }
+
+    /// The term `t`'s column and its fit in the place, when it qualifies ([`Slot::try_form`]).
+    fn form_of(&self, model: &[usize], t: Term) -> Option<(usize, SubsetFit)> {
+        let j = self.terms.iter().position(|x| *x == t)?;
+        self.try_form(model, j).map(|f| (j, f))
+    }
+
+    /// Whether `x` predicts held-out data better than `y` beyond noise.
+    fn beats(&self, x: &SubsetFit, y: &SubsetFit) -> bool {
+        beyond_noise(self.design, x, y, self.tests.gain_crit)
+    }
+
+    /// δe² in the place gives way to α² when the flight cannot tell them apart and α² passes the
+    /// held-out entry test against the model without the place (`w`) itself: a curve nonlinear in
+    /// α is preferred to the square of a control. Whether it did.
+    fn alpha_squared_stands_in(
+        &self,
+        model: &mut [usize],
+        current: &mut SubsetFit,
+        w: &SubsetFit,
+        notes: &mut Vec<String>,
+    ) -> bool {
+        let a = model[self.k];
+        let Some((j, f)) = self.form_of(model, Term::Alpha2) else {
+            return false;
         };
+        // A change of kind: α² must pass the held-out entry test itself as well.
+        if self.beats(current, &f) || self.beats(&f, current) || !beyond_noise(self.design, w, &f, self.tests.gain_crit)
+        {
+            return false;
+        }
+        notes.push(format!(
+            "{} named in place of {}: the flight cannot tell them apart, and a curve nonlinear in α is preferred to the square of a control",
+            self.terms[j].name(),
+            self.terms[a].name()
+        ));
+        model[self.k] = j;
+        *current = f;
+        true
+    }
+
+    /// The form of the place's family named: the lowest-order one unless another predicts
+    /// held-out data better beyond noise ([`decide`]); the model and its fit follow it. `None`
+    /// when the term is of no family or no form is decided.
+    fn family_form(
+        &self,
+        model: &mut [usize],
+        current: &mut SubsetFit,
+        stood_in: bool,
+        notes: &mut Vec<String>,
+    ) -> Option<(usize, FamilyChoice)> {
+        let terms = self.terms;
+        let a = model[self.k];
+        let family = Family::of(terms[a], self.coef)?;
         let mut forms = vec![Form {
             col: a,
             order: family.order(terms[a]),
@@ -289,7 +353,7 @@ pub fn resolve(
             if t == terms[a] {
                 continue;
             }
-            if let Some((j, f)) = col_of(t).and_then(|j| try_form(model, j).map(|f| (j, f))) {
+            if let Some((j, f)) = self.form_of(model, t) {
                 forms.push(Form {
                     col: j,
                     order: family.order(t),
@@ -297,9 +361,7 @@ pub fn resolve(
                 });
             }
         }
-        let Some((win, tied)) = decide(&forms, beats) else {
-            continue;
-        };
+        let (win, tied) = decide(&forms, |x, y| self.beats(x, y))?;
         let mut cannot: Vec<String> = tied.iter().map(|&h| terms[forms[h].col].name().to_string()).collect();
         // The stand-in δe², when it gave way, is a form the flight cannot separate as well.
         if stood_in {
@@ -313,19 +375,18 @@ pub fn resolve(
                 terms[a].name(),
                 family.name()
             ));
-            model[k] = w_col;
+            model[self.k] = w_col;
             *current = forms[win].fit.clone();
         }
-        choices.push((
+        Some((
             w_col,
             FamilyChoice {
                 family: family.name().to_string(),
                 form: terms[w_col].name().to_string(),
                 cannot_separate: cannot,
             },
-        ));
+        ))
     }
-    (choices, notes)
 }
 
 #[cfg(test)]

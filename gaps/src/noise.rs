@@ -231,109 +231,97 @@ pub fn column_errors(
 ) -> [Option<ColumnErrors>; 6] {
     let n_id = s.n_id.min(table.t_s.len());
     let noise = channel_noise_model(s.flight, s.h_s);
-    // The coefficients present, in groups that share most of their terms (the longitudinal and
-    // the lateral ones): one Gram matrix per group instead of one per coefficient.
-    let present = |i: usize| table.z[i].is_some();
-    let groups: Vec<Vec<usize>> = GROUPS
-        .iter()
-        .map(|g| g.iter().copied().filter(|&i| present(i)).collect::<Vec<_>>())
-        .filter(|g| !g.is_empty())
-        .collect();
-    // Each group's distinct terms, and each coefficient's columns in its group's matrix (its
-    // terms, then its output) as indices into them.
-    let union: Vec<Vec<Term>> = groups
-        .iter()
-        .map(|g| {
-            let mut u: Vec<Term> = Vec::new();
-            for t in g.iter().flat_map(|&i| &terms[i]) {
-                if !u.contains(t) {
-                    u.push(*t);
-                }
-            }
-            u
-        })
-        .collect();
-    let index: Vec<Vec<Vec<usize>>> = groups
-        .iter()
-        .zip(&union)
-        .map(|(g, u)| {
-            g.iter()
-                .enumerate()
-                .map(|(m, &i)| {
-                    terms[i]
-                        .iter()
-                        .map(|t| u.iter().position(|v| v == t).unwrap_or(0))
-                        .chain([u.len() + m])
-                        .collect()
-                })
-                .collect()
-        })
-        .collect();
+    let groups = GramGroups::new(table, terms);
     // Nominal columns, once per distinct term.
     let mut nominal: BTreeMap<Term, Option<Vec<f64>>> = BTreeMap::new();
-    for t in union.iter().flatten() {
+    for t in groups.union.iter().flatten() {
         nominal.entry(*t).or_insert_with(|| t.column(table, s.refs));
     }
     let mut sums: Vec<Option<Vec<f64>>> = (0..6)
-        .map(|i| present(i).then(|| vec![0.0; (terms[i].len() + 1).pow(2)]))
+        .map(|i| table.z[i].is_some().then(|| vec![0.0; (terms[i].len() + 1).pow(2)]))
         .collect();
     let mut count = 0usize;
-    // With measured air data a replica is synthesised over the identification segment and a
-    // margin: the moments are taken over `0..n_id`, and the synthesis is local within a few
-    // smoothing half-widths (the Savitzky–Golay filters, the derivatives). A reconstruction is
-    // not: its segments and their initial states span the whole flight, which is kept.
-    let n_keep = match s.compat {
-        None => (n_id + replica_margin(s.h_s, s.sg_half)).min(s.flight.len()),
-        Some(_) => s.flight.len(),
-    };
-    // A pooled flight is cut at the end of a manoeuvre, never inside one.
-    let n_keep = s
-        .flight
-        .log
-        .pieces
-        .iter()
-        .find(|p| p.start < n_keep && n_keep <= p.end)
-        .map_or(n_keep, |p| p.end);
+    let n_keep = replica_length(s, n_id);
     for r in 0..s.replicas(table, mc) {
         let mut rng = ChaCha8Rng::seed_from_u64(mc.seed.wrapping_add(r as u64));
-        let mut pert = s.flight.clone();
-        pert.t_s.truncate(n_keep);
-        pert.log.pieces.retain(|p| p.end <= n_keep);
-        for (q, v) in pert.channels.iter_mut() {
-            let (sd, instants) = noise.get(q).map_or((0.0, None), |(sd, k)| (*sd, k.as_deref()));
-            // The whole flight's draws, so that a replica's noise does not depend on the margin.
-            let draws = if sd > 0.0 { v.len() } else { 0 };
-            let slow = (sd > 0.0)
-                .then_some(instants)
-                .flatten()
-                .map(|k| held_noise::interpolated_noise(v.len(), k, sd, &mut rng));
-            v.truncate(n_keep);
-            if let Some(e) = slow {
-                v.iter_mut().zip(e).for_each(|(x, e)| *x += e);
-                continue;
-            }
-            for j in 0..draws {
-                let e: f64 = StandardNormal.sample(&mut rng);
-                if let Some(x) = v.get_mut(j) {
-                    *x += sd * e;
-                }
-            }
-        }
-        let air = s.compat.map(|c| reconstruct_air_data(&pert, s.h_s, c));
-        let air = air.filter(|a| !a.is_empty()).map(|a| match s.fuse_cutoffs {
-            Some(fc) => super::airdata::fuse_all(&pert, &a, s.h_s, Some(fc)).0,
-            None => a,
-        });
-        let tk = synthesise(&pert, s.h_s, s.corrections, s.sg_half, air.as_ref());
+        let pert = perturbed_flight(s.flight, &noise, n_keep, &mut rng);
+        let tk = replica_table(s, &pert);
         count += n_id;
-        for ((g, u), index) in groups.iter().zip(&union).zip(&index) {
+        groups.accumulate(&mut sums, &nominal, table, &tk, s.refs, n_id);
+    }
+    moments_per_coefficient(&sums, terms, &nominal, n_id, count)
+}
+
+/// The coefficients present, in groups that share most of their terms (the longitudinal and the
+/// lateral ones): one Gram matrix per group instead of one per coefficient.
+struct GramGroups {
+    /// Each group's coefficients present in the table.
+    members: Vec<Vec<usize>>,
+    /// Each group's distinct terms.
+    union: Vec<Vec<Term>>,
+    /// Each coefficient's columns in its group's matrix (its terms, then its output) as indices
+    /// into the group's distinct terms followed by the group's outputs.
+    index: Vec<Vec<Vec<usize>>>,
+}
+
+impl GramGroups {
+    fn new(table: &Table, terms: &[Vec<Term>; 6]) -> Self {
+        let present = |i: usize| table.z[i].is_some();
+        let members: Vec<Vec<usize>> = GROUPS
+            .iter()
+            .map(|g| g.iter().copied().filter(|&i| present(i)).collect::<Vec<_>>())
+            .filter(|g| !g.is_empty())
+            .collect();
+        let union: Vec<Vec<Term>> = members
+            .iter()
+            .map(|g| {
+                let mut u: Vec<Term> = Vec::new();
+                for t in g.iter().flat_map(|&i| &terms[i]) {
+                    if !u.contains(t) {
+                        u.push(*t);
+                    }
+                }
+                u
+            })
+            .collect();
+        let index: Vec<Vec<Vec<usize>>> = members
+            .iter()
+            .zip(&union)
+            .map(|(g, u)| {
+                g.iter()
+                    .enumerate()
+                    .map(|(m, &i)| {
+                        terms[i]
+                            .iter()
+                            .map(|t| u.iter().position(|v| v == t).unwrap_or(0))
+                            .chain([u.len() + m])
+                            .collect()
+                    })
+                    .collect()
+            })
+            .collect();
+        Self { members, union, index }
+    }
+
+    /// Adds one replica's second moments of its differences from the nominal columns and
+    /// coefficients (`tk` against `table`, over `0..n_id`) to each coefficient's sum.
+    fn accumulate(
+        &self,
+        sums: &mut [Option<Vec<f64>>],
+        nominal: &BTreeMap<Term, Option<Vec<f64>>>,
+        table: &Table,
+        tk: &Table,
+        refs: &TermRefs,
+        n_id: usize,
+    ) {
+        for ((g, u), index) in self.members.iter().zip(&self.union).zip(&self.index) {
             // The group's differences as the columns of an `n_id × k` matrix `D` (its distinct
             // terms, then each coefficient's output); `DᵀD` by one cache-blocked, vectorised
             // matrix product.
             let k = u.len() + g.len();
             let mut d = Vec::with_capacity(k * n_id);
             for t in u {
-                match (&nominal[t], t.column(&tk, s.refs)) {
+                match (&nominal[t], t.column(tk, refs)) {
                     (Some(c0), Some(ck)) => d.extend((0..n_id).map(|j| ck[j] - c0[j])),
                     _ => d.extend(core::iter::repeat_n(0.0, n_id)),
                 }
@@ -361,6 +349,80 @@ pub fn column_errors(
             }
         }
     }
+}
+
+/// The samples a replica keeps. With measured air data a replica is synthesised over the
+/// identification segment and a margin: the moments are taken over `0..n_id`, and the synthesis
+/// is local within a few smoothing half-widths (the Savitzky–Golay filters, the derivatives). A
+/// reconstruction is not: its segments and their initial states span the whole flight, which is
+/// kept. A pooled flight is cut at the end of a manoeuvre, never inside one.
+fn replica_length(s: &Synthesis, n_id: usize) -> usize {
+    let n_keep = match s.compat {
+        None => (n_id + replica_margin(s.h_s, s.sg_half)).min(s.flight.len()),
+        Some(_) => s.flight.len(),
+    };
+    s.flight
+        .log
+        .pieces
+        .iter()
+        .find(|p| p.start < n_keep && n_keep <= p.end)
+        .map_or(n_keep, |p| p.end)
+}
+
+/// One replica of the flight: its first `n_keep` samples with white noise of each channel's
+/// level added (drawn at a slow channel's own instants and interpolated as the reader did).
+fn perturbed_flight(
+    flight: &MeasuredFlight,
+    noise: &BTreeMap<Quantity, (f64, Option<Vec<usize>>)>,
+    n_keep: usize,
+    rng: &mut ChaCha8Rng,
+) -> MeasuredFlight {
+    let mut pert = flight.clone();
+    pert.t_s.truncate(n_keep);
+    pert.log.pieces.retain(|p| p.end <= n_keep);
+    for (q, v) in pert.channels.iter_mut() {
+        let (sd, instants) = noise.get(q).map_or((0.0, None), |(sd, k)| (*sd, k.as_deref()));
+        // The whole flight's draws, so that a replica's noise does not depend on the margin.
+        let draws = if sd > 0.0 { v.len() } else { 0 };
+        let slow = (sd > 0.0)
+            .then_some(instants)
+            .flatten()
+            .map(|k| held_noise::interpolated_noise(v.len(), k, sd, &mut *rng));
+        v.truncate(n_keep);
+        if let Some(e) = slow {
+            v.iter_mut().zip(e).for_each(|(x, e)| *x += e);
+            continue;
+        }
+        for j in 0..draws {
+            let e: f64 = StandardNormal.sample(&mut *rng);
+            if let Some(x) = v.get_mut(j) {
+                *x += sd * e;
+            }
+        }
+    }
+    pert
+}
+
+/// A replica's table: its air data reconstructed again with the sensor errors held (and fused
+/// as the nominal ones were) when the table used a reconstruction, then the synthesis.
+fn replica_table(s: &Synthesis, pert: &MeasuredFlight) -> Table {
+    let air = s.compat.map(|c| reconstruct_air_data(pert, s.h_s, c));
+    let air = air.filter(|a| !a.is_empty()).map(|a| match s.fuse_cutoffs {
+        Some(fc) => super::airdata::fuse_all(pert, &a, s.h_s, Some(fc)).0,
+        None => a,
+    });
+    synthesise(pert, s.h_s, s.corrections, s.sg_half, air.as_ref())
+}
+
+/// Each present coefficient's error moments: the replicas' sums over the samples counted, and
+/// its terms' mean squares on the identification segment.
+fn moments_per_coefficient(
+    sums: &[Option<Vec<f64>>],
+    terms: &[Vec<Term>; 6],
+    nominal: &BTreeMap<Term, Option<Vec<f64>>>,
+    n_id: usize,
+    count: usize,
+) -> [Option<ColumnErrors>; 6] {
     let mut out: [Option<ColumnErrors>; 6] = Default::default();
     for i in 0..6 {
         let Some(sum) = &sums[i] else {

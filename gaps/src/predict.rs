@@ -12,6 +12,7 @@
 //! Schema of `prediction.json`: `docs/model-gaps.md`.
 
 use super::airdata::AirDataChoice;
+use super::compat::Compatibility;
 use super::model::{Signal, Table, Term, TermRefs, COEFFICIENTS};
 use super::simulate::{ModelSet, Simulation};
 use super::{check_input, percentile, preprocess, signal, GapSettings, Levels};
@@ -320,89 +321,16 @@ pub fn predict(report: &SavedReport, flight: &MeasuredFlight) -> Result<GapsPred
     let prepared = crate::io::flow_angles::prepare(flight, settings.flow_angles, &WindFitSettings::default());
     let flight = &prepared;
     let h = check_input(flight).map_err(|e| e.to_string())?;
-    // The report's baselines (they set the candidate count, so the compatibility check's
-    // threshold, as in the analysis).
-    let baselines: [Vec<Term>; 6] = core::array::from_fn(|i| {
-        report
-            .coefficients
-            .iter()
-            .find(|c| c.name == COEFFICIENTS[i])
-            .map(|c| {
-                c.baseline
-                    .parameters
-                    .iter()
-                    .filter_map(|(t, _)| Term::parse(t))
-                    .collect()
-            })
-            .unwrap_or_else(|| Term::eq3(i))
-    });
-    let pre = preprocess(flight, h, &settings, &baselines);
+    let pre = preprocess(flight, h, &settings, &saved_baselines(report));
     let table = pre.table;
-    // The analysis's note on its corrections points at its `as_logged` list, which a prediction
-    // has not: say instead which sensor errors of this flight were removed.
-    let mut notes: Vec<String> = pre
-        .notes
-        .into_iter()
-        .filter(|n| !n.starts_with("the sensor errors named are removed"))
-        .collect();
-    if !pre.compatibility.found.is_empty() {
-        // A delay refined within its interval is removed at the refined value, which its own
-        // note (`… removed at …, not at the estimate …`) gives: say so instead of a second value.
-        let refined = |name: &str| notes.iter().any(|n| n.starts_with(&format!("{name} removed at ")));
-        let names: Vec<String> = pre
-            .compatibility
-            .found
-            .iter()
-            .map(|f| {
-                let name = f.param.name();
-                if refined(&name) {
-                    format!("{name} (as refined: the note above)")
-                } else {
-                    format!("{name} = {:.4}", f.value)
-                }
-            })
-            .collect();
-        notes.push(format!(
-            "sensor errors the compatibility check finds in this flight are removed before the synthesis, as the analysis does: {}",
-            names.join(", ")
-        ));
-    }
-    notes.extend(pre.compatibility.notes.iter().cloned());
-    let (refs, from) = match report.refs {
-        Some(r) => (r, "report"),
-        None => {
-            notes.push(
-                "the report saved no reference values (term_refs): α_break, V_ref and M_ref are taken from the predicted flight"
-                    .into(),
-            );
-            let mean = |s: Signal| table.signals.get(&s).map(|v| signal::mean(v));
-            let r = TermRefs {
-                alpha_break_rad: table.signals.get(&Signal::Alpha).map_or(0.0, |a| percentile(a, 0.85)),
-                airspeed_mps: mean(Signal::Airspeed).unwrap_or(1.0).max(1.0),
-                mach: mean(Signal::Mach).unwrap_or(0.0),
-            };
-            (r, "new flight")
-        }
-    };
+    let mut notes = prediction_notes(pre.notes, &pre.compatibility);
+    let (refs, from) = term_refs(report, &table, &mut notes);
     let coefficients: Vec<CoefficientPrediction> = report
         .coefficients
         .iter()
         .map(|c| predict_one(c, &table, &refs))
         .collect();
-    // The simulation takes the models of the predicted coefficients (every term formed); the
-    // others are left to the measured values, as in the analysis.
-    let model_set = |extended: bool| -> ModelSet {
-        core::array::from_fn(|i| {
-            let saved = report.coefficients.iter().find(|c| c.name == COEFFICIENTS[i])?;
-            coefficients.iter().find(|c| c.name == COEFFICIENTS[i] && c.predicted)?;
-            let fit = if extended { &saved.extended } else { &saved.baseline };
-            fit.parameters
-                .iter()
-                .map(|(t, v)| Some((Term::parse(t)?, *v)))
-                .collect()
-        })
-    };
-    let (set_b, set_e) = (model_set(false), model_set(true));
+    let [set_b, set_e] = saved_model_sets(report, &coefficients);
     let simulation = super::simulate::simulate(
         &table,
         &flight.aircraft,
@@ -435,6 +363,97 @@ pub fn predict(report: &SavedReport, flight: &MeasuredFlight) -> Result<GapsPred
         coefficients,
         simulation,
     })
+}
+
+/// The report's baselines (they set the candidate count, so the compatibility check's
+/// threshold, as in the analysis); eq. 3 for a coefficient the report does not hold.
+fn saved_baselines(report: &SavedReport) -> [Vec<Term>; 6] {
+    core::array::from_fn(|i| {
+        report
+            .coefficients
+            .iter()
+            .find(|c| c.name == COEFFICIENTS[i])
+            .map(|c| {
+                c.baseline
+                    .parameters
+                    .iter()
+                    .filter_map(|(t, _)| Term::parse(t))
+                    .collect()
+            })
+            .unwrap_or_else(|| Term::eq3(i))
+    })
+}
+
+/// The preprocessing's notes for a prediction. The analysis's note on its corrections points at
+/// its `as_logged` list, which a prediction has not: say instead which sensor errors of this
+/// flight were removed; then the compatibility check's own notes.
+fn prediction_notes(pre_notes: Vec<String>, compatibility: &Compatibility) -> Vec<String> {
+    let mut notes: Vec<String> = pre_notes
+        .into_iter()
+        .filter(|n| !n.starts_with("the sensor errors named are removed"))
+        .collect();
+    if !compatibility.found.is_empty() {
+        // A delay refined within its interval is removed at the refined value, which its own
+        // note (`… removed at …, not at the estimate …`) gives: say so instead of a second value.
+        let refined = |name: &str| notes.iter().any(|n| n.starts_with(&format!("{name} removed at ")));
+        let names: Vec<String> = compatibility
+            .found
+            .iter()
+            .map(|f| {
+                let name = f.param.name();
+                if refined(&name) {
+                    format!("{name} (as refined: the note above)")
+                } else {
+                    format!("{name} = {:.4}", f.value)
+                }
+            })
+            .collect();
+        notes.push(format!(
+            "sensor errors the compatibility check finds in this flight are removed before the synthesis, as the analysis does: {}",
+            names.join(", ")
+        ));
+    }
+    notes.extend(compatibility.notes.iter().cloned());
+    notes
+}
+
+/// The terms' reference values and where they came from: the report's, else the predicted
+/// flight's (with a note saying so).
+fn term_refs(report: &SavedReport, table: &Table, notes: &mut Vec<String>) -> (TermRefs, &'static str) {
+    match report.refs {
+        Some(r) => (r, "report"),
+        None => {
+            notes.push(
+                "the report saved no reference values (term_refs): α_break, V_ref and M_ref are taken from the predicted flight"
+                    .into(),
+            );
+            let mean = |s: Signal| table.signals.get(&s).map(|v| signal::mean(v));
+            let r = TermRefs {
+                alpha_break_rad: table.signals.get(&Signal::Alpha).map_or(0.0, |a| percentile(a, 0.85)),
+                airspeed_mps: mean(Signal::Airspeed).unwrap_or(1.0).max(1.0),
+                mach: mean(Signal::Mach).unwrap_or(0.0),
+            };
+            (r, "new flight")
+        }
+    }
+}
+
+/// The baseline and the extended model sets the simulation takes: the models of the predicted
+/// coefficients (every term formed); the others are left to the measured values, as in the
+/// analysis.
+fn saved_model_sets(report: &SavedReport, coefficients: &[CoefficientPrediction]) -> [ModelSet; 2] {
+    let model_set = |extended: bool| -> ModelSet {
+        core::array::from_fn(|i| {
+            let saved = report.coefficients.iter().find(|c| c.name == COEFFICIENTS[i])?;
+            coefficients.iter().find(|c| c.name == COEFFICIENTS[i] && c.predicted)?;
+            let fit = if extended { &saved.extended } else { &saved.baseline };
+            fit.parameters
+                .iter()
+                .map(|(t, v)| Some((Term::parse(t)?, *v)))
+                .collect()
+        })
+    };
+    [model_set(false), model_set(true)]
 }
 
 /// The terminal table.

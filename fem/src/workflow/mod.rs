@@ -223,12 +223,56 @@ pub fn read_segments_with(
         Layout::Columns { columns, time_column } => numbered_table(model, path, *columns, *time_column)?,
         Layout::Channels(chs) => channel_table(path, companion, chs)?,
     };
-    let f = table.file.clone();
+    let f = &table.file;
     let rows = &table.rows;
     if rows.len() < 2 {
         return Err(format!("{f}: {} samples; at least two are needed", rows.len()));
     }
-    let (_, nu, ny) = model.dims();
+    check_used_columns(model, &table)?;
+    let tc = table.time_column - 1;
+    let t0 = rows[0].1[tc];
+    let (dt, pieces) = contiguous_pieces(&table)?;
+    let whole = [(f64::NEG_INFINITY, f64::INFINITY)];
+    let ranges = if ranges.is_empty() { &whole[..] } else { ranges };
+    let mut out = Vec::new();
+    for &(from, to) in ranges {
+        let mut found = false;
+        for piece in &pieces {
+            let idx: Vec<usize> = piece
+                .clone()
+                .filter(|&k| {
+                    let t = rows[k].1[tc] - t0;
+                    t >= from - 1e-9 * dt && t <= to + 1e-9 * dt
+                })
+                .collect();
+            if idx.is_empty() {
+                continue;
+            }
+            found = true;
+            if idx.len() < 2 {
+                return Err(format!(
+                    "{f}: segment {from}:{to} s holds {} sample of a piece; give a longer segment",
+                    idx.len()
+                ));
+            }
+            out.push(segment_of_rows(model, &table, &idx));
+        }
+        if !found {
+            let last = rows[rows.len() - 1].1[tc] - t0;
+            return Err(format!(
+                "{f}: segment {from}:{to} s has no samples; the file spans 0 to {last:.3} s from its first sample"
+            ));
+        }
+    }
+    Ok(out)
+}
+
+/// Every column the model reads (the time, each input's and output's) finite on every row and
+/// not zero on all of them (a missing, zero-padded channel); the error names the file, the line
+/// and the column, and says what to map instead.
+fn check_used_columns(model: &UserModel, table: &Table) -> Result<(), String> {
+    let f = &table.file;
+    let rows = &table.rows;
     let names = model
         .file
         .inputs
@@ -266,15 +310,20 @@ pub fn read_segments_with(
             });
         }
     }
+    Ok(())
+}
+
+/// The record's time step (the median forward step, s) and its contiguous pieces of rows: a
+/// step above 1.5 dt or not forward starts a new one.
+fn contiguous_pieces(table: &Table) -> Result<(f64, Vec<std::ops::Range<usize>>), String> {
+    let rows = &table.rows;
     let tc = table.time_column - 1;
-    let t0 = rows[0].1[tc];
     let diffs: Vec<f64> = rows.windows(2).map(|w| w[1].1[tc] - w[0].1[tc]).collect();
     let mut sorted: Vec<f64> = diffs.iter().copied().filter(|d| *d > 0.0).collect();
     sorted.sort_by(f64::total_cmp);
     let dt = *sorted
         .get(sorted.len() / 2)
-        .ok_or_else(|| format!("{f}: the time never increases"))?;
-    // Contiguous pieces: a step above 1.5 dt or not forward starts a new one.
+        .ok_or_else(|| format!("{}: the time never increases", table.file))?;
     let mut pieces: Vec<std::ops::Range<usize>> = Vec::new();
     let mut start = 0;
     for (k, d) in diffs.iter().enumerate() {
@@ -284,67 +333,45 @@ pub fn read_segments_with(
         }
     }
     pieces.push(start..rows.len());
-    let whole = [(f64::NEG_INFINITY, f64::INFINITY)];
-    let ranges = if ranges.is_empty() { &whole[..] } else { ranges };
-    let mut out = Vec::new();
-    for &(from, to) in ranges {
-        let mut found = false;
-        for piece in &pieces {
-            let idx: Vec<usize> = piece
-                .clone()
-                .filter(|&k| {
-                    let t = rows[k].1[tc] - t0;
-                    t >= from - 1e-9 * dt && t <= to + 1e-9 * dt
-                })
-                .collect();
-            if idx.is_empty() {
-                continue;
+    Ok((dt, pieces))
+}
+
+/// The segment of the rows `idx` (at least two): time from the record's first sample, the
+/// model's inputs and outputs from their sources.
+fn segment_of_rows(model: &UserModel, table: &Table, idx: &[usize]) -> Segment {
+    let (_, nu, ny) = model.dims();
+    let rows = &table.rows;
+    let tc = table.time_column - 1;
+    let t0 = rows[0].1[tc];
+    let t_s: Vec<f64> = idx.iter().map(|&k| rows[k].1[tc] - t0).collect();
+    let u = idx
+        .iter()
+        .map(|&k| {
+            let mut v = UVec::zeros();
+            for (j, e) in model.sources.iter().enumerate().take(nu) {
+                v[j] = source_value(e, &rows[k].1);
             }
-            found = true;
-            if idx.len() < 2 {
-                return Err(format!(
-                    "{f}: segment {from}:{to} s holds {} sample of a piece; give a longer segment",
-                    idx.len()
-                ));
+            v
+        })
+        .collect();
+    let y = idx
+        .iter()
+        .map(|&k| {
+            let mut v = YVec::zeros();
+            for (j, e) in model.sources[nu..].iter().enumerate().take(ny) {
+                v[j] = source_value(e, &rows[k].1);
             }
-            let t_s: Vec<f64> = idx.iter().map(|&k| rows[k].1[tc] - t0).collect();
-            let u = idx
-                .iter()
-                .map(|&k| {
-                    let mut v = UVec::zeros();
-                    for (j, e) in model.sources.iter().enumerate().take(nu) {
-                        v[j] = source_value(e, &rows[k].1);
-                    }
-                    v
-                })
-                .collect();
-            let y = idx
-                .iter()
-                .map(|&k| {
-                    let mut v = YVec::zeros();
-                    for (j, e) in model.sources[nu..].iter().enumerate().take(ny) {
-                        v[j] = source_value(e, &rows[k].1);
-                    }
-                    v
-                })
-                .collect();
-            out.push(Segment {
-                label: format!("{f} [{:.3}, {:.3}] s", t_s[0], t_s[t_s.len() - 1]),
-                file: f.clone(),
-                t_s,
-                u,
-                y,
-                aircraft: table.aircraft.clone(),
-            });
-        }
-        if !found {
-            let last = rows[rows.len() - 1].1[tc] - t0;
-            return Err(format!(
-                "{f}: segment {from}:{to} s has no samples; the file spans 0 to {last:.3} s from its first sample"
-            ));
-        }
+            v
+        })
+        .collect();
+    Segment {
+        label: format!("{f} [{:.3}, {:.3}] s", t_s[0], t_s[t_s.len() - 1], f = table.file),
+        file: table.file.clone(),
+        t_s,
+        u,
+        y,
+        aircraft: table.aircraft.clone(),
     }
-    Ok(out)
 }
 
 /// Sets the model's constants taken from the aircraft file from the segments' aircraft (see
@@ -983,58 +1010,16 @@ pub fn run_fem(args: &FemArgs) -> Result<FemRun, String> {
     for (n, v) in &args.fix {
         model.fix(n, *v).map_err(|e| e.0)?;
     }
-    let data = if args.data.is_empty() {
-        vec![model.default_data().ok_or_else(|| {
-            format!(
-                "{}: no data: give --data FILE or set [data] file in the model file",
-                args.model.display()
-            )
-        })?]
-    } else {
-        args.data.clone()
-    };
-    // The model's `[data] with` belongs to its `[data] file`; other files name theirs, as for
-    // `gaps` (a map describes one file layout).
-    let companion = match (&args.with, args.data.is_empty()) {
-        (Some(w), _) => Some(w.clone()),
-        (None, true) => model.default_companion(),
-        (None, false) => None,
-    };
+    let (data, companion) = data_and_companion(args, &model)?;
     let segs = load_segments(&model, &data, companion.as_deref(), &args.segments)?;
     apply_aircraft(&mut model, &segs)?;
     let dt = sample_period(&segs)?;
     let id = identify(&model, &segs)?;
-    // The model with the estimates.
-    let mut values = model.values().to_vec();
-    let sig = sigma_of(&coloured_covariance(&model, &segs, &id)?);
-    let sig_white = sigma_of(&id.covariance);
-    let mut sigma = vec![None; values.len()];
-    let mut sigma_white = vec![None; values.len()];
-    for (k, &i) in model.free().iter().enumerate() {
-        values[i] = id.p[k];
-        sigma[i] = Some(sig[k]);
-        sigma_white[i] = Some(sig_white[k]);
-    }
-    model.set_values(&values);
+    let estimates = set_estimates(&mut model, &segs, &id)?;
     let sims: Vec<_> = segs.iter().map(|s| simulate(&model, s, dt)).collect();
     let fit = fit_metrics(&model, &segs, &sims);
-    let val_files = if args.validate.is_empty() && !args.validate_segments.is_empty() {
-        data.clone()
-    } else {
-        args.validate.clone()
-    };
-    let vsegs = if val_files.is_empty() {
-        Vec::new()
-    } else {
-        load_segments(&model, &val_files, companion.as_deref(), &args.validate_segments)?
-    };
-    apply_aircraft(&mut model, &vsegs)?;
-    let vsims: Vec<_> = vsegs.iter().map(|s| simulate(&model, s, dt)).collect();
-    let validation = if vsegs.is_empty() {
-        Vec::new()
-    } else {
-        fit_metrics(&model, &vsegs, &vsims)
-    };
+    let identification = Fitted { segs, sims, fit };
+    let validation = validate(args, &mut model, &data, companion.as_deref(), dt)?;
     let est = &model.file.estimation;
     std::fs::create_dir_all(&args.out).map_err(|e| format!("{}: {e}", args.out.display()))?;
     let saved = SavedModel {
@@ -1053,60 +1038,167 @@ pub fn run_fem(args: &FemArgs) -> Result<FemRun, String> {
         .into(),
         iterations: id.iterations,
         converged: id.converged,
-        data: segs.iter().map(|s| s.label.clone()).collect(),
+        data: identification.segs.iter().map(|s| s.label.clone()).collect(),
         data_files: data.iter().map(|d| relative_to(d, &args.out)).collect(),
         with: companion.as_deref().map(|c| relative_to(c, &args.out)),
         dt_s: dt,
-        parameters: model
-            .file
-            .parameters
-            .iter()
-            .enumerate()
-            .map(|(i, p)| SavedParameter {
-                name: p.name.clone(),
-                value: values[i],
-                sigma: sigma[i],
-                sigma_white: sigma_white[i],
-                fixed: p.fixed,
-                start: p.start,
-                reference: p.reference,
-            })
-            .collect(),
+        parameters: saved_parameters(&model, &estimates),
         noise_variance: id.noise_variance.clone(),
-        fit,
-        validation_data: vsegs.iter().map(|s| s.label.clone()).collect(),
-        validation,
+        fit: identification.fit.clone(),
+        validation_data: validation.segs.iter().map(|s| s.label.clone()).collect(),
+        validation: validation.fit.clone(),
     };
-    let json_path = args.out.join("identification.json");
-    let json = serde_json::to_string_pretty(&saved).map_err(|e| e.to_string())?;
-    std::fs::write(&json_path, json).map_err(|e| format!("{}: {e}", json_path.display()))?;
-    let mut files = vec![json_path];
-    let fig = args.out.join("identification_fit.svg");
-    fit_figure(
-        &model,
-        &format!("{}: identification data", model.file.name),
-        &segs,
-        &sims,
-    )
-    .write_svg(&fig)
-    .map_err(|e: PlotError| format!("{}: {e:?}", fig.display()))?;
-    files.push(fig);
-    if !vsegs.is_empty() {
-        let fig = args.out.join("validation_fit.svg");
-        fit_figure(&model, &format!("{}: validation data", model.file.name), &vsegs, &vsims)
-            .write_svg(&fig)
-            .map_err(|e: PlotError| format!("{}: {e:?}", fig.display()))?;
-        files.push(fig);
-    }
-    if !id.history.is_empty() {
-        let fig = args.out.join("parameters.svg");
-        history_figure(&model, &id.history)
-            .write_svg(&fig)
-            .map_err(|e: PlotError| format!("{}: {e:?}", fig.display()))?;
-        files.push(fig);
-    }
+    let files = write_fem_outputs(&args.out, &model, &saved, &identification, &validation, &id.history)?;
     let text = report_text(&saved);
     Ok(FemRun { saved, text, files })
+}
+
+/// The data files (`--data`, else the model's `[data] file`) and their companion. The model's
+/// `[data] with` belongs to its `[data] file`; other files name theirs, as for `gaps` (a map
+/// describes one file layout).
+fn data_and_companion(args: &FemArgs, model: &UserModel) -> Result<(Vec<PathBuf>, Option<PathBuf>), String> {
+    let data = if args.data.is_empty() {
+        vec![model.default_data().ok_or_else(|| {
+            format!(
+                "{}: no data: give --data FILE or set [data] file in the model file",
+                args.model.display()
+            )
+        })?]
+    } else {
+        args.data.clone()
+    };
+    let companion = match (&args.with, args.data.is_empty()) {
+        (Some(w), _) => Some(w.clone()),
+        (None, true) => model.default_companion(),
+        (None, false) => None,
+    };
+    Ok((data, companion))
+}
+
+/// Every parameter's value and standard deviations (coloured residuals, white residuals; `None`
+/// for a fixed one), indexed as the model's parameters.
+struct Estimates {
+    values: Vec<f64>,
+    sigma: Vec<Option<f64>>,
+    sigma_white: Vec<Option<f64>>,
+}
+
+/// Puts the identified values into the model and returns them with their standard deviations.
+fn set_estimates(model: &mut UserModel, segs: &[Segment], id: &Identified) -> Result<Estimates, String> {
+    let mut values = model.values().to_vec();
+    let sig = sigma_of(&coloured_covariance(model, segs, id)?);
+    let sig_white = sigma_of(&id.covariance);
+    let mut sigma = vec![None; values.len()];
+    let mut sigma_white = vec![None; values.len()];
+    for (k, &i) in model.free().iter().enumerate() {
+        values[i] = id.p[k];
+        sigma[i] = Some(sig[k]);
+        sigma_white[i] = Some(sig_white[k]);
+    }
+    model.set_values(&values);
+    Ok(Estimates {
+        values,
+        sigma,
+        sigma_white,
+    })
+}
+
+/// Segments, their simulations by the identified model, and each output's fit.
+struct Fitted {
+    segs: Vec<Segment>,
+    sims: Vec<Vec<YVec>>,
+    fit: Vec<OutputFit>,
+}
+
+/// The validation segments (`--validate` files, else the identification's files when only
+/// `--validate-segment` is given; none without either) simulated by the identified model.
+fn validate(
+    args: &FemArgs,
+    model: &mut UserModel,
+    data: &[PathBuf],
+    companion: Option<&Path>,
+    dt: f64,
+) -> Result<Fitted, String> {
+    let val_files = if args.validate.is_empty() && !args.validate_segments.is_empty() {
+        data.to_vec()
+    } else {
+        args.validate.clone()
+    };
+    let segs = if val_files.is_empty() {
+        Vec::new()
+    } else {
+        load_segments(model, &val_files, companion, &args.validate_segments)?
+    };
+    apply_aircraft(model, &segs)?;
+    let sims: Vec<_> = segs.iter().map(|s| simulate(model, s, dt)).collect();
+    let fit = if segs.is_empty() {
+        Vec::new()
+    } else {
+        fit_metrics(model, &segs, &sims)
+    };
+    Ok(Fitted { segs, sims, fit })
+}
+
+/// The saved parameters: name, estimate, standard deviations, and the model file's settings.
+fn saved_parameters(model: &UserModel, e: &Estimates) -> Vec<SavedParameter> {
+    model
+        .file
+        .parameters
+        .iter()
+        .enumerate()
+        .map(|(i, p)| SavedParameter {
+            name: p.name.clone(),
+            value: e.values[i],
+            sigma: e.sigma[i],
+            sigma_white: e.sigma_white[i],
+            fixed: p.fixed,
+            start: p.start,
+            reference: p.reference,
+        })
+        .collect()
+}
+
+/// Writes `identification.json` and the figures (identification fit, validation fit when
+/// validated, parameter history of the recursive filter when it kept one) into `out`.
+fn write_fem_outputs(
+    out: &Path,
+    model: &UserModel,
+    saved: &SavedModel,
+    identification: &Fitted,
+    validation: &Fitted,
+    history: &[(usize, f64, PVec, PVec)],
+) -> Result<Vec<PathBuf>, String> {
+    let json_path = out.join("identification.json");
+    let json = serde_json::to_string_pretty(saved).map_err(|e| e.to_string())?;
+    std::fs::write(&json_path, json).map_err(|e| format!("{}: {e}", json_path.display()))?;
+    let mut files = vec![json_path];
+    let write = |name: &str, figure: Figure| -> Result<PathBuf, String> {
+        let path = out.join(name);
+        figure
+            .write_svg(&path)
+            .map_err(|e: PlotError| format!("{}: {e:?}", path.display()))?;
+        Ok(path)
+    };
+    let title = |what: &str| format!("{}: {what} data", model.file.name);
+    files.push(write(
+        "identification_fit.svg",
+        fit_figure(
+            model,
+            &title("identification"),
+            &identification.segs,
+            &identification.sims,
+        ),
+    )?);
+    if !validation.segs.is_empty() {
+        files.push(write(
+            "validation_fit.svg",
+            fit_figure(model, &title("validation"), &validation.segs, &validation.sims),
+        )?);
+    }
+    if !history.is_empty() {
+        files.push(write("parameters.svg", history_figure(model, history))?);
+    }
+    Ok(files)
 }
 
 /// The saved model as a text report.
