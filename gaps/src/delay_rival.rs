@@ -164,7 +164,7 @@ pub fn refine(on: &Flight, corr: &mut Corrections) -> Option<String> {
 /// `Σ_i (n/2)·ln RSS_i` of the baselines' least-squares fits on the first `n_id` samples of
 /// `table`, over every coefficient synthesised with all its baseline columns.
 fn profile_cost(table: &Table, baselines: &[Vec<Term>; 6], n_id: usize) -> Option<f64> {
-    let refs = crate::pass::synthesis::term_refs(table, n_id);
+    let refs = TermRefs::of_identification(table, n_id);
     let mut cost = 0.0;
     let mut any = false;
     for (i, terms) in baselines.iter().enumerate() {

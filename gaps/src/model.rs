@@ -1145,6 +1145,22 @@ pub struct TermRefs {
     pub mach: f64,
 }
 
+impl TermRefs {
+    /// The terms' reference values of `table` on its identification segment (the first `n_id`
+    /// samples): the α break at the 85th percentile of α, the mean airspeed and Mach number.
+    pub fn of_identification(table: &Table, n_id: usize) -> Self {
+        let id_mean = |s: Signal| table.signals.get(&s).map(|v| super::signal::mean(&v[..n_id]));
+        Self {
+            alpha_break_rad: table
+                .signals
+                .get(&Signal::Alpha)
+                .map_or(0.0, |a| crate::percentile(&a[..n_id], 0.85)),
+            airspeed_mps: id_mean(Signal::Airspeed).unwrap_or(1.0).max(1.0),
+            mach: id_mean(Signal::Mach).unwrap_or(0.0),
+        }
+    }
+}
+
 impl Term {
     /// The eq. 3 regressors (seed 000 with δa in `C_l`, `C_n`; the core's defaults).
     pub fn eq3(coef: usize) -> Vec<Term> {

@@ -6,9 +6,9 @@ use super::air_data::AirData;
 use super::compatibility::Compatible;
 use super::prepare::{Plan, Prepared};
 use crate::io::measured::MeasuredFlight;
-use crate::model::{self, Corrections, Signal, Table, Term, TermRefs, COEFFICIENTS};
+use crate::model::{self, Corrections, Table, Term, TermRefs, COEFFICIENTS};
 use crate::noise::{self, ColumnErrors};
-use crate::{oracle, percentile, signal, GapError, GapSettings, Regression};
+use crate::{oracle, GapError, GapSettings, Regression};
 
 /// The regression problem of every coefficient.
 pub struct Synthesised {
@@ -63,7 +63,7 @@ pub fn synthesise(
             notes: std::mem::take(notes),
         });
     }
-    let refs = term_refs(&table, n_id);
+    let refs = TermRefs::of_identification(&table, n_id);
     let all_terms = all_terms(baselines, &table);
     let errors: [Option<ColumnErrors>; 6] = match &settings.errors_in_variables {
         Some(mc) => {
@@ -95,20 +95,6 @@ pub fn synthesise(
         pieces,
         oracle,
     })
-}
-
-/// The terms' reference values: the α break at the 85th percentile of α, the mean airspeed and
-/// Mach number, all on the identification segment.
-pub(crate) fn term_refs(table: &Table, n_id: usize) -> TermRefs {
-    let id_mean = |s: Signal| table.signals.get(&s).map(|v| signal::mean(&v[..n_id]));
-    TermRefs {
-        alpha_break_rad: table
-            .signals
-            .get(&Signal::Alpha)
-            .map_or(0.0, |a| percentile(&a[..n_id], 0.85)),
-        airspeed_mps: id_mean(Signal::Airspeed).unwrap_or(1.0).max(1.0),
-        mach: id_mean(Signal::Mach).unwrap_or(0.0),
-    }
 }
 
 /// Each coefficient's baseline terms followed by the library terms offered to it: every column
