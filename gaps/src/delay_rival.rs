@@ -379,6 +379,36 @@ mod tests {
         hidden::flight(Some(&effect), 30.0, 7, true).expect("the simulator flies")
     }
 
+    /// The rivals of `table` with the α delay named as `tau ± 0.007 s` and removed at `tau`
+    /// (the campaign's worst instrumental σ), the campaign's baselines.
+    fn rivals_at(
+        flight: &MeasuredFlight,
+        sg_half: usize,
+        n_id: usize,
+        table: &Table,
+        refs: &TermRefs,
+        tau: f64,
+    ) -> Rivals {
+        let baselines = HiddenEffect::baseline(None);
+        let compatibility = found_delay(tau, 0.007);
+        let mut corr = Corrections::default();
+        corr.delay_s.insert(Quantity::Alpha, tau);
+        rivals(&Inputs {
+            on: Flight {
+                flight,
+                h_s: 0.01,
+                compatibility: &compatibility,
+                air: None,
+                sg_half,
+                baselines: &baselines,
+                n_id,
+            },
+            corr: &corr,
+            table,
+            refs,
+        })
+    }
+
     /// The compatibility check's finding `delay(α) = tau ± sigma`.
     fn found_delay(tau: f64, sigma: f64) -> Compatibility {
         Compatibility {
@@ -455,26 +485,8 @@ mod tests {
             mach: 0.0,
         };
         assert!(alpha.iter().all(|a| a.is_finite()));
-        let baselines = HiddenEffect::baseline(None);
-        let compatibility = found_delay(0.10, 0.007);
-        let mut corr = Corrections::default();
-        corr.delay_s.insert(Quantity::Alpha, 0.10);
-        let inputs = Inputs {
-            on: Flight {
-                flight: &flight,
-                h_s: 0.01,
-                compatibility: &compatibility,
-                air: None,
-                sg_half,
-                baselines: &baselines,
-                n_id,
-            },
-            corr: &corr,
-            table: &table,
-            refs: &refs,
-        };
         // WHEN the rivals are built
-        let r = rivals(&inputs);
+        let r = rivals_at(&flight, sg_half, n_id, &table, &refs, 0.10);
         // THEN C_L, C_D and C_m have one (the delay reaches them through the synthesis's wind
         // axes and their α terms), the lateral coefficients none, and each has its note
         let with: Vec<usize> = r.columns.iter().map(|(i, _)| *i).collect();
@@ -492,6 +504,7 @@ mod tests {
         // rival: correlation above 0.85 in each coefficient (measured 0.89 in C_L; the rival is
         // the symmetric change over ±0.021 s, the error the one-sided 0.02 s, and they differ by
         // the residual's curvature in the delay and by the vane noise the shifts move)
+        let baselines = HiddenEffect::baseline(None);
         let truth = table_at(&flight, 0.12, sg_half);
         let corr_of: Vec<(usize, f64)> = r
             .columns
@@ -526,26 +539,8 @@ mod tests {
             airspeed_mps: 20.0,
             mach: 0.0,
         };
-        let baselines = HiddenEffect::baseline(None);
-        let compatibility = found_delay(0.12, 0.007);
-        let mut corr = Corrections::default();
-        corr.delay_s.insert(Quantity::Alpha, 0.12);
-        let inputs = Inputs {
-            on: Flight {
-                flight: &flight,
-                h_s: 0.01,
-                compatibility: &compatibility,
-                air: None,
-                sg_half,
-                baselines: &baselines,
-                n_id,
-            },
-            corr: &corr,
-            table: &table,
-            refs: &refs,
-        };
         // WHEN the rivals are built
-        let r = rivals(&inputs);
+        let r = rivals_at(&flight, sg_half, n_id, &table, &refs, 0.12);
         // THEN C_m's candidates are tested without the rival (its note says why), so an α̇ term
         // stays nameable; C_L keeps its rival
         let with: Vec<usize> = r.columns.iter().map(|(i, _)| *i).collect();

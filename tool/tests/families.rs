@@ -3,7 +3,7 @@
 
 use aerosid::gaps::hidden::{self, HiddenEffect, HiddenKind};
 use aerosid::gaps::model::CauseKind;
-use aerosid::gaps::{run_gaps, GapSettings};
+use aerosid::gaps::{run_gaps, GapReport, GapSettings};
 
 #[test]
 fn a_missing_adverse_yaw_term_is_named_as_itself_not_as_an_aileron_delay() {
@@ -17,18 +17,8 @@ fn a_missing_adverse_yaw_term_is_named_as_itself_not_as_an_aileron_delay() {
         size: -0.01,
         channel: None,
     };
-    let flight = hidden::flight(Some(&effect), 30.0, 4, true).expect("the simulator flies");
-    let settings = GapSettings {
-        baseline: Some(HiddenEffect::baseline(Some(&effect))),
-        ..GapSettings::default()
-    };
     // WHEN the gap analysis runs
-    let r = run_gaps(&flight, &settings).expect("the analysis runs");
-    let summary: Vec<String> = r
-        .named
-        .iter()
-        .map(|c| format!("{:?} {} {} = {} ± {}", c.kind, c.location, c.what, c.value, c.sigma))
-        .collect();
+    let (r, summary) = analyse_planted(&effect, 30.0, 4);
     // THEN no aileron delay is named, C_n δa is, and every named value and σ is finite
     assert!(
         !r.named
@@ -57,4 +47,21 @@ fn a_missing_adverse_yaw_term_is_named_as_itself_not_as_an_aileron_delay() {
         "{:?}",
         rate.reason
     );
+}
+
+/// A turbulent simulated flight of `seconds` with `effect` planted (seed `seed`), analysed with
+/// the campaign's baseline for it; the report and its named causes as lines.
+pub(crate) fn analyse_planted(effect: &HiddenEffect, seconds: f64, seed: u64) -> (GapReport, Vec<String>) {
+    let flight = hidden::flight(Some(effect), seconds, seed, true).expect("the simulator flies");
+    let settings = GapSettings {
+        baseline: Some(HiddenEffect::baseline(Some(effect))),
+        ..GapSettings::default()
+    };
+    let r = run_gaps(&flight, &settings).expect("the analysis runs");
+    let summary = r
+        .named
+        .iter()
+        .map(|c| format!("{:?} {} {} = {} ± {}", c.kind, c.location, c.what, c.value, c.sigma))
+        .collect();
+    (r, summary)
 }
