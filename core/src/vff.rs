@@ -302,7 +302,9 @@
 //! Measured (`early_jump_sweep_full`, 100 seeds, `f32` = `f64`): only the jump at 150 in
 //! dimension 6 changes, median 580 → **565** (every regressor noisy; with an exact intercept 565,
 //! dimension 5 454, dimension 3 188, unchanged); slower than `λ = 0.999` on no seed, no false
-//! drop. At `α = 10⁻⁴` (`z = 3.719`): 565 in dimension 6, 578 with the exact intercept.
+//! drop. At `α = 10⁻⁴` (`z = 3.719`): 565 in dimension 6, 578 with the exact intercept. Seed by
+//! seed (`early_jump_at_150_arming_diagnosis`, dimension 6), the jumps above eq. 32's limit that
+//! come before `D = 50` settle after a median of 403 samples (44 of 70 detected; before: 434, 43).
 //!
 //! What is left: jumps at sample 150 in dimension 6 settle after a median of 565 samples
 //! (target 500; 43 of 100 within 500). Seed by seed (`f64`, every regressor noisy): 29 jumps are
