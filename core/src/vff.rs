@@ -290,7 +290,7 @@
 //! `cᵢ = 2/(9dᵢ)`: no special function in the core). Against the exact quantiles (regularised
 //! incomplete beta) it errs high where `d₂` is small, i.e. stricter: `(d₁, d₂)` = (15, 11) /
 //! (25, 21) / (39, 39) / (52, 69) give 21.7 / 7.46 / 4.23 / 3.04 against 18.2 / 7.20 / 4.19 /
-//! 3.03; below `d₂ ≈ 5` it has no root and the test waits. A drop so flagged makes `σ_ε²` before
+//! 3.03; below `d₂ ≈ 4.5` it has no root and the test waits. A drop so flagged makes `σ_ε²` before
 //! it the early test's minimum `m` (if lower): while `λ_F < λ_max` `σ_ε²` takes in the residuals
 //! after the change unclipped and, young, soon reaches them (seed 98 with the F test alone:
 //! `λ_F` back at `λ_max` after 2 samples, settled after 808), while `m` holds the power before
