@@ -302,7 +302,8 @@
 //! Measured (`early_jump_sweep_full`, 100 seeds, `f32` = `f64`): only the jump at 150 in
 //! dimension 6 changes, median 580 → **565** (every regressor noisy; with an exact intercept 565,
 //! dimension 5 454, dimension 3 188, unchanged); slower than `λ = 0.999` on no seed, no false
-//! drop. At `α = 10⁻⁴` (`z = 3.719`): 565 in dimension 6, 578 with the exact intercept. Seed by
+//! drop. At `α = 10⁻⁴` (`z = 3.719`): 565 in dimension 6, 578 with the exact intercept; at `10⁻⁶`
+//! (`z = 4.753`): 580 / 565, as without the F test. Seed by
 //! seed (`early_jump_at_150_arming_diagnosis`, dimension 6), the jumps above eq. 32's limit that
 //! come before `D = 50` settle after a median of 403 samples (44 of 70 detected; before: 434, 43).
 //!
