@@ -41,7 +41,7 @@ use aerosid::io::{read_pooled, ReadOptions};
 use aerosid::sim::simulate;
 use aerosid::sim::test_card::CardTurbulence;
 use aerosid::usermodel::UserModel;
-use aerosid::workflow::{apply_aircraft, coloured_covariance, identify, read_segments_with};
+use aerosid::workflow::{apply_aircraft, coloured_covariance, gust_covariance, identify, read_segments_with};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
@@ -51,6 +51,7 @@ struct Draws {
     values: Vec<f64>,
     sigmas: Vec<f64>,
     white: Vec<f64>,
+    gust: Vec<f64>,
 }
 
 fn sd(v: &[f64]) -> f64 {
@@ -79,6 +80,9 @@ impl Draws {
     }
     fn white_ratio(&self) -> f64 {
         sd(&self.values) / median(&self.white)
+    }
+    fn gust_ratio(&self) -> f64 {
+        sd(&self.values) / median(&self.gust)
     }
 }
 
@@ -238,22 +242,25 @@ fn fem_draws(files: &[PathBuf], model: &str) -> BTreeMap<String, Draws> {
             f.display()
         );
         let cov = coloured_covariance(&m, &segs, &id).expect("the covariance");
+        let (gust, noise) = gust_covariance(&m, &segs, &id).expect("the covariance");
+        println!("{model} {}: {noise:?}", f.display());
         for (k, &i) in m.free().iter().enumerate() {
             let d = out.entry(m.file.parameters[i].name.clone()).or_default();
             d.values.push(id.p[k]);
             d.sigmas.push(cov[(k, k)].max(0.0).sqrt());
             d.white.push(id.covariance[(k, k)].max(0.0).sqrt());
+            d.gust.push(gust[(k, k)].max(0.0).sqrt());
         }
     }
     out
 }
 
 fn table(title: &str, d: &BTreeMap<String, Draws>) -> String {
-    let mut s = format!("{title}\n| parameter | mean | s.d. | median σ | s.d./σ | s.d./σ white |\n");
+    let mut s = format!("{title}\n| parameter | mean | s.d. | median σ | s.d./σ | s.d./σ white | s.d./σ gust |\n");
     for (name, v) in d {
         let n = v.values.len() as f64;
         s.push_str(&format!(
-            "| {name} | {:.4} | {:.4} | {:.4} | {:.2} | {} |\n",
+            "| {name} | {:.4} | {:.4} | {:.4} | {:.2} | {} | {:.2} |\n",
             v.values.iter().sum::<f64>() / n,
             sd(&v.values),
             median(&v.sigmas),
@@ -262,7 +269,8 @@ fn table(title: &str, d: &BTreeMap<String, Draws>) -> String {
                 "—".to_string()
             } else {
                 format!("{:.2}", v.white_ratio())
-            }
+            },
+            v.gust_ratio()
         ));
     }
     s
@@ -316,7 +324,7 @@ fn fem_sigma_matches_the_scatter_of_repeated_manoeuvres() {
 fn fem_scatter_sweep() {
     let dir = temp("fem_sweep");
     let f = manoeuvres(&dir, 1000, 40, true);
-    let lon = fem_draws(&f, "skywalker_short_period.toml");
+    let lon = fem_draws(&f, "skywalker_short_period_physical.toml");
     println!("fem, N = {}\n{}", f.len(), table("short period", &lon));
     let lat = fem_draws(&f, "skywalker_lateral.toml");
     println!("{}", table("roll/yaw", &lat));
