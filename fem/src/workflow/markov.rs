@@ -12,20 +12,24 @@
 //! model holds.
 //!
 //! The model, in the weighted residual `ṽ = W^{1/2} v` (stacked `(t, a)`, `N` samples, `n_y`
-//! outputs): `Cov(ẽ_{t,a}, ẽ_{s,b}) = C_ab ρ^{|t−s|} + D_a δ_ab δ_ts`, one correlation `ρ` for every
-//! output (one turbulence field drives them all: the Dryden shaping filter's first-order part,
-//! `ρ = exp(−V Δt / L)`; MIL-F-8785C), `C` positive semi-definite (the gust's share of each output
-//! and their cross-covariance), `D ≥ 0` (the sensors' white noise). The fit's linearised residual is
-//! `ṽ = Q ẽ`, `Q = I − S̃ M⁻¹ S̃ᵀ` (`S̃` the weighted sensitivities, `M` the information with the
-//! prior), so the expected sample autocovariance `r̂_ab(k) = (1/N) Σ_t ṽ_{t,a} ṽ_{t+k,b}` is linear in
-//! `(C, D)`: `E r̂ = L(Q B Qᵀ)` for each basis covariance `B`, where `L` sums the lag-`k` diagonal.
-//! For each `ρ` of a grid, `(C, D)` are the least-squares solution of `E r̂ = r̂` over lags
-//! `0 ≤ k < N/2` and every ordered output pair (a method of moments); the `ρ` of the smallest misfit
-//! is kept, `C` is projected onto the positive semi-definite cone (negative eigenvalues set to 0)
-//! and `D` clipped at 0. The meat is then `S̃ᵀ Σ̂ S̃`. Readings chosen: the prior's pseudo-data are
-//! white and stay out of `Q`'s noise (a prior is a weak pull here); the grid of correlation times
-//! runs from two samples to the record's length (a longer correlation cannot be told from a drift
-//! within one record).
+//! outputs): `Cov(ẽ_{t,a}, ẽ_{s,b}) = C_ab ρ_ab^{|t−s|} + D_a δ_ab δ_ts`, each output with its own
+//! correlation per sample `ρ_a = exp(−Δt/τ_a)` (the gust reaches a vane directly, a rate gyro
+//! through the short-period response: not with one correlation time), a pair at the geometric mean
+//! `ρ_ab = √(ρ_a ρ_b)`, `C` positive semi-definite (each output's correlated share and the outputs'
+//! cross-covariance: one turbulence field drives them all), `D ≥ 0` (the sensors' white noise). The
+//! first-order Gauss–Markov part is the Dryden shaping filter's first-order form (`τ = L/V`,
+//! MIL-F-8785C). The fit's linearised residual is `ṽ = Q ẽ`, `Q = I − S̃ M⁻¹ S̃ᵀ` (`S̃` the weighted
+//! sensitivities, `M` the information with the prior), so the expected sample autocovariance
+//! `r̂_ab(k) = (1/N) Σ_t ṽ_{t,a} ṽ_{t+k,b}` is linear in `(C, D)`: `E r̂ = L(Q B Qᵀ)` for each basis
+//! covariance `B`, where `L` sums the lag-`k` diagonal. Each `τ_a` is the best of a log-spaced grid
+//! (two samples to the record; a longer correlation cannot be told from a drift within one record)
+//! for output `a`'s own autocovariance (`C_aa`, `D_a` by least squares of `E r̂_aa = r̂_aa` over lags
+//! `0 ≤ k < N/2`, a method of moments); then `(C, D)` are the least-squares solution over every
+//! ordered output pair, `C` is projected onto the positive semi-definite cone (negative eigenvalues
+//! set to 0) and `D` clipped at 0. The meat is `S̃ᵀ Σ̂ S̃`. Readings chosen: the prior's pseudo-data
+//! are white and stay out of `Q`'s noise (a prior is a weak pull here); the geometric-mean
+//! correlation of a pair is a model choice (exact when the outputs share one correlation time), and
+//! the clipping makes the stated variance biased up where a correlated share is near zero.
 
 use nalgebra::{DMatrix, DVector, SymmetricEigen};
 use realfft::num_complex::Complex;
@@ -43,7 +47,13 @@ const GRID: usize = 16;
 
 /// `r(c, d, k) = (1/N) Σ_t Σ_p x[(t, c), p] y[(t + k, d), p]` for `k < kmax`, laid out
 /// `(c·n_y + d)·kmax + k`; by FFT (zero-padded to `M ≥ 2N`, no circular wrap).
-fn lag_stats(planner: &mut RealFftPlanner<f64>, x: &DMatrix<f64>, y: &DMatrix<f64>, ny: usize, kmax: usize) -> Vec<f64> {
+fn lag_stats(
+    planner: &mut RealFftPlanner<f64>,
+    x: &DMatrix<f64>,
+    y: &DMatrix<f64>,
+    ny: usize,
+    kmax: usize,
+) -> Vec<f64> {
     let n = x.nrows() / ny;
     let m = (2 * n).next_power_of_two();
     let fwd = planner.plan_fft_forward(m);
@@ -128,7 +138,12 @@ fn basis(ny: usize) -> Vec<(bool, usize, usize)> {
 }
 
 /// `F = B S̃` for one basis covariance on one segment (`tx` = [`markov_times`] of `S̃`).
-fn basis_times(seg: &WeightedSegment, tx: &[DMatrix<f64>], ny: usize, (markov, c, d): (bool, usize, usize)) -> DMatrix<f64> {
+fn basis_times(
+    seg: &WeightedSegment,
+    tx: &[DMatrix<f64>],
+    ny: usize,
+    (markov, c, d): (bool, usize, usize),
+) -> DMatrix<f64> {
     let n = seg.s.nrows() / ny;
     let mut f = DMatrix::zeros(seg.s.nrows(), seg.s.ncols());
     let src = |a: usize, t: usize, p: usize| if markov { tx[a][(t, p)] } else { seg.s[(t * ny + a, p)] };
@@ -362,14 +377,22 @@ mod tests {
                 m + white.sqrt() * normal()
             });
             let v = &e - &reg * (&minv * reg.transpose() * &e);
-            let seg = WeightedSegment { v: v.clone(), s: reg.clone() };
+            let seg = WeightedSegment {
+                v: v.clone(),
+                s: reg.clone(),
+            };
             let fitted = fit(&[seg], 1, &minv, 1.0, tau_known.then_some(&[tau][..])).expect("the model fits");
             let cov = &minv * &fitted.meat * &minv;
             gust.push((0..3).map(|i| cov[(i, i)]).collect());
-            let res: Vec<crate::usermodel::YVec> =
-                (0..n).map(|t| crate::usermodel::YVec::from_fn(|i, _| if i == 0 { v[(t, 0)] } else { 0.0 })).collect();
+            let res: Vec<crate::usermodel::YVec> = (0..n)
+                .map(|t| crate::usermodel::YVec::from_fn(|i, _| if i == 0 { v[(t, 0)] } else { 0.0 }))
+                .collect();
             let sens: Vec<Vec<crate::usermodel::YVec>> = (0..3)
-                .map(|p| (0..n).map(|t| crate::usermodel::YVec::from_fn(|i, _| if i == 0 { reg[(t, p)] } else { 0.0 })).collect())
+                .map(|p| {
+                    (0..n)
+                        .map(|t| crate::usermodel::YVec::from_fn(|i, _| if i == 0 { reg[(t, p)] } else { 0.0 }))
+                        .collect()
+                })
                 .collect();
             let meat = super::super::lag_sandwich(&mut RealFftPlanner::new(), &res, &sens, &[1.0]);
             let cov = &minv * meat * &minv;
@@ -391,7 +414,10 @@ mod tests {
         for &i in which {
             let (m, se) = mean_se(stated, i);
             let t = truth[i] * truth[i];
-            assert!((m - t).abs() <= 3.0 * se, "parameter {i}: true variance {t:.4e}, stated {m:.4e} ± {se:.1e}");
+            assert!(
+                (m - t).abs() <= 3.0 * se,
+                "parameter {i}: true variance {t:.4e}, stated {m:.4e} ± {se:.1e}"
+            );
         }
     }
 
@@ -406,7 +432,10 @@ mod tests {
         assert_unbiased(&truth, &gust, &[0, 1, 2]);
         // while the Morelli–Klein lag sums understate the intercept's beyond their sampling error
         let (m, se) = mean_se(&mk, 0);
-        assert!(m + 3.0 * se < truth[0] * truth[0], "the lag sums state the intercept's variance ({m:.3e} ± {se:.1e})");
+        assert!(
+            m + 3.0 * se < truth[0] * truth[0],
+            "the lag sums state the intercept's variance ({m:.3e} ± {se:.1e})"
+        );
     }
 
     #[test]
@@ -418,6 +447,9 @@ mod tests {
         // and the intercept's, whose variance grows fast with the correlation time, is not below
         // the truth (an error in the estimated correlation time inflates it more than it shrinks it)
         let (m, se) = mean_se(&gust, 0);
-        assert!(m + 3.0 * se >= truth[0] * truth[0], "the intercept's variance is understated ({m:.3e} ± {se:.1e})");
+        assert!(
+            m + 3.0 * se >= truth[0] * truth[0],
+            "the intercept's variance is understated ({m:.3e} ± {se:.1e})"
+        );
     }
 }

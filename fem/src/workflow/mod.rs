@@ -912,7 +912,7 @@ pub struct SavedParameter {
     pub name: String,
     /// Value.
     pub value: f64,
-    /// σ corrected for coloured residuals ([`coloured_covariance`]; null for a fixed parameter).
+    /// σ corrected for coloured residuals ([`gust_covariance`]; null for a fixed parameter).
     pub sigma: Option<f64>,
     /// The Cramér–Rao σ of white residuals, the filter's own covariance (null for a fixed
     /// parameter, and in files saved before it was recorded).
@@ -1182,7 +1182,7 @@ struct Estimates {
 /// Puts the identified values into the model and returns them with their standard deviations.
 fn set_estimates(model: &mut UserModel, segs: &[Segment], id: &Identified) -> Result<Estimates, String> {
     let mut values = model.values().to_vec();
-    let sig = sigma_of(&coloured_covariance(model, segs, id)?);
+    let sig = sigma_of(&gust_covariance(model, segs, id)?.0);
     let sig_white = sigma_of(&id.covariance);
     let mut sigma = vec![None; values.len()];
     let mut sigma_white = vec![None; values.len()];
