@@ -38,6 +38,8 @@ use serde::{Deserialize, Serialize};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
+mod markov;
+
 /// A time range, seconds from the first sample of its file: `FROM:TO` on the command line.
 pub type Range = (f64, f64);
 
@@ -687,12 +689,36 @@ pub fn coloured_covariance(
     segments: &[Segment],
     id: &Identified,
 ) -> Result<SMatrix<f64, MAX_P, MAX_P>, String> {
+    let Some(parts) = residual_parts(model, segments, id)? else {
+        return Ok(id.covariance);
+    };
+    let mut meat = parts.prior_info.clone();
+    let mut planner = realfft::RealFftPlanner::<f64>::new();
+    for (v, sens) in &parts.per_seg {
+        if !v.is_empty() {
+            meat += lag_sandwich(&mut planner, v, sens, &parts.w);
+        }
+    }
+    sandwich(id, &parts.info, &meat)
+}
+
+/// What both coloured-residual covariances start from: per segment the residuals at the estimate
+/// and their sensitivities (`sens[p][i]`), the weighting's diagonal `w`, the information
+/// `M = P₀⁻¹ + Σ Sᵀ W S` and the prior's `P₀⁻¹` (`None`: no free parameter).
+struct ResidualParts {
+    per_seg: Vec<(Vec<YVec>, Vec<Vec<YVec>>)>,
+    w: Vec<f64>,
+    info: nalgebra::DMatrix<f64>,
+    prior_info: nalgebra::DMatrix<f64>,
+}
+
+fn residual_parts(model: &UserModel, segments: &[Segment], id: &Identified) -> Result<Option<ResidualParts>, String> {
     use nalgebra::DMatrix;
     let dt = sample_period(segments)?;
     let np = model.free().len();
     let (_, _, ny) = model.dims();
     if np == 0 {
-        return Ok(id.covariance);
+        return Ok(None);
     }
     let st = settings(model, dt, Some(&id.noise_variance));
     let sigma = sigma_of(&id.covariance);
@@ -740,17 +766,11 @@ pub fn coloured_covariance(
     let c0 = model.prior_covariance();
     let prior_info = DMatrix::from_fn(np, np, |i, j| if i == j { 1.0 / c0[(i, i)] } else { 0.0 });
     let mut info = prior_info.clone();
-    let mut meat = prior_info;
-    let mut planner = realfft::RealFftPlanner::<f64>::new();
     for (v, sens) in &per_seg {
-        let n = v.len();
-        if n == 0 {
-            continue;
-        }
         for a in 0..ny {
             for i in 0..np {
                 for j in 0..=i {
-                    let x: f64 = (0..n).map(|k| sens[i][k][a] * w[a] * sens[j][k][a]).sum();
+                    let x: f64 = (0..v.len()).map(|k| sens[i][k][a] * w[a] * sens[j][k][a]).sum();
                     info[(i, j)] += x;
                     if i != j {
                         info[(j, i)] += x;
@@ -758,19 +778,95 @@ pub fn coloured_covariance(
                 }
             }
         }
-        meat += lag_sandwich(&mut planner, v, sens, &w);
     }
+    Ok(Some(ResidualParts {
+        per_seg,
+        w,
+        info,
+        prior_info,
+    }))
+}
+
+/// `M⁻¹ meat M⁻¹` written over the free block of `id`'s covariance.
+fn sandwich(
+    id: &Identified,
+    info: &nalgebra::DMatrix<f64>,
+    meat: &nalgebra::DMatrix<f64>,
+) -> Result<SMatrix<f64, MAX_P, MAX_P>, String> {
     let bread = info
+        .clone()
         .try_inverse()
         .ok_or("the information matrix of the estimate is singular: a parameter has no sensitivity")?;
     let cov = &bread * meat * &bread;
     let mut out = id.covariance;
-    for i in 0..np {
-        for j in 0..np {
+    for i in 0..cov.nrows() {
+        for j in 0..cov.ncols() {
             out[(i, j)] = cov[(i, j)];
         }
     }
     Ok(out)
+}
+
+/// The turbulence's correlation fitted to the residual ([`markov`]): the correlation time, s, and
+/// per output the share of the weighted residual variance that is correlated (the rest white).
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct GustNoise {
+    /// Per output, the correlation time of its first-order Gauss–Markov part, s.
+    pub correlation_times_s: Vec<f64>,
+    /// Per output, the correlated share of its variance, `C_aa / (C_aa + D_a)`.
+    pub correlated_share: Vec<f64>,
+}
+
+/// The parameter covariance of `id` with the residual modelled as a first-order Gauss–Markov
+/// process shared by the outputs plus white noise, fitted through the fit's residual maker
+/// ([`markov`]'s module doc): `Cov θ̂ = M⁻¹ [P₀⁻¹ + Σ S̃ᵀ Σ̂ S̃] M⁻¹`. Where the model cannot be
+/// fitted (fewer than four samples) the Morelli–Klein covariance ([`coloured_covariance`]).
+pub fn gust_covariance(
+    model: &UserModel,
+    segments: &[Segment],
+    id: &Identified,
+) -> Result<(SMatrix<f64, MAX_P, MAX_P>, Option<GustNoise>), String> {
+    use nalgebra::DMatrix;
+    let Some(parts) = residual_parts(model, segments, id)? else {
+        return Ok((id.covariance, None));
+    };
+    let (_, _, ny) = model.dims();
+    let np = parts.info.nrows();
+    let root_w: Vec<f64> = parts.w.iter().map(|w| w.sqrt()).collect();
+    let weighted: Vec<markov::WeightedSegment> = parts
+        .per_seg
+        .iter()
+        .map(|(v, sens)| markov::WeightedSegment {
+            v: DMatrix::from_fn(v.len() * ny, 1, |r, _| root_w[r % ny] * v[r / ny][r % ny]),
+            s: DMatrix::from_fn(v.len() * ny, np, |r, p| root_w[r % ny] * sens[p][r / ny][r % ny]),
+        })
+        .collect();
+    let bread = parts
+        .info
+        .clone()
+        .try_inverse()
+        .ok_or("the information matrix of the estimate is singular: a parameter has no sensitivity")?;
+    match markov::fit(&weighted, ny, &bread, sample_period(segments)?, None) {
+        Some(g) => {
+            let meat = &parts.prior_info + &g.meat;
+            let noise = GustNoise {
+                correlation_times_s: g.tau_s,
+                correlated_share: (0..ny)
+                    .map(|a| {
+                        let m = g.markov[(a, a)];
+                        let t = m + g.white[a];
+                        if t > 0.0 {
+                            m / t
+                        } else {
+                            0.0
+                        }
+                    })
+                    .collect(),
+            };
+            Ok((sandwich(id, &parts.info, &meat)?, Some(noise)))
+        }
+        None => Ok((coloured_covariance(model, segments, id)?, None)),
+    }
 }
 
 /// The open-loop simulation of a segment's outputs with the model's current parameters.
@@ -816,7 +912,7 @@ pub struct SavedParameter {
     pub name: String,
     /// Value.
     pub value: f64,
-    /// σ corrected for coloured residuals ([`coloured_covariance`]; null for a fixed parameter).
+    /// σ corrected for coloured residuals ([`gust_covariance`]; null for a fixed parameter).
     pub sigma: Option<f64>,
     /// The Cramér–Rao σ of white residuals, the filter's own covariance (null for a fixed
     /// parameter, and in files saved before it was recorded).
@@ -1086,7 +1182,7 @@ struct Estimates {
 /// Puts the identified values into the model and returns them with their standard deviations.
 fn set_estimates(model: &mut UserModel, segs: &[Segment], id: &Identified) -> Result<Estimates, String> {
     let mut values = model.values().to_vec();
-    let sig = sigma_of(&coloured_covariance(model, segs, id)?);
+    let sig = sigma_of(&gust_covariance(model, segs, id)?.0);
     let sig_white = sigma_of(&id.covariance);
     let mut sigma = vec![None; values.len()];
     let mut sigma_white = vec![None; values.len()];
