@@ -13,31 +13,44 @@
 //! the bias in the vane's), which is exactly what a flight without GPS velocity offers.
 //!
 //! ## Model
-//! States (15): the inertial velocity in body axes `v = [u, v, w]`, the wind in NED
-//! `W = [W_N, W_E, W_D]` (a random walk of intensity `q_W`, m²/s³), the accelerometer biases
-//! `b_a`, and per air-data channel a bias and a scale factor (`b_V, k_V, b_α, k_α, b_β, k_β`,
-//! constant). Dynamics, the accelerometers and gyros as inputs (as in the compatibility check,
-//! the gravity with the measured attitude): `v̇ = a_m − b_a + g_b(φ, θ) − ω × v`. Measurements:
-//! `V_m = (1 + k_V)V + b_V`, `α_m = (1 + k_α)α + b_α`, `β_m = (1 + k_β)β + b_β`, with `V, α, β` of the
-//! relative velocity at the sensor `v − C_bn(φ, θ, ψ)·W + ω × r_sensor`.
+//! States (20): the inertial velocity in body axes `v = [u, v, w]`, the mean wind in NED
+//! `W = [W_N, W_E, W_D]` (a random walk of intensity `q_W`, m²/s³), the gust in body axes as the
+//! states of the Dryden forming filters (MIL-F-8785C; `u` first order, `v` and `w` second order
+//! with the lead `√3·L/V`; five states, one deviation `σ_g` and one scale length `L` for the three
+//! axes, at the flight's mean airspeed), the accelerometer biases `b_a`, and per air-data channel
+//! a bias and a scale factor (`b_V, k_V, b_α, k_α, b_β, k_β`, constant). Dynamics, the
+//! accelerometers and gyros as inputs (as in the compatibility check, the gravity with the
+//! measured attitude): `v̇ = a_m − b_a + g_b(φ, θ) − ω × v`. Measurements: `V_m = (1 + k_V)V + b_V`,
+//! `α_m = (1 + k_α)α + b_α`, `β_m = (1 + k_β)β + b_β`, with `V, α, β` of the relative velocity at
+//! the sensor `v − C_bn(φ, θ, ψ)·W − C_g·x_g + ω × r_sensor`. This is the flight-path
+//! reconstruction with turbulence of Jategaonkar (2015, ch. 10), the gust's spectrum the one a
+//! small aircraft meets near the ground.
 //!
 //! Noise: the measurements' white noise from their third differences
 //! ([`crate::io::signal::white_noise_sd`]); the velocity's process noise from the accelerometers',
 //! the gyros' (times the airspeed) and the attitude's (times `g`) white noise, each sample's error
-//! integrated over one step. **Reading chosen for `q_W`**: the wind's intensity is not known from
-//! the log, so it is estimated by maximum likelihood (the innovations' Gaussian likelihood, Schweppe
-//! 1965; Jategaonkar §5.5) over a grid of four decades; for Dryden turbulence of `σ` and time
-//! constant `L/V` the random walk's intensity matching its short-term growth is `2σ²V/L` (0.05 m²/s³
-//! for the campaign's 0.3 m/s, 50 m at 15 m/s), inside the grid.
+//! integrated over one step. **Reading chosen for the wind's parameters**: `q_W`, `σ_g` and `L`
+//! are not known from the log, so they are chosen by the innovations' Gaussian likelihood
+//! (Schweppe 1965; Jategaonkar §5.5) over grids (`q_W` four decades, `σ_g` 0.1–3.2 m/s and `L`
+//! 20–320 m by factors of 2), the sensor errors as states of the extended filter; the σ below is
+//! conditional on the chosen wind model.
 //!
 //! ## The bound
-//! For the constant sensor-error states, the filtered covariance at the end of the flight is the
-//! smoothed one (a constant's smoothed estimate at any time is the last filtered estimate, Rauch,
-//! Tung & Striebel 1965): the forward pass alone gives the bias's estimate and its σ, no backward
-//! pass is needed for them. In a linear Gaussian model with diffuse priors that σ is the
-//! Cramér–Rao bound; here the model is linearised about the filter's own estimate (an extended
-//! filter), so it is the bound of the linearised reconstruction. Manoeuvres pooled into one flight
-//! start their velocity and wind afresh (diffuse), the sensor errors carry over.
+//! With the wind model chosen, the constants (accelerometer biases, air-data biases and scales)
+//! are the maximum-likelihood estimates of the filter error method — the innovations'
+//! likelihood of the filter run with the constants held, maximised by Gauss–Newton — and their
+//! σ is the Cramér–Rao bound from the information matrix of the innovations' sensitivities
+//! ([`maximum_likelihood`]): the extended filter's own estimate of a scale factor jointly with a
+//! free wind is biased (Ljung 1979). Manoeuvres pooled into one flight start their velocity and
+//! wind afresh (diffuse, the gust at its stationary covariance), the sensor errors carry over.
+//!
+//! ## What it is worth
+//! On 12 seeded clean flights in the campaign's turbulence the RMS error of the estimates is 1.09,
+//! 1.44 and 0.96 times the RMS σ for the airspeed's bias, its scale and α's bias (the test below):
+//! there the σ is the error. For the vane's scale it is not (7.9×): the estimate is offset by
+//! −0.15…−0.19 on every flight, also with the simulator's own gust deviation and length as the
+//! wind model, so the offset is a misfit of this reconstruction with the gusts, not the wind's
+//! parameters — its scale σ bounds nothing in turbulence.
 
 use super::sensor_error::SensorParam;
 use crate::io::measured::{MeasuredFlight, Quantity};
