@@ -40,14 +40,15 @@
 //! are the maximum-likelihood estimates of the filter error method — the innovations'
 //! likelihood of the filter run with the constants held, maximised by Gauss–Newton — and their
 //! σ is the Cramér–Rao bound from the information matrix of the innovations' sensitivities
-//! ([`maximum_likelihood`]): the extended filter's own estimate of a scale factor jointly with a
-//! free wind is biased (Ljung 1979). Manoeuvres pooled into one flight start their velocity and
+//! ([`maximum_likelihood`]), the bound of the model as written rather than of the extended
+//! filter's linearisation in the constants. Manoeuvres pooled into one flight start their velocity and
 //! wind afresh (diffuse, the gust at its stationary covariance), the sensor errors carry over.
 //!
 //! ## What it is worth
 //! On 12 seeded clean flights in the campaign's turbulence the RMS error of the estimates is 1.09,
 //! 1.44 and 0.96 times the RMS σ for the airspeed's bias, its scale and α's bias (the test below):
-//! there the σ is the error. For the vane's scale it is not (7.9×): the estimate is offset by
+//! there the σ is the error. The gust's spectrum is what makes it so: with a random-walk wind
+//! (2.1, 2.5, 2.1) or a first-order gust (the airspeed's bias 2.3) it is not. For the vane's scale it is not (7.9×): the estimate is offset by
 //! −0.15…−0.19 on every flight, also with the simulator's own gust deviation and length as the
 //! wind model, so the offset is a misfit of this reconstruction with the gusts, not the wind's
 //! parameters — its scale σ bounds nothing in turbulence.
@@ -199,12 +200,11 @@ const ITERATIONS: usize = 5;
 /// sensitivities are forward differences of the whole filter run at the perturbed constants, so
 /// the gains' dependence on the constants is included (the book holds the gain in the
 /// sensitivities and updates it between iterations); the innovation variances are held in the
-/// information matrix. Why not the constants as states of the extended filter: jointly with a
-/// free wind, the product `(1 + k)·α` of a scale state and a wind-dependent flow angle biases
-/// the extended filter's estimate toward a smaller `1 + k` the freer the wind (Ljung 1979, IEEE
-/// TAC 24(1): the extended filter as a parameter estimator neglects the gain's dependence on the
-/// parameters) — on clean turbulent flights by 5–9 of its own σ — while the likelihood's
-/// maximum does not depend on how the filter linearises in the constants. `None` when a run
+/// information matrix. Why not the extended filter's estimate of the constants as states: its σ
+/// is the bound of the filter's linearisation in the constants (Ljung 1979, IEEE TAC 24(1), on
+/// the extended filter as a parameter estimator), this one the Cramér–Rao bound of the model as
+/// written; at one wind model the two estimates differ little on the clean turbulent flights
+/// (the module doc's "What it is worth"). `None` when a run
 /// diverges or the information matrix is singular.
 fn maximum_likelihood(inp: &Inputs, wind: &WindModel, start: Theta) -> Option<(Theta, Theta)> {
     let active: Vec<usize> = (0..N - ACC)
