@@ -194,9 +194,9 @@ const STEP: Theta = [1e-3, 1e-3, 1e-3, 1e-2, 1e-4, 1e-4, 1e-4, 1e-4, 1e-4];
 const ITERATIONS: usize = 5;
 
 /// The maximum-likelihood constants of the reconstruction with wind model `wind`, from `start`,
-/// and their Cramér–Rao standard errors: the filter error method (Jategaonkar 2015, ch. 5, the
-/// innovations' likelihood, eq. 5.37, minimised over the constants by Gauss–Newton with the
-/// information matrix of the innovations' sensitivities, eq. 5.41–5.43). **Reading chosen**: the
+/// and their Cramér–Rao standard errors: the filter error method (Jategaonkar 2015, ch. 5: the
+/// innovations' likelihood minimised over the constants by Gauss–Newton with the information
+/// matrix of the innovations' sensitivities). **Reading chosen**: the
 /// sensitivities are forward differences of the whole filter run at the perturbed constants, so
 /// the gains' dependence on the constants is included (the book holds the gain in the
 /// sensitivities and updates it between iterations); the innovation variances are held in the
@@ -204,7 +204,7 @@ const ITERATIONS: usize = 5;
 /// is the bound of the filter's linearisation in the constants (Ljung 1979, IEEE TAC 24(1), on
 /// the extended filter as a parameter estimator), this one the Cramér–Rao bound of the model as
 /// written; at one wind model the two estimates differ little on the clean turbulent flights
-/// (the module doc's "What it is worth"). `None` when a run
+/// (docs/model-gaps.md, "The oracle"). `None` when a run
 /// diverges or the information matrix is singular.
 fn maximum_likelihood(inp: &Inputs, wind: &WindModel, start: Theta) -> Option<(Theta, Theta)> {
     let active: Vec<usize> = (0..N - ACC)
