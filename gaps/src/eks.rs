@@ -749,6 +749,9 @@ mod tests {
             SensorParam::Bias(Quantity::Alpha),
             SensorParam::Scale(Quantity::Alpha),
         ];
+        // Printed beside them, not asserted: measured 0.62 and 0.56 (a conservative σ).
+        let accel = [SensorParam::Bias(Quantity::AccelX), SensorParam::Bias(Quantity::AccelZ)];
+        let mut accel_sums = [[0.0f64; 2]; 2];
         // Per parameter: Σ error², Σ σ², and the same of the output-error check's first round.
         let mut sums = [[0.0f64; 4]; 4];
         let seeds = 12;
@@ -771,6 +774,11 @@ mod tests {
             };
             let c = compat::check(&f, h, &cs);
             eprintln!("seed {seed}: wind {}", r.wind.describe());
+            for (i, p) in accel.iter().enumerate() {
+                let (v, s) = r.get(*p).expect("an accelerometer state");
+                accel_sums[i][0] += v * v;
+                accel_sums[i][1] += s * s;
+            }
             for (i, p) in params.iter().enumerate() {
                 let (v, s) = r.get(*p).expect("an air-data state");
                 let t = c.tested.iter().find(|t| t.param == *p).expect("a tested candidate");
@@ -779,6 +787,15 @@ mod tests {
                     sums[i][j] += x * x;
                 }
             }
+        }
+        for (p, s) in accel.iter().zip(accel_sums) {
+            let rms = s.map(|x| (x / seeds as f64).sqrt());
+            eprintln!(
+                "{p:?}: reconstruction RMS error {:.5}, RMS σ {:.5} (ratio {:.2})",
+                rms[0],
+                rms[1],
+                rms[0] / rms[1]
+            );
         }
         for (p, s) in params.iter().zip(sums) {
             let rms = s.map(|x| (x / seeds as f64).sqrt());

@@ -49,8 +49,9 @@ that scored it) the distribution of `se_ratio` = the tool's σ over the oracle's
 over every scored candidate of every report (goal: <= 1.5), and a line naming the families whose
 median or 90th percentile is above the goal. For those families, on every suite but the real
 flights, a fourth (scatter_section): each term's estimates over the flights where nothing planted
-moves it — their standard deviation against the RMS of the tool's σ and of the oracle's — which
-says whether a high ratio is the tool's σ too large or the oracle's too small.
+moves it — their standard deviation against the RMS of the tool's σ and (aerodynamic candidates,
+whose oracle is the same estimate) of the oracle's — which says whether a high ratio is the tool's
+σ too large or the oracle's too small.
 """
 import argparse
 import json
@@ -414,7 +415,10 @@ def scatter_section(suite, fs, base):
     is at least the estimate's true standard error, so a σ far below it is too small (a ratio
     near 1 or below: the σ is honest or conservative). The mean is an offset no σ of one flight
     shows. Which side of a high se_ratio is wrong: the tool's σ (scatter / σ_tool well below 1) or
-    the oracle's (scatter / oracle well above 1)."""
+    the oracle's (scatter / oracle well above 1). The latter only where the oracle's estimate is
+    the tool's first-round one (the aerodynamic candidates): a sensor candidate's oracle is the
+    reconstruction's σ of its own, different estimate (its check is eks.rs's clean-flight test),
+    so there the column is left empty."""
     fam = {}
     for fl in fs:
         path = report_path(fl, base)
@@ -447,8 +451,10 @@ def scatter_section(suite, fs, base):
         v = fam[k]
         sd = statistics.stdev(x[0] for x in v)
         st, so = rms([x[1] for x in v]), rms([x[2] for x in v])
-        out.append("| %s | %s | %d | %.3g | %.3g | %.3g | %.2f | %.3g | %.2f |" % (
-            k[0], k[1], len(v), statistics.mean(x[0] for x in v), sd, st, sd / st, so, sd / so))
+        sensor = k[0].endswith(")")
+        out.append("| %s | %s | %d | %.3g | %.3g | %.3g | %.2f | %.3g | %s |" % (
+            k[0], k[1], len(v), statistics.mean(x[0] for x in v), sd, st, sd / st, so,
+            "–" if sensor else "%.2f" % (sd / so)))
     out.append("")
     return out
 
