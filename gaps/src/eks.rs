@@ -788,25 +788,18 @@ mod tests {
                 }
             }
         }
+        let root_mean = |s: &[f64]| s.iter().map(|x| (x / seeds as f64).sqrt()).collect::<Vec<_>>();
+        let pair = |e: f64, s: f64| format!("RMS error {e:.5}, RMS σ {s:.5} (ratio {:.2})", e / s);
         for (p, s) in accel.iter().zip(accel_sums) {
-            let rms = s.map(|x| (x / seeds as f64).sqrt());
-            eprintln!(
-                "{p:?}: reconstruction RMS error {:.5}, RMS σ {:.5} (ratio {:.2})",
-                rms[0],
-                rms[1],
-                rms[0] / rms[1]
-            );
+            let rms = root_mean(&s);
+            eprintln!("{p:?}: reconstruction {}", pair(rms[0], rms[1]));
         }
         for (p, s) in params.iter().zip(sums) {
-            let rms = s.map(|x| (x / seeds as f64).sqrt());
+            let rms = root_mean(&s);
             eprintln!(
-                "{p:?}: reconstruction RMS error {:.5}, RMS σ {:.5} (ratio {:.2}); output error {:.5}, {:.5} (ratio {:.2})",
-                rms[0],
-                rms[1],
-                rms[0] / rms[1],
-                rms[2],
-                rms[3],
-                rms[2] / rms[3]
+                "{p:?}: reconstruction {}; output error {}",
+                pair(rms[0], rms[1]),
+                pair(rms[2], rms[3])
             );
             let ratio = rms[0] / rms[1];
             if *p == SensorParam::Scale(Quantity::Alpha) {
