@@ -155,6 +155,8 @@ struct Inputs<'a> {
     acc: [Vec<f64>; 3],
     rates: [Vec<f64>; 3],
     att: [Vec<f64>; 3],
+    /// `C_bn` of the measured attitude per sample: the same in every filter pass.
+    c_bn: Vec<Matrix3<f64>>,
     meas: [Option<&'a [f64]>; 3],
     r_sensor: [Vector3<f64>; 3],
     meas_var: [f64; 3],
@@ -335,6 +337,7 @@ fn inputs(flight: &MeasuredFlight, h_s: f64, gyro_bias: [f64; 3]) -> Option<Inpu
             theta.to_vec(),
             get(Yaw).filter(|_| lateral).unwrap_or(&zeros).to_vec(),
         ],
+        c_bn: Vec::new(),
         meas: [Some(v_m), Some(a_m), beta],
         r_sensor: [
             ac.airspeed_position_m,
@@ -353,7 +356,10 @@ fn inputs(flight: &MeasuredFlight, h_s: f64, gyro_bias: [f64; 3]) -> Option<Inpu
         speed_mps: speed,
         lateral,
     };
-    Some(inputs)
+    let c_bn = (0..n)
+        .map(|k| ned_to_body(inputs.att[0][k], inputs.att[1][k], inputs.att[2][k]))
+        .collect();
+    Some(Inputs { c_bn, ..inputs })
 }
 
 /// The wind model of the largest innovations' likelihood (Schweppe 1965; Jategaonkar §5.5), the
@@ -539,7 +545,7 @@ fn start_piece(inp: &Inputs, gust: &Gust, k: usize, x: &mut [f64; N], p: &mut Ma
             p[c][r] = 0.0;
         }
     }
-    let c = ned_to_body(inp.att[0][k], inp.att[1][k], inp.att[2][k]);
+    let c = inp.c_bn[k];
     let sw2 = PRIOR_SD[0] * PRIOR_SD[0];
     let cpc = c * c.transpose() * sw2;
     let cp = gust.c * gust.p0;
@@ -611,7 +617,7 @@ fn filter(
         // The first second of a piece sets the diffuse states: not in the likelihood.
         let settle = start + (1.0 / h).round() as usize;
         for k in start..end {
-            let c = ned_to_body(inp.att[0][k], inp.att[1][k], inp.att[2][k]);
+            let c = inp.c_bn[k];
             let w = Vector3::new(inp.rates[0][k], inp.rates[1][k], inp.rates[2][k]);
             let v = Vector3::new(x[0], x[1], x[2]);
             let xg = SMatrix::<f64, NG, 1>::from_column_slice(&x[GUST..GUST + NG]);
@@ -719,9 +725,8 @@ fn update(n: usize, x: &mut [f64; N], p: &mut Mat, hrow: &[f64; N], nu: f64, r: 
 fn predict(n: usize, inp: &Inputs, wind: &WindModel, gust: &Gust, k: usize, x: &mut [f64; N], p: &mut Mat) {
     let h = inp.h_s;
     let w = Vector3::new(inp.rates[0][k], inp.rates[1][k], inp.rates[2][k]);
-    let (sf, cf) = inp.att[0][k].sin_cos();
-    let (st, ct) = inp.att[1][k].sin_cos();
-    let gb = Vector3::new(-st, ct * sf, ct * cf) * G_MPS2;
+    // g_b = C_bn·[0, 0, g]: `[−sin θ, sin φ cos θ, cos φ cos θ]·g`.
+    let gb = inp.c_bn[k].column(2) * G_MPS2;
     let v = Vector3::new(x[0], x[1], x[2]);
     let acc = Vector3::new(
         inp.acc[0][k] - x[ACC],
