@@ -56,13 +56,13 @@
 //! (the filter error method's maximum likelihood, Jategaonkar 2015 ch. 5: Gauss–Newton on the
 //! innovations with the constants held, the information matrix of the innovations'
 //! sensitivities). On the 12 flights of the test below, at the chosen wind model, the filter's σ
-//! is 0.92–1.03 times the Cramér–Rao bound on every flight and parameter (0.81–1.00 on two of the
-//! benchmark's flights, β's the lowest), the estimates differ by
+//! is 0.92–1.03 times the Cramér–Rao bound on every flight and parameter, the estimates differ by
 //! at most 1.3 of that σ (α's bias; the others at most 0.75), and the test's ratios of RMS error
-//! to RMS σ agree to 0.06: the maximum likelihood, whose sensitivities cost as many filter passes
-//! again as the wind's search, adds nothing the σ shows. Manoeuvres pooled into one flight start
-//! their velocity and wind afresh (diffuse, the gust at its stationary covariance), the sensor
-//! errors carry over.
+//! to RMS σ agree to 0.06; on two of the benchmark's flights the σ is 0.81–1.00 times the bound
+//! (β's the lowest). The maximum likelihood's sensitivities cost as many filter passes again as
+//! the wind's search, so the filter's own bound is taken, within a fifth of the exact one.
+//! Manoeuvres pooled into one flight start their velocity and wind afresh (diffuse, the gust at
+//! its stationary covariance), the sensor errors carry over.
 //!
 //! ## What it is worth
 //! On 12 seeded clean flights in the campaign's turbulence the RMS error of the estimates is 1.03,
