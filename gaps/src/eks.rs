@@ -43,9 +43,11 @@
 //! along `σ_g²/L` constant (the Dryden spectrum above `V/L` is `∝ σ_g²/L`: the same
 //! high-frequency gust), so the gust's descent steps along that valley (`σ_g`×2 with `L`×4) and
 //! across it (`L`×2). A mean wind without gust (the random walk alone, its `q_W` walked likewise)
-//! is the gust's limit `σ_g → 0`, so it is tried only where the gust's walk ends on the grid's
-//! least deviation: calm air. On the 12 turbulent flights of the test below the walk ends on the
-//! full grid's optimum every time, with the random walk alone tried or not.
+//! is the gust's limit at `σ_g → 0` (calm air) and at `L → ∞` (a wind that wanders slower than
+//! any gust of the grid), so it is tried only where the gust's walk ends on the grid's least
+//! deviation or its longest scale length (on 3 of the benchmark's 13 JSBSim flights, which end
+//! there, the random walk wins). On the 12 turbulent flights of the test below the walk ends on
+//! the full grid's optimum every time, with the random walk alone tried or not.
 //!
 //! ## The bound
 //! With the wind model chosen, the constants (accelerometer biases, air-data biases and scales)
@@ -66,13 +68,14 @@
 //!
 //! ## What it is worth
 //! On 12 seeded clean flights in the campaign's turbulence the RMS error of the estimates is 1.03,
-//! 1.41 and 0.98 times the RMS σ for the airspeed's bias, its scale and α's bias, and 0.65 and 0.55
-//! for the accelerometers' x and z biases (the test below): there the σ is the error, or larger.
-//! The gust's spectrum is what makes it so: with a random-walk wind (2.1, 2.5, 2.1) or a
-//! first-order gust (the airspeed's bias 2.3) it is not. For the vane's scale it is not (7.9×):
-//! the estimate is offset by −0.13…−0.20 on every flight, also with the simulator's own gust
-//! deviation and length as the wind model, so the offset is a misfit of this reconstruction with
-//! the gusts, not the wind's parameters — its scale σ bounds nothing in turbulence. Not a missing
+//! 1.41 and 0.98 times the RMS σ for the airspeed's bias, its scale and α's bias, and 0.65, 0.55
+//! and 0.48 for the accelerometers' x, z and y biases (the test below): there the σ is the error,
+//! or larger. The gust's spectrum is what makes it so: with a random-walk wind (2.1, 2.5, 2.1) or
+//! a first-order gust (the airspeed's bias 2.3) it is not. For β's bias and scale it is not
+//! either (2.3× and 3.4×), nor for α's scale (7.9×): that estimate is offset by −0.13…−0.20 on
+//! every flight, also with the simulator's own gust deviation and length as the wind model, so
+//! the offset is a misfit of this reconstruction with the gusts, not the wind's parameters —
+//! these σ bound nothing in turbulence. Not a missing
 //! term of the vane: the simulator's vane reads `atan2(w_r, u_r)` of the body-axis air velocity
 //! at the centre of gravity, gust included, with no upwash and no offset — this model's
 //! measurement with the aircraft file's vane position 0. **Reading chosen** for the cause (not
@@ -82,6 +85,7 @@
 //! — a regressor correlated with the noise, whose least-squares slope is biased toward the side
 //! where the two cancel (negative here). A model of the lift's response to α (the aerodynamic
 //! force as a measurement) would remove it; the calm-air estimates (−0.004…+0.008) are in line.
+//! The side force answers a side gust likewise (the weathercock), the same reading for β.
 
 use super::sensor_error::SensorParam;
 use crate::io::measured::{MeasuredFlight, Quantity};
@@ -323,7 +327,7 @@ fn search_wind(nll: &mut impl FnMut(WindModel) -> f64) -> WindModel {
         &[[1, 2], [0, 1]],
         |[s, l]| nll(gusty(0, s, l)),
     );
-    if s == 0 {
+    if s == 0 || l + 1 == GUST_LENGTH_GRID.len() {
         let [q0] = descend([MEAN_Q_GRID.len() / 2], [MEAN_Q_GRID.len()], &[[1]], |[q]| {
             nll(still(q))
         });
@@ -753,11 +757,11 @@ mod tests {
     /// that of the accelerometers' biases at most 1.54. An honest σ gives a ratio within
     /// `sqrt(χ²₁₂/12)`'s 99 % interval 0.51–1.54; the band is narrower below so that a σ inflated
     /// by half fails (the accelerometers' σ, measured conservative, is held only to not being
-    /// too small). α's scale is not within it (an offset
-    /// shared by every flight, a misfit of the model that no σ of a single flight shows): the test
-    /// asserts that it stays outside, so that a model which repairs it must also change the
-    /// documentation. The output-error check's own first-round estimates and σ beside them are
-    /// printed. docs/model-gaps.md, "The oracle", rests on these numbers:
+    /// too small). α's scale and β's bias and scale are not within it (a misfit of the model with
+    /// the gusts that no σ of a single flight shows): the test asserts that they stay outside, so
+    /// that a model which repairs them must also change the documentation. The output-error
+    /// check's own first-round estimates and σ beside them are printed. docs/model-gaps.md, "The
+    /// oracle", rests on these numbers:
     /// `cargo test -p aerosid-gaps --lib eks::tests::clean_flights -- --nocapture`.
     #[test]
     fn clean_flights_errors_are_within_the_reconstructions_sigma() {
@@ -769,10 +773,18 @@ mod tests {
             SensorParam::Bias(Quantity::Alpha),
             SensorParam::Scale(Quantity::Alpha),
         ];
-        // The accelerometer biases (truth 0): their σ is not too small, the ratio at most the
-        // 99 % bound 1.54 (measured 0.62 and 0.56: a conservative σ).
-        let accel = [SensorParam::Bias(Quantity::AccelX), SensorParam::Bias(Quantity::AccelZ)];
-        let mut accel_sums = [[0.0f64; 2]; 2];
+        // Beside them, the truth 0 (the simulator's sensors without biases): the accelerometers'
+        // biases, whose σ is not too small, the ratio at most the 99 % bound 1.54 (measured
+        // 0.65, 0.55, 0.48: a conservative σ), and β's bias and scale, whose σ is (measured 2.3
+        // and 3.4), asserted outside like α's scale.
+        let more = [
+            SensorParam::Bias(Quantity::AccelX),
+            SensorParam::Bias(Quantity::AccelZ),
+            SensorParam::Bias(Quantity::AccelY),
+            SensorParam::Bias(Quantity::Beta),
+            SensorParam::Scale(Quantity::Beta),
+        ];
+        let mut more_sums = [[0.0f64; 2]; 5];
         // Per parameter: Σ error², Σ σ², and the same of the output-error check's first round.
         let mut sums = [[0.0f64; 4]; 4];
         let seeds = 12;
@@ -795,10 +807,10 @@ mod tests {
             };
             let c = compat::check(&f, h, &cs);
             eprintln!("seed {seed}: wind {}", r.wind.describe());
-            for (i, p) in accel.iter().enumerate() {
-                let (v, s) = r.get(*p).expect("an accelerometer state");
-                accel_sums[i][0] += v * v;
-                accel_sums[i][1] += s * s;
+            for (i, p) in more.iter().enumerate() {
+                let (v, s) = r.get(*p).expect("a sensor-error state");
+                more_sums[i][0] += v * v;
+                more_sums[i][1] += s * s;
             }
             for (i, p) in params.iter().enumerate() {
                 let (v, s) = r.get(*p).expect("an air-data state");
@@ -811,15 +823,18 @@ mod tests {
         }
         let root_mean = |s: &[f64]| s.iter().map(|x| (x / seeds as f64).sqrt()).collect::<Vec<_>>();
         let pair = |e: f64, s: f64| format!("RMS error {e:.5}, RMS σ {s:.5} (ratio {:.2})", e / s);
-        for (p, s) in accel.iter().zip(accel_sums) {
+        for (p, s) in more.iter().zip(more_sums) {
             let rms = root_mean(&s);
             eprintln!("{p:?}: reconstruction {}", pair(rms[0], rms[1]));
-            assert!(
-                rms[0] / rms[1] <= 1.54,
-                "{p:?}: RMS error {} against σ {}",
-                rms[0],
-                rms[1]
-            );
+            let ratio = rms[0] / rms[1];
+            if matches!(
+                p,
+                SensorParam::Bias(Quantity::Beta) | SensorParam::Scale(Quantity::Beta)
+            ) {
+                assert!(ratio > 1.54, "{p:?}: RMS error {} against σ {}", rms[0], rms[1]);
+            } else {
+                assert!(ratio <= 1.54, "{p:?}: RMS error {} against σ {}", rms[0], rms[1]);
+            }
         }
         for (p, s) in params.iter().zip(sums) {
             let rms = root_mean(&s);
