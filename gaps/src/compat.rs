@@ -1969,8 +1969,8 @@ fn eks_oracle(
         }
     }
     out.notes.push(format!(
-        "oracle of the air-data and accelerometer errors: a Kalman reconstruction with the wind (random walk, {:.0e} m²/s³ by maximum likelihood) and the sensor errors as states",
-        r.wind_q
+        "oracle of the air-data and accelerometer errors: a Kalman reconstruction with the wind ({}) and the sensor errors as states",
+        r.wind.describe()
     ));
 }
 
