@@ -362,42 +362,58 @@ impl Design {
     }
 
     /// The held-out gain of `f1` over `f0` against the noise of the held-out residuals:
-    /// `T = Σ_b d_b / √(Σ_b 4 σ_b² δ_bᵀ R δ_b)`, `d_b = SSE₀_b − SSE₁_b`.
+    /// `T = Σ_b d_b / √Var(Σ_b d_b)`, `d_b = SSE₀_b − SSE₁_b`.
     ///
     /// Why: if model 1's extra terms carry nothing, the held-out predictions of block `b` differ
     /// by `δ_b` (fitted on the other folds, so independent of the block's noise `e_b`) and
-    /// `d_b = 2δ_bᵀe_b − ‖δ_b‖²`: mean `−‖δ_b‖² ≤ 0`, variance `4δ_bᵀ Cov(e_b) δ_b`. `T` is that
-    /// null law's standardised sum, one-sided normal (conservative: the mean is ≤ 0). With a real
-    /// term of partial t-statistic `t`, `T ≈ t/2` — unlike the sign-flip `z` of [`gain`], which
-    /// cannot exceed `√k` when the gain lives in `k` excited blocks, whatever its size (two rudder
-    /// doublets: `k` ≈ 3, `z` ≤ 1.7 below any 1 % critical value).
+    /// `d_b = 2δ_bᵀe_b − ‖δ_b‖²`: mean `−‖δ_b‖² ≤ 0`. `T` is that null law's standardised sum,
+    /// one-sided normal (conservative: the mean is ≤ 0). With a real term of partial t-statistic
+    /// `t`, `T ≈ t/2` — unlike the sign-flip `z` of [`gain`], which cannot exceed `√k` when the
+    /// gain lives in `k` excited blocks, whatever its size (two rudder doublets: `k` ≈ 3, `z` ≤ 1.7
+    /// below any 1 % critical value).
     ///
-    /// `Cov(e_b) = σ_b² R`: `σ_b²` the mean square of model 1's held-out residual in the block
-    /// itself (turbulence and manoeuvres change the noise level from block to block; a block
-    /// where a gust burst was fitted counts with its own large variance), `R` the Toeplitz matrix
-    /// of the residual's autocorrelation over the whole flight (within blocks, Bartlett-tapered
-    /// to the block length so that it stays positive semi-definite): the residual of an
-    /// equation-error fit on smoothed, turbulent data is coloured, and white-noise variance would
-    /// overstate `T` by the correlation length.
+    /// **The variance is taken over every held-out stretch, not block by block.** A stretch is a
+    /// run of adjacent blocks of one fold (a whole manoeuvre when the folds are the manoeuvres; one
+    /// block when the blocks are dealt round-robin): its blocks are predicted by one fit and their
+    /// noise is one correlated record, so `Var = Σ_s 4 δ_sᵀ Cov(e_s) δ_s` over the stretches `s`,
+    /// the covariance between the blocks of a stretch included. Turbulence sets that correlation:
+    /// MIL-F-8785C at low altitude has `L_w = h` and `L_u = L_v ≈ 260 m` at 100 m, so at 15 m/s
+    /// the gust the estimated α and β miss stays correlated for 7–17 s, longer than a block (2 s)
+    /// and about a manoeuvre (6–10 s). Summing the block variances alone drops those cross terms
+    /// and states a gain that several adjacent blocks share as that many independent ones.
+    ///
+    /// `Cov(e_s)_ij = σ_i σ_j ρ(|i − j|)`: `σ_i²` the mean square of model 1's held-out residual in
+    /// sample `i`'s block (turbulence and manoeuvres change the noise level from block to block),
+    /// `ρ` the autocorrelation of the residual scaled by those levels, pooled over the stretches
+    /// with lags within each and every lag up to the longest stretch, each lag's sum divided by
+    /// its number of products (the unbiased estimate: a weight falling with the lag, as a
+    /// Bartlett window, would shrink the long lags the turbulence fills). A stretch's variance is
+    /// floored at its white-residual part, as the coloured-residual σ of
+    /// [`super::regress::ResidualLags`] is: fitted residuals understate their long-lag
+    /// correlation, so a sum below the lag-0 term is an estimation artefact.
     pub fn noise_gain(&self, f0: &SubsetFit, f1: &SubsetFit) -> f64 {
         let g = self.n_blocks();
         if g < 2 || f0.cv_theta.len() != self.folds || f1.cv_theta.len() != self.folds {
             return 0.0;
         }
         let z = &self.data[self.p];
-        let mut delta: Vec<Vec<f64>> = Vec::with_capacity(g);
-        let mut resid: Vec<Vec<f64>> = Vec::with_capacity(g);
+        let mut stretches: Vec<Stretch> = Vec::new();
         for (b, &(a, e)) in self.blocks.iter().enumerate() {
-            let (mut db, mut rb) = (Vec::with_capacity(e - a), Vec::with_capacity(e - a));
-            for i in a..e {
-                let (y0, y1) = (self.held_out(f0, b, i), self.held_out(f1, b, i));
-                db.push(y1 - y0);
-                rb.push(z[i] - y1);
+            let resid: Vec<f64> = (a..e).map(|i| z[i] - self.held_out(f1, b, i)).collect();
+            let level = (resid.iter().map(|x| x * x).sum::<f64>() / resid.len().max(1) as f64).sqrt();
+            let joins = b > 0 && self.fold[b] == self.fold[b - 1] && self.blocks[b - 1].1 == a;
+            if !joins {
+                stretches.push(Stretch::default());
             }
-            delta.push(db);
-            resid.push(rb);
+            let s = stretches.last_mut().expect("a stretch was pushed");
+            s.gain += f0.cv_sse[b] - f1.cv_sse[b];
+            for (i, r) in (a..e).zip(&resid) {
+                s.delta
+                    .push((self.held_out(f1, b, i) - self.held_out(f0, b, i)) * level);
+                s.scaled.push(if level > 0.0 { r / level } else { 0.0 });
+            }
         }
-        noise_referenced_gain(&delta, &resid, &f0.cv_sse, &f1.cv_sse)
+        stretch_gain(&stretches)
     }
 
     /// Marks column `j` as the column of ones (for [`Self::cv_r2`]).
@@ -418,10 +434,68 @@ impl Design {
     }
 }
 
+/// One held-out stretch of [`Design::noise_gain`]: the difference of the two models' held-out
+/// predictions times the residual level of each sample's block, the residual over that level, and
+/// the stretch's gain `Σ d_b`.
+#[derive(Debug, Default)]
+struct Stretch {
+    delta: Vec<f64>,
+    scaled: Vec<f64>,
+    gain: f64,
+}
+
+/// `Σ_s gain_s / √(Σ_s 4 δ̃_sᵀ R δ̃_s)` over the stretches ([`Design::noise_gain`] explains it):
+/// `R` the Toeplitz matrix of the scaled residuals' pooled, unbiased autocorrelation; 0 when the
+/// variance is 0.
+fn stretch_gain(stretches: &[Stretch]) -> f64 {
+    let len = stretches.iter().map(|s| s.scaled.len()).max().unwrap_or(0);
+    if len == 0 {
+        return 0.0;
+    }
+    let mut sums = vec![0.0; len];
+    let mut pairs = vec![0.0; len];
+    for s in stretches {
+        let n = s.scaled.len();
+        for (k, v) in super::regress::lag_sums(&s.scaled, n.saturating_sub(1))
+            .into_iter()
+            .enumerate()
+        {
+            sums[k] += v;
+            pairs[k] += (n - k) as f64;
+        }
+    }
+    let rho: Vec<f64> = sums
+        .iter()
+        .zip(&pairs)
+        .map(|(s, p)| if *p > 0.0 { s / p } else { 0.0 })
+        .collect();
+    let (mut sum, mut var) = (0.0, 0.0);
+    for s in stretches {
+        sum += s.gain;
+        let c = super::regress::lag_sums(&s.delta, s.delta.len().saturating_sub(1));
+        let white = c.first().copied().unwrap_or(0.0) * rho[0];
+        let q: f64 = c
+            .iter()
+            .zip(&rho)
+            .enumerate()
+            .map(|(k, (c, r))| if k == 0 { c * r } else { 2.0 * c * r })
+            .sum();
+        var += 4.0 * q.max(white).max(0.0);
+    }
+    if var > 0.0 {
+        sum / var.sqrt()
+    } else {
+        0.0
+    }
+}
+
 /// The noise-referenced held-out gain `T = Σ_b d_b / √(Σ_b 4 σ_b² δ_bᵀ R δ_b)` of model 1 over
-/// model 0 ([`Design::noise_gain`] explains it): per block `δ_b` the difference of the two
-/// models' held-out predictions (or errors), `resid` model 1's held-out residual, `sse0`, `sse1`
-/// the blocks' held-out SSEs. 0 when the variance is 0.
+/// model 0 with the blocks taken as independent (the null law is [`Design::noise_gain`]'s): per
+/// block `δ_b` the difference of the two models' held-out predictions (or errors), `resid` model
+/// 1's held-out residual, `sse0`, `sse1` the blocks' held-out SSEs; `σ_b²` the block's mean
+/// square residual and `R` the residual's autocorrelation with lags within a block,
+/// Bartlett-tapered to the longest block. The sensor checks and the output-error path judge their
+/// own segments with it. 0 when the variance is 0.
 pub fn noise_referenced_gain(delta: &[Vec<f64>], resid: &[Vec<f64>], sse0: &[f64], sse1: &[f64]) -> f64 {
     // Autocorrelation of the held-out residuals, lags within a block, each block's own
     // mean square as its scale.
