@@ -292,104 +292,15 @@ pub(super) trait Dynamics {
         sens: bool,
         gain: Option<&DMatrix<f64>>,
     ) -> Option<Run> {
-        let n = self.y_m().len();
-        let np = spec.np();
-        let mut out = Run {
-            yhat: vec![[0.0; NY]; n],
-            coefs: vec![[0.0; 3]; n],
-            h: if sens {
-                vec![DMatrix::zeros(NY, np); n]
-            } else {
-                Vec::new()
-            },
+        let sim = Simulation {
+            plant: self,
+            spec,
+            th,
+            sens,
         };
-        let t_s = self.t_s();
-        for &(a, b) in pieces {
-            let mut x = self.x0(a);
-            let nx = x.as_ref().len();
-            let mut sm = DMatrix::<f64>::zeros(nx, np);
-            for k in a..b {
-                if !self.plausible(&x) {
-                    return None;
-                }
-                // Stage 1 of the step shares its point with the output at k.
-                let (pt, jac) = self.eval(spec, x, k, 0.0, th, sens)?;
-                out.yhat[k] = pt.y;
-                out.coefs[k] = pt.coefs;
-                let stage1 = if sens {
-                    let (g, d) = jac?;
-                    let (a_x, c_x) = self.dx(spec, x, k, 0.0, th)?;
-                    out.h[k] = &c_x * &sm + d;
-                    Some(&a_x * &sm + g)
-                } else {
-                    None
-                };
-                let mut first = Some((pt.xdot, stage1));
-                if let Some(kg) = gain {
-                    let innovation = DVector::from_fn(NY, |i, _| self.y_m()[k][i] - pt.y[i]);
-                    let dx = kg * innovation;
-                    for (xi, d) in x.as_mut().iter_mut().zip(dx.iter()) {
-                        *xi += d;
-                    }
-                    if sens {
-                        sm -= kg * &out.h[k];
-                    }
-                    if !self.plausible(&x) {
-                        return None;
-                    }
-                    // The first stage is taken again at the corrected state.
-                    first = None;
-                }
-                if k + 1 == b {
-                    break;
-                }
-                let hs = t_s[k + 1] - t_s[k];
-                let deriv =
-                    |xs: Self::State, ss: &DMatrix<f64>, fr: f64| -> Option<(Self::State, Option<DMatrix<f64>>)> {
-                        let (p, j) = self.eval(spec, xs, k, fr, th, sens)?;
-                        let sd = match j {
-                            Some((g, _)) => {
-                                let (a_x, _) = self.dx(spec, xs, k, fr, th)?;
-                                Some(&a_x * ss + g)
-                            }
-                            None => None,
-                        };
-                        Some((p.xdot, sd))
-                    };
-                let add = |x: &Self::State, d: &Self::State, h: f64| {
-                    let mut o = *x;
-                    for (o, d) in o.as_mut().iter_mut().zip(d.as_ref()) {
-                        *o += h * d;
-                    }
-                    o
-                };
-                let adds = |s: &DMatrix<f64>, d: &Option<DMatrix<f64>>, h: f64| match d {
-                    Some(d) => s + d * h,
-                    None => s.clone(),
-                };
-                // Sub-steps of at most MAX_STEP_S (the inputs interpolated at their fractions).
-                let m = ((hs / Self::MAX_STEP_S).ceil() as usize).max(1);
-                let hm = hs / m as f64;
-                for j in 0..m {
-                    let f0 = j as f64 / m as f64;
-                    let (k1, s1) = match first.take() {
-                        Some(st) => st,
-                        None => deriv(x, &sm, f0)?,
-                    };
-                    let fh = f0 + 0.5 / m as f64;
-                    let f1 = (j + 1) as f64 / m as f64;
-                    let (k2, s2) = deriv(add(&x, &k1, hm / 2.0), &adds(&sm, &s1, hm / 2.0), fh)?;
-                    let (k3, s3) = deriv(add(&x, &k2, hm / 2.0), &adds(&sm, &s2, hm / 2.0), fh)?;
-                    let (k4, s4) = deriv(add(&x, &k3, hm), &adds(&sm, &s3, hm), f1)?;
-                    for i in 0..nx {
-                        x.as_mut()[i] +=
-                            hm / 6.0 * (k1.as_ref()[i] + 2.0 * k2.as_ref()[i] + 2.0 * k3.as_ref()[i] + k4.as_ref()[i]);
-                    }
-                    if let (Some(s1), Some(s2), Some(s3), Some(s4)) = (s1, s2, s3, s4) {
-                        sm += (s1 + (s2 + s3) * 2.0 + s4) * (hm / 6.0);
-                    }
-                }
-            }
+        let mut out = Run::zeros(self.y_m().len(), spec.np(), sens);
+        for &piece in pieces {
+            sim.piece(piece, gain, &mut out)?;
         }
         Some(out)
     }
@@ -549,6 +460,163 @@ pub(super) struct Run {
     coefs: Vec<[f64; 3]>,
     /// `∂ŷ_k/∂θ` (empty without sensitivities).
     h: Vec<DMatrix<f64>>,
+}
+
+impl Run {
+    /// Zero outputs and coefficients for `n` samples, and zero sensitivities of `np` parameters
+    /// when `sens`.
+    fn zeros(n: usize, np: usize, sens: bool) -> Self {
+        Self {
+            yhat: vec![[0.0; NY]; n],
+            coefs: vec![[0.0; 3]; n],
+            h: if sens {
+                vec![DMatrix::zeros(NY, np); n]
+            } else {
+                Vec::new()
+            },
+        }
+    }
+}
+
+/// A state derivative and, with sensitivities, the sensitivity's derivative `Ṡ`.
+type Derivative<S> = (S, Option<DMatrix<f64>>);
+
+/// What [`Dynamics::run`] integrates: the plant, the model and its parameters, and whether the
+/// output sensitivities are carried beside the states.
+struct Simulation<'a, D: Dynamics + ?Sized> {
+    plant: &'a D,
+    spec: &'a Spec,
+    th: &'a [f64],
+    sens: bool,
+}
+
+impl<D: Dynamics + ?Sized> Simulation<'_, D> {
+    /// One manoeuvre, samples `a..b`, from its measured first sample: per sample the outputs
+    /// (and their sensitivities), with a `gain` the filter's correction, then the step to the
+    /// next sample. `None` when the state leaves the plausible range or a term is unavailable.
+    fn piece(&self, (a, b): (usize, usize), gain: Option<&DMatrix<f64>>, out: &mut Run) -> Option<()> {
+        let mut x = self.plant.x0(a);
+        let nx = x.as_ref().len();
+        let mut sm = DMatrix::<f64>::zeros(nx, self.spec.np());
+        for k in a..b {
+            if !self.plant.plausible(&x) {
+                return None;
+            }
+            // Stage 1 of the step shares its point with the output at k.
+            let mut first = Some(self.output(x, &sm, k, out)?);
+            if let Some(kg) = gain {
+                self.correct(kg, k, out, &mut x, &mut sm);
+                if !self.plant.plausible(&x) {
+                    return None;
+                }
+                // The first stage is taken again at the corrected state.
+                first = None;
+            }
+            if k + 1 == b {
+                break;
+            }
+            self.step(k, first, &mut x, &mut sm)?;
+        }
+        Some(())
+    }
+
+    /// The outputs, coefficients and (with sensitivities) `∂ŷ_k/∂θ = (∂h/∂x) S + ∂h/∂θ` at
+    /// sample `k`, written into `out`; returns the first RK4 stage of the step from `k`.
+    fn output(&self, x: D::State, sm: &DMatrix<f64>, k: usize, out: &mut Run) -> Option<Derivative<D::State>> {
+        let (spec, th) = (self.spec, self.th);
+        let (pt, jac) = self.plant.eval(spec, x, k, 0.0, th, self.sens)?;
+        out.yhat[k] = pt.y;
+        out.coefs[k] = pt.coefs;
+        let stage1 = if self.sens {
+            let (g, d) = jac?;
+            let (a_x, c_x) = self.plant.dx(spec, x, k, 0.0, th)?;
+            out.h[k] = &c_x * sm + d;
+            Some(&a_x * sm + g)
+        } else {
+            None
+        };
+        Some((pt.xdot, stage1))
+    }
+
+    /// The filter's correction at sample `k`, the gain held fixed: `x̂ = x̂⁻ + K(y − ŷ⁻)` and
+    /// `S = S⁻ − K ∂ŷ⁻/∂θ`.
+    fn correct(&self, kg: &DMatrix<f64>, k: usize, out: &Run, x: &mut D::State, sm: &mut DMatrix<f64>) {
+        let innovation = DVector::from_fn(NY, |i, _| self.plant.y_m()[k][i] - out.yhat[k][i]);
+        let dx = kg * innovation;
+        for (xi, d) in x.as_mut().iter_mut().zip(dx.iter()) {
+            *xi += d;
+        }
+        if self.sens {
+            *sm -= kg * &out.h[k];
+        }
+    }
+
+    /// The state derivative and `Ṡ = (∂f/∂x) S + ∂f/∂θ` at state `xs`, sensitivity `ss`, sample
+    /// `k` plus `fr`.
+    fn derivative(&self, xs: D::State, ss: &DMatrix<f64>, k: usize, fr: f64) -> Option<Derivative<D::State>> {
+        let (p, j) = self.plant.eval(self.spec, xs, k, fr, self.th, self.sens)?;
+        let sd = match j {
+            Some((g, _)) => {
+                let (a_x, _) = self.plant.dx(self.spec, xs, k, fr, self.th)?;
+                Some(&a_x * ss + g)
+            }
+            None => None,
+        };
+        Some((p.xdot, sd))
+    }
+
+    /// The RK4 step of state and sensitivity from sample `k` to `k + 1`, in equal sub-steps of at
+    /// most [`Dynamics::MAX_STEP_S`] (the inputs interpolated at their fractions); `first` is the
+    /// first stage when the output already took it.
+    fn step(
+        &self,
+        k: usize,
+        mut first: Option<Derivative<D::State>>,
+        x: &mut D::State,
+        sm: &mut DMatrix<f64>,
+    ) -> Option<()> {
+        let t_s = self.plant.t_s();
+        let hs = t_s[k + 1] - t_s[k];
+        let m = ((hs / D::MAX_STEP_S).ceil() as usize).max(1);
+        let hm = hs / m as f64;
+        for j in 0..m {
+            let f0 = j as f64 / m as f64;
+            let (k1, s1) = match first.take() {
+                Some(st) => st,
+                None => self.derivative(*x, sm, k, f0)?,
+            };
+            let fh = f0 + 0.5 / m as f64;
+            let f1 = (j + 1) as f64 / m as f64;
+            let (k2, s2) = self.derivative(advanced(x, &k1, hm / 2.0), &advanced_sens(sm, &s1, hm / 2.0), k, fh)?;
+            let (k3, s3) = self.derivative(advanced(x, &k2, hm / 2.0), &advanced_sens(sm, &s2, hm / 2.0), k, fh)?;
+            let (k4, s4) = self.derivative(advanced(x, &k3, hm), &advanced_sens(sm, &s3, hm), k, f1)?;
+            for i in 0..x.as_ref().len() {
+                x.as_mut()[i] +=
+                    hm / 6.0 * (k1.as_ref()[i] + 2.0 * k2.as_ref()[i] + 2.0 * k3.as_ref()[i] + k4.as_ref()[i]);
+            }
+            if let (Some(s1), Some(s2), Some(s3), Some(s4)) = (s1, s2, s3, s4) {
+                *sm += (s1 + (s2 + s3) * 2.0 + s4) * (hm / 6.0);
+            }
+        }
+        Some(())
+    }
+}
+
+/// `x + h·d`, component by component.
+fn advanced<S: Copy + AsRef<[f64]> + AsMut<[f64]>>(x: &S, d: &S, h: f64) -> S {
+    let mut o = *x;
+    for (o, d) in o.as_mut().iter_mut().zip(d.as_ref()) {
+        *o += h * d;
+    }
+    o
+}
+
+/// `S + h·Ṡ`; `S` itself without sensitivities.
+fn advanced_sens(s: &DMatrix<f64>, d: &Option<DMatrix<f64>>, h: f64) -> DMatrix<f64> {
+    match d {
+        Some(d) => s + d * h,
+        None => s.clone(),
+    }
 }
 
 /// A converged fit.
