@@ -362,6 +362,37 @@ impl Dynamics for Plant<'_> {
         th: &[f64],
         jac: bool,
     ) -> Option<(Point<[f64; 2]>, Option<ParamJacobian>)> {
+        let (pt, at) = self.point(spec, x, k, fr, th)?;
+        if !jac {
+            return Some((pt, None));
+        }
+        Some((pt, Some(self.param_jacobian(spec, th, &at)?)))
+    }
+}
+
+/// What the parameter Jacobian needs of one evaluation of the longitudinal model.
+struct Evaluated {
+    /// The table's snapshot with the simulated α and `q_n`, the model's `C_L` and `α̇ c̄/(2V)`.
+    s: Snapshot,
+    cl: f64,
+    /// `α̇ c̄/(2V)`.
+    alpha_dot_n: f64,
+    /// `c̄/(2V)`.
+    cn: f64,
+    sin_alpha: f64,
+    cos_alpha: f64,
+    /// `∂α̇/∂C_L = −q̄S/(m V cos β)`.
+    k_l: f64,
+    /// `∂q̇/∂C_m = q̄S c̄/I_y`.
+    k_m: f64,
+    /// `q̄S/m`, the aerodynamic specific force per unit coefficient.
+    k_f: f64,
+}
+
+impl Plant<'_> {
+    /// The state derivative `[α̇, q̇]`, the outputs and the coefficients at state `x`, sample
+    /// `k` plus `fr` (the module's equations), with what the parameter Jacobian needs.
+    fn point(&self, spec: &Spec, x: [f64; 2], k: usize, fr: f64, th: &[f64]) -> Option<(Point<[f64; 2]>, Evaluated)> {
         let (ac, kin, refs) = (self.m.ac, self.m.kin, self.m.refs);
         let (area, chord, mass) = (ac.wing_area_m2, ac.chord_m, ac.mass_kg);
         let (mut s, v, qbar) = self.m.at(k, fr);
@@ -369,14 +400,8 @@ impl Dynamics for Plant<'_> {
         let cn = chord / (2.0 * v);
         s[Signal::Alpha.index()] = al;
         s[Signal::QN.index()] = q * cn;
-        let beta = {
-            let b = s[Signal::Beta.index()];
-            if b.is_nan() {
-                0.0
-            } else {
-                b
-            }
-        };
+        let b = s[Signal::Beta.index()];
+        let beta = if b.is_nan() { 0.0 } else { b };
         let (tl, td, tm) = (spec.of(0), spec.of(1), spec.of(4));
         let cl = dot(tl, th, &s, refs)?;
         s[Signal::LiftCoeff.index()] = cl;
@@ -409,9 +434,25 @@ impl Dynamics for Plant<'_> {
             y,
             coefs: [cl, cd, cm],
         };
-        if !jac {
-            return Some((pt, None));
-        }
+        let at = Evaluated {
+            s,
+            cl,
+            alpha_dot_n: alpha_dot * cn,
+            cn,
+            sin_alpha: sa,
+            cos_alpha: ca,
+            k_l,
+            k_m,
+            k_f,
+        };
+        Some((pt, at))
+    }
+
+    /// `∂f/∂θ` (2 × NP) and `∂h/∂θ` (NY × NP) at a fixed state, from the evaluation `at`.
+    fn param_jacobian(&self, spec: &Spec, th: &[f64], at: &Evaluated) -> Option<ParamJacobian> {
+        let refs = self.m.refs;
+        let (td, tm) = (spec.of(1), spec.of(4));
+        let (s, cl, cn, sa, ca) = (at.s, at.cl, at.cn, at.sin_alpha, at.cos_alpha);
         let np = spec.np();
         // Direct term values per parameter.
         let mut val = DVector::<f64>::zeros(np);
@@ -429,7 +470,7 @@ impl Dynamics for Plant<'_> {
             let dn = dot(terms, th, &sp, refs)?;
             Some((up - dn) / (2.0 * h))
         };
-        let ad_n = alpha_dot * cn;
+        let ad_n = at.alpha_dot_n;
         let (dcd_dcl, dcd_dad) = (
             partial(td, Signal::LiftCoeff, cl)?,
             partial(td, Signal::AlphaDotN, ad_n)?,
@@ -440,16 +481,16 @@ impl Dynamics for Plant<'_> {
         );
         let mask = |coef: usize| DVector::<f64>::from_fn(np, |j, _| if spec.terms[j].0 == coef { val[j] } else { 0.0 });
         let dcl = mask(0);
-        let dad = &dcl * k_l;
+        let dad = &dcl * at.k_l;
         let dcd = mask(1) + &dcl * dcd_dcl + &dad * (dcd_dad * cn);
         let dcm = mask(4) + &dcl * dcm_dcl + &dad * (dcm_dad * cn);
         let mut g = DMatrix::<f64>::zeros(2, np);
         g.set_row(0, &dad.transpose());
-        g.set_row(1, &(&dcm * k_m).transpose());
+        g.set_row(1, &(&dcm * at.k_m).transpose());
         let mut d = DMatrix::<f64>::zeros(NY, np);
-        d.set_row(2, &((&dcd * (-ca) + &dcl * sa) * k_f).transpose());
-        d.set_row(3, &((&dcd * (-sa) - &dcl * ca) * k_f).transpose());
-        Some((pt, Some((g, d))))
+        d.set_row(2, &((&dcd * (-ca) + &dcl * sa) * at.k_f).transpose());
+        d.set_row(3, &((&dcd * (-sa) - &dcl * ca) * at.k_f).transpose());
+        Some((g, d))
     }
 }
 
