@@ -287,6 +287,102 @@ fn finish(
     });
 }
 
+/// What the force group's equations run on: the table, its kinematics, the aircraft and the
+/// terms' references; `lateral` when β is simulated (a measured β and `C_Y` models).
+struct ForcePlant<'a> {
+    table: &'a Table,
+    kin: &'a Kinematics,
+    ac: &'a Aircraft,
+    refs: &'a TermRefs,
+    lateral: bool,
+}
+
+impl ForcePlant<'_> {
+    /// The body velocity's derivative `u̇, v̇, ẇ` at `x = [u, v, w]`, sample `k` plus `fr`:
+    /// the models' `C_L`, `C_D` (and `C_Y`) at the simulated α, V (and β) with `q̄` from the
+    /// simulated airspeed, the measured thrust, rates and attitude. `None` when a term is
+    /// unavailable.
+    fn velocity_rate(&self, m: &ModelSet, x: &[f64; 3], k: usize, fr: f64) -> Option<[f64; 3]> {
+        let (kin, refs, lateral) = (self.kin, self.refs, self.lateral);
+        let vel = Vector3::new(x[0], if lateral { x[1] } else { 0.0 }, x[2]);
+        let vv = vel.norm().max(1e-3);
+        let al = vel.z.atan2(vel.x);
+        let be = (vel.y / vv).clamp(-1.0, 1.0).asin();
+        let mut s = self.table.snapshot(k, fr);
+        let qbar_m = lerp(&kin.qbar_pa, k, fr);
+        let rho = lerp(&kin.density_kgpm3, k, fr);
+        let qbar = 0.5 * rho * vv * vv;
+        s[Signal::Alpha.index()] = al;
+        s[Signal::Airspeed.index()] = vv;
+        if lateral {
+            s[Signal::Beta.index()] = be;
+        }
+        let ct = Signal::ThrustCoeff.index();
+        if !s[ct].is_nan() {
+            s[ct] *= qbar_m / qbar.max(1e-9);
+        }
+        let cl = model_value(m[0].as_ref()?, &s, refs)?;
+        let cd = model_value(m[1].as_ref()?, &s, refs)?;
+        let cy = if lateral {
+            model_value(m[2].as_ref()?, &s, refs)?
+        } else {
+            0.0
+        };
+        let (sa, ca) = sin_cos(al);
+        let qs = qbar * self.ac.wing_area_m2;
+        let fa = Vector3::new(qs * (-cd * ca + cl * sa), qs * cy, qs * (-cd * sa - cl * ca));
+        let acc = (fa + lerp3(&kin.thrust_force_n, k, fr)) / self.ac.mass_kg;
+        let om = Vector3::new(
+            lerp(&kin.rates_rad_s[0], k, fr),
+            lerp(&kin.rates_rad_s[1], k, fr),
+            lerp(&kin.rates_rad_s[2], k, fr),
+        );
+        let (sf, cf) = sin_cos(lerp(&kin.attitude_rad[0], k, fr));
+        let (st, cth) = sin_cos(lerp(&kin.attitude_rad[1], k, fr));
+        let g = Vector3::new(-st, cth * sf, cth * cf) * G_MPS2;
+        let d = acc + g - om.cross(&vel);
+        Some([d.x, if lateral { d.y } else { 0.0 }, d.z])
+    }
+
+    /// Airspeed, α and β of each of a piece's `len` samples from the simulated velocities
+    /// (NaN past a divergence), appended to `sims`.
+    fn push_flow(&self, xs: &[[f64; 3]], len: usize, sims: &mut [Vec<f64>; 3]) {
+        for k in 0..len {
+            let (vv, al, be) = match xs.get(k) {
+                Some(x) => {
+                    let vel = Vector3::new(x[0], if self.lateral { x[1] } else { 0.0 }, x[2]);
+                    let vv = vel.norm();
+                    (vv, vel.z.atan2(vel.x), (vel.y / vv.max(1e-3)).clamp(-1.0, 1.0).asin())
+                }
+                None => (f64::NAN, f64::NAN, f64::NAN),
+            };
+            sims[0].push(vv);
+            sims[1].push(al);
+            sims[2].push(be);
+        }
+    }
+}
+
+/// The measured α and airspeed the force group needs, or the note why it is not simulated.
+fn force_inputs<'a>(
+    table: &'a Table,
+    kin: &Kinematics,
+    models: [&ModelSet; 2],
+) -> Result<(&'a [f64], &'a [f64]), &'static str> {
+    let (Some(alpha), Some(v_m)) = (table.signals.get(&Signal::Alpha), table.signals.get(&Signal::Airspeed)) else {
+        return Err("forces not simulated: no α or airspeed");
+    };
+    if models.iter().any(|m| m[0].is_none() || m[1].is_none()) {
+        return Err("forces not simulated: no C_L or C_D model");
+    }
+    if !kin.attitude_measured {
+        return Err("forces not simulated: no attitude for the gravity terms");
+    }
+    Ok((alpha, v_m))
+}
+
+/// The body velocity simulated from each piece's measured airspeed, α and β with both model
+/// sets; airspeed, α (and β) against the measured.
 #[allow(clippy::too_many_arguments)]
 fn force_group(
     table: &Table,
@@ -298,70 +394,28 @@ fn force_group(
     models: [&ModelSet; 2],
     out: &mut Simulation,
 ) {
-    let (Some(alpha), Some(v_m)) = (table.signals.get(&Signal::Alpha), table.signals.get(&Signal::Airspeed)) else {
-        out.notes.push("forces not simulated: no α or airspeed".into());
-        return;
+    let (alpha, v_m) = match force_inputs(table, kin, models) {
+        Ok(inputs) => inputs,
+        Err(note) => return out.notes.push(note.into()),
     };
-    if models.iter().any(|m| m[0].is_none() || m[1].is_none()) {
-        out.notes.push("forces not simulated: no C_L or C_D model".into());
-        return;
-    }
-    if !kin.attitude_measured {
-        out.notes
-            .push("forces not simulated: no attitude for the gravity terms".into());
-        return;
-    }
     let beta = table.signals.get(&Signal::Beta);
     let lateral = beta.is_some() && models.iter().all(|m| m[2].is_some());
     let zeros = vec![0.0; table.t_s.len()];
     let beta_m = beta.unwrap_or(&zeros);
-    let s_area = ac.wing_area_m2;
+    let plant = ForcePlant {
+        table,
+        kin,
+        ac,
+        refs,
+        lateral,
+    };
     let mut sims: [[Vec<f64>; 3]; 2] = Default::default();
     let mut diverged: [Vec<f64>; 2] = Default::default();
     for (w, m) in models.iter().enumerate() {
         for &(a, b) in ps {
             let (v0, a0, b0) = (v_m[a], alpha[a], beta_m[a]);
             let x0 = [v0 * a0.cos() * b0.cos(), v0 * b0.sin(), v0 * a0.sin() * b0.cos()];
-            let f = |x: &[f64; 3], k: usize, fr: f64| -> Option<[f64; 3]> {
-                let vel = Vector3::new(x[0], if lateral { x[1] } else { 0.0 }, x[2]);
-                let vv = vel.norm().max(1e-3);
-                let al = vel.z.atan2(vel.x);
-                let be = (vel.y / vv).clamp(-1.0, 1.0).asin();
-                let mut s = table.snapshot(k, fr);
-                let qbar_m = lerp(&kin.qbar_pa, k, fr);
-                let rho = lerp(&kin.density_kgpm3, k, fr);
-                let qbar = 0.5 * rho * vv * vv;
-                s[Signal::Alpha.index()] = al;
-                s[Signal::Airspeed.index()] = vv;
-                if lateral {
-                    s[Signal::Beta.index()] = be;
-                }
-                let ct = Signal::ThrustCoeff.index();
-                if !s[ct].is_nan() {
-                    s[ct] *= qbar_m / qbar.max(1e-9);
-                }
-                let cl = model_value(m[0].as_ref()?, &s, refs)?;
-                let cd = model_value(m[1].as_ref()?, &s, refs)?;
-                let cy = if lateral {
-                    model_value(m[2].as_ref()?, &s, refs)?
-                } else {
-                    0.0
-                };
-                let (sa, ca) = sin_cos(al);
-                let qs = qbar * s_area;
-                let fa = Vector3::new(qs * (-cd * ca + cl * sa), qs * cy, qs * (-cd * sa - cl * ca));
-                let acc = (fa + lerp3(&kin.thrust_force_n, k, fr)) / ac.mass_kg;
-                let om = Vector3::new(
-                    lerp(&kin.rates_rad_s[0], k, fr),
-                    lerp(&kin.rates_rad_s[1], k, fr),
-                    lerp(&kin.rates_rad_s[2], k, fr),
-                );
-                let (sf, cf) = sin_cos(lerp(&kin.attitude_rad[0], k, fr));
-                let (st, cth) = sin_cos(lerp(&kin.attitude_rad[1], k, fr));
-                let g = Vector3::new(-st, cth * sf, cth * cf) * G_MPS2;
-                let d = acc + g - om.cross(&vel);
-                Some([d.x, if lateral { d.y } else { 0.0 }, d.z])
-            };
+            let f = |x: &[f64; 3], k: usize, fr: f64| plant.velocity_rate(m, x, k, fr);
             let ok = |x: &[f64; 3]| {
                 let vv = (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]).sqrt();
                 x.iter().all(|v| v.is_finite()) && vv > v0 / 3.0 && vv < 3.0 * v0 && x[2].atan2(x[0]).abs() < 1.2
@@ -370,19 +424,7 @@ fn force_group(
             if div {
                 diverged[w].push(cut_time(table, a, b, xs.len()));
             }
-            for k in 0..(b - a) {
-                let (vv, al, be) = match xs.get(k) {
-                    Some(x) => {
-                        let vel = Vector3::new(x[0], if lateral { x[1] } else { 0.0 }, x[2]);
-                        let vv = vel.norm();
-                        (vv, vel.z.atan2(vel.x), (vel.y / vv.max(1e-3)).clamp(-1.0, 1.0).asin())
-                    }
-                    None => (f64::NAN, f64::NAN, f64::NAN),
-                };
-                sims[w][0].push(vv);
-                sims[w][1].push(al);
-                sims[w][2].push(be);
-            }
+            plant.push_flow(&xs, b - a, &mut sims[w]);
         }
     }
     let p = params(models, &[0, 1, 2]);
