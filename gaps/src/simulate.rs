@@ -436,6 +436,75 @@ fn force_group(
     }
 }
 
+/// What the moment group's equations run on when all three rates are simulated: the table, its
+/// kinematics, the aircraft, the terms' references, the measured airspeed and the inertia.
+struct MomentPlant<'a> {
+    table: &'a Table,
+    kin: &'a Kinematics,
+    ac: &'a Aircraft,
+    refs: &'a TermRefs,
+    v_m: &'a [f64],
+    j: Matrix3<f64>,
+    j_inv: Matrix3<f64>,
+}
+
+impl MomentPlant<'_> {
+    /// The rates' derivative `ṗ, q̇, ṙ` at `x = [p, q, r]`, sample `k` plus `fr`: the models'
+    /// `C_l`, `C_m`, `C_n` at the simulated normalised rates, Euler's equation about the CG.
+    /// `None` when a term is unavailable.
+    fn rate_derivative(&self, m: &ModelSet, x: &[f64; 3], k: usize, fr: f64) -> Option<[f64; 3]> {
+        let (kin, refs, j) = (self.kin, self.refs, self.j);
+        let (s_area, b_m, c_m) = (self.ac.wing_area_m2, self.ac.span_m, self.ac.chord_m);
+        let mut s = self.table.snapshot(k, fr);
+        let vv = lerp(self.v_m, k, fr).max(1.0);
+        s[Signal::PN.index()] = x[0] * b_m / (2.0 * vv);
+        s[Signal::QN.index()] = x[1] * c_m / (2.0 * vv);
+        s[Signal::RN.index()] = x[2] * b_m / (2.0 * vv);
+        let qs = lerp(&kin.qbar_pa, k, fr) * s_area;
+        let cl = model_value(m[3].as_ref()?, &s, refs)?;
+        let cm = model_value(m[4].as_ref()?, &s, refs)?;
+        let cn = model_value(m[5].as_ref()?, &s, refs)?;
+        let om = Vector3::new(x[0], x[1], x[2]);
+        // The models give the moments about the reference point `r_P`; about the CG
+        // `M = M_P + r_P × F_A` (the measured aerodynamic force).
+        let m_p = Vector3::new(qs * b_m * cl, qs * c_m * cm, qs * b_m * cn);
+        let mom = m_p
+            + self.ac.moment_reference_m.cross(&lerp3(&kin.aero_force_n, k, fr))
+            + lerp3(&kin.thrust_moment_nm, k, fr)
+            - om.cross(&(j * om));
+        let d = self.j_inv * mom;
+        Some([d.x, d.y, d.z])
+    }
+
+    /// `p, q, r` of every piece with each model set (NaN past a divergence) and, per model set,
+    /// the times the simulation diverged.
+    fn simulate(&self, models: [&ModelSet; 2], ps: &[(usize, usize)], h_s: f64) -> ([[Vec<f64>; 3]; 2], [Vec<f64>; 2]) {
+        let rates = &self.kin.rates_rad_s;
+        let mut sims: [[Vec<f64>; 3]; 2] = Default::default();
+        let mut diverged: [Vec<f64>; 2] = Default::default();
+        for (w, m) in models.iter().enumerate() {
+            for &(a, b) in ps {
+                let x0 = [rates[0][a], rates[1][a], rates[2][a]];
+                let f = |x: &[f64; 3], k: usize, fr: f64| self.rate_derivative(m, x, k, fr);
+                let ok = |x: &[f64; 3]| x.iter().all(|v| v.is_finite() && v.abs() < 20.0);
+                let (xs, div) = integrate(x0, a, b, h_s, f, ok);
+                if div {
+                    diverged[w].push(cut_time(self.table, a, b, xs.len()));
+                }
+                for k in 0..(b - a) {
+                    for c in 0..3 {
+                        sims[w][c].push(xs.get(k).map_or(f64::NAN, |x| x[c]));
+                    }
+                }
+            }
+        }
+        (sims, diverged)
+    }
+}
+
+/// The body rates simulated from each piece's measured rates with both model sets, against the
+/// measured; only `q` ([`moment_group_q`]) without the lateral models, normalised rates or a
+/// full inertia.
 #[allow(clippy::too_many_arguments)]
 fn moment_group(
     table: &Table,
@@ -469,79 +538,35 @@ fn moment_group(
     if !lateral {
         return moment_group_q(table, kin, ac, h_s, refs, ps, models, out);
     }
-    let (s_area, b_m, c_m) = (ac.wing_area_m2, ac.span_m, ac.chord_m);
-    let r_ref = ac.moment_reference_m;
-    let mut sims: [[Vec<f64>; 3]; 2] = Default::default();
-    let mut diverged: [Vec<f64>; 2] = Default::default();
-    for (w, m) in models.iter().enumerate() {
-        for &(a, b) in ps {
-            let x0 = [kin.rates_rad_s[0][a], kin.rates_rad_s[1][a], kin.rates_rad_s[2][a]];
-            let f = |x: &[f64; 3], k: usize, fr: f64| -> Option<[f64; 3]> {
-                let mut s = table.snapshot(k, fr);
-                let vv = lerp(v_m, k, fr).max(1.0);
-                s[Signal::PN.index()] = x[0] * b_m / (2.0 * vv);
-                s[Signal::QN.index()] = x[1] * c_m / (2.0 * vv);
-                s[Signal::RN.index()] = x[2] * b_m / (2.0 * vv);
-                let qs = lerp(&kin.qbar_pa, k, fr) * s_area;
-                let cl = model_value(m[3].as_ref()?, &s, refs)?;
-                let cm = model_value(m[4].as_ref()?, &s, refs)?;
-                let cn = model_value(m[5].as_ref()?, &s, refs)?;
-                let om = Vector3::new(x[0], x[1], x[2]);
-                // The models give the moments about the reference point `r_P`; about the CG
-                // `M = M_P + r_P × F_A` (the measured aerodynamic force).
-                let m_p = Vector3::new(qs * b_m * cl, qs * c_m * cm, qs * b_m * cn);
-                let mom = m_p + r_ref.cross(&lerp3(&kin.aero_force_n, k, fr)) + lerp3(&kin.thrust_moment_nm, k, fr)
-                    - om.cross(&(j * om));
-                let d = j_inv * mom;
-                Some([d.x, d.y, d.z])
-            };
-            let ok = |x: &[f64; 3]| x.iter().all(|v| v.is_finite() && v.abs() < 20.0);
-            let (xs, div) = integrate(x0, a, b, h_s, f, ok);
-            if div {
-                diverged[w].push(cut_time(table, a, b, xs.len()));
-            }
-            for k in 0..(b - a) {
-                for c in 0..3 {
-                    sims[w][c].push(xs.get(k).map_or(f64::NAN, |x| x[c]));
-                }
-            }
-        }
-    }
+    let plant = MomentPlant {
+        table,
+        kin,
+        ac,
+        refs,
+        v_m,
+        j,
+        j_inv,
+    };
+    let (sims, diverged) = plant.simulate(models, ps, h_s);
     let p = params(models, &[3, 4, 5]);
     let [[pb, qb, rb], [pe, qe, re]] = sims;
-    finish(
-        out,
-        table,
-        ps,
-        "RollRate",
-        "rad/s",
-        &kin.rates_rad_s[0],
-        [pb, pe],
-        &diverged,
-        p,
-    );
-    finish(
-        out,
-        table,
-        ps,
-        "PitchRate",
-        "rad/s",
-        &kin.rates_rad_s[1],
-        [qb, qe],
-        &diverged,
-        p,
-    );
-    finish(
-        out,
-        table,
-        ps,
-        "YawRate",
-        "rad/s",
-        &kin.rates_rad_s[2],
-        [rb, re],
-        &diverged,
-        p,
-    );
+    for (c, channel, pair) in [
+        (0, "RollRate", [pb, pe]),
+        (1, "PitchRate", [qb, qe]),
+        (2, "YawRate", [rb, re]),
+    ] {
+        finish(
+            out,
+            table,
+            ps,
+            channel,
+            "rad/s",
+            &kin.rates_rad_s[c],
+            pair,
+            &diverged,
+            p,
+        );
+    }
 }
 
 /// Only `q` simulated (`C_m`; `p`, `r` measured; `q̇ = (M_y − (ω × Jω)_y)/Iy`).
