@@ -660,6 +660,13 @@ fn advanced_sens(s: &DMatrix<f64>, d: &Option<DMatrix<f64>>, h: f64) -> DMatrix<
     }
 }
 
+/// A Gauss–Newton iterate: the parameters, their simulation and its residuals.
+struct Iterate {
+    th: Vec<f64>,
+    run: Run,
+    e: Vec<[f64; NY]>,
+}
+
 /// A converged fit.
 #[derive(Debug, Clone)]
 struct Fit {
@@ -760,47 +767,7 @@ impl<D: Dynamics> Setup<D> {
     fn fit(&self, spec: &Spec, th0: Vec<f64>, w: [f64; NY]) -> Result<Fit, String> {
         let np = spec.np();
         let all = [(0, self.plant.y_m().len())];
-        let mut th = th0;
-        let mut run = self
-            .plant
-            .run(spec, &th, &self.pieces, true, self.gain.as_ref())
-            .ok_or("the simulation with the starting values leaves the plausible range")?;
-        let mut e = self.plant.residuals(&run);
-        let mut converged = false;
-        for _ in 0..MAX_ITERATIONS {
-            let (m, g) = normal(&run, &e, &w, &all, np);
-            let Some(ch) = m.clone().cholesky() else {
-                return Err(
-                    "the parameters are not identifiable from this flight (singular information matrix)".into(),
-                );
-            };
-            let delta = ch.solve(&g);
-            let inv_diag = ch.inverse().diagonal();
-            let c0 = cost(&e, &w);
-            let mut step = 1.0;
-            let mut accepted = false;
-            for _ in 0..8 {
-                let th1: Vec<f64> = th.iter().zip(delta.iter()).map(|(t, d)| t + step * d).collect();
-                if let Some(r1) = self.plant.run(spec, &th1, &self.pieces, true, self.gain.as_ref()) {
-                    let e1 = self.plant.residuals(&r1);
-                    if cost(&e1, &w) <= c0 {
-                        th = th1;
-                        run = r1;
-                        e = e1;
-                        accepted = true;
-                        break;
-                    }
-                }
-                step *= 0.5;
-            }
-            let moved = (0..np)
-                .map(|j| (step * delta[j]).abs() / inv_diag[j].max(f64::MIN_POSITIVE).sqrt())
-                .fold(0.0, f64::max);
-            if !accepted || moved < TOLERANCE_SIGMA {
-                converged = accepted || moved < 1.0;
-                break;
-            }
-        }
+        let (Iterate { th, run, e }, converged) = self.gauss_newton(spec, th0, &w)?;
         let (m, g) = normal(&run, &e, &w, &all, np);
         let inv = m
             .clone()
@@ -821,6 +788,63 @@ impl<D: Dynamics> Setup<D> {
             sigma_crb,
             converged,
         })
+    }
+
+    /// Gauss–Newton on `J(θ)` from `th0`: the last accepted iterate and whether it converged
+    /// (every parameter moved by less than [`TOLERANCE_SIGMA`] σ, or a step that no halving
+    /// could make lower `J` after moving by less than 1 σ).
+    fn gauss_newton(&self, spec: &Spec, th0: Vec<f64>, w: &[f64; NY]) -> Result<(Iterate, bool), String> {
+        let np = spec.np();
+        let all = [(0, self.plant.y_m().len())];
+        let run = self
+            .plant
+            .run(spec, &th0, &self.pieces, true, self.gain.as_ref())
+            .ok_or("the simulation with the starting values leaves the plausible range")?;
+        let e = self.plant.residuals(&run);
+        let mut it = Iterate { th: th0, run, e };
+        let mut converged = false;
+        for _ in 0..MAX_ITERATIONS {
+            let (m, g) = normal(&it.run, &it.e, w, &all, np);
+            let Some(ch) = m.clone().cholesky() else {
+                return Err(
+                    "the parameters are not identifiable from this flight (singular information matrix)".into(),
+                );
+            };
+            let delta = ch.solve(&g);
+            let inv_diag = ch.inverse().diagonal();
+            let (step, accepted) = self.line_search(spec, &delta, w, &mut it);
+            let moved = (0..np)
+                .map(|j| (step * delta[j]).abs() / inv_diag[j].max(f64::MIN_POSITIVE).sqrt())
+                .fold(0.0, f64::max);
+            if !accepted || moved < TOLERANCE_SIGMA {
+                converged = accepted || moved < 1.0;
+                break;
+            }
+        }
+        Ok((it, converged))
+    }
+
+    /// The Gauss–Newton step `delta` from `it`, halved until it lowers `J` (at most 8 tries):
+    /// `it` moved there, and the step's fraction and whether it was accepted.
+    fn line_search(&self, spec: &Spec, delta: &DVector<f64>, w: &[f64; NY], it: &mut Iterate) -> (f64, bool) {
+        let c0 = cost(&it.e, w);
+        let mut step = 1.0;
+        for _ in 0..8 {
+            let th1: Vec<f64> = it.th.iter().zip(delta.iter()).map(|(t, d)| t + step * d).collect();
+            if let Some(r1) = self.plant.run(spec, &th1, &self.pieces, true, self.gain.as_ref()) {
+                let e1 = self.plant.residuals(&r1);
+                if cost(&e1, w) <= c0 {
+                    *it = Iterate {
+                        th: th1,
+                        run: r1,
+                        e: e1,
+                    };
+                    return (step, true);
+                }
+            }
+            step *= 0.5;
+        }
+        (step, false)
     }
 
     /// The sample interval, s (the mean over the record).
