@@ -55,6 +55,7 @@ use std::path::{Path, PathBuf};
 
 use plotters::coord::ranged1d::ValueFormatter;
 use plotters::coord::types::RangedCoordf64;
+use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
@@ -606,24 +607,7 @@ impl Figure {
     /// [`PlotError::LengthMismatch`] for a series with arrays of different lengths, and
     /// [`PlotError::Render`] if `plotters` fails.
     pub fn to_svg(&self) -> Result<String, PlotError> {
-        for p in &self.panels {
-            p.check_lengths()?;
-        }
-        let has_data = self
-            .panels
-            .iter()
-            .any(|p| p.series.iter().any(|s| !matches!(s, Series::HLine(_))) && !p.y_values().is_empty());
-        if !has_data {
-            return Err(PlotError::EmptyFigure);
-        }
-        let (x_lo, x_hi) = min_max(self.panels.iter().flat_map(Panel::x_values)).ok_or(PlotError::EmptyFigure)?;
-        let (x_lo, x_hi) = if x_lo < x_hi {
-            (x_lo, x_hi)
-        } else {
-            pad(x_lo, x_hi, 0.5 * x_lo.abs().max(1.0))
-        };
-        let x_range = x_lo..x_hi;
-
+        let x_range = self.x_range()?;
         // A title wider than the figure is wrapped onto as many lines as it needs.
         let title_lines = self
             .title
@@ -663,35 +647,70 @@ impl Figure {
                     columns: self.width_px as usize,
                     split: self.split_x.map(|x| (x, i == 0)),
                 };
-                let layout = panel.layout(&ctx, self.width_px, area.dim_in_pixel().1);
-                let caption = if layout.clipped {
-                    format!("{} (beyond the axis: ▲▼ on its edge)", panel.title)
-                } else {
-                    panel.title.clone()
-                };
-                let caption_pt = fit_pt(&caption, self.width_px.saturating_sub(40), CAPTION_PT);
-                let mut builder = ChartBuilder::on(&area);
-                builder
-                    .caption(&caption, (FONT, caption_pt))
-                    .margin(8)
-                    .margin_right(RIGHT_PX)
-                    .x_label_area_size(if ctx.x_label.is_some() { 45 } else { 25 })
-                    .y_label_area_size(Y_LABEL_PX);
-                if panel.log_y {
-                    let mut chart = builder
-                        .build_cartesian_2d(x_range.clone(), layout.axis.clone().log_scale())
-                        .map_err(render_err)?;
-                    draw_panel(&mut chart, panel, &ctx, &layout)?;
-                } else {
-                    let mut chart = builder
-                        .build_cartesian_2d(x_range.clone(), layout.axis.clone())
-                        .map_err(render_err)?;
-                    draw_panel(&mut chart, panel, &ctx, &layout)?;
-                }
+                self.draw_panel_area(&area, panel, &ctx)?;
             }
             root.present().map_err(render_err)?;
         }
         Ok(dash_marked(&svg))
+    }
+
+    /// The x range shared by every panel: the data's, widened about a single x. Errors: a series
+    /// whose x and y lengths differ, or no data to draw.
+    fn x_range(&self) -> Result<Range<f64>, PlotError> {
+        for p in &self.panels {
+            p.check_lengths()?;
+        }
+        let has_data = self
+            .panels
+            .iter()
+            .any(|p| p.series.iter().any(|s| !matches!(s, Series::HLine(_))) && !p.y_values().is_empty());
+        if !has_data {
+            return Err(PlotError::EmptyFigure);
+        }
+        let (x_lo, x_hi) = min_max(self.panels.iter().flat_map(Panel::x_values)).ok_or(PlotError::EmptyFigure)?;
+        let (x_lo, x_hi) = if x_lo < x_hi {
+            (x_lo, x_hi)
+        } else {
+            pad(x_lo, x_hi, 0.5 * x_lo.abs().max(1.0))
+        };
+        Ok(x_lo..x_hi)
+    }
+
+    /// One panel in its `area`: the caption (noting clipped values), the axes (log or linear y)
+    /// and [`draw_panel`].
+    fn draw_panel_area(
+        &self,
+        area: &DrawingArea<SVGBackend<'_>, Shift>,
+        panel: &Panel,
+        ctx: &PanelContext<'_>,
+    ) -> Result<(), PlotError> {
+        let x_range = &ctx.x_range;
+        let layout = panel.layout(ctx, self.width_px, area.dim_in_pixel().1);
+        let caption = if layout.clipped {
+            format!("{} (beyond the axis: ▲▼ on its edge)", panel.title)
+        } else {
+            panel.title.clone()
+        };
+        let caption_pt = fit_pt(&caption, self.width_px.saturating_sub(40), CAPTION_PT);
+        let mut builder = ChartBuilder::on(area);
+        builder
+            .caption(&caption, (FONT, caption_pt))
+            .margin(8)
+            .margin_right(RIGHT_PX)
+            .x_label_area_size(if ctx.x_label.is_some() { 45 } else { 25 })
+            .y_label_area_size(Y_LABEL_PX);
+        if panel.log_y {
+            let mut chart = builder
+                .build_cartesian_2d(x_range.clone(), layout.axis.clone().log_scale())
+                .map_err(render_err)?;
+            draw_panel(&mut chart, panel, ctx, &layout)?;
+        } else {
+            let mut chart = builder
+                .build_cartesian_2d(x_range.clone(), layout.axis.clone())
+                .map_err(render_err)?;
+            draw_panel(&mut chart, panel, ctx, &layout)?;
+        }
+        Ok(())
     }
 }
 
