@@ -1457,7 +1457,7 @@ impl<'a, D: Dynamics> Axis<'a, D> {
         h_fin: &HeldOut,
         homogeneity: &[(usize, Homogeneity)],
     ) -> CoefficientGap {
-        let (inp, setup, base, table) = (self.inp, self.setup, &self.base, self.inp.table);
+        let (inp, setup, base) = (self.inp, self.setup, &self.base);
         let (c, candidates, mut added, mut cnotes) = r;
         let homogeneity: Vec<Homogeneity> = homogeneity
             .iter()
@@ -1471,29 +1471,14 @@ impl<'a, D: Dynamics> Axis<'a, D> {
         added.retain(|a| !refused.iter().any(|h| h.term == a.term));
         let o = D::primary_output(c);
         let meas: Vec<f64> = setup.plant.y_m().iter().map(|y| y[o]).collect();
-        let n = table.t_s.len();
-        let mean = meas.iter().sum::<f64>() / n as f64;
-        let sst: f64 = meas.iter().map(|v| (v - mean).powi(2)).sum::<f64>().max(1e-300);
-        let cv_r2 = |f: &Fit, h: &[Vec<[f64; NY]>]| -> f64 {
-            let sse: f64 = h.iter().flatten().map(|r| r[o] * r[o] / f.w[o]).sum();
-            1.0 - sse / sst
-        };
         for a in &mut added {
             if let Some(j) = fin.spec.terms.iter().position(|(cc, t)| *cc == c && t.name() == a.term) {
                 a.value = fin.th[j];
                 a.sigma = fin.sigma[j];
             }
         }
-        let n_id = inp.n_id.min(n);
-        let ci = D::COVERED.iter().position(|x| *x == c).unwrap_or(0);
-        let traces = Traces {
-            t_s: table.t_s.clone(),
-            measured: table.z[c].clone().unwrap_or_default(),
-            baseline: base.run.coefs.iter().map(|v| v[ci]).collect(),
-            extended: fin.run.coefs.iter().map(|v| v[ci]).collect(),
-            split: n_id,
-        };
-        let (r2b, r2e) = (cv_r2(base, &self.h_base), cv_r2(fin, h_fin));
+        let traces = self.traces(c, fin);
+        let (r2b, r2e) = self.held_out_r2(o, &meas, fin, h_fin);
         let verdict = verdict(self.setup.method(), D::OUTPUTS[o], &added, &refused, r2b, r2e);
         let model_of = |f: &Fit| -> Vec<(Term, f64)> { f.spec.of(c).iter().map(|(j, t)| (*t, f.th[*j])).collect() };
         CoefficientGap {
@@ -1501,11 +1486,7 @@ impl<'a, D: Dynamics> Axis<'a, D> {
             verdict,
             cv_r2_baseline: r2b,
             cv_r2_extended: r2e,
-            block_s: if setup.folds == inp.pieces.len() && inp.pieces.len() >= select::MIN_PIECES_FOR_FOLDS {
-                f64::NAN
-            } else {
-                inp.cv.block_s
-            },
+            block_s: self.block_s(),
             threshold_t2: inp.threshold_t2,
             blocks: inp.threshold_blocks,
             dropped_terms: dropped[c].clone(),
@@ -1518,6 +1499,43 @@ impl<'a, D: Dynamics> Axis<'a, D> {
             traces,
             baseline_model: model_of(base),
             extended_model: model_of(fin),
+        }
+    }
+
+    /// The held-out R² of the primary output `o` (measured `meas`) of the baseline and of the
+    /// final fit `fin` (held-out residuals `h_fin`), each residual weighted by its fit's `1/R`.
+    fn held_out_r2(&self, o: usize, meas: &[f64], fin: &Fit, h_fin: &HeldOut) -> (f64, f64) {
+        let n = self.inp.table.t_s.len();
+        let mean = meas.iter().sum::<f64>() / n as f64;
+        let sst: f64 = meas.iter().map(|v| (v - mean).powi(2)).sum::<f64>().max(1e-300);
+        let cv_r2 = |f: &Fit, h: &[Vec<[f64; NY]>]| -> f64 {
+            let sse: f64 = h.iter().flatten().map(|r| r[o] * r[o] / f.w[o]).sum();
+            1.0 - sse / sst
+        };
+        (cv_r2(&self.base, &self.h_base), cv_r2(fin, h_fin))
+    }
+
+    /// Coefficient `c` synthesised and as the baseline and the final fit `fin` model it.
+    fn traces(&self, c: usize, fin: &Fit) -> Traces {
+        let table = self.inp.table;
+        let n_id = self.inp.n_id.min(table.t_s.len());
+        let ci = D::COVERED.iter().position(|x| *x == c).unwrap_or(0);
+        Traces {
+            t_s: table.t_s.clone(),
+            measured: table.z[c].clone().unwrap_or_default(),
+            baseline: self.base.run.coefs.iter().map(|v| v[ci]).collect(),
+            extended: fin.run.coefs.iter().map(|v| v[ci]).collect(),
+            split: n_id,
+        }
+    }
+
+    /// The held-out blocks' length, s (NaN when the folds are whole manoeuvres).
+    fn block_s(&self) -> f64 {
+        let (inp, setup) = (self.inp, self.setup);
+        if setup.folds == inp.pieces.len() && inp.pieces.len() >= select::MIN_PIECES_FOR_FOLDS {
+            f64::NAN
+        } else {
+            inp.cv.block_s
         }
     }
 
