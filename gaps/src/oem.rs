@@ -292,104 +292,15 @@ pub(super) trait Dynamics {
         sens: bool,
         gain: Option<&DMatrix<f64>>,
     ) -> Option<Run> {
-        let n = self.y_m().len();
-        let np = spec.np();
-        let mut out = Run {
-            yhat: vec![[0.0; NY]; n],
-            coefs: vec![[0.0; 3]; n],
-            h: if sens {
-                vec![DMatrix::zeros(NY, np); n]
-            } else {
-                Vec::new()
-            },
+        let sim = Simulation {
+            plant: self,
+            spec,
+            th,
+            sens,
         };
-        let t_s = self.t_s();
-        for &(a, b) in pieces {
-            let mut x = self.x0(a);
-            let nx = x.as_ref().len();
-            let mut sm = DMatrix::<f64>::zeros(nx, np);
-            for k in a..b {
-                if !self.plausible(&x) {
-                    return None;
-                }
-                // Stage 1 of the step shares its point with the output at k.
-                let (pt, jac) = self.eval(spec, x, k, 0.0, th, sens)?;
-                out.yhat[k] = pt.y;
-                out.coefs[k] = pt.coefs;
-                let stage1 = if sens {
-                    let (g, d) = jac?;
-                    let (a_x, c_x) = self.dx(spec, x, k, 0.0, th)?;
-                    out.h[k] = &c_x * &sm + d;
-                    Some(&a_x * &sm + g)
-                } else {
-                    None
-                };
-                let mut first = Some((pt.xdot, stage1));
-                if let Some(kg) = gain {
-                    let innovation = DVector::from_fn(NY, |i, _| self.y_m()[k][i] - pt.y[i]);
-                    let dx = kg * innovation;
-                    for (xi, d) in x.as_mut().iter_mut().zip(dx.iter()) {
-                        *xi += d;
-                    }
-                    if sens {
-                        sm -= kg * &out.h[k];
-                    }
-                    if !self.plausible(&x) {
-                        return None;
-                    }
-                    // The first stage is taken again at the corrected state.
-                    first = None;
-                }
-                if k + 1 == b {
-                    break;
-                }
-                let hs = t_s[k + 1] - t_s[k];
-                let deriv =
-                    |xs: Self::State, ss: &DMatrix<f64>, fr: f64| -> Option<(Self::State, Option<DMatrix<f64>>)> {
-                        let (p, j) = self.eval(spec, xs, k, fr, th, sens)?;
-                        let sd = match j {
-                            Some((g, _)) => {
-                                let (a_x, _) = self.dx(spec, xs, k, fr, th)?;
-                                Some(&a_x * ss + g)
-                            }
-                            None => None,
-                        };
-                        Some((p.xdot, sd))
-                    };
-                let add = |x: &Self::State, d: &Self::State, h: f64| {
-                    let mut o = *x;
-                    for (o, d) in o.as_mut().iter_mut().zip(d.as_ref()) {
-                        *o += h * d;
-                    }
-                    o
-                };
-                let adds = |s: &DMatrix<f64>, d: &Option<DMatrix<f64>>, h: f64| match d {
-                    Some(d) => s + d * h,
-                    None => s.clone(),
-                };
-                // Sub-steps of at most MAX_STEP_S (the inputs interpolated at their fractions).
-                let m = ((hs / Self::MAX_STEP_S).ceil() as usize).max(1);
-                let hm = hs / m as f64;
-                for j in 0..m {
-                    let f0 = j as f64 / m as f64;
-                    let (k1, s1) = match first.take() {
-                        Some(st) => st,
-                        None => deriv(x, &sm, f0)?,
-                    };
-                    let fh = f0 + 0.5 / m as f64;
-                    let f1 = (j + 1) as f64 / m as f64;
-                    let (k2, s2) = deriv(add(&x, &k1, hm / 2.0), &adds(&sm, &s1, hm / 2.0), fh)?;
-                    let (k3, s3) = deriv(add(&x, &k2, hm / 2.0), &adds(&sm, &s2, hm / 2.0), fh)?;
-                    let (k4, s4) = deriv(add(&x, &k3, hm), &adds(&sm, &s3, hm), f1)?;
-                    for i in 0..nx {
-                        x.as_mut()[i] +=
-                            hm / 6.0 * (k1.as_ref()[i] + 2.0 * k2.as_ref()[i] + 2.0 * k3.as_ref()[i] + k4.as_ref()[i]);
-                    }
-                    if let (Some(s1), Some(s2), Some(s3), Some(s4)) = (s1, s2, s3, s4) {
-                        sm += (s1 + (s2 + s3) * 2.0 + s4) * (hm / 6.0);
-                    }
-                }
-            }
+        let mut out = Run::zeros(self.y_m().len(), spec.np(), sens);
+        for &piece in pieces {
+            sim.piece(piece, gain, &mut out)?;
         }
         Some(out)
     }
@@ -451,6 +362,37 @@ impl Dynamics for Plant<'_> {
         th: &[f64],
         jac: bool,
     ) -> Option<(Point<[f64; 2]>, Option<ParamJacobian>)> {
+        let (pt, at) = self.point(spec, x, k, fr, th)?;
+        if !jac {
+            return Some((pt, None));
+        }
+        Some((pt, Some(self.param_jacobian(spec, th, &at)?)))
+    }
+}
+
+/// What the parameter Jacobian needs of one evaluation of the longitudinal model.
+struct Evaluated {
+    /// The table's snapshot with the simulated α and `q_n`, the model's `C_L` and `α̇ c̄/(2V)`.
+    s: Snapshot,
+    cl: f64,
+    /// `α̇ c̄/(2V)`.
+    alpha_dot_n: f64,
+    /// `c̄/(2V)`.
+    cn: f64,
+    sin_alpha: f64,
+    cos_alpha: f64,
+    /// `∂α̇/∂C_L = −q̄S/(m V cos β)`.
+    k_l: f64,
+    /// `∂q̇/∂C_m = q̄S c̄/I_y`.
+    k_m: f64,
+    /// `q̄S/m`, the aerodynamic specific force per unit coefficient.
+    k_f: f64,
+}
+
+impl Plant<'_> {
+    /// The state derivative `[α̇, q̇]`, the outputs and the coefficients at state `x`, sample
+    /// `k` plus `fr` (the module's equations), with what the parameter Jacobian needs.
+    fn point(&self, spec: &Spec, x: [f64; 2], k: usize, fr: f64, th: &[f64]) -> Option<(Point<[f64; 2]>, Evaluated)> {
         let (ac, kin, refs) = (self.m.ac, self.m.kin, self.m.refs);
         let (area, chord, mass) = (ac.wing_area_m2, ac.chord_m, ac.mass_kg);
         let (mut s, v, qbar) = self.m.at(k, fr);
@@ -458,14 +400,8 @@ impl Dynamics for Plant<'_> {
         let cn = chord / (2.0 * v);
         s[Signal::Alpha.index()] = al;
         s[Signal::QN.index()] = q * cn;
-        let beta = {
-            let b = s[Signal::Beta.index()];
-            if b.is_nan() {
-                0.0
-            } else {
-                b
-            }
-        };
+        let b = s[Signal::Beta.index()];
+        let beta = if b.is_nan() { 0.0 } else { b };
         let (tl, td, tm) = (spec.of(0), spec.of(1), spec.of(4));
         let cl = dot(tl, th, &s, refs)?;
         s[Signal::LiftCoeff.index()] = cl;
@@ -498,9 +434,25 @@ impl Dynamics for Plant<'_> {
             y,
             coefs: [cl, cd, cm],
         };
-        if !jac {
-            return Some((pt, None));
-        }
+        let at = Evaluated {
+            s,
+            cl,
+            alpha_dot_n: alpha_dot * cn,
+            cn,
+            sin_alpha: sa,
+            cos_alpha: ca,
+            k_l,
+            k_m,
+            k_f,
+        };
+        Some((pt, at))
+    }
+
+    /// `∂f/∂θ` (2 × NP) and `∂h/∂θ` (NY × NP) at a fixed state, from the evaluation `at`.
+    fn param_jacobian(&self, spec: &Spec, th: &[f64], at: &Evaluated) -> Option<ParamJacobian> {
+        let refs = self.m.refs;
+        let (td, tm) = (spec.of(1), spec.of(4));
+        let (s, cl, cn, sa, ca) = (at.s, at.cl, at.cn, at.sin_alpha, at.cos_alpha);
         let np = spec.np();
         // Direct term values per parameter.
         let mut val = DVector::<f64>::zeros(np);
@@ -518,7 +470,7 @@ impl Dynamics for Plant<'_> {
             let dn = dot(terms, th, &sp, refs)?;
             Some((up - dn) / (2.0 * h))
         };
-        let ad_n = alpha_dot * cn;
+        let ad_n = at.alpha_dot_n;
         let (dcd_dcl, dcd_dad) = (
             partial(td, Signal::LiftCoeff, cl)?,
             partial(td, Signal::AlphaDotN, ad_n)?,
@@ -529,16 +481,16 @@ impl Dynamics for Plant<'_> {
         );
         let mask = |coef: usize| DVector::<f64>::from_fn(np, |j, _| if spec.terms[j].0 == coef { val[j] } else { 0.0 });
         let dcl = mask(0);
-        let dad = &dcl * k_l;
+        let dad = &dcl * at.k_l;
         let dcd = mask(1) + &dcl * dcd_dcl + &dad * (dcd_dad * cn);
         let dcm = mask(4) + &dcl * dcm_dcl + &dad * (dcm_dad * cn);
         let mut g = DMatrix::<f64>::zeros(2, np);
         g.set_row(0, &dad.transpose());
-        g.set_row(1, &(&dcm * k_m).transpose());
+        g.set_row(1, &(&dcm * at.k_m).transpose());
         let mut d = DMatrix::<f64>::zeros(NY, np);
-        d.set_row(2, &((&dcd * (-ca) + &dcl * sa) * k_f).transpose());
-        d.set_row(3, &((&dcd * (-sa) - &dcl * ca) * k_f).transpose());
-        Some((pt, Some((g, d))))
+        d.set_row(2, &((&dcd * (-ca) + &dcl * sa) * at.k_f).transpose());
+        d.set_row(3, &((&dcd * (-sa) - &dcl * ca) * at.k_f).transpose());
+        Some((g, d))
     }
 }
 
@@ -549,6 +501,170 @@ pub(super) struct Run {
     coefs: Vec<[f64; 3]>,
     /// `∂ŷ_k/∂θ` (empty without sensitivities).
     h: Vec<DMatrix<f64>>,
+}
+
+impl Run {
+    /// Zero outputs and coefficients for `n` samples, and zero sensitivities of `np` parameters
+    /// when `sens`.
+    fn zeros(n: usize, np: usize, sens: bool) -> Self {
+        Self {
+            yhat: vec![[0.0; NY]; n],
+            coefs: vec![[0.0; 3]; n],
+            h: if sens {
+                vec![DMatrix::zeros(NY, np); n]
+            } else {
+                Vec::new()
+            },
+        }
+    }
+}
+
+/// A state derivative and, with sensitivities, the sensitivity's derivative `Ṡ`.
+type Derivative<S> = (S, Option<DMatrix<f64>>);
+
+/// What [`Dynamics::run`] integrates: the plant, the model and its parameters, and whether the
+/// output sensitivities are carried beside the states.
+struct Simulation<'a, D: Dynamics + ?Sized> {
+    plant: &'a D,
+    spec: &'a Spec,
+    th: &'a [f64],
+    sens: bool,
+}
+
+impl<D: Dynamics + ?Sized> Simulation<'_, D> {
+    /// One manoeuvre, samples `a..b`, from its measured first sample: per sample the outputs
+    /// (and their sensitivities), with a `gain` the filter's correction, then the step to the
+    /// next sample. `None` when the state leaves the plausible range or a term is unavailable.
+    fn piece(&self, (a, b): (usize, usize), gain: Option<&DMatrix<f64>>, out: &mut Run) -> Option<()> {
+        let mut x = self.plant.x0(a);
+        let nx = x.as_ref().len();
+        let mut sm = DMatrix::<f64>::zeros(nx, self.spec.np());
+        for k in a..b {
+            if !self.plant.plausible(&x) {
+                return None;
+            }
+            // Stage 1 of the step shares its point with the output at k.
+            let mut first = Some(self.output(x, &sm, k, out)?);
+            if let Some(kg) = gain {
+                self.correct(kg, k, out, &mut x, &mut sm);
+                if !self.plant.plausible(&x) {
+                    return None;
+                }
+                // The first stage is taken again at the corrected state.
+                first = None;
+            }
+            if k + 1 == b {
+                break;
+            }
+            self.step(k, first, &mut x, &mut sm)?;
+        }
+        Some(())
+    }
+
+    /// The outputs, coefficients and (with sensitivities) `∂ŷ_k/∂θ = (∂h/∂x) S + ∂h/∂θ` at
+    /// sample `k`, written into `out`; returns the first RK4 stage of the step from `k`.
+    fn output(&self, x: D::State, sm: &DMatrix<f64>, k: usize, out: &mut Run) -> Option<Derivative<D::State>> {
+        let (spec, th) = (self.spec, self.th);
+        let (pt, jac) = self.plant.eval(spec, x, k, 0.0, th, self.sens)?;
+        out.yhat[k] = pt.y;
+        out.coefs[k] = pt.coefs;
+        let stage1 = if self.sens {
+            let (g, d) = jac?;
+            let (a_x, c_x) = self.plant.dx(spec, x, k, 0.0, th)?;
+            out.h[k] = &c_x * sm + d;
+            Some(&a_x * sm + g)
+        } else {
+            None
+        };
+        Some((pt.xdot, stage1))
+    }
+
+    /// The filter's correction at sample `k`, the gain held fixed: `x̂ = x̂⁻ + K(y − ŷ⁻)` and
+    /// `S = S⁻ − K ∂ŷ⁻/∂θ`.
+    fn correct(&self, kg: &DMatrix<f64>, k: usize, out: &Run, x: &mut D::State, sm: &mut DMatrix<f64>) {
+        let innovation = DVector::from_fn(NY, |i, _| self.plant.y_m()[k][i] - out.yhat[k][i]);
+        let dx = kg * innovation;
+        for (xi, d) in x.as_mut().iter_mut().zip(dx.iter()) {
+            *xi += d;
+        }
+        if self.sens {
+            *sm -= kg * &out.h[k];
+        }
+    }
+
+    /// The state derivative and `Ṡ = (∂f/∂x) S + ∂f/∂θ` at state `xs`, sensitivity `ss`, sample
+    /// `k` plus `fr`.
+    fn derivative(&self, xs: D::State, ss: &DMatrix<f64>, k: usize, fr: f64) -> Option<Derivative<D::State>> {
+        let (p, j) = self.plant.eval(self.spec, xs, k, fr, self.th, self.sens)?;
+        let sd = match j {
+            Some((g, _)) => {
+                let (a_x, _) = self.plant.dx(self.spec, xs, k, fr, self.th)?;
+                Some(&a_x * ss + g)
+            }
+            None => None,
+        };
+        Some((p.xdot, sd))
+    }
+
+    /// The RK4 step of state and sensitivity from sample `k` to `k + 1`, in equal sub-steps of at
+    /// most [`Dynamics::MAX_STEP_S`] (the inputs interpolated at their fractions); `first` is the
+    /// first stage when the output already took it.
+    fn step(
+        &self,
+        k: usize,
+        mut first: Option<Derivative<D::State>>,
+        x: &mut D::State,
+        sm: &mut DMatrix<f64>,
+    ) -> Option<()> {
+        let t_s = self.plant.t_s();
+        let hs = t_s[k + 1] - t_s[k];
+        let m = ((hs / D::MAX_STEP_S).ceil() as usize).max(1);
+        let hm = hs / m as f64;
+        for j in 0..m {
+            let f0 = j as f64 / m as f64;
+            let (k1, s1) = match first.take() {
+                Some(st) => st,
+                None => self.derivative(*x, sm, k, f0)?,
+            };
+            let fh = f0 + 0.5 / m as f64;
+            let f1 = (j + 1) as f64 / m as f64;
+            let (k2, s2) = self.derivative(advanced(x, &k1, hm / 2.0), &advanced_sens(sm, &s1, hm / 2.0), k, fh)?;
+            let (k3, s3) = self.derivative(advanced(x, &k2, hm / 2.0), &advanced_sens(sm, &s2, hm / 2.0), k, fh)?;
+            let (k4, s4) = self.derivative(advanced(x, &k3, hm), &advanced_sens(sm, &s3, hm), k, f1)?;
+            for i in 0..x.as_ref().len() {
+                x.as_mut()[i] +=
+                    hm / 6.0 * (k1.as_ref()[i] + 2.0 * k2.as_ref()[i] + 2.0 * k3.as_ref()[i] + k4.as_ref()[i]);
+            }
+            if let (Some(s1), Some(s2), Some(s3), Some(s4)) = (s1, s2, s3, s4) {
+                *sm += (s1 + (s2 + s3) * 2.0 + s4) * (hm / 6.0);
+            }
+        }
+        Some(())
+    }
+}
+
+/// `x + h·d`, component by component.
+fn advanced<S: Copy + AsRef<[f64]> + AsMut<[f64]>>(x: &S, d: &S, h: f64) -> S {
+    let mut o = *x;
+    for (o, d) in o.as_mut().iter_mut().zip(d.as_ref()) {
+        *o += h * d;
+    }
+    o
+}
+
+/// `S + h·Ṡ`; `S` itself without sensitivities.
+fn advanced_sens(s: &DMatrix<f64>, d: &Option<DMatrix<f64>>, h: f64) -> DMatrix<f64> {
+    match d {
+        Some(d) => s + d * h,
+        None => s.clone(),
+    }
+}
+
+/// A Gauss–Newton iterate: the parameters, their simulation and its residuals.
+struct Iterate {
+    th: Vec<f64>,
+    run: Run,
+    e: Vec<[f64; NY]>,
 }
 
 /// A converged fit.
@@ -651,47 +767,7 @@ impl<D: Dynamics> Setup<D> {
     fn fit(&self, spec: &Spec, th0: Vec<f64>, w: [f64; NY]) -> Result<Fit, String> {
         let np = spec.np();
         let all = [(0, self.plant.y_m().len())];
-        let mut th = th0;
-        let mut run = self
-            .plant
-            .run(spec, &th, &self.pieces, true, self.gain.as_ref())
-            .ok_or("the simulation with the starting values leaves the plausible range")?;
-        let mut e = self.plant.residuals(&run);
-        let mut converged = false;
-        for _ in 0..MAX_ITERATIONS {
-            let (m, g) = normal(&run, &e, &w, &all, np);
-            let Some(ch) = m.clone().cholesky() else {
-                return Err(
-                    "the parameters are not identifiable from this flight (singular information matrix)".into(),
-                );
-            };
-            let delta = ch.solve(&g);
-            let inv_diag = ch.inverse().diagonal();
-            let c0 = cost(&e, &w);
-            let mut step = 1.0;
-            let mut accepted = false;
-            for _ in 0..8 {
-                let th1: Vec<f64> = th.iter().zip(delta.iter()).map(|(t, d)| t + step * d).collect();
-                if let Some(r1) = self.plant.run(spec, &th1, &self.pieces, true, self.gain.as_ref()) {
-                    let e1 = self.plant.residuals(&r1);
-                    if cost(&e1, &w) <= c0 {
-                        th = th1;
-                        run = r1;
-                        e = e1;
-                        accepted = true;
-                        break;
-                    }
-                }
-                step *= 0.5;
-            }
-            let moved = (0..np)
-                .map(|j| (step * delta[j]).abs() / inv_diag[j].max(f64::MIN_POSITIVE).sqrt())
-                .fold(0.0, f64::max);
-            if !accepted || moved < TOLERANCE_SIGMA {
-                converged = accepted || moved < 1.0;
-                break;
-            }
-        }
+        let (Iterate { th, run, e }, converged) = self.gauss_newton(spec, th0, &w)?;
         let (m, g) = normal(&run, &e, &w, &all, np);
         let inv = m
             .clone()
@@ -712,6 +788,63 @@ impl<D: Dynamics> Setup<D> {
             sigma_crb,
             converged,
         })
+    }
+
+    /// Gauss–Newton on `J(θ)` from `th0`: the last accepted iterate and whether it converged
+    /// (every parameter moved by less than [`TOLERANCE_SIGMA`] σ, or a step that no halving
+    /// could make lower `J` after moving by less than 1 σ).
+    fn gauss_newton(&self, spec: &Spec, th0: Vec<f64>, w: &[f64; NY]) -> Result<(Iterate, bool), String> {
+        let np = spec.np();
+        let all = [(0, self.plant.y_m().len())];
+        let run = self
+            .plant
+            .run(spec, &th0, &self.pieces, true, self.gain.as_ref())
+            .ok_or("the simulation with the starting values leaves the plausible range")?;
+        let e = self.plant.residuals(&run);
+        let mut it = Iterate { th: th0, run, e };
+        let mut converged = false;
+        for _ in 0..MAX_ITERATIONS {
+            let (m, g) = normal(&it.run, &it.e, w, &all, np);
+            let Some(ch) = m.clone().cholesky() else {
+                return Err(
+                    "the parameters are not identifiable from this flight (singular information matrix)".into(),
+                );
+            };
+            let delta = ch.solve(&g);
+            let inv_diag = ch.inverse().diagonal();
+            let (step, accepted) = self.line_search(spec, &delta, w, &mut it);
+            let moved = (0..np)
+                .map(|j| (step * delta[j]).abs() / inv_diag[j].max(f64::MIN_POSITIVE).sqrt())
+                .fold(0.0, f64::max);
+            if !accepted || moved < TOLERANCE_SIGMA {
+                converged = accepted || moved < 1.0;
+                break;
+            }
+        }
+        Ok((it, converged))
+    }
+
+    /// The Gauss–Newton step `delta` from `it`, halved until it lowers `J` (at most 8 tries):
+    /// `it` moved there, and the step's fraction and whether it was accepted.
+    fn line_search(&self, spec: &Spec, delta: &DVector<f64>, w: &[f64; NY], it: &mut Iterate) -> (f64, bool) {
+        let c0 = cost(&it.e, w);
+        let mut step = 1.0;
+        for _ in 0..8 {
+            let th1: Vec<f64> = it.th.iter().zip(delta.iter()).map(|(t, d)| t + step * d).collect();
+            if let Some(r1) = self.plant.run(spec, &th1, &self.pieces, true, self.gain.as_ref()) {
+                let e1 = self.plant.residuals(&r1);
+                if cost(&e1, w) <= c0 {
+                    *it = Iterate {
+                        th: th1,
+                        run: r1,
+                        e: e1,
+                    };
+                    return (step, true);
+                }
+            }
+            step *= 0.5;
+        }
+        (step, false)
     }
 
     /// The sample interval, s (the mean over the record).
@@ -1324,7 +1457,7 @@ impl<'a, D: Dynamics> Axis<'a, D> {
         h_fin: &HeldOut,
         homogeneity: &[(usize, Homogeneity)],
     ) -> CoefficientGap {
-        let (inp, setup, base, table) = (self.inp, self.setup, &self.base, self.inp.table);
+        let (inp, setup, base) = (self.inp, self.setup, &self.base);
         let (c, candidates, mut added, mut cnotes) = r;
         let homogeneity: Vec<Homogeneity> = homogeneity
             .iter()
@@ -1338,29 +1471,14 @@ impl<'a, D: Dynamics> Axis<'a, D> {
         added.retain(|a| !refused.iter().any(|h| h.term == a.term));
         let o = D::primary_output(c);
         let meas: Vec<f64> = setup.plant.y_m().iter().map(|y| y[o]).collect();
-        let n = table.t_s.len();
-        let mean = meas.iter().sum::<f64>() / n as f64;
-        let sst: f64 = meas.iter().map(|v| (v - mean).powi(2)).sum::<f64>().max(1e-300);
-        let cv_r2 = |f: &Fit, h: &[Vec<[f64; NY]>]| -> f64 {
-            let sse: f64 = h.iter().flatten().map(|r| r[o] * r[o] / f.w[o]).sum();
-            1.0 - sse / sst
-        };
         for a in &mut added {
             if let Some(j) = fin.spec.terms.iter().position(|(cc, t)| *cc == c && t.name() == a.term) {
                 a.value = fin.th[j];
                 a.sigma = fin.sigma[j];
             }
         }
-        let n_id = inp.n_id.min(n);
-        let ci = D::COVERED.iter().position(|x| *x == c).unwrap_or(0);
-        let traces = Traces {
-            t_s: table.t_s.clone(),
-            measured: table.z[c].clone().unwrap_or_default(),
-            baseline: base.run.coefs.iter().map(|v| v[ci]).collect(),
-            extended: fin.run.coefs.iter().map(|v| v[ci]).collect(),
-            split: n_id,
-        };
-        let (r2b, r2e) = (cv_r2(base, &self.h_base), cv_r2(fin, h_fin));
+        let traces = self.traces(c, fin);
+        let (r2b, r2e) = self.held_out_r2(o, &meas, fin, h_fin);
         let verdict = verdict(self.setup.method(), D::OUTPUTS[o], &added, &refused, r2b, r2e);
         let model_of = |f: &Fit| -> Vec<(Term, f64)> { f.spec.of(c).iter().map(|(j, t)| (*t, f.th[*j])).collect() };
         CoefficientGap {
@@ -1368,11 +1486,7 @@ impl<'a, D: Dynamics> Axis<'a, D> {
             verdict,
             cv_r2_baseline: r2b,
             cv_r2_extended: r2e,
-            block_s: if setup.folds == inp.pieces.len() && inp.pieces.len() >= select::MIN_PIECES_FOR_FOLDS {
-                f64::NAN
-            } else {
-                inp.cv.block_s
-            },
+            block_s: self.block_s(),
             threshold_t2: inp.threshold_t2,
             blocks: inp.threshold_blocks,
             dropped_terms: dropped[c].clone(),
@@ -1385,6 +1499,43 @@ impl<'a, D: Dynamics> Axis<'a, D> {
             traces,
             baseline_model: model_of(base),
             extended_model: model_of(fin),
+        }
+    }
+
+    /// The held-out R² of the primary output `o` (measured `meas`) of the baseline and of the
+    /// final fit `fin` (held-out residuals `h_fin`), each residual weighted by its fit's `1/R`.
+    fn held_out_r2(&self, o: usize, meas: &[f64], fin: &Fit, h_fin: &HeldOut) -> (f64, f64) {
+        let n = self.inp.table.t_s.len();
+        let mean = meas.iter().sum::<f64>() / n as f64;
+        let sst: f64 = meas.iter().map(|v| (v - mean).powi(2)).sum::<f64>().max(1e-300);
+        let cv_r2 = |f: &Fit, h: &[Vec<[f64; NY]>]| -> f64 {
+            let sse: f64 = h.iter().flatten().map(|r| r[o] * r[o] / f.w[o]).sum();
+            1.0 - sse / sst
+        };
+        (cv_r2(&self.base, &self.h_base), cv_r2(fin, h_fin))
+    }
+
+    /// Coefficient `c` synthesised and as the baseline and the final fit `fin` model it.
+    fn traces(&self, c: usize, fin: &Fit) -> Traces {
+        let table = self.inp.table;
+        let n_id = self.inp.n_id.min(table.t_s.len());
+        let ci = D::COVERED.iter().position(|x| *x == c).unwrap_or(0);
+        Traces {
+            t_s: table.t_s.clone(),
+            measured: table.z[c].clone().unwrap_or_default(),
+            baseline: self.base.run.coefs.iter().map(|v| v[ci]).collect(),
+            extended: fin.run.coefs.iter().map(|v| v[ci]).collect(),
+            split: n_id,
+        }
+    }
+
+    /// The held-out blocks' length, s (NaN when the folds are whole manoeuvres).
+    fn block_s(&self) -> f64 {
+        let (inp, setup) = (self.inp, self.setup);
+        if setup.folds == inp.pieces.len() && inp.pieces.len() >= select::MIN_PIECES_FOR_FOLDS {
+            f64::NAN
+        } else {
+            inp.cv.block_s
         }
     }
 

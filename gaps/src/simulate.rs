@@ -287,6 +287,102 @@ fn finish(
     });
 }
 
+/// What the force group's equations run on: the table, its kinematics, the aircraft and the
+/// terms' references; `lateral` when β is simulated (a measured β and `C_Y` models).
+struct ForcePlant<'a> {
+    table: &'a Table,
+    kin: &'a Kinematics,
+    ac: &'a Aircraft,
+    refs: &'a TermRefs,
+    lateral: bool,
+}
+
+impl ForcePlant<'_> {
+    /// The body velocity's derivative `u̇, v̇, ẇ` at `x = [u, v, w]`, sample `k` plus `fr`:
+    /// the models' `C_L`, `C_D` (and `C_Y`) at the simulated α, V (and β) with `q̄` from the
+    /// simulated airspeed, the measured thrust, rates and attitude. `None` when a term is
+    /// unavailable.
+    fn velocity_rate(&self, m: &ModelSet, x: &[f64; 3], k: usize, fr: f64) -> Option<[f64; 3]> {
+        let (kin, refs, lateral) = (self.kin, self.refs, self.lateral);
+        let vel = Vector3::new(x[0], if lateral { x[1] } else { 0.0 }, x[2]);
+        let vv = vel.norm().max(1e-3);
+        let al = vel.z.atan2(vel.x);
+        let be = (vel.y / vv).clamp(-1.0, 1.0).asin();
+        let mut s = self.table.snapshot(k, fr);
+        let qbar_m = lerp(&kin.qbar_pa, k, fr);
+        let rho = lerp(&kin.density_kgpm3, k, fr);
+        let qbar = 0.5 * rho * vv * vv;
+        s[Signal::Alpha.index()] = al;
+        s[Signal::Airspeed.index()] = vv;
+        if lateral {
+            s[Signal::Beta.index()] = be;
+        }
+        let ct = Signal::ThrustCoeff.index();
+        if !s[ct].is_nan() {
+            s[ct] *= qbar_m / qbar.max(1e-9);
+        }
+        let cl = model_value(m[0].as_ref()?, &s, refs)?;
+        let cd = model_value(m[1].as_ref()?, &s, refs)?;
+        let cy = if lateral {
+            model_value(m[2].as_ref()?, &s, refs)?
+        } else {
+            0.0
+        };
+        let (sa, ca) = sin_cos(al);
+        let qs = qbar * self.ac.wing_area_m2;
+        let fa = Vector3::new(qs * (-cd * ca + cl * sa), qs * cy, qs * (-cd * sa - cl * ca));
+        let acc = (fa + lerp3(&kin.thrust_force_n, k, fr)) / self.ac.mass_kg;
+        let om = Vector3::new(
+            lerp(&kin.rates_rad_s[0], k, fr),
+            lerp(&kin.rates_rad_s[1], k, fr),
+            lerp(&kin.rates_rad_s[2], k, fr),
+        );
+        let (sf, cf) = sin_cos(lerp(&kin.attitude_rad[0], k, fr));
+        let (st, cth) = sin_cos(lerp(&kin.attitude_rad[1], k, fr));
+        let g = Vector3::new(-st, cth * sf, cth * cf) * G_MPS2;
+        let d = acc + g - om.cross(&vel);
+        Some([d.x, if lateral { d.y } else { 0.0 }, d.z])
+    }
+
+    /// Airspeed, α and β of each of a piece's `len` samples from the simulated velocities
+    /// (NaN past a divergence), appended to `sims`.
+    fn push_flow(&self, xs: &[[f64; 3]], len: usize, sims: &mut [Vec<f64>; 3]) {
+        for k in 0..len {
+            let (vv, al, be) = match xs.get(k) {
+                Some(x) => {
+                    let vel = Vector3::new(x[0], if self.lateral { x[1] } else { 0.0 }, x[2]);
+                    let vv = vel.norm();
+                    (vv, vel.z.atan2(vel.x), (vel.y / vv.max(1e-3)).clamp(-1.0, 1.0).asin())
+                }
+                None => (f64::NAN, f64::NAN, f64::NAN),
+            };
+            sims[0].push(vv);
+            sims[1].push(al);
+            sims[2].push(be);
+        }
+    }
+}
+
+/// The measured α and airspeed the force group needs, or the note why it is not simulated.
+fn force_inputs<'a>(
+    table: &'a Table,
+    kin: &Kinematics,
+    models: [&ModelSet; 2],
+) -> Result<(&'a [f64], &'a [f64]), &'static str> {
+    let (Some(alpha), Some(v_m)) = (table.signals.get(&Signal::Alpha), table.signals.get(&Signal::Airspeed)) else {
+        return Err("forces not simulated: no α or airspeed");
+    };
+    if models.iter().any(|m| m[0].is_none() || m[1].is_none()) {
+        return Err("forces not simulated: no C_L or C_D model");
+    }
+    if !kin.attitude_measured {
+        return Err("forces not simulated: no attitude for the gravity terms");
+    }
+    Ok((alpha, v_m))
+}
+
+/// The body velocity simulated from each piece's measured airspeed, α and β with both model
+/// sets; airspeed, α (and β) against the measured.
 #[allow(clippy::too_many_arguments)]
 fn force_group(
     table: &Table,
@@ -298,70 +394,28 @@ fn force_group(
     models: [&ModelSet; 2],
     out: &mut Simulation,
 ) {
-    let (Some(alpha), Some(v_m)) = (table.signals.get(&Signal::Alpha), table.signals.get(&Signal::Airspeed)) else {
-        out.notes.push("forces not simulated: no α or airspeed".into());
-        return;
+    let (alpha, v_m) = match force_inputs(table, kin, models) {
+        Ok(inputs) => inputs,
+        Err(note) => return out.notes.push(note.into()),
     };
-    if models.iter().any(|m| m[0].is_none() || m[1].is_none()) {
-        out.notes.push("forces not simulated: no C_L or C_D model".into());
-        return;
-    }
-    if !kin.attitude_measured {
-        out.notes
-            .push("forces not simulated: no attitude for the gravity terms".into());
-        return;
-    }
     let beta = table.signals.get(&Signal::Beta);
     let lateral = beta.is_some() && models.iter().all(|m| m[2].is_some());
     let zeros = vec![0.0; table.t_s.len()];
     let beta_m = beta.unwrap_or(&zeros);
-    let s_area = ac.wing_area_m2;
+    let plant = ForcePlant {
+        table,
+        kin,
+        ac,
+        refs,
+        lateral,
+    };
     let mut sims: [[Vec<f64>; 3]; 2] = Default::default();
     let mut diverged: [Vec<f64>; 2] = Default::default();
     for (w, m) in models.iter().enumerate() {
         for &(a, b) in ps {
             let (v0, a0, b0) = (v_m[a], alpha[a], beta_m[a]);
             let x0 = [v0 * a0.cos() * b0.cos(), v0 * b0.sin(), v0 * a0.sin() * b0.cos()];
-            let f = |x: &[f64; 3], k: usize, fr: f64| -> Option<[f64; 3]> {
-                let vel = Vector3::new(x[0], if lateral { x[1] } else { 0.0 }, x[2]);
-                let vv = vel.norm().max(1e-3);
-                let al = vel.z.atan2(vel.x);
-                let be = (vel.y / vv).clamp(-1.0, 1.0).asin();
-                let mut s = table.snapshot(k, fr);
-                let qbar_m = lerp(&kin.qbar_pa, k, fr);
-                let rho = lerp(&kin.density_kgpm3, k, fr);
-                let qbar = 0.5 * rho * vv * vv;
-                s[Signal::Alpha.index()] = al;
-                s[Signal::Airspeed.index()] = vv;
-                if lateral {
-                    s[Signal::Beta.index()] = be;
-                }
-                let ct = Signal::ThrustCoeff.index();
-                if !s[ct].is_nan() {
-                    s[ct] *= qbar_m / qbar.max(1e-9);
-                }
-                let cl = model_value(m[0].as_ref()?, &s, refs)?;
-                let cd = model_value(m[1].as_ref()?, &s, refs)?;
-                let cy = if lateral {
-                    model_value(m[2].as_ref()?, &s, refs)?
-                } else {
-                    0.0
-                };
-                let (sa, ca) = sin_cos(al);
-                let qs = qbar * s_area;
-                let fa = Vector3::new(qs * (-cd * ca + cl * sa), qs * cy, qs * (-cd * sa - cl * ca));
-                let acc = (fa + lerp3(&kin.thrust_force_n, k, fr)) / ac.mass_kg;
-                let om = Vector3::new(
-                    lerp(&kin.rates_rad_s[0], k, fr),
-                    lerp(&kin.rates_rad_s[1], k, fr),
-                    lerp(&kin.rates_rad_s[2], k, fr),
-                );
-                let (sf, cf) = sin_cos(lerp(&kin.attitude_rad[0], k, fr));
-                let (st, cth) = sin_cos(lerp(&kin.attitude_rad[1], k, fr));
-                let g = Vector3::new(-st, cth * sf, cth * cf) * G_MPS2;
-                let d = acc + g - om.cross(&vel);
-                Some([d.x, if lateral { d.y } else { 0.0 }, d.z])
-            };
+            let f = |x: &[f64; 3], k: usize, fr: f64| plant.velocity_rate(m, x, k, fr);
             let ok = |x: &[f64; 3]| {
                 let vv = (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]).sqrt();
                 x.iter().all(|v| v.is_finite()) && vv > v0 / 3.0 && vv < 3.0 * v0 && x[2].atan2(x[0]).abs() < 1.2
@@ -370,19 +424,7 @@ fn force_group(
             if div {
                 diverged[w].push(cut_time(table, a, b, xs.len()));
             }
-            for k in 0..(b - a) {
-                let (vv, al, be) = match xs.get(k) {
-                    Some(x) => {
-                        let vel = Vector3::new(x[0], if lateral { x[1] } else { 0.0 }, x[2]);
-                        let vv = vel.norm();
-                        (vv, vel.z.atan2(vel.x), (vel.y / vv.max(1e-3)).clamp(-1.0, 1.0).asin())
-                    }
-                    None => (f64::NAN, f64::NAN, f64::NAN),
-                };
-                sims[w][0].push(vv);
-                sims[w][1].push(al);
-                sims[w][2].push(be);
-            }
+            plant.push_flow(&xs, b - a, &mut sims[w]);
         }
     }
     let p = params(models, &[0, 1, 2]);
@@ -394,6 +436,75 @@ fn force_group(
     }
 }
 
+/// What the moment group's equations run on when all three rates are simulated: the table, its
+/// kinematics, the aircraft, the terms' references, the measured airspeed and the inertia.
+struct MomentPlant<'a> {
+    table: &'a Table,
+    kin: &'a Kinematics,
+    ac: &'a Aircraft,
+    refs: &'a TermRefs,
+    v_m: &'a [f64],
+    j: Matrix3<f64>,
+    j_inv: Matrix3<f64>,
+}
+
+impl MomentPlant<'_> {
+    /// The rates' derivative `ṗ, q̇, ṙ` at `x = [p, q, r]`, sample `k` plus `fr`: the models'
+    /// `C_l`, `C_m`, `C_n` at the simulated normalised rates, Euler's equation about the CG.
+    /// `None` when a term is unavailable.
+    fn rate_derivative(&self, m: &ModelSet, x: &[f64; 3], k: usize, fr: f64) -> Option<[f64; 3]> {
+        let (kin, refs, j) = (self.kin, self.refs, self.j);
+        let (s_area, b_m, c_m) = (self.ac.wing_area_m2, self.ac.span_m, self.ac.chord_m);
+        let mut s = self.table.snapshot(k, fr);
+        let vv = lerp(self.v_m, k, fr).max(1.0);
+        s[Signal::PN.index()] = x[0] * b_m / (2.0 * vv);
+        s[Signal::QN.index()] = x[1] * c_m / (2.0 * vv);
+        s[Signal::RN.index()] = x[2] * b_m / (2.0 * vv);
+        let qs = lerp(&kin.qbar_pa, k, fr) * s_area;
+        let cl = model_value(m[3].as_ref()?, &s, refs)?;
+        let cm = model_value(m[4].as_ref()?, &s, refs)?;
+        let cn = model_value(m[5].as_ref()?, &s, refs)?;
+        let om = Vector3::new(x[0], x[1], x[2]);
+        // The models give the moments about the reference point `r_P`; about the CG
+        // `M = M_P + r_P × F_A` (the measured aerodynamic force).
+        let m_p = Vector3::new(qs * b_m * cl, qs * c_m * cm, qs * b_m * cn);
+        let mom = m_p
+            + self.ac.moment_reference_m.cross(&lerp3(&kin.aero_force_n, k, fr))
+            + lerp3(&kin.thrust_moment_nm, k, fr)
+            - om.cross(&(j * om));
+        let d = self.j_inv * mom;
+        Some([d.x, d.y, d.z])
+    }
+
+    /// `p, q, r` of every piece with each model set (NaN past a divergence) and, per model set,
+    /// the times the simulation diverged.
+    fn simulate(&self, models: [&ModelSet; 2], ps: &[(usize, usize)], h_s: f64) -> ([[Vec<f64>; 3]; 2], [Vec<f64>; 2]) {
+        let rates = &self.kin.rates_rad_s;
+        let mut sims: [[Vec<f64>; 3]; 2] = Default::default();
+        let mut diverged: [Vec<f64>; 2] = Default::default();
+        for (w, m) in models.iter().enumerate() {
+            for &(a, b) in ps {
+                let x0 = [rates[0][a], rates[1][a], rates[2][a]];
+                let f = |x: &[f64; 3], k: usize, fr: f64| self.rate_derivative(m, x, k, fr);
+                let ok = |x: &[f64; 3]| x.iter().all(|v| v.is_finite() && v.abs() < 20.0);
+                let (xs, div) = integrate(x0, a, b, h_s, f, ok);
+                if div {
+                    diverged[w].push(cut_time(self.table, a, b, xs.len()));
+                }
+                for k in 0..(b - a) {
+                    for c in 0..3 {
+                        sims[w][c].push(xs.get(k).map_or(f64::NAN, |x| x[c]));
+                    }
+                }
+            }
+        }
+        (sims, diverged)
+    }
+}
+
+/// The body rates simulated from each piece's measured rates with both model sets, against the
+/// measured; only `q` ([`moment_group_q`]) without the lateral models, normalised rates or a
+/// full inertia.
 #[allow(clippy::too_many_arguments)]
 fn moment_group(
     table: &Table,
@@ -427,79 +538,35 @@ fn moment_group(
     if !lateral {
         return moment_group_q(table, kin, ac, h_s, refs, ps, models, out);
     }
-    let (s_area, b_m, c_m) = (ac.wing_area_m2, ac.span_m, ac.chord_m);
-    let r_ref = ac.moment_reference_m;
-    let mut sims: [[Vec<f64>; 3]; 2] = Default::default();
-    let mut diverged: [Vec<f64>; 2] = Default::default();
-    for (w, m) in models.iter().enumerate() {
-        for &(a, b) in ps {
-            let x0 = [kin.rates_rad_s[0][a], kin.rates_rad_s[1][a], kin.rates_rad_s[2][a]];
-            let f = |x: &[f64; 3], k: usize, fr: f64| -> Option<[f64; 3]> {
-                let mut s = table.snapshot(k, fr);
-                let vv = lerp(v_m, k, fr).max(1.0);
-                s[Signal::PN.index()] = x[0] * b_m / (2.0 * vv);
-                s[Signal::QN.index()] = x[1] * c_m / (2.0 * vv);
-                s[Signal::RN.index()] = x[2] * b_m / (2.0 * vv);
-                let qs = lerp(&kin.qbar_pa, k, fr) * s_area;
-                let cl = model_value(m[3].as_ref()?, &s, refs)?;
-                let cm = model_value(m[4].as_ref()?, &s, refs)?;
-                let cn = model_value(m[5].as_ref()?, &s, refs)?;
-                let om = Vector3::new(x[0], x[1], x[2]);
-                // The models give the moments about the reference point `r_P`; about the CG
-                // `M = M_P + r_P × F_A` (the measured aerodynamic force).
-                let m_p = Vector3::new(qs * b_m * cl, qs * c_m * cm, qs * b_m * cn);
-                let mom = m_p + r_ref.cross(&lerp3(&kin.aero_force_n, k, fr)) + lerp3(&kin.thrust_moment_nm, k, fr)
-                    - om.cross(&(j * om));
-                let d = j_inv * mom;
-                Some([d.x, d.y, d.z])
-            };
-            let ok = |x: &[f64; 3]| x.iter().all(|v| v.is_finite() && v.abs() < 20.0);
-            let (xs, div) = integrate(x0, a, b, h_s, f, ok);
-            if div {
-                diverged[w].push(cut_time(table, a, b, xs.len()));
-            }
-            for k in 0..(b - a) {
-                for c in 0..3 {
-                    sims[w][c].push(xs.get(k).map_or(f64::NAN, |x| x[c]));
-                }
-            }
-        }
-    }
+    let plant = MomentPlant {
+        table,
+        kin,
+        ac,
+        refs,
+        v_m,
+        j,
+        j_inv,
+    };
+    let (sims, diverged) = plant.simulate(models, ps, h_s);
     let p = params(models, &[3, 4, 5]);
     let [[pb, qb, rb], [pe, qe, re]] = sims;
-    finish(
-        out,
-        table,
-        ps,
-        "RollRate",
-        "rad/s",
-        &kin.rates_rad_s[0],
-        [pb, pe],
-        &diverged,
-        p,
-    );
-    finish(
-        out,
-        table,
-        ps,
-        "PitchRate",
-        "rad/s",
-        &kin.rates_rad_s[1],
-        [qb, qe],
-        &diverged,
-        p,
-    );
-    finish(
-        out,
-        table,
-        ps,
-        "YawRate",
-        "rad/s",
-        &kin.rates_rad_s[2],
-        [rb, re],
-        &diverged,
-        p,
-    );
+    for (c, channel, pair) in [
+        (0, "RollRate", [pb, pe]),
+        (1, "PitchRate", [qb, qe]),
+        (2, "YawRate", [rb, re]),
+    ] {
+        finish(
+            out,
+            table,
+            ps,
+            channel,
+            "rad/s",
+            &kin.rates_rad_s[c],
+            pair,
+            &diverged,
+            p,
+        );
+    }
 }
 
 /// Only `q` simulated (`C_m`; `p`, `r` measured; `q̇ = (M_y − (ω × Jω)_y)/Iy`).

@@ -55,6 +55,7 @@ use std::path::{Path, PathBuf};
 
 use plotters::coord::ranged1d::ValueFormatter;
 use plotters::coord::types::RangedCoordf64;
+use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
@@ -606,24 +607,7 @@ impl Figure {
     /// [`PlotError::LengthMismatch`] for a series with arrays of different lengths, and
     /// [`PlotError::Render`] if `plotters` fails.
     pub fn to_svg(&self) -> Result<String, PlotError> {
-        for p in &self.panels {
-            p.check_lengths()?;
-        }
-        let has_data = self
-            .panels
-            .iter()
-            .any(|p| p.series.iter().any(|s| !matches!(s, Series::HLine(_))) && !p.y_values().is_empty());
-        if !has_data {
-            return Err(PlotError::EmptyFigure);
-        }
-        let (x_lo, x_hi) = min_max(self.panels.iter().flat_map(Panel::x_values)).ok_or(PlotError::EmptyFigure)?;
-        let (x_lo, x_hi) = if x_lo < x_hi {
-            (x_lo, x_hi)
-        } else {
-            pad(x_lo, x_hi, 0.5 * x_lo.abs().max(1.0))
-        };
-        let x_range = x_lo..x_hi;
-
+        let x_range = self.x_range()?;
         // A title wider than the figure is wrapped onto as many lines as it needs.
         let title_lines = self
             .title
@@ -663,35 +647,70 @@ impl Figure {
                     columns: self.width_px as usize,
                     split: self.split_x.map(|x| (x, i == 0)),
                 };
-                let layout = panel.layout(&ctx, self.width_px, area.dim_in_pixel().1);
-                let caption = if layout.clipped {
-                    format!("{} (beyond the axis: ▲▼ on its edge)", panel.title)
-                } else {
-                    panel.title.clone()
-                };
-                let caption_pt = fit_pt(&caption, self.width_px.saturating_sub(40), CAPTION_PT);
-                let mut builder = ChartBuilder::on(&area);
-                builder
-                    .caption(&caption, (FONT, caption_pt))
-                    .margin(8)
-                    .margin_right(RIGHT_PX)
-                    .x_label_area_size(if ctx.x_label.is_some() { 45 } else { 25 })
-                    .y_label_area_size(Y_LABEL_PX);
-                if panel.log_y {
-                    let mut chart = builder
-                        .build_cartesian_2d(x_range.clone(), layout.axis.clone().log_scale())
-                        .map_err(render_err)?;
-                    draw_panel(&mut chart, panel, &ctx, &layout)?;
-                } else {
-                    let mut chart = builder
-                        .build_cartesian_2d(x_range.clone(), layout.axis.clone())
-                        .map_err(render_err)?;
-                    draw_panel(&mut chart, panel, &ctx, &layout)?;
-                }
+                self.draw_panel_area(&area, panel, &ctx)?;
             }
             root.present().map_err(render_err)?;
         }
         Ok(dash_marked(&svg))
+    }
+
+    /// The x range shared by every panel: the data's, widened about a single x. Errors: a series
+    /// whose x and y lengths differ, or no data to draw.
+    fn x_range(&self) -> Result<Range<f64>, PlotError> {
+        for p in &self.panels {
+            p.check_lengths()?;
+        }
+        let has_data = self
+            .panels
+            .iter()
+            .any(|p| p.series.iter().any(|s| !matches!(s, Series::HLine(_))) && !p.y_values().is_empty());
+        if !has_data {
+            return Err(PlotError::EmptyFigure);
+        }
+        let (x_lo, x_hi) = min_max(self.panels.iter().flat_map(Panel::x_values)).ok_or(PlotError::EmptyFigure)?;
+        let (x_lo, x_hi) = if x_lo < x_hi {
+            (x_lo, x_hi)
+        } else {
+            pad(x_lo, x_hi, 0.5 * x_lo.abs().max(1.0))
+        };
+        Ok(x_lo..x_hi)
+    }
+
+    /// One panel in its `area`: the caption (noting clipped values), the axes (log or linear y)
+    /// and [`draw_panel`].
+    fn draw_panel_area(
+        &self,
+        area: &DrawingArea<SVGBackend<'_>, Shift>,
+        panel: &Panel,
+        ctx: &PanelContext<'_>,
+    ) -> Result<(), PlotError> {
+        let x_range = &ctx.x_range;
+        let layout = panel.layout(ctx, self.width_px, area.dim_in_pixel().1);
+        let caption = if layout.clipped {
+            format!("{} (beyond the axis: ▲▼ on its edge)", panel.title)
+        } else {
+            panel.title.clone()
+        };
+        let caption_pt = fit_pt(&caption, self.width_px.saturating_sub(40), CAPTION_PT);
+        let mut builder = ChartBuilder::on(area);
+        builder
+            .caption(&caption, (FONT, caption_pt))
+            .margin(8)
+            .margin_right(RIGHT_PX)
+            .x_label_area_size(if ctx.x_label.is_some() { 45 } else { 25 })
+            .y_label_area_size(Y_LABEL_PX);
+        if panel.log_y {
+            let mut chart = builder
+                .build_cartesian_2d(x_range.clone(), layout.axis.clone().log_scale())
+                .map_err(render_err)?;
+            draw_panel(&mut chart, panel, ctx, &layout)?;
+        } else {
+            let mut chart = builder
+                .build_cartesian_2d(x_range.clone(), layout.axis.clone())
+                .map_err(render_err)?;
+            draw_panel(&mut chart, panel, ctx, &layout)?;
+        }
+        Ok(())
     }
 }
 
@@ -821,10 +840,58 @@ impl Panel {
     }
 }
 
+/// A panel's plot area on the SVG backend.
+type Chart<'a, 'b, Y> = ChartContext<'a, SVGBackend<'b>, Cartesian2d<RangedCoordf64, Y>>;
+
 /// Draw the mesh, the series, the split and the legend of one panel on a chart whose y axis is `Y`
 /// (linear or log; the data are `f64` either way).
 fn draw_panel<'a, 'b: 'a, Y>(
-    chart: &mut ChartContext<'a, SVGBackend<'b>, Cartesian2d<RangedCoordf64, Y>>,
+    chart: &mut Chart<'a, 'b, Y>,
+    panel: &Panel,
+    ctx: &PanelContext<'_>,
+    layout: &Layout,
+) -> Result<(), PlotError>
+where
+    Y: Ranged<ValueType = f64> + ValueFormatter<f64>,
+{
+    draw_mesh(chart, panel, ctx, layout)?;
+    if let Some((x, labelled)) = ctx.split {
+        draw_split(chart, x, labelled, layout)?;
+    }
+    let series_of = SeriesOf { panel, ctx, layout };
+    let mut labelled = false;
+    for series in &panel.series {
+        labelled |= match series {
+            Series::Band(b) => series_of.draw_band(chart, b)?,
+            Series::Line(l) => series_of.draw_line(chart, l)?,
+            Series::HLine(h) => {
+                let style = h.colour.rgb_color().stroke_width(1);
+                let x_range = &ctx.x_range;
+                let pieces = if panel.usable(h.y) {
+                    vec![vec![(x_range.start, h.y), (x_range.end, h.y)]]
+                } else {
+                    Vec::new()
+                };
+                draw_path(chart, pieces, style, h.dashed, &h.label)?
+            }
+        };
+    }
+    if labelled {
+        chart
+            .configure_series_labels()
+            .position(layout.legend.clone())
+            .label_font((FONT, 13))
+            .background_style(WHITE.mix(0.85))
+            .border_style(RGBColor(160, 160, 160))
+            .draw()
+            .map_err(render_err)?;
+    }
+    Ok(())
+}
+
+/// The grid, the axes' ticks and their descriptions.
+fn draw_mesh<'a, 'b: 'a, Y>(
+    chart: &mut Chart<'a, 'b, Y>,
     panel: &Panel,
     ctx: &PanelContext<'_>,
     layout: &Layout,
@@ -852,115 +919,130 @@ where
     if let Some(x) = ctx.x_label {
         mesh.x_desc(x);
     }
-    mesh.draw().map_err(render_err)?;
+    mesh.draw().map_err(render_err)
+}
 
-    if let Some((x, labelled)) = ctx.split {
-        let style = RGBColor(60, 60, 60).stroke_width(1);
-        let top = layout.axis.end;
-        let line = vec![(x, layout.axis.start), (x, top)];
-        chart
-            .draw_series(std::iter::once(PathElement::new(
-                line,
-                ShapeStyle {
-                    color: style.color.mix(DASH_MARK_ALPHA),
-                    ..style
-                },
-            )))
-            .map_err(render_err)?;
-        if labelled {
-            let font = TextStyle::from((FONT, 13)).color(&RGBColor(60, 60, 60));
-            let left = font.pos(Pos::new(HPos::Right, VPos::Top));
-            let right = font.pos(Pos::new(HPos::Left, VPos::Top));
-            chart
-                .draw_series([
-                    EmptyElement::at((x, top)) + Text::new("identification ◂", (-4, 4), left),
-                    EmptyElement::at((x, top)) + Text::new("▸ held out", (4, 4), right),
-                ])
-                .map_err(render_err)?;
-        }
-    }
-
-    let clamp = |y: f64| {
-        if panel.log_y {
-            y
-        } else {
-            y.clamp(layout.data.start, layout.data.end)
-        }
-    };
-    let mut labelled = false;
-    for series in &panel.series {
-        match series {
-            Series::Band(b) => {
-                let fill = b.colour.rgb_color().mix(BAND_ALPHA).filled();
-                let polys: Vec<Vec<(f64, f64)>> = panel
-                    .band_polygons_decimated(b, x_range, ctx.columns)
-                    .into_iter()
-                    .map(|p| p.into_iter().map(|(x, y)| (x, clamp(y))).collect())
-                    .collect();
-                let drawn = !polys.is_empty();
-                let anno = chart
-                    .draw_series(polys.into_iter().map(|p| Polygon::new(p, fill)))
-                    .map_err(render_err)?;
-                if !b.label.is_empty() && drawn {
-                    anno.label(&b.label)
-                        .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 20, y + 5)], fill));
-                    labelled = true;
-                }
-            }
-            Series::Line(l) => {
-                let style = l.colour.rgb_color().stroke_width(l.width_px);
-                let mut marks = Vec::new();
-                let pieces: Vec<Vec<(f64, f64)>> = panel
-                    .line_pieces(&l.x, &l.y)
-                    .iter()
-                    .map(|p| {
-                        decimate(p, x_range, ctx.columns)
-                            .into_iter()
-                            .map(|(x, y)| {
-                                let c = clamp(y);
-                                if c != y {
-                                    marks.push((x, c, y > c));
-                                }
-                                (x, c)
-                            })
-                            .collect()
-                    })
-                    .collect();
-                labelled |= draw_path(chart, pieces, style, l.dashed, &l.label)?;
-                // A clipped point: a triangle on the edge, pointing out of the axis, one per column.
-                marks.dedup_by(|a, b| {
-                    a.2 == b.2 && ((a.0 - b.0) / (x_range.end - x_range.start) * ctx.columns as f64).abs() < 6.0
-                });
-                let fill = l.colour.rgb_color().filled();
-                chart
-                    .draw_series(marks.into_iter().map(|(x, y, up)| {
-                        let tip = if up { -7 } else { 7 };
-                        EmptyElement::at((x, y)) + Polygon::new(vec![(-4, 0), (4, 0), (0, tip)], fill)
-                    }))
-                    .map_err(render_err)?;
-            }
-            Series::HLine(h) => {
-                let style = h.colour.rgb_color().stroke_width(1);
-                let pieces = if panel.usable(h.y) {
-                    vec![vec![(x_range.start, h.y), (x_range.end, h.y)]]
-                } else {
-                    Vec::new()
-                };
-                labelled |= draw_path(chart, pieces, style, h.dashed, &h.label)?;
-            }
-        }
-    }
+/// The identification / held-out split at `x`: a dashed vertical line, named on each side when
+/// `labelled`.
+fn draw_split<'a, 'b: 'a, Y>(
+    chart: &mut Chart<'a, 'b, Y>,
+    x: f64,
+    labelled: bool,
+    layout: &Layout,
+) -> Result<(), PlotError>
+where
+    Y: Ranged<ValueType = f64>,
+{
+    let style = RGBColor(60, 60, 60).stroke_width(1);
+    let top = layout.axis.end;
+    let line = vec![(x, layout.axis.start), (x, top)];
+    chart
+        .draw_series(std::iter::once(PathElement::new(
+            line,
+            ShapeStyle {
+                color: style.color.mix(DASH_MARK_ALPHA),
+                ..style
+            },
+        )))
+        .map_err(render_err)?;
     if labelled {
+        let font = TextStyle::from((FONT, 13)).color(&RGBColor(60, 60, 60));
+        let left = font.pos(Pos::new(HPos::Right, VPos::Top));
+        let right = font.pos(Pos::new(HPos::Left, VPos::Top));
         chart
-            .configure_series_labels()
-            .position(layout.legend.clone())
-            .label_font((FONT, 13))
-            .background_style(WHITE.mix(0.85))
-            .border_style(RGBColor(160, 160, 160))
-            .draw()
+            .draw_series([
+                EmptyElement::at((x, top)) + Text::new("identification ◂", (-4, 4), left),
+                EmptyElement::at((x, top)) + Text::new("▸ held out", (4, 4), right),
+            ])
             .map_err(render_err)?;
     }
     Ok(())
+}
+
+/// What a panel's series are drawn against: the panel, its x range and columns, its y layout.
+struct SeriesOf<'p> {
+    panel: &'p Panel,
+    ctx: &'p PanelContext<'p>,
+    layout: &'p Layout,
+}
+
+impl SeriesOf<'_> {
+    /// `y` clamped to the range data are shown unclipped in (log axes: unchanged).
+    fn clamp(&self, y: f64) -> f64 {
+        if self.panel.log_y {
+            y
+        } else {
+            y.clamp(self.layout.data.start, self.layout.data.end)
+        }
+    }
+
+    /// A ±σ band as filled polygons, its values clamped to the data range; returns whether it was
+    /// labelled.
+    fn draw_band<'a, 'b: 'a, Y: Ranged<ValueType = f64>>(
+        &self,
+        chart: &mut Chart<'a, 'b, Y>,
+        b: &Band,
+    ) -> Result<bool, PlotError> {
+        let (panel, ctx) = (self.panel, self.ctx);
+        let fill = b.colour.rgb_color().mix(BAND_ALPHA).filled();
+        let polys: Vec<Vec<(f64, f64)>> = panel
+            .band_polygons_decimated(b, &ctx.x_range, ctx.columns)
+            .into_iter()
+            .map(|p| p.into_iter().map(|(x, y)| (x, self.clamp(y))).collect())
+            .collect();
+        let drawn = !polys.is_empty();
+        let anno = chart
+            .draw_series(polys.into_iter().map(|p| Polygon::new(p, fill)))
+            .map_err(render_err)?;
+        if !b.label.is_empty() && drawn {
+            anno.label(&b.label)
+                .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 20, y + 5)], fill));
+            return Ok(true);
+        }
+        Ok(false)
+    }
+
+    /// A line, decimated to the pixel columns and clamped to the data range, with a triangle on the
+    /// edge where it is clipped; returns whether it was labelled.
+    fn draw_line<'a, 'b: 'a, Y: Ranged<ValueType = f64>>(
+        &self,
+        chart: &mut Chart<'a, 'b, Y>,
+        l: &Line,
+    ) -> Result<bool, PlotError> {
+        let (panel, ctx) = (self.panel, self.ctx);
+        let x_range = &ctx.x_range;
+        let style = l.colour.rgb_color().stroke_width(l.width_px);
+        let mut marks = Vec::new();
+        let pieces: Vec<Vec<(f64, f64)>> = panel
+            .line_pieces(&l.x, &l.y)
+            .iter()
+            .map(|p| {
+                decimate(p, x_range, ctx.columns)
+                    .into_iter()
+                    .map(|(x, y)| {
+                        let c = self.clamp(y);
+                        if c != y {
+                            marks.push((x, c, y > c));
+                        }
+                        (x, c)
+                    })
+                    .collect()
+            })
+            .collect();
+        let labelled = draw_path(chart, pieces, style, l.dashed, &l.label)?;
+        // A clipped point: a triangle on the edge, pointing out of the axis, one per column.
+        marks.dedup_by(|a, b| {
+            a.2 == b.2 && ((a.0 - b.0) / (x_range.end - x_range.start) * ctx.columns as f64).abs() < 6.0
+        });
+        let fill = l.colour.rgb_color().filled();
+        chart
+            .draw_series(marks.into_iter().map(|(x, y, up)| {
+                let tip = if up { -7 } else { 7 };
+                EmptyElement::at((x, y)) + Polygon::new(vec![(-4, 0), (4, 0), (0, tip)], fill)
+            }))
+            .map_err(render_err)?;
+        Ok(labelled)
+    }
 }
 
 /// Draw the pieces of one polyline as a single legend entry; returns whether it was labelled.

@@ -149,49 +149,93 @@ fn set(a: &mut SimAirframe, key: &str, v: f64) -> bool {
 
 /// Parses an airframe from `text` (`file` names it in errors).
 pub fn parse_airframe(text: &str, file: &str) -> Result<SimAirframe, AirframeFileError> {
-    let err = |line: usize, column: usize, message: String| AirframeFileError {
+    let mut a = SimAirframe::skywalker_2013_mod();
+    let mut seen: Vec<(String, usize, usize)> = Vec::new();
+    for (i, raw) in text.lines().enumerate() {
+        let Some(e) = Entry::parse(raw, i + 1, file)? else {
+            continue;
+        };
+        if let Some((_, l0, _)) = seen.iter().find(|(k, _, _)| k == e.key) {
+            let key = e.key;
+            return Err(file_error(
+                file,
+                e.line,
+                e.key_col,
+                format!("`{key}` already set on line {l0}"),
+            ));
+        }
+        e.apply(&mut a, seen.is_empty(), file)?;
+        seen.push((e.key.to_string(), e.line, e.value_col));
+    }
+    validate(&a, &seen, file)?;
+    Ok(a)
+}
+
+/// An error at `line`, `column` of `file`.
+fn file_error(file: &str, line: usize, column: usize, message: String) -> AirframeFileError {
+    AirframeFileError {
         file: file.to_string(),
         line,
         column,
         message,
-    };
-    let mut a = SimAirframe::skywalker_2013_mod();
-    let mut seen: Vec<(String, usize, usize)> = Vec::new();
-    for (i, raw) in text.lines().enumerate() {
-        let line = i + 1;
+    }
+}
+
+/// One `key = value` line: the key and the value, trimmed, and the columns they start at.
+struct Entry<'t> {
+    line: usize,
+    key: &'t str,
+    key_col: usize,
+    value: &'t str,
+    value_col: usize,
+}
+
+impl<'t> Entry<'t> {
+    /// The entry of line `line` (`None` for a blank or comment line).
+    fn parse(raw: &'t str, line: usize, file: &str) -> Result<Option<Self>, AirframeFileError> {
         let content = raw.split('#').next().unwrap_or("");
         if content.trim().is_empty() {
-            continue;
+            return Ok(None);
         }
         let key_col = content.len() - content.trim_start().len() + 1;
         let Some(eq) = content.find('=') else {
-            return Err(err(line, key_col, "expected `key = value`".into()));
+            return Err(file_error(file, line, key_col, "expected `key = value`".into()));
         };
         let key = content[..eq].trim();
         let rest = &content[eq + 1..];
         let value = rest.trim();
         let value_col = eq + 2 + (rest.len() - rest.trim_start().len());
         if key.is_empty() {
-            return Err(err(line, key_col, "missing key before `=`".into()));
+            return Err(file_error(file, line, key_col, "missing key before `=`".into()));
         }
         if value.is_empty() {
-            return Err(err(line, value_col, format!("missing value for `{key}`")));
+            return Err(file_error(file, line, value_col, format!("missing value for `{key}`")));
         }
-        if let Some((_, l0, _)) = seen.iter().find(|(k, _, _)| k == key) {
-            return Err(err(line, key_col, format!("`{key}` already set on line {l0}")));
-        }
+        Ok(Some(Self {
+            line,
+            key,
+            key_col,
+            value,
+            value_col,
+        }))
+    }
+
+    /// Sets the entry's key in `a`: `base` (only `first`) restarts from a stock airframe,
+    /// `name` names it, every other key is a finite number [`set`] knows.
+    fn apply(&self, a: &mut SimAirframe, first: bool, file: &str) -> Result<(), AirframeFileError> {
+        let (key, value, line) = (self.key, self.value, self.line);
+        let err = |column: usize, message: String| file_error(file, line, column, message);
         match key {
             "base" => {
-                if !seen.is_empty() {
-                    return Err(err(line, key_col, "`base` must come before every other key".into()));
+                if !first {
+                    return Err(err(self.key_col, "`base` must come before every other key".into()));
                 }
-                a = match value {
+                *a = match value {
                     "skywalker_2013_mod" => SimAirframe::skywalker_2013_mod(),
                     "rascal_110" => SimAirframe::rascal_110(),
                     _ => {
                         return Err(err(
-                            line,
-                            value_col,
+                            self.value_col,
                             format!("unknown base `{value}` (skywalker_2013_mod or rascal_110)"),
                         ))
                     }
@@ -201,25 +245,33 @@ pub fn parse_airframe(text: &str, file: &str) -> Result<SimAirframe, AirframeFil
             _ => {
                 let v = match value.parse::<f64>() {
                     Ok(v) if v.is_finite() => v,
-                    _ => return Err(err(line, value_col, format!("`{value}` is not a finite number"))),
+                    _ => return Err(err(self.value_col, format!("`{value}` is not a finite number"))),
                 };
-                if !set(&mut a, key, v) {
+                if !set(a, key, v) {
                     let msg = if key == "jxy_kgm2" || key == "jyz_kgm2" {
                         format!("`{key}` must be 0 (only Jxz is modelled)")
                     } else {
                         format!("unknown key `{key}`")
                     };
                     return Err(err(
-                        line,
-                        if msg.starts_with("unknown") { key_col } else { value_col },
+                        if msg.starts_with("unknown") {
+                            self.key_col
+                        } else {
+                            self.value_col
+                        },
                         msg,
                     ));
                 }
             }
         }
-        seen.push((key.to_string(), line, value_col));
+        Ok(())
     }
-    // Validation, reported at the key that set the offending value (line 1, column 1 if from base).
+}
+
+/// Positive masses, inertias, sizes and propeller speed, a positive definite inertia and ordered
+/// surface limits, each error reported at the key that set the offending value (`seen`: key,
+/// line, value column; line 1, column 1 if from base).
+fn validate(a: &SimAirframe, seen: &[(String, usize, usize)], file: &str) -> Result<(), AirframeFileError> {
     let at = |key: &str| {
         seen.iter()
             .find(|(k, _, _)| k == key)
@@ -240,13 +292,18 @@ pub fn parse_airframe(text: &str, file: &str) -> Result<SimAirframe, AirframeFil
     for (k, v) in positive {
         if v <= 0.0 {
             let (l, c) = at(k);
-            return Err(err(l, c, format!("`{k}` must be positive, got {v}")));
+            return Err(file_error(file, l, c, format!("`{k}` must be positive, got {v}")));
         }
     }
     let j = f.inertia_kgm2;
     if j[(0, 0)] * j[(2, 2)] - j[(0, 2)] * j[(0, 2)] <= 0.0 {
         let (l, c) = at("jxz_kgm2");
-        return Err(err(l, c, "inertia tensor not positive definite (Jx·Jz ≤ Jxz²)".into()));
+        return Err(file_error(
+            file,
+            l,
+            c,
+            "inertia tensor not positive definite (Jx·Jz ≤ Jxz²)".into(),
+        ));
     }
     for (name, (lo, hi)) in [
         ("elevator", a.limits.elevator_rad),
@@ -255,21 +312,16 @@ pub fn parse_airframe(text: &str, file: &str) -> Result<SimAirframe, AirframeFil
     ] {
         if lo >= hi {
             let (l, c) = at(&format!("{name}_max_rad"));
-            return Err(err(l, c, format!("{name} limits: min {lo} ≥ max {hi}")));
+            return Err(file_error(file, l, c, format!("{name} limits: min {lo} ≥ max {hi}")));
         }
     }
-    Ok(a)
+    Ok(())
 }
 
 /// Reads an airframe file.
 pub fn read_airframe(path: &Path) -> Result<SimAirframe, AirframeFileError> {
     let name = path.display().to_string();
-    let text = std::fs::read_to_string(path).map_err(|e| AirframeFileError {
-        file: name.clone(),
-        line: 0,
-        column: 0,
-        message: e.to_string(),
-    })?;
+    let text = std::fs::read_to_string(path).map_err(|e| file_error(&name, 0, 0, e.to_string()))?;
     parse_airframe(&text, &name)
 }
 

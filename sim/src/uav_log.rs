@@ -295,13 +295,44 @@ pub fn log_flight(
     let duration = out.samples.len() as f64 * dt;
     let grid_dt = 1.0 / logging.grid_hz;
     let n = (duration / grid_dt).floor() as usize;
-    let gauss = |sd: f64, rng: &mut ChaCha8Rng| sd * rng.sample::<f64, _>(StandardNormal);
+    let est = estimate_air_data(out, mean_wind_ned_mps, logging, dt, &mut rng);
+    let mut hold = |v: &[f64], timing: &ChannelTiming| sample_and_hold(v, dt, timing, grid_dt, n, &mut rng);
+    let mut log = UavLog::default();
+    hold_inertial(&mut log, out, logging, &est.gps_ned_mps, &mut hold);
+    hold_air_and_controls(&mut log, out, logging, &est, elevator_lead_s, &mut hold);
+    log.t_s = (0..n).map(|i| i as f64 * grid_dt).collect();
+    let truth_at = |f: &dyn Fn(&TruthSample) -> f64| -> Vec<f64> {
+        let v: Vec<f64> = out.truth.iter().map(f).collect();
+        let s = Series { v: &v, dt };
+        log.t_s.iter().map(|&t| s.at(t)).collect()
+    };
+    log.truth_alpha_rad = truth_at(&|s| s.eval.alpha_rad);
+    log.truth_beta_rad = truth_at(&|s| s.eval.beta_rad);
+    log.truth_airspeed_mps = truth_at(&|s| s.eval.airspeed_mps);
+    log
+}
 
-    let col =
-        |f: &dyn Fn(&aerosid_core::aero::SensorSample<f64>) -> f64| -> Vec<f64> { out.samples.iter().map(f).collect() };
+/// What the autopilot estimates at the source rate: α̂ and β̂ from the EKF velocity and the
+/// lagged wind estimate, and the noisy GPS velocity (NED).
+struct EstimatedAir {
+    alpha_rad: Vec<f64>,
+    beta_rad: Vec<f64>,
+    gps_ned_mps: [Vec<f64>; 3],
+}
+
+/// Draws the wind estimate's error, the EKF velocity noise and the GPS noise from `rng` (in
+/// that order) and forms [`EstimatedAir`] at the source interval `dt`.
+fn estimate_air_data(
+    out: &SimOutput,
+    mean_wind_ned_mps: &Vector3<f64>,
+    logging: &UavLogging,
+    dt: f64,
+    rng: &mut ChaCha8Rng,
+) -> EstimatedAir {
+    let gauss = |sd: f64, rng: &mut ChaCha8Rng| sd * rng.sample::<f64, _>(StandardNormal);
     let wind_error = Vector3::new(
-        gauss(logging.wind_error_mps, &mut rng),
-        gauss(logging.wind_error_mps, &mut rng),
+        gauss(logging.wind_error_mps, rng),
+        gauss(logging.wind_error_mps, rng),
         0.0,
     );
     let wind_est = wind_estimate_ned_mps(
@@ -316,39 +347,59 @@ pub fn log_flight(
         .iter()
         .map(|s| s.state.attitude.transform_vector(&s.state.velocity_body_mps))
         .collect();
-    let mut alpha_est = Vec::with_capacity(vel_true.len());
-    let mut beta_est = Vec::with_capacity(vel_true.len());
+    let mut alpha_rad = Vec::with_capacity(vel_true.len());
+    let mut beta_rad = Vec::with_capacity(vel_true.len());
     for (k, v) in vel_true.iter().enumerate() {
         let noise = Vector3::new(
-            gauss(logging.ekf_velocity_noise_mps, &mut rng),
-            gauss(logging.ekf_velocity_noise_mps, &mut rng),
-            gauss(logging.ekf_velocity_noise_mps, &mut rng),
+            gauss(logging.ekf_velocity_noise_mps, rng),
+            gauss(logging.ekf_velocity_noise_mps, rng),
+            gauss(logging.ekf_velocity_noise_mps, rng),
         );
         let (a, b) = estimated_flow_angles(&(v + noise), &wind_est[k], &out.samples[k].euler_rad);
-        alpha_est.push(a);
-        beta_est.push(b);
+        alpha_rad.push(a);
+        beta_rad.push(b);
     }
-    let gps: [Vec<f64>; 3] = core::array::from_fn(|i| {
+    let gps_ned_mps: [Vec<f64>; 3] = core::array::from_fn(|i| {
         vel_true
             .iter()
-            .map(|v| v[i] + gauss(logging.gps_velocity_noise_mps, &mut rng))
+            .map(|v| v[i] + gauss(logging.gps_velocity_noise_mps, rng))
             .collect()
     });
+    EstimatedAir {
+        alpha_rad,
+        beta_rad,
+        gps_ned_mps,
+    }
+}
 
-    let mut hold = |v: &[f64], timing: &ChannelTiming| sample_and_hold(v, dt, timing, grid_dt, n, &mut rng);
+/// One channel of the simulated sensor samples.
+fn column(out: &SimOutput, f: &dyn Fn(&aerosid_core::aero::SensorSample<f64>) -> f64) -> Vec<f64> {
+    out.samples.iter().map(f).collect()
+}
+
+/// The IMU, the attitude and the GPS velocity held on the log's grid by `hold` (in that order:
+/// `hold` draws each channel's phase and jitter).
+fn hold_inertial(
+    log: &mut UavLog,
+    out: &SimOutput,
+    logging: &UavLogging,
+    gps_ned_mps: &[Vec<f64>; 3],
+    hold: &mut impl FnMut(&[f64], &ChannelTiming) -> Vec<f64>,
+) {
+    let col = |f: &dyn Fn(&aerosid_core::aero::SensorSample<f64>) -> f64| column(out, f);
     let imu = logging.imu;
-    let accel_mps2 = [
+    log.accel_mps2 = [
         hold(&col(&|s| s.accel_mps2.x), &imu),
         hold(&col(&|s| s.accel_mps2.y), &imu),
         hold(&col(&|s| s.accel_mps2.z), &imu),
     ];
-    let gyro_rad_s = [
+    log.gyro_rad_s = [
         hold(&col(&|s| s.gyro_rad_s.x), &imu),
         hold(&col(&|s| s.gyro_rad_s.y), &imu),
         hold(&col(&|s| s.gyro_rad_s.z), &imu),
     ];
     let att = logging.attitude;
-    let euler_rad = [
+    log.euler_rad = [
         hold(&col(&|s| s.euler_rad.x), &att).into_iter().map(wrap_pi).collect(),
         hold(&col(&|s| s.euler_rad.y), &att),
         hold(&unwrap(&col(&|s| s.euler_rad.z)), &att)
@@ -356,51 +407,41 @@ pub fn log_flight(
             .map(wrap_pi)
             .collect(),
     ];
-    let vel_ned_mps = [
-        hold(&gps[0], &logging.gps_velocity),
-        hold(&gps[1], &logging.gps_velocity),
-        hold(&gps[2], &logging.gps_velocity),
+    log.vel_ned_mps = [
+        hold(&gps_ned_mps[0], &logging.gps_velocity),
+        hold(&gps_ned_mps[1], &logging.gps_velocity),
+        hold(&gps_ned_mps[2], &logging.gps_velocity),
     ];
-    let airspeed_mps = hold(&col(&|s| s.airspeed_mps), &logging.airspeed);
-    let alpha_est_rad = hold(&alpha_est, &logging.flow_angles);
-    let beta_est_rad = hold(&beta_est, &logging.flow_angles);
+}
+
+/// The airspeed, the estimated α and β, the surfaces, throttle, air density and propeller speed
+/// held on the log's grid by `hold` (in that order); the logged elevator leads the surface by
+/// `elevator_lead_s`.
+fn hold_air_and_controls(
+    log: &mut UavLog,
+    out: &SimOutput,
+    logging: &UavLogging,
+    est: &EstimatedAir,
+    elevator_lead_s: f64,
+    hold: &mut impl FnMut(&[f64], &ChannelTiming) -> Vec<f64>,
+) {
+    let col = |f: &dyn Fn(&aerosid_core::aero::SensorSample<f64>) -> f64| column(out, f);
+    log.airspeed_mps = hold(&col(&|s| s.airspeed_mps), &logging.airspeed);
+    log.alpha_est_rad = hold(&est.alpha_rad, &logging.flow_angles);
+    log.beta_est_rad = hold(&est.beta_rad, &logging.flow_angles);
     let servo = logging.servo;
     let elevator_timing = ChannelTiming {
         lag_s: servo.lag_s - elevator_lead_s.max(0.0),
         ..servo
     };
-    let surfaces_rad = [
+    log.surfaces_rad = [
         hold(&col(&|s| s.elevator_rad), &elevator_timing),
         hold(&col(&|s| s.aileron_rad), &servo),
         hold(&col(&|s| s.rudder_rad), &servo),
     ];
-    let throttle = hold(&col(&|s| s.throttle), &servo);
-    let air_density_kgpm3 = hold(&col(&|s| s.air_density_kgpm3), &logging.baro);
-    let prop_speed_rad_s = hold(&col(&|s| s.prop_speed_rad_s), &logging.rpm);
-
-    let t_s: Vec<f64> = (0..n).map(|i| i as f64 * grid_dt).collect();
-    let truth_at = |f: &dyn Fn(&TruthSample) -> f64| -> Vec<f64> {
-        let v: Vec<f64> = out.truth.iter().map(f).collect();
-        let s = Series { v: &v, dt };
-        t_s.iter().map(|&t| s.at(t)).collect()
-    };
-    UavLog {
-        truth_alpha_rad: truth_at(&|s| s.eval.alpha_rad),
-        truth_beta_rad: truth_at(&|s| s.eval.beta_rad),
-        truth_airspeed_mps: truth_at(&|s| s.eval.airspeed_mps),
-        t_s,
-        accel_mps2,
-        gyro_rad_s,
-        euler_rad,
-        vel_ned_mps,
-        airspeed_mps,
-        alpha_est_rad,
-        beta_est_rad,
-        surfaces_rad,
-        throttle,
-        air_density_kgpm3,
-        prop_speed_rad_s,
-    }
+    log.throttle = hold(&col(&|s| s.throttle), &servo);
+    log.air_density_kgpm3 = hold(&col(&|s| s.air_density_kgpm3), &logging.baro);
+    log.prop_speed_rad_s = hold(&col(&|s| s.prop_speed_rad_s), &logging.rpm);
 }
 
 #[cfg(test)]

@@ -65,15 +65,56 @@ pub fn demo(seed: u64, seconds: f64) -> Result<String, String> {
     let n = (seconds * RATE_HZ) as usize;
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let unit = Normal::new(0.0, 1.0).unwrap_or_else(|_| unreachable!());
+    let (mut gtls, mut rls) = estimators()?;
+    write_header(&mut out, n, seed);
+    let mut refused = 0usize;
+    for i in 0..n {
+        let t = i as f64 / RATE_HZ;
+        let (x, z) = noisy_sample(t, &unit, &mut rng);
+        let step = match gtls.update(&x, z) {
+            Ok(s) => s,
+            Err(e) => {
+                refused += 1;
+                let _ = writeln!(out, "t = {t:.2} s: sample refused: {e}");
+                continue;
+            }
+        };
+        if rls.update(&x, z).is_err() {
+            refused += 1;
+        }
+        if i % (10 * RATE_HZ as usize) == 0 || i + 1 == n {
+            let th = gtls.theta();
+            let sol = solution_name(step.solution);
+            let _ = writeln!(
+                out,
+                "{t:7.1} {:>4} {:8.5} {:10.4} {:10.3}   {sol}",
+                step.k, step.lambda_next, th[1], th[2]
+            );
+        }
+    }
+    out.push('\n');
+    write_estimates(&mut out, &gtls, &rls);
+    write_health(&mut out, &gtls, refused);
+    Ok(out)
+}
+
+/// The on-board estimator (f32 PCA-GTLS with the variable forgetting factor, `W_T` from the
+/// noise levels) and the RLS baseline.
+fn estimators() -> Result<(Gtls<f32, 4, 1, 4>, Rls<f32, 4>), String> {
     let w_t = SMatrix::<f32, 4, 4>::from_fn(|i, j| if i == j { (SIGMA[i] * SIGMA[i]) as f32 } else { 0.0 });
     let settings = GtlsSettings {
         forgetting: Forgetting::Variable(VffSettings::for_dimension(4)),
         ..GtlsSettings::default()
     };
     let weights = SVector::<f32, 4>::repeat(1.0);
-    let mut gtls = Gtls::<f32, 4, 1, 4>::new(&w_t, &weights, settings)
+    let gtls = Gtls::<f32, 4, 1, 4>::new(&w_t, &weights, settings)
         .map_err(|e| format!("invalid estimator settings: {e:?}"))?;
-    let mut rls = Rls::<f32, 4>::new(RlsSettings::default()).map_err(|e| format!("invalid RLS settings: {e:?}"))?;
+    let rls = Rls::<f32, 4>::new(RlsSettings::default()).map_err(|e| format!("invalid RLS settings: {e:?}"))?;
+    Ok((gtls, rls))
+}
+
+/// The title, the noise levels and the progress table's header.
+fn write_header(out: &mut String, n: usize, seed: u64) {
     let _ = writeln!(
         out,
         "aerosid demo — C_m of the skywalker_2013_mod airframe, {n} samples at 100 Hz, seed {}",
@@ -93,46 +134,36 @@ pub fn demo(seed: u64, seconds: f64) -> Result<String, String> {
         "{:>7} {:>4} {:>8} {:>10} {:>10}   solution",
         "t [s]", "k", "λ_F", "Cmα", "Cmq"
     );
-    let mut refused = 0usize;
-    for i in 0..n {
-        let t = i as f64 / RATE_HZ;
-        let x0 = manoeuvre(t);
-        let cm = TRUTH[0] + TRUTH[1] * x0[0] + TRUTH[2] * x0[1] + TRUTH[3] * x0[2];
-        let x = SVector::<f32, 4>::from([
-            1.0,
-            (x0[0] + SIGMA[0] * unit.sample(&mut rng)) as f32,
-            (x0[1] + SIGMA[1] * unit.sample(&mut rng)) as f32,
-            (x0[2] + SIGMA[2] * unit.sample(&mut rng)) as f32,
-        ]);
-        let z = (cm + SIGMA[3] * unit.sample(&mut rng)) as f32;
-        let step = match gtls.update(&x, z) {
-            Ok(s) => s,
-            Err(e) => {
-                refused += 1;
-                let _ = writeln!(out, "t = {t:.2} s: sample refused: {e}");
-                continue;
-            }
-        };
-        if rls.update(&x, z).is_err() {
-            refused += 1;
-        }
-        if i % (10 * RATE_HZ as usize) == 0 || i + 1 == n {
-            let th = gtls.theta();
-            let sol = match step.solution {
-                Solution::Tls => "GTLS (eq. 16)",
-                Solution::MinimumNorm => "minimum norm (eq. 22–23): not all parameters excited",
-                Solution::NotEnoughData => "not enough data",
-                Solution::Nongeneric => "non-generic, minimum norm",
-                Solution::LeastSquares => "LS",
-            };
-            let _ = writeln!(
-                out,
-                "{t:7.1} {:>4} {:8.5} {:10.4} {:10.3}   {sol}",
-                step.k, step.lambda_next, th[1], th[2]
-            );
-        }
+}
+
+/// The regressors `[1, α, q_n, δe]` and `C_m` at time `t`, the noise drawn from `rng` in that
+/// order.
+fn noisy_sample(t: f64, unit: &Normal<f64>, rng: &mut ChaCha8Rng) -> (SVector<f32, 4>, f32) {
+    let x0 = manoeuvre(t);
+    let cm = TRUTH[0] + TRUTH[1] * x0[0] + TRUTH[2] * x0[1] + TRUTH[3] * x0[2];
+    let x = SVector::<f32, 4>::from([
+        1.0,
+        (x0[0] + SIGMA[0] * unit.sample(rng)) as f32,
+        (x0[1] + SIGMA[1] * unit.sample(rng)) as f32,
+        (x0[2] + SIGMA[2] * unit.sample(rng)) as f32,
+    ]);
+    let z = (cm + SIGMA[3] * unit.sample(rng)) as f32;
+    (x, z)
+}
+
+/// Which solution the estimator gave, in words.
+fn solution_name(s: Solution) -> &'static str {
+    match s {
+        Solution::Tls => "GTLS (eq. 16)",
+        Solution::MinimumNorm => "minimum norm (eq. 22–23): not all parameters excited",
+        Solution::NotEnoughData => "not enough data",
+        Solution::Nongeneric => "non-generic, minimum norm",
+        Solution::LeastSquares => "LS",
     }
-    out.push('\n');
+}
+
+/// The final estimates ± σ beside the truth and RLS, and each error in σ.
+fn write_estimates(out: &mut String, gtls: &Gtls<f32, 4, 1, 4>, rls: &Rls<f32, 4>) {
     let cov = gtls.covariance().ok();
     let _ = writeln!(
         out,
@@ -159,6 +190,11 @@ pub fn demo(seed: u64, seconds: f64) -> Result<String, String> {
             zs
         );
     }
+}
+
+/// The estimator's singular values, threshold, re-orthonormalisations, the refused samples and
+/// its state's size.
+fn write_health(out: &mut String, gtls: &Gtls<f32, 4, 1, 4>, refused: usize) {
     let h = gtls.health();
     out.push('\n');
     let _ = writeln!(
@@ -173,5 +209,4 @@ pub fn demo(seed: u64, seconds: f64) -> Result<String, String> {
         "estimator state: {} bytes (f32, n_θ = 4)",
         core::mem::size_of::<Gtls<f32, 4, 1, 4>>()
     );
-    Ok(out)
 }

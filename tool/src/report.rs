@@ -218,6 +218,55 @@ impl std::error::Error for MainJobError {}
 /// identified model table and a few lines per figure on `log`; SVG figures in `out_dir`. The four
 /// flights run in parallel. Returns the paths written.
 pub fn main_job(job: &MainJob, log: &mut dyn std::fmt::Write) -> Result<Vec<std::path::PathBuf>, MainJobError> {
+    let ex = run_experiments(job, log)?;
+    let (main, fig1, vff, cst) = (&ex[0], &ex[1], &ex[2], &ex[3]);
+    let _ = writeln!(
+        log,
+        "\nmain flight: skywalker_2013_mod, {} s, seed {}, every hidden effect on, light turbulence, \
+         default sensors (noise and biases); f32 on-board pipeline, VFF",
+        job.seconds, job.seed
+    );
+    let _ = writeln!(log, "{}", model_table(main));
+    let mut written = Vec::new();
+    let mut write = |name: &str, fig: Figure| -> Result<(), MainJobError> {
+        let path = job.out_dir.join(name);
+        fig.write_svg(&path).map_err(MainJobError::Plot)?;
+        written.push(path);
+        Ok(())
+    };
+    // C_L and C_l differ only in case: file names use the coefficient's meaning.
+    let files = ["lift", "drag", "side", "roll", "pitch", "yaw"];
+    for (i, name) in COEFFICIENT_NAMES.iter().enumerate() {
+        write(
+            &format!("main_{}.svg", files[i]),
+            coefficient_figure(main, i, &format!("{name} — main flight")),
+        )?;
+    }
+    log_fig1(log, fig1);
+    write(
+        "fig1_drag.svg",
+        coefficient_figure(
+            fig1,
+            idx::DRAG,
+            "Fig. 1 — C_D: PCA-GTLS vs RLS, excitation from t = 250 s",
+        ),
+    )?;
+    log_fig2(log, vff, cst);
+    write(
+        "fig2_pitch.svg",
+        forgetting_figure(
+            ("VFF", vff),
+            ("λ = 0.995", cst),
+            idx::PITCH,
+            "Fig. 2 — C_m: variable vs constant forgetting, parameter jump at t = 50 s",
+        ),
+    )?;
+    Ok(written)
+}
+
+/// σ_ε by Monte Carlo (logged), then the four flights in parallel: the main flight (VFF), Fig. 1's,
+/// and Fig. 2's with the variable and with a constant forgetting factor, in that order.
+fn run_experiments(job: &MainJob, log: &mut dyn std::fmt::Write) -> Result<Vec<Experiment>, MainJobError> {
     use crate::experiment::{self, ExperimentConfig};
     use crate::flights;
     use aerosid_core::{Forgetting, VffSettings};
@@ -246,29 +295,11 @@ pub fn main_job(job: &MainJob, log: &mut dyn std::fmt::Write) -> Result<Vec<std:
     for r in runs {
         ex.push(r.map_err(MainJobError::Experiment)?);
     }
-    let (main, fig1, vff, cst) = (&ex[0], &ex[1], &ex[2], &ex[3]);
-    let _ = writeln!(
-        log,
-        "\nmain flight: skywalker_2013_mod, {} s, seed {}, every hidden effect on, light turbulence, \
-         default sensors (noise and biases); f32 on-board pipeline, VFF",
-        job.seconds, job.seed
-    );
-    let _ = writeln!(log, "{}", model_table(main));
-    let mut written = Vec::new();
-    let mut write = |name: &str, fig: Figure| -> Result<(), MainJobError> {
-        let path = job.out_dir.join(name);
-        fig.write_svg(&path).map_err(MainJobError::Plot)?;
-        written.push(path);
-        Ok(())
-    };
-    // C_L and C_l differ only in case: file names use the coefficient's meaning.
-    let files = ["lift", "drag", "side", "roll", "pitch", "yaw"];
-    for (i, name) in COEFFICIENT_NAMES.iter().enumerate() {
-        write(
-            &format!("main_{}.svg", files[i]),
-            coefficient_figure(main, i, &format!("{name} — main flight")),
-        )?;
-    }
+    Ok(ex)
+}
+
+/// Fig. 1's line of the log: `C_D` at the end, GTLS and RLS beside the truth.
+fn log_fig1(log: &mut dyn std::fmt::Write, fig1: &Experiment) {
     let d = &fig1.coefficients[idx::DRAG];
     let last = fig1.t_s.len().saturating_sub(1);
     let _ = writeln!(
@@ -281,14 +312,11 @@ pub fn main_job(job: &MainJob, log: &mut dyn std::fmt::Write) -> Result<Vec<std:
         d.rls_theta[last],
         d.truth
     );
-    write(
-        "fig1_drag.svg",
-        coefficient_figure(
-            fig1,
-            idx::DRAG,
-            "Fig. 1 — C_D: PCA-GTLS vs RLS, excitation from t = 250 s",
-        ),
-    )?;
+}
+
+/// Fig. 2's line of the log: `C_mα` 5 s after the jump with both forgetting factors, and `k` at
+/// the end.
+fn log_fig2(log: &mut dyn std::fmt::Write, vff: &Experiment, cst: &Experiment) {
     let v = &vff.coefficients[idx::PITCH];
     let i5 = vff.index_at(55.0);
     let _ = writeln!(
@@ -300,14 +328,4 @@ pub fn main_job(job: &MainJob, log: &mut dyn std::fmt::Write) -> Result<Vec<std:
         v.k.last().copied().unwrap_or(0),
         cst.coefficients[idx::PITCH].k.last().copied().unwrap_or(0)
     );
-    write(
-        "fig2_pitch.svg",
-        forgetting_figure(
-            ("VFF", vff),
-            ("λ = 0.995", cst),
-            idx::PITCH,
-            "Fig. 2 — C_m: variable vs constant forgetting, parameter jump at t = 50 s",
-        ),
-    )?;
-    Ok(written)
 }

@@ -875,48 +875,13 @@ impl Execute for GapsArgs {
                 return code;
             }
         }
-        for data in &self.data {
-            let ext = data.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
-            let log = matches!(ext.as_deref(), Some("ulg") | Some("bin"));
-            if self.with.is_none() && !log {
-                return usage(
-                    "gaps",
-                    format!(
-                        "--data {} needs --with MAP_OR_AIRCRAFT (only .ulg and .bin logs read without one)",
-                        data.display()
-                    ),
-                );
-            }
-            if self.list {
-                let listing = match ext.as_deref() {
-                    Some("ulg") => aerosid::io::ulog::list_topics(data),
-                    Some("bin") => aerosid::io::dataflash::list_messages(data),
-                    _ => {
-                        return usage(
-                            "gaps",
-                            "--list lists the topics of a .ulg or the messages of a .bin log",
-                        )
-                    }
-                };
-                return match listing {
-                    Ok(text) => {
-                        print!("{text}");
-                        ExitCode::SUCCESS
-                    }
-                    Err(e) => fail("gaps", e),
-                };
-            }
+        if let Err(e) = self.check_with() {
+            return usage("gaps", e);
         }
-        let settings = aerosid::gaps::GapSettings {
-            air_data: self.air_data,
-            flow_angles: self.flow_angles,
-            apply_corrections: !self.no_corrections,
-            compatibility: matches!(self.compatibility, OnOff::On),
-            baseline: self.baseline.clone(),
-            max_rate_hz: self.max_rate.0,
-            low_rate_method: self.low_rate_method.into(),
-            ..self.levels.levels().apply(aerosid::gaps::GapSettings::default())
-        };
+        if let (true, Some(data)) = (self.list, self.data.first()) {
+            return list_log(data);
+        }
+        let settings = self.settings();
         let opts = match self.read_options() {
             Ok(o) => o,
             Err(e) => return usage("gaps", e),
@@ -927,68 +892,135 @@ impl Execute for GapsArgs {
                 "--size and --channel describe the hidden effect of --simulate KIND",
             );
         }
-        let flight = match (self.data.is_empty(), &self.with) {
-            (false, with) => aerosid::io::read_pooled(&self.data, with.as_deref(), &self.segment, &opts),
-            _ => {
-                // A simulated flight with the hidden effect's size drawn from the seed.
-                use rand::SeedableRng;
-                let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(self.seed);
-                let mut effect = self.simulate.map(|k| k.draw(&mut rng));
-                if let Some(e) = effect.as_mut() {
-                    if let Some(x) = self.size {
-                        if !x.is_finite() || e.kind == HiddenKind::MissingRollControl {
-                            return usage(
-                                "gaps",
-                                format!("--size {x}: give a finite number, and only for a kind with a size (missing-roll-control has none)"),
-                            );
-                        }
-                        // A delay is a lag (≥ 0, at most 1 s); a scale factor below −1 flips the
-                        // vane's sign (−1 zeroes it).
-                        let range = match e.kind {
-                            HiddenKind::TimeDelay | HiddenKind::ElevatorDelay => Some((0.0, 1.0, "0 to 1 s")),
-                            HiddenKind::VaneScale => Some((-0.99, 10.0, "−0.99 to 10")),
-                            _ => None,
-                        };
-                        if let Some((_, _, text)) = range.filter(|&(lo, hi, _)| !(lo..=hi).contains(&x)) {
-                            return usage(
-                                "gaps",
-                                format!("--size {x}: a {} size must lie in {text}", e.kind.name()),
-                            );
-                        }
-                        e.size = x;
-                    }
-                    if let Some(c) = &self.channel {
-                        if e.kind != HiddenKind::SensorBias {
-                            return usage(
-                                "gaps",
-                                format!("--channel {c}: only --simulate sensor-bias has a choice of channel"),
-                            );
-                        }
-                        e.channel = aerosid::gaps::hidden::BIAS_CHANNELS
-                            .iter()
-                            .find(|x| x.0 == c)
-                            .map(|x| x.1);
-                    }
-                }
-                let flight = aerosid::gaps::hidden::flight(effect.as_ref(), self.seconds, self.seed, !self.calm);
-                // The campaign's baseline (eq. 3 without the δa a kind hides) unless one is given.
-                return match flight {
-                    Ok(f) => {
-                        let baseline = settings
-                            .baseline
-                            .clone()
-                            .or_else(|| Some(HiddenEffect::baseline(effect.as_ref())));
-                        gaps(&f, &self.out, aerosid::gaps::GapSettings { baseline, ..settings })
-                    }
-                    Err(e) => fail("gaps", e),
-                };
-            }
-        };
-        match flight {
+        if self.data.is_empty() {
+            return self.simulated(settings);
+        }
+        match aerosid::io::read_pooled(&self.data, self.with.as_deref(), &self.segment, &opts) {
             Ok(f) => gaps(&f, &self.out, settings),
             Err(e) => fail("gaps", e),
         }
     }
+}
+
+/// The topics (ULog) or messages (DataFlash) of the log `data`, printed.
+fn list_log(data: &Path) -> ExitCode {
+    let ext = data.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+    let listing = match ext.as_deref() {
+        Some("ulg") => aerosid::io::ulog::list_topics(data),
+        Some("bin") => aerosid::io::dataflash::list_messages(data),
+        _ => {
+            return usage(
+                "gaps",
+                "--list lists the topics of a .ulg or the messages of a .bin log",
+            )
+        }
+    };
+    match listing {
+        Ok(text) => {
+            print!("{text}");
+            ExitCode::SUCCESS
+        }
+        Err(e) => fail("gaps", e),
+    }
+}
+
+impl GapsArgs {
+    /// The usage error of the first --data file that needs --with and has none (only .ulg and
+    /// .bin logs read without one).
+    fn check_with(&self) -> Result<(), String> {
+        for data in &self.data {
+            let ext = data.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+            let log = matches!(ext.as_deref(), Some("ulg") | Some("bin"));
+            if self.with.is_none() && !log {
+                return Err(format!(
+                    "--data {} needs --with MAP_OR_AIRCRAFT (only .ulg and .bin logs read without one)",
+                    data.display()
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// The analysis's settings of the flags.
+    fn settings(&self) -> aerosid::gaps::GapSettings {
+        aerosid::gaps::GapSettings {
+            air_data: self.air_data,
+            flow_angles: self.flow_angles,
+            apply_corrections: !self.no_corrections,
+            compatibility: matches!(self.compatibility, OnOff::On),
+            baseline: self.baseline.clone(),
+            max_rate_hz: self.max_rate.0,
+            low_rate_method: self.low_rate_method.into(),
+            ..self.levels.levels().apply(aerosid::gaps::GapSettings::default())
+        }
+    }
+
+    /// The simulated flight (`--simulate KIND` or `--clean`) analysed: the campaign's baseline
+    /// (eq. 3 without the δa a kind hides) unless one is given.
+    fn simulated(&self, settings: aerosid::gaps::GapSettings) -> ExitCode {
+        let effect = match self.hidden_effect() {
+            Ok(e) => e,
+            Err(e) => return usage("gaps", e),
+        };
+        match aerosid::gaps::hidden::flight(effect.as_ref(), self.seconds, self.seed, !self.calm) {
+            Ok(f) => {
+                let baseline = settings
+                    .baseline
+                    .clone()
+                    .or_else(|| Some(HiddenEffect::baseline(effect.as_ref())));
+                gaps(&f, &self.out, aerosid::gaps::GapSettings { baseline, ..settings })
+            }
+            Err(e) => fail("gaps", e),
+        }
+    }
+
+    /// The hidden effect of `--simulate KIND`, its size drawn from the seed unless `--size` gives
+    /// it, its channel from `--channel`; the usage error of a size or channel the kind cannot
+    /// take.
+    fn hidden_effect(&self) -> Result<Option<HiddenEffect>, String> {
+        use rand::SeedableRng;
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(self.seed);
+        let mut effect = self.simulate.map(|k| k.draw(&mut rng));
+        if let Some(e) = effect.as_mut() {
+            if let Some(x) = self.size {
+                check_size(e.kind, x)?;
+                e.size = x;
+            }
+            if let Some(c) = &self.channel {
+                if e.kind != HiddenKind::SensorBias {
+                    return Err(format!(
+                        "--channel {c}: only --simulate sensor-bias has a choice of channel"
+                    ));
+                }
+                e.channel = aerosid::gaps::hidden::BIAS_CHANNELS
+                    .iter()
+                    .find(|x| x.0 == c)
+                    .map(|x| x.1);
+            }
+        }
+        Ok(effect)
+    }
+}
+
+/// `--size x` for a hidden effect of `kind`: finite, of a kind with a size, and in the kind's
+/// range.
+fn check_size(kind: HiddenKind, x: f64) -> Result<(), String> {
+    if !x.is_finite() || kind == HiddenKind::MissingRollControl {
+        return Err(format!(
+            "--size {x}: give a finite number, and only for a kind with a size (missing-roll-control has none)"
+        ));
+    }
+    // A delay is a lag (≥ 0, at most 1 s); a scale factor below −1 flips the vane's sign (−1
+    // zeroes it).
+    let range = match kind {
+        HiddenKind::TimeDelay | HiddenKind::ElevatorDelay => Some((0.0, 1.0, "0 to 1 s")),
+        HiddenKind::VaneScale => Some((-0.99, 10.0, "−0.99 to 10")),
+        _ => None,
+    };
+    if let Some((_, _, text)) = range.filter(|&(lo, hi, _)| !(lo..=hi).contains(&x)) {
+        return Err(format!("--size {x}: a {} size must lie in {text}", kind.name()));
+    }
+    Ok(())
 }
 
 /// Analyses `flight`, prints the table, writes report.json, report.txt and the figures to `out`
