@@ -39,6 +39,7 @@ use aerosid_core::aero::{onboard, AeroModels, Pipeline, Regressor, SensorSample}
 use aerosid_core::estimator::Estimator;
 use aerosid_core::gtls::Gtls;
 use aerosid_core::Error;
+use std::fmt::Write;
 
 /// Sample rate, Hz.
 pub const RATE_HZ: f64 = 100.0;
@@ -662,9 +663,29 @@ fn typical_magnitude(i: usize, p: usize) -> f64 {
 
 /// The report as the `aerosid long-run` table.
 pub fn format_report(r: &LongRunReport, wall_s: f64) -> String {
-    use std::fmt::Write;
-    let names = crate::experiment::COEFFICIENT_NAMES;
     let mut s = String::new();
+    write_settings(&mut s, r, wall_s);
+    write_extremes(&mut s, &r.coefficients);
+    write_tracking(&mut s, &r.tracking);
+    let names = crate::experiment::COEFFICIENT_NAMES;
+    let (d, i, p) = r.calm_drift;
+    let _ = writeln!(
+        s,
+        "\ncalm cruise drift (fully excited coefficients): largest parameter change {:.3} of its typical magnitude ({} parameter {})",
+        d, names[i], p
+    );
+    let h = &r.health;
+    let _ = writeln!(
+        s,
+        "pipeline health: {} samples; per coefficient updates {:?}",
+        h.samples,
+        h.coefficients.map(|c| c.updates)
+    );
+    s
+}
+
+/// The run's settings and time line.
+fn write_settings(s: &mut String, r: &LongRunReport, wall_s: f64) {
     let c = &r.config;
     let [t1, t2] = c.jumps_s();
     let (c0, c1) = c.calm_s();
@@ -685,11 +706,17 @@ pub fn format_report(r: &LongRunReport, wall_s: f64) -> String {
         t1,
         t2
     );
+}
+
+/// The table of each coefficient's extremes, the worst orthonormality error and where each
+/// largest `|θ|` was reached.
+fn write_extremes(s: &mut String, coefficients: &[CoefficientExtremes; idx::COUNT]) {
+    let names = crate::experiment::COEFFICIENT_NAMES;
     let _ = writeln!(
         s,
         "\ncoef  worst ‖VᵀV−I‖_F   λ_F min–max      k min–max  N_eff max   σ1 max     |θ| max  reorth  refused (est/other)  non-finite  at floor"
     );
-    for (i, e) in r.coefficients.iter().enumerate() {
+    for (i, e) in coefficients.iter().enumerate() {
         let _ = writeln!(
             s,
             "{:<5} {:>14.2e}   {:.4}–{:.4}   {}–{}        {:>9.0}  {:>9.1}  {:>8.3}  {:>6}  {:>6} / {:<10}  {:>10}  {:>8}",
@@ -709,16 +736,12 @@ pub fn format_report(r: &LongRunReport, wall_s: f64) -> String {
             e.at_floor
         );
     }
-    let worst = r
-        .coefficients
-        .iter()
-        .map(|e| e.worst_orthonormality)
-        .fold(0.0, f64::max);
+    let worst = coefficients.iter().map(|e| e.worst_orthonormality).fold(0.0, f64::max);
     let _ = writeln!(
         s,
         "worst orthonormality error of any estimator: {worst:.2e} (bound 1e-5)"
     );
-    for (i, e) in r.coefficients.iter().enumerate() {
+    for (i, e) in coefficients.iter().enumerate() {
         let (t, p, k, sigma) = e.max_abs_theta_at;
         let _ = writeln!(
             s,
@@ -726,8 +749,13 @@ pub fn format_report(r: &LongRunReport, wall_s: f64) -> String {
             names[i], e.max_abs_theta
         );
     }
+}
+
+/// The table of how each changed parameter followed its jump.
+fn write_tracking(s: &mut String, tracking: &[JumpTracking]) {
+    let names = crate::experiment::COEFFICIENT_NAMES;
     let _ = writeln!(s, "\njump  param        truth before → after    estimate before   settled within ¼ of the jump   estimate at phase end");
-    for t in &r.tracking {
+    for t in tracking {
         let _ = writeln!(
             s,
             "{}     {:<12} {:>+9.4} → {:>+9.4}    {:>+9.4}         {:>24}         {:>+9.4}",
@@ -740,18 +768,4 @@ pub fn format_report(r: &LongRunReport, wall_s: f64) -> String {
             t.after
         );
     }
-    let (d, i, p) = r.calm_drift;
-    let _ = writeln!(
-        s,
-        "\ncalm cruise drift (fully excited coefficients): largest parameter change {:.3} of its typical magnitude ({} parameter {})",
-        d, names[i], p
-    );
-    let h = &r.health;
-    let _ = writeln!(
-        s,
-        "pipeline health: {} samples; per coefficient updates {:?}",
-        h.samples,
-        h.coefficients.map(|c| c.updates)
-    );
-    s
 }
