@@ -92,11 +92,33 @@ pub fn write(c: &Campaign, dir: &Path) -> Result<Vec<String>, String> {
     std::fs::create_dir_all(&reports).map_err(|e| format!("{}: {e}", reports.display()))?;
     let settings = &c.levels.apply(GapSettings::default());
     let level_args = c.levels.args();
-    let mut jobs: Vec<Box<dyn Fn() -> Case + Send + Sync + '_>> = Vec::new();
-    // Simulated: the campaign's turbulence, one seeded draw sequence.
+    let mut jobs: Vec<Job<'_>> = Vec::new();
+    sim_jobs(c.draws_per_kind, c.clean, settings, &mut jobs);
+    if let Some(j) = &c.jsbsim {
+        jsbsim_jobs(j, settings, &level_args, &mut jobs)?;
+    }
+    if let Some((data, maps)) = &c.real {
+        real_jobs(data, maps, settings, &level_args, &mut jobs);
+    }
+    if let Some(cards) = &c.cards {
+        card_jobs(cards, dir, settings, &level_args, &mut jobs)?;
+    }
+    let cases = run_jobs(&jobs);
+    let (manifest, mut lines) = write_cases(&cases, &tables, &reports)?;
+    let timing = write_manifest(dir, manifest)?;
+    lines.extend(timing_lines(&timing));
+    Ok(lines)
+}
+
+/// A job of the campaign: one flight or card, analysed on its own thread.
+type Job<'a> = Box<dyn Fn() -> Case + Send + Sync + 'a>;
+
+/// The simulated flights' jobs: `draws_per_kind` rounds over [`HiddenKind::ALL`], then `clean`
+/// clean flights; the campaign's turbulence, one seeded draw sequence.
+fn sim_jobs<'a>(draws_per_kind: usize, clean: usize, settings: &'a GapSettings, jobs: &mut Vec<Job<'a>>) {
     let mut rng = ChaCha8Rng::seed_from_u64(0xB3);
     let mut seed = 20_000u64;
-    for _ in 0..c.draws_per_kind {
+    for _ in 0..draws_per_kind {
         for k in HiddenKind::ALL {
             let e = k.draw(&mut rng);
             seed += 1;
@@ -104,68 +126,84 @@ pub fn write(c: &Campaign, dir: &Path) -> Result<Vec<String>, String> {
             jobs.push(Box::new(move || sim_case(Some(e), s, settings)));
         }
     }
-    for _ in 0..c.clean {
+    for _ in 0..clean {
         seed += 1;
         let s = seed;
         jobs.push(Box::new(move || sim_case(None, s, settings)));
     }
-    if let Some(j) = &c.jsbsim {
-        let truth_path = j.join("truth.json");
-        let text = std::fs::read_to_string(&truth_path).map_err(|e| format!("{}: {e}", truth_path.display()))?;
-        let truth: Value = serde_json::from_str(&text).map_err(|e| format!("{}: {e}", truth_path.display()))?;
-        let flights = truth["flights"]
-            .as_object()
-            .ok_or_else(|| format!("{}: no `flights` object", truth_path.display()))?
-            .clone();
-        for (file, t) in flights {
-            let (csv, aircraft) = (j.join(&file), j.join("c172x.aircraft"));
-            let planted = match &t["planted"] {
-                Value::Null => json!([]),
-                p => json!([p]),
-            };
-            let effects = t["table_effects"].clone();
-            let id = format!("jsbsim/{}", file.trim_end_matches(".csv"));
-            let reproduce = format!(
-                "aerosid gaps --data {} --with {}{}",
-                csv.display(),
-                aircraft.display(),
-                level_args
-            );
-            jobs.push(Box::new(move || Case {
-                id: id.clone(),
-                suite: "jsbsim",
-                planted: planted.clone(),
-                table_effects: effects.clone(),
-                reproduce: reproduce.clone(),
-                result: analyse(&csv, &aircraft, settings),
-                pooled: None,
-            }));
-        }
+}
+
+/// The vendored JSBSim flights' jobs (`truth.json`'s `flights`).
+fn jsbsim_jobs<'a>(
+    j: &Path,
+    settings: &'a GapSettings,
+    level_args: &str,
+    jobs: &mut Vec<Job<'a>>,
+) -> Result<(), String> {
+    let (truth, truth_path) = read_truth(j)?;
+    for (file, t) in truth_object(&truth, "flights", &truth_path)? {
+        let flight = FlightFile {
+            id: format!("jsbsim/{}", file.trim_end_matches(".csv")),
+            suite: "jsbsim",
+            planted: planted_list(&t["planted"]),
+            table_effects: t["table_effects"].clone(),
+            data: j.join(&file),
+            companion: j.join("c172x.aircraft"),
+        };
+        jobs.push(flight.job(settings, level_args));
     }
-    if let Some((data, maps)) = &c.real {
-        for (file, map) in REAL_FLIGHTS {
-            let (d, m) = (data.join(file), maps.join(map));
-            let id = format!("real/{}", file.trim_end_matches(".asc"));
-            let reproduce = format!(
-                "aerosid gaps --data {} --with {}{}",
-                d.display(),
-                m.display(),
-                level_args
-            );
-            jobs.push(Box::new(move || Case {
-                id: id.clone(),
-                suite: "real",
-                planted: Value::Null,
-                table_effects: Value::Null,
-                reproduce: reproduce.clone(),
-                result: analyse(&d, &m, settings),
-                pooled: None,
-            }));
-        }
+    Ok(())
+}
+
+/// The real flight-test files' jobs ([`REAL_FLIGHTS`] in `data`, their maps in `maps`).
+fn real_jobs<'a>(data: &Path, maps: &Path, settings: &'a GapSettings, level_args: &str, jobs: &mut Vec<Job<'a>>) {
+    for (file, map) in REAL_FLIGHTS {
+        let flight = FlightFile {
+            id: format!("real/{}", file.trim_end_matches(".asc")),
+            suite: "real",
+            planted: Value::Null,
+            table_effects: Value::Null,
+            data: data.join(file),
+            companion: maps.join(map),
+        };
+        jobs.push(flight.job(settings, level_args));
     }
-    if let Some(cards) = &c.cards {
-        card_jobs(cards, dir, settings, &level_args, &mut jobs)?;
+}
+
+/// One flight file of the campaign, analysed alone with its companion file (the aircraft or
+/// the column map).
+struct FlightFile {
+    id: String,
+    suite: &'static str,
+    planted: Value,
+    table_effects: Value,
+    data: PathBuf,
+    companion: PathBuf,
+}
+
+impl FlightFile {
+    /// Its job, and the `aerosid gaps` command line that repeats it.
+    fn job<'a>(self, settings: &'a GapSettings, level_args: &str) -> Job<'a> {
+        let reproduce = format!(
+            "aerosid gaps --data {} --with {}{}",
+            self.data.display(),
+            self.companion.display(),
+            level_args
+        );
+        Box::new(move || Case {
+            id: self.id.clone(),
+            suite: self.suite,
+            planted: self.planted.clone(),
+            table_effects: self.table_effects.clone(),
+            reproduce: reproduce.clone(),
+            result: analyse(&self.data, &self.companion, settings),
+            pooled: None,
+        })
     }
+}
+
+/// Every job, in parallel (one thread each), with a progress bar; the cases in the jobs' order.
+fn run_jobs(jobs: &[Job<'_>]) -> Vec<Case> {
     let bar = crate::progress::bar(jobs.len() as u64, "flights analysed");
     let cases: Vec<Case> = jobs
         .par_iter()
@@ -176,9 +214,15 @@ pub fn write(c: &Campaign, dir: &Path) -> Result<Vec<String>, String> {
         })
         .collect();
     bar.finish_and_clear();
+    cases
+}
+
+/// Each analysed case's regression table (in `tables`) and report (in `reports`) written; its
+/// manifest entry, and one line per case (errors included).
+fn write_cases(cases: &[Case], tables: &Path, reports: &Path) -> Result<(Vec<Value>, Vec<String>), String> {
     let mut manifest = Vec::new();
     let mut lines = Vec::new();
-    for case in &cases {
+    for case in cases {
         match &case.result {
             Err(e) => lines.push(format!("{:<40} ERROR {e}", case.id)),
             Ok((r, t)) => {
@@ -208,6 +252,11 @@ pub fn write(c: &Campaign, dir: &Path) -> Result<Vec<String>, String> {
             }
         }
     }
+    Ok((manifest, lines))
+}
+
+/// `dir/manifest.json` and `dir/timing.json` written; the timing summary.
+fn write_manifest(dir: &Path, manifest: Vec<Value>) -> Result<Value, String> {
     let m = dir.join("manifest.json");
     let timing = timing_summary(&manifest);
     let text = serde_json::to_string_pretty(&Value::Array(manifest)).map_err(|e| e.to_string())?;
@@ -215,22 +264,27 @@ pub fn write(c: &Campaign, dir: &Path) -> Result<Vec<String>, String> {
     let t = dir.join("timing.json");
     let text = serde_json::to_string_pretty(&timing).map_err(|e| e.to_string())?;
     std::fs::write(&t, text).map_err(|e| format!("{}: {e}", t.display()))?;
-    if let Some(suites) = timing["suites"].as_object() {
-        for (suite, v) in suites {
-            lines.push(format!(
+    Ok(timing)
+}
+
+/// One line per suite of the timing summary.
+fn timing_lines(timing: &Value) -> Vec<String> {
+    let Some(suites) = timing["suites"].as_object() else {
+        return Vec::new();
+    };
+    suites
+        .iter()
+        .map(|(suite, v)| {
+            format!(
                 "{suite}: median {:.3} s ({:.3} s CPU) per flight over {} flights ({} threads)",
                 v["median_s"].as_f64().unwrap_or(f64::NAN),
                 v["median_cpu_s"].as_f64().unwrap_or(f64::NAN),
                 v["flights"],
                 timing["threads"]
-            ));
-        }
-    }
-    Ok(lines)
+            )
+        })
+        .collect()
 }
-
-/// A job of the campaign: one flight or card, analysed on its own thread.
-type Job<'a> = Box<dyn Fn() -> Case + Send + Sync + 'a>;
 
 /// The card suites' jobs: the simulated cards are flown and written here (into
 /// `dir/cards/<id>/`, so that each campaign's files can be analysed again by hand), analysed in
