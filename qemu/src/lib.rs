@@ -47,7 +47,7 @@ use aerosid_core::mavlink::messages::{Attitude, Rpm, ServoOutputRaw};
 use aerosid_core::mavlink::telemetry::HealthReport;
 use aerosid_core::mavlink::{telemetry::reports, CoefficientReport, Encoder, MavlinkSurfaces, Message, Parser};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
+use std::process::{Command, ExitStatus, Stdio};
 use std::time::{Duration, Instant};
 
 use aerosid_core::harness::{fault_chip, fault_kind};
@@ -200,6 +200,26 @@ pub fn run(elf: &Path, samples: &[SensorSample<f32>], dir: &Path, timeout: Durat
 
 /// [`run`] with the scenario's faults and autopilot stream.
 pub fn run_scenario(elf: &Path, scenario: &Scenario<'_>, dir: &Path, timeout: Duration) -> Result<QemuRun, QemuError> {
+    write_inputs(scenario, dir)?;
+    let defmt_path = dir.join("defmt.bin");
+    let status = run_qemu(elf, dir, &defmt_path, timeout)?;
+    let telemetry = read_telemetry(&dir.join("telemetry.bin"))?;
+    let counts = read_counts(&dir.join("icount.bin"))?;
+    let log = decode_defmt(elf, &defmt_path).unwrap_or_default();
+    Ok(QemuRun {
+        reports: telemetry.reports,
+        health: telemetry.health,
+        frames: telemetry.frames,
+        counters: telemetry.counters,
+        counts,
+        log,
+        exit_code: status.code(),
+    })
+}
+
+/// The scenario's files in the scratch folder `dir` (`replay.bin`, and `faults.bin` and
+/// `autopilot.bin` when it has them), the outputs of an earlier run removed.
+fn write_inputs(scenario: &Scenario<'_>, dir: &Path) -> Result<(), QemuError> {
     std::fs::create_dir_all(dir).map_err(io(dir))?;
     write_replay(&dir.join("replay.bin"), scenario.samples)?;
     for f in [
@@ -224,8 +244,13 @@ pub fn run_scenario(elf: &Path, scenario: &Scenario<'_>, dir: &Path, timeout: Du
         }
         std::fs::write(&p, bytes).map_err(io(&p))?;
     }
-    let defmt_path = dir.join("defmt.bin");
-    let defmt_out = std::fs::File::create(&defmt_path).map_err(io(&defmt_path))?;
+    Ok(())
+}
+
+/// QEMU on `elf` in `dir` (module doc), its defmt stream into `defmt_path`, until it exits or
+/// `timeout` passes (then killed, an error).
+fn run_qemu(elf: &Path, dir: &Path, defmt_path: &Path, timeout: Duration) -> Result<ExitStatus, QemuError> {
+    let defmt_out = std::fs::File::create(defmt_path).map_err(io(defmt_path))?;
     let mut child = Command::new("qemu-system-arm")
         .current_dir(dir)
         .args([
@@ -253,9 +278,9 @@ pub fn run_scenario(elf: &Path, scenario: &Scenario<'_>, dir: &Path, timeout: Du
             ))
         })?;
     let start = Instant::now();
-    let status = loop {
+    loop {
         match child.try_wait() {
-            Ok(Some(s)) => break s,
+            Ok(Some(s)) => return Ok(s),
             Ok(None) if start.elapsed() > timeout => {
                 let _ = child.kill();
                 let _ = child.wait();
@@ -264,10 +289,21 @@ pub fn run_scenario(elf: &Path, scenario: &Scenario<'_>, dir: &Path, timeout: Du
             Ok(None) => std::thread::sleep(Duration::from_millis(20)),
             Err(e) => return Err(QemuError::Tool(format!("waiting for QEMU: {e}"))),
         }
-    };
+    }
+}
 
-    let tel_path = dir.join("telemetry.bin");
-    let tel = std::fs::read(&tel_path).map_err(io(&tel_path))?;
+/// What the telemetry UART carried: the last report of each coefficient and of the health, the
+/// frames received and rejected, the last value of each named counter.
+struct Telemetry {
+    reports: [Option<CoefficientReport>; idx::COUNT],
+    health: Option<HealthReport>,
+    frames: (u32, u32),
+    counters: std::collections::BTreeMap<String, f32>,
+}
+
+/// The telemetry file parsed ([`Telemetry`]).
+fn read_telemetry(tel_path: &Path) -> Result<Telemetry, QemuError> {
+    let tel = std::fs::read(tel_path).map_err(io(tel_path))?;
     let mut parser = Parser::new();
     let mut last: [Option<CoefficientReport>; idx::COUNT] = [None; idx::COUNT];
     let mut health = None;
@@ -291,10 +327,19 @@ pub fn run_scenario(elf: &Path, scenario: &Scenario<'_>, dir: &Path, timeout: Du
         }
     });
     let rejected = parser.stats().bad_crc.saturating_add(parser.stats().bad_length);
+    Ok(Telemetry {
+        reports: last,
+        health,
+        frames: (frames, rejected),
+        counters,
+    })
+}
 
-    let cnt_path = dir.join("icount.bin");
-    let raw = std::fs::read(&cnt_path).map_err(io(&cnt_path))?;
-    let counts = raw
+/// The instruction counts per processed sample (`icount.bin`: [`PROBES`] little-endian `u32`
+/// per sample).
+fn read_counts(cnt_path: &Path) -> Result<Vec<[u32; PROBES]>, QemuError> {
+    let raw = std::fs::read(cnt_path).map_err(io(cnt_path))?;
+    Ok(raw
         .chunks_exact(4 * PROBES)
         .map(|rec| {
             let mut c = [0u32; PROBES];
@@ -303,18 +348,7 @@ pub fn run_scenario(elf: &Path, scenario: &Scenario<'_>, dir: &Path, timeout: Du
             }
             c
         })
-        .collect();
-
-    let log = decode_defmt(elf, &defmt_path).unwrap_or_default();
-    Ok(QemuRun {
-        reports: last,
-        health,
-        frames: (frames, rejected),
-        counters,
-        counts,
-        log,
-        exit_code: status.code(),
-    })
+        .collect())
 }
 
 /// Decodes the defmt stream with `defmt-print` (`cargo install defmt-print --locked`), if installed.
