@@ -724,32 +724,8 @@ fn as_oracle<E: core::fmt::Debug>(
         assert!(matches!(r, Err(E::Bus(_))), "{r:?}");
         return;
     }
-    let status = log[0].reads[0];
-    match status & 0x38 {
-        0x20 => {}
-        0x10 | 0x30 => {
-            c.weak += 1;
-            assert!(matches!(r, Err(E::MagnetTooWeak)), "status {status:#x}: {r:?}");
-            return;
-        }
-        0x08 | 0x28 => {
-            c.strong += 1;
-            assert!(matches!(r, Err(E::MagnetTooStrong)), "status {status:#x}: {r:?}");
-            return;
-        }
-        0x00 => {
-            c.missing += 1;
-            assert!(matches!(r, Err(E::MagnetMissing)), "status {status:#x}: {r:?}");
-            return;
-        }
-        _ => {
-            c.missing += 1;
-            assert!(
-                matches!(r, Err(E::InvalidStatus(b)) if b == status),
-                "status {status:#x}: {r:?}"
-            );
-            return;
-        }
+    if !as_magnet_ok(log[0].reads[0], &r, c) {
+        return;
     }
     if !log[1].ok {
         c.bus += 1;
@@ -762,6 +738,52 @@ fn as_oracle<E: core::fmt::Debug>(
         assert_eq!(r.map(|x| x.0).ok(), Some(raw), "raw count");
         return;
     }
+    as_angle_oracle(raw, r, cfg, c);
+}
+
+/// Whether the STATUS byte says the magnet is in range (the read goes on); otherwise the error
+/// the driver must give for it, counted.
+fn as_magnet_ok<T: core::fmt::Debug, E: core::fmt::Debug>(
+    status: u8,
+    r: &Result<T, as5600::Error<E>>,
+    c: &mut AsCounts,
+) -> bool {
+    use as5600::Error as E;
+    match status & 0x38 {
+        0x20 => return true,
+        0x10 | 0x30 => {
+            c.weak += 1;
+            assert!(matches!(r, Err(E::MagnetTooWeak)), "status {status:#x}: {r:?}");
+        }
+        0x08 | 0x28 => {
+            c.strong += 1;
+            assert!(matches!(r, Err(E::MagnetTooStrong)), "status {status:#x}: {r:?}");
+        }
+        0x00 => {
+            c.missing += 1;
+            assert!(matches!(r, Err(E::MagnetMissing)), "status {status:#x}: {r:?}");
+        }
+        _ => {
+            c.missing += 1;
+            assert!(
+                matches!(r, Err(E::InvalidStatus(b)) if *b == status),
+                "status {status:#x}: {r:?}"
+            );
+        }
+    }
+    false
+}
+
+/// The angle of `raw` under `cfg` (wrap-around, direction, scale; in `f64`) against the driver's
+/// result: accepted inside `[min, max]` and above −π, refused outside (either within 1e-5 of an
+/// edge), counted.
+fn as_angle_oracle<E: core::fmt::Debug>(
+    raw: u16,
+    r: Result<(u16, Option<f32>), as5600::Error<E>>,
+    cfg: &VaneConfig,
+    c: &mut AsCounts,
+) {
+    use as5600::Error as E;
     let mut d = (i32::from(raw) - i32::from(cfg.zero_count)).rem_euclid(4096);
     if d > 2048 {
         d -= 4096;
