@@ -572,6 +572,13 @@ fn icm_read_oracle<E: core::fmt::Debug>(
         panic!("a good burst refused: {r:?}");
     };
     c.ok += 1;
+    icm_check_reading(reading, t, &a, &g, cfg);
+}
+
+/// A reading accepted from the burst's temperature `t`, accelerometer `a` and gyro `g` words:
+/// each axis scaled by the configured full scale and mapped to the body axes, the temperature
+/// `t/132.48 + 25` °C, all within the rounding of `f32`.
+fn icm_check_reading(reading: &icm42688::Reading, t: i16, a: &[i16; 3], g: &[i16; 3], cfg: &icm42688::Config) {
     let g_fs: f64 = [2000.0, 1000.0, 500.0, 250.0][cfg.gyro_range as usize];
     let a_fs = [16.0, 8.0, 4.0, 2.0][cfg.accel_range as usize];
     let av = a.map(|x| f64::from(x) * a_fs * 9.80665 / 32768.0);
