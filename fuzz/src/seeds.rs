@@ -20,8 +20,22 @@ use aerosid_core::mavlink::Encoder;
 use aerosid_read::log;
 use aerosid_sim::{self as sim, SimConfig};
 
-/// `(target, file name, bytes)` of every seed.
-pub fn all() -> Vec<(&'static str, String, Vec<u8>)> {
+/// One seed: `(target, file name, bytes)`.
+type Seed = (&'static str, String, Vec<u8>);
+
+/// Every seed.
+pub fn all() -> Vec<Seed> {
+    let mut out = core_target_seeds();
+    let samples = flight(0.3);
+    out.extend(project_csv_seeds(&samples));
+    out.extend(shipped_text_seeds());
+    out.push(("read_ulog", "flight.ulg".into(), ulog(&samples)));
+    out.extend(vendored_binary_seeds());
+    out
+}
+
+/// The seeds of the core targets (`gtls`, `pipeline`, `drivers`, `mavlink`) and the regressions.
+fn core_target_seeds() -> Vec<Seed> {
     let mut out = Vec::new();
     for (name, bytes) in gtls() {
         out.push(("gtls", name, bytes));
@@ -44,13 +58,26 @@ pub fn all() -> Vec<(&'static str, String, Vec<u8>)> {
         "regression-ms4525do-speed-underflow".into(),
         include_bytes!("../regressions/drivers/ms4525do-speed-underflow").to_vec(),
     ));
-    let samples = flight(0.3);
+    out
+}
+
+/// The simulated flight `samples` in the project's CSV layout: all columns (`read_log`,
+/// `read_project_csv`) and a subset (`read_project_csv`); none if it cannot be written.
+fn project_csv_seeds(samples: &[aerosid_core::aero::SensorSample<f64>]) -> Vec<Seed> {
+    let mut out = Vec::new();
     let mut csv = Vec::new();
-    if log::write_log(&mut csv, "seed.csv", &samples).is_ok() {
+    if log::write_log(&mut csv, "seed.csv", samples).is_ok() {
         out.push(("read_log", "flight.csv".into(), csv.clone()));
         out.push(("read_project_csv", "flight.csv".into(), csv.clone()));
         out.push(("read_project_csv", "subset.csv".into(), subset_csv(&csv)));
     }
+    out
+}
+
+/// The shipped aircraft files, and each shipped map with the first lines of its vendored
+/// flight-test file.
+fn shipped_text_seeds() -> Vec<Seed> {
+    let mut out = Vec::new();
     let aircraft = [
         ("attas", include_str!("../../tool/data/aircraft/attas.aircraft")),
         ("hfb320", include_str!("../../tool/data/aircraft/hfb320.aircraft")),
@@ -84,7 +111,12 @@ pub fn all() -> Vec<(&'static str, String, Vec<u8>)> {
         let text = format!("{map}{}{lines}", crate::readers::MAP_DATA_SEPARATOR);
         out.push(("read_colmap_ascii", format!("{n}.txt"), text.into_bytes()));
     }
-    out.push(("read_ulog", "flight.ulg".into(), ulog(&samples)));
+    out
+}
+
+/// The vendored binary logs: the first bytes of the two ArduPlane logs and the Twin Otter `.mat`.
+fn vendored_binary_seeds() -> Vec<Seed> {
+    let mut out = Vec::new();
     // The two vendored ArduPlane logs, 3.8 (no FMTU) and 4.2 (FMTU/UNIT/MULT), their first bytes:
     // the FMT definitions, the parameters and the first seconds of messages, so each run is quick.
     let dataflash: [(&str, &[u8], usize); 2] = [
