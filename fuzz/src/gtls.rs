@@ -76,16 +76,49 @@ fn largest<T: Real>() -> T {
 }
 
 fn fuzz<T: Real + Debug, const NT: usize, const NE: usize, const NA: usize>(setup: u8, inp: &mut Input<'_>) {
-    let bound = match (setup >> 5) & 3 {
+    let Some((est, cx)) = estimator::<T, NT, NE, NA>(setup, inp) else {
+        return;
+    };
+    let mut feed = Feed::new(est, cx);
+    while !inp.is_empty() && feed.steps < MAX_STEPS {
+        let op = inp.u8();
+        match op % 8 {
+            0..=2 => feed.explicit_sample(op, inp),
+            3 => {
+                let n = usize::from(inp.u8()) + 1;
+                feed.repeat_last(n);
+            }
+            4 => {
+                let k = i32::from(inp.u8() as i8) % 30;
+                feed.scale = (feed.scale * 10f64.powi(k)).clamp(1e-30, 1e30);
+            }
+            5 => feed.linear_block(op, inp),
+            6 => feed.stuck = inp.u8(),
+            _ => {
+                let n = usize::from(inp.u16() % 2048);
+                feed.repeat_last(n);
+            }
+        }
+    }
+    assert_state_finite("gtls at the end", &feed.est);
+}
+
+/// The input bound (bits 5–6 of the set-up byte).
+fn input_bound<T: Real>(setup: u8) -> T {
+    match (setup >> 5) & 3 {
         0 | 3 => T::lit(1e6),
         1 => T::lit(1e30),
         _ => largest::<T>(),
-    };
-    let (forgetting, lambda) = match (setup >> 3) & 3 {
+    }
+}
+
+/// The forgetting (bits 3–4 of the set-up byte) and the `λ` it allows.
+fn forgetting<T: Real>(setup: u8, nt: usize) -> (Forgetting<T>, LambdaRange<T>) {
+    match (setup >> 3) & 3 {
         0 => (Forgetting::Constant(T::one()), LambdaRange::Constant(T::one())),
         1 => (Forgetting::Constant(T::lit(0.98)), LambdaRange::Constant(T::lit(0.98))),
         2 => {
-            let v = VffSettings::for_dimension(NT);
+            let v = VffSettings::for_dimension(nt);
             (
                 Forgetting::Variable(v),
                 LambdaRange::Between(v.lambda_min, v.lambda_max),
@@ -98,7 +131,11 @@ fn fuzz<T: Real + Debug, const NT: usize, const NE: usize, const NA: usize>(setu
                 LambdaRange::Between(v.lambda_min, v.lambda_max),
             )
         }
-    };
+    }
+}
+
+/// `W_T = D^½ L Lᵀ D^½` from the input (module doc), in `f64`.
+fn noise_covariance<const NA: usize>(inp: &mut Input<'_>) -> SMatrix<f64, NA, NA> {
     let d: [f64; NA] = core::array::from_fn(|_| 10f64.powi(-i32::from(inp.u8() % 8)));
     let mut l = SMatrix::<f64, NA, NA>::identity();
     for i in 0..NA {
@@ -107,8 +144,19 @@ fn fuzz<T: Real + Debug, const NT: usize, const NE: usize, const NA: usize>(setu
         }
     }
     let dh = SMatrix::<f64, NA, NA>::from_fn(|i, j| if i == j { d[i].sqrt() } else { 0.0 });
-    let w_t64 = dh * l * l.transpose() * dh;
-    let w_t = w_t64.map(T::lit);
+    dh * l * l.transpose() * dh
+}
+
+/// The estimator the set-up byte and the input's `W_T`, weight and `s/n` bytes describe, and what
+/// its invariants need; `None` when it is refused as not positive definite (the documented
+/// refusal).
+fn estimator<T: Real + Debug, const NT: usize, const NE: usize, const NA: usize>(
+    setup: u8,
+    inp: &mut Input<'_>,
+) -> Option<(Gtls<T, NT, NE, NA>, Context<T>)> {
+    let bound = input_bound(setup);
+    let (forgetting, lambda) = forgetting(setup, NT);
+    let w_t = noise_covariance::<NA>(inp).map(T::lit);
     let weights = SVector::<T, NT>::from_fn(|_, _| T::lit(10f64.powi(i32::from(inp.u8() % 7) - 3)));
     let snr = T::lit(f64::from(inp.u8() % 4) * 0.5);
     let settings = GtlsSettings {
@@ -117,97 +165,115 @@ fn fuzz<T: Real + Debug, const NT: usize, const NE: usize, const NA: usize>(setu
         reorth_tol: T::zero(),
         forgetting,
     };
-    let mut est = match Gtls::<T, NT, NE, NA>::new(&w_t, &weights, settings) {
-        Ok(e) => e,
+    match Gtls::<T, NT, NE, NA>::new(&w_t, &weights, settings) {
+        Ok(est) => Some((
+            est,
+            Context {
+                bound,
+                lambda,
+                updates: 0,
+            },
+        )),
         // W_T is SPD by construction, but rounding to f32 of a badly scaled one may not be: a
         // refusal at construction is the documented behaviour.
-        Err(Error::NotPositiveDefinite) => return,
+        Err(Error::NotPositiveDefinite) => None,
         Err(e) => panic!("valid settings refused: {e:?}"),
-    };
-    let mut cx = Context {
-        bound,
-        lambda,
-        updates: 0,
-    };
-    let mut last = (SVector::<T, NT>::zeros(), T::zero());
-    if NE > 0 {
-        last.0[0] = T::one();
     }
-    let mut scale = 1.0f64;
-    let mut stuck: u8 = 0;
-    let mut steps = 0usize;
-    while !inp.is_empty() && steps < MAX_STEPS {
-        let op = inp.u8();
-        match op % 8 {
-            0..=2 => {
-                let mut x = SVector::<T, NT>::zeros();
-                for i in 0..NT {
-                    x[i] = scalar::<T>(inp, scale, bound.to_f64()).0;
-                }
-                let z = scalar::<T>(inp, scale, bound.to_f64()).0;
-                if NE > 0 && op & 0x80 == 0 {
-                    x[0] = T::one();
-                }
-                if op & 0x40 != 0 && NT >= 2 {
-                    // Exactly collinear: x_j = c·x_i.
-                    let (i, j) = (NE + (op as usize >> 3) % (NT - NE), NT - 1);
-                    x[j] = x[i] * T::lit(f64::from(inp.u8() as i8) / 16.0);
-                }
-                last = (x, z);
-                step(&mut est, &x, z, &mut cx);
-                steps += 1;
-            }
-            3 => {
-                let n = usize::from(inp.u8()) + 1;
-                for _ in 0..n.min(MAX_STEPS - steps) {
-                    step(&mut est, &last.0, last.1, &mut cx);
-                    steps += 1;
-                }
-            }
-            4 => {
-                let k = i32::from(inp.u8() as i8) % 30;
-                scale = (scale * 10f64.powi(k)).clamp(1e-30, 1e30);
-            }
-            5 => {
-                let seed = u64::from(inp.u32());
-                let len = usize::from(inp.u8()) * 4 + 1;
-                let theta: [f64; NT] = core::array::from_fn(|_| f64::from(inp.u8() as i8) / 16.0);
-                let noise = 10f64.powi(-i32::from(inp.u8() % 10));
-                let collinear = op & 0x80 != 0;
-                let mut g = Gen::new(seed);
-                for _ in 0..len.min(MAX_STEPS - steps) {
-                    let mut x = SVector::<T, NT>::zeros();
-                    let mut z = 0.0;
-                    for i in 0..NT {
-                        let v = if i < NE {
-                            1.0
-                        } else if stuck & (1 << i) != 0 {
-                            0.0
-                        } else if collinear && i == NT - 1 && NT - NE >= 2 {
-                            2.0 * x[NE].to_f64()
-                        } else {
-                            g.normal() * scale
-                        };
-                        x[i] = T::lit(v);
-                        z += v * theta[i];
-                    }
-                    let z = T::lit(z + noise * scale * g.normal());
-                    last = (x, z);
-                    step(&mut est, &x, z, &mut cx);
-                    steps += 1;
-                }
-            }
-            6 => stuck = inp.u8(),
-            _ => {
-                let n = usize::from(inp.u16() % 2048);
-                for _ in 0..n.min(MAX_STEPS - steps) {
-                    step(&mut est, &last.0, last.1, &mut cx);
-                    steps += 1;
-                }
-            }
+}
+
+/// The estimator being fed, with what the operations carry from one to the next.
+struct Feed<T: Real, const NT: usize, const NE: usize, const NA: usize> {
+    est: Gtls<T, NT, NE, NA>,
+    cx: Context<T>,
+    /// The last sample fed.
+    last: (SVector<T, NT>, T),
+    /// The scale of ordinary values.
+    scale: f64,
+    /// Bit `i`: column `i` stuck at 0 in linear blocks.
+    stuck: u8,
+    /// Updates so far.
+    steps: usize,
+}
+
+impl<T: Real + Debug, const NT: usize, const NE: usize, const NA: usize> Feed<T, NT, NE, NA> {
+    fn new(est: Gtls<T, NT, NE, NA>, cx: Context<T>) -> Self {
+        let mut last = (SVector::<T, NT>::zeros(), T::zero());
+        if NE > 0 {
+            last.0[0] = T::one();
+        }
+        Self {
+            est,
+            cx,
+            last,
+            scale: 1.0,
+            stuck: 0,
+            steps: 0,
         }
     }
-    assert_state_finite("gtls at the end", &est);
+
+    fn step(&mut self, x: SVector<T, NT>, z: T) {
+        self.last = (x, z);
+        step(&mut self.est, &x, z, &mut self.cx);
+        self.steps += 1;
+    }
+
+    /// One sample, every element from [`scalar`]; the intercept unless `op` bit 7; an exactly
+    /// collinear pair (`x_j = c·x_i`) if bit 6.
+    fn explicit_sample(&mut self, op: u8, inp: &mut Input<'_>) {
+        let bound = self.cx.bound.to_f64();
+        let mut x = SVector::<T, NT>::zeros();
+        for i in 0..NT {
+            x[i] = scalar::<T>(inp, self.scale, bound).0;
+        }
+        let z = scalar::<T>(inp, self.scale, bound).0;
+        if NE > 0 && op & 0x80 == 0 {
+            x[0] = T::one();
+        }
+        if op & 0x40 != 0 && NT >= 2 {
+            // Exactly collinear: x_j = c·x_i.
+            let (i, j) = (NE + (op as usize >> 3) % (NT - NE), NT - 1);
+            x[j] = x[i] * T::lit(f64::from(inp.u8() as i8) / 16.0);
+        }
+        self.step(x, z);
+    }
+
+    /// The last sample again, `n` times (fewer at [`MAX_STEPS`]).
+    fn repeat_last(&mut self, n: usize) {
+        for _ in 0..n.min(MAX_STEPS - self.steps) {
+            let (x, z) = self.last;
+            self.step(x, z);
+        }
+    }
+
+    /// A block of samples of a linear model with seeded noise (optionally a column stuck at 0
+    /// and, if `op` bit 7, an exactly collinear pair).
+    fn linear_block(&mut self, op: u8, inp: &mut Input<'_>) {
+        let seed = u64::from(inp.u32());
+        let len = usize::from(inp.u8()) * 4 + 1;
+        let theta: [f64; NT] = core::array::from_fn(|_| f64::from(inp.u8() as i8) / 16.0);
+        let noise = 10f64.powi(-i32::from(inp.u8() % 10));
+        let collinear = op & 0x80 != 0;
+        let mut g = Gen::new(seed);
+        for _ in 0..len.min(MAX_STEPS - self.steps) {
+            let mut x = SVector::<T, NT>::zeros();
+            let mut z = 0.0;
+            for i in 0..NT {
+                let v = if i < NE {
+                    1.0
+                } else if self.stuck & (1 << i) != 0 {
+                    0.0
+                } else if collinear && i == NT - 1 && NT - NE >= 2 {
+                    2.0 * x[NE].to_f64()
+                } else {
+                    g.normal() * self.scale
+                };
+                x[i] = T::lit(v);
+                z += v * theta[i];
+            }
+            let z = T::lit(z + noise * self.scale * g.normal());
+            self.step(x, z);
+        }
+    }
 }
 
 /// The refusal `check_sample` must give: the first non-finite or out-of-range element.

@@ -131,73 +131,116 @@ struct Counts {
     samples: u64,
 }
 
-fn fuzz<T: Real + Debug>(mut p: Pipeline<T>, inp: &mut Input<'_>) {
-    let seed = inp.u64();
-    let mut sig = Signals::new(seed);
-    let lambda = lambda_range(&p.settings().gtls.forgetting);
-    let mut counts = Counts {
-        updates: [0; idx::COUNT],
-        samples: 0,
-    };
-    let mut last: SensorSample<T> = sig.next();
-    while !inp.is_empty() && (counts.samples as usize) < MAX_STEPS {
+fn fuzz<T: Real + Debug>(p: Pipeline<T>, inp: &mut Input<'_>) {
+    let mut feed = Feed::new(p, inp.u64());
+    while !inp.is_empty() && (feed.counts.samples as usize) < MAX_STEPS {
         let op = inp.u8();
-        let budget = MAX_STEPS - counts.samples as usize;
+        let budget = MAX_STEPS - feed.counts.samples as usize;
         match op % 8 {
             0..=2 => {
                 let n = (usize::from(inp.u8()) + 1).min(budget);
-                for _ in 0..n {
-                    last = sig.next();
-                    step(&mut p, &last, lambda, &mut counts);
-                }
+                feed.ordinary(n);
             }
-            3 | 4 => {
-                let mask = inp.u32() & ((1 << SAMPLE_FIELDS) - 1);
-                let mut f = sig.next::<T>().to_fields();
-                for (i, v) in f.iter_mut().enumerate() {
-                    if mask & (1 << i) != 0 {
-                        let scale = (TRIM[i].abs() + AMPLITUDE[i]).max(1e-3);
-                        *v = scalar::<T>(inp, scale, 1e6).0;
-                    }
-                }
-                last = SensorSample::from_fields(&f);
-                step(&mut p, &last, lambda, &mut counts);
-            }
+            3 | 4 => feed.special_values(inp),
             5 => {
                 let n = (usize::from(inp.u8()) + 1).min(budget);
-                let frozen_time = op & 0x80 != 0;
-                for _ in 0..n {
-                    if !frozen_time {
-                        let t = sig.next::<T>();
-                        last.t_s = t.t_s;
-                        last.dt_s = t.dt_s;
-                    }
-                    step(&mut p, &last, lambda, &mut counts);
-                }
+                feed.repeat_last(n, op & 0x80 != 0);
             }
             6 => {
                 let field = usize::from(inp.u8()) % SAMPLE_FIELDS;
-                sig.frozen[field] = Some(last.to_fields()[field].to_f64());
-                sig.frozen_left = usize::from(inp.u16() % 1024);
+                feed.sig.frozen[field] = Some(feed.last.to_fields()[field].to_f64());
+                feed.sig.frozen_left = usize::from(inp.u16() % 1024);
             }
-            _ => {
-                let mut s = sig.next::<T>();
-                match inp.u8() % 6 {
-                    0 => s.dt_s = T::zero(),
-                    1 => s.dt_s *= T::lit(2.0),
-                    2 => s.dt_s = -s.dt_s,
-                    3 => s.dt_s = T::lit(f64::NAN),
-                    4 => s.dt_s = T::lit(1e6),
-                    _ => {
-                        s.t_s -= T::lit(f64::from(inp.u8()));
-                    }
-                }
-                last = s;
-                step(&mut p, &last, lambda, &mut counts);
-            }
+            _ => feed.timing_fault(inp),
         }
     }
-    assert_state_finite("pipeline at the end", &p);
+    assert_state_finite("pipeline at the end", &feed.p);
+}
+
+/// The pipeline being fed, the signals it is fed from and what the checks count.
+struct Feed<T: Real> {
+    p: Pipeline<T>,
+    sig: Signals,
+    lambda: LambdaRange<T>,
+    counts: Counts,
+    /// The last sample fed.
+    last: SensorSample<T>,
+}
+
+impl<T: Real + Debug> Feed<T> {
+    /// `p` fed from signals of `seed` (the first sample drawn as the last one).
+    fn new(p: Pipeline<T>, seed: u64) -> Self {
+        let mut sig = Signals::new(seed);
+        let lambda = lambda_range(&p.settings().gtls.forgetting);
+        let last = sig.next();
+        Self {
+            p,
+            sig,
+            lambda,
+            counts: Counts {
+                updates: [0; idx::COUNT],
+                samples: 0,
+            },
+            last,
+        }
+    }
+
+    fn step(&mut self, s: SensorSample<T>) {
+        self.last = s;
+        step(&mut self.p, &self.last, self.lambda, &mut self.counts);
+    }
+
+    /// `n` ordinary samples.
+    fn ordinary(&mut self, n: usize) {
+        for _ in 0..n {
+            let s = self.sig.next();
+            self.step(s);
+        }
+    }
+
+    /// An ordinary sample with the fields a mask from the input names replaced by adversarial
+    /// values ([`scalar`]).
+    fn special_values(&mut self, inp: &mut Input<'_>) {
+        let mask = inp.u32() & ((1 << SAMPLE_FIELDS) - 1);
+        let mut f = self.sig.next::<T>().to_fields();
+        for (i, v) in f.iter_mut().enumerate() {
+            if mask & (1 << i) != 0 {
+                let scale = (TRIM[i].abs() + AMPLITUDE[i]).max(1e-3);
+                *v = scalar::<T>(inp, scale, 1e6).0;
+            }
+        }
+        self.step(SensorSample::from_fields(&f));
+    }
+
+    /// The last sample `n` times, with the clock going on unless `frozen_time`.
+    fn repeat_last(&mut self, n: usize, frozen_time: bool) {
+        for _ in 0..n {
+            let mut s = self.last;
+            if !frozen_time {
+                let t = self.sig.next::<T>();
+                s.t_s = t.t_s;
+                s.dt_s = t.dt_s;
+            }
+            self.step(s);
+        }
+    }
+
+    /// An ordinary sample with a timing fault the input chooses: `dt` zero, doubled, negative,
+    /// NaN or huge, or time going back.
+    fn timing_fault(&mut self, inp: &mut Input<'_>) {
+        let mut s = self.sig.next::<T>();
+        match inp.u8() % 6 {
+            0 => s.dt_s = T::zero(),
+            1 => s.dt_s *= T::lit(2.0),
+            2 => s.dt_s = -s.dt_s,
+            3 => s.dt_s = T::lit(f64::NAN),
+            4 => s.dt_s = T::lit(1e6),
+            _ => {
+                s.t_s -= T::lit(f64::from(inp.u8()));
+            }
+        }
+        self.step(s);
+    }
 }
 
 fn unchanged<E: Debug>(before: &E, after: &E) {

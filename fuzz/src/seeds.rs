@@ -20,8 +20,22 @@ use aerosid_core::mavlink::Encoder;
 use aerosid_read::log;
 use aerosid_sim::{self as sim, SimConfig};
 
-/// `(target, file name, bytes)` of every seed.
-pub fn all() -> Vec<(&'static str, String, Vec<u8>)> {
+/// One seed: `(target, file name, bytes)`.
+type Seed = (&'static str, String, Vec<u8>);
+
+/// Every seed.
+pub fn all() -> Vec<Seed> {
+    let mut out = core_target_seeds();
+    let samples = flight(0.3);
+    out.extend(project_csv_seeds(&samples));
+    out.extend(shipped_text_seeds());
+    out.push(("read_ulog", "flight.ulg".into(), ulog(&samples)));
+    out.extend(vendored_binary_seeds());
+    out
+}
+
+/// The seeds of the core targets (`gtls`, `pipeline`, `drivers`, `mavlink`) and the regressions.
+fn core_target_seeds() -> Vec<Seed> {
     let mut out = Vec::new();
     for (name, bytes) in gtls() {
         out.push(("gtls", name, bytes));
@@ -44,13 +58,26 @@ pub fn all() -> Vec<(&'static str, String, Vec<u8>)> {
         "regression-ms4525do-speed-underflow".into(),
         include_bytes!("../regressions/drivers/ms4525do-speed-underflow").to_vec(),
     ));
-    let samples = flight(0.3);
+    out
+}
+
+/// The simulated flight `samples` in the project's CSV layout: all columns (`read_log`,
+/// `read_project_csv`) and a subset (`read_project_csv`); none if it cannot be written.
+fn project_csv_seeds(samples: &[aerosid_core::aero::SensorSample<f64>]) -> Vec<Seed> {
+    let mut out = Vec::new();
     let mut csv = Vec::new();
-    if log::write_log(&mut csv, "seed.csv", &samples).is_ok() {
+    if log::write_log(&mut csv, "seed.csv", samples).is_ok() {
         out.push(("read_log", "flight.csv".into(), csv.clone()));
         out.push(("read_project_csv", "flight.csv".into(), csv.clone()));
         out.push(("read_project_csv", "subset.csv".into(), subset_csv(&csv)));
     }
+    out
+}
+
+/// The shipped aircraft files, and each shipped map with the first lines of its vendored
+/// flight-test file.
+fn shipped_text_seeds() -> Vec<Seed> {
+    let mut out = Vec::new();
     let aircraft = [
         ("attas", include_str!("../../tool/data/aircraft/attas.aircraft")),
         ("hfb320", include_str!("../../tool/data/aircraft/hfb320.aircraft")),
@@ -84,7 +111,12 @@ pub fn all() -> Vec<(&'static str, String, Vec<u8>)> {
         let text = format!("{map}{}{lines}", crate::readers::MAP_DATA_SEPARATOR);
         out.push(("read_colmap_ascii", format!("{n}.txt"), text.into_bytes()));
     }
-    out.push(("read_ulog", "flight.ulg".into(), ulog(&samples)));
+    out
+}
+
+/// The vendored binary logs: the first bytes of the two ArduPlane logs and the Twin Otter `.mat`.
+fn vendored_binary_seeds() -> Vec<Seed> {
+    let mut out = Vec::new();
     // The two vendored ArduPlane logs, 3.8 (no FMTU) and 4.2 (FMTU/UNIT/MULT), their first bytes:
     // the FMT definitions, the parameters and the first seconds of messages, so each run is quick.
     let dataflash: [(&str, &[u8], usize); 2] = [
@@ -287,6 +319,32 @@ impl Ulog {
     }
 }
 
+/// The topics of the seed ULog: name, format fields, floats per message.
+const ULOG_TOPICS: [(&str, &str, usize); 6] = [
+    ("vehicle_attitude", "uint64_t timestamp;float[4] q;", 4),
+    (
+        "vehicle_angular_velocity",
+        "uint64_t timestamp;uint64_t timestamp_sample;float[3] xyz;",
+        3,
+    ),
+    (
+        "vehicle_acceleration",
+        "uint64_t timestamp;uint64_t timestamp_sample;float[3] xyz;",
+        3,
+    ),
+    (
+        "airspeed_validated",
+        "uint64_t timestamp;float indicated_airspeed_m_s;float true_airspeed_m_s;",
+        2,
+    ),
+    (
+        "vehicle_air_data",
+        "uint64_t timestamp;float baro_alt_meter;float rho;",
+        2,
+    ),
+    ("actuator_motors", "uint64_t timestamp;float[12] control;", 12),
+];
+
 fn ulog(samples: &[aerosid_core::aero::SensorSample<f64>]) -> Vec<u8> {
     let start_us = 1_000_000u64;
     let mut w = Ulog {
@@ -294,34 +352,10 @@ fn ulog(samples: &[aerosid_core::aero::SensorSample<f64>]) -> Vec<u8> {
     };
     w.bytes.extend_from_slice(&start_us.to_le_bytes());
     w.msg(b'B', &[0u8; 40]);
-    let topics: [(&str, &str, usize); 6] = [
-        ("vehicle_attitude", "uint64_t timestamp;float[4] q;", 4),
-        (
-            "vehicle_angular_velocity",
-            "uint64_t timestamp;uint64_t timestamp_sample;float[3] xyz;",
-            3,
-        ),
-        (
-            "vehicle_acceleration",
-            "uint64_t timestamp;uint64_t timestamp_sample;float[3] xyz;",
-            3,
-        ),
-        (
-            "airspeed_validated",
-            "uint64_t timestamp;float indicated_airspeed_m_s;float true_airspeed_m_s;",
-            2,
-        ),
-        (
-            "vehicle_air_data",
-            "uint64_t timestamp;float baro_alt_meter;float rho;",
-            2,
-        ),
-        ("actuator_motors", "uint64_t timestamp;float[12] control;", 12),
-    ];
-    for (name, fields, _) in &topics {
+    for (name, fields, _) in &ULOG_TOPICS {
         w.msg(b'F', format!("{name}:{fields}").as_bytes());
     }
-    for (i, (name, _, _)) in topics.iter().enumerate() {
+    for (i, (name, _, _)) in ULOG_TOPICS.iter().enumerate() {
         let mut a = vec![0u8];
         a.extend_from_slice(&(i as u16).to_le_bytes());
         a.extend_from_slice(name.as_bytes());
@@ -329,26 +363,8 @@ fn ulog(samples: &[aerosid_core::aero::SensorSample<f64>]) -> Vec<u8> {
     }
     for s in samples {
         let t_us = start_us + (s.t_s * 1e6).round() as u64;
-        let (sr, cr) = (0.5 * s.euler_rad.x).sin_cos();
-        let (sp, cp) = (0.5 * s.euler_rad.y).sin_cos();
-        let (sy, cy) = (0.5 * s.euler_rad.z).sin_cos();
-        let q = [
-            cr * cp * cy + sr * sp * sy,
-            sr * cp * cy - cr * sp * sy,
-            cr * sp * cy + sr * cp * sy,
-            cr * cp * sy - sr * sp * cy,
-        ];
-        let mut motors = [0.0; 12];
-        motors[0] = s.throttle;
-        let values: [Vec<f64>; 6] = [
-            q.to_vec(),
-            vec![s.gyro_rad_s.x, s.gyro_rad_s.y, s.gyro_rad_s.z],
-            vec![s.accel_mps2.x, s.accel_mps2.y, s.accel_mps2.z],
-            vec![s.airspeed_mps, s.airspeed_mps],
-            vec![100.0, s.air_density_kgpm3],
-            motors.to_vec(),
-        ];
-        for (i, (_, fields, _)) in topics.iter().enumerate() {
+        let values = ulog_values(s);
+        for (i, (_, fields, _)) in ULOG_TOPICS.iter().enumerate() {
             let mut p = (i as u16).to_le_bytes().to_vec();
             for _ in 0..fields.matches("uint64_t").count() {
                 p.extend_from_slice(&t_us.to_le_bytes());
@@ -360,4 +376,28 @@ fn ulog(samples: &[aerosid_core::aero::SensorSample<f64>]) -> Vec<u8> {
         }
     }
     w.bytes
+}
+
+/// A sample's floats per topic of [`ULOG_TOPICS`] (the attitude as a quaternion from the 3-2-1
+/// Euler angles).
+fn ulog_values(s: &aerosid_core::aero::SensorSample<f64>) -> [Vec<f64>; 6] {
+    let (sr, cr) = (0.5 * s.euler_rad.x).sin_cos();
+    let (sp, cp) = (0.5 * s.euler_rad.y).sin_cos();
+    let (sy, cy) = (0.5 * s.euler_rad.z).sin_cos();
+    let q = [
+        cr * cp * cy + sr * sp * sy,
+        sr * cp * cy - cr * sp * sy,
+        cr * sp * cy + sr * cp * sy,
+        cr * cp * sy - sr * sp * cy,
+    ];
+    let mut motors = [0.0; 12];
+    motors[0] = s.throttle;
+    [
+        q.to_vec(),
+        vec![s.gyro_rad_s.x, s.gyro_rad_s.y, s.gyro_rad_s.z],
+        vec![s.accel_mps2.x, s.accel_mps2.y, s.accel_mps2.z],
+        vec![s.airspeed_mps, s.airspeed_mps],
+        vec![100.0, s.air_density_kgpm3],
+        motors.to_vec(),
+    ]
 }

@@ -444,15 +444,13 @@ fn the_simulation_of_the_held_out_segment_shows_the_gap_and_the_gain() {
 
 #[test]
 fn on_the_jsbsim_flights_table_effects_are_found_and_no_sensor_error_is_invented() {
-    use aerosid::gaps::bench::{write, Campaign};
-    use aerosid::gaps::model::CauseKind;
     // GIVEN the vendored JSBSim c172x flights (an independent simulator, light turbulence; truth in
     // tool/data/jsbsim/truth.json)
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../tool/data/jsbsim");
     let out = std::env::temp_dir().join(format!("aerosid-gaps-jsbsim-{}", std::process::id()));
     // WHEN the benchmark campaign runs on them alone
-    let lines = write(
-        &Campaign {
+    let lines = aerosid::gaps::bench::write(
+        &aerosid::gaps::bench::Campaign {
             draws_per_kind: 0,
             clean: 0,
             jsbsim: Some(dir),
@@ -466,17 +464,34 @@ fn on_the_jsbsim_flights_table_effects_are_found_and_no_sensor_error_is_invented
     for l in &lines {
         println!("{l}");
     }
-    let manifest: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("manifest.json")).expect("manifest written"))
-            .expect("manifest is JSON");
+    let manifest = read_json(&out.join("manifest.json"), "manifest");
     let flights = manifest.as_array().expect("a list of flights");
     // THEN every flight was analysed and its regression table written
     assert_eq!(flights.len(), 13, "{lines:?}");
-    // AND its time recorded, with the suite's median in timing.json (the median of the flights'
-    // own times, whatever they are: no wall-clock bound is asserted)
-    let timing: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("timing.json")).expect("timing written"))
-            .expect("timing is JSON");
+    assert_times_recorded(flights, &out);
+    for f in flights {
+        let table = out.join(f["table"].as_str().expect("table path"));
+        let header = std::fs::read_to_string(&table).expect("table written");
+        assert!(header.starts_with("t_s,z:C_L,z:C_D"), "{}", table.display());
+    }
+    assert_drag_polar_not_excited_beyond_its_error(&out);
+    assert_no_sensor_error_invented_and_beta_drag_found(flights);
+    assert_planted_effects_named(flights);
+    assert_alpha_dot_listed_as_rival(&out);
+    assert_gyroscopic_moment_named_and_equal_and_opposite(flights, &out);
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+/// A JSON file of the campaign (`what` names it in a failure).
+fn read_json(path: &std::path::Path, what: &str) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{what} written: {e}")))
+        .unwrap_or_else(|e| panic!("{what} is JSON: {e}"))
+}
+
+/// Each flight's time recorded, with the suite's median in timing.json (the median of the
+/// flights' own times, whatever they are: no wall-clock bound is asserted).
+fn assert_times_recorded(flights: &[serde_json::Value], out: &std::path::Path) {
+    let timing = read_json(&out.join("timing.json"), "timing");
     let mut secs: Vec<f64> = flights
         .iter()
         .map(|f| f["aerosid"]["seconds"].as_f64().expect("seconds recorded"))
@@ -492,18 +507,13 @@ fn on_the_jsbsim_flights_table_effects_are_found_and_no_sensor_error_is_invented
         Some(secs[6]),
         "{timing}"
     );
-    for f in flights {
-        let table = out.join(f["table"].as_str().expect("table path"));
-        let header = std::fs::read_to_string(&table).expect("table written");
-        assert!(header.starts_with("t_s,z:C_L,z:C_D"), "{}", table.display());
-    }
-    // AND the drag polar's C_L², beside α and α² in the C_D baseline, is reported as not excited
-    // beyond its own measurement error (regular normal equations before the errors-in-variables
-    // correction), not as collinear, on a clean flight
-    let report: serde_json::Value = serde_json::from_str(
-        &std::fs::read_to_string(out.join("reports/jsbsim_clean_s1.json")).expect("report written"),
-    )
-    .expect("report is JSON");
+}
+
+/// The drag polar's C_L², beside α and α² in the C_D baseline, is reported as not excited beyond
+/// its own measurement error (regular normal equations before the errors-in-variables
+/// correction), not as collinear, on a clean flight.
+fn assert_drag_polar_not_excited_beyond_its_error(out: &std::path::Path) {
+    let report = read_json(&out.join("reports/jsbsim_clean_s1.json"), "report");
     let cd = report["coefficients"]
         .as_array()
         .and_then(|c| c.iter().find(|c| c["name"] == "C_D"))
@@ -518,21 +528,30 @@ fn on_the_jsbsim_flights_table_effects_are_found_and_no_sensor_error_is_invented
             .is_some_and(|r| r.contains("beyond its measurement error")),
         "{cl2}"
     );
-    let named = |id: &str| -> Vec<(String, String, String)> {
-        let f = flights.iter().find(|f| f["id"] == id).expect("flight present");
-        f["aerosid"]["named"]
-            .as_array()
-            .expect("named list")
-            .iter()
-            .map(|n| {
-                (
-                    n["kind"].as_str().unwrap_or_default().to_string(),
-                    n["location"].as_str().unwrap_or_default().to_string(),
-                    n["what"].as_str().unwrap_or_default().to_string(),
-                )
-            })
-            .collect()
-    };
+}
+
+/// The causes the manifest names for flight `id`: (kind, location, term).
+fn named_causes(flights: &[serde_json::Value], id: &str) -> Vec<(String, String, String)> {
+    let f = flights.iter().find(|f| f["id"] == id).expect("flight present");
+    f["aerosid"]["named"]
+        .as_array()
+        .expect("named list")
+        .iter()
+        .map(|n| {
+            (
+                n["kind"].as_str().unwrap_or_default().to_string(),
+                n["location"].as_str().unwrap_or_default().to_string(),
+                n["what"].as_str().unwrap_or_default().to_string(),
+            )
+        })
+        .collect()
+}
+
+/// No sensor error is invented (JSBSim's own sensors are perfect; the planted vane errors are
+/// either found or, in turbulence, said to be unidentifiable), and c172x's |β| drag table is
+/// found on every flight.
+fn assert_no_sensor_error_invented_and_beta_drag_found(flights: &[serde_json::Value]) {
+    use aerosid::gaps::model::CauseKind;
     let sensor = [
         CauseKind::SensorBias,
         CauseKind::ScaleFactor,
@@ -542,40 +561,50 @@ fn on_the_jsbsim_flights_table_effects_are_found_and_no_sensor_error_is_invented
     .map(|k| format!("{k:?}"));
     for f in flights {
         let id = f["id"].as_str().unwrap_or_default();
-        let n = named(id);
-        // AND no sensor error is invented (JSBSim's own sensors are perfect; the planted vane
-        // errors are either found or, in turbulence, said to be unidentifiable)
+        let n = named_causes(flights, id);
         let planted_sensor = f["planted"]
             .as_array()
             .is_some_and(|p| p.iter().any(|x| sensor.iter().any(|s| x["kind"] == s.as_str())));
         if !planted_sensor {
             assert!(!n.iter().any(|c| sensor.contains(&c.0)), "{id}: {n:?}");
         }
-        // AND c172x's |β| drag table is found on every flight
         assert!(n.iter().any(|c| c.1 == "C_D" && c.2 == "|β|"), "{id}: {n:?}");
     }
-    // AND the planted thrust-line offset, β² in C_m (excited by two rudder doublets only: its
-    // held-out gain lives in a few blocks), α³ in C_D and α·δa in C_n (the two weakest, see the
-    // data's README) and the elevator delay are named in their place
+}
+
+/// The planted thrust-line offset, β² in C_m (excited by two rudder doublets only: its held-out
+/// gain lives in a few blocks), α³ in C_D and α·δa in C_n (the two weakest, see the data's
+/// README) and the elevator delay are named in their place — the delay once: C_m and C_D both
+/// show it, and a surface has one delay.
+fn assert_planted_effects_named(flights: &[serde_json::Value]) {
     for (id, kind, coef, term) in [
         ("jsbsim/thrust_Cm", "Thrust", "C_m", "C_T"),
         ("jsbsim/beta2_Cm", "CrossCoupling", "C_m", "β²"),
         ("jsbsim/alpha3_CD", "NonlinearAlpha", "C_D", "α³"),
         ("jsbsim/alphadelta_a_Cn", "ControlTerm", "C_n", "α·δa"),
     ] {
-        let n = named(id);
+        let n = named_causes(flights, id);
         assert!(
             n.iter().any(|c| c.0 == kind && c.1 == coef && c.2 == term),
             "{id}: {n:?}"
         );
     }
-    // AND where the held-out test alone chose between two significant terms, the report shows
-    // the one it passed over: on the α̇ flight ΔV/V is named in C_m, and the planted α̇ (which
-    // in its place is as significant, with the planted value) is listed as its rival
-    let report: serde_json::Value = serde_json::from_str(
-        &std::fs::read_to_string(out.join("reports").join("jsbsim_alphadot_Cm.json")).expect("report written"),
-    )
-    .expect("report is JSON");
+    let delay = named_causes(flights, "jsbsim/elevator_delay");
+    assert_eq!(
+        delay
+            .iter()
+            .filter(|c| c.0 == "ControlDelay" && c.1 == "Elevator")
+            .count(),
+        1,
+        "{delay:?}"
+    );
+}
+
+/// Where the held-out test alone chose between two significant terms, the report shows the one
+/// it passed over: on the α̇ flight ΔV/V is named in C_m, and the planted α̇ (which in its place
+/// is as significant, with the planted value) is listed as its rival.
+fn assert_alpha_dot_listed_as_rival(out: &std::path::Path) {
+    let report = read_json(&out.join("reports").join("jsbsim_alphadot_Cm.json"), "report");
     let rivals: Vec<&str> = report["coefficients"]
         .as_array()
         .into_iter()
@@ -587,28 +616,20 @@ fn on_the_jsbsim_flights_table_effects_are_found_and_no_sensor_error_is_invented
         .filter_map(|r| r["term"].as_str())
         .collect();
     assert!(rivals.contains(&"α̇_n"), "{rivals:?}");
-    // (once: C_m and C_D both show it, and a surface has one delay)
-    let delay = named("jsbsim/elevator_delay");
-    assert_eq!(
-        delay
-            .iter()
-            .filter(|c| c.0 == "ControlDelay" && c.1 == "Elevator")
-            .count(),
-        1,
-        "{delay:?}"
-    );
-    // AND the propeller's gyroscopic moment (c172x: I_prop 1.67 slug·ft²) is named on every
-    // flight as q̂ in C_n; where r̂ in C_m is named too, the two derivatives are equal and opposite
-    // within 3 combined σ, as a rotor's `−ω × H` requires (`C_n,q̂ = −C_m,r̂ = 2VH/(q̄Sbc̄)` with
-    // the normalisations q̂ = qc̄/2V, r̂ = rb/2V) — a check by physics the selection does not know
+}
+
+/// The propeller's gyroscopic moment (c172x: I_prop 1.67 slug·ft²) is named on every flight as q̂
+/// in C_n; where r̂ in C_m is named too, the two derivatives are equal and opposite within 3
+/// combined σ, as a rotor's `−ω × H` requires (`C_n,q̂ = −C_m,r̂ = 2VH/(q̄Sbc̄)` with the
+/// normalisations q̂ = qc̄/2V, r̂ = rb/2V) — a check by physics the selection does not know.
+fn assert_gyroscopic_moment_named_and_equal_and_opposite(flights: &[serde_json::Value], out: &std::path::Path) {
     let mut pairs = 0;
     for f in flights {
         let id = f["id"].as_str().unwrap_or_default();
-        let report: serde_json::Value = serde_json::from_str(
-            &std::fs::read_to_string(out.join("reports").join(format!("{}.json", id.replace('/', "_"))))
-                .expect("report written"),
-        )
-        .expect("report is JSON");
+        let report = read_json(
+            &out.join("reports").join(format!("{}.json", id.replace('/', "_"))),
+            "report",
+        );
         let est = |coef: &str, term: &str| -> Option<(f64, f64)> {
             report["named"].as_array()?.iter().find_map(|n| {
                 (n["location"] == coef && n["what"] == term).then(|| {
@@ -620,7 +641,7 @@ fn on_the_jsbsim_flights_table_effects_are_found_and_no_sensor_error_is_invented
             })
         };
         let Some((nq, sq)) = est("C_n", "q_n") else {
-            panic!("{id}: q̂ in C_n not named: {:?}", named(id))
+            panic!("{id}: q̂ in C_n not named: {:?}", named_causes(flights, id))
         };
         if let Some((mr, sr)) = est("C_m", "r_n") {
             pairs += 1;
@@ -630,5 +651,4 @@ fn on_the_jsbsim_flights_table_effects_are_found_and_no_sensor_error_is_invented
     }
     // (r̂ in C_m has 2–3× the σ of q̂ in C_n; named on 12 of the 13 flights when written)
     assert!(pairs >= 10, "r̂ in C_m named on {pairs} of 13 flights");
-    let _ = std::fs::remove_dir_all(&out);
 }

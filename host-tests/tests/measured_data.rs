@@ -320,8 +320,8 @@ fn set_cell(text: &str, line: usize, col: usize, value: &str) -> String {
 }
 
 #[test]
-fn bad_ascii_files_name_file_line_and_column() {
-    let dir = scratch("ascii");
+fn bad_cells_of_an_ascii_file_name_file_line_and_column() {
+    let dir = scratch("ascii-cells");
     let hfb = shared_text("hfb320_1_10.asc");
     let map = maps().join("hfb320.map");
     // GIVEN line 50 lacks its last number WHEN read THEN line 50, column 20 (`rudder`) is named.
@@ -367,19 +367,45 @@ fn bad_ascii_files_name_file_line_and_column() {
     let back = set_cell(&hfb, 200, 1, "19.0");
     let e = read_text_with_map(&dir, "back.asc", &back, &map).must_fail("time back");
     assert_error(&e, "back.asc", 200, 1, &["time", "does not increase"]);
+    let _ = std::fs::remove_dir_all(&dir);
+}
 
+/// `file` read with the map `map` (its aircraft path made absolute) after each `(from, to)`
+/// replacement in the map's text, written to `dir/name`.
+fn read_with_edited_map(
+    dir: &Path,
+    file: &str,
+    map: &str,
+    edits: &[(&str, &str)],
+    name: &str,
+) -> Result<MeasuredFlight, ReadError> {
+    let mut text = std::fs::read_to_string(maps().join(map))
+        .expect("map")
+        .replace("../aircraft/", &format!("{}/", aircraft_dir().display()));
+    for (a, b) in edits {
+        text = text.replace(a, b);
+    }
+    let p = dir.join(name);
+    std::fs::write(&p, text).expect("write");
+    read_measured(&flight_dir().join(file), &p)
+}
+
+/// The Twin Otter flight the tests below read with an edited map.
+const TOTTER: &str = "totter_lon_020213f1_018_fdata.asc";
+
+#[test]
+fn angles_in_degrees_declared_radians_are_refused_naming_the_column() {
+    let dir = scratch("ascii-degrees");
     // GIVEN a map that calls the ATTAS α column (degrees) radians THEN α is refused as "degrees
     // given as radians", at the first line beyond the hard bound |α| ≤ π, column 13.
-    let attas_map = std::fs::read_to_string(maps().join("attas.map"))
-        .expect("map")
-        .replace("channel.alpha = $13 deg", "channel.alpha = $13 rad");
-    let wrong = dir.join("attas_wrong.map");
-    std::fs::write(
-        &wrong,
-        attas_map.replace("../aircraft/", &format!("{}/", aircraft_dir().display())),
+    let e = read_with_edited_map(
+        &dir,
+        "fAttasElv1_pqrDot.asc",
+        "attas.map",
+        &[("channel.alpha = $13 deg", "channel.alpha = $13 rad")],
+        "attas_wrong.map",
     )
-    .expect("write");
-    let e = read_measured(&flight_dir().join("fAttasElv1_pqrDot.asc"), &wrong).must_fail("α in degrees");
+    .must_fail("α in degrees");
     let first = shared_text("fAttasElv1_pqrDot.asc")
         .lines()
         .position(|l| {
@@ -398,82 +424,38 @@ fn bad_ascii_files_name_file_line_and_column() {
         &["alpha", "degrees given as radians"],
     );
 
-    // GIVEN the Twin Otter accelerations (g) declared m/s² THEN the accelerometer check refuses.
-    let totter = std::fs::read_to_string(maps().join("twin_otter.map"))
-        .expect("map")
-        .replace("$11 g", "$11 m/s2")
-        .replace("$12 g", "$12 m/s2")
-        .replace("$13 g", "$13 m/s2")
-        .replace("../aircraft/", &format!("{}/", aircraft_dir().display()));
-    let wrong = dir.join("totter_g.map");
-    std::fs::write(&wrong, totter).expect("write");
-    let e = read_measured(&flight_dir().join("totter_lon_020213f1_018_fdata.asc"), &wrong).must_fail("g");
-    assert_error(
-        &e,
-        "totter_lon_020213f1_018_fdata.asc",
-        0,
-        13,
-        &["accel_z", "0.103 g", "g or ft/s² given as m/s²"],
-    );
-
     // GIVEN the Twin Otter pitch rate (deg/s) declared rad/s: |q| stays below the 5 rad/s bound,
     // but the derivative checks see the factor 57.3 — first against q̇ (column 43, still deg/s²,
     // which of the pair is wrong cannot be told, the message names both) …
-    let totter_with = |from: &[(&str, &str)], name: &str| {
-        let mut text = std::fs::read_to_string(maps().join("twin_otter.map"))
-            .expect("map")
-            .replace("../aircraft/", &format!("{}/", aircraft_dir().display()));
-        for (a, b) in from {
-            text = text.replace(a, b);
-        }
-        let p = dir.join(name);
-        std::fs::write(&p, text).expect("write");
-        read_measured(&flight_dir().join("totter_lon_020213f1_018_fdata.asc"), &p)
-    };
-    let e = totter_with(
-        &[("channel.pitch_rate = $6 deg/s", "channel.pitch_rate = $6 rad/s")],
-        "q.map",
-    )
-    .must_fail("q");
-    assert_error(
-        &e,
-        "totter_lon_020213f1_018_fdata.asc",
-        0,
-        43,
-        &["pitch_accel", "pitch_rate", "57.8", "degrees"],
-    );
+    let q_rad = ("channel.pitch_rate = $6 deg/s", "channel.pitch_rate = $6 rad/s");
+    let e = read_with_edited_map(&dir, TOTTER, "twin_otter.map", &[q_rad], "q.map").must_fail("q");
+    assert_error(&e, TOTTER, 0, 43, &["pitch_accel", "pitch_rate", "57.8", "degrees"]);
     // … and with q̇ declared rad/s² as well, against θ (dθ/dt = q/57.3).
-    let e = totter_with(
-        &[
-            ("channel.pitch_rate = $6 deg/s", "channel.pitch_rate = $6 rad/s"),
-            ("channel.pitch_accel = $43 deg/s2", "channel.pitch_accel = $43 rad/s2"),
-        ],
-        "q_qdot.map",
-    )
-    .must_fail("q and q̇");
-    assert_error(
-        &e,
-        "totter_lon_020213f1_018_fdata.asc",
-        0,
-        6,
-        &["pitch_rate", "`pitch`", "0.016 ×", "degrees"],
-    );
+    let q_dot_rad = ("channel.pitch_accel = $43 deg/s2", "channel.pitch_accel = $43 rad/s2");
+    let e =
+        read_with_edited_map(&dir, TOTTER, "twin_otter.map", &[q_rad, q_dot_rad], "q_qdot.map").must_fail("q and q̇");
+    assert_error(&e, TOTTER, 0, 6, &["pitch_rate", "`pitch`", "0.016 ×", "degrees"]);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn g_and_lbf_per_ft2_declared_si_are_refused_naming_the_column() {
+    let dir = scratch("ascii-g-lbf");
+    // GIVEN the Twin Otter accelerations (g) declared m/s² THEN the accelerometer check refuses.
+    let g_as_si = [("$11 g", "$11 m/s2"), ("$12 g", "$12 m/s2"), ("$13 g", "$13 m/s2")];
+    let e = read_with_edited_map(&dir, TOTTER, "twin_otter.map", &g_as_si, "totter_g.map").must_fail("g");
+    assert_error(&e, TOTTER, 0, 13, &["accel_z", "0.103 g", "g or ft/s² given as m/s²"]);
 
     // GIVEN q̄ in lbf/ft² declared Pa THEN the implied density 2q̄/V² is refused.
-    let totter = std::fs::read_to_string(maps().join("twin_otter.map"))
-        .expect("map")
-        .replace("$27 lbf/ft2", "$27 Pa")
-        .replace("../aircraft/", &format!("{}/", aircraft_dir().display()));
-    let wrong = dir.join("totter_qbar.map");
-    std::fs::write(&wrong, totter).expect("write");
-    let e = read_measured(&flight_dir().join("totter_lon_020213f1_018_fdata.asc"), &wrong).must_fail("q̄");
-    assert_error(
-        &e,
-        "totter_lon_020213f1_018_fdata.asc",
-        0,
-        27,
-        &["dynamic_pressure", "2q̄/V²"],
-    );
+    let e = read_with_edited_map(
+        &dir,
+        TOTTER,
+        "twin_otter.map",
+        &[("$27 lbf/ft2", "$27 Pa")],
+        "totter_qbar.map",
+    )
+    .must_fail("q̄");
+    assert_error(&e, TOTTER, 0, 27, &["dynamic_pressure", "2q̄/V²"]);
     let _ = std::fs::remove_dir_all(&dir);
 }
 

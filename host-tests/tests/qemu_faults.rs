@@ -153,7 +153,18 @@ fn faults_and_garbage_under_qemu_are_survived_reported_and_equal_the_host_model(
     // … its health report is the host model's, slot for slot …
     let h = run.health.expect("a health report").values;
     assert_eq!(h, emu.health.values, "health report (firmware vs host model)");
-    // … and says what the schedule did, with the documented response to each fault:
+    // … and says what the schedule did, with the documented response to each fault …
+    assert_sensor_faults_reported(&h);
+    assert_link_faults_reported(&h, &chunks, corrupted, &replayed);
+    // … without a stall and within the stack budget …
+    assert_no_stall(&run);
+    assert_stack_within_budget(&run.log);
+    // … and every estimator survived, equal to the host model's bit for bit
+    assert_reports_equal_the_host_model(&run, &emu);
+}
+
+/// The health report's response to each sensor, bus and timing fault of [`schedule`].
+fn assert_sensor_faults_reported(h: &[u32]) {
     // every sample counted; drops counted by the sampler and seen as one gap by the estimator
     assert_eq!(h[slot::SAMPLED], SAMPLES as u32);
     assert_eq!(
@@ -189,7 +200,11 @@ fn faults_and_garbage_under_qemu_are_survived_reported_and_equal_the_host_model(
     assert!(invalid(channel::BETA) >= 200);
     // the late sample (17 ms, then 3 ms) and the gap (40 ms): dt outside ±50 %
     assert!(invalid(channel::DT) >= 3, "dt invalid {}", invalid(channel::DT));
-    // the link: lost bytes counted, its values stale past their timeout, garbage rejected
+}
+
+/// The link's figures: lost bytes counted, its values stale past their timeout, garbage
+/// (`corrupted` bad-checksum frames, old chunks replayed at `replayed`) rejected.
+fn assert_link_faults_reported(h: &[u32], chunks: &[Vec<u8>], corrupted: u32, replayed: &[usize]) {
     let lost: usize = chunks[1700..1715].iter().map(Vec::len).sum();
     assert_eq!(h[slot::LINK_LOST] as usize, lost);
     assert!(
@@ -223,8 +238,11 @@ fn faults_and_garbage_under_qemu_are_survived_reported_and_equal_the_host_model(
         h[slot::LINK_NOT_NEWER],
         replayed.len()
     );
-    // … without a stall: no sample's step beyond the clean replay's worst-case budget (garbage on
-    // the link is parsed in the sampling task, not in the step; a fault makes a step shorter) …
+}
+
+/// No sample's step beyond the clean replay's worst-case budget (garbage on the link is parsed
+/// in the sampling task, not in the step; a fault makes a step shorter).
+fn assert_no_stall(run: &qemu::QemuRun) {
     for (p, name) in qemu::PROBE_NAMES.iter().enumerate() {
         if let Some((lo, med, hi)) = qemu::stats(&run.counts, p) {
             println!("instructions {name:>9}: min {lo:6} median {med:6} max {hi:6}");
@@ -236,10 +254,13 @@ fn faults_and_garbage_under_qemu_are_survived_reported_and_equal_the_host_model(
         "max step {max} > {} instructions",
         qemu::STEP_BUDGET_MAX
     );
-    // … within the clean replay's stack budget, the link's parser on it too (the figure is in the
-    // defmt log whenever defmt-print is installed, as scripts/test.sh does) …
-    let stack = run.log.find("stack high water ").and_then(|at| {
-        run.log[at + 17..]
+}
+
+/// Within the clean replay's stack budget, the link's parser on it too (the figure is in the
+/// defmt log whenever defmt-print is installed, as scripts/test.sh does).
+fn assert_stack_within_budget(log: &str) {
+    let stack = log.find("stack high water ").and_then(|at| {
+        log[at + 17..]
             .split_whitespace()
             .next()
             .and_then(|b| b.parse::<u32>().ok())
@@ -255,8 +276,11 @@ fn faults_and_garbage_under_qemu_are_survived_reported_and_equal_the_host_model(
             "no stack figure in the defmt log although defmt-print is installed"
         ),
     }
-    // … and every estimator survived: the firmware's final reports equal the host model's bit for
-    // bit, are finite, and flag the channel refusals
+}
+
+/// The firmware's final reports equal the host model's bit for bit, are finite, and flag the
+/// channel refusals.
+fn assert_reports_equal_the_host_model(run: &qemu::QemuRun, emu: &qemu::Emulation) {
     for (i, (fw, want)) in run.reports.iter().zip(emu.reports.iter()).enumerate() {
         let fw = fw.expect("a report for every coefficient");
         let n = usize::from(want.n_params);

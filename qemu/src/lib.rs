@@ -47,7 +47,7 @@ use aerosid_core::mavlink::messages::{Attitude, Rpm, ServoOutputRaw};
 use aerosid_core::mavlink::telemetry::HealthReport;
 use aerosid_core::mavlink::{telemetry::reports, CoefficientReport, Encoder, MavlinkSurfaces, Message, Parser};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
+use std::process::{Command, ExitStatus, Stdio};
 use std::time::{Duration, Instant};
 
 use aerosid_core::harness::{fault_chip, fault_kind};
@@ -200,6 +200,26 @@ pub fn run(elf: &Path, samples: &[SensorSample<f32>], dir: &Path, timeout: Durat
 
 /// [`run`] with the scenario's faults and autopilot stream.
 pub fn run_scenario(elf: &Path, scenario: &Scenario<'_>, dir: &Path, timeout: Duration) -> Result<QemuRun, QemuError> {
+    write_inputs(scenario, dir)?;
+    let defmt_path = dir.join("defmt.bin");
+    let status = run_qemu(elf, dir, &defmt_path, timeout)?;
+    let telemetry = read_telemetry(&dir.join("telemetry.bin"))?;
+    let counts = read_counts(&dir.join("icount.bin"))?;
+    let log = decode_defmt(elf, &defmt_path).unwrap_or_default();
+    Ok(QemuRun {
+        reports: telemetry.reports,
+        health: telemetry.health,
+        frames: telemetry.frames,
+        counters: telemetry.counters,
+        counts,
+        log,
+        exit_code: status.code(),
+    })
+}
+
+/// The scenario's files in the scratch folder `dir` (`replay.bin`, and `faults.bin` and
+/// `autopilot.bin` when it has them), the outputs of an earlier run removed.
+fn write_inputs(scenario: &Scenario<'_>, dir: &Path) -> Result<(), QemuError> {
     std::fs::create_dir_all(dir).map_err(io(dir))?;
     write_replay(&dir.join("replay.bin"), scenario.samples)?;
     for f in [
@@ -224,8 +244,13 @@ pub fn run_scenario(elf: &Path, scenario: &Scenario<'_>, dir: &Path, timeout: Du
         }
         std::fs::write(&p, bytes).map_err(io(&p))?;
     }
-    let defmt_path = dir.join("defmt.bin");
-    let defmt_out = std::fs::File::create(&defmt_path).map_err(io(&defmt_path))?;
+    Ok(())
+}
+
+/// QEMU on `elf` in `dir` (module doc), its defmt stream into `defmt_path`, until it exits or
+/// `timeout` passes (then killed, an error).
+fn run_qemu(elf: &Path, dir: &Path, defmt_path: &Path, timeout: Duration) -> Result<ExitStatus, QemuError> {
+    let defmt_out = std::fs::File::create(defmt_path).map_err(io(defmt_path))?;
     let mut child = Command::new("qemu-system-arm")
         .current_dir(dir)
         .args([
@@ -253,9 +278,9 @@ pub fn run_scenario(elf: &Path, scenario: &Scenario<'_>, dir: &Path, timeout: Du
             ))
         })?;
     let start = Instant::now();
-    let status = loop {
+    loop {
         match child.try_wait() {
-            Ok(Some(s)) => break s,
+            Ok(Some(s)) => return Ok(s),
             Ok(None) if start.elapsed() > timeout => {
                 let _ = child.kill();
                 let _ = child.wait();
@@ -264,10 +289,21 @@ pub fn run_scenario(elf: &Path, scenario: &Scenario<'_>, dir: &Path, timeout: Du
             Ok(None) => std::thread::sleep(Duration::from_millis(20)),
             Err(e) => return Err(QemuError::Tool(format!("waiting for QEMU: {e}"))),
         }
-    };
+    }
+}
 
-    let tel_path = dir.join("telemetry.bin");
-    let tel = std::fs::read(&tel_path).map_err(io(&tel_path))?;
+/// What the telemetry UART carried: the last report of each coefficient and of the health, the
+/// frames received and rejected, the last value of each named counter.
+struct Telemetry {
+    reports: [Option<CoefficientReport>; idx::COUNT],
+    health: Option<HealthReport>,
+    frames: (u32, u32),
+    counters: std::collections::BTreeMap<String, f32>,
+}
+
+/// The telemetry file parsed ([`Telemetry`]).
+fn read_telemetry(tel_path: &Path) -> Result<Telemetry, QemuError> {
+    let tel = std::fs::read(tel_path).map_err(io(tel_path))?;
     let mut parser = Parser::new();
     let mut last: [Option<CoefficientReport>; idx::COUNT] = [None; idx::COUNT];
     let mut health = None;
@@ -291,10 +327,19 @@ pub fn run_scenario(elf: &Path, scenario: &Scenario<'_>, dir: &Path, timeout: Du
         }
     });
     let rejected = parser.stats().bad_crc.saturating_add(parser.stats().bad_length);
+    Ok(Telemetry {
+        reports: last,
+        health,
+        frames: (frames, rejected),
+        counters,
+    })
+}
 
-    let cnt_path = dir.join("icount.bin");
-    let raw = std::fs::read(&cnt_path).map_err(io(&cnt_path))?;
-    let counts = raw
+/// The instruction counts per processed sample (`icount.bin`: [`PROBES`] little-endian `u32`
+/// per sample).
+fn read_counts(cnt_path: &Path) -> Result<Vec<[u32; PROBES]>, QemuError> {
+    let raw = std::fs::read(cnt_path).map_err(io(cnt_path))?;
+    Ok(raw
         .chunks_exact(4 * PROBES)
         .map(|rec| {
             let mut c = [0u32; PROBES];
@@ -303,18 +348,7 @@ pub fn run_scenario(elf: &Path, scenario: &Scenario<'_>, dir: &Path, timeout: Du
             }
             c
         })
-        .collect();
-
-    let log = decode_defmt(elf, &defmt_path).unwrap_or_default();
-    Ok(QemuRun {
-        reports: last,
-        health,
-        frames: (frames, rejected),
-        counters,
-        counts,
-        log,
-        exit_code: status.code(),
-    })
+        .collect())
 }
 
 /// Decodes the defmt stream with `defmt-print` (`cargo install defmt-print --locked`), if installed.
@@ -507,30 +541,130 @@ pub struct Emulation {
 
 /// The host's model of the firmware on a scenario (module doc): what it sends at the end.
 pub fn emulate(sc: &Scenario<'_>) -> Result<Emulation, QemuError> {
-    let mut p = onboard::pipeline::<f32>().map_err(|e| QemuError::Output(format!("on-board configuration: {e:?}")))?;
-    let mut stuck = StuckDetector::new(onboard::stuck_settings());
-    let mut sequence = SequenceCheck::NEW;
-    let mut link = match sc.autopilot {
-        Some(_) => Some(
-            MavlinkSurfaces::new(onboard::AUTOPILOT_LINK)
-                .map_err(|e| QemuError::Output(format!("autopilot link: {e:?}")))?,
-        ),
-        None => None,
-    };
-    let mut chips = [ChipHealth::default(); 4];
-    let mut holds: Vec<[f32; 3]> = vec![[0.0; 3]; sc.faults.len()];
-    let (mut sampled, mut dropped, mut autopilot_faults, mut link_lost) = (0u32, 0u32, 0u32, 0u32);
-    let (mut stuck_now, mut invalid_now, mut processed) = (0u16, 0u16, 0usize);
-    let mut late_carry_s = 0.0f32;
+    let mut fw = FirmwareModel::new(sc)?;
     for (k, rec) in sc.samples.iter().enumerate() {
-        let k32 = k as u32;
+        fw.record(sc, k, rec);
+    }
+    Ok(fw.finish())
+}
+
+/// The chips' channels, by [`Chip`] (the autopilot has none).
+const CHIP_CHANNELS: [ChannelMask; 4] = [
+    channel::ACCEL | channel::GYRO,
+    channel::AIRSPEED | channel::DENSITY,
+    channel::ALPHA,
+    channel::BETA,
+];
+
+/// The firmware's stages as [`emulate`] models them, with their counters.
+struct FirmwareModel {
+    pipeline: aerosid_core::aero::Pipeline<f32>,
+    stuck: StuckDetector,
+    sequence: SequenceCheck,
+    link: Option<MavlinkSurfaces>,
+    chips: [ChipHealth; 4],
+    /// Per fault, the values a stuck channel holds.
+    holds: Vec<[f32; 3]>,
+    sampled: u32,
+    dropped: u32,
+    autopilot_faults: u32,
+    link_lost: u32,
+    stuck_now: u16,
+    invalid_now: u16,
+    processed: usize,
+    /// How late the previous sample was taken, s (the next sample's `dt` is that much shorter).
+    late_carry_s: f32,
+}
+
+/// A replay record after the faults active at it: the sample, its time stamp (µs), whether it is
+/// dropped and which chips ([`Chip`]) fail.
+struct Faulted {
+    sample: SensorSample<f32>,
+    t_us: u64,
+    drop: bool,
+    failing: [bool; 5],
+}
+
+impl FirmwareModel {
+    fn new(sc: &Scenario<'_>) -> Result<Self, QemuError> {
+        let pipeline =
+            onboard::pipeline::<f32>().map_err(|e| QemuError::Output(format!("on-board configuration: {e:?}")))?;
+        let link = match sc.autopilot {
+            Some(_) => Some(
+                MavlinkSurfaces::new(onboard::AUTOPILOT_LINK)
+                    .map_err(|e| QemuError::Output(format!("autopilot link: {e:?}")))?,
+            ),
+            None => None,
+        };
+        Ok(Self {
+            pipeline,
+            stuck: StuckDetector::new(onboard::stuck_settings()),
+            sequence: SequenceCheck::NEW,
+            link,
+            chips: [ChipHealth::default(); 4],
+            holds: vec![[0.0; 3]; sc.faults.len()],
+            sampled: 0,
+            dropped: 0,
+            autopilot_faults: 0,
+            link_lost: 0,
+            stuck_now: 0,
+            invalid_now: 0,
+            processed: 0,
+            late_carry_s: 0.0,
+        })
+    }
+
+    /// Replay record `k`: faults, the chips, the autopilot link, the stuck-sensor check, the
+    /// sampler's drop, the sequence check and the pipeline.
+    fn record(&mut self, sc: &Scenario<'_>, k: usize, rec: &SensorSample<f32>) {
+        let Faulted {
+            sample: mut s,
+            t_us,
+            drop,
+            failing,
+        } = self.inject_faults(sc.faults, k as u32, rec);
+        for (c, (model, bits)) in self.chips.iter_mut().zip(CHIP_CHANNELS).enumerate() {
+            if failing[c] {
+                s.invalidate(bits);
+            }
+            model.record(!failing[c]);
+        }
+        if let (Some(link), Some(chunks)) = (self.link.as_mut(), sc.autopilot) {
+            let chunk = chunks.get(k).map_or(&[][..], Vec::as_slice);
+            if failing[Chip::Autopilot as usize] {
+                self.link_lost += chunk.len() as u32;
+            } else {
+                link.receive(chunk, t_us);
+            }
+            let all = link.fill(t_us, &mut s);
+            if !all {
+                self.autopilot_faults += 1;
+            }
+        }
+        self.stuck_now = self.stuck.apply(&mut s);
+        self.sampled += 1;
+        if drop {
+            self.dropped += 1;
+            return;
+        }
+        if self.sequence.admit(k as u32, t_us, &mut s) == Admission::Stale {
+            return;
+        }
+        self.pipeline.process(&s);
+        self.invalid_now = !self.pipeline.settings().limits.valid_channels(&s) & channel::ALL;
+        self.processed += 1;
+    }
+
+    /// Record `k32` with the faults active at it applied (a stuck channel holds its value of the
+    /// fault's first record; a late sample's delay is carried into the next `dt`).
+    fn inject_faults(&mut self, faults: &[FaultEvent], k32: u32, rec: &SensorSample<f32>) -> Faulted {
         let mut s = *rec;
-        s.dt_s -= late_carry_s;
-        late_carry_s = 0.0;
+        s.dt_s -= self.late_carry_s;
+        self.late_carry_s = 0.0;
         let mut t_us = (f64::from(s.t_s) * 1e6 + 0.5) as u64;
         let mut drop = false;
         let mut failing = [false; 5];
-        for (f, hold) in sc.faults.iter().zip(holds.iter_mut()).filter(|(f, _)| f.active(k32)) {
+        for (f, hold) in faults.iter().zip(self.holds.iter_mut()).filter(|(f, _)| f.active(k32)) {
             match f.fault {
                 Fault::Bus(c) => failing[c as usize] = true,
                 Fault::Stuck(m) => {
@@ -548,79 +682,52 @@ pub fn emulate(sc: &Scenario<'_>) -> Result<Emulation, QemuError> {
                     s.t_s += late_s;
                     s.dt_s += late_s;
                     t_us += u64::from(us);
-                    late_carry_s = late_s;
+                    self.late_carry_s = late_s;
                 }
                 Fault::Late(_) => {}
             }
         }
-        let chip_channels = [
-            channel::ACCEL | channel::GYRO,
-            channel::AIRSPEED | channel::DENSITY,
-            channel::ALPHA,
-            channel::BETA,
-        ];
-        for (c, (model, bits)) in chips.iter_mut().zip(chip_channels).enumerate() {
-            if failing[c] {
-                s.invalidate(bits);
-            }
-            model.record(!failing[c]);
+        Faulted {
+            sample: s,
+            t_us,
+            drop,
+            failing,
         }
-        if let (Some(link), Some(chunks)) = (link.as_mut(), sc.autopilot) {
-            let chunk = chunks.get(k).map_or(&[][..], Vec::as_slice);
-            if failing[Chip::Autopilot as usize] {
-                link_lost += chunk.len() as u32;
-            } else {
-                link.receive(chunk, t_us);
-            }
-            let all = link.fill(t_us, &mut s);
-            if !all {
-                autopilot_faults += 1;
-            }
-        }
-        stuck_now = stuck.apply(&mut s);
-        sampled += 1;
-        if drop {
-            dropped += 1;
-            continue;
-        }
-        if sequence.admit(k32, t_us, &mut s) == Admission::Stale {
-            continue;
-        }
-        p.process(&s);
-        invalid_now = !p.settings().limits.valid_channels(&s) & channel::ALL;
-        processed += 1;
     }
-    let sensors = SensorHealth {
-        imu: chips[0],
-        airspeed: chips[1],
-        alpha_vane: chips[2],
-        beta_vane: chips[3],
-        autopilot_faults,
-        link: match &link {
-            Some(link) => LinkHealth::from_link(link, link_lost),
-            None => LinkHealth {
-                lost: link_lost,
-                ..LinkHealth::default()
+
+    /// What the firmware sends at the end: the coefficient reports and the health report.
+    fn finish(self) -> Emulation {
+        let sensors = SensorHealth {
+            imu: self.chips[0],
+            airspeed: self.chips[1],
+            alpha_vane: self.chips[2],
+            beta_vane: self.chips[3],
+            autopilot_faults: self.autopilot_faults,
+            link: match &self.link {
+                Some(link) => LinkHealth::from_link(link, self.link_lost),
+                None => LinkHealth {
+                    lost: self.link_lost,
+                    ..LinkHealth::default()
+                },
             },
-        },
-        stuck_now,
-        stuck_episodes: stuck.health().episodes.iter().sum(),
-        stuck_samples: stuck.health().samples.iter().sum(),
-    };
-    let counts = SampleCounts {
-        sampled,
-        dropped,
-        sequence: *sequence.health(),
-        invalid_now,
-        invalid_channel: &p.health().invalid_channel,
-    };
-    let h = health_report(&sensors, &counts);
-    Ok(Emulation {
-        reports: reports(&p),
-        health: h,
-        processed,
-        pipeline_health: *p.health(),
-    })
+            stuck_now: self.stuck_now,
+            stuck_episodes: self.stuck.health().episodes.iter().sum(),
+            stuck_samples: self.stuck.health().samples.iter().sum(),
+        };
+        let counts = SampleCounts {
+            sampled: self.sampled,
+            dropped: self.dropped,
+            sequence: *self.sequence.health(),
+            invalid_now: self.invalid_now,
+            invalid_channel: &self.pipeline.health().invalid_channel,
+        };
+        Emulation {
+            reports: reports(&self.pipeline),
+            health: health_report(&sensors, &counts),
+            processed: self.processed,
+            pipeline_health: *self.pipeline.health(),
+        }
+    }
 }
 
 /// Minimum, median and maximum of one probe over the samples where it ran (non-zero counts).

@@ -34,10 +34,12 @@ use crate::sim::{
     self, Channel, CoeffModel, LinearAero, ParameterJump, Schedule, Shape, SimConfig, Simulator, Turbulence,
 };
 use aerosid_core::aero::model::idx;
-use aerosid_core::aero::{onboard, AeroModels, Pipeline, Regressor};
+use aerosid_core::aero::pipeline::CoefficientStatus;
+use aerosid_core::aero::{onboard, AeroModels, Pipeline, Regressor, SensorSample};
 use aerosid_core::estimator::Estimator;
 use aerosid_core::gtls::Gtls;
 use aerosid_core::Error;
+use std::fmt::Write;
 
 /// Sample rate, Hz.
 pub const RATE_HZ: f64 = 100.0;
@@ -366,152 +368,223 @@ fn views(p: &Pipeline<f32>) -> [View; idx::COUNT] {
 
 /// Runs the long flight (module doc), calling `progress(t_s)` every simulated minute.
 pub fn run(cfg: &LongRunConfig, mut progress: impl FnMut(f64)) -> Result<LongRunReport, LongRunError> {
-    let mut sim_cfg = SimConfig {
-        turbulence: Some(Turbulence::mil_f_8785c_low_altitude(100.0, Turbulence::W20_LIGHT_MPS)),
-        duration_s: cfg.duration_s,
-        seed: cfg.seed,
-        ..SimConfig::default()
-    };
-    let [d1, d2] = jump_deltas();
-    let [t1, t2] = cfg.jumps_s();
-    sim_cfg.plant.jump = Some(ParameterJump { at_s: t1, delta: d1 });
-    let mut sim = Simulator::new(sim_cfg.clone()).map_err(LongRunError::Sim)?;
+    let mut flight = Flight::new(cfg)?;
     let mut pipeline = onboard::pipeline::<f32>().map_err(LongRunError::Pipeline)?;
     let floor = match pipeline.settings().gtls.forgetting {
         aerosid_core::Forgetting::Variable(v) => f64::from(v.lambda_min),
         aerosid_core::Forgetting::Constant(l) => f64::from(l),
     };
-
-    // Truth before, between and after the jumps, per coefficient in parameter order.
     let models = AeroModels::<f32>::with_sigma_eps(onboard::SIGMA_EPS.map(|s| s as f32));
     let regs = regressor_lists(&models);
-    let x0 = trim_input(&crate::sim::SimOutput {
-        trim: *sim.trim(),
-        samples: Vec::new(),
-        truth: Vec::new(),
-        biases: sim.biases(),
-    });
-    let plant0 = &sim_cfg.plant;
-    let lin = [
-        plant0.truth.linearise(&x0),
-        plant0.truth_at(t1).linearise(&x0),
-        crate::sim::TruthAero {
-            linear: plant0.truth.linear.plus(&d1).plus(&d2),
-            ..plant0.truth
-        }
-        .linearise(&x0),
-    ];
-    let truth: [[Vec<f64>; idx::COUNT]; 3] = core::array::from_fn(|j| {
-        let a = lin[j].to_array();
-        core::array::from_fn(|i| truth_parameters(&a[i], &regs[i]))
-    });
-    // The changed parameters of each jump.
-    let mut tracking = Vec::new();
-    for jump in 0..2 {
-        for i in 0..idx::COUNT {
-            for p in 0..regs[i].len() {
-                let (a, b) = (truth[jump][i][p], truth[jump + 1][i][p]);
-                if (a - b).abs() > 1e-9 {
-                    tracking.push(JumpTracking {
-                        jump,
-                        coefficient: i,
-                        parameter: p,
-                        regressor: regs[i][p],
-                        truth: (a, b),
-                        before: f64::NAN,
-                        settle_s: None,
-                        after: f64::NAN,
-                    });
-                }
-            }
-        }
-    }
-    let jump_times = [t1, t2];
-    let phase_ends = [cfg.phase_end_s(t1), cfg.phase_end_s(t2)];
-    // Per tracked parameter: time it last entered the band (None while outside).
-    let mut entered: Vec<Option<f64>> = vec![None; tracking.len()];
-
-    let typical = |i: usize, p: usize| {
-        use aerosid_core::aero::model::typical::*;
-        let row: &[f64] = match i {
-            idx::LIFT => &LIFT,
-            idx::DRAG => &DRAG,
-            idx::SIDE => &SIDE,
-            idx::ROLL => &ROLL,
-            idx::PITCH => &PITCH,
-            _ => &YAW,
-        };
-        row.get(p).copied().unwrap_or(1.0)
-    };
-    let (calm0, calm1) = cfg.calm_s();
-    let mut calm_start: Option<[Vec<f64>; idx::COUNT]> = None;
-    let mut calm_drift = (0.0f64, 0usize, 0usize);
-
+    let truth = flight.truth_by_phase(&regs);
+    let mut jumps = JumpWatch::new(cfg, &truth, &regs);
+    let mut calm = CalmWatch::new(cfg);
     let mut ext = [CoefficientExtremes::default(); idx::COUNT];
     let n = (cfg.duration_s * RATE_HZ).round() as u64;
-    let block_s = 8.0;
-    let mut next_block = 20.0;
-    let mut second_jump_armed = false;
     for k in 0..n {
-        let t = sim.time_s();
+        let t = flight.sim.time_s();
+        let sample = flight.step(cfg, t);
+        let step = pipeline.process(&sample.cast::<f32>());
+        let v = views(&pipeline);
+        for (i, e) in ext.iter_mut().enumerate() {
+            // What the telemetry says of parameter p (asked only at a new maximum of |θ|).
+            let sigma = |p: usize| f64::from(aerosid_core::mavlink::telemetry::reports(&pipeline)[i].sigma[p]);
+            e.record(&step.status[i], &v[i], t, floor, sigma);
+        }
+        jumps.record(&v, t);
+        calm.record(&v, &regs, t);
+        if k % 6000 == 0 {
+            progress(t);
+        }
+    }
+    let v = views(&pipeline);
+    Ok(LongRunReport {
+        config: cfg.clone(),
+        samples: n,
+        coefficients: ext,
+        tracking: jumps.tracking,
+        calm_drift: calm.drift,
+        health: *pipeline.health(),
+        final_theta: core::array::from_fn(|i| (v[i].theta.clone(), truth[2][i].clone())),
+    })
+}
+
+/// Length of a manoeuvre block, s.
+const BLOCK_S: f64 = 8.0;
+
+/// The simulated flight (module doc): the simulator, the 8 s manoeuvre blocks and the two jumps.
+struct Flight {
+    sim: Simulator,
+    /// The settings it started from (the first jump planted).
+    start: SimConfig,
+    deltas: [LinearAero; 2],
+    jumps_s: [f64; 2],
+    /// When the next block may begin, s.
+    next_block_s: f64,
+    second_jump_armed: bool,
+}
+
+impl Flight {
+    fn new(cfg: &LongRunConfig) -> Result<Self, LongRunError> {
+        let mut start = SimConfig {
+            turbulence: Some(Turbulence::mil_f_8785c_low_altitude(100.0, Turbulence::W20_LIGHT_MPS)),
+            duration_s: cfg.duration_s,
+            seed: cfg.seed,
+            ..SimConfig::default()
+        };
+        let deltas = jump_deltas();
+        let jumps_s = cfg.jumps_s();
+        start.plant.jump = Some(ParameterJump {
+            at_s: jumps_s[0],
+            delta: deltas[0],
+        });
+        let sim = Simulator::new(start.clone()).map_err(LongRunError::Sim)?;
+        Ok(Self {
+            sim,
+            start,
+            deltas,
+            jumps_s,
+            next_block_s: 20.0,
+            second_jump_armed: false,
+        })
+    }
+
+    /// Truth before, between and after the jumps, per coefficient in the parameter order of
+    /// `regs`, linearised at the trim.
+    fn truth_by_phase(&self, regs: &[Vec<Regressor>; idx::COUNT]) -> [[Vec<f64>; idx::COUNT]; 3] {
+        let x0 = trim_input(&crate::sim::SimOutput {
+            trim: *self.sim.trim(),
+            samples: Vec::new(),
+            truth: Vec::new(),
+            biases: self.sim.biases(),
+        });
+        let plant0 = &self.start.plant;
+        let [d1, d2] = &self.deltas;
+        let lin = [
+            plant0.truth.linearise(&x0),
+            plant0.truth_at(self.jumps_s[0]).linearise(&x0),
+            crate::sim::TruthAero {
+                linear: plant0.truth.linear.plus(d1).plus(d2),
+                ..plant0.truth
+            }
+            .linearise(&x0),
+        ];
+        core::array::from_fn(|j| {
+            let a = lin[j].to_array();
+            core::array::from_fn(|i| truth_parameters(&a[i], &regs[i]))
+        })
+    }
+
+    /// The sensor sample after one step from time `t`: a manoeuvre block begins when one is due
+    /// (inside an excitation phase), and once the first jump is passed the second is armed.
+    fn step(&mut self, cfg: &LongRunConfig, t: f64) -> SensorSample<f64> {
         // Manoeuvres: one 8 s block at a time, inside excitation phases.
-        if t >= next_block - 1e-9 {
-            let sched = if cfg.excited_at(t) && cfg.excited_at(t + block_s - 0.01) {
+        if t >= self.next_block_s - 1e-9 {
+            let sched = if cfg.excited_at(t) && cfg.excited_at(t + BLOCK_S - 0.01) {
                 block(t)
             } else {
                 Schedule::default()
             };
-            sim.config_mut().schedule = sched;
-            next_block += block_s;
+            self.sim.config_mut().schedule = sched;
+            self.next_block_s += BLOCK_S;
         }
         // The second jump: the first becomes part of the truth, the second is armed.
-        if !second_jump_armed && t >= t1 {
-            let plant = &mut sim.config_mut().plant;
-            plant.truth.linear = plant.truth.linear.plus(&d1);
-            plant.jump = Some(ParameterJump { at_s: t2, delta: d2 });
-            second_jump_armed = true;
+        if !self.second_jump_armed && t >= self.jumps_s[0] {
+            let plant = &mut self.sim.config_mut().plant;
+            plant.truth.linear = plant.truth.linear.plus(&self.deltas[0]);
+            plant.jump = Some(ParameterJump {
+                at_s: self.jumps_s[1],
+                delta: self.deltas[1],
+            });
+            self.second_jump_armed = true;
         }
-        let (sample, _) = sim.step();
-        let step = pipeline.process(&sample.cast::<f32>());
-        let v = views(&pipeline);
-        for i in 0..idx::COUNT {
-            let e = &mut ext[i];
-            let w = &v[i];
-            match step.status[i] {
-                Ok(_) => e.updates += 1,
-                Err(aerosid_core::aero::Refusal::Estimator(_)) => e.refused_estimator += 1,
-                Err(_) => e.refused_other += 1,
+        self.sim.step().0
+    }
+}
+
+impl CoefficientExtremes {
+    /// One sample of the estimator: its `status` and observables `w` at time `t`; `floor` the
+    /// VFF's `λ` floor, `sigma(p)` the σ the telemetry reports for parameter `p`.
+    fn record(&mut self, status: &CoefficientStatus<f32>, w: &View, t: f64, floor: f64, sigma: impl Fn(usize) -> f64) {
+        match status {
+            Ok(_) => self.updates += 1,
+            Err(aerosid_core::aero::Refusal::Estimator(_)) => self.refused_estimator += 1,
+            Err(_) => self.refused_other += 1,
+        }
+        if !w.finite {
+            self.non_finite += 1;
+        }
+        self.worst_orthonormality = self.worst_orthonormality.max(w.orth);
+        self.lambda = (self.lambda.0.min(w.lambda), self.lambda.1.max(w.lambda));
+        if t >= 60.0 {
+            self.k.0 = self.k.0.min(w.k);
+        }
+        self.k.1 = self.k.1.max(w.k);
+        self.max_n_eff = self.max_n_eff.max(w.n_eff);
+        self.max_sigma1 = self.max_sigma1.max(w.sigma1);
+        if t >= 60.0 {
+            for (p, x) in w.theta.iter().enumerate() {
+                if x.abs() > self.max_abs_theta {
+                    // What the telemetry would have said of it (rare: only at a new maximum).
+                    self.max_abs_theta = x.abs();
+                    self.max_abs_theta_at = (t, p, w.k, sigma(p));
+                }
             }
-            if !w.finite {
-                e.non_finite += 1;
-            }
-            e.worst_orthonormality = e.worst_orthonormality.max(w.orth);
-            e.lambda = (e.lambda.0.min(w.lambda), e.lambda.1.max(w.lambda));
-            if t >= 60.0 {
-                e.k.0 = e.k.0.min(w.k);
-            }
-            e.k.1 = e.k.1.max(w.k);
-            e.max_n_eff = e.max_n_eff.max(w.n_eff);
-            e.max_sigma1 = e.max_sigma1.max(w.sigma1);
-            if t >= 60.0 {
-                for (p, x) in w.theta.iter().enumerate() {
-                    if x.abs() > e.max_abs_theta {
-                        // What the telemetry would have said of it (rare: only at a new maximum).
-                        let sigma = aerosid_core::mavlink::telemetry::reports(&pipeline)[i].sigma[p];
-                        e.max_abs_theta = x.abs();
-                        e.max_abs_theta_at = (t, p, w.k, f64::from(sigma));
+        }
+        self.reorthonormalisations = w.reorth;
+        if w.lambda <= floor {
+            self.at_floor += 1;
+        }
+    }
+}
+
+/// How the changed parameters follow each jump ([`JumpTracking`]).
+struct JumpWatch {
+    tracking: Vec<JumpTracking>,
+    /// Per tracked parameter: time it last entered the band (None while outside).
+    entered: Vec<Option<f64>>,
+    jump_times: [f64; 2],
+    phase_ends: [f64; 2],
+}
+
+impl JumpWatch {
+    /// The parameters each jump changes (`truth` per phase, [`Flight::truth_by_phase`]).
+    fn new(cfg: &LongRunConfig, truth: &[[Vec<f64>; idx::COUNT]; 3], regs: &[Vec<Regressor>; idx::COUNT]) -> Self {
+        let mut tracking = Vec::new();
+        for jump in 0..2 {
+            for i in 0..idx::COUNT {
+                for p in 0..regs[i].len() {
+                    let (a, b) = (truth[jump][i][p], truth[jump + 1][i][p]);
+                    if (a - b).abs() > 1e-9 {
+                        tracking.push(JumpTracking {
+                            jump,
+                            coefficient: i,
+                            parameter: p,
+                            regressor: regs[i][p],
+                            truth: (a, b),
+                            before: f64::NAN,
+                            settle_s: None,
+                            after: f64::NAN,
+                        });
                     }
                 }
             }
-            e.reorthonormalisations = w.reorth;
-            if w.lambda <= floor {
-                e.at_floor += 1;
-            }
         }
-        // Jump tracking.
-        for (j, tr) in tracking.iter_mut().enumerate() {
+        let [t1, t2] = cfg.jumps_s();
+        Self {
+            entered: vec![None; tracking.len()],
+            tracking,
+            jump_times: [t1, t2],
+            phase_ends: [cfg.phase_end_s(t1), cfg.phase_end_s(t2)],
+        }
+    }
+
+    /// The estimates `v` at time `t`: the last one before its jump, and after it until the end of
+    /// the phase whether it is within a quarter of the jump of the new truth, and since when.
+    fn record(&mut self, v: &[View; idx::COUNT], t: f64) {
+        for (j, tr) in self.tracking.iter_mut().enumerate() {
             let th = v[tr.coefficient].theta[tr.parameter];
-            let (tj, tend) = (jump_times[tr.jump], phase_ends[tr.jump]);
+            let (tj, tend) = (self.jump_times[tr.jump], self.phase_ends[tr.jump]);
             if t < tj {
                 tr.before = th;
                 continue;
@@ -521,50 +594,98 @@ pub fn run(cfg: &LongRunConfig, mut progress: impl FnMut(f64)) -> Result<LongRun
             }
             let band = 0.25 * (tr.truth.1 - tr.truth.0).abs();
             if (th - tr.truth.1).abs() <= band {
-                entered[j].get_or_insert(t);
+                self.entered[j].get_or_insert(t);
             } else {
-                entered[j] = None;
+                self.entered[j] = None;
             }
             tr.after = th;
-            tr.settle_s = entered[j].map(|e| e - tj);
+            tr.settle_s = self.entered[j].map(|e| e - tj);
         }
-        // Calm-cruise drift of the fully excited coefficients.
-        if t >= calm0 && t < calm1 {
-            let start = calm_start.get_or_insert_with(|| core::array::from_fn(|i| v[i].theta.clone()));
-            for i in 0..idx::COUNT {
-                if usize::from(v[i].k) + 1 < regs[i].len() {
-                    continue;
-                }
-                for p in 0..regs[i].len() {
-                    let d = (v[i].theta[p] - start[i][p]).abs() / typical(i, p);
-                    if d > calm_drift.0 {
-                        calm_drift = (d, i, p);
-                    }
+    }
+}
+
+/// The largest change over the calm cruise of a parameter of a fully excited coefficient.
+struct CalmWatch {
+    /// The calm cruise `[start, end)`, s.
+    window_s: (f64, f64),
+    /// The estimates at its start.
+    start: Option<[Vec<f64>; idx::COUNT]>,
+    /// The largest change in typical magnitudes, with the coefficient and parameter.
+    drift: (f64, usize, usize),
+}
+
+impl CalmWatch {
+    fn new(cfg: &LongRunConfig) -> Self {
+        Self {
+            window_s: cfg.calm_s(),
+            start: None,
+            drift: (0.0, 0, 0),
+        }
+    }
+
+    /// The estimates `v` at time `t`, against those at the start of the calm cruise.
+    fn record(&mut self, v: &[View; idx::COUNT], regs: &[Vec<Regressor>; idx::COUNT], t: f64) {
+        let (calm0, calm1) = self.window_s;
+        if !(t >= calm0 && t < calm1) {
+            return;
+        }
+        let start = self
+            .start
+            .get_or_insert_with(|| core::array::from_fn(|i| v[i].theta.clone()));
+        for i in 0..idx::COUNT {
+            if usize::from(v[i].k) + 1 < regs[i].len() {
+                continue;
+            }
+            for p in 0..regs[i].len() {
+                let d = (v[i].theta[p] - start[i][p]).abs() / typical_magnitude(i, p);
+                if d > self.drift.0 {
+                    self.drift = (d, i, p);
                 }
             }
         }
-        if k % 6000 == 0 {
-            progress(t);
-        }
     }
-    let v = views(&pipeline);
-    let final_theta = core::array::from_fn(|i| (v[i].theta.clone(), truth[2][i].clone()));
-    Ok(LongRunReport {
-        config: cfg.clone(),
-        samples: n,
-        coefficients: ext,
-        tracking,
-        calm_drift,
-        health: *pipeline.health(),
-        final_theta,
-    })
+}
+
+/// The typical magnitude of parameter `p` of coefficient `i` (the weights of eq. 23; 1 past
+/// the table).
+fn typical_magnitude(i: usize, p: usize) -> f64 {
+    use aerosid_core::aero::model::typical::*;
+    let row: &[f64] = match i {
+        idx::LIFT => &LIFT,
+        idx::DRAG => &DRAG,
+        idx::SIDE => &SIDE,
+        idx::ROLL => &ROLL,
+        idx::PITCH => &PITCH,
+        _ => &YAW,
+    };
+    row.get(p).copied().unwrap_or(1.0)
 }
 
 /// The report as the `aerosid long-run` table.
 pub fn format_report(r: &LongRunReport, wall_s: f64) -> String {
-    use std::fmt::Write;
-    let names = crate::experiment::COEFFICIENT_NAMES;
     let mut s = String::new();
+    write_settings(&mut s, r, wall_s);
+    write_extremes(&mut s, &r.coefficients);
+    write_tracking(&mut s, &r.tracking);
+    let names = crate::experiment::COEFFICIENT_NAMES;
+    let (d, i, p) = r.calm_drift;
+    let _ = writeln!(
+        s,
+        "\ncalm cruise drift (fully excited coefficients): largest parameter change {:.3} of its typical magnitude ({} parameter {})",
+        d, names[i], p
+    );
+    let h = &r.health;
+    let _ = writeln!(
+        s,
+        "pipeline health: {} samples; per coefficient updates {:?}",
+        h.samples,
+        h.coefficients.map(|c| c.updates)
+    );
+    s
+}
+
+/// The run's settings and time line.
+fn write_settings(s: &mut String, r: &LongRunReport, wall_s: f64) {
     let c = &r.config;
     let [t1, t2] = c.jumps_s();
     let (c0, c1) = c.calm_s();
@@ -585,11 +706,17 @@ pub fn format_report(r: &LongRunReport, wall_s: f64) -> String {
         t1,
         t2
     );
+}
+
+/// The table of each coefficient's extremes, the worst orthonormality error and where each
+/// largest `|θ|` was reached.
+fn write_extremes(s: &mut String, coefficients: &[CoefficientExtremes; idx::COUNT]) {
+    let names = crate::experiment::COEFFICIENT_NAMES;
     let _ = writeln!(
         s,
         "\ncoef  worst ‖VᵀV−I‖_F   λ_F min–max      k min–max  N_eff max   σ1 max     |θ| max  reorth  refused (est/other)  non-finite  at floor"
     );
-    for (i, e) in r.coefficients.iter().enumerate() {
+    for (i, e) in coefficients.iter().enumerate() {
         let _ = writeln!(
             s,
             "{:<5} {:>14.2e}   {:.4}–{:.4}   {}–{}        {:>9.0}  {:>9.1}  {:>8.3}  {:>6}  {:>6} / {:<10}  {:>10}  {:>8}",
@@ -609,16 +736,12 @@ pub fn format_report(r: &LongRunReport, wall_s: f64) -> String {
             e.at_floor
         );
     }
-    let worst = r
-        .coefficients
-        .iter()
-        .map(|e| e.worst_orthonormality)
-        .fold(0.0, f64::max);
+    let worst = coefficients.iter().map(|e| e.worst_orthonormality).fold(0.0, f64::max);
     let _ = writeln!(
         s,
         "worst orthonormality error of any estimator: {worst:.2e} (bound 1e-5)"
     );
-    for (i, e) in r.coefficients.iter().enumerate() {
+    for (i, e) in coefficients.iter().enumerate() {
         let (t, p, k, sigma) = e.max_abs_theta_at;
         let _ = writeln!(
             s,
@@ -626,8 +749,13 @@ pub fn format_report(r: &LongRunReport, wall_s: f64) -> String {
             names[i], e.max_abs_theta
         );
     }
+}
+
+/// The table of how each changed parameter followed its jump.
+fn write_tracking(s: &mut String, tracking: &[JumpTracking]) {
+    let names = crate::experiment::COEFFICIENT_NAMES;
     let _ = writeln!(s, "\njump  param        truth before → after    estimate before   settled within ¼ of the jump   estimate at phase end");
-    for t in &r.tracking {
+    for t in tracking {
         let _ = writeln!(
             s,
             "{}     {:<12} {:>+9.4} → {:>+9.4}    {:>+9.4}         {:>24}         {:>+9.4}",
@@ -640,18 +768,4 @@ pub fn format_report(r: &LongRunReport, wall_s: f64) -> String {
             t.after
         );
     }
-    let (d, i, p) = r.calm_drift;
-    let _ = writeln!(
-        s,
-        "\ncalm cruise drift (fully excited coefficients): largest parameter change {:.3} of its typical magnitude ({} parameter {})",
-        d, names[i], p
-    );
-    let h = &r.health;
-    let _ = writeln!(
-        s,
-        "pipeline health: {} samples; per coefficient updates {:?}",
-        h.samples,
-        h.coefficients.map(|c| c.updates)
-    );
-    s
 }

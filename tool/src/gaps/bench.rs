@@ -92,11 +92,33 @@ pub fn write(c: &Campaign, dir: &Path) -> Result<Vec<String>, String> {
     std::fs::create_dir_all(&reports).map_err(|e| format!("{}: {e}", reports.display()))?;
     let settings = &c.levels.apply(GapSettings::default());
     let level_args = c.levels.args();
-    let mut jobs: Vec<Box<dyn Fn() -> Case + Send + Sync + '_>> = Vec::new();
-    // Simulated: the campaign's turbulence, one seeded draw sequence.
+    let mut jobs: Vec<Job<'_>> = Vec::new();
+    sim_jobs(c.draws_per_kind, c.clean, settings, &mut jobs);
+    if let Some(j) = &c.jsbsim {
+        jsbsim_jobs(j, settings, &level_args, &mut jobs)?;
+    }
+    if let Some((data, maps)) = &c.real {
+        real_jobs(data, maps, settings, &level_args, &mut jobs);
+    }
+    if let Some(cards) = &c.cards {
+        card_jobs(cards, dir, settings, &level_args, &mut jobs)?;
+    }
+    let cases = run_jobs(&jobs);
+    let (manifest, mut lines) = write_cases(&cases, &tables, &reports)?;
+    let timing = write_manifest(dir, manifest)?;
+    lines.extend(timing_lines(&timing));
+    Ok(lines)
+}
+
+/// A job of the campaign: one flight or card, analysed on its own thread.
+type Job<'a> = Box<dyn Fn() -> Case + Send + Sync + 'a>;
+
+/// The simulated flights' jobs: `draws_per_kind` rounds over [`HiddenKind::ALL`], then `clean`
+/// clean flights; the campaign's turbulence, one seeded draw sequence.
+fn sim_jobs<'a>(draws_per_kind: usize, clean: usize, settings: &'a GapSettings, jobs: &mut Vec<Job<'a>>) {
     let mut rng = ChaCha8Rng::seed_from_u64(0xB3);
     let mut seed = 20_000u64;
-    for _ in 0..c.draws_per_kind {
+    for _ in 0..draws_per_kind {
         for k in HiddenKind::ALL {
             let e = k.draw(&mut rng);
             seed += 1;
@@ -104,68 +126,84 @@ pub fn write(c: &Campaign, dir: &Path) -> Result<Vec<String>, String> {
             jobs.push(Box::new(move || sim_case(Some(e), s, settings)));
         }
     }
-    for _ in 0..c.clean {
+    for _ in 0..clean {
         seed += 1;
         let s = seed;
         jobs.push(Box::new(move || sim_case(None, s, settings)));
     }
-    if let Some(j) = &c.jsbsim {
-        let truth_path = j.join("truth.json");
-        let text = std::fs::read_to_string(&truth_path).map_err(|e| format!("{}: {e}", truth_path.display()))?;
-        let truth: Value = serde_json::from_str(&text).map_err(|e| format!("{}: {e}", truth_path.display()))?;
-        let flights = truth["flights"]
-            .as_object()
-            .ok_or_else(|| format!("{}: no `flights` object", truth_path.display()))?
-            .clone();
-        for (file, t) in flights {
-            let (csv, aircraft) = (j.join(&file), j.join("c172x.aircraft"));
-            let planted = match &t["planted"] {
-                Value::Null => json!([]),
-                p => json!([p]),
-            };
-            let effects = t["table_effects"].clone();
-            let id = format!("jsbsim/{}", file.trim_end_matches(".csv"));
-            let reproduce = format!(
-                "aerosid gaps --data {} --with {}{}",
-                csv.display(),
-                aircraft.display(),
-                level_args
-            );
-            jobs.push(Box::new(move || Case {
-                id: id.clone(),
-                suite: "jsbsim",
-                planted: planted.clone(),
-                table_effects: effects.clone(),
-                reproduce: reproduce.clone(),
-                result: analyse(&csv, &aircraft, settings),
-                pooled: None,
-            }));
-        }
+}
+
+/// The vendored JSBSim flights' jobs (`truth.json`'s `flights`).
+fn jsbsim_jobs<'a>(
+    j: &Path,
+    settings: &'a GapSettings,
+    level_args: &str,
+    jobs: &mut Vec<Job<'a>>,
+) -> Result<(), String> {
+    let (truth, truth_path) = read_truth(j)?;
+    for (file, t) in truth_object(&truth, "flights", &truth_path)? {
+        let flight = FlightFile {
+            id: format!("jsbsim/{}", file.trim_end_matches(".csv")),
+            suite: "jsbsim",
+            planted: planted_list(&t["planted"]),
+            table_effects: t["table_effects"].clone(),
+            data: j.join(&file),
+            companion: j.join("c172x.aircraft"),
+        };
+        jobs.push(flight.job(settings, level_args));
     }
-    if let Some((data, maps)) = &c.real {
-        for (file, map) in REAL_FLIGHTS {
-            let (d, m) = (data.join(file), maps.join(map));
-            let id = format!("real/{}", file.trim_end_matches(".asc"));
-            let reproduce = format!(
-                "aerosid gaps --data {} --with {}{}",
-                d.display(),
-                m.display(),
-                level_args
-            );
-            jobs.push(Box::new(move || Case {
-                id: id.clone(),
-                suite: "real",
-                planted: Value::Null,
-                table_effects: Value::Null,
-                reproduce: reproduce.clone(),
-                result: analyse(&d, &m, settings),
-                pooled: None,
-            }));
-        }
+    Ok(())
+}
+
+/// The real flight-test files' jobs ([`REAL_FLIGHTS`] in `data`, their maps in `maps`).
+fn real_jobs<'a>(data: &Path, maps: &Path, settings: &'a GapSettings, level_args: &str, jobs: &mut Vec<Job<'a>>) {
+    for (file, map) in REAL_FLIGHTS {
+        let flight = FlightFile {
+            id: format!("real/{}", file.trim_end_matches(".asc")),
+            suite: "real",
+            planted: Value::Null,
+            table_effects: Value::Null,
+            data: data.join(file),
+            companion: maps.join(map),
+        };
+        jobs.push(flight.job(settings, level_args));
     }
-    if let Some(cards) = &c.cards {
-        card_jobs(cards, dir, settings, &level_args, &mut jobs)?;
+}
+
+/// One flight file of the campaign, analysed alone with its companion file (the aircraft or
+/// the column map).
+struct FlightFile {
+    id: String,
+    suite: &'static str,
+    planted: Value,
+    table_effects: Value,
+    data: PathBuf,
+    companion: PathBuf,
+}
+
+impl FlightFile {
+    /// Its job, and the `aerosid gaps` command line that repeats it.
+    fn job<'a>(self, settings: &'a GapSettings, level_args: &str) -> Job<'a> {
+        let reproduce = format!(
+            "aerosid gaps --data {} --with {}{}",
+            self.data.display(),
+            self.companion.display(),
+            level_args
+        );
+        Box::new(move || Case {
+            id: self.id.clone(),
+            suite: self.suite,
+            planted: self.planted.clone(),
+            table_effects: self.table_effects.clone(),
+            reproduce: reproduce.clone(),
+            result: analyse(&self.data, &self.companion, settings),
+            pooled: None,
+        })
     }
+}
+
+/// Every job, in parallel (one thread each), with a progress bar; the cases in the jobs' order.
+fn run_jobs(jobs: &[Job<'_>]) -> Vec<Case> {
     let bar = crate::progress::bar(jobs.len() as u64, "flights analysed");
     let cases: Vec<Case> = jobs
         .par_iter()
@@ -176,9 +214,15 @@ pub fn write(c: &Campaign, dir: &Path) -> Result<Vec<String>, String> {
         })
         .collect();
     bar.finish_and_clear();
+    cases
+}
+
+/// Each analysed case's regression table (in `tables`) and report (in `reports`) written; its
+/// manifest entry, and one line per case (errors included).
+fn write_cases(cases: &[Case], tables: &Path, reports: &Path) -> Result<(Vec<Value>, Vec<String>), String> {
     let mut manifest = Vec::new();
     let mut lines = Vec::new();
-    for case in &cases {
+    for case in cases {
         match &case.result {
             Err(e) => lines.push(format!("{:<40} ERROR {e}", case.id)),
             Ok((r, t)) => {
@@ -208,6 +252,11 @@ pub fn write(c: &Campaign, dir: &Path) -> Result<Vec<String>, String> {
             }
         }
     }
+    Ok((manifest, lines))
+}
+
+/// `dir/manifest.json` and `dir/timing.json` written; the timing summary.
+fn write_manifest(dir: &Path, manifest: Vec<Value>) -> Result<Value, String> {
     let m = dir.join("manifest.json");
     let timing = timing_summary(&manifest);
     let text = serde_json::to_string_pretty(&Value::Array(manifest)).map_err(|e| e.to_string())?;
@@ -215,22 +264,27 @@ pub fn write(c: &Campaign, dir: &Path) -> Result<Vec<String>, String> {
     let t = dir.join("timing.json");
     let text = serde_json::to_string_pretty(&timing).map_err(|e| e.to_string())?;
     std::fs::write(&t, text).map_err(|e| format!("{}: {e}", t.display()))?;
-    if let Some(suites) = timing["suites"].as_object() {
-        for (suite, v) in suites {
-            lines.push(format!(
+    Ok(timing)
+}
+
+/// One line per suite of the timing summary.
+fn timing_lines(timing: &Value) -> Vec<String> {
+    let Some(suites) = timing["suites"].as_object() else {
+        return Vec::new();
+    };
+    suites
+        .iter()
+        .map(|(suite, v)| {
+            format!(
                 "{suite}: median {:.3} s ({:.3} s CPU) per flight over {} flights ({} threads)",
                 v["median_s"].as_f64().unwrap_or(f64::NAN),
                 v["median_cpu_s"].as_f64().unwrap_or(f64::NAN),
                 v["flights"],
                 timing["threads"]
-            ));
-        }
-    }
-    Ok(lines)
+            )
+        })
+        .collect()
 }
-
-/// A job of the campaign: one flight or card, analysed on its own thread.
-type Job<'a> = Box<dyn Fn() -> Case + Send + Sync + 'a>;
 
 /// The card suites' jobs: the simulated cards are flown and written here (into
 /// `dir/cards/<id>/`, so that each campaign's files can be analysed again by hand), analysed in
@@ -242,12 +296,10 @@ fn card_jobs<'a>(
     level_args: &str,
     jobs: &mut Vec<Job<'a>>,
 ) -> Result<(), String> {
-    use crate::card::{draw_effect, CardSettings, AIRCRAFT_FILE};
-    use crate::sim::test_card::CardTurbulence;
     // The kinds a card accepts (not the α-vane kinds: a card has no vanes).
     let kinds: Vec<HiddenKind> = HiddenKind::ALL
         .into_iter()
-        .filter(|k| draw_effect(*k, 0, None).is_ok())
+        .filter(|k| crate::card::draw_effect(*k, 0, None).is_ok())
         .collect();
     let mut plan: Vec<Option<HiddenKind>> = Vec::new();
     for _ in 0..c.seeds_per_kind {
@@ -255,15 +307,51 @@ fn card_jobs<'a>(
     }
     plan.extend(std::iter::repeat_n(None, c.clean));
     for (i, kind) in plan.into_iter().enumerate() {
+        let card = SimulatedCard::new(i, kind, kinds.len(), c.seeds_per_kind, dir, settings, level_args)?;
+        jobs.push(Box::new(move || card.fly_and_analyse()));
+    }
+    if let Some(j) = &c.jsbsim {
+        jsbsim_card_jobs(j, settings, level_args, jobs)?;
+    }
+    Ok(())
+}
+
+/// One simulated test card of the suite: how it is flown, where its files go, what was planted
+/// and how to repeat it by hand.
+struct SimulatedCard {
+    id: String,
+    card: crate::card::CardSettings,
+    folder: PathBuf,
+    aircraft: PathBuf,
+    planted: Value,
+    reproduce: String,
+    /// The campaign's settings with the card's own baseline.
+    settings: GapSettings,
+}
+
+impl SimulatedCard {
+    /// The `i`-th card of the plan, with `kind` planted (or clean); `kinds` kinds a card accepts,
+    /// `seeds_per_kind` rounds over them.
+    fn new(
+        i: usize,
+        kind: Option<HiddenKind>,
+        kinds: usize,
+        seeds_per_kind: usize,
+        dir: &Path,
+        settings: &GapSettings,
+        level_args: &str,
+    ) -> Result<Self, String> {
+        use crate::card::{draw_effect, CardSettings, AIRCRAFT_FILE};
+        use crate::sim::test_card::CardTurbulence;
         // Card seeds from 300 on; turbulence light and moderate in turn, for every kind (each
         // round over the kinds flips the parity, which an even number of kinds would fix).
         let seed = 300 + i as u64;
-        let round = if i < kinds.len() * c.seeds_per_kind {
-            i / kinds.len().max(1)
+        let round = if i < kinds * seeds_per_kind {
+            i / kinds.max(1)
         } else {
             0
         };
-        let turbulence = if (i + round) % 2 == 0 {
+        let turbulence = if (i + round).is_multiple_of(2) {
             CardTurbulence::Light
         } else {
             CardTurbulence::Moderate
@@ -282,112 +370,155 @@ fn card_jobs<'a>(
         let folder = dir.join("cards").join(id.replace('/', "_"));
         let aircraft = folder.join(AIRCRAFT_FILE);
         let baseline = HiddenEffect::baseline(effect.as_ref());
-        let planted = match &effect {
-            None => json!([]),
-            Some(e) => {
-                let (k, l) = e.expected();
-                let mut p = json!({"kind": format!("{k:?}"), "location": l, "size": e.size, "effect": e.kind.name()});
-                if let Some(t) = e.expected_terms() {
-                    p["terms"] = json!(t);
-                }
-                json!([p])
-            }
-        };
-        let effect_args = effect.map_or(String::new(), |e| {
-            let size = if e.kind == HiddenKind::MissingRollControl {
-                String::new()
-            } else {
-                format!(" --size {:?}", e.size)
-            };
-            format!(" --effect {}{size}", e.kind.name())
-        });
-        let spec = baseline_spec(&baseline);
         let reproduce = format!(
             "aerosid card --out {f} --seed {seed} --turbulence {t}{effect_args} && aerosid gaps --data {f}/*.csv --with {a} --baseline '{spec}'{level_args}",
             f = folder.display(),
             t = turbulence.name(),
+            effect_args = card_effect_args(effect.as_ref()),
             a = aircraft.display(),
+            spec = baseline_spec(&baseline),
         );
-        let s = GapSettings {
-            baseline: Some(baseline),
-            ..settings.clone()
-        };
-        jobs.push(Box::new(move || {
-            // Flown in the job (in parallel); the files in the card's order.
-            let csvs = crate::card::write_card(&folder, &card).map(|files| {
-                files
-                    .into_iter()
-                    .filter(|f| f.extension().is_some_and(|x| x == "csv"))
-                    .collect::<Vec<_>>()
-            });
-            match csvs {
-                Ok(csvs) => pooled_case(
-                    &id,
-                    "card",
-                    planted.clone(),
-                    Value::Null,
-                    reproduce.clone(),
-                    &csvs,
-                    &aircraft,
-                    &s,
-                ),
-                Err(e) => Case {
-                    id: id.clone(),
-                    suite: "card",
-                    planted: planted.clone(),
-                    table_effects: Value::Null,
-                    reproduce: reproduce.clone(),
-                    result: Err(e.to_string()),
-                    pooled: None,
-                },
-            }
-        }));
+        Ok(Self {
+            id,
+            card,
+            folder,
+            aircraft,
+            planted: card_planted(effect.as_ref()),
+            reproduce,
+            settings: GapSettings {
+                baseline: Some(baseline),
+                ..settings.clone()
+            },
+        })
     }
-    if let Some(j) = &c.jsbsim {
-        let truth_path = j.join("truth.json");
-        let text = std::fs::read_to_string(&truth_path).map_err(|e| format!("{}: {e}", truth_path.display()))?;
-        let truth: Value = serde_json::from_str(&text).map_err(|e| format!("{}: {e}", truth_path.display()))?;
-        let cards = truth["cards"]
-            .as_object()
-            .ok_or_else(|| format!("{}: no `cards` object", truth_path.display()))?
-            .clone();
-        let aircraft = j.join(truth["aircraft_file"].as_str().unwrap_or("c172x.aircraft"));
-        for (name, t) in cards {
-            let records = t["records"]
-                .as_array()
-                .ok_or_else(|| format!("{}: card {name} has no `records` list", truth_path.display()))?;
-            let csvs: Vec<PathBuf> = records
-                .iter()
-                .map(|r| r["file"].as_str().map(|f| j.join(f)))
-                .collect::<Option<_>>()
-                .ok_or_else(|| format!("{}: a record of card {name} has no `file`", truth_path.display()))?;
-            let planted = match &t["planted"] {
-                Value::Null => json!([]),
-                p => json!([p]),
-            };
-            let reproduce = format!(
-                "aerosid gaps{} --with {}{level_args}",
-                data_args(&csvs),
-                aircraft.display()
-            );
-            let id = format!("jsbsim_card/{name}");
-            let effects = truth["table_effects"].clone();
-            let aircraft = aircraft.clone();
-            jobs.push(Box::new(move || {
-                pooled_case(
-                    &id,
-                    "jsbsim_card",
-                    planted.clone(),
-                    effects.clone(),
-                    reproduce.clone(),
-                    &csvs,
-                    &aircraft,
-                    settings,
-                )
-            }));
+
+    /// The card flown and written (its files in the card's order), then analysed as a pooled
+    /// campaign ([`pooled_case`]).
+    fn fly_and_analyse(&self) -> Case {
+        let csvs = crate::card::write_card(&self.folder, &self.card).map(|files| {
+            files
+                .into_iter()
+                .filter(|f| f.extension().is_some_and(|x| x == "csv"))
+                .collect::<Vec<_>>()
+        });
+        match csvs {
+            Ok(csvs) => pooled_case(
+                &self.id,
+                "card",
+                self.planted.clone(),
+                Value::Null,
+                self.reproduce.clone(),
+                &csvs,
+                &self.aircraft,
+                &self.settings,
+            ),
+            Err(e) => Case {
+                id: self.id.clone(),
+                suite: "card",
+                planted: self.planted.clone(),
+                table_effects: Value::Null,
+                reproduce: self.reproduce.clone(),
+                result: Err(e.to_string()),
+                pooled: None,
+            },
         }
     }
+}
+
+/// A card's planted effect as the manifest lists it (empty for a clean card).
+fn card_planted(effect: Option<&HiddenEffect>) -> Value {
+    match effect {
+        None => json!([]),
+        Some(e) => {
+            let (k, l) = e.expected();
+            let mut p = json!({"kind": format!("{k:?}"), "location": l, "size": e.size, "effect": e.kind.name()});
+            if let Some(t) = e.expected_terms() {
+                p["terms"] = json!(t);
+            }
+            json!([p])
+        }
+    }
+}
+
+/// ` --effect NAME [--size S]` of `aerosid card` for a planted effect.
+fn card_effect_args(effect: Option<&HiddenEffect>) -> String {
+    effect.map_or(String::new(), |e| {
+        let size = if e.kind == HiddenKind::MissingRollControl {
+            String::new()
+        } else {
+            format!(" --size {:?}", e.size)
+        };
+        format!(" --effect {}{size}", e.kind.name())
+    })
+}
+
+/// The vendored JSBSim cards' jobs (`truth.json`'s `cards`: each a list of records, one file
+/// each, pooled).
+fn jsbsim_card_jobs<'a>(
+    j: &Path,
+    settings: &'a GapSettings,
+    level_args: &str,
+    jobs: &mut Vec<Job<'a>>,
+) -> Result<(), String> {
+    let (truth, truth_path) = read_truth(j)?;
+    let cards = truth_object(&truth, "cards", &truth_path)?;
+    let aircraft = j.join(truth["aircraft_file"].as_str().unwrap_or("c172x.aircraft"));
+    for (name, t) in cards {
+        let records = t["records"]
+            .as_array()
+            .ok_or_else(|| format!("{}: card {name} has no `records` list", truth_path.display()))?;
+        let csvs: Vec<PathBuf> = records
+            .iter()
+            .map(|r| r["file"].as_str().map(|f| j.join(f)))
+            .collect::<Option<_>>()
+            .ok_or_else(|| format!("{}: a record of card {name} has no `file`", truth_path.display()))?;
+        let planted = planted_list(&t["planted"]);
+        let reproduce = format!(
+            "aerosid gaps{} --with {}{level_args}",
+            data_args(&csvs),
+            aircraft.display()
+        );
+        let id = format!("jsbsim_card/{name}");
+        let effects = truth["table_effects"].clone();
+        let aircraft = aircraft.clone();
+        jobs.push(Box::new(move || {
+            pooled_case(
+                &id,
+                "jsbsim_card",
+                planted.clone(),
+                effects.clone(),
+                reproduce.clone(),
+                &csvs,
+                &aircraft,
+                settings,
+            )
+        }));
+    }
     Ok(())
+}
+
+/// `dir/truth.json` of a vendored JSBSim folder, and its path.
+fn read_truth(dir: &Path) -> Result<(Value, PathBuf), String> {
+    let truth_path = dir.join("truth.json");
+    let text = std::fs::read_to_string(&truth_path).map_err(|e| format!("{}: {e}", truth_path.display()))?;
+    let truth: Value = serde_json::from_str(&text).map_err(|e| format!("{}: {e}", truth_path.display()))?;
+    Ok((truth, truth_path))
+}
+
+/// The object `truth[key]` (the flights or the cards), or an error naming the file.
+fn truth_object(truth: &Value, key: &str, truth_path: &Path) -> Result<serde_json::Map<String, Value>, String> {
+    truth[key]
+        .as_object()
+        .ok_or_else(|| format!("{}: no `{key}` object", truth_path.display()))
+        .cloned()
+}
+
+/// A truth entry's planted effect as the manifest lists it: `[]` for none, else `[p]`.
+fn planted_list(p: &Value) -> Value {
+    match p {
+        Value::Null => json!([]),
+        p => json!([p]),
+    }
 }
 
 /// ` --data F` for every file.
