@@ -547,7 +547,6 @@ fn detection(cases: &[(&'static str, Option<HiddenEffect>)], methods: &[LowRateM
 #[test]
 #[ignore = "a measurement of 12 flights (minutes)"]
 fn source_of_the_aileron_delay_on_clean_flights() {
-    use aerosid::sim::{simulate, SimAirframe};
     println!("| variant | seed | C_l δȧ t² | delay, ms | named |");
     type Variant = (&'static str, fn(&mut aerosid::sim::SimConfig));
     let variants: [Variant; 4] = [
@@ -557,40 +556,62 @@ fn source_of_the_aileron_delay_on_clean_flights() {
         ("no turbulence", |c| c.turbulence = None),
     ];
     for (name, change) in variants {
-        for seed in [41_004u64, 41_005, 41_006] {
-            let mut cfg = hidden::config(None, 60.0, seed, true);
-            change(&mut cfg);
-            let out = simulate(&cfg).expect("the simulator flies");
-            let ac = aerosid::io::measured::Aircraft::from_airframe(
-                "skywalker_2013_mod",
-                &SimAirframe::skywalker_2013_mod().frame,
-            );
-            let f = MeasuredFlight::from_samples(name, &out.samples, ac).block_means(10);
-            let s = GapSettings {
-                baseline: Some(HiddenEffect::baseline(None)),
-                low_rate_method: LowRateMethod::FilterError,
-                ..GapSettings::default()
-            };
-            let r = run_gaps(&f, &s).expect("the analysis runs");
-            let c_l = r.coefficients.iter().find(|c| c.name == "C_l").expect("C_l");
-            let rate = c_l.candidates.iter().find(|k| k.term == "δȧ");
-            let delta_a = c_l
-                .baseline
-                .parameters
-                .iter()
-                .find(|p| p.term == "δa")
-                .map_or(f64::NAN, |p| p.value);
-            let named: Vec<String> = r
-                .named
-                .iter()
-                .map(|c| format!("{} {} {:+.4}", c.location, c.what, c.value))
-                .collect();
-            println!(
-                "| {name} | {seed} | {} | {} | {} |",
-                rate.map_or("—".into(), |k| format!("{:.1}", k.t2)),
-                rate.map_or("—".into(), |k| format!("{:.1}", -1e3 * k.value / delta_a)),
-                named.join("; ")
-            );
-        }
+        delay_source(name, change, 10);
+    }
+}
+
+/// The flights of [`source_of_the_aileron_delay_on_clean_flights`] as flown, logged at 10 Hz by
+/// taking every tenth 100 Hz sample instead of block means: whether the averaging makes the
+/// delay. `cargo test -p aerosid --test cli low_rate::point_samples -- --ignored --nocapture`.
+#[test]
+#[ignore = "a measurement of 3 flights (minutes)"]
+fn point_samples_and_the_aileron_delay() {
+    println!("| variant | seed | C_l δȧ t² | delay, ms | named |");
+    delay_source("every tenth sample", |_| {}, 1);
+}
+
+/// One row per seed 41004–41006 of the delay measurements: the clean flight with `change`,
+/// logged at 10 Hz (block means of `block` samples of 100 Hz; 1: every tenth sample).
+fn delay_source(name: &str, change: fn(&mut aerosid::sim::SimConfig), block: usize) {
+    use aerosid::sim::{simulate, SimAirframe};
+    for seed in [41_004u64, 41_005, 41_006] {
+        let mut cfg = hidden::config(None, 60.0, seed, true);
+        change(&mut cfg);
+        let out = simulate(&cfg).expect("the simulator flies");
+        let ac = aerosid::io::measured::Aircraft::from_airframe(
+            "skywalker_2013_mod",
+            &SimAirframe::skywalker_2013_mod().frame,
+        );
+        let f = if block > 1 {
+            MeasuredFlight::from_samples(name, &out.samples, ac).block_means(block)
+        } else {
+            let every: Vec<_> = out.samples.iter().step_by(10).cloned().collect();
+            MeasuredFlight::from_samples(name, &every, ac)
+        };
+        let s = GapSettings {
+            baseline: Some(HiddenEffect::baseline(None)),
+            low_rate_method: LowRateMethod::FilterError,
+            ..GapSettings::default()
+        };
+        let r = run_gaps(&f, &s).expect("the analysis runs");
+        let c_l = r.coefficients.iter().find(|c| c.name == "C_l").expect("C_l");
+        let rate = c_l.candidates.iter().find(|k| k.term == "δȧ");
+        let delta_a = c_l
+            .baseline
+            .parameters
+            .iter()
+            .find(|p| p.term == "δa")
+            .map_or(f64::NAN, |p| p.value);
+        let named: Vec<String> = r
+            .named
+            .iter()
+            .map(|c| format!("{} {} {:+.4}", c.location, c.what, c.value))
+            .collect();
+        println!(
+            "| {name} | {seed} | {} | {} | {} |",
+            rate.map_or("—".into(), |k| format!("{:.1}", k.t2)),
+            rate.map_or("—".into(), |k| format!("{:.1}", -1e3 * k.value / delta_a)),
+            named.join("; ")
+        );
     }
 }
