@@ -45,8 +45,8 @@ pub fn analyse(inp: &Inputs, method: LowRateMethod) -> Result<LowRate, String> {
 fn axis<D: Dynamics>(inp: &Inputs, setup: Result<Setup<D>, String>, method: LowRateMethod) -> Result<LowRate, String> {
     let mut setup = setup?;
     let decision = low_rate_fem::decide(inp, &setup, method)?;
-    if let Some(k) = decision.gain {
-        setup.set_gain(k);
+    if let Some((k, fold_gains)) = decision.gain {
+        setup.set_gain(k, fold_gains);
     }
     let mut lr = oem::analyse_axis(inp, setup)?;
     lr.notes.insert(0, decision.note);

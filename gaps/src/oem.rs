@@ -760,6 +760,9 @@ pub(super) struct Setup<D> {
     fold_note: String,
     /// The filter error method's steady-state gain (`NX × NY`); `None`: output error.
     gain: Option<DMatrix<f64>>,
+    /// With the filter error method, per fold the gain tuned without that fold's data: the
+    /// filter that predicts the fold in the held-out test (`low_rate_fem.rs`).
+    fold_gains: Vec<DMatrix<f64>>,
 }
 
 impl<D: Dynamics> Setup<D> {
@@ -855,9 +858,39 @@ impl<D: Dynamics> Setup<D> {
         }
     }
 
-    /// Runs the filter error method with the steady-state gain `k` (`NX × NY`) from now on.
-    pub(super) fn set_gain(&mut self, k: DMatrix<f64>) {
+    /// Runs the filter error method from now on: the steady-state gain `k` (`NX × NY`) for the
+    /// estimation, and `fold_gains`, one per fold, tuned without that fold, for the held-out test.
+    pub(super) fn set_gain(&mut self, k: DMatrix<f64>, fold_gains: Vec<DMatrix<f64>>) {
         self.gain = Some(k);
+        self.fold_gains = fold_gains;
+    }
+
+    /// The number of held-out folds.
+    pub(super) fn folds(&self) -> usize {
+        self.folds
+    }
+
+    /// The sample ranges of the blocks of fold `fold` (`held_out == true`) or of all the other
+    /// folds (the identification data when `fold` is held out).
+    pub(super) fn fold_ranges(&self, fold: usize, held_out: bool) -> Vec<(usize, usize)> {
+        self.blocks
+            .iter()
+            .zip(&self.fold)
+            .filter(|(_, &k)| (k == fold) == held_out)
+            .map(|(b, _)| *b)
+            .collect()
+    }
+
+    /// The output-error baseline `base` refitted without fold `fold` (one Gauss–Newton step on
+    /// the other folds' data, as the held-out test does) and its residuals over the record;
+    /// `None` when the fold leaves the parameters unidentifiable or the simulation fails.
+    pub(super) fn without_fold(&self, base: &OutputErrorBaseline, fold: usize) -> Option<(Vec<f64>, Residuals)> {
+        let f = &base.fit;
+        let (mf, gf) = normal(&f.run, &f.e, &f.w, &self.fold_ranges(fold, true), f.spec.np());
+        let delta = (&f.m - mf).cholesky()?.solve(&(&f.g - gf));
+        let th: Vec<f64> = f.th.iter().zip(delta.iter()).map(|(t, d)| t + d).collect();
+        let run = self.plant.run(&f.spec, &th, &self.pieces, false, None)?;
+        Some((th, self.plant.residuals(&run)))
     }
 
     /// The method that runs, in words.
@@ -876,14 +909,20 @@ impl<D: Dynamics> Setup<D> {
         Some(self.plant.residuals(&run))
     }
 
-    /// `(∂f/∂x, ∂h/∂x)` at `θ` averaged over the record at the measured states (up to 200
-    /// evenly spaced samples): the linearisation of the steady-state filter. `None` when no
-    /// sample gives both.
-    pub(super) fn mean_jacobians(&self, spec: &Spec, th: &[f64]) -> Option<(DMatrix<f64>, DMatrix<f64>)> {
-        let n = self.plant.y_m().len();
+    /// `(∂f/∂x, ∂h/∂x)` at `θ` averaged over the samples of `ranges` at the measured states (up
+    /// to about 200 evenly spaced samples): the linearisation of the steady-state filter. `None`
+    /// when no sample gives both.
+    pub(super) fn mean_jacobians(
+        &self,
+        spec: &Spec,
+        th: &[f64],
+        ranges: &[(usize, usize)],
+    ) -> Option<(DMatrix<f64>, DMatrix<f64>)> {
+        let n: usize = ranges.iter().map(|(a, b)| b - a).sum();
         let mut sum: Option<(DMatrix<f64>, DMatrix<f64>)> = None;
         let mut count = 0.0;
-        for k in (0..n).step_by((n / 200).max(1)) {
+        let samples = ranges.iter().flat_map(|&(a, b)| a..b);
+        for k in samples.step_by((n / 200).max(1)) {
             let x = self.plant.x0(k);
             if !self.plant.plausible(&x) {
                 continue;
@@ -923,28 +962,36 @@ impl<D: Dynamics> Setup<D> {
     /// Held-out residuals per block (linearised leave-fold-out), scaled by `√w`.
     fn held_out(&self, f: &Fit) -> Option<HeldOut> {
         let np = f.spec.np();
+        let all = [(0, self.plant.y_m().len())];
         let mut out = vec![Vec::new(); self.blocks.len()];
         for fold in 0..self.folds {
-            let ranges: Vec<(usize, usize)> = self
-                .blocks
-                .iter()
-                .zip(&self.fold)
-                .filter(|(_, &k)| k == fold)
-                .map(|(b, _)| *b)
-                .collect();
+            let ranges = self.fold_ranges(fold, true);
             if ranges.is_empty() {
                 continue;
             }
-            let (mf, gf) = normal(&f.run, &f.e, &f.w, &ranges, np);
-            let delta = (&f.m - mf).cholesky()?.solve(&(&f.g - gf));
+            // With the filter error method the fold is predicted by the filter tuned without it:
+            // the innovations and sensitivities of that filter at the fit's θ.
+            let own;
+            let (run, e, m, g) = match self.fold_gains.get(fold) {
+                Some(k) => {
+                    let run = self.plant.run(&f.spec, &f.th, &self.pieces, true, Some(k))?;
+                    let e = self.plant.residuals(&run);
+                    let (m, g) = normal(&run, &e, &f.w, &all, np);
+                    own = (run, e, m, g);
+                    (&own.0, &own.1, &own.2, &own.3)
+                }
+                None => (&f.run, &f.e, &f.m, &f.g),
+            };
+            let (mf, gf) = normal(run, e, &f.w, &ranges, np);
+            let delta = (m - mf).cholesky()?.solve(&(g - gf));
             for (bi, (&(a, b), &k)) in self.blocks.iter().zip(&self.fold).enumerate() {
                 if k != fold {
                     continue;
                 }
                 out[bi] = (a..b)
                     .map(|s| {
-                        let pred = &f.run.h[s] * &delta;
-                        core::array::from_fn(|i| (f.e[s][i] - pred[i]) * f.w[i].sqrt())
+                        let pred = &run.h[s] * &delta;
+                        core::array::from_fn(|i| (e[s][i] - pred[i]) * f.w[i].sqrt())
                     })
                     .collect();
             }
@@ -1142,6 +1189,7 @@ impl<D: Dynamics> Setup<D> {
             folds,
             fold_note,
             gain: None,
+            fold_gains: Vec::new(),
         }
     }
 }
@@ -1186,15 +1234,35 @@ pub(super) fn analyse_axis<D: Dynamics>(inp: &Inputs, setup: Setup<D>) -> Result
 /// Residuals per sample and output.
 pub(super) type Residuals = Vec<[f64; NY]>;
 
-/// The output-error baseline of an axis (its terms with a column, the noise relaxed): the
-/// terms, `θ` and the residuals — what the process-noise test of `low_rate_fem.rs` starts from.
+/// The output-error baseline of an axis (its terms with a column, the noise relaxed) — what the
+/// process-noise test of `low_rate_fem.rs` starts from.
+pub(super) struct OutputErrorBaseline {
+    fit: Fit,
+}
+
+impl OutputErrorBaseline {
+    /// The terms.
+    pub(super) fn spec(&self) -> &Spec {
+        &self.fit.spec
+    }
+    /// The estimate `θ`.
+    pub(super) fn th(&self) -> &[f64] {
+        &self.fit.th
+    }
+    /// The residuals per sample.
+    pub(super) fn e(&self) -> &[[f64; NY]] {
+        &self.fit.e
+    }
+}
+
+/// The output-error baseline of an axis; `Err` when it cannot be fitted.
 pub(super) fn output_error_baseline<D: Dynamics>(
     inp: &Inputs,
     setup: &Setup<D>,
-) -> Result<(Spec, Vec<f64>, Residuals), String> {
+) -> Result<OutputErrorBaseline, String> {
     let Baseline { spec, th0, .. } = baseline_spec::<D>(inp)?;
     let fit = setup.fit_relaxed(&spec, th0)?;
-    Ok((fit.spec, fit.th, fit.e))
+    Ok(OutputErrorBaseline { fit })
 }
 
 /// An axis's baseline before its fit.

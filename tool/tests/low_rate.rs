@@ -435,7 +435,26 @@ fn sigma_scatter(method: LowRateMethod) -> Vec<String> {
 #[test]
 #[ignore = "a measurement of 24 flights (minutes)"]
 fn detection_with_output_error_and_filter_error() {
-    let cases: [(&str, Option<HiddenEffect>); 4] = [
+    detection(&detection_cases(), &[LowRateMethod::OutputError, LowRateMethod::Test]);
+}
+
+/// The filter error method's half of [`detection_with_output_error_and_filter_error`] on the
+/// clean flights and the adverse yaw, where the two methods differed most (the false alarm and
+/// the detection): `cargo test -p aerosid --test cli
+/// low_rate::filter_error_detection -- --ignored --nocapture`.
+#[test]
+#[ignore = "a measurement of 6 flights (minutes)"]
+fn filter_error_detection_on_clean_flights_and_adverse_yaw() {
+    let cases: Vec<_> = detection_cases()
+        .into_iter()
+        .filter(|(name, _)| *name == "clean" || *name == "adverse yaw −0.05")
+        .collect();
+    detection(&cases, &[LowRateMethod::Test]);
+}
+
+/// The cases of the detection measurements: a clean flight and three planted effects.
+fn detection_cases() -> Vec<(&'static str, Option<HiddenEffect>)> {
+    vec![
         ("clean", None),
         (
             "C_Lα² −10",
@@ -453,20 +472,18 @@ fn detection_with_output_error_and_filter_error() {
                 channel: None,
             }),
         ),
-        (
-            "adverse yaw −0.05",
-            Some(HiddenEffect {
-                kind: HiddenKind::AdverseYaw,
-                size: -0.05,
-                channel: None,
-            }),
-        ),
-    ];
+        ("adverse yaw −0.05", Some(ADVERSE_YAW)),
+    ]
+}
+
+/// Prints, per case of `cases`, seed 41004–41006 and method of `methods`, whether the planted
+/// cause is named, what else is named (with its estimate) and the methods chosen; then the tally.
+fn detection(cases: &[(&'static str, Option<HiddenEffect>)], methods: &[LowRateMethod]) {
     println!("| case | seed | method | planted named | others named | methods chosen |");
     let mut tally = std::collections::BTreeMap::<(&str, bool), (usize, usize, usize)>::new();
-    for (name, effect) in &cases {
+    for (name, effect) in cases {
         for seed in [41_004u64, 41_005, 41_006] {
-            for method in [LowRateMethod::OutputError, LowRateMethod::Test] {
+            for &method in methods {
                 let r = ten_hz_with(effect.as_ref(), seed, method);
                 let expected = effect.as_ref().map(|e| e.expected());
                 let planted = expected
@@ -480,7 +497,7 @@ fn detection_with_output_error_and_filter_error() {
                             .as_ref()
                             .is_none_or(|(kind, loc)| !(c.kind == *kind && &c.location == loc))
                     })
-                    .map(|c| format!("{} {}", c.location, c.what))
+                    .map(|c| format!("{} {} {:+.4}", c.location, c.what, c.value))
                     .collect();
                 let chosen: Vec<&str> = r
                     .notes
@@ -517,6 +534,84 @@ fn detection_with_output_error_and_filter_error() {
         println!(
             "| {name} | {} | {planted}/{n} | {others}/{n} |",
             if *is_test { "test" } else { "output error" }
+        );
+    }
+}
+
+/// Where the filter error method's aileron delay on clean flights comes from: the clean flight
+/// of [`ten_hz`] (seeds 41004–41006, the filter error method on both axes) as flown — with the
+/// stabiliser's aileron feedback on roll angle and rate, and the servos — then without the
+/// stabiliser, without the servos, and without turbulence; per variant, `C_l`'s surface-rate
+/// candidate (`t²`, its delay `−θ_δȧ/θ_δa`) and what is named. A measurement (minutes):
+/// `cargo test -p aerosid --test cli low_rate::source_of_the -- --ignored --nocapture`.
+#[test]
+#[ignore = "a measurement of 12 flights (minutes)"]
+fn source_of_the_aileron_delay_on_clean_flights() {
+    println!("| variant | seed | C_l δȧ t² | delay, ms | named |");
+    type Variant = (&'static str, fn(&mut aerosid::sim::SimConfig));
+    let variants: [Variant; 4] = [
+        ("as flown", |_| {}),
+        ("no stabiliser", |c| c.stabiliser = None),
+        ("no servos", |c| c.servo = None),
+        ("no turbulence", |c| c.turbulence = None),
+    ];
+    for (name, change) in variants {
+        delay_source(name, change, 10);
+    }
+}
+
+/// The flights of [`source_of_the_aileron_delay_on_clean_flights`] as flown, logged at 10 Hz by
+/// taking every tenth 100 Hz sample instead of block means: whether the averaging makes the
+/// delay. `cargo test -p aerosid --test cli low_rate::point_samples -- --ignored --nocapture`.
+#[test]
+#[ignore = "a measurement of 3 flights (minutes)"]
+fn point_samples_and_the_aileron_delay() {
+    println!("| variant | seed | C_l δȧ t² | delay, ms | named |");
+    delay_source("every tenth sample", |_| {}, 1);
+}
+
+/// One row per seed 41004–41006 of the delay measurements: the clean flight with `change`,
+/// logged at 10 Hz (block means of `block` samples of 100 Hz; 1: every tenth sample).
+fn delay_source(name: &str, change: fn(&mut aerosid::sim::SimConfig), block: usize) {
+    use aerosid::sim::{simulate, SimAirframe};
+    for seed in [41_004u64, 41_005, 41_006] {
+        let mut cfg = hidden::config(None, 60.0, seed, true);
+        change(&mut cfg);
+        let out = simulate(&cfg).expect("the simulator flies");
+        let ac = aerosid::io::measured::Aircraft::from_airframe(
+            "skywalker_2013_mod",
+            &SimAirframe::skywalker_2013_mod().frame,
+        );
+        let f = if block > 1 {
+            MeasuredFlight::from_samples(name, &out.samples, ac).block_means(block)
+        } else {
+            let every: Vec<_> = out.samples.iter().step_by(10).cloned().collect();
+            MeasuredFlight::from_samples(name, &every, ac)
+        };
+        let s = GapSettings {
+            baseline: Some(HiddenEffect::baseline(None)),
+            low_rate_method: LowRateMethod::FilterError,
+            ..GapSettings::default()
+        };
+        let r = run_gaps(&f, &s).expect("the analysis runs");
+        let c_l = r.coefficients.iter().find(|c| c.name == "C_l").expect("C_l");
+        let rate = c_l.candidates.iter().find(|k| k.term == "δȧ");
+        let delta_a = c_l
+            .baseline
+            .parameters
+            .iter()
+            .find(|p| p.term == "δa")
+            .map_or(f64::NAN, |p| p.value);
+        let named: Vec<String> = r
+            .named
+            .iter()
+            .map(|c| format!("{} {} {:+.4}", c.location, c.what, c.value))
+            .collect();
+        println!(
+            "| {name} | {seed} | {} | {} | {} |",
+            rate.map_or("—".into(), |k| format!("{:.1}", k.t2)),
+            rate.map_or("—".into(), |k| format!("{:.1}", -1e3 * k.value / delta_a)),
+            named.join("; ")
         );
     }
 }
