@@ -288,9 +288,9 @@
 //! `α = 10⁻⁵` quantile per sample ([`EARLY_F_Z`] `= 4.265`, its standard normal quantile) by
 //! Paulson's approximation (`((1 − c₂)y − (1 − c₁))² = z²(c₂y² + c₁)`, `y = F^{1/3}`,
 //! `cᵢ = 2/(9dᵢ)`: no special function in the core). Against the exact quantiles (regularised
-//! incomplete beta) it errs high where `d₂` is small, i.e. stricter: `(d₁, d₂)` = (15, 11) /
-//! (25, 21) / (39, 39) / (52, 69) give 21.7 / 7.46 / 4.23 / 3.04 against 18.2 / 7.20 / 4.19 /
-//! 3.03; below `d₂ ≈ 4.5` it has no root and the test waits. A drop so flagged makes `σ_ε²` before
+//! incomplete beta) it errs high where `d₂` is small, i.e. stricter: at the unrounded `(d₁, d₂)` of
+//! the four sample counts above, shown rounded as (15, 11) / (25, 21) / (39, 39) / (52, 69), it
+//! gives 21.7 / 7.46 / 4.23 / 3.04 against 18.2 / 7.20 / 4.19 / 3.03; below `d₂ ≈ 4.5` it has no root and the test waits. A drop so flagged makes `σ_ε²` before
 //! it the early test's minimum `m` (if lower): while `λ_F < λ_max` `σ_ε²` takes in the residuals
 //! after the change unclipped and, young, soon reaches them (seed 98 with the F test alone:
 //! `λ_F` back at `λ_max` after 2 samples, settled after 808), while `m` holds the power before
@@ -299,13 +299,19 @@
 //! `early_test_false_drops_on_white_residuals`, 10⁵ runs): 1.6·10⁻³ / 1.3·10⁻⁴ / 2·10⁻⁵ in
 //! dimensions 3 / 5 / 6 (the minimum alone: 1.4·10⁻³ / 1.1·10⁻⁴ / 2·10⁻⁵).
 //!
-//! Measured (`early_jump_sweep_full`, 100 seeds, `f32` = `f64`): only the jump at 150 in
-//! dimension 6 changes, median 580 → **565** (every regressor noisy; with an exact intercept 565,
-//! dimension 5 454, dimension 3 188, unchanged); slower than `λ = 0.999` on no seed, no false
-//! drop. At `α = 10⁻⁴` (`z = 3.719`): 565 in dimension 6, 578 with the exact intercept; at `10⁻⁶`
+//! This differs from the fixed-level threshold above, which replaced `γ₀²` while `σ_ε²` was young
+//! and took `D` as its degrees of freedom: the F test is an additional way for eq. 32 to fail, at
+//! the degrees of freedom `d₂` the young weights have (above `D`), and its drop holds the power
+//! before it as the early test's minimum.
+//!
+//! Measured (`early_jump_sweep_full`, 100 seeds, `f32` = `f64`): the jump at 150 in dimension 6
+//! settles after a median of 565 samples with the F test, 580 without it (every regressor noisy;
+//! with an exact intercept 565 either way; dimension 5 454 and dimension 3 188 either way); slower
+//! than `λ = 0.999` on no seed, no false drop. At `α = 10⁻⁴` (`z = 3.719`): 565 in dimension 6, 578 with the exact intercept; at `10⁻⁶`
 //! (`z = 4.753`): 580 / 565, as without the F test. Seed by
 //! seed (`early_jump_at_150_arming_diagnosis`, dimension 6), the jumps above eq. 32's limit that
-//! come before `D = 50` settle after a median of 403 samples (44 of 70 detected; before: 434, 43).
+//! come before `D = 50` settle after a median of 403 samples, 44 of 70 detected (without the F
+//! test: 434, 43).
 //!
 //! What is left: jumps at sample 150 in dimension 6 settle after a median of 565 samples
 //! (target 500; 43 of 100 within 500). Seed by seed (`f64`, every regressor noisy): 29 jumps are

@@ -36,7 +36,10 @@
 //! output-error baseline refitted without the fold by one Gauss–Newton step (the held-out test's
 //! leave-fold-out) — and the fold is predicted by the filter with `K_f` at the fit's `θ` refitted
 //! by one Gauss–Newton step on the other folds' innovations of that filter (`oem.rs`'s held-out
-//! test). The process-noise test below (whether the filter runs at all) reads the whole record:
+//! test). Only the other folds' innovations are scored, but the tuning filter runs through the
+//! whole record: its state is corrected by the fold's measurements, which reach the first samples
+//! after the fold through the filter's memory (a steady-state gain forgets within a fraction of a
+//! 2 s block; not measured). The process-noise test below (whether the filter runs at all) reads the whole record:
 //! it chooses the method for the baseline and every candidate alike. The seed's
 //! recursive filter ([`aerosid_core::fem::FilterError`]) is not used: it is const-generic in the
 //! number of parameters, which here changes with every candidate, and its RK4 sensitivities are

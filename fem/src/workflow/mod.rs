@@ -817,10 +817,12 @@ pub struct GustNoise {
     pub correlated_share: Vec<f64>,
 }
 
-/// The parameter covariance of `id` with the residual modelled as a first-order Gauss–Markov
-/// process shared by the outputs plus white noise, fitted through the fit's residual maker
-/// ([`markov`]'s module doc): `Cov θ̂ = M⁻¹ [P₀⁻¹ + Σ S̃ᵀ Σ̂ S̃] M⁻¹`. Where the model cannot be
-/// fitted (fewer than four samples) the Morelli–Klein covariance ([`coloured_covariance`]).
+/// The parameter covariance of `id` with each output's residual modelled as a first-order
+/// Gauss–Markov process (its own correlation time; between two outputs the geometric mean of
+/// their correlations) plus white noise, fitted through the fit's residual maker ([`markov`]'s
+/// module doc): `Cov θ̂ = M⁻¹ [P₀⁻¹ + Σ S̃ᵀ Σ̂ S̃] M⁻¹`. Where the model cannot be fitted (fewer
+/// than four samples, a singular moment system or a non-finite fit) the Morelli–Klein covariance
+/// ([`coloured_covariance`]), and the second value is `None`.
 pub fn gust_covariance(
     model: &UserModel,
     segments: &[Segment],
