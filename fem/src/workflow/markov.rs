@@ -46,14 +46,18 @@ pub(super) struct WeightedSegment {
 const GRID: usize = 16;
 
 /// `r(c, d, k) = (1/N) Σ_t Σ_p x[(t, c), p] y[(t + k, d), p]` for `k < kmax`, laid out
-/// `(c·n_y + d)·kmax + k`; by FFT (zero-padded to `M ≥ 2N`, no circular wrap).
+/// `(c·n_y + d)·kmax + k`; by FFT (zero-padded to `M ≥ 2N`, no circular wrap). With `only =
+/// Some(o)` just the pair `(o, o)` is computed (the correlation-time search reads no other) and the
+/// rest of the layout is 0.
 fn lag_stats(
     planner: &mut RealFftPlanner<f64>,
     x: &DMatrix<f64>,
     y: &DMatrix<f64>,
     ny: usize,
     kmax: usize,
+    only: Option<usize>,
 ) -> Vec<f64> {
+    let wanted = |a: usize| only.is_none_or(|o| o == a);
     let n = x.nrows() / ny;
     let m = (2 * n).next_power_of_two();
     let fwd = planner.plan_fft_forward(m);
@@ -61,6 +65,9 @@ fn lag_stats(
     let spectra = |z: &DMatrix<f64>| -> Vec<Vec<Vec<Complex<f64>>>> {
         (0..ny)
             .map(|a| {
+                if !wanted(a) {
+                    return Vec::new();
+                }
                 (0..z.ncols())
                     .map(|p| {
                         let mut input = vec![0.0; m];
@@ -79,8 +86,8 @@ fn lag_stats(
     };
     let (xs, ys) = (spectra(x), spectra(y));
     let mut out = vec![0.0; ny * ny * kmax];
-    for c in 0..ny {
-        for d in 0..ny {
+    for c in (0..ny).filter(|&c| wanted(c)) {
+        for d in (0..ny).filter(|&d| wanted(d)) {
             let mut f = vec![Complex::new(0.0, 0.0); m / 2 + 1];
             for (xp, yp) in xs[c].iter().zip(&ys[d]) {
                 for (fi, (a, b)) in f.iter_mut().zip(xp.iter().zip(yp)) {
@@ -169,7 +176,8 @@ pub(super) struct GustFit {
 }
 
 /// The expected-statistic columns (`E r̂` of each basis, stacked over the segments) and the meats
-/// `Σ S̃ᵀ B S̃` of the bases, each with its correlation per sample `ρ` (ignored by the white ones).
+/// `Σ S̃ᵀ B S̃` of the bases, each with its correlation per sample `ρ` (ignored by the white ones);
+/// with `only = Some(o)` the columns' statistics of the pair `(o, o)` alone ([`lag_stats`]).
 fn columns(
     planner: &mut RealFftPlanner<f64>,
     segs: &[WeightedSegment],
@@ -177,6 +185,7 @@ fn columns(
     ny: usize,
     kmaxes: &[usize],
     bases: &[((bool, usize, usize), f64)],
+    only: Option<usize>,
 ) -> (Vec<Vec<f64>>, Vec<DMatrix<f64>>) {
     let mut cols = Vec::with_capacity(bases.len());
     let mut meats = Vec::with_capacity(bases.len());
@@ -197,9 +206,9 @@ fn columns(
             let k = kmaxes[si];
             let n = seg.v.nrows() / ny;
             let am = &a[si] * &meat;
-            let t1 = lag_stats(planner, &a[si], &fs[si], ny, k);
-            let t2 = lag_stats(planner, &fs[si], &a[si], ny, k);
-            let t3 = lag_stats(planner, &am, &a[si], ny, k);
+            let t1 = lag_stats(planner, &a[si], &fs[si], ny, k, only);
+            let t2 = lag_stats(planner, &fs[si], &a[si], ny, k, only);
+            let t3 = lag_stats(planner, &am, &a[si], ny, k, only);
             for cc in 0..ny {
                 for dd in 0..ny {
                     for kk in 0..k {
@@ -253,7 +262,7 @@ pub(super) fn fit(
     let observed: Vec<f64> = segs
         .iter()
         .zip(&kmaxes)
-        .flat_map(|(s, &k)| lag_stats(&mut planner, &s.v, &s.v, ny, k))
+        .flat_map(|(s, &k)| lag_stats(&mut planner, &s.v, &s.v, ny, k, None))
         .collect();
     // The rows of output pair (c, d) in the stacked statistics.
     let rows = |c: usize, d: usize| -> Vec<usize> {
@@ -278,12 +287,16 @@ pub(super) fn fit(
                 .map(|o| {
                     let r = rows(o, o);
                     let y: Vec<f64> = r.iter().map(|&i| observed[i]).collect();
-                    let white = ((false, o, o), 0.0);
+                    let pick = |c: &[f64]| -> Vec<f64> { r.iter().map(|&i| c[i]).collect() };
+                    // The white column does not depend on the correlation time.
+                    let (white, _) = columns(&mut planner, segs, &a, ny, &kmaxes, &[((false, o, o), 0.0)], Some(o));
+                    let white = pick(&white[0]);
                     let mut best = (f64::INFINITY, grid[0]);
                     for &t in &grid {
-                        let (cols, _) = columns(&mut planner, segs, &a, ny, &kmaxes, &[((true, o, o), rho(t)), white]);
-                        let sel: Vec<Vec<f64>> = cols.iter().map(|c| r.iter().map(|&i| c[i]).collect()).collect();
-                        let refs: Vec<&[f64]> = sel.iter().map(|c| c.as_slice()).collect();
+                        let (markov, _) =
+                            columns(&mut planner, segs, &a, ny, &kmaxes, &[((true, o, o), rho(t))], Some(o));
+                        let markov = pick(&markov[0]);
+                        let refs: [&[f64]; 2] = [&markov, &white];
                         if let Some((_, rss)) = least_squares(&refs, &y) {
                             if rss < best.0 {
                                 best = (rss, t);
@@ -299,7 +312,7 @@ pub(super) fn fit(
         .into_iter()
         .map(|(m, c, d)| ((m, c, d), (rho(taus[c]) * rho(taus[d])).sqrt()))
         .collect();
-    let (cols, meats) = columns(&mut planner, segs, &a, ny, &kmaxes, &all);
+    let (cols, meats) = columns(&mut planner, segs, &a, ny, &kmaxes, &all, None);
     let refs: Vec<&[f64]> = cols.iter().map(|c| c.as_slice()).collect();
     let (beta, _) = least_squares(&refs, &observed)?;
     let nm = ny * (ny + 1) / 2;
