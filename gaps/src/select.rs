@@ -474,14 +474,23 @@ fn stretch_gain(stretches: &[Stretch]) -> f64 {
         sum += s.gain;
         let c = super::regress::lag_sums(&s.delta, s.delta.len().saturating_sub(1));
         let white = c.first().copied().unwrap_or(0.0) * rho[0];
-        let q: f64 = c
-            .iter()
-            .zip(&rho)
-            .enumerate()
-            .map(|(k, (c, r))| if k == 0 { c * r } else { 2.0 * c * r })
-            .sum();
-        var += 4.0 * q.max(white).max(0.0);
+        var += 4.0 * lag_form(&c, &rho).max(white).max(0.0);
     }
+    gain_over_noise(sum, var)
+}
+
+/// `δᵀ R δ` from the lag sums `c_k = Σ_t δ_t δ_{t+k}` of `δ` and the autocorrelation `ρ_k` of
+/// the Toeplitz `R`: `c₀ρ₀ + 2 Σ_{k>0} c_k ρ_k` (lags beyond the shorter of the two dropped).
+fn lag_form(c: &[f64], rho: &[f64]) -> f64 {
+    c.iter()
+        .zip(rho)
+        .enumerate()
+        .map(|(k, (c, r))| if k == 0 { c * r } else { 2.0 * c * r })
+        .sum()
+}
+
+/// The summed gain over the square root of its variance; 0 when the variance is 0.
+fn gain_over_noise(sum: f64, var: f64) -> f64 {
     if var > 0.0 {
         sum / var.sqrt()
     } else {
@@ -532,19 +541,9 @@ pub fn noise_referenced_gain(delta: &[Vec<f64>], resid: &[Vec<f64>], sse0: &[f64
         sum += sse0[b] - sse1[b];
         let lags = d.len().min(rho.len());
         let c = super::regress::lag_sums(d, lags.saturating_sub(1));
-        let q: f64 = c
-            .iter()
-            .zip(&rho)
-            .enumerate()
-            .map(|(k, (c, r))| if k == 0 { c * r } else { 2.0 * c * r })
-            .sum();
-        var += 4.0 * ms * q.max(0.0);
+        var += 4.0 * ms * lag_form(&c, &rho).max(0.0);
     }
-    if var > 0.0 {
-        sum / var.sqrt()
-    } else {
-        0.0
-    }
+    gain_over_noise(sum, var)
 }
 
 /// The held-out gain of model 1 over model 0, block by block: `(z, mean gain relative to model
