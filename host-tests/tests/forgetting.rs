@@ -18,7 +18,7 @@
 //! no code with the core's `Vff`: the powers are unnormalised weighted sums, `σ_ε²` formed two
 //! ways and compared), THEN the core agrees with it at every sample (tolerances at `F32_TOL`), the statistics
 //! (re)start at the same TLS solution, and every target holds: the estimate is within 5 % of the
-//! new value for good after a median of 86 / 50 / 83 / 119 samples (`for_dimension(3)`) and
+//! new value for good after a median of 63 / 50 / 83 / 110 samples (`for_dimension(3)`) and
 //! 112 / 120 / 112 / 328 (`for_aero_coefficients(100)`) at the four jump times (`λ = 0.999`:
 //! 1 365 / 2 403 / 2 606 / 2 656; target ≤ 500), never later than `λ = 0.999` on any seed, and
 //! `λ_F < λ_max` on none of the 268 000 stationary samples before the jumps (`f32` and `f64` alike).
