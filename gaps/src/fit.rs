@@ -330,7 +330,8 @@ impl Coefficient<'_> {
         if let Some(s) = regress::manoeuvre_sandwich(&cols, z_id, &f.theta, &fitted_eiv, &id_pieces) {
             f.sigma = s;
         }
-        let o = ols(&cols, z_id, n_id, 0)?;
+        // The OLS estimates beside the fit (the report's `ols_value`): their σ is not reported.
+        let o = regress::ols_estimates(&cols, z_id)?;
         let pred = predict(cols_full, &f.theta);
         let model = self.model_fit(terms, &f, estimator, &eiv, &o.theta, &pred);
         Some(Fitted { model, pred, fit: f })

@@ -105,41 +105,71 @@ struct BlockLags {
     power: Option<Vec<f64>>,
 }
 
-thread_local! {
-    /// FFT plans are reused across calls (planning costs more than a transform).
-    static PLANNER: std::cell::RefCell<realfft::RealFftPlanner<f64>> =
-        std::cell::RefCell::new(realfft::RealFftPlanner::new());
+type Complex = realfft::num_complex::Complex<f64>;
+
+/// The FFT plans and the transforms' buffers of one thread, reused across calls: planning costs
+/// more than a transform, and the lag sums of a fit run many transforms of one length, whose
+/// buffers (the padded input, the spectrum, the scratch) need not be allocated each time.
+#[derive(Default)]
+struct Transforms {
+    planner: realfft::RealFftPlanner<f64>,
+    real: Vec<f64>,
+    spectrum: Vec<Complex>,
+    scratch: Vec<Complex>,
 }
 
-/// `|X_f|²` of `x` zero-padded to `m` (`m/2 + 1` bins).
-fn power_spectrum(x: &[f64], m: usize) -> Vec<f64> {
-    PLANNER.with(|p| {
-        let fft = p.borrow_mut().plan_fft_forward(m);
-        let mut input = vec![0.0; m];
-        input[..x.len()].copy_from_slice(x);
-        let mut spec = fft.make_output_vec();
+impl Transforms {
+    /// `|X_f|²` of `x` zero-padded to `m` (`m/2 + 1` bins).
+    fn power_spectrum(&mut self, x: &[f64], m: usize) -> Vec<f64> {
+        let fft = self.planner.plan_fft_forward(m);
+        self.real.clear();
+        self.real.extend_from_slice(x);
+        self.real.resize(m, 0.0);
+        self.spectrum.resize(m / 2 + 1, Complex::default());
+        self.scratch
+            .resize(fft.get_scratch_len().max(self.scratch.len()), Complex::default());
+        let scratch = &mut self.scratch[..fft.get_scratch_len()];
         // The lengths are the plan's own: the transform cannot fail.
-        if fft.process(&mut input, &mut spec).is_err() {
+        if fft
+            .process_with_scratch(&mut self.real, &mut self.spectrum[..m / 2 + 1], scratch)
+            .is_err()
+        {
             return vec![f64::NAN; m / 2 + 1];
         }
-        spec.iter().map(|c| c.norm_sqr()).collect()
-    })
-}
+        self.spectrum[..m / 2 + 1].iter().map(|c| c.norm_sqr()).collect()
+    }
 
-/// `Σᵢ xᵢ xᵢ₊ₖ`, `k = 0..=lmax`, from the power spectrum of `x` zero-padded to `m ≥ len + lmax`.
-fn autocorrelation(power: &[f64], m: usize, lmax: usize) -> Vec<f64> {
-    PLANNER.with(|p| {
-        let ifft = p.borrow_mut().plan_fft_inverse(m);
-        let mut spec: Vec<realfft::num_complex::Complex<f64>> = power
-            .iter()
-            .map(|&x| realfft::num_complex::Complex::new(x, 0.0))
-            .collect();
-        let mut out = ifft.make_output_vec();
-        if ifft.process(&mut spec, &mut out).is_err() {
+    /// `Σᵢ xᵢ xᵢ₊ₖ`, `k = 0..=lmax`, from the power spectrum of `x` zero-padded to `m ≥ len + lmax`.
+    fn autocorrelation(&mut self, power: &[f64], m: usize, lmax: usize) -> Vec<f64> {
+        let ifft = self.planner.plan_fft_inverse(m);
+        self.spectrum.clear();
+        self.spectrum.extend(power.iter().map(|&x| Complex::new(x, 0.0)));
+        self.real.resize(m, 0.0);
+        self.scratch
+            .resize(ifft.get_scratch_len().max(self.scratch.len()), Complex::default());
+        let scratch = &mut self.scratch[..ifft.get_scratch_len()];
+        if ifft
+            .process_with_scratch(&mut self.spectrum, &mut self.real[..m], scratch)
+            .is_err()
+        {
             return vec![f64::NAN; lmax + 1];
         }
-        out[..=lmax].iter().map(|x| x / m as f64).collect()
-    })
+        self.real[..=lmax].iter().map(|x| x / m as f64).collect()
+    }
+}
+
+thread_local! {
+    static TRANSFORMS: std::cell::RefCell<Transforms> = std::cell::RefCell::new(Transforms::default());
+}
+
+/// [`Transforms::power_spectrum`] on this thread's plans and buffers.
+fn power_spectrum(x: &[f64], m: usize) -> Vec<f64> {
+    TRANSFORMS.with(|t| t.borrow_mut().power_spectrum(x, m))
+}
+
+/// [`Transforms::autocorrelation`] on this thread's plans and buffers.
+fn autocorrelation(power: &[f64], m: usize, lmax: usize) -> Vec<f64> {
+    TRANSFORMS.with(|t| t.borrow_mut().autocorrelation(power, m, lmax))
 }
 
 /// `Σᵢ xᵢ xᵢ₊ₖ`, `k = 0..=lmax` (`lmax < x.len()`): direct sums for short lags, else by FFT of `x`
@@ -457,9 +487,54 @@ impl ScaledQr {
     }
 }
 
+/// Which coloured-residual standard errors a fit computes: every parameter's, one parameter's (the
+/// others NaN), or none (all NaN: the estimates and the residual alone, without the lag sums that
+/// are most of a fit's cost).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Sigmas {
+    All,
+    Only(usize),
+    None,
+}
+
+impl Sigmas {
+    /// Every parameter's, or `only`'s when given.
+    fn of(only: Option<usize>) -> Self {
+        only.map_or(Self::All, Self::Only)
+    }
+
+    /// The one parameter asked for, if only one is (`sandwich_sigma`'s `only`).
+    fn only(self) -> Option<usize> {
+        match self {
+            Self::Only(k) => Some(k),
+            _ => None,
+        }
+    }
+
+    fn wants(self, j: usize) -> bool {
+        match self {
+            Self::All => true,
+            Self::Only(k) => k == j,
+            Self::None => false,
+        }
+    }
+}
+
 /// [`ols`], with the coloured-residual σ computed only for parameter `only` when given (the
 /// others are then NaN): the partial test needs only the candidate's.
 pub fn ols_sigma(cols: &[Vec<f64>], z: &[f64], block_len: usize, max_lag: usize, only: Option<usize>) -> Option<Fit> {
+    ols_with(cols, z, block_len, max_lag, Sigmas::of(only))
+}
+
+/// [`ols`]'s estimates and residual, equal to its own to the bit, without its standard errors
+/// (NaN): for a caller that reports the estimates alone. (`ols_theta` applies the reflections
+/// to `z` instead of forming `Q`: equal to rounding, not to the bit.)
+pub fn ols_estimates(cols: &[Vec<f64>], z: &[f64]) -> Option<Fit> {
+    ols_with(cols, z, z.len(), 0, Sigmas::None)
+}
+
+/// [`ols`] with the standard errors `sigmas`.
+fn ols_with(cols: &[Vec<f64>], z: &[f64], block_len: usize, max_lag: usize, sigmas: Sigmas) -> Option<Fit> {
     let n = z.len();
     let p = cols.len();
     if p == 0 || n <= p || cols.iter().any(|c| c.len() != n) {
@@ -473,20 +548,18 @@ pub fn ols_sigma(cols: &[Vec<f64>], z: &[f64], block_len: usize, max_lag: usize,
     let ts = r.solve_upper_triangular(&qtz)?;
     let x_cols: Vec<&[f64]> = x.as_slice().chunks_exact(n).collect();
     let residual = residual_of(&x_cols, z, ts.as_slice());
-    // W = X (XᵀX)⁻¹ = Q R⁻ᵀ: column j of W is the weight series of parameter j.
+    // W = X (XᵀX)⁻¹ = Q R⁻ᵀ: column j of W is the weight series of parameter j. The inverse is
+    // formed whatever `sigmas` asks: a fit whose R cannot be inverted is refused either way.
     let rinv = r.clone().try_inverse()?;
-    let w = q * rinv.transpose();
-    let mut theta = vec![0.0; p];
-    let mut sigma = vec![0.0; p];
-    let lags = ResidualLags::new(&residual, block_len, max_lag);
-    for j in 0..p {
-        theta[j] = ts[j] / scale[j];
-        if only.is_some_and(|k| k != j) {
-            sigma[j] = f64::NAN;
-            continue;
+    let theta: Vec<f64> = (0..p).map(|j| ts[j] / scale[j]).collect();
+    let mut sigma = vec![f64::NAN; p];
+    if (0..p).any(|j| sigmas.wants(j)) {
+        let w = q * rinv.transpose();
+        let lags = ResidualLags::new(&residual, block_len, max_lag);
+        for (j, s) in sigma.iter_mut().enumerate().filter(|(j, _)| sigmas.wants(*j)) {
+            let wj: Vec<f64> = w.column(j).iter().copied().collect();
+            *s = lags.variance(&wj).sqrt() / scale[j];
         }
-        let wj: Vec<f64> = w.column(j).iter().copied().collect();
-        sigma[j] = lags.variance(&wj).sqrt() / scale[j];
     }
     Some(Fit { theta, sigma, residual })
 }
@@ -813,6 +886,24 @@ pub fn corrected_ls(
     max_lag: usize,
     only: Option<usize>,
 ) -> Option<(Fit, f64)> {
+    corrected_with(cols, z, eiv, block_len, max_lag, Sigmas::of(only))
+}
+
+/// [`corrected_ls`]'s estimates, residual and `σ_z²`, equal to its own to the bit, without its
+/// standard errors (NaN): for a caller that needs the fit alone and forms its own σ.
+pub fn corrected_estimates(cols: &[Vec<f64>], z: &[f64], eiv: &EivModel) -> Option<(Fit, f64)> {
+    corrected_with(cols, z, eiv, z.len(), 0, Sigmas::None)
+}
+
+/// [`corrected_ls`] with the standard errors `sigmas`.
+fn corrected_with(
+    cols: &[Vec<f64>],
+    z: &[f64],
+    eiv: &EivModel,
+    block_len: usize,
+    max_lag: usize,
+    sigmas: Sigmas,
+) -> Option<(Fit, f64)> {
     let n = z.len();
     let p = cols.len();
     if p == 0 || n <= p || cols.iter().any(|c| c.len() != n) || eiv.exact.len() != p {
@@ -824,7 +915,7 @@ pub fn corrected_ls(
         return None;
     }
     if nx == 0 {
-        let f = ols_sigma(cols, z, block_len, max_lag, only)?;
+        let f = ols_with(cols, z, block_len, max_lag, sigmas)?;
         let s2 = f.residual.iter().map(|r| r * r).sum::<f64>() / n as f64;
         return Some((f, s2));
     }
@@ -868,7 +959,19 @@ pub fn corrected_ls(
     // W_T must be positive definite.
     let na = nx + 1;
     DMatrix::from_row_slice(na, na, &em.w_t).cholesky()?;
-    let sigma = sandwich_sigma(cols, &residual, &theta, &eiv.exact, &em.w_t, block_len, max_lag, only);
+    let sigma = match sigmas {
+        Sigmas::None => vec![f64::NAN; p],
+        _ => sandwich_sigma(
+            cols,
+            &residual,
+            &theta,
+            &eiv.exact,
+            &em.w_t,
+            block_len,
+            max_lag,
+            sigmas.only(),
+        ),
+    };
     Some((Fit { theta, sigma, residual }, s2))
 }
 
@@ -895,8 +998,12 @@ pub fn gtls_fit(
     max_lag: usize,
     only: Option<usize>,
 ) -> Option<GtlsFit> {
-    let (cls, s2) = corrected_ls(cols, z, eiv, block_len, max_lag, only)?;
-    if eiv.exact.iter().all(|e| *e) {
+    // The corrected fit's σ is needed only when it is the answer (every column exact); else its
+    // `σ_z²` alone, and the GTLS fit below forms its own σ.
+    let all_exact = eiv.exact.iter().all(|e| *e);
+    let sigmas = if all_exact { Sigmas::of(only) } else { Sigmas::None };
+    let (cls, s2) = corrected_with(cols, z, eiv, block_len, max_lag, sigmas)?;
+    if all_exact {
         return Some(GtlsFit {
             theta: cls.theta,
             sigma: cls.sigma,
@@ -1149,6 +1256,37 @@ mod tests {
         }
         assert!((s2 - 0.01).abs() < 3.0 * 0.37 * (2.0f64 / 3000.0).sqrt(), "{s2}");
         assert!((g.sigma_z2 - s2).abs() < 1e-15);
+    }
+
+    #[test]
+    fn the_fits_without_sigma_equal_the_full_fits_to_the_bit() {
+        // GIVEN one column with errors (the corrected fit) and every column exact (OLS)
+        let (cols, z) = eiv_data(3000, 0.3, 0.1, 7);
+        let noisy = EivModel {
+            exact: vec![true, false],
+            w_xx: vec![0.09],
+            w_xz: vec![0.0],
+        };
+        for eiv in [noisy, EivModel::exact(2)] {
+            // WHEN fitted with every σ and with none
+            let (full, s2) = corrected_ls(&cols, &z, &eiv, 3000, 50, None).unwrap();
+            let (bare, s2_bare) = corrected_estimates(&cols, &z, &eiv).unwrap();
+            // THEN the estimates, residual and output variance are the same numbers (callers rely
+            // on it: skipping σ must not change any result), and σ is left out
+            assert_eq!(full.theta, bare.theta);
+            assert_eq!(full.residual, bare.residual);
+            assert_eq!(s2.to_bits(), s2_bare.to_bits());
+            assert!(full.sigma.iter().all(|s| s.is_finite() && *s > 0.0));
+            assert!(bare.sigma.iter().all(|s| s.is_nan()));
+            // AND the GTLS fit starts from that same output variance
+            let g = gtls_fit(&cols, &z, &eiv, 3000, 50, None).unwrap();
+            assert_eq!(g.sigma_z2.to_bits(), s2.to_bits());
+        }
+        let full = ols(&cols, &z, 3000, 50).unwrap();
+        let bare = ols_estimates(&cols, &z).unwrap();
+        assert_eq!(full.theta, bare.theta);
+        assert_eq!(full.residual, bare.residual);
+        assert!(bare.sigma.iter().all(|s| s.is_nan()));
     }
 
     #[test]
