@@ -371,7 +371,7 @@ fn reliability_of(
         .map(|(_, c)| c.clone())
         .collect();
     let v = super::oracle::partial_variance(&others, &cols[k])?;
-    if !(v > 0.0) {
+    if v.is_nan() || v <= 0.0 {
         return None;
     }
     let share = w / v;
