@@ -1,6 +1,6 @@
 //! The errors-in-variables model of the analysis: `W_T` (seed 000 eq. 9) of every regressor column
 //! and of every synthesised coefficient, by Monte Carlo propagation of the sensors' white noise
-//! through the whole chain (seed 000 §V, eq. 34–41 build `σ_ε` the same way: by sampling the
+//! (and of an estimated flow angle's slow error) through the whole chain (seed 000 §V, eq. 34–41 build `σ_ε` the same way: by sampling the
 //! errors of the measured inputs of a compound quantity).
 //!
 //! ## Why it matters here
@@ -31,6 +31,14 @@
 //!    of their errors; their second moments over the replicas and the identification samples are
 //!    `W_T` — the full covariance, including the correlation of the airspeed's error in `q̄` (the
 //!    coefficient) with the same error in a speed regressor.
+//!
+//! 4. An estimated flow angle (an autopilot's α/β, the α-free mode's) errs by more than white
+//!    noise: by the gust the estimator takes as zero and the wind it has not caught up with,
+//!    correlated over seconds. Its standard deviation and correlation time
+//!    ([`super::origin::estimate_errors`]) drive a second set of replicas that draw that error
+//!    alone, as a first-order Gauss–Markov process per manoeuvre ([`estimate_error_moments`]);
+//!    the two errors are independent, so their moments add, coefficient by coefficient, where
+//!    the data bear the correction ([`super::origin::with_estimate_errors`]).
 //!
 //! The added noise has the level of the measured noise, so a replica's difference has the
 //! distribution of the data's own error to first order (the data are noisy already: the
