@@ -313,7 +313,7 @@ pub fn with_estimate_errors(
             if r.lambda < (2.0 * r.lambda_se).max(1.0 - 1.0 / super::fit::MIN_EXCITATION) {
                 let name = super::model::COEFFICIENTS[i];
                 notes.push(format!(
-                    "{name}: the {sym} term is not identifiable from the estimated {sym} on this flight — the estimate's error variance is {:.0} % of {sym}'s variation that the other terms leave (reliability ratio λ = {:.2} ± {:.2}), so a fit states the derivative times an unknown λ near 0: its value is no estimate and gets no standard error (fly vanes, or manoeuvres that move {sym} well beyond the estimate's error)",
+                    "{name}: the {sym} term is not identifiable from the estimated {sym} on this flight — the estimate's error variance is {:.0} % of {sym}'s variation that the other terms leave (reliability ratio λ = {:.2} ± {:.2}; a correction needs it clear of 0 by two of its standard errors and at least 0.75, the analysis's excitation margin), so a fit states the derivative times a factor the data do not pin down: its value is no estimate and gets no standard error (fly vanes, or manoeuvres that move {sym} well beyond the estimate's error)",
                     100.0 * r.error_share,
                     r.lambda,
                     r.lambda_se
