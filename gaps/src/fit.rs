@@ -381,9 +381,19 @@ impl Coefficient<'_> {
         pred: &[f64],
     ) -> ModelFit {
         let (n_id, p) = (self.n_id, terms.len());
+        // A term not identifiable from an estimated flow angle (`origin::with_estimate_errors`)
+        // gets no standard error: its value is the derivative times an unknown factor near 0.
+        let sigma: Vec<f64> = terms
+            .iter()
+            .zip(&f.sigma)
+            .map(|(t, s)| match self.errors {
+                Some(e) if e.not_identifiable.contains(t) => f64::NAN,
+                _ => *s,
+            })
+            .collect();
         let undetermined: Vec<&str> = terms
             .iter()
-            .zip(f.theta.iter().zip(&f.sigma))
+            .zip(f.theta.iter().zip(&sigma))
             .filter(|(_, (v, s))| !(v.is_finite() && s.is_finite()))
             .map(|(t, _)| t.name())
             .collect();
@@ -392,7 +402,7 @@ impl Coefficient<'_> {
             solution: format!("{:?}", f.solution),
             not_determined: (!undetermined.is_empty()).then(|| {
                 format!(
-                    "no finite standard error for {} (the coloured-residual covariance of the fit could not be formed)",
+                    "no finite standard error for {} (not identifiable from an estimated flow angle, or the coloured-residual covariance of the fit could not be formed: the notes say which)",
                     undetermined.join(", ")
                 )
             }),
@@ -403,7 +413,7 @@ impl Coefficient<'_> {
                 .map(|(k, t)| Parameter {
                     term: t.name().into(),
                     value: f.theta[k],
-                    sigma: f.sigma[k],
+                    sigma: sigma[k],
                     sigma_eq17: f.sigma_eq17[k],
                     exact: eiv.exact[k],
                     ols_value: ols_theta[k],

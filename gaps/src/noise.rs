@@ -1,6 +1,6 @@
 //! The errors-in-variables model of the analysis: `W_T` (seed 000 eq. 9) of every regressor column
 //! and of every synthesised coefficient, by Monte Carlo propagation of the sensors' white noise
-//! through the whole chain (seed 000 §V, eq. 34–41 build `σ_ε` the same way: by sampling the
+//! (and of an estimated flow angle's slow error) through the whole chain (seed 000 §V, eq. 34–41 build `σ_ε` the same way: by sampling the
 //! errors of the measured inputs of a compound quantity).
 //!
 //! ## Why it matters here
@@ -32,6 +32,14 @@
 //!    `W_T` — the full covariance, including the correlation of the airspeed's error in `q̄` (the
 //!    coefficient) with the same error in a speed regressor.
 //!
+//! 4. An estimated flow angle (an autopilot's α/β, the α-free mode's) errs by more than white
+//!    noise: by the gust the estimator takes as zero and the wind it has not caught up with,
+//!    correlated over seconds. Its standard deviation and correlation time
+//!    ([`super::origin::estimate_errors`]) drive a second set of replicas that draw that error
+//!    alone, as a first-order Gauss–Markov process per manoeuvre ([`estimate_error_moments`]);
+//!    the two errors are independent, so their moments add, coefficient by coefficient, where
+//!    the data bear the correction ([`super::origin::with_estimate_errors`]).
+//!
 //! The added noise has the level of the measured noise, so a replica's difference has the
 //! distribution of the data's own error to first order (the data are noisy already: the
 //! linearisation point carries one noise realisation, a second-order effect).
@@ -42,6 +50,7 @@
 use super::compat::{reconstruct_air_data, Compatibility};
 use super::held_noise;
 use super::model::{synthesise, Corrections, Table, Term, TermRefs};
+use super::origin::{gauss_markov, EstimateError};
 use super::regress::EivModel;
 use super::signal::white_noise_sd;
 use crate::io::measured::{MeasuredFlight, Quantity};
@@ -87,6 +96,10 @@ pub struct ColumnErrors {
     pub cov: Vec<f64>,
     /// Mean square of each term's column on the identification segment.
     pub mean_square: Vec<f64>,
+    /// Terms not identifiable from an estimated flow angle on this flight
+    /// ([`super::origin::with_estimate_errors`]): the fit's value for them is no estimate, and
+    /// the report gives them no standard error.
+    pub not_identifiable: Vec<Term>,
 }
 
 impl ColumnErrors {
@@ -104,6 +117,14 @@ impl ColumnErrors {
     pub fn output_variance(&self) -> f64 {
         let k = self.terms.len() + 1;
         self.cov[k * k - 1]
+    }
+
+    /// These moments plus `other`'s (errors independent of these), over the same terms.
+    pub fn plus(&self, other: &ColumnErrors) -> ColumnErrors {
+        ColumnErrors {
+            cov: self.cov.iter().zip(&other.cov).map(|(a, b)| a + b).collect(),
+            ..self.clone()
+        }
     }
 
     /// Whether a term's column is exact (error variance below `1e-12` of its mean square, or no
@@ -203,6 +224,9 @@ pub struct Synthesis<'a> {
     pub refs: &'a TermRefs,
     /// Identification samples (the moments are taken over `0..n_id`).
     pub n_id: usize,
+    /// The slow error of each estimated flow angle ([`super::origin::estimate_errors`]), drawn
+    /// in every replica beside the white noise (empty: none).
+    pub estimate_errors: &'a BTreeMap<Quantity, EstimateError>,
 }
 
 impl Synthesis<'_> {
@@ -222,15 +246,54 @@ fn replica_margin(h_s: f64, sg_half: usize) -> usize {
     ((2.0 / h_s).ceil() as usize).max(4 * sg_half)
 }
 
-/// The error moments of every coefficient's `terms` (`None` where the coefficient is absent).
+/// The error moments of every coefficient's `terms` (`None` where the coefficient is absent)
+/// under the sensors' white noise.
 pub fn column_errors(
     s: &Synthesis,
     table: &Table,
     terms: &[Vec<Term>; 6],
     mc: &MonteCarlo,
 ) -> [Option<ColumnErrors>; 6] {
+    moments(s, table, terms, mc, Draw::White)
+}
+
+/// The error moments of every coefficient's `terms` under the estimated flow angles' slow errors
+/// alone ([`Synthesis::estimate_errors`]; independent of the white noise, so the two moments
+/// add). Kept apart so that a coefficient in whose baseline an estimated angle is not
+/// identifiable can keep the white-noise model ([`super::origin::with_estimate_errors`]).
+pub fn estimate_error_moments(
+    s: &Synthesis,
+    table: &Table,
+    terms: &[Vec<Term>; 6],
+    mc: &MonteCarlo,
+) -> [Option<ColumnErrors>; 6] {
+    moments(s, table, terms, mc, Draw::Estimates)
+}
+
+/// What a replica draws.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Draw {
+    /// Every channel's white noise.
+    White,
+    /// The estimated flow angles' slow errors.
+    Estimates,
+}
+
+/// Seed offset of the estimate errors' replicas (independent of the white-noise ones).
+const ESTIMATE_SEED: u64 = 0x0065_7374_696d;
+
+fn moments(
+    s: &Synthesis,
+    table: &Table,
+    terms: &[Vec<Term>; 6],
+    mc: &MonteCarlo,
+    draw: Draw,
+) -> [Option<ColumnErrors>; 6] {
     let n_id = s.n_id.min(table.t_s.len());
-    let noise = channel_noise_model(s.flight, s.h_s);
+    let noise = match draw {
+        Draw::White => channel_noise_model(s.flight, s.h_s),
+        Draw::Estimates => BTreeMap::new(),
+    };
     let groups = GramGroups::new(table, terms);
     // Nominal columns, once per distinct term.
     let mut nominal: BTreeMap<Term, Option<Vec<f64>>> = BTreeMap::new();
@@ -242,9 +305,16 @@ pub fn column_errors(
         .collect();
     let mut count = 0usize;
     let n_keep = replica_length(s, n_id);
+    let seed = match draw {
+        Draw::White => mc.seed,
+        Draw::Estimates => mc.seed ^ ESTIMATE_SEED,
+    };
     for r in 0..s.replicas(table, mc) {
-        let mut rng = ChaCha8Rng::seed_from_u64(mc.seed.wrapping_add(r as u64));
-        let pert = perturbed_flight(s.flight, &noise, n_keep, &mut rng);
+        let mut rng = ChaCha8Rng::seed_from_u64(seed.wrapping_add(r as u64));
+        let mut pert = perturbed_flight(s.flight, &noise, n_keep, &mut rng);
+        if draw == Draw::Estimates {
+            add_estimate_errors(&mut pert, s.estimate_errors, s.h_s, &mut rng);
+        }
         let tk = replica_table(s, &pert);
         count += n_id;
         groups.accumulate(&mut sums, &nominal, table, &tk, s.refs, n_id);
@@ -403,6 +473,31 @@ fn perturbed_flight(
     pert
 }
 
+/// Adds to every estimated flow angle of a replica a draw of its slow error
+/// ([`super::origin::EstimateError`]), independent in each manoeuvre (a record's wind estimate
+/// and gusts are its own).
+fn add_estimate_errors(
+    pert: &mut MeasuredFlight,
+    errors: &BTreeMap<Quantity, EstimateError>,
+    h_s: f64,
+    rng: &mut ChaCha8Rng,
+) {
+    let pieces: Vec<(usize, usize)> = pert.pieces().iter().map(|p| (p.start, p.end)).collect();
+    for (q, e) in errors {
+        let Some(v) = pert.channels.get_mut(q) else {
+            continue;
+        };
+        for &(a, b) in &pieces {
+            let b = b.min(v.len());
+            if a >= b {
+                continue;
+            }
+            let d = gauss_markov(b - a, e.sd_rad, e.correlation_time_s, h_s, &mut *rng);
+            v[a..b].iter_mut().zip(d).for_each(|(x, d)| *x += d);
+        }
+    }
+}
+
 /// A replica's table: its air data reconstructed again with the sensor errors held (and fused
 /// as the nominal ones were) when the table used a reconstruction, then the synthesis.
 fn replica_table(s: &Synthesis, pert: &MeasuredFlight) -> Table {
@@ -440,6 +535,7 @@ fn moments_per_coefficient(
             terms: terms[i].clone(),
             cov: sum.iter().map(|v| v / count.max(1) as f64).collect(),
             mean_square,
+            not_identifiable: Vec::new(),
         });
     }
     out

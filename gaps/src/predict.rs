@@ -103,7 +103,12 @@ pub fn read_report(path: &Path) -> Result<SavedReport, String> {
             .iter()
             .map(|q| {
                 let term = q.get("term").and_then(Value::as_str);
-                let value = q.get("value").and_then(Value::as_f64);
+                // A parameter without a standard error has no estimate (`value` null) but keeps
+                // the fit's value, which the fit's prediction uses.
+                let value = q
+                    .get("value")
+                    .and_then(Value::as_f64)
+                    .or_else(|| q.get("fit_value").and_then(Value::as_f64));
                 match (term, value) {
                     (Some(t), Some(x)) => Ok((t.to_string(), x)),
                     _ => Err(format!(

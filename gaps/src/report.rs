@@ -657,6 +657,11 @@ fn coef_json(c: &CoefficientGap) -> Value {
 /// why.
 fn undetermined_to_null(v: &mut Value) {
     if v.get("sigma").and_then(Value::as_f64).is_none() {
+        // The fit's own value stays for what uses the fit, not the estimate: its prediction
+        // (`predict`).
+        if let Some(x) = v.get("value").filter(|x| x.is_number()).cloned() {
+            v["fit_value"] = x;
+        }
         v["value"] = Value::Null;
         v["not_determined"] = json!("no finite standard error: the fit does not determine this estimate");
     }

@@ -349,6 +349,7 @@ fn the_monte_carlo_error_model_matches_the_reconstructions_actual_error() {
             fuse_cutoffs: None,
             refs: &refs,
             n_id,
+            estimate_errors: &Default::default(),
         };
         let e = column_errors(&syn, &table, &terms, &MonteCarlo::default());
         let e = e[0].as_ref().expect("C_L synthesised");

@@ -214,3 +214,68 @@ fn the_command_pools_files_in_any_order_and_cuts_segments() {
     assert!(m[0]["span_s"][0].as_f64() < m[1]["span_s"][0].as_f64());
     let _ = std::fs::remove_dir_all(&tmp);
 }
+
+/// A test card's estimated β errs by about as much as the manoeuvres move it (docs/test-card.md,
+/// "Errors in variables of the estimated angles"): the report states no value and no σ for the
+/// β terms, says why, keeps the other terms' estimates, and its saved report still predicts.
+#[test]
+fn on_a_card_the_estimated_beta_terms_are_not_identifiable_and_predict_takes_the_report() {
+    use aerosid::card::{write_card, CardSettings, AIRCRAFT_FILE};
+    use aerosid::sim::test_card::CardTurbulence;
+    let dir = std::env::temp_dir().join(format!("aerosid-pooled-card-{}", std::process::id()));
+    let card = CardSettings {
+        effect: None,
+        seed: 1,
+        turbulence: CardTurbulence::Light,
+    };
+    let csvs: Vec<_> = write_card(&dir, &card)
+        .expect("the card is flown and written")
+        .into_iter()
+        .filter(|f| f.extension().is_some_and(|x| x == "csv"))
+        .collect();
+    let flight = aerosid::io::read_pooled(
+        &csvs,
+        Some(&dir.join(AIRCRAFT_FILE)),
+        &[],
+        &aerosid::io::ReadOptions::default(),
+    )
+    .expect("the card reads back");
+    let r = run_gaps(&flight, &GapSettings::default()).expect("the analysis runs");
+    let s = summary(&r);
+    for c in ["C_Y", "C_l", "C_n"] {
+        let fit = &r.coefficients.iter().find(|x| x.name == c).expect("analysed").baseline;
+        let beta = fit.parameters.iter().find(|p| p.term == "β").expect("a β term");
+        assert!(beta.sigma.is_nan(), "{c}: β {} ± {}\n{s}", beta.value, beta.sigma);
+        assert!(
+            r.notes
+                .iter()
+                .any(|n| n.starts_with(&format!("{c}: the β term is not identifiable"))),
+            "{c}: {:#?}",
+            r.notes
+        );
+        // The other terms keep an estimate.
+        assert!(
+            fit.parameters
+                .iter()
+                .filter(|p| p.term != "β")
+                .all(|p| p.sigma.is_finite()),
+            "{c}: {:?}",
+            fit.parameters
+        );
+    }
+    let json = report::json(&r);
+    let cy = json["coefficients"]
+        .as_array()
+        .and_then(|a| a.iter().find(|c| c["name"] == "C_Y"))
+        .expect("C_Y");
+    let beta = cy["baseline"]["parameters"]
+        .as_array()
+        .and_then(|a| a.iter().find(|p| p["term"] == "β"))
+        .expect("β");
+    assert!(beta["value"].is_null() && beta["fit_value"].is_number(), "{beta}");
+    report::write(&r, &dir.join("gaps")).expect("report written");
+    let saved = predict::read_report(&dir.join("gaps").join("report.json")).expect("the card's report reads");
+    let (p, ..) = predict::run(&saved, &flight, &dir.join("predict")).expect("predict runs");
+    assert!(!p.coefficients.is_empty());
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -65,8 +65,12 @@ pub fn synthesise(
     }
     let refs = TermRefs::of_identification(&table, n_id);
     let all_terms = all_terms(baselines, &table);
+    let pieces: Vec<(usize, usize)> = flight.pieces().iter().map(|p| (p.start, p.end)).collect();
     let errors: [Option<ColumnErrors>; 6] = match &settings.errors_in_variables {
         Some(mc) => {
+            let (estimate_errors, estimate_notes) =
+                crate::origin::estimate_errors(flight, &table, &refs, baselines, &pieces, n_id, sg_half, h);
+            notes.extend(estimate_notes);
             let syn = noise::Synthesis {
                 flight,
                 h_s: h,
@@ -76,14 +80,33 @@ pub fn synthesise(
                 fuse_cutoffs: air.fuse_cutoffs.as_ref(),
                 refs: &refs,
                 n_id,
+                estimate_errors: &estimate_errors,
             };
             notes.push(monte_carlo_note(&syn, &table, mc));
-            noise::column_errors(&syn, &table, &all_terms, mc)
+            let errors = noise::column_errors(&syn, &table, &all_terms, mc);
+            if estimate_errors.is_empty() {
+                errors
+            } else {
+                let est = noise::estimate_error_moments(&syn, &table, &all_terms, mc);
+                let (errors, why) = crate::origin::with_estimate_errors(
+                    flight,
+                    &table,
+                    &refs,
+                    baselines,
+                    errors,
+                    &est,
+                    &estimate_errors,
+                    syn.replicas(&table, mc),
+                    n_id,
+                    h,
+                );
+                notes.extend(why);
+                errors
+            }
         }
         None => Default::default(),
     };
     let regression = regression_of(&table, &refs, baselines, &all_terms, n_id);
-    let pieces: Vec<(usize, usize)> = flight.pieces().iter().map(|p| (p.start, p.end)).collect();
     let oracle = oracle::FlightOracle::new(flight, &table, &refs, baselines, &errors, &all_terms);
     notes.extend(oracle.note());
     Ok(Synthesised {
