@@ -1985,7 +1985,8 @@ pub fn check(flight: &MeasuredFlight, h_s: f64, s: &CompatSettings) -> Compatibi
     let (mut tested, found, rms, g_b, y, (w_b, x0_b)) = run(&prob_b, x0, s, "velocity", &screen, &decide);
     let by_recon = by_recon.into_inner();
     if let Some(r) = &recon {
-        eks_oracle(&mut out, &mut tested, r, s);
+        let decided: Vec<SensorParam> = by_recon.tested.iter().map(|t| t.param).collect();
+        eks_oracle(&mut out, &mut tested, r, &decided, s);
     }
     tested.extend(by_recon.tested);
     out.found.extend(by_recon.found);
@@ -2007,8 +2008,15 @@ pub fn check(flight: &MeasuredFlight, h_s: f64, s: &CompatSettings) -> Compatibi
 
 /// The oracle of the air-data errors from the reconstruction with wind and sensor-error states
 /// ([`super::eks`]): its σ replaces the output-error fit's own as `oracle_se` of those candidates
-/// (docs/model-gaps.md, "The oracle"), and the note says so.
-fn eks_oracle(out: &mut Compatibility, tested: &mut [ParamScore], r: &super::eks::Reconstruction, s: &CompatSettings) {
+/// (docs/model-gaps.md, "The oracle"), and the note says so, naming the sensor errors it also
+/// estimated and tested (`decided`, [`by_reconstruction`]).
+fn eks_oracle(
+    out: &mut Compatibility,
+    tested: &mut [ParamScore],
+    r: &super::eks::Reconstruction,
+    decided: &[SensorParam],
+    s: &CompatSettings,
+) {
     let factor = super::detection::detection_factor(
         super::detection::level_of_normal_threshold(s.threshold_t2),
         s.gain_alpha,
@@ -2019,8 +2027,17 @@ fn eks_oracle(out: &mut Compatibility, tested: &mut [ParamScore], r: &super::eks
             c.oracle_min_detectable = factor * sd;
         }
     }
+    let also = if decided.is_empty() {
+        String::new()
+    } else {
+        let names: Vec<String> = decided.iter().map(SensorParam::name).collect();
+        format!(
+            "; it also estimates and tests {} (its σ below the output-error fit's)",
+            names.join(", ")
+        )
+    };
     out.notes.push(format!(
-        "accelerometer biases estimated and tested, and the oracle of the air-data errors: a Kalman reconstruction with the wind ({}) and the sensor errors as states",
+        "oracle of the air-data and accelerometer errors: a Kalman reconstruction with the wind ({}) and the sensor errors as states{also}",
         r.wind.describe()
     ));
 }
