@@ -815,6 +815,9 @@ pub struct GustNoise {
     pub correlation_times_s: Vec<f64>,
     /// Per output, the correlated share of its variance, `C_aa / (C_aa + D_a)`.
     pub correlated_share: Vec<f64>,
+    /// Per output, whether its correlated part is band-pass (no power at zero frequency) rather
+    /// than first-order Gauss–Markov ([`markov`]'s module doc).
+    pub band_pass: Vec<bool>,
 }
 
 /// The parameter covariance of `id` with each output's residual modelled as a first-order
@@ -853,6 +856,7 @@ pub fn gust_covariance(
             let meat = &parts.prior_info + &g.meat;
             let noise = GustNoise {
                 correlation_times_s: g.tau_s,
+                band_pass: g.band_pass,
                 correlated_share: (0..ny)
                     .map(|a| {
                         let m = g.markov[(a, a)];
