@@ -25,7 +25,8 @@
 //! power to zero frequency, where an intercept's sensitivity lies, and overstates the intercept's
 //! variance (`tests`: on band-pass draws the low-pass kernel overstates the intercept's variance
 //! 4.6-fold). An output that integrates such a response (a roll angle from the roll rate) keeps
-//! power at zero frequency, and its kernel is low-pass. A pair's kernel is at the geometric mean
+//! power at zero frequency, where the low-pass kernel is the expected one. Which kernel an output
+//! gets is not assumed but fitted (below). A pair's kernel is at the geometric mean
 //! `ρ_ab = √(ρ_a ρ_b)`, band-pass if either output's is (a process with no power at zero
 //! frequency has no cross-power there); `C` is positive semi-definite (each output's correlated
 //! share and the outputs' cross-covariance: one turbulence field drives them all), `D ≥ 0` (the
