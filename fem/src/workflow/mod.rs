@@ -807,19 +807,23 @@ fn sandwich(
     Ok(out)
 }
 
-/// The turbulence's correlation fitted to the residual ([`markov`]): the correlation time, s, and
-/// per output the share of the weighted residual variance that is correlated (the rest white).
+/// The turbulence's correlation fitted to the residual ([`markov`]): per output the correlation
+/// time, s, the kernel, and the share of the weighted residual variance that is correlated (the
+/// rest white).
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct GustNoise {
-    /// Per output, the correlation time of its first-order Gauss–Markov part, s.
+    /// Per output, the correlation time of its correlated part, s.
     pub correlation_times_s: Vec<f64>,
     /// Per output, the correlated share of its variance, `C_aa / (C_aa + D_a)`.
     pub correlated_share: Vec<f64>,
+    /// Per output, whether its correlated part is band-pass (no power at zero frequency) rather
+    /// than first-order Gauss–Markov ([`markov`]'s module doc).
+    pub band_pass: Vec<bool>,
 }
 
-/// The parameter covariance of `id` with each output's residual modelled as a first-order
-/// Gauss–Markov process (its own correlation time; between two outputs the geometric mean of
-/// their correlations) plus white noise, fitted through the fit's residual maker ([`markov`]'s
+/// The parameter covariance of `id` with each output's residual modelled as a correlated process
+/// (a first-order Gauss–Markov or a band-pass kernel, with its own correlation time; between two
+/// outputs the geometric mean of their correlations) plus white noise, fitted through the fit's residual maker ([`markov`]'s
 /// module doc): `Cov θ̂ = M⁻¹ [P₀⁻¹ + Σ S̃ᵀ Σ̂ S̃] M⁻¹`. Where the model cannot be fitted (fewer
 /// than four samples, a singular moment system or a non-finite fit) the Morelli–Klein covariance
 /// ([`coloured_covariance`]), and the second value is `None`.
@@ -853,6 +857,7 @@ pub fn gust_covariance(
             let meat = &parts.prior_info + &g.meat;
             let noise = GustNoise {
                 correlation_times_s: g.tau_s,
+                band_pass: g.band_pass,
                 correlated_share: (0..ny)
                     .map(|a| {
                         let m = g.markov[(a, a)];
