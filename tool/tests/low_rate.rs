@@ -96,6 +96,15 @@ fn the_ten_hertz_hfb320_gets_a_verdict_by_output_error() {
         );
         assert!(low_rate_estimator(&c.baseline.estimator), "{name}");
     }
+    // The record does not say how its samples were formed: the timing resolution of a surface
+    // delay is half its 100 ms interval, and the report says so.
+    assert!(
+        r.notes
+            .iter()
+            .any(|n| n.contains("not stated by the source") && n.contains("within ±50 ms")),
+        "{:?}",
+        r.notes
+    );
     // The record has no lateral channels: the lateral coefficients are absent or say why.
     assert!(
         r.coefficients
@@ -614,4 +623,55 @@ fn delay_source(name: &str, change: fn(&mut aerosid::sim::SimConfig), block: usi
             named.join("; ")
         );
     }
+}
+
+/// The clean flight of [`ten_hz`] without servos (seed 41004): the surfaces are held for each
+/// 10 ms output period, a real lag of 5 ms (half the hold) of the applied surfaces behind their
+/// logged samples. Logged as centred 10 Hz means, the formation is modelled and the aileron's lag
+/// is decided by its tests; the same samples with their formation unstated leave a delay within
+/// half the interval (±50 ms) undecided, and the verdict says so instead of naming it.
+#[test]
+fn a_surface_delay_within_half_an_unstated_interval_is_not_decided() {
+    use aerosid::io::measured::Sampling;
+    use aerosid::sim::{simulate, SimAirframe};
+    let mut cfg = hidden::config(None, 60.0, 41_004, true);
+    cfg.servo = None;
+    let out = simulate(&cfg).expect("the simulator flies");
+    let ac =
+        aerosid::io::measured::Aircraft::from_airframe("skywalker_2013_mod", &SimAirframe::skywalker_2013_mod().frame);
+    let centred = MeasuredFlight::from_samples("no servos", &out.samples, ac).block_means(10);
+    assert_eq!(centred.log.sampling, Sampling::CentredMeans);
+    let mut unstated = centred.clone();
+    unstated.log.sampling = Sampling::Unstated;
+    let s = GapSettings {
+        baseline: Some(HiddenEffect::baseline(None)),
+        low_rate_method: LowRateMethod::FilterError,
+        ..GapSettings::default()
+    };
+    let delays = |r: &GapReport| -> Vec<String> {
+        r.named
+            .iter()
+            .filter(|c| c.kind == CauseKind::ControlDelay)
+            .map(|c| format!("{} {}", c.location, c.what))
+            .collect()
+    };
+    let r = run_gaps(&unstated, &s).expect("the analysis runs");
+    let text = detail(&r);
+    println!("unstated:\n{text}");
+    assert!(delays(&r).is_empty(), "{text}");
+    assert!(
+        r.coefficients
+            .iter()
+            .any(|c| c.verdict.contains("not decided at this rate")),
+        "{text}"
+    );
+    let r = run_gaps(&centred, &s).expect("the analysis runs");
+    let text = detail(&r);
+    println!("centred means:\n{text}");
+    assert!(
+        r.coefficients
+            .iter()
+            .all(|c| !c.verdict.contains("not decided at this rate")),
+        "{text}"
+    );
 }
