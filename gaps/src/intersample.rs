@@ -29,11 +29,11 @@
 //! the derivative of the same reconstruction, so a fitted delay is a shift of the path the model
 //! is driven by.
 //!
-//! Where the source does not say how a channel was formed ([`Sampling::Unstated`]), the spline
-//! is still phase-free about each sample's stamp, but one channel's sample may be its mean over
-//! the interval before the stamp and another's its value at the stamp, half an interval apart;
-//! no reconstruction resolves that, and [`timing_resolution_s`] says how much of a delay it
-//! leaves undecided.
+//! What no reconstruction resolves is the timing within one interval: where the source does not
+//! say how a channel was formed ([`Sampling::Unstated`]), one channel's sample may be its mean
+//! over the interval before the stamp and another's its value at the stamp, half an interval
+//! apart; and a surface that moves within one interval is placed there by one sample. So a
+//! surface delay within half an interval is not decided at this rate ([`timing_resolution_s`]).
 //!
 //! The spline is a uniform-grid cubic with parabolic run-out ends (the end curvature equals its
 //! neighbour's), solved per manoeuvre by the Thomas algorithm: twenty lines, evaluated in the
@@ -101,20 +101,35 @@ pub(super) fn slope(x: &[f64], c: &[f64], k: usize, fr: f64, h_s: f64) -> f64 {
     (x[k + 1] - x[k] + c[k] * (1.0 - 3.0 * g * g) + c[k + 1] * (3.0 * fr * fr - 1.0)) / h_s
 }
 
-/// The timing a channel logged at interval `h_s` leaves unresolved, s: a delay whose size is
-/// within it is not decided at this rate.
+/// The timing a channel logged at interval `h_s` leaves unresolved, s: a surface delay whose
+/// size is within it is not decided at this rate. Half an interval, for either of two reasons
+/// ([`why_unresolved`]):
 ///
-/// With the formation known ([`Sampling::Points`], [`Sampling::CentredMeans`]) the
-/// reconstruction above is the formation's own and phase-free: nothing is left beyond the
-/// estimate's own σ (0). Unstated, each channel's sample may be the signal at its stamp or its
-/// mean over the interval before it: a mean over `[t − h, t]` is, to first order in the signal's
-/// rate, the signal at `t − h/2`. A shift common to every channel moves no input against an
-/// output, but a surface averaged and a rate sampled (or the reverse) are shifted against each
-/// other by `h/2` — a delay within `±h/2` may be nothing but how the logger formed them.
-pub(super) fn timing_resolution_s(sampling: Sampling, h_s: f64) -> f64 {
+/// * the formation unstated ([`Sampling::Unstated`]): each channel's sample may be the signal at
+///   its stamp or its mean over the interval before it, and a mean over `[t − h, t]` is, to first
+///   order in the signal's rate, the signal at `t − h/2`. A shift common to every channel moves no
+///   input against an output, but a surface averaged and a rate sampled (or the reverse) are
+///   shifted against each other by `h/2`;
+/// * the formation stated: the reconstruction above is then the formation's own and phase-free
+///   for motion at random phase to the samples, but a surface that moves within one interval is
+///   placed there by one number per interval (its sample), which does not say where in the
+///   interval it moved: the centroid of that motion may lie anywhere in it, up to `h/2` from
+///   where the reconstruction puts it. When the motion is locked to the logger's clock (the
+///   autopilot's loop drives the surfaces and stamps the log; a test card's inputs switch on its
+///   ticks), these errors do not average out over the record.
+pub(super) fn timing_resolution_s(h_s: f64) -> f64 {
+    h_s / 2.0
+}
+
+/// Why a surface delay within [`timing_resolution_s`] is not decided, for the report.
+pub(super) fn why_unresolved(sampling: Sampling) -> &'static str {
     match sampling {
-        Sampling::Points | Sampling::CentredMeans => 0.0,
-        Sampling::Unstated => h_s / 2.0,
+        Sampling::Unstated => {
+            "the data do not say whether each channel's sample is the signal at its time stamp or its mean over the interval before it, so the surface and the response it drives may be shifted against each other by up to half an interval by how they were logged"
+        }
+        Sampling::Points | Sampling::CentredMeans => {
+            "a surface that moves within one sample interval is placed there by one sample, which does not say where in the interval it moved, so its timing is known to half an interval only"
+        }
     }
 }
 
@@ -177,9 +192,9 @@ mod tests {
     }
 
     #[test]
-    fn only_an_unstated_formation_leaves_half_an_interval() {
-        assert_eq!(timing_resolution_s(Sampling::Unstated, 0.1), 0.05);
-        assert_eq!(timing_resolution_s(Sampling::Points, 0.1), 0.0);
-        assert_eq!(timing_resolution_s(Sampling::CentredMeans, 0.1), 0.0);
+    fn half_an_interval_is_left_unresolved_with_the_formation_s_reason() {
+        assert_eq!(timing_resolution_s(0.1), 0.05);
+        assert!(why_unresolved(Sampling::Unstated).contains("do not say"));
+        assert!(why_unresolved(Sampling::CentredMeans).contains("within one sample interval"));
     }
 }

@@ -1220,8 +1220,8 @@ pub struct Inputs<'a> {
     pub cv: CvSettings,
     /// Sandwich block length, s.
     pub max_lag_s: f64,
-    /// How the flight's samples were formed: the timing a surface delay must exceed to be
-    /// decided ([`intersample::timing_resolution_s`]).
+    /// How the flight's samples were formed: why a surface delay within half an interval is not
+    /// decided ([`intersample::why_unresolved`]).
     pub sampling: Sampling,
 }
 
@@ -1497,23 +1497,16 @@ impl<'a, D: Dynamics> Axis<'a, D> {
 
     /// The intersample model and the timing resolution of a surface delay, in words.
     fn timing_note(&self) -> String {
-        let resolution = intersample::timing_resolution_s(self.inp.sampling, self.h_s);
         let how = match self.inp.sampling {
             Sampling::Points => "point samples (the signal at each time stamp)",
             Sampling::CentredMeans => "means over each sample interval, stamped at its centre",
             Sampling::Unstated => "not stated by the source",
         };
-        let decided = if resolution > 0.0 {
-            format!(
-                "a surface delay within ±{:.0} ms (half the {:.0} ms interval: a channel averaged over the interval before its stamp and one sampled at it are shifted against each other by that much) is not decided at this rate",
-                1e3 * resolution,
-                1e3 * self.h_s
-            )
-        } else {
-            "the formation is modelled, so a surface delay is decided by its tests alone".into()
-        };
         format!(
-            "intersample model: the samples are {how}; the inputs are taken between samples on the cubic spline through them (phase-free; for interval means it is the mean-preserving reconstruction with averaged outputs), a surface's rate as its derivative; {decided}"
+            "intersample model: the samples are {how}; the inputs are taken between samples on the cubic spline through them (phase-free; for interval means it is the mean-preserving reconstruction with averaged outputs), a surface's rate as its derivative; a surface delay within ±{:.0} ms, half the {:.0} ms interval, is not decided at this rate: {}",
+            1e3 * intersample::timing_resolution_s(self.h_s),
+            1e3 * self.h_s,
+            intersample::why_unresolved(self.inp.sampling)
         )
     }
 
@@ -1577,8 +1570,8 @@ impl<'a, D: Dynamics> Axis<'a, D> {
 
     /// Why the surface-rate term last added to coefficient `c` in `fit` is not decided at this
     /// rate: the delay it stands for, `τ = −θ_δ̇/θ_δ` (the first-order form `δ(t − τ) ≈ δ − τ δ̇`
-    /// with the surface's own term in the same coefficient), lies within the timing the channels'
-    /// formation leaves unresolved ([`intersample::timing_resolution_s`]). `None` for any other
+    /// with the surface's own term in the same coefficient), lies within the timing the samples
+    /// leave unresolved ([`intersample::timing_resolution_s`]). `None` for any other
     /// term, without the surface's own term, or beyond the resolution.
     fn undecided_delay(&self, c: usize, fit: &Fit) -> Option<String> {
         let j = fit.spec.terms.len().checked_sub(1)?;
@@ -1589,20 +1582,21 @@ impl<'a, D: Dynamics> Axis<'a, D> {
             Term::RudderRate => Term::Rudder,
             _ => return None,
         };
-        let resolution = intersample::timing_resolution_s(self.inp.sampling, self.h_s);
+        let resolution = intersample::timing_resolution_s(self.h_s);
         let js = fit.spec.terms.iter().position(|&(k, u)| k == cc && u == surface)?;
         let tau = -fit.th[j] / fit.th[js];
         if cc != c || !tau.is_finite() || tau.abs() > resolution {
             return None;
         }
         Some(format!(
-            "{} (a {} of {:.0} ms of {}): not decided at this rate — within ±{:.0} ms, half the {:.0} ms sample interval: the data do not say whether each channel's sample is the signal at its time stamp or its mean over the interval before it, so the surface and the response it drives may be shifted against each other by up to half an interval by how they were logged",
+            "{} (a {} of {:.0} ms of {}): not decided at this rate — within ±{:.0} ms, half the {:.0} ms sample interval: {}",
             t.name(),
             if tau >= 0.0 { "delay" } else { "lead" },
             1e3 * tau.abs(),
             surface.name(),
             1e3 * resolution,
-            1e3 * self.h_s
+            1e3 * self.h_s,
+            intersample::why_unresolved(self.inp.sampling)
         ))
     }
 
