@@ -1565,7 +1565,56 @@ impl<'a, D: Dynamics> Axis<'a, D> {
             *current = fit1;
             *h_current = h1;
         }
+        self.undecided_after_selection(c, current, h_current, &mut added, &mut undecided);
+        cnotes.extend(
+            undecided
+                .iter()
+                .filter(|w| !cnotes.contains(w))
+                .cloned()
+                .collect::<Vec<_>>(),
+        );
         (c, first_round.unwrap_or_default(), added, cnotes, undecided)
+    }
+
+    /// A surface-rate term added before its surface's own term (a control term missing from the
+    /// baseline) is a delay only in the model that has both: checked there, and when within the
+    /// timing resolution dropped from the added terms and the model refitted without it.
+    fn undecided_after_selection(
+        &self,
+        c: usize,
+        current: &mut Fit,
+        h_current: &mut HeldOut,
+        added: &mut Vec<Added>,
+        undecided: &mut Vec<String>,
+    ) {
+        let rates: Vec<usize> = (0..current.spec.terms.len())
+            .filter(|&j| {
+                let (cc, t) = current.spec.terms[j];
+                cc == c && added.iter().any(|a| a.term == t.name())
+            })
+            .collect();
+        for j in rates.into_iter().rev() {
+            let Some(why) = self.undecided_delay_at(c, current, j) else {
+                continue;
+            };
+            let mut terms = current.spec.terms.clone();
+            let mut th = current.th.clone();
+            let (_, t) = terms.remove(j);
+            th.remove(j);
+            let spec = Spec::new(current.spec.covered, terms);
+            let Ok(f) = self.setup.fit(&spec, th, self.base.w) else {
+                continue;
+            };
+            let Some(h) = self.setup.held_out(&f) else {
+                continue;
+            };
+            *current = f;
+            *h_current = h;
+            added.retain(|a| a.term != t.name());
+            if !undecided.contains(&why) {
+                undecided.push(why);
+            }
+        }
     }
 
     /// Why the surface-rate term last added to coefficient `c` in `fit` is not decided at this
@@ -1574,8 +1623,12 @@ impl<'a, D: Dynamics> Axis<'a, D> {
     /// leave unresolved ([`intersample::timing_resolution_s`]). `None` for any other
     /// term, without the surface's own term, or beyond the resolution.
     fn undecided_delay(&self, c: usize, fit: &Fit) -> Option<String> {
-        let j = fit.spec.terms.len().checked_sub(1)?;
-        let (cc, t) = fit.spec.terms[j];
+        self.undecided_delay_at(c, fit, fit.spec.terms.len().checked_sub(1)?)
+    }
+
+    /// [`Self::undecided_delay`] of parameter `j` of `fit`.
+    fn undecided_delay_at(&self, c: usize, fit: &Fit, j: usize) -> Option<String> {
+        let (cc, t) = *fit.spec.terms.get(j)?;
         let surface = match t {
             Term::ElevatorRate => Term::Elevator,
             Term::AileronRate => Term::Aileron,
