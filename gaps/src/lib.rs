@@ -77,6 +77,7 @@ pub mod held_noise;
 pub mod hidden;
 mod homogeneity;
 pub mod instrumental;
+mod intersample;
 pub mod low_rate;
 mod low_rate_fem;
 pub mod model;

@@ -6,7 +6,9 @@
 //! ## The model (a partial output error; reading chosen)
 //! The short-period states `x = [α, q]` are simulated; the airspeed, `q̄`, β, the attitude, the
 //! roll and yaw rates, the surfaces and the thrust are the measured (corrected) signals of the
-//! [`Table`], interpolated linearly between samples. Taking the slow and the lateral states as
+//! [`Table`], taken between samples on the paths of [`super::intersample`] (the cubic spline
+//! through the samples: phase-free for point samples, and for block means the exact model of the
+//! averaging; a linear interpolation makes a false surface delay at 10 Hz). Taking the slow and the lateral states as
 //! measured keeps an error of the phugoid or of the lateral model out of the short-period fit (the
 //! same reading as [`super::simulate`]'s partial simulations; a full longitudinal simulation drifts
 //! on the phugoid within a manoeuvre). The equations are the rigid-body kinematics of the
@@ -75,13 +77,14 @@
 //!
 //! Not tested here: `α̇` in `C_L` (it makes `α̇` implicit in the state equation).
 
+use super::intersample;
 use super::model::{Kinematics, Signal, Snapshot, Table, Term, TermRefs, COEFFICIENTS};
 use super::regress::{metrics, ols_theta, Metrics};
 use super::select::{self, CvSettings};
 use super::signal::sin_cos;
-use super::simulate::{inertia, lerp, lerp3};
+use super::simulate::inertia;
 use super::{Added, CandidateScore, CoefficientGap, Homogeneity, ManoeuvreEstimate, ModelFit, Parameter, Traces};
-use crate::io::measured::Aircraft;
+use crate::io::measured::{Aircraft, Sampling};
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
 /// The coefficients the low-rate path covers (indices into [`COEFFICIENTS`]).
@@ -167,7 +170,8 @@ pub(super) struct Plant<'a> {
     alpha_m: &'a [f64],
 }
 
-/// What the plants of both axes run on: the table, the aircraft and the measured outputs.
+/// What the plants of both axes run on: the table, the aircraft, the measured outputs, and the
+/// intersample model of every measured input ([`super::intersample`]).
 pub(super) struct Measured<'a> {
     pub(super) table: &'a Table,
     pub(super) kin: &'a Kinematics,
@@ -177,16 +181,143 @@ pub(super) struct Measured<'a> {
     pub(super) v_m: &'a [f64],
     /// Measured outputs per sample.
     pub(super) y_m: Vec<[f64; NY]>,
+    path: Paths,
 }
 
-impl Measured<'_> {
-    /// The table's snapshot, the airspeed (at least 1 m/s) and `q̄` at sample `k` plus `fr`.
+/// The spline curvatures ([`intersample::curvature`]) of every input the plants read between
+/// samples, per manoeuvre.
+struct Paths {
+    signals: Vec<(Signal, Vec<f64>)>,
+    v: Vec<f64>,
+    qbar: Vec<f64>,
+    rates: [Vec<f64>; 3],
+    attitude: [Vec<f64>; 2],
+    thrust_force: [Vec<f64>; 3],
+    thrust_moment: [Vec<f64>; 3],
+    aero_force: [Vec<f64>; 3],
+    /// The surfaces whose rate signal is the derivative of their path: (surface, rate).
+    rate_of: Vec<(Signal, Signal)>,
+    h_s: f64,
+}
+
+/// One component of a series of vectors.
+fn component(x: &[Vector3<f64>], i: usize) -> Vec<f64> {
+    x.iter().map(|v| v[i]).collect()
+}
+
+impl<'a> Measured<'a> {
+    /// The plant's measured side: `table` and its kinematics, the aircraft, the airspeed and the
+    /// outputs, each input's path spline per manoeuvre of `pieces`.
+    pub(super) fn new(
+        table: &'a Table,
+        kin: &'a Kinematics,
+        (ac, refs, j): (&'a Aircraft, &'a TermRefs, Matrix3<f64>),
+        v_m: &'a [f64],
+        y_m: Vec<[f64; NY]>,
+        pieces: &[(usize, usize)],
+    ) -> Self {
+        let cv = |x: &[f64]| intersample::curvature(x, pieces);
+        let cv3 = |x: &[Vector3<f64>]| -> [Vec<f64>; 3] { core::array::from_fn(|i| cv(&component(x, i))) };
+        let n = table.t_s.len();
+        let h_s = (table.t_s[n - 1] - table.t_s[0]) / (n - 1).max(1) as f64;
+        let rate_of = [
+            (Signal::Elevator, Signal::ElevatorRate),
+            (Signal::Aileron, Signal::AileronRate),
+            (Signal::Rudder, Signal::RudderRate),
+        ]
+        .into_iter()
+        .filter(|(s, r)| table.signals.contains_key(s) && table.signals.contains_key(r))
+        .collect();
+        let path = Paths {
+            signals: table.signals.iter().map(|(s, x)| (*s, cv(x))).collect(),
+            v: cv(v_m),
+            qbar: cv(&kin.qbar_pa),
+            rates: core::array::from_fn(|i| cv(&kin.rates_rad_s[i])),
+            attitude: core::array::from_fn(|i| cv(&kin.attitude_rad[i])),
+            thrust_force: cv3(&kin.thrust_force_n),
+            thrust_moment: cv3(&kin.thrust_moment_nm),
+            aero_force: cv3(&kin.aero_force_n),
+            rate_of,
+            h_s,
+        };
+        Measured {
+            table,
+            kin,
+            ac,
+            refs,
+            j,
+            v_m,
+            y_m,
+            path,
+        }
+    }
+
+    /// The table's snapshot, the airspeed (at least 1 m/s) and `q̄` at sample `k` plus `fr`, each
+    /// on its path; a surface's rate the derivative of the surface's path.
     pub(super) fn at(&self, k: usize, fr: f64) -> (Snapshot, f64, f64) {
+        let mut s = self.table.snapshot(k, fr);
+        let p = &self.path;
+        if fr != 0.0 {
+            for (sig, c) in &p.signals {
+                s[sig.index()] = intersample::at(&self.table.signals[sig], c, k, fr);
+            }
+        }
+        for (surface, rate) in &p.rate_of {
+            let (x, c) = (&self.table.signals[surface], self.curv(*surface));
+            s[rate.index()] = intersample::slope(x, c, k, fr, p.h_s);
+        }
         (
-            self.table.snapshot(k, fr),
-            lerp(self.v_m, k, fr).max(1.0),
-            lerp(&self.kin.qbar_pa, k, fr),
+            s,
+            intersample::at(self.v_m, &p.v, k, fr).max(1.0),
+            intersample::at(&self.kin.qbar_pa, &p.qbar, k, fr),
         )
+    }
+
+    fn curv(&self, sig: Signal) -> &[f64] {
+        self.path
+            .signals
+            .iter()
+            .find(|(s, _)| *s == sig)
+            .map_or(&[], |(_, c)| c.as_slice())
+    }
+
+    /// A table signal on its path at sample `k` plus `fr`.
+    pub(super) fn signal(&self, sig: Signal, x: &[f64], k: usize, fr: f64) -> f64 {
+        intersample::at(x, self.curv(sig), k, fr)
+    }
+
+    /// Body rate `i` (p, q, r) on its path.
+    pub(super) fn rate(&self, i: usize, k: usize, fr: f64) -> f64 {
+        intersample::at(&self.kin.rates_rad_s[i], &self.path.rates[i], k, fr)
+    }
+
+    /// Attitude `i` (φ, θ) on its path.
+    pub(super) fn attitude(&self, i: usize, k: usize, fr: f64) -> f64 {
+        intersample::at(&self.kin.attitude_rad[i], &self.path.attitude[i], k, fr)
+    }
+
+    fn vector(x: &[Vector3<f64>], c: &[Vec<f64>; 3], k: usize, fr: f64) -> Vector3<f64> {
+        if fr == 0.0 || k + 1 >= x.len() {
+            return x[k];
+        }
+        let g = 1.0 - fr;
+        let (a, b) = (g * g * g - g, fr * fr * fr - fr);
+        x[k] + (x[k + 1] - x[k]) * fr + Vector3::from_fn(|i, _| c[i][k] * a + c[i][k + 1] * b)
+    }
+
+    /// The thrust force (body), N, on its path.
+    pub(super) fn thrust_force(&self, k: usize, fr: f64) -> Vector3<f64> {
+        Self::vector(&self.kin.thrust_force_n, &self.path.thrust_force, k, fr)
+    }
+
+    /// The thrust moment (body), N·m, on its path.
+    pub(super) fn thrust_moment(&self, k: usize, fr: f64) -> Vector3<f64> {
+        Self::vector(&self.kin.thrust_moment_nm, &self.path.thrust_moment, k, fr)
+    }
+
+    /// The measured aerodynamic force (body), N, on its path.
+    pub(super) fn aero_force(&self, k: usize, fr: f64) -> Vector3<f64> {
+        Self::vector(&self.kin.aero_force_n, &self.path.aero_force, k, fr)
     }
 }
 
@@ -393,7 +524,7 @@ impl Plant<'_> {
     /// The state derivative `[α̇, q̇]`, the outputs and the coefficients at state `x`, sample
     /// `k` plus `fr` (the module's equations), with what the parameter Jacobian needs.
     fn point(&self, spec: &Spec, x: [f64; 2], k: usize, fr: f64, th: &[f64]) -> Option<(Point<[f64; 2]>, Evaluated)> {
-        let (ac, kin, refs) = (self.m.ac, self.m.kin, self.m.refs);
+        let (ac, refs) = (self.m.ac, self.m.refs);
         let (area, chord, mass) = (ac.wing_area_m2, ac.chord_m, ac.mass_kg);
         let (mut s, v, qbar) = self.m.at(k, fr);
         let (al, q) = (x[0], x[1]);
@@ -405,12 +536,12 @@ impl Plant<'_> {
         let (tl, td, tm) = (spec.of(0), spec.of(1), spec.of(4));
         let cl = dot(tl, th, &s, refs)?;
         s[Signal::LiftCoeff.index()] = cl;
-        let (p, r) = (lerp(&kin.rates_rad_s[0], k, fr), lerp(&kin.rates_rad_s[2], k, fr));
-        let (_, cf) = sin_cos(lerp(&kin.attitude_rad[0], k, fr));
-        let (st, ct) = sin_cos(lerp(&kin.attitude_rad[1], k, fr));
+        let (p, r) = (self.m.rate(0, k, fr), self.m.rate(2, k, fr));
+        let (_, cf) = sin_cos(self.m.attitude(0, k, fr));
+        let (st, ct) = sin_cos(self.m.attitude(1, k, fr));
         let (sa, ca) = sin_cos(al);
         let (sb, cb) = sin_cos(beta);
-        let ft = lerp3(&kin.thrust_force_n, k, fr);
+        let ft = self.m.thrust_force(k, fr);
         let vcb = v * cb.max(0.1);
         let k_l = -qbar * area / (mass * vcb);
         let a0 = q
@@ -421,11 +552,10 @@ impl Plant<'_> {
         let cm = dot(tm, th, &s, refs)?;
         let iy = self.m.j[(1, 1)];
         let om = Vector3::new(p, q, r);
-        let fa_m = lerp3(&kin.aero_force_n, k, fr);
+        let fa_m = self.m.aero_force(k, fr);
         let k_m = qbar * area * chord / iy;
         let qdot = k_m * cm
-            + (ac.moment_reference_m.cross(&fa_m).y + lerp3(&kin.thrust_moment_nm, k, fr).y
-                - om.cross(&(self.m.j * om)).y)
+            + (ac.moment_reference_m.cross(&fa_m).y + self.m.thrust_moment(k, fr).y - om.cross(&(self.m.j * om)).y)
                 / iy;
         let k_f = qbar * area / mass;
         let y = [al, q, k_f * (-cd * ca + cl * sa), k_f * (-cd * sa - cl * ca)];
@@ -1052,8 +1182,9 @@ type HeldOut = Vec<Vec<[f64; NY]>>;
 /// A candidate's score, with its fit, held-out residuals and likelihood gain when scored.
 type Scored = (CandidateScore, Option<(Fit, HeldOut, f64)>);
 
-/// Per coefficient: its first-round candidates, the terms added and notes.
-type CoefficientResult = (usize, Vec<CandidateScore>, Vec<Added>, Vec<String>);
+/// Per coefficient: its first-round candidates, the terms added, notes, and the surface delays
+/// not decided at this rate (each with its reason).
+type CoefficientResult = (usize, Vec<CandidateScore>, Vec<Added>, Vec<String>, Vec<String>);
 
 /// What the low-rate path found: the covered coefficients' analyses and the notes.
 #[derive(Debug, Clone)]
@@ -1089,6 +1220,9 @@ pub struct Inputs<'a> {
     pub cv: CvSettings,
     /// Sandwich block length, s.
     pub max_lag_s: f64,
+    /// How the flight's samples were formed: why a surface delay within half an interval is not
+    /// decided ([`intersample::why_unresolved`]).
+    pub sampling: Sampling,
 }
 
 /// The longitudinal plant, the manoeuvres, the sandwich blocks and the folds of `inp`; `Err` says
@@ -1124,15 +1258,7 @@ pub(super) fn setup<'a>(inp: &Inputs<'a>) -> Result<Setup<Plant<'a>>, String> {
         .collect();
     Ok(Setup::new(
         Plant {
-            m: Measured {
-                table,
-                kin,
-                ac: inp.aircraft,
-                refs: inp.refs,
-                j,
-                v_m,
-                y_m,
-            },
+            m: Measured::new(table, kin, (inp.aircraft, inp.refs, j), v_m, y_m, inp.pieces),
             alpha_m,
         },
         inp,
@@ -1365,7 +1491,23 @@ impl<'a, D: Dynamics> Axis<'a, D> {
         if !base.converged {
             notes.push("the baseline's Gauss–Newton iterations did not converge within their limit".into());
         }
+        notes.push(self.timing_note());
         notes
+    }
+
+    /// The intersample model and the timing resolution of a surface delay, in words.
+    fn timing_note(&self) -> String {
+        let how = match self.inp.sampling {
+            Sampling::Points => "point samples (the signal at each time stamp)",
+            Sampling::CentredMeans => "means over each sample interval, stamped at its centre",
+            Sampling::Unstated => "not stated by the source",
+        };
+        format!(
+            "intersample model: the samples are {how}; the inputs are taken between samples on the cubic spline through them (phase-free; for interval means it is the mean-preserving reconstruction with averaged outputs), a surface's rate as its derivative; a surface delay within ±{:.0} ms, half the {:.0} ms interval, is not decided at this rate: {}",
+            1e3 * intersample::timing_resolution_s(self.h_s),
+            1e3 * self.h_s,
+            intersample::why_unresolved(self.inp.sampling)
+        )
     }
 
     /// Forward selection on coefficient `c` from the current joint model (`current`, its held-out
@@ -1374,11 +1516,25 @@ impl<'a, D: Dynamics> Axis<'a, D> {
         let mut first_round: Option<Vec<CandidateScore>> = None;
         let mut added: Vec<Added> = Vec::new();
         let mut cnotes: Vec<String> = Vec::new();
+        let mut undecided: Vec<String> = Vec::new();
         for round in 0..MAX_ADDED {
             let mut scored: Vec<Scored> = Term::offered(c, self.inp.table)
                 .into_iter()
                 .filter_map(|t| self.score(c, t, current, h_current))
                 .collect();
+            for (s, fit) in &mut scored {
+                let why = fit
+                    .as_ref()
+                    .filter(|_| s.significant)
+                    .and_then(|(f, ..)| self.undecided_delay(c, f));
+                if let Some(why) = why {
+                    s.significant = false;
+                    if !undecided.contains(&why) {
+                        cnotes.push(why.clone());
+                        undecided.push(why);
+                    }
+                }
+            }
             scored.sort_by(|a, b| b.0.t2.total_cmp(&a.0.t2));
             cnotes.extend(likelihood_notes(c, round, &scored));
             let names_sig: Vec<String> = scored
@@ -1409,7 +1565,92 @@ impl<'a, D: Dynamics> Axis<'a, D> {
             *current = fit1;
             *h_current = h1;
         }
-        (c, first_round.unwrap_or_default(), added, cnotes)
+        self.undecided_after_selection(c, current, h_current, &mut added, &mut undecided);
+        cnotes.extend(
+            undecided
+                .iter()
+                .filter(|w| !cnotes.contains(w))
+                .cloned()
+                .collect::<Vec<_>>(),
+        );
+        (c, first_round.unwrap_or_default(), added, cnotes, undecided)
+    }
+
+    /// A surface-rate term added before its surface's own term (a control term missing from the
+    /// baseline) is a delay only in the model that has both: checked there, and when within the
+    /// timing resolution dropped from the added terms and the model refitted without it.
+    fn undecided_after_selection(
+        &self,
+        c: usize,
+        current: &mut Fit,
+        h_current: &mut HeldOut,
+        added: &mut Vec<Added>,
+        undecided: &mut Vec<String>,
+    ) {
+        let rates: Vec<usize> = (0..current.spec.terms.len())
+            .filter(|&j| {
+                let (cc, t) = current.spec.terms[j];
+                cc == c && added.iter().any(|a| a.term == t.name())
+            })
+            .collect();
+        for j in rates.into_iter().rev() {
+            let Some(why) = self.undecided_delay_at(c, current, j) else {
+                continue;
+            };
+            let mut terms = current.spec.terms.clone();
+            let mut th = current.th.clone();
+            let (_, t) = terms.remove(j);
+            th.remove(j);
+            let spec = Spec::new(current.spec.covered, terms);
+            let Ok(f) = self.setup.fit(&spec, th, self.base.w) else {
+                continue;
+            };
+            let Some(h) = self.setup.held_out(&f) else {
+                continue;
+            };
+            *current = f;
+            *h_current = h;
+            added.retain(|a| a.term != t.name());
+            if !undecided.contains(&why) {
+                undecided.push(why);
+            }
+        }
+    }
+
+    /// Why the surface-rate term last added to coefficient `c` in `fit` is not decided at this
+    /// rate: the delay it stands for, `τ = −θ_δ̇/θ_δ` (the first-order form `δ(t − τ) ≈ δ − τ δ̇`
+    /// with the surface's own term in the same coefficient), lies within the timing the samples
+    /// leave unresolved ([`intersample::timing_resolution_s`]). `None` for any other
+    /// term, without the surface's own term, or beyond the resolution.
+    fn undecided_delay(&self, c: usize, fit: &Fit) -> Option<String> {
+        self.undecided_delay_at(c, fit, fit.spec.terms.len().checked_sub(1)?)
+    }
+
+    /// [`Self::undecided_delay`] of parameter `j` of `fit`.
+    fn undecided_delay_at(&self, c: usize, fit: &Fit, j: usize) -> Option<String> {
+        let (cc, t) = *fit.spec.terms.get(j)?;
+        let surface = match t {
+            Term::ElevatorRate => Term::Elevator,
+            Term::AileronRate => Term::Aileron,
+            Term::RudderRate => Term::Rudder,
+            _ => return None,
+        };
+        let resolution = intersample::timing_resolution_s(self.h_s);
+        let js = fit.spec.terms.iter().position(|&(k, u)| k == cc && u == surface)?;
+        let tau = -fit.th[j] / fit.th[js];
+        if cc != c || !tau.is_finite() || tau.abs() > resolution {
+            return None;
+        }
+        Some(format!(
+            "{} (a {} of {:.0} ms of {}): not decided at this rate — within ±{:.0} ms, half the {:.0} ms sample interval: {}",
+            t.name(),
+            if tau >= 0.0 { "delay" } else { "lead" },
+            1e3 * tau.abs(),
+            surface.name(),
+            1e3 * resolution,
+            1e3 * self.h_s,
+            intersample::why_unresolved(self.inp.sampling)
+        ))
     }
 
     /// Candidate `t` of coefficient `c` added to the current model: its score, and the fit, the
@@ -1526,7 +1767,7 @@ impl<'a, D: Dynamics> Axis<'a, D> {
         homogeneity: &[(usize, Homogeneity)],
     ) -> CoefficientGap {
         let (inp, setup, base) = (self.inp, self.setup, &self.base);
-        let (c, candidates, mut added, mut cnotes) = r;
+        let (c, candidates, mut added, mut cnotes, undecided) = r;
         let homogeneity: Vec<Homogeneity> = homogeneity
             .iter()
             .filter(|(cc, _)| *cc == c)
@@ -1547,7 +1788,19 @@ impl<'a, D: Dynamics> Axis<'a, D> {
         }
         let traces = self.traces(c, fin);
         let (r2b, r2e) = self.held_out_r2(o, &meas, fin, h_fin);
-        let verdict = verdict(self.setup.method(), D::OUTPUTS[o], &added, &refused, r2b, r2e);
+        let method = self.setup.method();
+        let mut verdict = verdict(method, D::OUTPUTS[o], &added, &refused, r2b, r2e);
+        if !undecided.is_empty() {
+            let why = undecided.join("; ");
+            verdict = if added.is_empty() && refused.is_empty() {
+                format!(
+                    "not decided at this rate ({method}): {why}; no other candidate improves the held-out prediction of {} beyond noise; held-out R² {r2b:.3}",
+                    D::OUTPUTS[o]
+                )
+            } else {
+                format!("{verdict}; not decided at this rate: {why}")
+            };
+        }
         let model_of = |f: &Fit| -> Vec<(Term, f64)> { f.spec.of(c).iter().map(|(j, t)| (*t, f.th[*j])).collect() };
         CoefficientGap {
             name: COEFFICIENTS[c].to_string(),
@@ -1931,6 +2184,7 @@ pub(crate) mod tests {
                 threshold_blocks: 10,
                 cv: self.s.cv,
                 max_lag_s: self.s.max_lag_s,
+                sampling: self.f.log.sampling,
             }
         }
     }

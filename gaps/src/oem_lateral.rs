@@ -5,7 +5,7 @@
 //! ## The model (a partial output error; reading chosen)
 //! The lateral states `x = [β, p, r]` are simulated; the airspeed, `q̄`, α, `q`, the attitude,
 //! the surfaces, the thrust and the measured aerodynamic force along x and z are the measured
-//! (corrected) signals of the [`Table`], interpolated linearly between samples — the mirror of the
+//! (corrected) signals of the [`Table`], between samples on the paths of `intersample.rs` — the mirror of the
 //! longitudinal path, which simulates `[α, q]` and takes the lateral channels as measured. With
 //! `u = V cos α cos β`, `v = V sin β`, `w = V sin α cos β` and the rigid-body kinematics of the
 //! compatibility check (Stevens & Lewis, *Aircraft Control and Simulation*, 2003, eq. 2.4-3 for
@@ -37,7 +37,7 @@
 use super::model::{Signal, Term, TermRefs};
 use super::oem::{Dynamics, Inputs, Measured, ParamJacobian, Point, Setup, Spec, NY};
 use super::signal::sin_cos;
-use super::simulate::{inertia, lerp, lerp3};
+use super::simulate::inertia;
 use nalgebra::{DMatrix, DVector, Matrix2, Vector2, Vector3};
 
 const G_MPS2: f64 = 9.806_65;
@@ -103,7 +103,7 @@ impl Dynamics for Lateral<'_> {
         th: &[f64],
         jac: bool,
     ) -> Option<(Point<[f64; 3]>, Option<ParamJacobian>)> {
-        let (ac, kin, refs) = (self.m.ac, self.m.kin, self.m.refs);
+        let (ac, refs) = (self.m.ac, self.m.refs);
         let (area, span, mass) = (ac.wing_area_m2, ac.span_m, ac.mass_kg);
         let (mut s, v, qbar) = self.m.at(k, fr);
         let [beta, p, r] = x;
@@ -113,14 +113,14 @@ impl Dynamics for Lateral<'_> {
         s[Signal::RN.index()] = r * bn;
         let (ty, tl, tn) = (spec.of(2), spec.of(3), spec.of(5));
         let cy = dot(ty, th, &s, refs)?;
-        let al = lerp(self.alpha_m, k, fr);
-        let q = lerp(&kin.rates_rad_s[1], k, fr);
-        let (sf, cf) = sin_cos(lerp(&kin.attitude_rad[0], k, fr));
-        let (st, ct) = sin_cos(lerp(&kin.attitude_rad[1], k, fr));
+        let al = self.m.signal(Signal::Alpha, self.alpha_m, k, fr);
+        let q = self.m.rate(1, k, fr);
+        let (sf, cf) = sin_cos(self.m.attitude(0, k, fr));
+        let (st, ct) = sin_cos(self.m.attitude(1, k, fr));
         let (sa, ca) = sin_cos(al);
         let (sb, cb) = sin_cos(beta);
-        let ft = lerp3(&kin.thrust_force_n, k, fr);
-        let fa = lerp3(&kin.aero_force_n, k, fr);
+        let ft = self.m.thrust_force(k, fr);
+        let fa = self.m.aero_force(k, fr);
         let (fx, fz) = (fa.x + ft.x, fa.z + ft.z);
         let k_y = qbar * area * cb / (mass * v);
         let b0 = (-fx * ca * sb - fz * sa * sb + ft.y * cb) / (mass * v) + p * sa - r * ca
@@ -130,7 +130,7 @@ impl Dynamics for Lateral<'_> {
         let cl = dot(tl, th, &s, refs)?;
         let cn = dot(tn, th, &s, refs)?;
         let om = Vector3::new(p, q, r);
-        let rest = ac.moment_reference_m.cross(&fa) + lerp3(&kin.thrust_moment_nm, k, fr) - om.cross(&(self.m.j * om));
+        let rest = ac.moment_reference_m.cross(&fa) + self.m.thrust_moment(k, fr) - om.cross(&(self.m.j * om));
         let k_b = qbar * area * span;
         let wdot = self.j_xz_inv * Vector2::new(k_b * cl + rest.x, k_b * cn + rest.z);
         let k_f = qbar * area / mass;
@@ -215,15 +215,7 @@ pub(super) fn setup<'a>(inp: &Inputs<'a>) -> Result<Setup<Lateral<'a>>, String> 
         .collect();
     Ok(Setup::new(
         Lateral {
-            m: Measured {
-                table,
-                kin,
-                ac: inp.aircraft,
-                refs: inp.refs,
-                j,
-                v_m,
-                y_m,
-            },
+            m: Measured::new(table, kin, (inp.aircraft, inp.refs, j), v_m, y_m, inp.pieces),
             j_xz_inv,
             alpha_m,
             beta_m,

@@ -473,6 +473,7 @@ pub fn parse_dataflash(
             flow_angles: None,
             origin,
             pieces: Vec::new(),
+            sampling: super::measured::Sampling::Unstated,
         },
     };
     flight.validate().map_err(|inv| {

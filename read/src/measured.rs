@@ -214,6 +214,24 @@ pub struct LogMeta {
     /// differentiation, the flight-path reconstruction's initial states, the block means) runs
     /// per piece, never across a join.
     pub pieces: Vec<Piece>,
+    /// How each channel's samples were formed from the signal: what the low-rate analysis's
+    /// intersample model and its timing resolution read.
+    pub sampling: Sampling,
+}
+
+/// How a channel's samples were formed from the continuous signal.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Sampling {
+    /// The source does not say (a CSV, a column-mapped file, a resampled log): a sample may be
+    /// the signal at its time stamp or a mean over the interval before it, so the time of what a
+    /// sample measures is known to half a sample interval only.
+    #[default]
+    Unstated,
+    /// Each sample is the signal at its time stamp (the simulator's samples).
+    Points,
+    /// Each sample is the signal's mean over its sample interval, stamped at the interval's
+    /// centre ([`MeasuredFlight::block_means`] of point samples or of such means).
+    CentredMeans,
 }
 
 /// One manoeuvre of a pooled flight: where its samples lie on the pooled time base and where
@@ -308,6 +326,9 @@ impl MeasuredFlight {
     /// the same treatment, so no channel moves against another; a `k`-mean passes `cos`-shaped
     /// `sin(πfk h)/(k sin(πf h))`, 1 at 0, ≥ 0.97 up to a tenth of the new rate and 0 at the
     /// new rate itself, folding back only what lies between half the new rate and it.
+    ///
+    /// Block means of point samples (or of centred means) are centred means
+    /// ([`Sampling::CentredMeans`]); of samples whose formation is unstated, still unstated.
     pub fn block_means(&self, k: usize) -> MeasuredFlight {
         if k <= 1 {
             return self.clone();
@@ -359,12 +380,16 @@ impl MeasuredFlight {
                 )
             })
             .collect();
+        let mut log = self.log.clone();
+        if log.sampling == Sampling::Points {
+            log.sampling = Sampling::CentredMeans;
+        }
         MeasuredFlight {
             source: self.source.clone(),
             t_s: averaged(&self.t_s, &mean),
             channels,
             aircraft: self.aircraft.clone(),
-            log: self.log.clone(),
+            log,
         }
     }
 
@@ -558,6 +583,9 @@ impl MeasuredFlight {
         for v in out.channels.values_mut() {
             v.clear();
         }
+        if parts.iter().any(|(f, _)| f.log.sampling != out.log.sampling) {
+            out.log.sampling = Sampling::Unstated;
+        }
         let mut sources: Vec<String> = Vec::new();
         for (f, mut p) in parts {
             let start = out.t_s.len();
@@ -623,7 +651,11 @@ impl MeasuredFlight {
             t_s: col(&|s| s.t_s),
             channels,
             aircraft,
-            log: LogMeta::default(),
+            // The simulator's samples are the sensors' readings at the sample instant.
+            log: LogMeta {
+                sampling: Sampling::Points,
+                ..LogMeta::default()
+            },
         }
     }
 }

@@ -710,6 +710,7 @@ pub fn parse_ulog_with(
             flow_angles: None,
             origin: src.builtin.origin.clone(),
             pieces: Vec::new(),
+            sampling: super::measured::Sampling::Unstated,
         },
     };
     flight.validate().map_err(|inv| {

@@ -85,6 +85,7 @@ pub fn select(
             threshold_blocks: plan.threshold_blocks,
             cv: settings.cv,
             max_lag_s: settings.max_lag_s,
+            sampling: prepared.flight.log.sampling,
         });
     Selected { coefficients, low_rate }
 }
