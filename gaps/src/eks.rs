@@ -686,17 +686,7 @@ fn filter(inp: &Inputs, wind: &WindModel) -> Option<Pass> {
                 let pred = (1.0 + x[ki]) * val + x[bi];
                 // H: ∂/∂v = (1+k)·∇, ∂/∂W = −(1+k)·∇·C_bn, ∂/∂x_g = −(1+k)·∇·C_g, ∂/∂b = 1,
                 // ∂/∂k = val.
-                let mut hrow = [0.0; N];
-                let gk = grad * (1.0 + x[ki]);
-                let gw = -(gk.transpose() * c);
-                let gg = -(gk.transpose() * gust.c);
-                for i in 0..3 {
-                    hrow[i] = gk[i];
-                    hrow[MEAN + i] = gw[i];
-                }
-                for j in 0..NG {
-                    hrow[GUST + j] = gg[j];
-                }
+                let mut hrow = relative_row(&(grad * (1.0 + x[ki])), &c, &gust);
                 hrow[bi] = 1.0;
                 hrow[ki] = val;
                 let nu = y - pred;
@@ -725,17 +715,7 @@ fn filter(inp: &Inputs, wind: &WindModel) -> Option<Pass> {
                 let (val, grad) = air_of(1 + f, &(v - wind_b))?;
                 let q2 = fm.q2[k];
                 let pred = q2 * (x[c0] + x[c1] * val) + fm.fixed[k] + x[ACC + axis];
-                let mut hrow = [0.0; N];
-                let gk = grad * (q2 * x[c1]);
-                let gw = -(gk.transpose() * c);
-                let gg = -(gk.transpose() * gust.c);
-                for i in 0..3 {
-                    hrow[i] = gk[i];
-                    hrow[MEAN + i] = gw[i];
-                }
-                for j in 0..NG {
-                    hrow[GUST + j] = gg[j];
-                }
+                let mut hrow = relative_row(&(grad * (q2 * x[c1])), &c, &gust);
                 hrow[c0] = q2;
                 hrow[c1] = q2 * val;
                 hrow[ACC + axis] = 1.0;
@@ -754,6 +734,22 @@ fn filter(inp: &Inputs, wind: &WindModel) -> Option<Pass> {
         }
     }
     Some((nll, x, p))
+}
+
+/// A measurement row's part in the relative velocity `v − C_bn·W − C_g·x_g`, `gk` the
+/// measurement's gradient in it: `∂/∂v = gk`, `∂/∂W = −gkᵀ·C_bn`, `∂/∂x_g = −gkᵀ·C_g`, the rest 0.
+fn relative_row(gk: &Vector3<f64>, c_bn: &Matrix3<f64>, gust: &Gust) -> [f64; N] {
+    let mut hrow = [0.0; N];
+    let gw = -(gk.transpose() * c_bn);
+    let gg = -(gk.transpose() * gust.c);
+    for i in 0..3 {
+        hrow[i] = gk[i];
+        hrow[MEAN + i] = gw[i];
+    }
+    for j in 0..NG {
+        hrow[GUST + j] = gg[j];
+    }
+    hrow
 }
 
 /// `V`, `α` or `β` (`m` = 0, 1, 2) of the relative velocity and its gradient.
