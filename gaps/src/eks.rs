@@ -63,7 +63,8 @@
 //! extended filter as a parameter estimator), not the Cramér–Rao bound of the model as written
 //! (the filter error method's maximum likelihood, Jategaonkar 2015 ch. 5: Gauss–Newton on the
 //! innovations with the constants held, the information matrix of the innovations'
-//! sensitivities). On the 12 flights of the test below, at the chosen wind model, the filter's σ
+//! sensitivities). On the 12 flights of the test below, at the chosen wind model (the kinematics
+//! alone, not re-measured with the forces), the filter's σ
 //! is 0.92–1.03 times the Cramér–Rao bound on every flight and parameter, the estimates differ by
 //! at most 1.3 of that σ (α's bias; the others at most 0.75), and the test's ratios of RMS error
 //! to RMS σ agree to 0.06; on two of the benchmark's flights the σ is 0.81–1.00 times the bound
