@@ -192,8 +192,7 @@ impl FlightOracle {
         let (term, col) = candidate;
         let all: Vec<Term> = terms.iter().copied().chain([term]).collect();
         let eiv = errors.map_or_else(|| EivModel::exact(all.len()), |e| e.eiv(&all));
-        let Some(se) = SingleCandidate::new(cols, col, z, &eiv, max_lag).and_then(|c| c.oracle_se(max_lag, pieces))
-        else {
+        let Some(se) = SingleCandidate::new(cols, col, z, &eiv).and_then(|c| c.oracle_se(max_lag, pieces)) else {
             return Oracle::NONE;
         };
         let error_var = self.column_error_var.get(&term).copied().unwrap_or(0.0);
@@ -220,7 +219,7 @@ pub fn single_candidate_se(
     max_lag: usize,
     pieces: &[(usize, usize)],
 ) -> Option<f64> {
-    SingleCandidate::new(base, candidate, z, eiv, max_lag)?.model_se(max_lag, pieces)
+    SingleCandidate::new(base, candidate, z, eiv)?.model_se(max_lag, pieces)
 }
 
 /// The fit of the last of `base` + `candidate` (bias-compensated, as in [`single_candidate_se`]):
@@ -235,19 +234,16 @@ pub struct SingleCandidate {
 
 impl SingleCandidate {
     /// The fit of `z` on `base` + `candidate` (`eiv` over those columns; OLS when it cannot be
-    /// formed), lags up to `max_lag` in the fit's own σ.
-    pub fn new(base: &[Vec<f64>], candidate: &[f64], z: &[f64], eiv: &EivModel, max_lag: usize) -> Option<Self> {
+    /// formed). Only its residual is kept: the σ is this type's own, so the fit's is not computed.
+    pub fn new(base: &[Vec<f64>], candidate: &[f64], z: &[f64], eiv: &EivModel) -> Option<Self> {
         let mut cols = base.to_vec();
         cols.push(candidate.to_vec());
         let p = cols.len();
         let n = z.len();
         let exact = EivModel::exact(p);
-        let (fit, eiv) = match regress::corrected_ls(&cols, z, eiv, n, max_lag, Some(p - 1)) {
+        let (fit, eiv) = match regress::corrected_estimates(&cols, z, eiv) {
             Some((f, _)) => (f, eiv),
-            None => (
-                regress::corrected_ls(&cols, z, &exact, n, max_lag, Some(p - 1))?.0,
-                &exact,
-            ),
+            None => (regress::corrected_estimates(&cols, z, &exact)?.0, &exact),
         };
         // H = XᵀX − N·W̃ (W̃ over the noisy columns), on RMS-scaled columns for conditioning.
         let scale = regress::column_scales(&cols, n)?;
@@ -656,7 +652,7 @@ mod tests {
         let (mut est, mut model, mut robust, mut ratio_stationary) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         for seed in 0..300 {
             let mut d = draw(9000 + seed);
-            let fit = SingleCandidate::new(&d.base, &d.cand, &z_of(&d, 0.0), &EivModel::exact(4), SCORE_LAGS).unwrap();
+            let fit = SingleCandidate::new(&d.base, &d.cand, &z_of(&d, 0.0), &EivModel::exact(4)).unwrap();
             let stationary = (
                 fit.model_se(SCORE_LAGS, &pieces).unwrap(),
                 fit.robust_se(SCORE_LAGS, &pieces).unwrap(),
@@ -672,7 +668,7 @@ mod tests {
             let mut cols = d.base.clone();
             cols.push(d.cand.clone());
             est.push(regress::ols_theta(&cols, &z).unwrap()[3]);
-            let fit = SingleCandidate::new(&d.base, &d.cand, &z, &EivModel::exact(4), SCORE_LAGS).unwrap();
+            let fit = SingleCandidate::new(&d.base, &d.cand, &z, &EivModel::exact(4)).unwrap();
             model.push(fit.model_se(SCORE_LAGS, &pieces).unwrap());
             robust.push(fit.robust_se(SCORE_LAGS, &pieces).unwrap());
             let o = fit.oracle_se(SCORE_LAGS, &pieces).unwrap();

@@ -364,7 +364,7 @@ fn air_data(logged: &Logged, flow: Option<&super::flow_angles::FlowAngles>) -> A
         format!("estimated (no vane used): {f}")
     } else if let Some(by) = &other_estimate {
         format!(
-            "estimated (no vane): α from {by}; its error, lag included, is not stated by the log: only its white noise enters the errors-in-variables model, and α̇ is not offered in C_L (the lift restated)"
+            "estimated (no vane): α from {by}; its error, lag included, is not stated by the log: the gap analysis bounds it from the force the true α drives and carries it in the errors-in-variables model (its notes give the σ and correlation time, and a term the data cannot correct is listed as not identifiable), and α̇ is not offered in C_L (the lift restated)"
         )
     } else if logged.live(Alpha) {
         "measured: α (and β where logged) from vanes, airspeed from the pitot".to_string()

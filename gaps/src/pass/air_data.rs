@@ -89,7 +89,7 @@ fn choose_air_data(
             None,
             None,
             format!(
-                "air data: measured{asked} (vanes and pitot as logged){}",
+                "air data: measured{asked} (α, β and airspeed as logged, from vanes, a pitot or an estimator: `channel_origin`){}",
                 if !rec {
                     "; no inertial reconstruction possible"
                 } else if turbulent {
