@@ -4,6 +4,8 @@
 //! manoeuvres, the homogeneity of each added term across them. [`crate::pass::selection`] runs
 //! [`analyse_coefficient`] per coefficient.
 
+use crate::intersample;
+use crate::io::measured::{MeasuredFlight, Quantity, Sampling};
 use crate::model::{Table, Term, TermRefs, COEFFICIENTS};
 use crate::noise::ColumnErrors;
 use crate::regress::{self, gtls_fit, metrics, ols, predict, EivModel};
@@ -15,9 +17,10 @@ use std::collections::BTreeMap;
 
 /// One coefficient's gap: its baseline `base` fitted on the identification samples (the first
 /// `n_id` of `zc`), extended by [`stepwise`] selection over the candidate library, surface delays
-/// made exact ([`refine_surface_delays`]) and, for pooled manoeuvres, each added term confirmed
-/// across them ([`homogeneity_of`]). `None` when the baseline or the extended model cannot be
-/// fitted.
+/// made exact ([`refine_surface_delays`]), a surface delay within half the surface's logged
+/// interval left undecided ([`undecided_delays`]) and, for pooled manoeuvres, each added term
+/// confirmed across them ([`homogeneity_of`]). `None` when the baseline or the extended model
+/// cannot be fitted.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn analyse_coefficient(
     i: usize,
@@ -34,6 +37,7 @@ pub(crate) fn analyse_coefficient(
     pieces: &[(usize, usize)],
     flight_oracle: &oracle::FlightOracle,
     gust_proxies: &[(usize, Vec<f64>)],
+    surfaces: &SurfaceSampling,
 ) -> Option<CoefficientGap> {
     let c = Coefficient {
         i,
@@ -49,8 +53,48 @@ pub(crate) fn analyse_coefficient(
         pieces,
         flight_oracle,
         gust_proxies,
+        surfaces,
     };
     c.analyse(base)
+}
+
+/// How the surfaces were logged: each one's sample interval and how its samples were formed.
+/// A surface delay within half its own interval is not decided at that rate
+/// ([`intersample::timing_resolution_s`]), whatever the grid the analysis runs on: a channel
+/// held at 25 Hz and interpolated to a 100 Hz grid still places a surface's motion to 40 ms.
+pub(crate) struct SurfaceSampling {
+    /// Sample interval of the elevator, aileron and rudder, s, in that order.
+    pub h_s: [f64; 3],
+    pub sampling: Sampling,
+}
+
+impl SurfaceSampling {
+    /// The surfaces of a flight on a grid of interval `h_s`: a held channel's true rate
+    /// (`logged_rate_hz`), else the grid's.
+    pub(crate) fn of(flight: &MeasuredFlight, h_s: f64) -> Self {
+        let h = |q: Quantity| {
+            flight
+                .log
+                .logged_rate_hz
+                .get(&q)
+                .filter(|r| r.is_finite() && **r > 0.0)
+                .map_or(h_s, |r| 1.0 / r)
+        };
+        SurfaceSampling {
+            h_s: [h(Quantity::Elevator), h(Quantity::Aileron), h(Quantity::Rudder)],
+            sampling: flight.log.sampling,
+        }
+    }
+
+    /// The sample interval of surface term `surface`, s; `None` for a term that is no surface.
+    fn h_of(&self, surface: Term) -> Option<f64> {
+        match surface {
+            Term::Elevator => Some(self.h_s[0]),
+            Term::Aileron => Some(self.h_s[1]),
+            Term::Rudder => Some(self.h_s[2]),
+            _ => None,
+        }
+    }
 }
 
 /// What every step of [`analyse_coefficient`] reads (its arguments but the baseline).
@@ -77,6 +121,7 @@ struct Coefficient<'a> {
     /// The gust proxies of the flight ([`gust::proxies`]): the candidate tests count what a
     /// candidate predicts beyond them.
     gust_proxies: &'a [(usize, Vec<f64>)],
+    surfaces: &'a SurfaceSampling,
 }
 
 /// A model's terms and their columns over every sample.
@@ -268,7 +313,7 @@ impl Coefficient<'_> {
             }
         }
         let fitted = self.fit_model(&columns)?;
-        let ext = Extension {
+        let mut ext = Extension {
             columns,
             added_terms,
             exact_delays,
@@ -277,7 +322,49 @@ impl Coefficient<'_> {
             homogeneity: Vec::new(),
             fitted,
         };
+        self.drop_undecided_delays(&mut ext)?;
         self.confirm_across_manoeuvres(ext)
+    }
+
+    /// The added surface-rate terms whose delay lies within the surface's timing resolution
+    /// ([`undecided_delays`]) leave `ext`, which is refitted without them so that neither the
+    /// named causes nor the validated model keep them; the verdict says they are not decided at
+    /// this rate and why. `None` when the refit fails.
+    fn drop_undecided_delays(&self, ext: &mut Extension) -> Option<()> {
+        let undecided = undecided_delays(
+            &ext.columns.terms,
+            &ext.fitted.fit.theta,
+            &ext.added_terms,
+            &ext.exact_delays,
+            self.surfaces,
+        );
+        if undecided.is_empty() {
+            return Some(());
+        }
+        let p0 = ext.columns.terms.len() - ext.added_terms.len();
+        let out = |t: &Term| undecided.iter().any(|(u, _)| u == t);
+        let keep: Vec<bool> = ext
+            .columns
+            .terms
+            .iter()
+            .enumerate()
+            .map(|(j, t)| j < p0 || !out(t))
+            .collect();
+        let mut it = keep.iter();
+        ext.columns.terms.retain(|_| *it.next().unwrap_or(&true));
+        let mut it = keep.iter();
+        ext.columns.cols.retain(|_| *it.next().unwrap_or(&true));
+        ext.added_terms.retain(|a| !out(&a.0));
+        ext.exact_delays.retain(|(t, _)| !out(t));
+        ext.fitted = self.fit_model(&ext.columns)?;
+        let why: Vec<String> = undecided.into_iter().map(|(_, w)| w).collect();
+        let why = why.join("; ");
+        ext.verdict = if ext.added_terms.is_empty() {
+            format!("not decided at this rate: {why}; no other candidate improves the held-out prediction beyond noise")
+        } else {
+            format!("{}; not decided at this rate: {why}", ext.verdict)
+        };
+        Some(())
     }
 
     /// Pooled manoeuvres: an added term stays only when its per-manoeuvre estimates agree
@@ -685,6 +772,54 @@ fn refine_surface_delays(
         added.retain(|a| !withdrawn.contains(&a.0));
     }
     (delays, notes)
+}
+
+/// The added surface-rate terms of a model (`terms`, estimates `theta`) whose delay is not
+/// decided at the surface's sampling rate, each with why. The delay is the exact one when
+/// [`refine_surface_delays`] found it, else the first-order `τ = −θ_δ̇/θ_δ`; it is undecided when
+/// `|τ|` is within [`intersample::timing_resolution_s`] of the surface's own sample interval
+/// (`surfaces`): a surface moving within one interval is placed there by one sample, so a delay
+/// that small names no effect.
+fn undecided_delays(
+    terms: &[Term],
+    theta: &[f64],
+    added: &[AddedTerm],
+    exact_delays: &[(Term, f64)],
+    surfaces: &SurfaceSampling,
+) -> Vec<(Term, String)> {
+    let mut out = Vec::new();
+    for (rate, ..) in added {
+        let Some(surface) = surface_of(*rate) else { continue };
+        let (Some(h), Some(js), Some(jr)) = (
+            surfaces.h_of(surface),
+            terms.iter().position(|t| *t == surface),
+            terms.iter().position(|t| t == rate),
+        ) else {
+            continue;
+        };
+        let exact = exact_delays.iter().find(|(t, _)| t == rate).map(|(_, tau)| *tau);
+        let tau = exact.unwrap_or(-theta[jr] / theta[js]);
+        let resolution = intersample::timing_resolution_s(h);
+        if !tau.is_finite() || tau.abs() > resolution {
+            continue;
+        }
+        out.push((
+            *rate,
+            format!(
+                "{} (a {} of {:.0} ms of {}, {}): not decided at this rate — within ±{:.0} ms, half the {:.0} ms interval at which {} is logged: {}",
+                rate.name(),
+                if tau >= 0.0 { "delay" } else { "lead" },
+                1e3 * tau.abs(),
+                surface.name(),
+                if exact.is_some() { "exact shift" } else { "first order" },
+                1e3 * resolution,
+                1e3 * h,
+                surface.name(),
+                intersample::why_unresolved(surfaces.sampling)
+            ),
+        ));
+    }
+    out
 }
 
 /// The surface term whose delay a surface-rate term stands for.
@@ -1502,6 +1637,35 @@ mod tests {
     use super::*;
     use rand::SeedableRng;
     use rand_distr::{Distribution, Normal};
+
+    /// The JSBSim card's case: an aileron logged at 25 Hz (40 ms) on a faster grid, a δȧ term
+    /// whose first-order delay is 17 ms (θ_δȧ = 0.00396 beside θ_δa = −0.233). Within half the
+    /// aileron's interval it is not decided and leaves, with why; the same term on an aileron
+    /// logged at 100 Hz (5 ms resolution), or an exact delay beyond 20 ms, stays.
+    #[test]
+    fn a_surface_delay_within_half_its_logged_interval_is_undecided() {
+        let terms = [Term::Aileron, Term::P, Term::AileronRate];
+        let theta = [-0.233, -0.4, 0.00396];
+        let added: Vec<AddedTerm> = vec![(Term::AileronRate, 40.0, 0.01, Vec::new(), Vec::new())];
+        let at = |aileron_h_s: f64| SurfaceSampling {
+            h_s: [0.01, aileron_h_s, 0.01],
+            sampling: Sampling::Unstated,
+        };
+        let slow = undecided_delays(&terms, &theta, &added, &[], &at(0.04));
+        assert_eq!(slow.len(), 1);
+        assert_eq!(slow[0].0, Term::AileronRate);
+        assert!(slow[0].1.contains("a delay of 17 ms"), "{}", slow[0].1);
+        assert!(slow[0].1.contains("±20 ms"), "{}", slow[0].1);
+        assert!(slow[0].1.contains(intersample::why_unresolved(Sampling::Unstated)));
+        assert!(undecided_delays(&terms, &theta, &added, &[], &at(0.01)).is_empty());
+        let exact = [(Term::AileronRate, 0.03)];
+        assert!(undecided_delays(&terms, &theta, &added, &exact, &at(0.04)).is_empty());
+        // A lead as small is as undecided as a delay.
+        let lead = [-0.233, -0.4, -0.00396];
+        assert_eq!(undecided_delays(&terms, &lead, &added, &[], &at(0.04)).len(), 1);
+        // A surface-rate term that was not added (in the baseline) is not judged here.
+        assert!(undecided_delays(&terms, &theta, &[], &[], &at(0.04)).is_empty());
+    }
 
     /// A 3-2-1-1 elevator sequence every 6 s (±0.05 rad, alternating), through a 30 ms
     /// first-order actuator, at 100 Hz; with its rate and second derivative (central differences).

@@ -117,12 +117,12 @@ pub(super) fn slope(x: &[f64], c: &[f64], k: usize, fr: f64, h_s: f64) -> f64 {
 ///   where the reconstruction puts it. When the motion is locked to the logger's clock (the
 ///   autopilot's loop drives the surfaces and stamps the log; a test card's inputs switch on its
 ///   ticks), these errors do not average out over the record.
-pub(super) fn timing_resolution_s(h_s: f64) -> f64 {
+pub(crate) fn timing_resolution_s(h_s: f64) -> f64 {
     h_s / 2.0
 }
 
 /// Why a surface delay within [`timing_resolution_s`] is not decided, for the report.
-pub(super) fn why_unresolved(sampling: Sampling) -> &'static str {
+pub(crate) fn why_unresolved(sampling: Sampling) -> &'static str {
     match sampling {
         Sampling::Unstated => {
             "the data do not say whether each channel's sample is the signal at its time stamp or its mean over the interval before it, so the surface and the response it drives may be shifted against each other by up to half an interval by how they were logged"

@@ -7,7 +7,11 @@ use super::compatibility::Compatible;
 use super::prepare::Prepared;
 use super::synthesis::Synthesised;
 use crate::model::COEFFICIENTS;
-use crate::{delay_rival, fit::analyse_coefficient, low_rate, oem, CoefficientGap, GapSettings};
+use crate::{
+    delay_rival,
+    fit::{analyse_coefficient, SurfaceSampling},
+    low_rate, oem, CoefficientGap, GapSettings,
+};
 
 /// Every coefficient's fit, extension and verdict.
 pub struct Selected {
@@ -47,6 +51,7 @@ pub fn select(
         refs: &syn.refs,
     });
     gust_proxies.extend(rivals.columns);
+    let surfaces = SurfaceSampling::of(&prepared.flight, h);
     for i in 0..6 {
         let Some(zc) = &table.z[i] else { continue };
         if let Some(g) = analyse_coefficient(
@@ -64,6 +69,7 @@ pub fn select(
             &syn.pieces,
             &syn.oracle,
             &gust_proxies,
+            &surfaces,
         ) {
             let mut g = g;
             g.notes
