@@ -68,12 +68,7 @@ impl AngleError {
             _ => return None,
         };
         let k = terms.iter().position(|t| *t == angle).filter(|_| sd > 0.0)?;
-        let others: Vec<Vec<f64>> = cols
-            .iter()
-            .enumerate()
-            .filter(|(j, _)| *j != k)
-            .map(|(_, c)| c.clone())
-            .collect();
+        let others = regress::without(cols, k);
         let v = oracle::partial_variance(&others, &cols[k])?;
         (v.is_finite() && v > 0.0).then(|| Self {
             angle: name,

@@ -379,12 +379,7 @@ pub fn angle_error_variance(base: &[Vec<f64>], k: usize, z: &[f64], noise_var: f
         .map(|i| (z[i] - base.iter().zip(&th).map(|(c, t)| c[i] * t).sum::<f64>()).powi(2))
         .sum();
     let excess = (rss / n as f64 - noise_var.max(0.0)).max(0.0);
-    let others: Vec<Vec<f64>> = base
-        .iter()
-        .enumerate()
-        .filter(|(j, _)| *j != k)
-        .map(|(_, c)| c.clone())
-        .collect();
+    let others = regress::without(base, k);
     let v = partial_variance(&others, &base[k])?;
     let explained = th[k] * th[k] * v;
     if (explained + excess).is_nan() || explained + excess <= 0.0 {

@@ -143,12 +143,7 @@ pub fn estimate_errors(
         let white = super::signal::white_noise_sd(z).powi(2);
         // The angle's variation beyond the other baseline columns: where the estimate's error
         // matters (it dominates that variation) its autocorrelation is the error's.
-        let others: Vec<Vec<f64>> = cols
-            .iter()
-            .enumerate()
-            .filter(|(j, _)| *j != k)
-            .map(|(_, c)| c.clone())
-            .collect();
+        let others = super::regress::without(&cols, k);
         let partial: Vec<f64> = match super::regress::ols_theta(&others, &cols[k]) {
             Some(th) if !others.is_empty() => (0..n)
                 .map(|j| cols[k][j] - others.iter().zip(&th).map(|(c, t)| c[j] * t).sum::<f64>())
@@ -364,12 +359,7 @@ fn reliability_of(
         .iter()
         .map(|t| t.column(table, refs).map(|c| c[..n_id.min(c.len())].to_vec()))
         .collect::<Option<_>>()?;
-    let others: Vec<Vec<f64>> = cols
-        .iter()
-        .enumerate()
-        .filter(|(j, _)| *j != k)
-        .map(|(_, c)| c.clone())
-        .collect();
+    let others = super::regress::without(&cols, k);
     let v = super::oracle::partial_variance(&others, &cols[k])?;
     if v.is_nan() || v <= 0.0 {
         return None;

@@ -414,6 +414,16 @@ pub fn ols(cols: &[Vec<f64>], z: &[f64], block_len: usize, max_lag: usize) -> Op
     ols_sigma(cols, z, block_len, max_lag, None)
 }
 
+/// Every column of `cols` but column `k` (copied): the other regressors, beyond which a column's
+/// own part is taken (a partial variance, a partial residual).
+pub fn without(cols: &[Vec<f64>], k: usize) -> Vec<Vec<f64>> {
+    cols.iter()
+        .enumerate()
+        .filter(|(j, _)| *j != k)
+        .map(|(_, c)| c.clone())
+        .collect()
+}
+
 /// [`ols`]'s estimates alone (no residual, no σ): for the Gauss–Newton steps, which need nothing
 /// else. `None` as [`ols`].
 pub fn ols_theta(cols: &[Vec<f64>], z: &[f64]) -> Option<Vec<f64>> {
